@@ -1,0 +1,148 @@
+# bonecontact — set-up, demo and test entry points.
+#
+#   make install      create .venv (Python >= 3.12, found automatically) and install the
+#                     package editable with its test extras; cheap when already done
+#   make demo         install if needed, then run demos/long_bone.py
+#   make test         install if needed, then the serial suite and the MPI suite on 2 and 3 ranks
+#   make benchmarks   install if needed, then benchmarks/run_all.sh
+#   make clean        remove caches and test logs;  make distclean  also removes .venv
+#
+# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=900
+# PYTEST_ARGS="-k hertz" (added to every pytest call).
+
+SHELL := /bin/bash
+.SHELLFLAGS := -euo pipefail -c
+.DEFAULT_GOAL := help
+.DELETE_ON_ERROR:
+
+VENV         := .venv
+PY           := $(VENV)/bin/python
+MPIEXEC      := $(VENV)/bin/mpiexec
+STAMP        := $(VENV)/.install.stamp
+LOG_DIR      := $(VENV)/test-logs
+MPI_SIZES    ?= 2 3
+TEST_TIMEOUT ?= 900
+PYTEST_ARGS  ?=
+
+# Keep MPI ranks from each starting a full set of BLAS/OpenMP threads.
+export OMP_NUM_THREADS ?= 1
+export OPENBLAS_NUM_THREADS ?= 1
+export PIP_DISABLE_PIP_VERSION_CHECK := 1
+export PIP_NO_INPUT := 1
+export PYTHON
+
+# --- find a Python >= 3.12 (with venv + ensurepip): $PYTHON, then PATH, then pyenv -----------
+define FIND_PYTHON
+usable() { "$$1" -c 'import sys, venv, ensurepip; sys.exit(sys.version_info < (3, 12))' >/dev/null 2>&1; }
+if [ -n "$${PYTHON:-}" ]; then
+  usable "$$PYTHON" && { echo "$$PYTHON"; exit 0; }
+  echo "error: PYTHON=$$PYTHON is not a Python >= 3.12 with the venv module" >&2; exit 1
+fi
+for name in python3.13 python3.12 python3; do
+  p=$$(command -v "$$name" 2>/dev/null) || continue
+  usable "$$p" && { echo "$$p"; exit 0; }
+done
+roots=""
+if command -v pyenv >/dev/null 2>&1; then roots=$$(pyenv root 2>/dev/null || true); fi
+roots="$$roots $$HOME/.pyenv"
+for root in $$roots; do
+  for p in "$$root"/versions/3.1[2-9]*/bin/python3.*; do
+    case "$${p##*/}" in python3.[0-9]|python3.[0-9][0-9]) ;; *) continue ;; esac
+    [ -x "$$p" ] && usable "$$p" && { echo "$$p"; exit 0; }
+  done
+done
+exit 1
+endef
+export FIND_PYTHON
+
+# --- run one pytest session and explain its exit status ------------------------------------
+# usage: [SHOW="what to print"] bash -c "$$RUN_PYTEST" run-pytest LABEL COMMAND...
+define RUN_PYTEST
+label=$$1; shift
+echo "+ $${SHOW:-$$*}"
+rc=0; "$$@" || rc=$$?
+case $$rc in
+  0) echo "== $$label: passed"; exit 0 ;;
+  5) echo "error: $$label collected no tests (pytest exit 5): a suite that runs nothing is a defect" >&2 ;;
+  124|137) echo "error: $$label timed out after $(TEST_TIMEOUT) s (a rank probably hung in a collective)" >&2 ;;
+  *) echo "error: $$label failed (exit $$rc)" >&2 ;;
+esac
+for log in "$(LOG_DIR)/$$label".rank*.log; do
+  [ -s "$$log" ] || continue
+  printf "\n---- last 40 lines of %s ----\n" "$$log" >&2; tail -n 40 "$$log" >&2
+done
+exit $$rc
+endef
+export RUN_PYTEST
+
+# Under mpiexec, rank 0 prints; every other rank writes to LOG_DIR/<label>.rank<r>.log.
+# (MPICH hydra sets PMI_RANK, Open MPI sets OMPI_COMM_WORLD_RANK.)
+RANK_LOG := bash -c 'r=$${PMI_RANK:-$${OMPI_COMM_WORLD_RANK:-0}}; \
+  if [ "$$r" != 0 ]; then exec >"$$0.rank$$r.log" 2>&1; fi; exec "$$@"'
+
+.PHONY: help install demo test test-serial test-parallel benchmarks clean distclean
+
+help:
+	@sed -n 's/^#   //p' Makefile
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@if [ -x "$(PY)" ] && ! "$(PY)" -c 'import sys; sys.exit(sys.version_info < (3, 12))' 2>/dev/null; then \
+	  echo "+ rm -rf $(VENV)   # existing venv is unusable or older than Python 3.12"; rm -rf "$(VENV)"; \
+	fi
+	@if [ ! -x "$(PY)" ]; then \
+	  py=$$(bash -c "$$FIND_PYTHON") || { echo "error: no Python >= 3.12 with the venv module found (looked at \$$PYTHON, python3.13/python3.12/python3 on PATH, and pyenv versions 3.12+): install one, e.g. 'pyenv install 3.12' or 'apt-get install python3.12-venv', or pass PYTHON=/path/to/python3.12" >&2; exit 1; }; \
+	  echo "+ $$py -m venv $(VENV)   # $$("$$py" --version 2>&1)"; \
+	  "$$py" -m venv "$(VENV)"; \
+	fi
+	@echo "+ $(PY) -m pip install --progress-bar off -e '.[test]'"
+	@$(PY) -m pip install --progress-bar off -q -e '.[test]'
+	@touch "$@"
+	@echo "== installed into $(VENV) ($$($(PY) --version))"
+
+demo: install
+	@test -f demos/long_bone.py || { echo "error: demos/long_bone.py does not exist yet" >&2; exit 1; }
+	$(PY) demos/long_bone.py
+
+# Serial suite: everything, including tests marked `serial` that spawn their own mpiexec.
+define run_serial
+@bash -c "$$RUN_PYTEST" run-pytest serial $(PY) -m pytest -x -q $(PYTEST_ARGS)
+endef
+
+# MPI suites: each size runs under `timeout`; `python -m mpi4py` turns an exception or a
+# non-zero pytest exit on any rank into MPI_Abort, so one rank's failure stops all ranks
+# (and mpiexec returns that exit status) instead of leaving the others hanging.
+define run_parallel
+@mkdir -p "$(LOG_DIR)"
+@for n in $(MPI_SIZES); do \
+  rm -f "$(LOG_DIR)/mpi-$$n".rank*.log; \
+  SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q -m 'not serial' \
+    -p no:cacheprovider $(PYTEST_ARGS)   # ranks > 0 write to $(LOG_DIR)/mpi-$$n.rank<r>.log" \
+  bash -c "$$RUN_PYTEST" run-pytest "mpi-$$n" \
+    timeout --kill-after=30 $(TEST_TIMEOUT) $(MPIEXEC) -n $$n \
+    $(RANK_LOG) "$(LOG_DIR)/mpi-$$n" \
+    $(PY) -m mpi4py -m pytest -x -q -m "not serial" -p no:cacheprovider $(PYTEST_ARGS); \
+done
+endef
+
+test: install
+	$(run_serial)
+	$(run_parallel)
+
+test-serial: install
+	$(run_serial)
+
+test-parallel: install
+	$(run_parallel)
+
+benchmarks: install
+	@test -f benchmarks/run_all.sh || { echo "error: benchmarks/run_all.sh does not exist yet" >&2; exit 1; }
+	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" bash benchmarks/run_all.sh
+
+clean:
+	rm -rf .pytest_cache "$(LOG_DIR)" build *.egg-info
+	find . -path ./$(VENV) -prune -o -type d -name __pycache__ -print0 | xargs -0 rm -rf
+
+distclean: clean
+	rm -rf "$(VENV)"

@@ -1,0 +1,75 @@
+"""Reference data shipped in the repository's ``data/`` directory.
+
+``data/materials.toml`` holds starting material constants (SPEC §9), each with the
+published ``source`` it comes from.  The package is installed editable, so the data are
+read from the source tree.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+__all__ = ["DATA_DIR", "MATERIALS_FILE", "METADATA_KEYS", "load_material_library", "load_reference_values"]
+
+DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+MATERIALS_FILE = DATA_DIR / "materials.toml"
+
+#: Keys of a library entry that are documentation, not scene-file material keys.
+METADATA_KEYS = ("source", "notes")
+
+
+def _load(path: str | Path | None, section: str) -> dict[str, dict[str, Any]]:
+    path = Path(MATERIALS_FILE if path is None else path)
+    with path.open("rb") as f:
+        doc = tomllib.load(f)
+    entries = doc.get(section, {})
+    for name, entry in entries.items():
+        if not isinstance(entry, dict) or not str(entry.get("source", "")).strip():
+            raise ValueError(f"{path}: [{section}.{name}] needs a non-empty 'source' string")
+    return entries
+
+
+def load_material_library(path: str | Path | None = None, *, metadata: bool = True) -> dict[str, dict[str, Any]]:
+    """Material entries of the library, by name.
+
+    Parameters
+    ----------
+    path
+        TOML file to read (default ``data/materials.toml``).
+    metadata
+        Keep the ``source`` and ``notes`` keys.  With ``False`` each entry holds only
+        scene-file material keys (``model``, moduli, ``rho``, ``tau_v``), ready to be
+        completed with ``name`` and ``regions`` in a scene's ``[[material]]`` table.
+
+    Returns
+    -------
+    dict
+        ``{name: {"model": ..., "E": ..., ..., "source": ...}}``, SI units.
+
+    Raises
+    ------
+    ValueError
+        If an entry has no ``source``.
+    """
+    entries = _load(path, "material")
+    if not metadata:
+        entries = {name: {k: v for k, v in e.items() if k not in METADATA_KEYS} for name, e in entries.items()}
+    return entries
+
+
+def load_reference_values(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """Other published values of the library (strengths, toughness, friction, pressures), by name.
+
+    Parameters
+    ----------
+    path
+        TOML file to read (default ``data/materials.toml``).
+
+    Returns
+    -------
+    dict
+        ``{name: {quantity: value, ..., "source": ..., "notes": ...}}``, SI units.
+    """
+    return _load(path, "reference")

@@ -1,0 +1,518 @@
+"""Parametric gmsh geometries with named physical groups.
+
+Every builder creates a gmsh model on rank 0 of ``comm`` and either distributes it as a
+DOLFINx mesh (returning :class:`dolfinx.io.gmsh.MeshData`, whose ``physical_groups`` maps
+each group name to its ``(dim, tag)``) or, when ``path`` is given, writes a gmsh ``.msh``
+file there (rank 0 writes, every rank returns the :class:`~pathlib.Path`).  Such a file is
+what a scene's ``mesh`` key names; ``dolfinx.io.gmsh.read_from_msh`` reads it back.
+
+Units are SI (m).  Conventions shared by all builders:
+
+* 2D meshes are triangles in the x–y plane, 3D meshes tetrahedra; first order.
+* ``y`` is "up": ``bottom`` is the face ``y = 0`` and ``top`` the face of largest ``y``;
+  ``left``/``right`` are ``x = 0``/``x = max``; in 3D ``front``/``back`` are
+  ``z = 0``/``z = max``.
+* ``h`` is the target element size.  Physical-group tags are unique over all dimensions.
+
+gmsh is initialised only if it is not already (and then finalised again), with terminal
+output off; a gmsh error on rank 0 is raised as :class:`MeshingError` on every rank.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import gmsh
+from mpi4py import MPI
+
+from dolfinx.io.gmsh import MeshData, model_to_mesh
+
+__all__ = [
+    "MeshingError",
+    "quarter_tube",
+    "rectangle",
+    "box",
+    "cantilever",
+    "long_bone_2d",
+    "two_blocks_2d",
+    "two_boxes_3d",
+]
+
+_EPS = 1e-9  # relative tolerance for picking entities by their centre of mass
+
+
+class MeshingError(RuntimeError):
+    """gmsh failed to build or mesh a geometry."""
+
+
+# ----------------------------------------------------------------------------- plumbing
+@contextmanager
+def _gmsh_model(name: str) -> Iterator[None]:
+    """A fresh, quiet gmsh model; gmsh is initialised (and finalised) here if needed."""
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(interruptible=False)
+    terminal = gmsh.option.getNumber("General.Terminal")
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add(name)
+    try:
+        yield
+    finally:
+        if own:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            gmsh.option.setNumber("General.Terminal", terminal)
+
+
+def _generate(name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | None,
+              path: str | Path | None) -> MeshData | Path:
+    """Run ``build`` (geometry, sizes, physical groups) on rank 0, mesh, then distribute or write."""
+    comm = MPI.COMM_WORLD if comm is None else comm
+    with _gmsh_model(name) if comm.rank == 0 else _nothing():
+        error = None
+        if comm.rank == 0:
+            try:
+                build()
+                gmsh.model.mesh.generate(dim)
+                if path is not None:
+                    Path(path).parent.mkdir(parents=True, exist_ok=True)
+                    gmsh.write(str(path))
+            except Exception as exc:  # reported on every rank below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            raise MeshingError(f"{name}: {error}")
+        if path is not None:
+            comm.barrier()
+            return Path(path)
+        return model_to_mesh(gmsh.model, comm, 0, gdim=dim)
+
+
+@contextmanager
+def _nothing() -> Iterator[None]:
+    yield
+
+
+def _bbox(dim: int, tag: int) -> tuple[float, ...]:
+    return gmsh.model.getBoundingBox(dim, tag)
+
+
+def _boundary(dim: int, tag: int) -> list[int]:
+    """Tags of the (dim-1)-entities bounding entity (dim, tag)."""
+    return [abs(t) for _, t in gmsh.model.getBoundary([(dim, tag)], combined=False, oriented=False)]
+
+
+def _where(tags: list[int], dim: int, axis: int, value: float, scale: float) -> list[int]:
+    """The entities among ``tags`` whose centre of mass has ``x[axis] = value``.
+
+    (For the axis-aligned faces of a block this picks exactly the face in that plane; OCC
+    bounding boxes are padded by its tolerance, centres of mass are not.)
+    """
+    tol = _EPS * scale
+    return [t for t in tags if abs(gmsh.model.occ.getCenterOfMass(dim, t)[axis] - value) < tol]
+
+
+def _set_size(dimtags: list[tuple[int, int]], h: float) -> None:
+    """Target size ``h`` at every point of the given entities."""
+    points = gmsh.model.getBoundary(dimtags, combined=False, oriented=False, recursive=True)
+    gmsh.model.mesh.setSize(points, h)
+
+
+class _Groups:
+    """Adds named physical groups with tags that are unique over all dimensions."""
+
+    def __init__(self) -> None:
+        self._next = 1
+
+    def __call__(self, dim: int, tags: list[int], name: str) -> None:
+        if not tags:
+            raise MeshingError(f"physical group {name!r} would be empty")
+        gmsh.model.addPhysicalGroup(dim, sorted(set(tags)), self._next, name=name)
+        self._next += 1
+
+
+def _positive(**values: float) -> None:
+    for key, v in values.items():
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{key} must be a positive number (SI units), got {v!r}")
+
+
+def _block_groups(groups: _Groups, dim: int, tag: int, prefix: str, lo: tuple[float, ...],
+                  hi: tuple[float, ...], scale: float, names: dict[str, str] | None = None) -> None:
+    """Tag the faces of an axis-aligned block by side: left/right (x), bottom/top (y),
+    front/back (z, 3D), named ``prefix + side`` unless ``names`` renames a side."""
+    sides = _boundary(dim, tag)
+    names = names or {}
+    for axis, (low, high) in enumerate((("left", "right"), ("bottom", "top"), ("front", "back"))[:dim]):
+        for side, value in ((low, lo[axis]), (high, hi[axis])):
+            groups(dim - 1, _where(sides, dim - 1, axis, value, scale), names.get(side, prefix + side))
+
+
+# ----------------------------------------------------------------------------- builders
+def quarter_tube(r_in: float, r_out: float, h: float, comm: MPI.Comm | None,
+                 path: str | Path | None = None) -> MeshData | Path:
+    """Quarter of a thick-walled tube cross-section (plane strain; Lamé problem).
+
+    The annulus ``r_in <= r <= r_out`` in the first quadrant ``x, y >= 0``.
+
+    Parameters
+    ----------
+    r_in, r_out
+        Inner and outer radius in m, ``0 < r_in < r_out``.
+    h
+        Target element size in m.
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell group ``"tube"``; facet groups ``"inner"`` (r = r_in), ``"outer"``
+        (r = r_out), ``"x0"`` (the edge on x = 0) and ``"y0"`` (the edge on y = 0).
+    """
+    _positive(r_in=r_in, r_out=r_out, h=h)
+    if r_in >= r_out:
+        raise ValueError(f"r_in must be smaller than r_out, got r_in={r_in}, r_out={r_out}")
+
+    def build() -> None:
+        occ = gmsh.model.occ
+        c = occ.addPoint(0, 0, 0)
+        p = [occ.addPoint(r_in, 0, 0), occ.addPoint(r_out, 0, 0),
+             occ.addPoint(0, r_out, 0), occ.addPoint(0, r_in, 0)]
+        y0 = occ.addLine(p[0], p[1])
+        outer = occ.addCircleArc(p[1], c, p[2])
+        x0 = occ.addLine(p[2], p[3])
+        inner = occ.addCircleArc(p[3], c, p[0])
+        surface = occ.addPlaneSurface([occ.addCurveLoop([y0, outer, x0, inner])])
+        occ.remove([(0, c)])
+        occ.synchronize()
+        _set_size([(2, surface)], h)
+        groups = _Groups()
+        groups(2, [surface], "tube")
+        for tag, name in ((inner, "inner"), (outer, "outer"), (x0, "x0"), (y0, "y0")):
+            groups(1, [tag], name)
+
+    return _generate("quarter_tube", 2, build, comm, path)
+
+
+def rectangle(lx: float, ly: float, nx: int, ny: int, comm: MPI.Comm | None,
+              path: str | Path | None = None, structured: bool = False) -> MeshData | Path:
+    """Rectangle ``[0, lx] x [0, ly]`` with ``nx`` x ``ny`` element edges along its sides.
+
+    Parameters
+    ----------
+    lx, ly
+        Side lengths in m.
+    nx, ny
+        Number of element edges along the x and y sides (exact on the boundary).
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh.
+    structured
+        ``True``: a structured (transfinite) triangulation, two triangles per grid cell;
+        ``False``: an unstructured triangulation of the interior.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell group ``"body"``; facet groups ``"left"`` (x = 0), ``"right"`` (x = lx),
+        ``"bottom"`` (y = 0), ``"top"`` (y = ly).
+    """
+    _positive(lx=lx, ly=ly)
+    if int(nx) != nx or int(ny) != ny or nx < 1 or ny < 1:
+        raise ValueError(f"nx and ny must be positive integers, got nx={nx!r}, ny={ny!r}")
+
+    def build() -> None:
+        surface = gmsh.model.occ.addRectangle(0, 0, 0, lx, ly)
+        gmsh.model.occ.synchronize()
+        _set_size([(2, surface)], min(lx / nx, ly / ny))
+        for curve in _boundary(2, surface):
+            b = _bbox(1, curve)
+            along_x = abs(b[3] - b[0]) > abs(b[4] - b[1])
+            gmsh.model.mesh.setTransfiniteCurve(curve, int(nx if along_x else ny) + 1)
+        if structured:
+            gmsh.model.mesh.setTransfiniteSurface(surface)
+        groups = _Groups()
+        groups(2, [surface], "body")
+        _block_groups(groups, 2, surface, "", (0, 0), (lx, ly), max(lx, ly))
+
+    return _generate("rectangle", 2, build, comm, path)
+
+
+def box(lx: float, ly: float, lz: float, h: float, comm: MPI.Comm | None,
+        path: str | Path | None = None) -> MeshData | Path:
+    """Box ``[0, lx] x [0, ly] x [0, lz]`` meshed with tetrahedra of size about ``h``.
+
+    Parameters
+    ----------
+    lx, ly, lz
+        Edge lengths in m.
+    h
+        Target element size in m.
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell group ``"body"``; facet groups ``"left"``/``"right"`` (x = 0 / lx),
+        ``"bottom"``/``"top"`` (y = 0 / ly), ``"front"``/``"back"`` (z = 0 / lz).
+    """
+    _positive(lx=lx, ly=ly, lz=lz, h=h)
+
+    def build() -> None:
+        volume = gmsh.model.occ.addBox(0, 0, 0, lx, ly, lz)
+        gmsh.model.occ.synchronize()
+        _set_size([(3, volume)], h)
+        groups = _Groups()
+        groups(3, [volume], "body")
+        _block_groups(groups, 3, volume, "", (0, 0, 0), (lx, ly, lz), max(lx, ly, lz))
+
+    return _generate("box", 3, build, comm, path)
+
+
+def cantilever(L: float, H: float, W: float, h: float, comm: MPI.Comm | None,
+               path: str | Path | None = None) -> MeshData | Path:
+    """Slender 3D beam ``[0, L] x [0, H] x [0, W]`` along x (height H along y, width W along z).
+
+    Parameters
+    ----------
+    L, H, W
+        Length (x), height (y) and width (z) in m.
+    h
+        Target element size in m.
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell group ``"beam"``; facet groups ``"clamped"`` (x = 0), ``"tip"`` (x = L),
+        ``"bottom"`` (y = 0), ``"top"`` (y = H) and ``"sides"`` (z = 0 and z = W).
+    """
+    _positive(L=L, H=H, W=W, h=h)
+
+    def build() -> None:
+        volume = gmsh.model.occ.addBox(0, 0, 0, L, H, W)
+        gmsh.model.occ.synchronize()
+        _set_size([(3, volume)], h)
+        faces = _boundary(3, volume)
+        scale = max(L, H, W)
+        groups = _Groups()
+        groups(3, [volume], "beam")
+        groups(2, _where(faces, 2, 0, 0.0, scale), "clamped")
+        groups(2, _where(faces, 2, 0, L, scale), "tip")
+        groups(2, _where(faces, 2, 1, 0.0, scale), "bottom")
+        groups(2, _where(faces, 2, 1, H, scale), "top")
+        groups(2, _where(faces, 2, 2, 0.0, scale) + _where(faces, 2, 2, W, scale), "sides")
+
+    return _generate("cantilever", 3, build, comm, path)
+
+
+def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: float = 0.2,
+                 width: float = 0.03, cortical_thickness: float = 5e-3, flare: float = 4e-3,
+                 flare_length: float = 0.03, comm: MPI.Comm | None = None) -> MeshData | Path:
+    """Longitudinal section through the diaphysis of a long bone (plane strain).
+
+    The bone axis is y, ``0 <= y <= length``, centred on ``x = 0``.  Its outer half-width
+    is ``width/2`` along the shaft and grows linearly to ``width/2 + flare`` over
+    ``flare_length`` at each end (the metaphyseal flare; ``flare = 0`` gives a plain
+    rectangle).  Two cortical strips of constant horizontal thickness
+    ``cortical_thickness`` follow the outer contour and enclose the cancellous/medullary
+    core, which runs from end to end.  Cortex and core are one conforming body (OCC
+    fragment: the nodes on their interface are shared).
+
+    Exact measures: total area ``width*length + 2*flare*flare_length``, cortical area
+    ``2*cortical_thickness*length``; each end has width ``width + 2*flare``.
+
+    Parameters
+    ----------
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh
+        (``data/scenes/make_meshes.py`` writes ``data/scenes/long_bone.msh`` this way).
+    h
+        Target element size in m.
+    length, width, cortical_thickness, flare, flare_length
+        Geometry in m; ``cortical_thickness < width/2`` and ``2*flare_length < length``.
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``"cortical"`` and ``"cancellous"``; facet groups ``"distal"``
+        (y = 0), ``"proximal"`` (y = length) and ``"periosteum"`` (the outer sides).
+    """
+    _positive(h=h, length=length, width=width, cortical_thickness=cortical_thickness,
+              flare_length=flare_length)
+    if not (math.isfinite(flare) and flare >= 0):
+        raise ValueError(f"flare must be >= 0 (m), got {flare!r}")
+    if cortical_thickness >= width / 2:
+        raise ValueError(f"cortical_thickness ({cortical_thickness}) must be below width/2 ({width / 2})")
+    if 2 * flare_length >= length:
+        raise ValueError(f"2*flare_length ({2 * flare_length}) must be below length ({length})")
+
+    def half_profile(offset: float) -> list[tuple[float, float]]:
+        """(x, y) of the right-hand contour, shifted inwards by ``offset``, bottom to top."""
+        w = width / 2 - offset
+        if flare == 0:
+            return [(w, 0.0), (w, length)]
+        return [(w + flare, 0.0), (w, flare_length), (w, length - flare_length), (w + flare, length)]
+
+    def polygon(offset: float) -> int:
+        right = half_profile(offset)
+        ring = right + [(-x, y) for x, y in reversed(right)]
+        occ = gmsh.model.occ
+        pts = [occ.addPoint(x, y, 0) for x, y in ring]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        return occ.addPlaneSurface([occ.addCurveLoop(lines)])
+
+    def build() -> None:
+        outer = polygon(0.0)
+        core = polygon(cortical_thickness)
+        gmsh.model.occ.fragment([(2, outer)], [(2, core)])
+        gmsh.model.occ.synchronize()
+        surfaces = [t for _, t in gmsh.model.getEntities(2)]
+        cancellous = [s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[0]) < _EPS * width]
+        cortical = [s for s in surfaces if s not in cancellous]
+        if len(cancellous) != 1 or len(cortical) != 2:
+            raise MeshingError(f"expected 1 core and 2 cortical strips, got {len(cancellous)} and {len(cortical)}")
+        _set_size([(2, s) for s in surfaces], h)
+        groups = _Groups()
+        groups(2, cortical, "cortical")
+        groups(2, cancellous, "cancellous")
+        curves = [t for _, t in gmsh.model.getEntities(1)]
+        exterior = [c for c in curves if len(gmsh.model.getAdjacencies(1, c)[0]) == 1]
+        distal = _where(exterior, 1, 1, 0.0, length)
+        proximal = _where(exterior, 1, 1, length, length)
+        groups(1, distal, "distal")
+        groups(1, proximal, "proximal")
+        groups(1, [c for c in exterior if c not in distal + proximal], "periosteum")
+
+    return _generate("long_bone_2d", 2, build, comm, path)
+
+
+def _two_blocks(dim: int, size: tuple[float, ...], heights: tuple[float, float],
+                upper_size: tuple[float, ...], upper_offset: tuple[float, ...],
+                h: tuple[float, float], comm: MPI.Comm | None, path: str | Path | None,
+                name: str) -> MeshData | Path:
+    """Two touching, separately meshed blocks: lower at y in [0, h0], upper on top of it."""
+    lower_lo = (0.0,) * dim
+    lower_hi = (size[0], heights[0]) + tuple(size[1:])
+    upper_lo = (upper_offset[0], heights[0]) + tuple(upper_offset[1:])
+    upper_hi = (upper_lo[0] + upper_size[0], heights[0] + heights[1]) + tuple(
+        upper_lo[2 + i] + upper_size[1 + i] for i in range(dim - 2))
+    scale = max(max(lower_hi), max(upper_hi))
+
+    def block(lo: tuple[float, ...], hi: tuple[float, ...]) -> int:
+        d = [b - a for a, b in zip(lo, hi)]
+        if dim == 2:
+            return gmsh.model.occ.addRectangle(lo[0], lo[1], 0, d[0], d[1])
+        return gmsh.model.occ.addBox(lo[0], lo[1], lo[2], d[0], d[1], d[2])
+
+    def build() -> None:
+        # Two independent OCC entities that merely touch: no fragment, no node merging,
+        # so each side of the interface is its own boundary with its own nodes.
+        lower = block(lower_lo, lower_hi)
+        upper = block(upper_lo, upper_hi)
+        gmsh.model.occ.synchronize()
+        _set_size([(dim, lower)], h[0])
+        _set_size([(dim, upper)], h[1])
+        groups = _Groups()
+        groups(dim, [lower], "lower")
+        groups(dim, [upper], "upper")
+        _block_groups(groups, dim, lower, "lower_", lower_lo, lower_hi, scale,
+                      {"top": "lower_contact", "bottom": "bottom"})
+        _block_groups(groups, dim, upper, "upper_", upper_lo, upper_hi, scale,
+                      {"bottom": "upper_contact", "top": "top"})
+
+    return _generate(name, dim, build, comm, path)
+
+
+def two_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *,
+                  width: float = 0.02, lower_height: float = 0.01, upper_height: float = 0.01,
+                  upper_width: float | None = None, upper_offset: float = 0.0,
+                  h_lower: float = 0.02 / 7, h_upper: float = 0.02 / 11) -> MeshData | Path:
+    """Two touching rectangles with non-matching meshes on their interface (contact tests).
+
+    Lower block ``[0, width] x [0, lower_height]``; upper block
+    ``[upper_offset, upper_offset + upper_width] x [lower_height, lower_height + upper_height]``.
+    The blocks are separate gmsh entities meshed with their own sizes and share no nodes;
+    the defaults put 7 and 11 element edges on the interface, so no interior interface
+    nodes coincide.
+
+    Parameters
+    ----------
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh.
+    width, lower_height, upper_height, upper_width, upper_offset
+        Geometry in m (``upper_width`` defaults to ``width``).
+    h_lower, h_upper
+        Element sizes of the two blocks in m.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``"lower"``, ``"upper"``; facet groups ``"bottom"`` (y = 0),
+        ``"lower_contact"`` (top of the lower block), ``"upper_contact"`` (bottom of the
+        upper block), ``"top"`` (top of the upper block) and the sides
+        ``"lower_left"``, ``"lower_right"``, ``"upper_left"``, ``"upper_right"``.
+    """
+    upper_width = width if upper_width is None else upper_width
+    _positive(width=width, lower_height=lower_height, upper_height=upper_height,
+              upper_width=upper_width, h_lower=h_lower, h_upper=h_upper)
+    return _two_blocks(2, (width,), (lower_height, upper_height), (upper_width,), (upper_offset,),
+                       (h_lower, h_upper), comm, path, "two_blocks_2d")
+
+
+def two_boxes_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *,
+                 width: float = 0.02, depth: float = 0.02, lower_height: float = 0.01,
+                 upper_height: float = 0.01, upper_width: float | None = None,
+                 upper_depth: float | None = None, upper_offset: tuple[float, float] = (0.0, 0.0),
+                 h_lower: float = 0.02 / 5, h_upper: float = 0.02 / 7) -> MeshData | Path:
+    """Two touching boxes with non-matching meshes on their interface (contact tests).
+
+    Lower box ``[0, width] x [0, lower_height] x [0, depth]``; the upper box
+    (``upper_width`` x ``upper_height`` x ``upper_depth``, its corner at
+    ``(upper_offset[0], lower_height, upper_offset[1])``) sits on it.  The boxes are
+    separate gmsh volumes meshed with their own sizes and share no nodes.
+
+    Parameters
+    ----------
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+    path
+        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh.
+    width, depth, lower_height, upper_height, upper_width, upper_depth, upper_offset
+        Geometry in m (x: width, y: height, z: depth; the upper box defaults to the
+        lower one's width and depth).
+    h_lower, h_upper
+        Element sizes of the two boxes in m.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``"lower"``, ``"upper"``; facet groups ``"bottom"`` (y = 0),
+        ``"lower_contact"``, ``"upper_contact"``, ``"top"`` and the sides
+        ``"lower_left"``, ``"lower_right"``, ``"lower_front"``, ``"lower_back"`` and the
+        same four for ``"upper_"``.
+    """
+    upper_width = width if upper_width is None else upper_width
+    upper_depth = depth if upper_depth is None else upper_depth
+    _positive(width=width, depth=depth, lower_height=lower_height, upper_height=upper_height,
+              upper_width=upper_width, upper_depth=upper_depth, h_lower=h_lower, h_upper=h_upper)
+    return _two_blocks(3, (width, depth), (lower_height, upper_height), (upper_width, upper_depth),
+                       tuple(upper_offset), (h_lower, h_upper), comm, path, "two_boxes_3d")

@@ -1,0 +1,60 @@
+"""Shared pytest set-up for serial and MPI runs.
+
+The suite runs once serially (``pytest``) and again under ``mpiexec -n 2`` and ``-n 3``
+(``python -m mpi4py -m pytest -m "not serial"``).  Every test is therefore collective:
+all ranks run the same tests in the same order.  Tests marked ``serial`` spawn their own
+``mpiexec`` or subprocesses and are skipped when more than one rank is running.
+"""
+
+import dolfinx_solver  # noqa: F401  (loads MPI; must precede dolfinx / petsc4py)
+
+import gc
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+from mpi4py import MPI
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "serial: spawns its own mpiexec/subprocesses; runs only in the serial session"
+    )
+    config.addinivalue_line("markers", "slow: long-running test")
+
+
+def pytest_collection_modifyitems(config, items):
+    if MPI.COMM_WORLD.size == 1:
+        return
+    skip = pytest.mark.skip(reason="serial test: runs only in the serial (1-rank) session")
+    for item in items:
+        if "serial" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(autouse=True)
+def _collective_teardown():
+    """Free PETSc/DOLFINx objects collectively and keep the ranks in step after each test."""
+    yield
+    gc.collect()
+    MPI.COMM_WORLD.barrier()
+
+
+@pytest.fixture
+def tmp_shared_path():
+    """A fresh temporary directory with the same path on every rank (removed afterwards)."""
+    comm = MPI.COMM_WORLD
+    path = tempfile.mkdtemp(prefix="bonecontact-") if comm.rank == 0 else None
+    path = Path(comm.bcast(path, root=0))
+    yield path
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def venv_bin():
+    """Directory of the running interpreter (the venv's ``bin``, holding ``mpiexec``)."""
+    return Path(sys.executable).parent
