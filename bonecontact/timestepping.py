@@ -102,6 +102,9 @@ class Integrator:
         self._bc_local = model.bc_dofs()
         self._bc_rows = owned_global_rows(V, self._bc_local)
         self._bc_owned_local = self._bc_local[self._bc_local < model.num_owned]
+        # decided collectively: a rank without constrained dofs must still take part
+        # in the collective lifting product of the other ranks
+        self._has_bc = model.mesh.comm.allreduce(int(self._bc_local.size)) > 0
         self.A_bc = self.A.duplicate(copy=True)
         self.A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
         nns = rigid_body_modes(V) if linear == "iterative" else None
@@ -143,7 +146,7 @@ class Integrator:
         return b
 
     def _apply_dirichlet(self, t: float, b: PETSc.Vec) -> None:
-        if self._bc_local.size == 0:
+        if not self._has_bc:
             return
         g = self._g
         self.model.dirichlet_values(t, g)
