@@ -36,7 +36,7 @@ define FIND_PYTHON
 usable() { "$$1" -c 'import sys, venv, ensurepip; sys.exit(sys.version_info < (3, 12))' >/dev/null 2>&1; }
 if [ -n "$${PYTHON:-}" ]; then
   usable "$$PYTHON" && { echo "$$PYTHON"; exit 0; }
-  echo "error: PYTHON=$$PYTHON is not a Python >= 3.12 with the venv module" >&2; exit 1
+  echo "error: PYTHON=$$PYTHON is not a Python >= 3.12 with the venv module; install one or unset PYTHON" >&2; exit 1
 fi
 for name in python3.13 python3.12 python3; do
   p=$$(command -v "$$name" 2>/dev/null) || continue
@@ -51,6 +51,7 @@ for root in $$roots; do
     [ -x "$$p" ] && usable "$$p" && { echo "$$p"; exit 0; }
   done
 done
+echo "error: no Python >= 3.12 with the venv module found (looked for python3.13, python3.12, python3 on PATH and in pyenv's versions): install one, e.g. 'pyenv install 3.12' or 'apt-get install python3.12-venv', or pass PYTHON=/path/to/python3.12" >&2
 exit 1
 endef
 export FIND_PYTHON
@@ -83,7 +84,7 @@ RANK_LOG := bash -c 'r=$${PMI_RANK:-$${OMPI_COMM_WORLD_RANK:-0}}; \
 .PHONY: help install demo test test-serial test-parallel benchmarks clean distclean
 
 help:
-	@sed -n 's/^#   //p' Makefile
+	@sed -n 's/^#   //p' $(firstword $(MAKEFILE_LIST))
 
 install: $(STAMP)
 
@@ -92,7 +93,7 @@ $(STAMP): pyproject.toml
 	  echo "+ rm -rf $(VENV)   # existing venv is unusable or older than Python 3.12"; rm -rf "$(VENV)"; \
 	fi
 	@if [ ! -x "$(PY)" ]; then \
-	  py=$$(bash -c "$$FIND_PYTHON") || { echo "error: no Python >= 3.12 with the venv module found (looked at \$$PYTHON, python3.13/python3.12/python3 on PATH, and pyenv versions 3.12+): install one, e.g. 'pyenv install 3.12' or 'apt-get install python3.12-venv', or pass PYTHON=/path/to/python3.12" >&2; exit 1; }; \
+	  py=$$(bash -c "$$FIND_PYTHON") || exit 1; \
 	  echo "+ $$py -m venv $(VENV)   # $$("$$py" --version 2>&1)"; \
 	  "$$py" -m venv "$(VENV)"; \
 	fi

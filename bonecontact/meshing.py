@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import gmsh
@@ -72,7 +72,7 @@ def _generate(name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | N
               path: str | Path | None) -> MeshData | Path:
     """Run ``build`` (geometry, sizes, physical groups) on rank 0, mesh, then distribute or write."""
     comm = MPI.COMM_WORLD if comm is None else comm
-    with _gmsh_model(name) if comm.rank == 0 else _nothing():
+    with _gmsh_model(name) if comm.rank == 0 else nullcontext():
         error = None
         if comm.rank == 0:
             try:
@@ -90,11 +90,6 @@ def _generate(name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | N
             comm.barrier()
             return Path(path)
         return model_to_mesh(gmsh.model, comm, 0, gdim=dim)
-
-
-@contextmanager
-def _nothing() -> Iterator[None]:
-    yield
 
 
 def _bbox(dim: int, tag: int) -> tuple[float, ...]:
