@@ -76,8 +76,8 @@ class StressFields:
 class Probes:
     """Point evaluation of displacement, velocity and stress, gathered on rank 0.
 
-    Each point is evaluated by the lowest rank that owns a cell containing it, so the
-    values are the same whatever the number of ranks.
+    Each point is evaluated in the containing cell of lowest input-mesh index (by the
+    rank that owns it), so the values are the same whatever the number of ranks.
     """
 
     def __init__(self, msh: dolfinx.mesh.Mesh, points: Sequence[Sequence[float]]):
@@ -92,18 +92,28 @@ class Probes:
         tree = geometry.bb_tree(msh, tdim, padding=1e-12)
         cand = geometry.compute_collisions_points(tree, pts)
         coll = geometry.compute_colliding_cells(msh, cand, pts)
+        # A point on a cell boundary touches several cells; pick the one with the lowest
+        # ORIGINAL (input-mesh) index over all ranks, so the cell — and therefore the
+        # value of a discontinuous field such as the DG0 stress — is the same whatever
+        # the partition.
+        orig = np.asarray(msh.topology.original_cell_index, dtype=np.int64)
+        big = np.iinfo(np.int64).max
         found = np.full(len(points), -1, dtype=np.int32)
+        key = np.full(len(points), big, dtype=np.int64)
         for i in range(len(points)):
             cells = coll.links(i)
             cells = cells[cells < ncells]
             if cells.size:
-                found[i] = cells[0]
-        have = np.where(found >= 0, self.comm.rank, self.comm.size)
-        owner = np.empty_like(have)
-        self.comm.Allreduce(have, owner, op=MPI.MIN)
-        missing = np.flatnonzero(owner == self.comm.size)
+                j = int(np.argmin(orig[cells]))
+                found[i], key[i] = cells[j], orig[cells[j]]
+        best = np.empty_like(key)
+        self.comm.Allreduce(key, best, op=MPI.MIN)
+        missing = np.flatnonzero(best == big)
         if missing.size:
             raise ProbeError(int(missing[0]), list(points[missing[0]]))
+        have = np.where((key == best) & (found >= 0), self.comm.rank, self.comm.size)
+        owner = np.empty_like(have)
+        self.comm.Allreduce(have, owner, op=MPI.MIN)
         self.mine = np.flatnonzero(owner == self.comm.rank)
         self.cells = found[self.mine]
 

@@ -178,7 +178,7 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = _steps(scene)
     integ = Integrator(model, scene.analysis.kind, dt, linear=scene.solver.linear,
-                       rtol=min(scene.solver.tolerance, 1e-8))
+                       rtol=min(1e-2 * scene.solver.tolerance, 1e-12))
     integ.set_initial(None, sm.v0)
     stress = StressFields(model.mesh, model.stress_expression(integ.u, integ.velocity))
     writer = ResultsWriter(comm, outdir, scene.name, sm.probes)
