@@ -166,7 +166,7 @@ class Integrator:
 
     def step(self) -> StepInfo:
         """Advance one step: t ← t + Δt, solve, update history and velocity."""
-        t = self.t + self.dt
+        t = (self.step_count + 1) * self.dt  # not a running sum: no round-off drift in t
         t0 = _time.perf_counter()
         b = self.rhs(t)
         self._apply_dirichlet(t, b)

@@ -153,7 +153,7 @@ def _compare(outs: dict[int, Path]) -> None:
     for name in ("history.csv", "probes.csv"):
         h1, a1 = _read(outs[1] / name)
         assert len(a1) > 1
-        scale = np.nan_to_num(np.nanmax(np.abs(np.nan_to_num(a1)), axis=0))  # per column
+        scale = np.abs(np.nan_to_num(a1)).max(axis=0)  # per column
         for n in (2, 3):
             hn, an = _read(outs[n] / name)
             assert hn == h1 and an.shape == a1.shape, f"{name}: {n} ranks differ in shape/header"
