@@ -73,6 +73,9 @@ class ContactInterface:
         (``(n, gdim-1, gdim)``).
     D, weighted_gap
         ``D_pp`` and ``d_p``; ``gap = d_p / D_pp`` is the nodal (normal) gap in m.
+    weight
+        ``∫ψ_p``, the measure a nodal multiplier acts on (``= D_pp`` except next to
+        nodes without a multiplier); the contact force is ``Σ_p weight_p λ_p``.
     qt_rows, qt_cols, qt_vals
         Entries of ``M̂`` (rows: slave dofs, columns: master dofs, global dof numbers)
         that this rank owns — the off-identity part of ``Qᵀ``.
@@ -89,6 +92,7 @@ class ContactInterface:
     tangents: npt.NDArray[np.float64]
     D: npt.NDArray[np.float64]
     weighted_gap: npt.NDArray[np.float64]
+    weight: npt.NDArray[np.float64]
     qt_rows: npt.NDArray[np.int64] = field(repr=False)
     qt_cols: npt.NDArray[np.int64] = field(repr=False)
     qt_vals: npt.NDArray[np.float64] = field(repr=False)
@@ -240,25 +244,27 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         nu = np.asarray(master.normal, dtype=float)[:gdim]
         nu = nu / np.linalg.norm(nu)
         x0 = np.asarray(master.point, dtype=float)[:gdim]
-        coeffs = mg.modify_dual_coefficients(mg.reference_dual_coefficients(gdim), mask[own_f]) \
-            if mask.any() else None
-        # D_pp = ∫ψ_p φ_p = ∫φ_p on unmodified facets; gap linear ⇒ d_p = D_pp g_p
+        base = mg.reference_dual_coefficients(gdim)
+        coeffs = mg.modify_dual_coefficients(base, mask[own_f]) if mask.any() else base
+        # facet matrices D_f[j, k] = ∫ψ_j φ_k (diagonal unless the basis was modified)
         mass = mg.element_mass_matrices(s_x[own_f]) if own_f.size else np.zeros((0, gdim, gdim))
-        if coeffs is None:
-            dloc = mass.sum(axis=2)
-            dd = dloc
-        else:
-            c = np.broadcast_to(coeffs, (own_f.shape[0], gdim, gdim))
-            dd = np.einsum("fjk,fkj->fj", c, mass)
-        d = np.bincount(own_f.ravel(), weights=dd.ravel(), minlength=s_gids.size)
-        d = _allreduce(comm, d, MPI.SUM)
-        normals = np.broadcast_to(nu, s_x.shape).copy()
+        c = np.broadcast_to(coeffs, (own_f.shape[0], gdim, gdim))
+        dfac = np.einsum("fjl,flk->fjk", c, mass)
         gap_nodal = (x0 - s_x) @ nu
-        wgap = d * gap_nodal
+        d = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjj->fj", dfac).ravel(),
+                                         minlength=s_gids.size), MPI.SUM)
+        wgap = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjk,fk->fj", dfac,
+                                                                             gap_nodal[own_f]).ravel(),
+                                            minlength=s_gids.size), MPI.SUM)
+        jj, kk = np.nonzero(~np.eye(gdim, dtype=bool))
+        off_r = own_f[:, jj].ravel()
+        off_c = own_f[:, kk].ravel()
+        off_v = dfac[:, jj, kk].ravel()
+        normals = np.broadcast_to(nu, s_x.shape).copy()
         m_rows = m_cols = np.zeros(0, np.int64)
         m_vals = np.zeros(0)
-        m_gids = np.zeros(0, np.int64)
         covered = float(measure.sum())
+        m_gids = np.zeros(0, np.int64)
     else:
         m_loc = _local_surface(V, facet_tags, master)
         m_gids, m_x, m_f, m_in, _ = _gather_surface(comm, *m_loc)
@@ -275,6 +281,7 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         wgap = _allreduce(comm, contrib.gap, MPI.SUM)
         covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
         m_rows, m_cols, m_vals = contrib.m_rows, contrib.m_cols, contrib.m_vals
+        off_r, off_c, off_v = contrib.d_off_rows, contrib.d_off_cols, contrib.d_off_vals
         if covered <= 0.0:
             raise ContactInputError(f"contact {name!r}: no master facet (group {master}) lies opposite the "
                                     f"slave surface (group {slave}) within {radius:.3g} m")
@@ -290,16 +297,28 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         raise ContactInputError(f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
                                 f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes")
 
-    # M̂ rows to their owners: rows = slave dofs, cols = master dofs (global dof numbers)
-    rows = cols = np.zeros(0, np.int64)
-    vals = np.zeros(0)
+    # M̂ rows to their owners: rows = slave dofs, cols = master dofs (global dof numbers).
+    # Off-diagonal D entries that couple a node carrying a multiplier to a slave node
+    # without one (boundary-modified dual basis) act like master entries with −D_pq.
+    comp = np.arange(bs)
+    rows_l, cols_l, vals_l = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
     if m_vals.size:
         keep = carries[m_rows]
         r, c, v = m_rows[keep], m_cols[keep], m_vals[keep] / d[m_rows[keep]]
-        comp = np.arange(bs)
-        rows = (bs * s_gids[r][:, None] + comp[None, :]).ravel()
-        cols = (bs * m_gids[c][:, None] + comp[None, :]).ravel()
-        vals = np.repeat(v, bs)
+        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
+        cols_l.append((bs * m_gids[c][:, None] + comp[None, :]).ravel())
+        vals_l.append(np.repeat(v, bs))
+    sel = carries[off_r] & ~carries[off_c] & (off_v != 0.0)
+    if sel.any():
+        r, c, v = off_r[sel], off_c[sel], -off_v[sel] / d[off_r[sel]]
+        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
+        cols_l.append((bs * s_gids[c][:, None] + comp[None, :]).ravel())
+        vals_l.append(np.repeat(v, bs))
+    rows, cols, vals = np.concatenate(rows_l), np.concatenate(cols_l), np.concatenate(vals_l)
+    # ∫ψ_p: the area a nodal multiplier acts on (D_pp plus the modified-basis part)
+    extra = np.bincount(off_r[sel], weights=off_v[sel], minlength=s_gids.size) if sel.any() \
+        else np.zeros(s_gids.size)
+    weight = d + _allreduce(comm, extra, MPI.SUM)
     owner = np.searchsorted(bs * ranges, rows, side="right") - 1
     send = [(rows[owner == k], cols[owner == k], vals[owner == k]) for k in range(comm.size)]
     recv = comm.alltoall(send)
@@ -312,7 +331,7 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         name=name, gdim=gdim,
         blocks=(s_gids[idx] - lo).astype(np.int32), global_blocks=s_gids[idx],
         coords=s_x[idx], normals=n, tangents=mg.nodal_tangents(n) if idx.size else np.zeros((0, gdim - 1, gdim)),
-        D=d[idx], weighted_gap=wgap[idx],
+        D=d[idx], weighted_gap=wgap[idx], weight=weight[idx],
         qt_rows=q_rows, qt_cols=q_cols, qt_vals=q_vals,
         slave_area=slave_area, covered_area=float(covered), rigid=isinstance(master, RigidPlane))
 

@@ -72,9 +72,18 @@ class Integrator:
         ``"direct"`` (MUMPS) or ``"iterative"`` (CG + GAMG).
     rtol
         Krylov tolerance for the iterative solver.
+    contact
+        Contact interfaces (:func:`bonecontact.mortar.build_interface`): every step is
+        then solved by the PDAS (:class:`bonecontact.pdas.ContactSolver`) instead of a
+        single linear solve; ``self.last_contact`` holds the last
+        :class:`~bonecontact.pdas.PDASResult`.
+    contact_options
+        Keyword arguments for :class:`~bonecontact.pdas.ContactSolver`
+        (``max_iterations``, ``c_n``, ``gap_tol``).
     """
 
-    def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12):
+    def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12,
+                 contact: list | None = None, contact_options: dict | None = None):
         if dt <= 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         if kind not in ("static", "quasistatic", "dynamic"):
@@ -107,8 +116,17 @@ class Integrator:
         self._has_bc = model.mesh.comm.allreduce(int(self._bc_local.size)) > 0
         self.A_bc = self.A.duplicate(copy=True)
         self.A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
-        nns = rigid_body_modes(V) if linear == "iterative" else None
-        self.ksp = create_solver(self.A_bc, linear, nns, rtol=rtol)
+        self.contact = None
+        self.last_contact = None
+        if contact:
+            from .pdas import ContactSolver
+
+            self.ksp = None
+            self.contact = ContactSolver(V, self.A_bc, contact, self._bc_rows, linear=linear,
+                                         force_scale=1.0 / coeffs[1], rtol=rtol, **(contact_options or {}))
+        else:
+            nns = rigid_body_modes(V) if linear == "iterative" else None
+            self.ksp = create_solver(self.A_bc, linear, nns, rtol=rtol)
         self.setup_time = _time.perf_counter() - t0
         self._b, self._w = self.A.createVecs()
         self._F = self._b.duplicate()
@@ -170,7 +188,11 @@ class Integrator:
         t0 = _time.perf_counter()
         b = self.rhs(t)
         self._apply_dirichlet(t, b)
-        its = self.solve_linear(b, self.u)
+        if self.contact is not None:
+            self.last_contact = self.contact.solve(b, self.u)
+            its = self.last_contact.linear_iterations
+        else:
+            its = self.solve_linear(b, self.u)
         self._advance(t)
         return StepInfo(self.step_count, t, its, _time.perf_counter() - t0)
 
@@ -201,6 +223,9 @@ class Integrator:
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
+        if self.contact is not None:
+            self.contact.destroy()
         for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F):
-            obj.destroy()
+            if obj is not None:
+                obj.destroy()
 

@@ -1,0 +1,287 @@
+"""Primal–dual active set (semi-smooth Newton) solver for frictionless mortar contact.
+
+Algorithm (SPEC §5.1–5.3), on the condensed system of SPEC §4.3
+-----------------------------------------------------------------
+With ``Qᵀ`` from :func:`bonecontact.mortar.basis_transform`, the unknowns are
+``Û = Q⁻ᵀ U`` (relative displacements at slave nodes), ``Â = Q A Qᵀ`` and
+``F̂ = Q F``; the multipliers act only on the slave rows and the weak non-penetration
+condition is nodal: ``n_pᵀ Û_p ≤ g_p = d_p / D_pp``.  The rows of every slave node are
+rotated into its frame ``[n_p; t_p]`` (matrix ``T``), so that each node has one normal
+row and ``gdim − 1`` tangential rows.  At iteration k, with the active set ``A``:
+
+* ``p ∉ A``: the rows stay ``(T Â Û)_p = (T F̂)_p`` (λ_p = 0);
+* ``p ∈ A``: the normal row is replaced by ``s_p n_pᵀ Û_p = s_p g_p`` (``s_p`` the
+  diagonal of the row it replaces, for conditioning); the tangential rows stay
+  (frictionless: λ_t = 0).
+
+After the solve, ``λ_n,p = (T(F̂ − ÂÛ))_{p,n} / D_pp`` (SPEC (46)) and the new set is
+``A = {p : λ_n,p + c_n (n_pᵀÛ_p − g_p) > 0}``.  The iteration stops when the set does
+not change — the last solve is then the exact discrete solution of the linear
+complementarity problem.  It fails with :class:`ContactConvergenceError` (iteration
+history attached) when the iteration limit is reached or a set repeats (cycling), and
+never returns an unconverged state.  ``c_n`` defaults to the mean ratio of the normal
+rows' diagonal to ``D_pp`` (≈ E/h: stiffness per contact area), so the set update
+weighs gaps and pressures on the scale of the problem.
+
+Dirichlet rows of master dofs, mixed with slave rows by ``Q``, are reset to the
+identity after the transformation, so ``U = Qᵀ Û`` meets every Dirichlet condition.
+
+Non-singular first systems: without a warm start the active set begins with every
+node whose gap is closed (``g_p ≤ gap_tol``).  A body held only by contact therefore
+starts supported wherever it touches; then the PDAS keeps at least those nodes whose
+pressure stays positive.  (The remaining rigid modes that frictionless contact cannot
+remove — sliding along the contact plane — must be fixed by the scene.)
+
+Linear solvers: ``"direct"`` — MUMPS LU of the (non-symmetric) condensed matrix,
+re-factorised numerically only when the active set changes (same non-zero pattern);
+``"iterative"`` — GMRES preconditioned by GAMG (smoothed aggregation) on the same
+matrix.  Warm starts make the iterative solves cheap in time-stepping runs.
+
+Units: λ_n in Pa (N/m² — in 2D plane strain per unit thickness); forces in N (N/m in 2D).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .mortar import ContactInterface, basis_transform, rotation_matrix
+
+__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult"]
+
+
+class ContactConvergenceError(RuntimeError):
+    """The PDAS iteration did not converge; ``history`` holds one dict per iteration."""
+
+    def __init__(self, message: str, history: list[dict]):
+        lines = [message, "  it  active  changed  |dU|/|U|      linear_its"]
+        for h in history:
+            lines.append(f"  {h['iteration']:2d}  {h['active']:6d}  {h['changed']:7d}  {h['update']:.3e}  "
+                         f"{h['linear_iterations']:6d}")
+        super().__init__("\n".join(lines))
+        self.history = history
+
+
+@dataclass
+class PDASResult:
+    """Outcome of one contact solve (per interface lists hold owned slave nodes)."""
+
+    iterations: int
+    linear_iterations: int
+    active: list[npt.NDArray[np.bool_]]
+    pressure: list[npt.NDArray[np.float64]]
+    gap: list[npt.NDArray[np.float64]]
+    slip: list[npt.NDArray[np.float64]]
+    normal_force: list[float]
+    n_active: list[int]
+    history: list[dict] = field(default_factory=list)
+    wall_time: float = 0.0
+
+
+def _allsum(comm: MPI.Comm, x) -> float:
+    return comm.allreduce(x, op=MPI.SUM)
+
+
+class ContactSolver:
+    """Frictionless PDAS on the condensed mortar system (see the module docstring).
+
+    Parameters
+    ----------
+    V
+        The P1 vector space of the model.
+    A
+        The operator of one time step with Dirichlet rows and columns already
+        eliminated (e.g. ``Integrator.A_bc``); it is transformed once here.
+    interfaces
+        The contact pairs (:func:`bonecontact.mortar.build_interface`).
+    bc_rows
+        Global PETSc rows (owned) with Dirichlet conditions.
+    linear
+        ``"direct"`` or ``"iterative"``.
+    force_scale
+        Factor turning the operator's forces into physical ones (1 for static;
+        1/Δt quasistatic; 1/Δt² dynamic, matching ``combined_operator``).
+    c_n
+        Complementarity parameter (default: see the module docstring).
+    max_iterations
+        PDAS iteration limit.
+    gap_tol
+        Gaps below this (m) count as closed for the cold start (default 1e-9 × the
+        slave surface size).
+    rtol
+        Krylov tolerance (iterative solver).
+    """
+
+    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, interfaces: list[ContactInterface],
+                 bc_rows: npt.ArrayLike | None = None, *, linear: str = "direct", force_scale: float = 1.0,
+                 c_n: float | None = None, max_iterations: int = 50, gap_tol: float | None = None,
+                 rtol: float = 1e-12, prefix: str = "bc_contact_"):
+        t0 = time.perf_counter()
+        self.V, self.interfaces = V, list(interfaces)
+        self.comm = V.mesh.comm
+        self.bs = V.dofmap.index_map_bs
+        self.force_scale = float(force_scale)
+        self.max_iterations = int(max_iterations)
+        self.linear = linear
+        self.Qt = basis_transform(V, self.interfaces)
+        self.Ahat = A.PtAP(self.Qt)
+        self.T = rotation_matrix(V, self.interfaces)
+        self.At = self.T.matMult(self.Ahat)
+        start = self.bs * V.dofmap.index_map.local_range[0]
+        self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
+        self.bc_local = (self.bc_rows - start).astype(np.int32)
+        self.At.zeroRows(self.bc_rows, diag=1.0)
+        self.At.assemble()
+        self.B = self.At.duplicate(copy=True)
+        self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.nrow_local = [self.bs * itf.blocks.astype(np.int64) for itf in self.interfaces]
+        self.nrow_global = [self.bs * itf.global_blocks for itf in self.interfaces]
+        diag = self.At.getDiagonal()
+        self.row_scale = [np.abs(diag.array[r]) for r in self.nrow_local]
+        num = _allsum(self.comm, float(sum((s / itf.D).sum() for s, itf in zip(self.row_scale, self.interfaces))))
+        cnt = _allsum(self.comm, sum(itf.num_owned for itf in self.interfaces))
+        self.c_n = float(c_n) / self.force_scale if c_n is not None else (num / max(cnt, 1))
+        gdim = V.mesh.geometry.dim
+        size = max([itf.slave_area ** (1.0 / (gdim - 1)) for itf in self.interfaces] + [1e-300])
+        self.gap_tol = float(gap_tol) if gap_tol is not None else 1e-9 * size
+        self.active = [itf.gap <= self.gap_tol for itf in self.interfaces]
+        self.Uh = self.At.createVecRight()
+        self.Uh.set(0.0)
+        self._r0, self._rhs, self._w = self.At.createVecLeft(), self.At.createVecLeft(), self.At.createVecLeft()
+        self._Fh = self.Qt.createVecRight()
+        self.ksp = PETSc.KSP().create(self.comm)
+        self.ksp.setOptionsPrefix(prefix)
+        pc = self.ksp.getPC()
+        if linear == "direct":
+            self.ksp.setType("preonly")
+            pc.setType("lu")
+            pc.setFactorSolverType("mumps")
+        elif linear == "iterative":
+            self.ksp.setType("gmres")
+            self.ksp.setGMRESRestart(200)
+            self.ksp.setTolerances(rtol=rtol, atol=1e-300, max_it=3000)
+            pc.setType("gamg")
+            self.ksp.setInitialGuessNonzero(True)
+        else:
+            raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {linear!r}")
+        self.ksp.setFromOptions()
+        self.setup_time = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ helpers
+    def _operator(self, active: list[np.ndarray]) -> None:
+        """B = At with the normal rows of active nodes replaced by s n_pᵀ Û_p."""
+        self.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        rows = np.concatenate([g[a] for g, a in zip(self.nrow_global, active)] + [np.zeros(0, np.int64)])
+        self.B.zeroRows(rows.astype(PETSc.IntType), diag=0.0)
+        bs = self.bs
+        for itf, g, a, s in zip(self.interfaces, self.nrow_global, active, self.row_scale):
+            for p in np.flatnonzero(a):
+                cols = (g[p] + np.arange(bs)).astype(PETSc.IntType)
+                self.B.setValues([int(g[p])], cols, s[p] * itf.normals[p], addv=PETSc.InsertMode.INSERT_VALUES)
+        self.B.assemble()
+
+    def _signature(self, active: list[np.ndarray]) -> tuple:
+        local = tuple(int(b) for itf, a in zip(self.interfaces, active) for b in itf.global_blocks[a])
+        return tuple(sorted(sum(self.comm.allgather(local), ())))
+
+    # -------------------------------------------------------------------- solve
+    def solve(self, b: PETSc.Vec, u: fem.Function) -> PDASResult:
+        """Solve one contact problem ``A U = b + contact forces``; write ``U`` into ``u``.
+
+        ``b`` is the right-hand side of the step with Dirichlet lifting applied (as
+        for the plain linear solve).  The active set and ``Û`` are warm-started from
+        the previous call.
+        """
+        t0 = time.perf_counter()
+        comm = self.comm
+        self.Qt.multTranspose(b, self._Fh)
+        self.T.mult(self._Fh, self._r0)
+        r0 = self._r0
+        if self.bc_local.size:
+            r0.array[self.bc_local] = b.array[self.bc_local]
+        active = [a.copy() for a in self.active]
+        Uh_new = self.Uh.duplicate()
+        history: list[dict] = []
+        seen = {self._signature(active): 0}
+        lin_total = 0
+        lam_list = gap_list = un_list = None
+        for k in range(1, self.max_iterations + 1):
+            self._operator(active)
+            r0.copy(self._rhs)
+            for itf, rl, a, s in zip(self.interfaces, self.nrow_local, active, self.row_scale):
+                self._rhs.array[rl[a]] = s[a] * itf.gap[a]
+            self.ksp.setOperators(self.B)
+            self.Uh.copy(Uh_new)
+            try:
+                self.ksp.solve(self._rhs, Uh_new)
+            except PETSc.Error as exc:
+                raise ContactConvergenceError(f"contact: linear solve failed in PDAS iteration {k} "
+                                              f"(singular system? PETSc error {exc.ierr})", history) from None
+            reason = self.ksp.getConvergedReason()
+            its = self.ksp.getIterationNumber()
+            lin_total += its
+            if reason < 0:
+                raise ContactConvergenceError(f"contact: linear solver diverged (reason {reason}) in PDAS "
+                                              f"iteration {k}", history)
+            # multipliers and normal displacements
+            self.At.mult(Uh_new, self._w)
+            self._w.aypx(-1.0, r0)                       # w = T F̂ − At Û
+            lam_list = [self._w.array[rl] / itf.D for rl, itf in zip(self.nrow_local, self.interfaces)]
+            un_list = []
+            for itf in self.interfaces:
+                blk = Uh_new.array.reshape(-1, self.bs)[itf.blocks] if itf.num_owned else np.zeros((0, self.bs))
+                un_list.append(np.einsum("pg,pg->p", blk, itf.normals))
+            lam_scale = comm.allreduce(max([float(np.abs(x).max()) if x.size else 0.0 for x in lam_list] + [0.0]),
+                                       op=MPI.MAX)
+            eps = 1e-10 * max(lam_scale, 1e-300)
+            new = [lam + self.c_n * (un - itf.gap) > eps
+                   for lam, un, itf in zip(lam_list, un_list, self.interfaces)]
+            changed = _allsum(comm, int(sum(int((n != a).sum()) for n, a in zip(new, active))))
+            self._w.waxpy(-1.0, self.Uh, Uh_new)
+            nrm = Uh_new.norm()
+            update = self._w.norm() / nrm if nrm > 0 else 0.0
+            n_act = _allsum(comm, int(sum(int(a.sum()) for a in active)))
+            history.append({"iteration": k, "active": n_act, "changed": changed, "update": update,
+                            "linear_iterations": its})
+            Uh_new.copy(self.Uh)
+            if changed == 0:
+                break
+            active = new
+            sig = self._signature(active)
+            if sig in seen:
+                raise ContactConvergenceError(f"contact: the active set cycles (iteration {k + 1} repeats "
+                                              f"iteration {seen[sig]})", history)
+            seen[sig] = k
+        else:
+            raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
+                                          history)
+        self.active = active
+        self.Qt.mult(self.Uh, u.x.petsc_vec)
+        u.x.scatter_forward()
+        pressure = [np.where(a, lam, 0.0) * self.force_scale for lam, a in zip(lam_list, active)]
+        gaps = [itf.gap - un for itf, un in zip(self.interfaces, un_list)]
+        slips = []
+        for itf in self.interfaces:
+            blk = self.Uh.array.reshape(-1, self.bs)[itf.blocks] if itf.num_owned else np.zeros((0, self.bs))
+            slips.append(np.einsum("ptg,pg->pt", itf.tangents, blk))
+        forces = [_allsum(comm, float((itf.weight * p).sum())) for itf, p in zip(self.interfaces, pressure)]
+        n_active = [_allsum(comm, int(a.sum())) for a in active]
+        return PDASResult(iterations=len(history), linear_iterations=lin_total, active=[a.copy() for a in active],
+                          pressure=pressure, gap=gaps, slip=slips, normal_force=forces, n_active=n_active,
+                          history=history, wall_time=time.perf_counter() - t0)
+
+    def reset(self) -> None:
+        """Forget the warm start (cold start from the closed-gap set next time)."""
+        self.active = [itf.gap <= self.gap_tol for itf in self.interfaces]
+        self.Uh.set(0.0)
+
+    def destroy(self) -> None:
+        for obj in (self.ksp, self.B, self.At, self.T, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
+                    self._w, self._Fh):
+            obj.destroy()
