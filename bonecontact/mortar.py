@@ -142,7 +142,7 @@ def _local_surface(V: fem.FunctionSpace, facet_tags, tag: int):
     coords = xdof[blocks]
     cells = f2c.array[f2c.offsets[facets]] if facets.size else np.zeros(0, np.int32)
     gx = msh.geometry.x[:, :gdim]
-    interior = gx[msh.geometry.dofmap[cells]].mean(axis=1) if facets.size else np.zeros((0, gdim))
+    interior = gx[msh.geometry.dofmaps[0][cells]].mean(axis=1) if facets.size else np.zeros((0, gdim))
     imap = V.dofmap.index_map
     gblocks = imap.local_to_global(blocks.ravel().astype(np.int32)).reshape(blocks.shape)
     return gblocks.astype(np.int64), coords, interior
@@ -167,9 +167,10 @@ def _gather_surface(comm: MPI.Comm, gblocks, coords, interior):
     return gids, node_x, facets, inner, slice(start, start + counts[comm.rank])
 
 
-def _allreduce(comm: MPI.Comm, a: np.ndarray, op) -> np.ndarray:
-    """Element-wise reduction of a NumPy array over all ranks."""
-    a = np.ascontiguousarray(a)
+def _allreduce(comm: MPI.Comm, a: np.ndarray, op, dtype=np.float64) -> np.ndarray:
+    """Element-wise reduction of a NumPy array over all ranks (as ``dtype`` on every
+    rank: an empty ``bincount`` is int64 on one rank and float64 on another)."""
+    a = np.ascontiguousarray(a, dtype=dtype)
     out = np.empty_like(a)
     comm.Allreduce(a, out, op=op)
     return out
@@ -237,7 +238,7 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         bc_blocks = bc_blocks[bc_blocks < V.dofmap.index_map.size_local]
         gbc = V.dofmap.index_map.local_to_global(bc_blocks.astype(np.int32)).astype(np.int64)
         mask[np.isin(s_gids, gbc)] = 1
-    mask = _allreduce(comm, mask, MPI.MAX).astype(bool)
+    mask = _allreduce(comm, mask, MPI.MAX, dtype=np.int32).astype(bool)
 
     own_f = s_f[own]
     if isinstance(master, RigidPlane):

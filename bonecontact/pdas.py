@@ -132,12 +132,11 @@ class ContactSolver:
         self.Qt = basis_transform(V, self.interfaces)
         self.Ahat = A.PtAP(self.Qt)
         self.T = rotation_matrix(V, self.interfaces)
-        self.At = self.T.matMult(self.Ahat)
+        self.Tt = self.T.transpose()
+        self.At = self.Ahat.PtAP(self.Tt)          # T Â Tᵀ: unknowns in the nodal frames
         start = self.bs * V.dofmap.index_map.local_range[0]
         self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - start).astype(np.int32)
-        self.At.zeroRows(self.bc_rows, diag=1.0)
-        self.At.assemble()
         self.B = self.At.duplicate(copy=True)
         self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.nrow_local = [self.bs * itf.blocks.astype(np.int64) for itf in self.interfaces]
@@ -147,6 +146,10 @@ class ContactSolver:
         num = _allsum(self.comm, float(sum((s / itf.D).sum() for s, itf in zip(self.row_scale, self.interfaces))))
         cnt = _allsum(self.comm, sum(itf.num_owned for itf in self.interfaces))
         self.c_n = float(c_n) / self.force_scale if c_n is not None else (num / max(cnt, 1))
+        # value on the diagonal of eliminated rows: the mean normal-row stiffness
+        self.diag_value = float(num / max(cnt, 1)) * float(np.mean(np.concatenate(
+            [i.D for i in self.interfaces] + [np.ones(1)]))) if cnt else 1.0
+        self.diag_value = self.comm.allreduce(self.diag_value, op=MPI.MAX)
         gdim = V.mesh.geometry.dim
         size = max([itf.slave_area ** (1.0 / (gdim - 1)) for itf in self.interfaces] + [1e-300])
         self.gap_tol = float(gap_tol) if gap_tol is not None else 1e-9 * size
@@ -163,10 +166,15 @@ class ContactSolver:
             pc.setType("lu")
             pc.setFactorSolverType("mumps")
         elif linear == "iterative":
-            self.ksp.setType("gmres")
-            self.ksp.setGMRESRestart(200)
+            self.ksp.setType("cg")
             self.ksp.setTolerances(rtol=rtol, atol=1e-300, max_it=3000)
             pc.setType("gamg")
+            opts = PETSc.Options()
+            opts[f"{prefix}pc_gamg_type"] = "agg"
+            opts[f"{prefix}pc_gamg_threshold"] = 0.01
+            opts[f"{prefix}mg_levels_ksp_type"] = "chebyshev"
+            opts[f"{prefix}mg_levels_pc_type"] = "jacobi"
+            opts[f"{prefix}mg_levels_ksp_chebyshev_esteig_steps"] = 20
             self.ksp.setInitialGuessNonzero(True)
         else:
             raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {linear!r}")
@@ -174,17 +182,15 @@ class ContactSolver:
         self.setup_time = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ helpers
-    def _operator(self, active: list[np.ndarray]) -> None:
-        """B = At with the normal rows of active nodes replaced by s n_pᵀ Û_p."""
+    def _operator(self, active: list[np.ndarray], rhs: PETSc.Vec, values: PETSc.Vec) -> None:
+        """B = At with the Dirichlet rows and the active normal rows (and columns)
+        eliminated: Ũ_i = values_i there, lifted into ``rhs`` (B stays symmetric)."""
         self.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        rows = np.concatenate([g[a] for g, a in zip(self.nrow_global, active)] + [np.zeros(0, np.int64)])
-        self.B.zeroRows(rows.astype(PETSc.IntType), diag=0.0)
-        bs = self.bs
-        for itf, g, a, s in zip(self.interfaces, self.nrow_global, active, self.row_scale):
-            for p in np.flatnonzero(a):
-                cols = (g[p] + np.arange(bs)).astype(PETSc.IntType)
-                self.B.setValues([int(g[p])], cols, s[p] * itf.normals[p], addv=PETSc.InsertMode.INSERT_VALUES)
-        self.B.assemble()
+        start = self.bs * self.V.dofmap.index_map.local_range[0]
+        rows = np.concatenate([self.bc_rows.astype(np.int64)]
+                              + [g[a] for g, a in zip(self.nrow_global, active)]).astype(PETSc.IntType)
+        self.B.zeroRowsColumns(rows, diag=self.diag_value, x=values, b=rhs)
+        del start
 
     def _signature(self, active: list[np.ndarray]) -> tuple:
         local = tuple(int(b) for itf, a in zip(self.interfaces, active) for b in itf.global_blocks[a])
@@ -211,11 +217,15 @@ class ContactSolver:
         seen = {self._signature(active): 0}
         lin_total = 0
         lam_list = gap_list = un_list = None
+        values = self._rhs.duplicate()
         for k in range(1, self.max_iterations + 1):
-            self._operator(active)
+            values.set(0.0)
+            if self.bc_local.size:
+                values.array[self.bc_local] = b.array[self.bc_local]
+            for itf, rl, a in zip(self.interfaces, self.nrow_local, active):
+                values.array[rl[a]] = itf.gap[a]
             r0.copy(self._rhs)
-            for itf, rl, a, s in zip(self.interfaces, self.nrow_local, active, self.row_scale):
-                self._rhs.array[rl[a]] = s[a] * itf.gap[a]
+            self._operator(active, self._rhs, values)
             self.ksp.setOperators(self.B)
             self.Uh.copy(Uh_new)
             try:
@@ -233,10 +243,7 @@ class ContactSolver:
             self.At.mult(Uh_new, self._w)
             self._w.aypx(-1.0, r0)                       # w = T F̂ − At Û
             lam_list = [self._w.array[rl] / itf.D for rl, itf in zip(self.nrow_local, self.interfaces)]
-            un_list = []
-            for itf in self.interfaces:
-                blk = Uh_new.array.reshape(-1, self.bs)[itf.blocks] if itf.num_owned else np.zeros((0, self.bs))
-                un_list.append(np.einsum("pg,pg->p", blk, itf.normals))
+            un_list = [Uh_new.array[rl] for rl in self.nrow_local]
             lam_scale = comm.allreduce(max([float(np.abs(x).max()) if x.size else 0.0 for x in lam_list] + [0.0]),
                                        op=MPI.MAX)
             eps = 1e-10 * max(lam_scale, 1e-300)
@@ -262,14 +269,15 @@ class ContactSolver:
             raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
                                           history)
         self.active = active
-        self.Qt.mult(self.Uh, u.x.petsc_vec)
+        uhat = self.Tt.createVecLeft()
+        self.Tt.mult(self.Uh, uhat)                   # Û = Tᵀ Ũ
+        self.Qt.mult(uhat, u.x.petsc_vec)             # U = Qᵀ Û
+        uhat.destroy()
+        values.destroy()
         u.x.scatter_forward()
         pressure = [np.where(a, lam, 0.0) * self.force_scale for lam, a in zip(lam_list, active)]
         gaps = [itf.gap - un for itf, un in zip(self.interfaces, un_list)]
-        slips = []
-        for itf in self.interfaces:
-            blk = self.Uh.array.reshape(-1, self.bs)[itf.blocks] if itf.num_owned else np.zeros((0, self.bs))
-            slips.append(np.einsum("ptg,pg->pt", itf.tangents, blk))
+        slips = [np.stack([self.Uh.array[rl + j] for j in range(1, self.bs)], axis=1) for rl in self.nrow_local]
         forces = [_allsum(comm, float((itf.weight * p).sum())) for itf, p in zip(self.interfaces, pressure)]
         n_active = [_allsum(comm, int(a.sum())) for a in active]
         return PDASResult(iterations=len(history), linear_iterations=lin_total, active=[a.copy() for a in active],
@@ -282,6 +290,6 @@ class ContactSolver:
         self.Uh.set(0.0)
 
     def destroy(self) -> None:
-        for obj in (self.ksp, self.B, self.At, self.T, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
+        for obj in (self.ksp, self.B, self.At, self.T, self.Tt, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
                     self._w, self._Fh):
             obj.destroy()
