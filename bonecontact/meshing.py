@@ -39,6 +39,7 @@ __all__ = [
     "long_bone_2d",
     "two_blocks_2d",
     "two_boxes_3d",
+    "hertz_2d",
 ]
 
 _EPS = 1e-9  # relative tolerance for picking entities by their centre of mass
@@ -511,3 +512,73 @@ def two_boxes_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *
               upper_width=upper_width, upper_depth=upper_depth, h_lower=h_lower, h_upper=h_upper)
     return _two_blocks(3, (width, depth), (lower_height, upper_height), (upper_width, upper_depth),
                        tuple(upper_offset), (h_lower, h_upper), comm, path, "two_boxes_3d")
+
+
+def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, radius: float = 0.01,
+             block_half_width: float = 0.05, block_height: float = 0.05, h_contact: float = 1e-4,
+             h_far: float = 2e-3, zone: float = 2e-3, block_ratio: float = 1.7) -> MeshData | Path:
+    """A half cylinder resting on a block (plane strain Hertz contact), non-matching meshes.
+
+    The half cylinder (the lower half of a disc of ``radius`` centred at ``(0, radius)``)
+    touches the block ``[-w, w] x [-block_height, 0]`` at the origin with zero gap; the two
+    bodies are separate gmsh entities (no shared nodes).  Elements have size
+    ``h_contact`` (cylinder) and ``block_ratio * h_contact`` (block) within ``zone`` of
+    the contact point, growing to ``h_far`` away from it.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``"cylinder"``, ``"block"``; facet groups ``"cyl_contact"`` (the arc:
+        slave), ``"block_contact"`` (top of the block: master), ``"cyl_top"`` (the flat
+        face y = radius), ``"block_bottom"``, ``"block_sides"``.
+    """
+    _positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
+              h_contact=h_contact, h_far=h_far, zone=zone, block_ratio=block_ratio)
+    R, w, hb = radius, block_half_width, block_height
+
+    def build() -> None:
+        occ = gmsh.model.occ
+        c = occ.addPoint(0, R, 0)
+        pl, p0, pr = occ.addPoint(-R, R, 0), occ.addPoint(0, 0, 0), occ.addPoint(R, R, 0)
+        a1, a2 = occ.addCircleArc(pl, c, p0), occ.addCircleArc(p0, c, pr)
+        top = occ.addLine(pr, pl)
+        cyl = occ.addPlaneSurface([occ.addCurveLoop([a1, a2, top])])
+        q = [occ.addPoint(-w, -hb, 0), occ.addPoint(w, -hb, 0), occ.addPoint(w, 0, 0), occ.addPoint(0, 0, 0),
+             occ.addPoint(-w, 0, 0)]
+        bottom, right = occ.addLine(q[0], q[1]), occ.addLine(q[1], q[2])
+        t1, t2 = occ.addLine(q[2], q[3]), occ.addLine(q[3], q[4])
+        left = occ.addLine(q[4], q[0])
+        block = occ.addPlaneSurface([occ.addCurveLoop([bottom, right, t1, t2, left])])
+        occ.synchronize()
+        f = gmsh.model.mesh.field
+        fields = []
+        for surf, curves, h in ((cyl, [a1, a2], h_contact), (block, [t1, t2], block_ratio * h_contact)):
+            dist = f.add("Distance")
+            f.setNumbers(dist, "PointsList", [p0, q[3]])
+            thr = f.add("Threshold")
+            f.setNumber(thr, "InField", dist)
+            f.setNumber(thr, "SizeMin", h)
+            f.setNumber(thr, "SizeMax", h_far)
+            f.setNumber(thr, "DistMin", zone)
+            f.setNumber(thr, "DistMax", zone + 20 * h_far)
+            res = f.add("Restrict")
+            f.setNumber(res, "InField", thr)
+            f.setNumbers(res, "SurfacesList", [surf])
+            f.setNumbers(res, "CurvesList", curves + ([top] if surf == cyl else [bottom, right, left]))
+            fields.append(res)
+        fmin = f.add("Min")
+        f.setNumbers(fmin, "FieldsList", fields)
+        f.setAsBackgroundMesh(fmin)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        groups = _Groups()
+        groups(2, [cyl], "cylinder")
+        groups(2, [block], "block")
+        groups(1, [a1, a2], "cyl_contact")
+        groups(1, [t1, t2], "block_contact")
+        groups(1, [top], "cyl_top")
+        groups(1, [bottom], "block_bottom")
+        groups(1, [left, right], "block_sides")
+
+    return _generate("hertz_2d", 2, build, comm, path)
