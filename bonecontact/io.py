@@ -213,6 +213,32 @@ class ResultsWriter:
                 self._probe_w.writerow([str(step), _fmt(t), str(i + 1)] + [_fmt(x) for x in r])
             self._probe_file.flush()
 
+    def contact_table(self, name: str, coords: np.ndarray, gap: np.ndarray, pressure: np.ndarray,
+                      traction_t: np.ndarray, slip_t: np.ndarray, status: Sequence[str]) -> None:
+        """(Re)write ``contact_<name>.csv``: one row per slave node, gathered on rank 0
+        and sorted by coordinates, so the file does not depend on the partition
+        (collective)."""
+        gdim = coords.shape[1]
+        parts = self.comm.gather((coords, gap, pressure, traction_t, slip_t, list(status)), root=0)
+        if self.comm.rank != 0:
+            return
+        x = np.concatenate([q[0] for q in parts]).reshape(-1, gdim)
+        cols = [np.concatenate([q[k] for q in parts]) for k in (1, 2)]
+        tt = np.concatenate([q[3] for q in parts]).reshape(-1, gdim - 1)
+        st = np.concatenate([q[4] for q in parts]).reshape(-1, gdim - 1)
+        stat = sum((q[5] for q in parts), [])
+        key = np.round(x / (1e-9 * max(float(np.abs(x).max()), 1e-30))).astype(np.int64) if x.size else x
+        order = np.lexsort(key.T[::-1]) if x.size else np.zeros(0, dtype=int)
+        ax = "xyz"[:gdim]
+        t_names = ["traction_t"] if gdim == 2 else ["traction_t", "traction_t2"]
+        s_names = ["slip_t"] if gdim == 2 else ["slip_t", "slip_t2"]
+        with open(self.dir / f"contact_{name}.csv", "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(list(ax) + ["gap", "pressure"] + t_names + s_names + ["status"])
+            for i in order:
+                w.writerow([_fmt(v) for v in x[i]] + [_fmt(cols[0][i]), _fmt(cols[1][i])]
+                           + [_fmt(v) for v in tt[i]] + [_fmt(v) for v in st[i]] + [stat[i]])
+
     # ------------------------------------------------------------- fields
     def fields(self, t: float, functions: Sequence[fem.Function]) -> None:
         """Write fields at time ``t`` to fields.xdmf and fields.pvd (collective)."""

@@ -287,7 +287,12 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
             raise ContactInputError(f"contact {name!r}: no master facet (group {master}) lies opposite the "
                                     f"slave surface (group {slave}) within {radius:.3g} m")
     slave_area = float(measure.sum())
-    carries = d > 1e-10 * max(float(d.max()), 1e-300)
+    # A node carries a multiplier when at least a tenth of its support is covered by the
+    # master: barely covered nodes (D_pp → 0, or < 0 for the dual basis) would give
+    # M̂ = D⁻¹M and d_p/D_pp without bound.  Such nodes only occur where the master
+    # ends (far from any contact zone when the master is sized as it should be).
+    full = np.bincount(s_f.ravel(), weights=np.repeat(measure / gdim, gdim), minlength=s_gids.size)
+    carries = d >= 0.1 * full
     # owned slave nodes
     owned = (s_gids >= lo) & (s_gids < hi) & carries
     idx = np.flatnonzero(owned)

@@ -35,6 +35,7 @@ class SceneModel:
     model: Mechanics
     v0: fem.Function | None
     probes: Probes
+    interfaces: list = None  # mortar.ContactInterface per [[contact]] pair
 
 
 @dataclass
@@ -149,7 +150,19 @@ def build_model(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
         probes = Probes(msh, scene.output.probes)
     except ProbeError as exc:
         raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
-    return SceneModel(scene, md, groups, model, v0, probes)
+    interfaces = []
+    if scene.contacts:
+        from .mortar import ContactInputError, build_interface
+
+        bc = model.bc_dofs()
+        for i, c in enumerate(scene.contacts):
+            try:
+                interfaces.append(build_interface(model.V, md.facet_tags, tag[c.slave], tag[c.master],
+                                                  dirichlet_dofs=bc, name=c.name))
+            except ContactInputError as exc:
+                raise SceneError(str(scene.path), f'[[contact]] #{i + 1} "{c.name}"', "slave",
+                                 str(exc).replace(f"contact {c.name!r}: ", "")) from None
+    return SceneModel(scene, md, groups, model, v0, probes, interfaces)
 
 
 def _steps(scene: Scene) -> tuple[int, float]:
@@ -178,23 +191,46 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = _steps(scene)
     integ = Integrator(model, scene.analysis.kind, dt, linear=scene.solver.linear,
-                       rtol=min(1e-2 * scene.solver.tolerance, 1e-12))
+                       rtol=min(1e-2 * scene.solver.tolerance, 1e-12), contact=sm.interfaces or None,
+                       contact_options={"max_iterations": scene.solver.max_iterations})
     integ.set_initial(None, sm.v0)
     stress = StressFields(model.mesh, model.stress_expression(integ.u, integ.velocity))
     writer = ResultsWriter(comm, outdir, scene.name, sm.probes)
     every = scene.output.fields_every
 
-    def record(step: int, t: float, write_fields: bool) -> None:
+    fields_written = [-1]
+
+    def record(step: int, t: float, write_fields: bool, tables: bool = True) -> None:
         model.update_nodal_volumetric(integ.u, integ.velocity)
         stress.update()
+        if not tables:  # after a failure: only make sure the last good state's fields exist
+            if fields_written[0] != step:
+                writer.fields(t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal])
+            return
         e = integ.energy()
-        writer.history([[step, t, "", 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain]])
+        res = integ.last_contact
+        if not sm.interfaces:
+            writer.history([[step, t, "", 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain]])
+        else:
+            rows = []
+            for k, itf in enumerate(sm.interfaces):
+                if res is None:  # initial state: no contact solve yet
+                    rows.append([step, t, itf.name, 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain])
+                    continue
+                # frictionless: active nodes slide freely ("slip"), no tangential traction
+                rows.append([step, t, itf.name, res.normal_force[k], 0.0, res.n_active[k], 0, res.n_active[k],
+                             res.iterations, e.kinetic, e.strain])
+                status = np.where(res.active[k], "slip", "open")
+                writer.contact_table(itf.name, itf.coords, res.gap[k], res.pressure[k],
+                                     np.zeros((itf.num_owned, itf.gdim - 1)), res.slip[k], list(status))
+            writer.history(rows)
         writer.probe_rows(step, t, integ.u, integ.velocity, stress)
         if write_fields:
             writer.fields(t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal])
+            fields_written[0] = step
 
     status, message = "converged", None
-    lin_its = []
+    lin_its, pdas_its = [], []
     info = {"dofs": model.num_dofs, "analysis": scene.analysis.kind, "dt": dt, "setup_time_s": integ.setup_time,
             "linear_solver": scene.solver.linear}
     try:
@@ -204,16 +240,23 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
         for k in range(1, nsteps + 1):
             si = integ.step()
             lin_its.append(si.linear_iterations)
+            if integ.last_contact is not None:
+                pdas_its.append(integ.last_contact.iterations)
             last = k == nsteps
             record(k, integ.t, (every > 0 and k % every == 0) or last)
             bar.update(1)
         bar.close()
     except RuntimeError as exc:
         status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
-        record(integ.step_count, integ.t, True)  # last good state
+        record(integ.step_count, integ.t, True, tables=False)  # last good state (its rows are written)
     info.update({"steps": integ.step_count, "linear_iterations": {"total": int(sum(lin_its)),
                                                                   "max": int(max(lin_its, default=0))},
                  "wall_time_s": time.perf_counter() - t_start})
+    if sm.interfaces:
+        info["contact"] = {"pairs": [i.name for i in sm.interfaces],
+                           "pdas_iterations": {"total": int(sum(pdas_its)), "max": int(max(pdas_its, default=0))},
+                           "solver": "PDAS (semi-smooth Newton), frictionless, dual mortar",
+                           "setup_time_s": integ.contact.setup_time}
     if message is not None:
         info["message"] = message
     summary = writer.summary(status, **info)

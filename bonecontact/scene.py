@@ -788,7 +788,8 @@ def _read_materials(doc: Mapping[str, Any], dim: int, dynamic: bool) -> tuple[Ma
     return tuple(specs)
 
 
-def _read_contacts(doc: Mapping[str, Any], allow_contact: bool) -> tuple[ContactSpec, ...]:
+def _read_contacts(doc: Mapping[str, Any], allow_contact: bool,
+                   allow_friction: bool = False) -> tuple[ContactSpec, ...]:
     entries = _array_of_tables(doc, "contact")
     if entries and not allow_contact:
         raise SceneError(None, "[[contact]]", None, "contact is not supported yet")
@@ -809,14 +810,18 @@ def _read_contacts(doc: Mapping[str, Any], allow_contact: bool) -> tuple[Contact
         master = tab.string("master", required=True)
         if slave == master:
             raise tab.error("master", f'must differ from slave, both are "{slave}"')
+        friction = tab.string("friction", default="none", choices=FRICTION_LAWS)
         specs.append(ContactSpec(
             name=name, slave=slave, master=master,  # type: ignore[arg-type]
-            friction=tab.string("friction", default="none", choices=FRICTION_LAWS),  # type: ignore[arg-type]
+            friction=friction,  # type: ignore[arg-type]
             coefficient=tab.number("coefficient", default=0.0, nonnegative=True),  # type: ignore[arg-type]
             bound=tab.number("bound", default=0.0, nonnegative=True),  # type: ignore[arg-type]
             coulomb_update=tab.string("coulomb_update", default="previous_step",  # type: ignore[arg-type]
                                       choices=COULOMB_UPDATES),
         ))
+        if friction != "none" and not allow_friction:
+            raise tab.error("friction", f'"{friction}" friction is not supported yet by this version of '
+                                        'bonecontact; allowed for now: "none"')
     return tuple(specs)
 
 
@@ -915,7 +920,7 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
     return OutputSpec(directory=directory, fields_every=fields_every, probes=probes)  # type: ignore[arg-type]
 
 
-def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool) -> Scene:
+def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_friction: bool = False) -> Scene:
     # format first: a different version may have different tables
     top = _Table(doc, None)
     fmt = top.raw("format", True, f" (write format = {FORMAT_VERSION} at the top of the file)")
@@ -945,7 +950,7 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool) -> Scen
     static = analysis.kind == "static"
     solver = _read_solver(doc)
     materials = _read_materials(doc, dim, analysis.kind == "dynamic")
-    contacts = _read_contacts(doc, allow_contact)
+    contacts = _read_contacts(doc, allow_contact, allow_friction)
     dirichlet = _read_dirichlet(doc, dim, static)
     loads = _read_loads(doc, dim, static)
     initial_velocities = _read_initial_velocities(doc, dim)
@@ -955,7 +960,7 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool) -> Scen
                  loads=loads, initial_velocities=initial_velocities, output=output, raw=doc)
 
 
-def load_scene(path: str | Path, *, allow_contact: bool = False) -> Scene:
+def load_scene(path: str | Path, *, allow_contact: bool = True, allow_friction: bool = False) -> Scene:
     """Read and validate a scene file (everything that does not need the mesh).
 
     Parameters
@@ -963,8 +968,11 @@ def load_scene(path: str | Path, *, allow_contact: bool = False) -> Scene:
     path
         The scene file (TOML, format 1).
     allow_contact
-        Accept ``[[contact]]`` tables.  Until contact is implemented the default
-        rejects them with "contact is not supported yet".
+        Accept ``[[contact]]`` tables (default); ``False`` rejects them.
+    allow_friction
+        Accept ``friction = "tresca"`` / ``"coulomb"``.  Until friction is implemented
+        the default rejects them with "not supported yet" (frictionless contact is
+        supported).
 
     Returns
     -------
@@ -992,7 +1000,7 @@ def load_scene(path: str | Path, *, allow_contact: bool = False) -> Scene:
     except UnicodeDecodeError as exc:
         raise SceneError(shown, None, None, f"invalid TOML: the file is not UTF-8 ({exc.reason})") from None
     try:
-        return _read_document(doc, p, allow_contact)
+        return _read_document(doc, p, allow_contact, allow_friction)
     except SceneError as exc:
         raise exc.with_file(shown) from None
 

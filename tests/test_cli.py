@@ -135,11 +135,12 @@ CASES = [
     ("format_not_1", _sub("format = 1", "format = 2"), ["format"]),
 ]
 
-# Contact lands with issue #3: until then a [[contact]] table is "not supported yet".
-CONTACT_NOT_YET = ("contact_not_supported_yet", _sub(
+# Frictionless contact is supported; friction lands with issue #4 and is "not supported yet".
+CONTACT_NOT_YET = ("friction_not_supported_yet", _sub(
     "[[dirichlet]]",
-    '[[contact]]\nname = "joint"\nslave = "top"\nmaster = "bottom"\nfriction = "none"\n\n[[dirichlet]]'),
-    ["contact", "not supported"])
+    '[[contact]]\nname = "joint"\nslave = "top"\nmaster = "bottom"\nfriction = "coulomb"\n'
+    'coefficient = 0.3\n\n[[dirichlet]]'),
+    ["friction", "not supported", "none"])
 
 
 def _check_input_error(res: subprocess.CompletedProcess, words: list[str], out: Path, nproc: int) -> None:

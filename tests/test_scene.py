@@ -110,13 +110,13 @@ def write(tmp_path: Path, doc: dict[str, Any] | str, name: str = "scene.toml") -
 
 
 def base_scene(tmp_path: Path, **kw: Any):
-    return load_scene(write(tmp_path, copy.deepcopy(BASE)), allow_contact=True, **kw)
+    return load_scene(write(tmp_path, copy.deepcopy(BASE)), allow_contact=True, allow_friction=True, **kw)
 
 
 def expect_error(path: Path, key: str | None, table: str | None, *, allow_contact: bool = True,
                  contains: str = "") -> SceneError:
     with pytest.raises(SceneError) as info:
-        load_scene(path, allow_contact=allow_contact)
+        load_scene(path, allow_contact=allow_contact, allow_friction=True)
     exc = info.value
     text = str(exc)
     assert exc.file == str(path)
@@ -395,7 +395,7 @@ def test_message_example_format():
 def test_int_accepted_where_float_expected(tmp_path):
     doc = _apply(BASE, [("set", ("material", 0, "E"), 17_000_000_000), ("set", ("analysis", "t_end"), 1),
                         ("set", ("traction", 0, "value"), [0, -1000000])])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert isinstance(scene.materials[0].material.E, float) and scene.materials[0].material.E == 17e9
     assert scene.analysis.t_end == 1.0
     assert scene.loads[0].value == (0.0, -1e6)
@@ -403,7 +403,7 @@ def test_int_accepted_where_float_expected(tmp_path):
 
 def test_quasistatic_needs_no_rho(tmp_path):
     doc = _apply(BASE, [("set", ("analysis", "kind"), "quasistatic"), ("del", ("material", 0, "rho"))])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert scene.materials[0].material.rho is None
 
 
@@ -485,7 +485,7 @@ def test_full_example(tmp_path, monkeypatch):
     (sub / "hertz.msh").write_text("")
     (sub / "hertz.toml").write_text(EXAMPLE)
     monkeypatch.chdir(tmp_path)
-    scene = load_scene(Path("scenes/hertz.toml"), allow_contact=True)
+    scene = load_scene(Path("scenes/hertz.toml"), allow_contact=True, allow_friction=True)
 
     assert scene.path == sub / "hertz.toml"
     assert scene.name == "hertz2d"
@@ -548,13 +548,13 @@ def test_base_document_values(tmp_path):
 
 def test_output_defaults_and_absolute_directory(tmp_path):
     doc = _apply(BASE, [("del", ("output",)), ("del", ("solver",)), ("del", ("scene", "name"))])
-    scene = load_scene(write(tmp_path, doc, "myscene.toml"), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc, "myscene.toml"), allow_contact=True, allow_friction=True)
     assert scene.name == "myscene"
     assert scene.solver == default_solver_options()
     assert scene.output.directory == Path.cwd() / "results"
     assert scene.output.fields_every == 1 and scene.output.probes == ()
     doc = _apply(BASE, [("set", ("output", "directory"), str(tmp_path / "abs"))])
-    assert load_scene(write(tmp_path, doc), allow_contact=True).output.directory == tmp_path / "abs"
+    assert load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True).output.directory == tmp_path / "abs"
 
 
 def test_3d_scene(tmp_path):
@@ -569,7 +569,7 @@ def test_3d_scene(tmp_path):
         ("set", ("initial_velocity", 0, "value"), [0.0, 0.0, -1.0]),
         ("set", ("output", "probes"), [[0.0, 0.0, 0.0]]),
     ])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert scene.dimension == 3 and scene.dirichlet[1].value == (None, None, 0.0)
     groups = {k: (d + 1, t) for k, (d, t) in GROUPS.items()}
     check_against_mesh(scene, groups, 3, 3)
@@ -578,7 +578,7 @@ def test_3d_scene(tmp_path):
 def test_nodal_pressure_formulation(tmp_path):
     doc = _apply(BASE, [("set", ("material", 0, "formulation"), "nodal_pressure"),
                         ("set", ("material", 0, "nu"), 0.4999)])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert scene.materials[0].material.formulation == "nodal_pressure"
 
 
@@ -620,7 +620,7 @@ def test_schedule_single_pair_is_constant():
 
 def test_schedule_from_file(tmp_path):
     doc = _apply(BASE, [("set", ("pressure", 0, "schedule"), [[0, 0], [1, 1], [2, 1], [3, 0]])])
-    sched = load_scene(write(tmp_path, doc), allow_contact=True).loads[1].schedule
+    sched = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True).loads[1].schedule
     np.testing.assert_allclose(sched.values([0.5, 1.5, 2.75, 4.0]), [0.5, 1.0, 0.25, 0.0])
 
 
@@ -639,7 +639,7 @@ def test_schedule_constructor_checks():
 
 def test_static_pseudo_time(tmp_path):
     doc = _apply(BASE, [("set", ("analysis", "kind"), "static"), ("set", ("analysis", "load_steps"), 4)])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     np.testing.assert_allclose(scene.analysis.times(), [0.25, 0.5, 0.75, 1.0])
     assert scene.dirichlet[0].schedule(0.25) == 0.25  # default: linear in pseudo-time
     assert scene.loads[0].schedule(0.25) == 0.5  # explicit ramp = 0.5 kept
@@ -714,7 +714,7 @@ def test_mesh_dirichlet_boundary_missing(tmp_path):
 def test_mesh_traction_boundary_is_cell_group(tmp_path):
     # "top" is a cell group here (given a material so that it is not reported as unassigned first)
     doc = _apply(BASE, [("set", ("material", 0, "regions"), ["upper", "top"])])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     _mesh_error(scene, {**GROUPS, "top": (2, 99)}, key="boundary", table="[[traction]] #1",
                 contains=['"top" is a cell group', "facet groups"])
 
@@ -726,14 +726,14 @@ def test_mesh_pressure_boundary_missing(tmp_path):
 
 def test_mesh_body_force_region_not_cell_group(tmp_path):
     doc = _apply(BASE, [("set", ("body_force", 0, "regions"), ["bottom"])])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     _mesh_error(scene, GROUPS, key="regions", table="[[body_force]] #1",
                 contains=['"bottom" is a facet group', '"lower", "plate", "upper"'])
 
 
 def test_mesh_initial_velocity_region_missing(tmp_path):
     doc = _apply(BASE, [("set", ("initial_velocity", 0, "regions"), ["femur"])])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     _mesh_error(scene, GROUPS, key="regions", table="[[initial_velocity]] #1",
                 contains=['no physical group "femur"', '"lower", "plate", "upper"'])
 
@@ -754,7 +754,7 @@ def test_mesh_contact_surface_is_point_group(tmp_path):
 def test_mesh_dirichlet_same_component_twice(tmp_path):
     doc = _apply(BASE, [("set", ("dirichlet", 1, "boundary"), "bottom"),
                         ("set", ("dirichlet", 1, "value"), ["free", 0.0])])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     _mesh_error(scene, GROUPS, key="value", table="[[dirichlet]] #2",
                 contains=['component 2 of boundary "bottom"', "[[dirichlet]] #1"])
 
@@ -768,14 +768,14 @@ def test_mesh_dirichlet_same_component_through_alias(tmp_path):
 def test_mesh_dirichlet_different_components_same_boundary(tmp_path):
     doc = _apply(BASE, [("set", ("dirichlet", 0, "value"), [0.0, "free"]),
                         ("set", ("dirichlet", 1, "boundary"), "bottom")])
-    check_against_mesh(load_scene(write(tmp_path, doc), allow_contact=True), GROUPS, 2, 2)
+    check_against_mesh(load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True), GROUPS, 2, 2)
 
 
 def test_mesh_traction_on_fixed_component(tmp_path):
     doc = _apply(BASE, [("set", ("traction", 0, "boundary"), "side")])
-    scene = load_scene(write(tmp_path, doc), allow_contact=True)
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     _mesh_error(scene, GROUPS, key="value", table="[[traction]] #1",
                 contains=['component 2 of boundary "side"', "[[dirichlet]] #2"])
     # a load in the free component of the same boundary is fine
     doc = _apply(BASE, [("set", ("traction", 0, "boundary"), "side"), ("set", ("traction", 0, "value"), [5.0, 0])])
-    check_against_mesh(load_scene(write(tmp_path, doc), allow_contact=True), GROUPS, 2, 2)
+    check_against_mesh(load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True), GROUPS, 2, 2)
