@@ -1,0 +1,193 @@
+"""Contact: 2D Hertz error against wall time, PDAS iterations, and PDAS against SNES VI.
+
+1. Plane-strain Hertz (half cylinder on a block, non-matching meshes, a/R = 0.05) over
+   refinements a/h = 5 … 40: errors in the half-width a, the peak pressure p₀ and the
+   profile (max over |x| < 0.8a, relative to p₀), PDAS iterations from a cold start,
+   the wall time of the contact solve, and the ratio of that time to ONE linear solve
+   (factorisation + solve with MUMPS) of the same mesh without contact.
+2. A soft block pressed onto a rigid plane (the discrete problems are identical, see
+   tests/test_pdas.py): wall time of the PDAS and of PETSc SNES ``vinewtonrsls`` at
+   equal accuracy (both converged to round-off), and their relative difference.
+
+Usage: python benchmarks/bench_hertz.py [--quick]   (also under mpiexec -n K)
+Writes benchmarks/results/hertz.csv, benchmarks/results/hertz_vi.csv and hertz.md.
+"""
+
+from __future__ import annotations
+
+import dolfinx_solver  # noqa: F401
+
+import argparse
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from bonecontact import meshing
+from bonecontact.analytic import contact_modulus, hertz_2d
+from bonecontact.linalg import create_solver
+from bonecontact.materials import Isotropic
+from bonecontact.mechanics import Mechanics
+from bonecontact.mortar import RigidPlane, build_interface
+from bonecontact.timestepping import Integrator
+
+COMM = MPI.COMM_WORLD
+R, A_REF, E1, E2, NU = 0.01, 5.0e-4, 2.0e9, 17.0e9, 0.3
+OUT = Path(__file__).parent / "results"
+
+
+def hertz_case(h: float) -> dict:
+    delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
+    md = meshing.hertz_2d(COMM, h_contact=h, zone=1.5 * A_REF, h_far=2e-3)
+    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    m = Mechanics(md.mesh, {pg["cylinder"]: Isotropic(E=E1, nu=NU), pg["block"]: Isotropic(E=E2, nu=NU)},
+                  md.cell_tags, md.facet_tags)
+    for c in (0, 1):
+        m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
+    m.add_dirichlet(m.facets(pg["cyl_top"]), 0, 0.0)
+    m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta)
+    itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
+    integ = Integrator(m, "static", 1.0, contact=[itf])
+    COMM.barrier()
+    t0 = time.perf_counter()
+    integ.step()
+    COMM.barrier()
+    t_contact = time.perf_counter() - t0
+    r = integ.last_contact
+    # one linear solve of the same operator without contact (factorisation + solve)
+    b = integ.rhs(1.0)
+    integ._apply_dirichlet(1.0, b)
+    COMM.barrier()
+    t0 = time.perf_counter()
+    ksp = create_solver(integ.A_bc, "direct", prefix="bench_lin_")
+    x = b.duplicate()
+    ksp.solve(b, x)
+    COMM.barrier()
+    t_linear = time.perf_counter() - t0
+    x_all = np.concatenate(COMM.allgather(itf.coords[:, 0]))
+    lam = np.concatenate(COMM.allgather(r.pressure[0]))
+    o = np.argsort(x_all)
+    xs, lam = x_all[o], lam[o]
+    P = COMM.allreduce(float(-(itf.weight * r.pressure[0] * itf.normals[:, 1]).sum()), op=MPI.SUM)
+    a_ref, p0_ref = hertz_2d.half_width(P, R, E1, NU, E2, NU), hertz_2d.peak_pressure(P, R, E1, NU, E2, NU)
+    sel = np.abs(xs) < 0.8 * a_ref
+    c0, c1 = np.linalg.lstsq(np.c_[np.ones(sel.sum()), xs[sel] ** 2], lam[sel] ** 2, rcond=None)[0]
+    row = {"a_over_h": round(A_REF / h, 1), "dofs": m.num_dofs, "ranks": COMM.size,
+           "pdas_iterations": r.iterations, "err_a": float(f"{np.sqrt(-c0 / c1) / a_ref - 1:.2e}"),
+           "err_p0": float(f"{lam.max() / p0_ref - 1:.2e}"),
+           "err_profile": float(f"{np.abs(lam[sel] - hertz_2d.pressure(xs[sel], P, R, E1, NU, E2, NU)).max() / p0_ref:.2e}"),
+           "t_contact_s": round(t_contact, 3), "t_linear_s": round(t_linear, 3),
+           "ratio": round(t_contact / t_linear, 2)}
+    ksp.destroy()
+    x.destroy()
+    integ.destroy()
+    return row
+
+
+def vi_case(n_upper: int) -> dict:
+    W, H = 0.02, 0.01
+    md = meshing.two_blocks_2d(COMM, h_lower=W / 9, h_upper=W / n_upper, width=W, lower_height=H, upper_height=H)
+    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    m = Mechanics(md.mesh, {pg["lower"]: Isotropic(E=17e9, nu=0.3), pg["upper"]: Isotropic(E=20e6, nu=0.3)},
+                  md.cell_tags, md.facet_tags)
+    for c in (1, 0):
+        m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
+    m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
+    x = ufl.SpatialCoordinate(md.mesh)
+    m.add_traction(pg["top"], ufl.as_vector([0.0, -1e5 * (1.0 - 1.2 * x[0] / W)]))
+    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], RigidPlane((0.0, H), (0.0, -1.0)),
+                          dirichlet_dofs=m.bc_dofs())
+    integ = Integrator(m, "static", 1.0, contact=[itf])
+    COMM.barrier()
+    t0 = time.perf_counter()
+    integ.step()
+    COMM.barrier()
+    t_pdas = time.perf_counter() - t0
+    ref = Integrator(m, "static", 1.0)
+    b = ref.rhs(1.0)
+    ref._apply_dirichlet(1.0, b)
+    A = ref.A_bc
+    lb, ub = A.createVecRight(), A.createVecRight()
+    lb.set(-1e30)
+    ub.set(1e30)
+    lb.array[2 * itf.blocks + 1] = -itf.gap
+    snes = PETSc.SNES().create(COMM)
+    snes.setOptionsPrefix("bench_vi_")
+    r = A.createVecLeft()
+    def residual(snes_, xx, f):
+        A.mult(xx, f)
+        f.axpy(-1.0, b)
+
+    def jacobian(snes_, xx, J, P):
+        return True
+
+    snes.setFunction(residual, r)
+    snes.setJacobian(jacobian, A, A)
+    snes.setType("vinewtonrsls")
+    snes.getLineSearch().setType("basic")
+    snes.setVariableBounds(lb, ub)
+    snes.setTolerances(atol=1e-12 * b.norm(), rtol=1e-12, stol=0.0, max_it=200)
+    ksp = snes.getKSP()
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("mumps")
+    xv = A.createVecRight()
+    xv.set(0.0)
+    COMM.barrier()
+    t0 = time.perf_counter()
+    snes.solve(None, xv)
+    COMM.barrier()
+    t_vi = time.perf_counter() - t0
+    d = xv.copy()
+    d.axpy(-1.0, integ.u.x.petsc_vec)
+    row = {"dofs": m.num_dofs, "ranks": COMM.size, "pdas_iterations": integ.last_contact.iterations,
+           "vi_iterations": snes.getIterationNumber(), "t_pdas_s": round(t_pdas, 3), "t_vi_s": round(t_vi, 3),
+           "rel_difference": float(f"{d.norm() / xv.norm():.1e}")}
+    for o in (snes, xv, d, lb, ub, r):
+        o.destroy()
+    ref.destroy()
+    integ.destroy()
+    return row
+
+
+def _write(name: str, rows: list[dict]) -> None:
+    if COMM.rank != 0 or not rows:
+        return
+    path = OUT / f"{name}.csv"
+    new = not path.exists()
+    with open(path, "a", newline="") as f:
+        w = csv.DictWriter(f, list(rows[0]) + ["date"])
+        if new:
+            w.writeheader()
+        for r in rows:
+            w.writerow({**r, "date": time.strftime("%Y-%m-%d", time.gmtime())})
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--quick", action="store_true")
+    args = p.parse_args()
+    OUT.mkdir(parents=True, exist_ok=True)
+    hertz_case(A_REF / 5)  # warm-up (JIT), not recorded
+    vi_case(12)
+    sizes = [5, 10] if args.quick else [5, 10, 20, 40]
+    rows = []
+    for k in sizes:
+        rows.append(hertz_case(A_REF / k))
+        if COMM.rank == 0:
+            print("hertz", rows[-1], flush=True)
+    _write("hertz", rows)
+    vrows = []
+    for n in ([12, 24] if args.quick else [12, 24, 48, 96]):
+        vrows.append(vi_case(n))
+        if COMM.rank == 0:
+            print("vi", vrows[-1], flush=True)
+    _write("hertz_vi", vrows)
+
+
+if __name__ == "__main__":
+    main()

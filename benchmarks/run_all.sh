@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Run every benchmark (serially and on 2 MPI ranks) and write benchmarks/results/.
+# Called by `make benchmarks`; takes about 10-20 minutes on a 2-core machine.
+# QUICK=1 runs only small meshes (a smoke run).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+PY=.venv/bin/python
+MPIEXEC=.venv/bin/mpiexec
+export OMP_NUM_THREADS=1
+quick=${QUICK:+--quick}
+mkdir -p benchmarks/results
+
+echo "== time stepping: cost and error against dofs (1 and 2 ranks)"
+rm -f benchmarks/results/timestep.csv
+$PY benchmarks/bench_timestep.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_timestep.py $quick
+$PY benchmarks/summarize.py timestep
+
+echo "== contact: Hertz 2D error/time, PDAS iterations, PDAS vs SNES VI (1 and 2 ranks)"
+rm -f benchmarks/results/hertz.csv benchmarks/results/hertz_vi.csv
+$PY benchmarks/bench_hertz.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_hertz.py $quick
+$PY benchmarks/summarize.py hertz hertz_vi
+
+# further studies (growth) add their scripts here
+for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
+  if [ -f "$extra" ]; then echo "== $extra"; $PY "$extra" $quick; fi
+done
+echo "== results in benchmarks/results/"
