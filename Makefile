@@ -2,7 +2,7 @@
 #
 #   make install      create .venv (Python >= 3.12, found automatically) and install the
 #                     package editable with its test extras; cheap when already done
-#   make demo         install if needed, then run demos/long_bone.py
+#   make demo         install if needed, then run demos/knee2d.py (DEMO=demos/long_bone.py for the other)
 #   make test         install if needed, then the serial suite and the MPI suite on 2 and 3 ranks
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
 #   make clean        remove caches and test logs;  make distclean  also removes .venv
@@ -102,9 +102,11 @@ $(STAMP): pyproject.toml
 	@touch "$@"
 	@echo "== installed into $(VENV) ($$($(PY) --version))"
 
+DEMO ?= demos/knee2d.py
+
 demo: install
-	@test -f demos/long_bone.py || { echo "error: demos/long_bone.py does not exist yet" >&2; exit 1; }
-	$(PY) demos/long_bone.py
+	@test -f $(DEMO) || { echo "error: $(DEMO) does not exist" >&2; exit 1; }
+	$(PY) $(DEMO)
 
 # Serial suite: everything, including tests marked `serial` that spawn their own mpiexec.
 define run_serial

@@ -25,6 +25,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
+import numpy as np
+
 import gmsh
 from mpi4py import MPI
 
@@ -40,6 +42,7 @@ __all__ = [
     "two_blocks_2d",
     "two_boxes_3d",
     "hertz_2d",
+    "knee_2d",
 ]
 
 _EPS = 1e-9  # relative tolerance for picking entities by their centre of mass
@@ -582,3 +585,118 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         groups(1, [left, right], "block_sides")
 
     return _generate("hertz_2d", 2, build, comm, path)
+
+
+def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, condyle_radius: float = 0.03,
+            shaft_height: float = 0.03, plateau_half_width: float = 0.045, plateau_depth: float = 0.05,
+            cartilage: float = 3e-3, cortical: float = 2e-3, h_contact: float = 4e-4, h_far: float = 4e-3,
+            tibia_ratio: float = 1.6) -> MeshData | Path:
+    """A 2D (frontal-plane) knee: a femoral condyle resting on the tibial plateau.
+
+    Femur: the lower half of a disc of radius ``condyle_radius`` centred at
+    ``(0, condyle_radius)`` under a rectangular shaft ``shaft_height`` tall; the condyle
+    carries a cartilage layer (thickness ``cartilage``) over a cortical shell
+    (``cortical``) around a cancellous core.  Tibia: the block
+    ``[-w, w] x [-plateau_depth, 0]`` with a cartilage layer on top over a cortical
+    (subchondral) plate and a cancellous core.  The two bones touch at the origin with
+    zero gap; they are meshed separately (non-matching at the joint, element sizes
+    ``h_contact`` (femur) and ``tibia_ratio * h_contact`` (tibia) near the contact,
+    ``h_far`` away from it), each bone's layers conforming.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``femur_cartilage``, ``femur_cortical``, ``femur_cancellous``,
+        ``tibia_cartilage``, ``tibia_cortical``, ``tibia_cancellous``; facet groups
+        ``femur_contact`` (cartilage surface of the condyle: slave), ``tibia_contact``
+        (cartilage surface of the plateau: master), ``femur_top``, ``tibia_bottom``.
+    """
+    _positive(condyle_radius=condyle_radius, shaft_height=shaft_height, plateau_half_width=plateau_half_width,
+              plateau_depth=plateau_depth, cartilage=cartilage, cortical=cortical, h_contact=h_contact,
+              h_far=h_far, tibia_ratio=tibia_ratio)
+    R, w = condyle_radius, plateau_half_width
+    if cartilage + cortical >= R / 2:
+        raise ValueError("cartilage + cortical must be well below the condyle radius")
+
+    def build() -> None:
+        occ = gmsh.model.occ
+        big = 4 * R
+
+        def lower_half(r: float) -> int:
+            d = occ.addDisk(0, R, 0, r, r)
+            cut, _ = occ.cut([(2, d)], [(2, occ.addRectangle(-big, R, 0, 2 * big, big))])
+            return cut[0][1]
+
+        outer, mid, inner = lower_half(R), lower_half(R - cartilage), lower_half(R - cartilage - cortical)
+        cart, _ = occ.cut([(2, outer)], [(2, mid)], removeTool=False)
+        cort, _ = occ.cut([(2, mid)], [(2, inner)], removeTool=False)
+        shaft = occ.addRectangle(-R, R, 0, 2 * R, shaft_height)
+        fem_parts = [cart[0], cort[0], (2, inner), (2, shaft)]
+        fem_out, fem_map = occ.fragment(fem_parts, [])
+        t_canc = occ.addRectangle(-w, -plateau_depth, 0, 2 * w, plateau_depth - cartilage - cortical)
+        t_cort = occ.addRectangle(-w, -cartilage - cortical, 0, 2 * w, cortical)
+        t_cart = occ.addRectangle(-w, -cartilage, 0, 2 * w, cartilage)
+        tib_out, tib_map = occ.fragment([(2, t_canc), (2, t_cort), (2, t_cart)], [])
+        occ.synchronize()
+        f_cart = [t for _, t in fem_map[0]]
+        f_cort = [t for _, t in fem_map[1]]
+        f_canc = [t for _, t in fem_map[2]] + [t for _, t in fem_map[3]]
+        tb_canc, tb_cort, tb_cart = ([t for _, t in tib_map[i]] for i in range(3))
+
+        def curves_of(surfs):
+            return {abs(c) for s in surfs for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)}
+
+        tol = 1e-7 * R
+        def midpoint(c):
+            lo, hi = gmsh.model.getParametrizationBounds(1, c)
+            return np.asarray(gmsh.model.getValue(1, c, [0.5 * (lo[0] + hi[0])])[:2])
+
+        fem_contact = [c for c in curves_of(f_cart)
+                       if abs(np.hypot(*(midpoint(c) - np.array([0.0, R]))) - R) < 1e-6 * R
+                       and midpoint(c)[1] < R - tol]
+        fem_top = [c for c in curves_of(f_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] - (R + shaft_height)) < tol]
+        tib_contact = [c for c in curves_of(tb_cart) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1]) < tol]
+        tib_bottom = [c for c in curves_of(tb_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] + plateau_depth) < tol]
+        f = gmsh.model.mesh.field
+        fields = []
+        for surfs, h in ((f_cart + f_cort + f_canc, h_contact), (tb_cart + tb_cort + tb_canc, tibia_ratio * h_contact)):
+            dist = f.add("Distance")
+            f.setNumbers(dist, "CurvesList", fem_contact + tib_contact)
+            f.setNumber(dist, "Sampling", 200)
+            thr = f.add("Threshold")
+            f.setNumber(thr, "InField", dist)
+            f.setNumber(thr, "SizeMin", h)
+            f.setNumber(thr, "SizeMax", h_far)
+            f.setNumber(thr, "DistMin", 0.15 * R)
+            f.setNumber(thr, "DistMax", 0.8 * R)
+            box = f.add("Box")  # keep the thin layers resolved everywhere
+            f.setNumber(box, "VIn", min(h_far, cartilage / 2))
+            f.setNumber(box, "VOut", h_far)
+            f.setNumber(box, "XMin", -big)
+            f.setNumber(box, "XMax", big)
+            f.setNumber(box, "YMin", -cartilage - cortical)
+            f.setNumber(box, "YMax", 0.0)
+            res = f.add("Restrict")
+            mn = f.add("Min")
+            f.setNumbers(mn, "FieldsList", [thr] + ([box] if surfs[0] in tb_cart else []))
+            f.setNumber(res, "InField", mn)
+            f.setNumbers(res, "SurfacesList", surfs)
+            f.setNumbers(res, "CurvesList", sorted(curves_of(surfs)))
+            fields.append(res)
+        fmin = f.add("Min")
+        f.setNumbers(fmin, "FieldsList", fields)
+        f.setAsBackgroundMesh(fmin)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        groups = _Groups()
+        for name, tags in (("femur_cartilage", f_cart), ("femur_cortical", f_cort), ("femur_cancellous", f_canc),
+                           ("tibia_cartilage", tb_cart), ("tibia_cortical", tb_cort),
+                           ("tibia_cancellous", tb_canc)):
+            groups(2, tags, name)
+        groups(1, fem_contact, "femur_contact")
+        groups(1, tib_contact, "tibia_contact")
+        groups(1, fem_top, "femur_top")
+        groups(1, tib_bottom, "tibia_bottom")
+
+    return _generate("knee_2d", 2, build, comm, path)

@@ -134,3 +134,20 @@ def test_long_bone_as_notebook(tmp_path):
     assert (tmp_path / "nb" / "long_bone.png").stat().st_size > 10_000
     text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []))
     assert "mid-shaft cortex von Mises" in text
+
+
+def test_knee2d_force_balance_and_symmetry(demo_runs):
+    """Knee demo: the contact carries the applied body weight (17.5 kN/m; the normal
+    force is the sum of |λ| w over nodal normals tilted by at most ~a/R, hence 1 %), and
+    the pressure is symmetric about the axis of the symmetric joint."""
+    res, out = demo_runs["knee2d", 1]
+    assert res.returncode == 0, res.stderr[-2000:]
+    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    assert float(hist["normal_force"][-1]) == pytest.approx(17500.0, rel=0.01)
+    rows = np.genfromtxt(out / "contact_tibiofemoral.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    x, p = rows["x"], rows["pressure"]
+    on = p > 0
+    assert on.sum() >= 10
+    # centroid of the pressure distribution close to the axis (meshes are not symmetric)
+    assert abs((x * p).sum() / p.sum()) < 0.02 * (x[on].max() - x[on].min())
+    assert (out / "contact_pressure.png").stat().st_size > 10_000

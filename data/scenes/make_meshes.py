@@ -6,19 +6,27 @@ Writes ``long_bone.msh``: a 2D longitudinal section of a long-bone diaphysis
 (0.2 m long, 0.03 m wide, 5 mm cortex, 4 mm metaphyseal flare, element size 1.6 mm,
 about 3200 nodes, < 300 kB; cell groups "cortical", "cancellous"; facet groups "distal", "proximal", "periosteum").
 See :func:`bonecontact.meshing.long_bone_2d`.
+
+Writes ``knee2d.msh``: a 2D frontal section of the knee — femoral condyle (radius
+30 mm; cartilage 3 mm, cortical 2 mm, cancellous core) on the tibial plateau (90 mm wide,
+50 mm deep; cartilage, subchondral plate, cancellous), meshed separately (non-matching
+at the joint; 0.4 mm / 0.64 mm elements at the contact).  See
+:func:`bonecontact.meshing.knee_2d`.
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
 from pathlib import Path
 
-from bonecontact.meshing import long_bone_2d
+from bonecontact.meshing import knee_2d, long_bone_2d
 
 HERE = Path(__file__).resolve().parent
 
 
 def main() -> None:
     path = long_bone_2d(HERE / "long_bone.msh", h=1.6e-3)
+    print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
+    path = knee_2d(path=HERE / "knee2d.msh")
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
 
 
