@@ -132,7 +132,7 @@ class ContactSolver:
         self.Qt = basis_transform(V, self.interfaces)
         self.Ahat = A.PtAP(self.Qt)
         self.T = rotation_matrix(V, self.interfaces)
-        self.Tt = self.T.transpose()
+        self.Tt = self.T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
         self.At = self.Ahat.PtAP(self.Tt)          # T Â Tᵀ: unknowns in the nodal frames
         start = self.bs * V.dofmap.index_map.local_range[0]
         self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
