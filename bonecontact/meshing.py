@@ -609,7 +609,8 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         Cell groups ``femur_cartilage``, ``femur_cortical``, ``femur_cancellous``,
         ``tibia_cartilage``, ``tibia_cortical``, ``tibia_cancellous``; facet groups
         ``femur_contact`` (cartilage surface of the condyle: slave), ``tibia_contact``
-        (cartilage surface of the plateau: master), ``femur_top``, ``tibia_bottom``.
+        (cartilage surface of the plateau: master), ``femur_top``, ``femur_sides`` (the
+        vertical sides of the shaft), ``tibia_bottom``.
     """
     _positive(condyle_radius=condyle_radius, shaft_height=shaft_height, plateau_half_width=plateau_half_width,
               plateau_depth=plateau_depth, cartilage=cartilage, cortical=cortical, h_contact=h_contact,
@@ -655,6 +656,9 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
                        if abs(np.hypot(*(midpoint(c) - np.array([0.0, R]))) - R) < 1e-6 * R
                        and midpoint(c)[1] < R - tol]
         fem_top = [c for c in curves_of(f_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] - (R + shaft_height)) < tol]
+        fem_sides = [c for c in curves_of(f_canc)
+                     if abs(abs(gmsh.model.occ.getCenterOfMass(1, c)[0]) - R) < tol
+                     and gmsh.model.occ.getCenterOfMass(1, c)[1] > R + tol]
         tib_contact = [c for c in curves_of(tb_cart) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1]) < tol]
         tib_bottom = [c for c in curves_of(tb_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] + plateau_depth) < tol]
         f = gmsh.model.mesh.field
@@ -697,6 +701,7 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         groups(1, fem_contact, "femur_contact")
         groups(1, tib_contact, "tibia_contact")
         groups(1, fem_top, "femur_top")
+        groups(1, fem_sides, "femur_sides")
         groups(1, tib_bottom, "tibia_bottom")
 
     return _generate("knee_2d", 2, build, comm, path)
