@@ -42,6 +42,7 @@ __all__ = [
     "two_blocks_2d",
     "two_boxes_3d",
     "hertz_2d",
+    "hertz_3d",
     "knee_2d",
 ]
 
@@ -705,3 +706,78 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         groups(1, tib_bottom, "tibia_bottom")
 
     return _generate("knee_2d", 2, build, comm, path)
+
+
+def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, radius: float = 0.01,
+             block_half_width: float = 0.02, block_height: float = 0.02, h_contact: float = 2e-4,
+             h_far: float = 3e-3, zone: float = 1.5e-3, block_ratio: float = 1.5) -> MeshData | Path:
+    """A hemisphere resting on a block (3D Hertz contact), non-matching meshes.
+
+    The hemisphere (the lower half of a ball of ``radius`` centred at ``(0, radius, 0)``)
+    touches the block ``[-w, w] x [-block_height, 0] x [-w, w]`` at the origin; the bodies
+    are separate gmsh volumes.  Element size ``h_contact`` (hemisphere) and
+    ``block_ratio * h_contact`` (block) within ``zone`` of the contact point, ``h_far``
+    away from it.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``"sphere"``, ``"block"``; facet groups ``"sphere_contact"`` (the
+        curved surface: slave), ``"block_contact"`` (top of the block: master),
+        ``"sphere_top"`` (the flat face y = radius), ``"block_bottom"``.
+    """
+    _positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
+              h_contact=h_contact, h_far=h_far, zone=zone, block_ratio=block_ratio)
+    R, w, hb = radius, block_half_width, block_height
+
+    def build() -> None:
+        occ = gmsh.model.occ
+        ball = occ.addSphere(0, R, 0, R)
+        cut, _ = occ.cut([(3, ball)], [(3, occ.addBox(-2 * R, R, -2 * R, 4 * R, 2 * R, 4 * R))])
+        sph = cut[0][1]
+        block = occ.addBox(-w, -hb, -w, 2 * w, hb, 2 * w)
+        occ.synchronize()
+        s_faces = [t for _, t in gmsh.model.getBoundary([(3, sph)], oriented=False)]
+        b_faces = [t for _, t in gmsh.model.getBoundary([(3, block)], oriented=False)]
+        com = {t: gmsh.model.occ.getCenterOfMass(2, t) for t in s_faces + b_faces}
+        tol = 1e-7 * R
+        s_top = [t for t in s_faces if abs(com[t][1] - R) < tol]
+        s_contact = [t for t in s_faces if t not in s_top]
+        b_top = [t for t in b_faces if abs(com[t][1]) < tol]
+        b_bottom = [t for t in b_faces if abs(com[t][1] + hb) < tol]
+        f = gmsh.model.mesh.field
+        fields = []
+        origin = occ.addPoint(0, 0, 0)
+        occ.synchronize()
+        for vol, h in ((sph, h_contact), (block, block_ratio * h_contact)):
+            dist = f.add("Distance")
+            f.setNumbers(dist, "PointsList", [origin])
+            thr = f.add("Threshold")
+            f.setNumber(thr, "InField", dist)
+            f.setNumber(thr, "SizeMin", h)
+            f.setNumber(thr, "SizeMax", h_far)
+            f.setNumber(thr, "DistMin", zone)
+            f.setNumber(thr, "DistMax", zone + 8 * h_far)
+            res = f.add("Restrict")
+            f.setNumber(res, "InField", thr)
+            f.setNumbers(res, "VolumesList", [vol])
+            faces = s_faces if vol == sph else b_faces
+            f.setNumbers(res, "SurfacesList", faces)
+            f.setNumbers(res, "CurvesList", sorted({abs(c) for _, c in gmsh.model.getBoundary(
+                [(2, t) for t in faces], combined=False, oriented=False)}))
+            fields.append(res)
+        fmin = f.add("Min")
+        f.setNumbers(fmin, "FieldsList", fields)
+        f.setAsBackgroundMesh(fmin)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        groups = _Groups()
+        groups(3, [sph], "sphere")
+        groups(3, [block], "block")
+        groups(2, s_contact, "sphere_contact")
+        groups(2, b_top, "block_contact")
+        groups(2, s_top, "sphere_top")
+        groups(2, b_bottom, "block_bottom")
+
+    return _generate("hertz_3d", 3, build, comm, path)
