@@ -43,6 +43,7 @@ __all__ = [
     "two_boxes_3d",
     "hertz_2d",
     "hertz_3d",
+    "stacked_blocks_2d",
     "knee_2d",
 ]
 
@@ -781,3 +782,38 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         groups(2, b_bottom, "block_bottom")
 
     return _generate("hertz_3d", 3, build, comm, path)
+
+
+def stacked_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, width: float = 0.02,
+                      heights: tuple[float, ...] = (0.01, 0.01, 0.01),
+                      sizes: tuple[float, ...] = (0.02 / 5, 0.02 / 13, 0.02 / 8)) -> MeshData | Path:
+    """Rectangles stacked on top of each other, each meshed on its own (several
+    non-matching contact interfaces; multi-pair contact tests).
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Cell groups ``"block<i>"`` (i = 1 at the bottom); facet groups ``"block<i>_top"``,
+        ``"block<i>_bottom"``, ``"block<i>_left"``, ``"block<i>_right"``.
+    """
+    if len(heights) != len(sizes) or len(heights) < 2:
+        raise ValueError("heights and sizes must have the same length (>= 2)")
+    _positive(width=width, **{f"height{i}": h for i, h in enumerate(heights)},
+              **{f"size{i}": h for i, h in enumerate(sizes)})
+
+    def build() -> None:
+        y0, tags = 0.0, []
+        for h in heights:
+            tags.append(gmsh.model.occ.addRectangle(0, y0, 0, width, h))
+            y0 += h
+        gmsh.model.occ.synchronize()
+        groups = _Groups()
+        y0 = 0.0
+        scale = max(width, sum(heights))
+        for i, (t, h, hs) in enumerate(zip(tags, heights, sizes), start=1):
+            _set_size([(2, t)], hs)
+            groups(2, [t], f"block{i}")
+            _block_groups(groups, 2, t, f"block{i}_", (0.0, y0), (width, y0 + h), scale)
+            y0 += h
+
+    return _generate("stacked_blocks_2d", 2, build, comm, path)

@@ -27,7 +27,8 @@ Dirichlet rows of master dofs, mixed with slave rows by ``Q``, are reset to the
 identity after the transformation, so ``U = Qᵀ Û`` meets every Dirichlet condition.
 
 Non-singular first systems: without a warm start the active set begins with every
-node whose gap is closed (``g_p ≤ gap_tol``).  A body held only by contact therefore
+node whose gap is within ``gap_tol`` of the smallest gap of its pair (the closed-gap
+nodes when the bodies touch, the closest ones when they start apart).  A body held only by contact therefore
 starts supported wherever it touches; then the PDAS keeps at least those nodes whose
 pressure stays positive.  (The remaining rigid modes that frictionless contact cannot
 remove — sliding along the contact plane — must be fixed by the scene.)
@@ -153,7 +154,7 @@ class ContactSolver:
         gdim = V.mesh.geometry.dim
         size = max([itf.slave_area ** (1.0 / (gdim - 1)) for itf in self.interfaces] + [1e-300])
         self.gap_tol = float(gap_tol) if gap_tol is not None else 1e-9 * size
-        self.active = [itf.gap <= self.gap_tol for itf in self.interfaces]
+        self.active = self._cold_start()
         self.Uh = self.At.createVecRight()
         self.Uh.set(0.0)
         self._r0, self._rhs, self._w = self.At.createVecLeft(), self.At.createVecLeft(), self.At.createVecLeft()
@@ -182,6 +183,18 @@ class ContactSolver:
         self.setup_time = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ helpers
+    def _cold_start(self) -> list[np.ndarray]:
+        """Initial active set: the nodes of each pair whose gap is within ``gap_tol`` of
+        the smallest gap of that pair (the closed-gap nodes when the bodies touch; the
+        closest nodes when they start apart, so a body held only by contact is
+        supported from the first solve)."""
+        out = []
+        for itf in self.interfaces:
+            gmin = self.comm.allreduce(float(itf.gap.min()) if itf.num_owned else np.inf, op=MPI.MIN)
+            out.append(itf.gap <= max(gmin, 0.0) + self.gap_tol)
+        return out
+
+
     def _operator(self, active: list[np.ndarray], rhs: PETSc.Vec, values: PETSc.Vec) -> None:
         """B = At with the Dirichlet rows and the active normal rows (and columns)
         eliminated: Ũ_i = values_i there, lifted into ``rhs`` (B stays symmetric)."""
@@ -286,7 +299,7 @@ class ContactSolver:
 
     def reset(self) -> None:
         """Forget the warm start (cold start from the closed-gap set next time)."""
-        self.active = [itf.gap <= self.gap_tol for itf in self.interfaces]
+        self.active = self._cold_start()
         self.Uh.set(0.0)
 
     def destroy(self) -> None:

@@ -233,3 +233,28 @@ def test_contact_input_errors_exit_2(tmp_path, case):
     assert "joint" in res.stderr and "bad.toml" in res.stderr
     assert ("interpenetrate" if case == "interpenetration" else "no master facet") in res.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_body_starting_apart_is_supported_from_the_first_solve(tmp_path):
+    """The upper block starts 10 µm above the lower one and is held vertically only by
+    contact: the first PDAS system must not be singular.  The block is pushed down and
+    closes the gap; since a rigid translation adds no strain, the pressures equal those
+    of the same scene with the blocks touching (1e-8), and they carry the load p·W."""
+    lams = []
+    for case, overlap in (("apart", -1.0e-5), ("touching", 0.0)):
+        mesh = _overlapping_blocks(tmp_path / f"{case}.msh", overlap)
+        text = PATCH.format(mesh=mesh, mp=-P)
+        text = text.replace('[[dirichlet]]\nboundary = "lower_left"\nvalue = [0.0, "free"]\n', "")
+        text = text.replace('[[dirichlet]]\nboundary = "upper_left"\nvalue = [0.0, "free"]\n',
+                            '[[dirichlet]]\nboundary = "top"\nvalue = [0.0, "free"]\n')
+        text = text.replace('boundary = "bottom"\nvalue = ["free", 0.0]', 'boundary = "bottom"\nvalue = [0.0, 0.0]')
+        scene = tmp_path / f"{case}.toml"
+        scene.write_text(text)
+        res = _run(scene, tmp_path / case)
+        assert res.returncode == 0, res.stderr
+        header, rows = _csv(tmp_path / case / "contact_joint.csv")
+        lams.append(np.array([float(r[3]) for r in rows]))
+        assert np.abs(np.array([float(r[2]) for r in rows])).max() < 1e-12   # gap closed
+        h_header, hist = _csv(tmp_path / case / "history.csv")
+        assert float(dict(zip(h_header, hist[-1]))["normal_force"]) == pytest.approx(P * 0.02, rel=1e-9)
+    np.testing.assert_allclose(lams[0], lams[1], rtol=1e-8)

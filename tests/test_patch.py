@@ -128,3 +128,32 @@ def test_patch_kelvin_voigt_time_stepping(kind):
         assert integ.last_contact.normal_force[0] == pytest.approx(P * 0.02, rel=0.01)
         assert integ.energy().kinetic < 1e-3 * integ.energy().strain
     integ.destroy()
+
+
+def test_patch_two_contact_pairs():
+    """Three stacked blocks (17 GPa, 1.7 MPa, 1 GPa), each meshed on its own: two contact
+    pairs in one PDAS solve (the middle block is slave of one pair and master of the
+    other); the two middle/top blocks are held vertically only by contact.  λ = p at
+    every slave node of both pairs (1e-8)."""
+    md = meshing.stacked_blocks_2d(COMM)
+    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    mats = {pg["block1"]: Isotropic(E=17e9, nu=0.3), pg["block2"]: Isotropic(E=1.7e6, nu=0.3),
+            pg["block3"]: Isotropic(E=1e9, nu=0.3)}
+    m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
+    m.add_dirichlet(m.facets(pg["block1_bottom"]), 1, 0.0)
+    for i in (1, 2, 3):
+        m.add_dirichlet(m.facets(pg[f"block{i}_left"]), 0, 0.0)
+    m.add_traction(pg["block3_top"], [0.0, -P])
+    bc = m.bc_dofs()
+    pairs = [build_interface(m.V, md.facet_tags, pg["block2_bottom"], pg["block1_top"], dirichlet_dofs=bc, name="a"),
+             build_interface(m.V, md.facet_tags, pg["block3_bottom"], pg["block2_top"], dirichlet_dofs=bc, name="b")]
+    integ = Integrator(m, "static", 1.0, contact=pairs)
+    integ.step()
+    r = integ.last_contact
+    for k in range(2):
+        lam = r.pressure[k]
+        err = COMM.allreduce(float(np.abs(lam / P - 1.0).max()) if lam.size else 0.0, op=MPI.MAX)
+        assert COMM.allreduce(lam.size) > 5
+        assert err < 1e-8, (k, err)
+        assert r.normal_force[k] == pytest.approx(P * 0.02, rel=1e-10)
+    integ.destroy()
