@@ -73,3 +73,30 @@ def test_same_on_any_partition(dim):
     a, b = _per_node(COMM, dist), _per_node(MPI.COMM_SELF, whole)
     assert a.shape == b.shape
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13)  # round-off in values that are ~0
+
+
+def test_degenerate_slave_facet_is_an_input_error():
+    """A slave facet of zero length (two coincident vertices) is rejected with a clear
+    ContactInputError on every rank, not integrated into a wrong D."""
+    import ufl
+    from dolfinx import mesh
+
+    from bonecontact.mortar import ContactInputError
+
+    x = np.array([[0, 0], [1, 0], [1, 1], [0, 1],                                # lower square
+                  [0, 1], [0.5, 1], [0.5, 1], [1, 1], [1, 2], [0, 2]], float)   # upper, sliver at x = 0.5
+    cells = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 9], [5, 6, 9], [6, 7, 8], [6, 8, 9]], np.int64)
+    el = ufl.Mesh(basix.ufl.element("Lagrange", "triangle", 1, shape=(2,)))
+    root = COMM.rank == 0
+    msh = mesh.create_mesh(COMM, cells if root else np.zeros((0, 3), np.int64), el,
+                           x if root else np.zeros((0, 2)))
+    msh.topology.create_connectivity(1, 2)
+    facets = mesh.locate_entities_boundary(msh, 1, lambda X: np.isclose(X[1], 1.0))
+    f2c = msh.topology.connectivity(1, 2)
+    cy = np.array([msh.geometry.x[msh.geometry.dofmaps[0][f2c.links(f)[0]], 1].mean() for f in facets])
+    tags = np.where(cy > 1.0, 2, 1).astype(np.int32)
+    order = np.argsort(facets)
+    ft = mesh.meshtags(msh, 1, facets[order], tags[order])
+    V = fem.functionspace(msh, basix.ufl.element("Lagrange", "triangle", 1, shape=(2,)))
+    with pytest.raises(ContactInputError, match="degenerate"):
+        build_interface(V, ft, 2, 1, name="sliver")
