@@ -17,10 +17,10 @@ $MPIEXEC -n 2 $PY benchmarks/bench_timestep.py $quick
 $PY benchmarks/summarize.py timestep
 
 echo "== contact: Hertz 2D error/time, PDAS iterations, PDAS vs SNES VI (1 and 2 ranks)"
-rm -f benchmarks/results/hertz.csv benchmarks/results/hertz_vi.csv
+rm -f benchmarks/results/hertz.csv benchmarks/results/hertz_vi.csv benchmarks/results/hertz3d.csv
 $PY benchmarks/bench_hertz.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_hertz.py $quick
-$PY benchmarks/summarize.py hertz hertz_vi
+$PY benchmarks/summarize.py hertz hertz_vi hertz3d
 
 # further studies (growth) add their scripts here
 for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
