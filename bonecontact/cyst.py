@@ -1,0 +1,184 @@
+"""Osmotic growth of an odontogenic cyst in a Maxwell visco-elastic surrounding (SPEC §6.2).
+
+After Ward et al. (2004), as used by Nedoma (2015), Section 2: osmotic material is
+supplied through the cyst lining, the osmotic excess pressure pushes the wall out, and
+the surrounding tissue responds as a Maxwell body:
+
+    ds/dt = β S_c                  s: osmotic material in the lumen (mol), S_c: lining area
+    C⁺ = s / v_c                   v_c: cyst volume
+    f = P_h⁺ − P_h⁻ = α (C⁺ − C⁻)   α = R_g T (van 't Hoff)
+    τ df/dt + f = ν dε/dt,  τ = ν/E   (Maxwell; ν: viscosity, E: modulus)
+
+For a sphere (v_c = 4πR³/3, S_c = 4πR²) with logarithmic strain dε = dR/R this closes to
+
+    dR/dt = (R f + 3 τ α β) / (ν + 3 τ (α C⁻ + f))
+    df/dt = (3/R) [α β − (α C⁻ + f) dR/dt]
+
+and with engineering strain (dε = dR/R₀) ν becomes ν R/R₀ in the first denominator.
+The 2D analogue (a cylinder per unit length: v_c = πR², S_c = 2πR, so d(ln v_c) = 2 dR/R)
+has 2 in place of 3 throughout.  Closed-form limits used to verify the integration:
+
+* β = 0: R → R₀ (1 + f₀/(αC⁻))^{1/d} (the osmotic excess is spent; d = 3 or 2);
+* logarithmic strain, long times: dR/dt → β/C⁻ (linear growth);
+* engineering strain, long times: dR/dt → f* R₀/ν with
+  f* = [−αC⁻ + √((αC⁻)² + 4αβν/R₀)]/2 (the same in 2D);
+* viscous limit τ → 0: dR/dt = R f/ν.
+
+Units: SI — R in m, t in s, f in Pa, β in mol m⁻² s⁻¹, C⁻ in mol m⁻³, T in K, ν in Pa s,
+E in Pa.  1 mm of radius per year needs β/C⁻ ≈ 3.2·10⁻¹¹ m/s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+__all__ = ["R_GAS", "SECONDS_PER_YEAR", "CystParameters", "CystHistory", "grow_sphere", "equilibrium_radius",
+           "long_time_rate"]
+
+#: Molar gas constant (J mol⁻¹ K⁻¹).
+R_GAS = 8.314462618
+#: Julian year (s).
+SECONDS_PER_YEAR = 365.25 * 86400.0
+
+
+@dataclass(frozen=True)
+class CystParameters:
+    """Parameters of the osmotic cyst model (keys of ``[neoplasm.cyst]``).
+
+    Attributes
+    ----------
+    beta
+        Supply rate of osmotic material per lining area (mol m⁻² s⁻¹), ≥ 0.
+    C_minus
+        Osmolarity outside the cyst (mol m⁻³), > 0.
+    temperature
+        Absolute temperature (K), > 0.
+    E
+        Elastic modulus of the surrounding tissue (Pa), > 0 (``inf``: viscous limit).
+    viscosity
+        Viscosity of the surrounding tissue (Pa s), > 0.
+    f0
+        Initial osmotic excess pressure P_h⁺ − P_h⁻ (Pa).
+    strain
+        ``"log"`` or ``"engineering"``.
+    """
+
+    beta: float
+    C_minus: float
+    temperature: float = 310.0
+    E: float = 1.0e6
+    viscosity: float = 1.0e9
+    f0: float = 0.0
+    strain: Literal["log", "engineering"] = "log"
+
+    def __post_init__(self) -> None:
+        checks = {"beta": self.beta >= 0, "C_minus": self.C_minus > 0, "temperature": self.temperature > 0,
+                  "E": self.E > 0, "viscosity": self.viscosity > 0}
+        for key, ok in checks.items():
+            value = getattr(self, key)
+            if not ok or (key != "E" and not np.isfinite(value)):
+                raise ValueError(f"cyst parameter {key} = {getattr(self, key)!r} is not allowed "
+                                 f"(beta >= 0; C_minus, temperature, E, viscosity > 0)")
+        if self.strain not in ("log", "engineering"):
+            raise ValueError(f'cyst parameter strain = {self.strain!r}; allowed: "log", "engineering"')
+
+    @property
+    def alpha(self) -> float:
+        """α = R_g T (J mol⁻¹)."""
+        return R_GAS * self.temperature
+
+    @property
+    def tau(self) -> float:
+        """Maxwell relaxation time τ = ν/E (s); 0 in the viscous limit E = ∞."""
+        return 0.0 if np.isinf(self.E) else self.viscosity / self.E
+
+
+@dataclass
+class CystHistory:
+    """Radius and osmotic excess pressure over time (SI)."""
+
+    t: np.ndarray
+    R: np.ndarray
+    f: np.ndarray
+    dim: int
+
+    @property
+    def volume(self) -> np.ndarray:
+        """Volume (3D, m³) or area per unit length (2D, m²)."""
+        return 4.0 / 3.0 * np.pi * self.R**3 if self.dim == 3 else np.pi * self.R**2
+
+    @property
+    def surface_area(self) -> np.ndarray:
+        """Lining area (3D, m²) or perimeter (2D, m)."""
+        return 4.0 * np.pi * self.R**2 if self.dim == 3 else 2.0 * np.pi * self.R
+
+
+def _rhs(p: CystParameters, R0: float, d: int):
+    a, C, b, nu, tau = p.alpha, p.C_minus, p.beta, p.viscosity, p.tau
+
+    def rhs(t, y):
+        R, f = y
+        visc = nu * (R / R0 if p.strain == "engineering" else 1.0)
+        dR = (R * f + d * tau * a * b) / (visc + d * tau * (a * C + f))
+        df = (d / R) * (a * b - (a * C + f) * dR)
+        return [dR, df]
+
+    return rhs
+
+
+def grow_sphere(p: CystParameters, R0: float, t_end: float, t_eval: np.ndarray | None = None, *,
+                dim: int = 3, rtol: float = 1e-11) -> CystHistory:
+    """Integrate the closed cyst model from radius ``R0`` (m) over ``[0, t_end]`` (s).
+
+    Parameters
+    ----------
+    p
+        Model parameters.
+    R0
+        Initial radius (m).
+    t_end
+        Final time (s).
+    t_eval
+        Output times (default: 201 equally spaced).
+    dim
+        3 (sphere) or 2 (cylinder, per unit length).
+    rtol
+        Relative tolerance of the stiff integrator (Radau).
+    """
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {dim}")
+    if not (R0 > 0 and t_end > 0):
+        raise ValueError("R0 and t_end must be > 0")
+    t_eval = np.linspace(0.0, t_end, 201) if t_eval is None else np.asarray(t_eval, float)
+    # f scale for the absolute tolerance: the osmotic pressure scale αC⁻
+    sol = solve_ivp(_rhs(p, R0, dim), (0.0, t_end), [R0, p.f0], method="Radau", t_eval=t_eval, rtol=rtol,
+                    atol=[1e-14 * R0, 1e-12 * max(p.alpha * p.C_minus, abs(p.f0), 1.0)])
+    if not sol.success:
+        raise RuntimeError(f"cyst ODE integration failed: {sol.message}")
+    return CystHistory(sol.t, sol.y[0], sol.y[1], dim)
+
+
+def equilibrium_radius(p: CystParameters, R0: float, dim: int = 3) -> float:
+    """β = 0: the radius at which the initial osmotic excess is spent,
+    R₀ (1 + f₀/(αC⁻))^{1/d} (the solute content s is conserved and C⁺ → C⁻)."""
+    return R0 * (1.0 + p.f0 / (p.alpha * p.C_minus)) ** (1.0 / dim)
+
+
+def long_time_rate(p: CystParameters, R0: float, dim: int = 3) -> float:
+    """Long-time growth rate dR/dt (m/s), the same for d = 2 and 3.
+
+    Logarithmic strain: β/C⁻ (f → 0: supply and dilution balance).  Engineering strain:
+    f* R₀/ν, where the steady excess pressure solves f (αC⁻ + f) = αβν/R₀, i.e.
+    f* = [−αC⁻ + √((αC⁻)² + 4αβν/R₀)]/2.
+    """
+    if p.strain == "log":
+        return p.beta / p.C_minus
+    aC = p.alpha * p.C_minus
+    # steady f with dR/dt = f R0/ν (τ terms vanish as R grows): d/R[αβ − (αC⁻+f) f R0/ν] → 0
+    # gives (αC⁻ + f) f = αβν/R0 independent of d.
+    fstar = 0.5 * (-aC + np.sqrt(aC**2 + 4.0 * p.alpha * p.beta * p.viscosity / R0))
+    return fstar * R0 / p.viscosity
