@@ -200,7 +200,7 @@ def vertex_to_geometry(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim, 0)
     c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
-    gdm = msh.geometry.dofmaps(0) if callable(getattr(msh.geometry, "dofmaps", None)) \
+    gdm = msh.geometry.dofmaps[0] if hasattr(msh.geometry, "dofmaps") \
         else msh.geometry.dofmap
     nv = msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts
     out = np.empty(nv, dtype=np.int32)
