@@ -29,12 +29,26 @@ COMM = MPI.COMM_WORLD
 P = 2.0e5  # Pa
 
 
+def distort(msh, amplitude: float) -> None:
+    """Move the nodes inside each block by a smooth field that vanishes on the block
+    faces (x, z ∈ {0, 0.02}, y ∈ {0, 0.01, 0.02}): strongly distorted elements, same
+    boundaries, so the exact solution of the patch test is unchanged."""
+    x = msh.geometry.x
+    s = np.sin(np.pi * x[:, 0] / 0.02) * np.sin(np.pi * x[:, 1] / 0.01)
+    if msh.geometry.dim == 3:
+        s = s * np.sin(np.pi * x[:, 2] / 0.02)
+    x[:, 0] += amplitude * s * np.cos(7.0 * x[:, 1] / 0.01)
+    x[:, 1] += amplitude * s * np.sin(5.0 * x[:, 0] / 0.02)
+
+
 def patch(dim: int, h_lower: float, h_upper: float, E_lower: float, E_upper: float, slave: str,
-          nu_lower: float = 0.3, nu_upper: float = 0.3, linear: str = "direct"):
+          nu_lower: float = 0.3, nu_upper: float = 0.3, linear: str = "direct", distortion: float = 0.0):
     if dim == 2:
         md = meshing.two_blocks_2d(COMM, h_lower=h_lower, h_upper=h_upper)
     else:
         md = meshing.two_boxes_3d(COMM, h_lower=h_lower, h_upper=h_upper)
+    if distortion:
+        distort(md.mesh, distortion)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
     mats = {pg["lower"]: Isotropic(E=E_lower, nu=nu_lower), pg["upper"]: Isotropic(E=E_upper, nu=nu_upper)}
     m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
@@ -75,6 +89,17 @@ def test_patch_2d(case):
     assert err < 1e-8, err
     assert force == pytest.approx(P * area, rel=1e-10)
     assert its == 1
+    integ.destroy()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_patch_distorted_meshes(dim):
+    """Interior nodes moved by up to 0.3 of the finer block's element size (the coarse
+    block's elements are distorted by ~0.1 of their size, the fine block's by 0.3)."""
+    case = (0.02 / 7, 0.02 / 23, 17e9, 1.7e6, "upper") if dim == 2 else (0.02 / 3, 0.02 / 9, 17e9, 1.7e6, "upper")
+    err, nodes, force, area, its, integ = patch(dim, *case, distortion=0.3 * min(case[0], case[1]))
+    assert err < 1e-8, err
+    assert force == pytest.approx(P * area, rel=1e-10)
     integ.destroy()
 
 
