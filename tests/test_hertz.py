@@ -137,3 +137,21 @@ def test_hertz_3d_error_shrinks_under_refinement():
     """Fitted p₀ error at h = 0.45, 0.33, 0.22 mm: measured 13 %, 7.6 %, 3.4 %."""
     errs = [abs(solve_hertz_3d(h)["p0"]) for h in (4.5e-4, 3.3e-4, 2.2e-4)]
     assert errs[0] > errs[1] > errs[2], errs
+
+
+def test_hertz_references_integrate_to_the_load():
+    """The analytic profiles carry the load (∫p dx = P in 2D, ∫2πr p dr = P in 3D, by
+    quadrature independent of the closed forms for p₀) and the load functions invert a(P)."""
+    from bonecontact.analytic import hertz_3d
+
+    P2, P3 = 1.2e5, 700.0
+    a2 = hertz_2d.half_width(P2, R, 2.0e9, NU, 17.0e9, NU)
+    x = np.linspace(-a2, a2, 200001)
+    assert np.trapezoid(hertz_2d.pressure(x, P2, R, 2.0e9, NU, 17.0e9, NU), x) == pytest.approx(P2, rel=1e-5)
+    assert hertz_2d.load_for_half_width(a2, R, 2.0e9, NU, 17.0e9, NU) == pytest.approx(P2, rel=1e-12)
+    a3 = hertz_3d.radius(P3, R, 2.0e9, NU)
+    r = np.linspace(0.0, a3, 200001)
+    assert np.trapezoid(2 * np.pi * r * hertz_3d.pressure(r, P3, R, 2.0e9, NU), r) == pytest.approx(P3, rel=1e-5)
+    assert hertz_3d.load_for_radius(a3, R, 2.0e9, NU) == pytest.approx(P3, rel=1e-12)
+    # a rigid counterpart: 1/E* = (1 − ν²)/E
+    assert contact_modulus(2.0e9, NU) == pytest.approx(2.0e9 / (1 - NU**2), rel=1e-14)
