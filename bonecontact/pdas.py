@@ -54,7 +54,7 @@ from petsc4py import PETSc
 
 from .mortar import ContactInterface, basis_transform, rotation_matrix
 
-__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult"]
+__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult", "snes_vi_solve"]
 
 
 class ContactConvergenceError(RuntimeError):
@@ -199,11 +199,9 @@ class ContactSolver:
         """B = At with the Dirichlet rows and the active normal rows (and columns)
         eliminated: Ũ_i = values_i there, lifted into ``rhs`` (B stays symmetric)."""
         self.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        start = self.bs * self.V.dofmap.index_map.local_range[0]
         rows = np.concatenate([self.bc_rows.astype(np.int64)]
                               + [g[a] for g, a in zip(self.nrow_global, active)]).astype(PETSc.IntType)
         self.B.zeroRowsColumns(rows, diag=self.diag_value, x=values, b=rhs)
-        del start
 
     def _signature(self, active: list[np.ndarray]) -> tuple:
         local = tuple(int(b) for itf, a in zip(self.interfaces, active) for b in itf.global_blocks[a])
@@ -229,7 +227,7 @@ class ContactSolver:
         history: list[dict] = []
         seen = {self._signature(active): 0}
         lin_total = 0
-        lam_list = gap_list = un_list = None
+        lam_list = un_list = None
         values = self._rhs.duplicate()
         for k in range(1, self.max_iterations + 1):
             values.set(0.0)
@@ -306,3 +304,46 @@ class ContactSolver:
         for obj in (self.ksp, self.B, self.At, self.T, self.Tt, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
                     self._w, self._Fh):
             obj.destroy()
+
+
+def snes_vi_solve(A: PETSc.Mat, b: PETSc.Vec, lower: PETSc.Vec, upper: PETSc.Vec,
+                  prefix: str = "vi_") -> tuple[PETSc.Vec, int, int]:
+    """Independent reference: solve ``A x = b`` subject to ``lower ≤ x ≤ upper`` with
+    PETSc's reduced-space active-set Newton (SNES ``vinewtonrsls``, MUMPS inside).
+
+    For a body pressed onto a rigid plane the dual-mortar constraint is nodal, so this
+    is the same discrete problem as the PDAS solves (tests and benchmarks compare them).
+
+    Returns
+    -------
+    (x, iterations, converged_reason)
+    """
+    snes = PETSc.SNES().create(A.getComm())
+    snes.setOptionsPrefix(prefix)
+    r = A.createVecLeft()
+
+    def residual(snes_, x, f):
+        A.mult(x, f)
+        f.axpy(-1.0, b)
+
+    def jacobian(snes_, x, J, P):
+        return True  # linear problem: the Jacobian is A
+
+    snes.setFunction(residual, r)
+    snes.setJacobian(jacobian, A, A)
+    snes.setType("vinewtonrsls")
+    snes.getLineSearch().setType("basic")
+    snes.setVariableBounds(lower, upper)
+    snes.setTolerances(atol=1e-12 * b.norm(), rtol=1e-12, stol=0.0, max_it=200)
+    ksp = snes.getKSP()
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("mumps")
+    snes.setFromOptions()
+    x = A.createVecRight()
+    x.set(0.0)
+    snes.solve(None, x)
+    out = (x, snes.getIterationNumber(), snes.getConvergedReason())
+    snes.destroy()
+    r.destroy()
+    return out

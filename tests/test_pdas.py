@@ -20,13 +20,12 @@ import numpy as np
 import pytest
 import ufl
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from bonecontact import meshing
 from bonecontact.materials import Isotropic
 from bonecontact.mechanics import Mechanics
 from bonecontact.mortar import RigidPlane, build_interface
-from bonecontact.pdas import ContactConvergenceError
+from bonecontact.pdas import ContactConvergenceError, snes_vi_solve
 from bonecontact.timestepping import Integrator
 
 COMM = MPI.COMM_WORLD
@@ -110,37 +109,14 @@ def test_pdas_equals_snes_vi_on_rigid_plane():
     ub.set(1e30)
     bs = 2
     lb.array[bs * itf.blocks + 1] = -itf.gap
-    snes = PETSc.SNES().create(COMM)
-    snes.setOptionsPrefix("test_vi_")
-    r = A.createVecLeft()
-
-    def residual(snes, x, f):
-        A.mult(x, f)
-        f.axpy(-1.0, b)
-
-    def jacobian(snes, x, J, P):
-        return True
-
-    snes.setFunction(residual, r)
-    snes.setJacobian(jacobian, A, A)
-    snes.setType("vinewtonrsls")
-    snes.getLineSearch().setType("basic")
-    snes.setVariableBounds(lb, ub)
-    snes.setTolerances(atol=1e-12 * b.norm(), rtol=1e-12, stol=0.0, max_it=100)
-    ksp = snes.getKSP()
-    ksp.setType("preonly")
-    ksp.getPC().setType("lu")
-    ksp.getPC().setFactorSolverType("mumps")
-    x = A.createVecRight()
-    x.set(0.0)
-    snes.solve(None, x)
-    assert snes.getConvergedReason() > 0, (snes.getConvergedReason(), snes.getIterationNumber())
+    x, _, reason = snes_vi_solve(A, b, lb, ub, prefix="test_vi_")
+    assert reason > 0, reason
     diff = x.copy()
     diff.axpy(-1.0, u_pdas)
     rel = diff.norm() / x.norm()
     assert rel < 1e-6, rel
     assert its <= 8
-    for obj in (snes, x, diff, lb, ub, r, u_pdas):
+    for obj in (x, diff, lb, ub, u_pdas):
         obj.destroy()
     ref.destroy()
     integ.destroy()
