@@ -71,3 +71,82 @@ def test_bad_parameters():
         TumourParameters.from_dict({"u_p0": 0.8, "u_q0": 0.5})
     p = TumourParameters.from_dict({"lambda": 2.0, "K_B": "nonsense"} if False else {"lambda": 2.0})
     assert p.lambda_ == 2.0
+
+
+_SCRIPT = """
+import dolfinx_solver
+from mpi4py import MPI
+import json
+from bonecontact.tumour import TumourModel, TumourParameters
+p = TumourParameters(K_B=lambda c: 1.0 * (c - 0.5), K_Q=0.3, K_P=0.1, K_R=0.1, gamma=0.01,
+                     u_p0=0.8, u_q0=0.1)
+m = TumourModel(MPI.COMM_WORLD, [[1.0, 0.0], [0.6, 0.8], [-0.7, 0.7], [-1.0, -0.1], [0.1, -0.9],
+                                 [0.8, -0.5]], p, h=0.25)
+m.remesh()
+rs = []
+for i in range(6):
+    m.step(0.05)
+    rs.append(m.equivalent_radius())
+if MPI.COMM_WORLD.rank == 0:
+    print(json.dumps(rs))
+"""
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [2, 3])
+def test_parallel_growth_matches_serial(venv_bin, tmp_path, nproc):
+    """R(t) of a non-symmetric growth on 2/3 ranks equals the serial one (rtol 1e-9)."""
+    import json
+    import subprocess
+    import sys
+
+    script = tmp_path / "grow.py"
+    script.write_text(_SCRIPT)
+    serial = json.loads(subprocess.run([sys.executable, str(script)], capture_output=True,
+                                       text=True, check=True, timeout=300).stdout)
+    par = subprocess.run([str(venv_bin / "mpiexec"), "-n", str(nproc), sys.executable, str(script)],
+                         capture_output=True, text=True, timeout=600)
+    assert par.returncode == 0, par.stderr[-2000:]
+    np.testing.assert_allclose(json.loads(par.stdout), serial, rtol=1e-9)
+
+
+def _mode2_rate(mu, gamma, h, dt, t_end, remesh_every):
+    """Growth rate of the mode-2 amplitude of a perturbed stationary disc (R = 2)."""
+    R = 2.0
+    ut = 2 * iv(1, R) / (R * iv(0, R))             # makes R = 2 stationary
+    p = TumourParameters(K_B=lambda c: mu * (c - ut), gamma=gamma)
+    n = int(round(2 * np.pi * R / h))
+    th = 2 * np.pi * np.arange(n) / n
+    r = R + 0.04 * np.cos(2 * th)
+    m = TumourModel(MPI.COMM_WORLD, np.column_stack([r * np.cos(th), r * np.sin(th)]), p, h,
+                    remesh_every=remesh_every)
+
+    def amplitude():
+        x = m.boundary().points
+        ang = np.arctan2(x[:, 1], x[:, 0])
+        o = np.argsort(ang)
+        a = np.concatenate([ang[o], [ang[o][0] + 2 * np.pi]])
+        f = np.linalg.norm(x, axis=1)[o]
+        f = np.concatenate([f, f[:1]])
+        return np.hypot(np.trapezoid(f * np.cos(2 * a), a), np.trapezoid(f * np.sin(2 * a), a)) / np.pi
+
+    ts, amps = [0.0], [amplitude()]
+    while m.t < t_end - 1e-12:
+        m.step(dt)
+        ts.append(m.t)
+        amps.append(amplitude())
+    exact = (mu * iv(1, R) / iv(0, R) * (iv(2, R) / iv(1, R) - iv(3, R) / iv(2, R))
+             - gamma * 6 / R**3)
+    return np.polyfit(ts, np.log(amps), 1)[0], exact
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("mu, gamma, h, dt, t_end, every", [
+    (1.0, 0.0, 0.3, 0.2, 4.0, 1),     # unstable: lambda_2 = +0.0868
+    (1.0, 0.2, 0.5, 0.03, 3.0, 5),    # stable (surface tension): lambda_2 = -0.0632
+])
+def test_mode2_linear_stability(mu, gamma, h, dt, t_end, every):
+    """A mode-2 perturbation grows/decays at the linear-theory rate of SPEC §6.1 (within 10%)."""
+    rate, exact = _mode2_rate(mu, gamma, h, dt, t_end, every)
+    assert np.sign(rate) == np.sign(exact)
+    assert abs(rate / exact - 1) < 0.10, (rate, exact)
