@@ -84,7 +84,7 @@ m = TumourModel(MPI.COMM_WORLD, [[1.0, 0.0], [0.6, 0.8], [-0.7, 0.7], [-1.0, -0.
                                  [0.8, -0.5]], p, h=0.25)
 m.remesh()
 rs = []
-for i in range(6):
+for i in range(4):
     m.step(0.05)
     rs.append(m.equivalent_radius())
 if MPI.COMM_WORLD.rank == 0:
