@@ -49,6 +49,17 @@ Discretisation (one step t -> t + dt)
    (:func:`bonecontact.remesh.transfer`, extrapolation band h).  3D: the volume is re-meshed
    inside the moved surface triangulation, which is not re-sampled (good for near-spherical
    growth; a strongly distorted surface would need surface re-meshing - not done).
+
+Limitations
+-----------
+* Surface tension enters the boundary motion explicitly: stable only for
+  dt ≲ 2 R³ / (γ l_max³), l_max ≈ π R / h (capillary time-step limit); no automatic
+  sub-stepping yet - a violated limit shows as a saw-tooth boundary within a few steps.
+* 3D: runs (radial growth R(t) within 0.5% of the ODE over 5 steps of 0.3 at h = 0.3), but
+  the cotangent curvature is noisy on unstructured gmsh surfaces (±30% on a sphere at
+  h = 0.3R), so γ > 0 in 3D is not verified; no 3D test in the suite yet.
+* degree > 1 is accepted for the nutrient/pressure solves but boundary motion and surface
+  tension need degree = 1.
 """
 
 from __future__ import annotations
