@@ -118,7 +118,8 @@ if comm.rank == 0:
     active = np.column_stack([x[p > 0], rows["y"][p > 0], np.zeros((p > 0).sum())])
     plotter = pv.Plotter(window_size=(1000, 800), off_screen=True)
     plotter.add_mesh(grid, scalars="von Mises (MPa)", cmap="inferno", clim=(0, np.percentile(grid.cell_data["von Mises (MPa)"], 99.5)),
-                     scalar_bar_args={"fmt": "%.2f", "n_labels": 4, "position_x": 0.25, "width": 0.5})
+                     scalar_bar_args={"fmt": "%.2f", "n_labels": 4, "vertical": True, "position_x": 0.86,
+                                      "position_y": 0.25, "height": 0.5, "title_font_size": 14})
     plotter.add_points(active, color="white", point_size=8, render_points_as_spheres=True)
     plotter.view_xy()
     plotter.camera.zoom(1.4)
