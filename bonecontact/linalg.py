@@ -15,6 +15,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 __all__ = [
+    "configure_ksp",
     "body_labels",
     "rigid_body_modes",
     "create_solver",
@@ -134,6 +135,30 @@ class LinearSolverInfo:
     setup_time: float = 0.0
 
 
+def configure_ksp(ksp: PETSc.KSP, kind: str, rtol: float = 1e-12, prefix: str = "bc_",
+                  max_it: int = 2000) -> None:
+    """Set a KSP up as the package's direct (MUMPS LU) or iterative (CG + smoothed-
+    aggregation GAMG, Chebyshev/Jacobi smoothing) solver; the options can be overridden
+    on the command line under ``prefix``."""
+    pc = ksp.getPC()
+    if kind == "direct":
+        ksp.setType("preonly")
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+    elif kind == "iterative":
+        ksp.setType("cg")
+        ksp.setTolerances(rtol=rtol, atol=1e-300, max_it=max_it)
+        pc.setType("gamg")
+        opts = PETSc.Options()
+        opts[f"{prefix}pc_gamg_type"] = "agg"
+        opts[f"{prefix}pc_gamg_threshold"] = 0.01
+        opts[f"{prefix}mg_levels_ksp_type"] = "chebyshev"
+        opts[f"{prefix}mg_levels_pc_type"] = "jacobi"
+        opts[f"{prefix}mg_levels_ksp_chebyshev_esteig_steps"] = 20
+    else:
+        raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {kind!r}")
+
+
 def create_solver(A: PETSc.Mat, kind: str = "direct", near_nullspace: PETSc.NullSpace | None = None,
                   rtol: float = 1e-12, prefix: str = "bc_") -> PETSc.KSP:
     """A KSP for the (symmetric positive definite) operator ``A``.
@@ -156,26 +181,11 @@ def create_solver(A: PETSc.Mat, kind: str = "direct", near_nullspace: PETSc.Null
     ksp = PETSc.KSP().create(A.getComm())
     ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
-    pc = ksp.getPC()
-    if kind == "direct":
-        ksp.setType("preonly")
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
-    elif kind == "iterative":
+    if kind == "iterative":
         if near_nullspace is not None:
             A.setNearNullSpace(near_nullspace)
         A.setOption(PETSc.Mat.Option.SPD, True)
-        ksp.setType("cg")
-        ksp.setTolerances(rtol=rtol, atol=1e-300, max_it=2000)
-        pc.setType("gamg")
-        opts = PETSc.Options()
-        opts[f"{prefix}pc_gamg_type"] = "agg"
-        opts[f"{prefix}pc_gamg_threshold"] = 0.01
-        opts[f"{prefix}mg_levels_ksp_type"] = "chebyshev"
-        opts[f"{prefix}mg_levels_pc_type"] = "jacobi"
-        opts[f"{prefix}mg_levels_ksp_chebyshev_esteig_steps"] = 20
-    else:
-        raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {kind!r}")
+    configure_ksp(ksp, kind, rtol=rtol, prefix=prefix, max_it=2000)
     ksp.setFromOptions()
     ksp.setUp()
     return ksp

@@ -52,6 +52,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .linalg import configure_ksp
 from .mortar import ContactInterface, basis_transform, rotation_matrix
 
 __all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult", "snes_vi_solve"]
@@ -161,24 +162,9 @@ class ContactSolver:
         self._Fh = self.Qt.createVecRight()
         self.ksp = PETSc.KSP().create(self.comm)
         self.ksp.setOptionsPrefix(prefix)
-        pc = self.ksp.getPC()
-        if linear == "direct":
-            self.ksp.setType("preonly")
-            pc.setType("lu")
-            pc.setFactorSolverType("mumps")
-        elif linear == "iterative":
-            self.ksp.setType("cg")
-            self.ksp.setTolerances(rtol=rtol, atol=1e-300, max_it=3000)
-            pc.setType("gamg")
-            opts = PETSc.Options()
-            opts[f"{prefix}pc_gamg_type"] = "agg"
-            opts[f"{prefix}pc_gamg_threshold"] = 0.01
-            opts[f"{prefix}mg_levels_ksp_type"] = "chebyshev"
-            opts[f"{prefix}mg_levels_pc_type"] = "jacobi"
-            opts[f"{prefix}mg_levels_ksp_chebyshev_esteig_steps"] = 20
+        configure_ksp(self.ksp, linear, rtol=rtol, prefix=prefix, max_it=3000)
+        if linear == "iterative":
             self.ksp.setInitialGuessNonzero(True)
-        else:
-            raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {linear!r}")
         self.ksp.setFromOptions()
         self.setup_time = time.perf_counter() - t0
 
