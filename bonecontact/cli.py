@@ -50,7 +50,12 @@ def main(argv: list[str] | None = None) -> int:
 
         scene = load_scene(args.scene)
         if args.command == "check":
-            build_model(scene, comm)
+            if scene.growth_only:
+                from .growth import build_growth
+
+                build_growth(scene, comm)
+            else:
+                build_model(scene, comm)
             _say(f"{args.scene}: ok", comm)
             return 0
         result = run_scene(scene, comm, output=args.output, progress=not args.quiet)

@@ -185,6 +185,10 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
         ``status`` is ``"converged"`` or ``"failed"`` (then ``summary["message"]``
         says why; the last good state is in the output files).
     """
+    if scene.growth_only:  # [neoplasm] without [analysis]: growth.csv (bonecontact.growth)
+        from .growth import run_growth
+
+        return run_growth(scene, comm, output, progress)
     t_start = time.perf_counter()
     sm = build_model(scene, comm)
     model = sm.model

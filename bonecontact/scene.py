@@ -30,6 +30,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.expressions import ExpressionError, RateExpression, parse_rate
 from bonecontact.materials import (
     FORMULATIONS,
     Isotropic,
@@ -51,6 +52,9 @@ __all__ = [
     "LoadSpec",
     "InitialVelocitySpec",
     "OutputSpec",
+    "TumourSpec",
+    "CystSpec",
+    "NeoplasmSpec",
     "Scene",
     "load_scene",
     "check_against_mesh",
@@ -78,7 +82,7 @@ MATERIAL_COMMON_KEYS = ("name", "regions", "model", "rho", "tau_v", "formulation
 
 TOP_LEVEL_KEYS = (
     "format", "scene", "analysis", "solver", "material", "contact", "dirichlet",
-    "traction", "pressure", "body_force", "initial_velocity", "output",
+    "traction", "pressure", "body_force", "initial_velocity", "output", "neoplasm",
 )
 SCENE_KEYS = ("name", "mesh", "dimension")
 ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps")
@@ -93,7 +97,22 @@ INITIAL_VELOCITY_KEYS = ("regions", "value")
 OUTPUT_KEYS = ("directory", "fields_every", "probes")
 
 #: Tables that later capabilities will add (rejected with a clearer message until then).
-FUTURE_TABLES = ("neoplasm", "fracture")
+FUTURE_TABLES = ("fracture",)
+
+NEOPLASM_KINDS = ("tumour", "cyst")
+#: ``[neoplasm]`` keys; ``radius`` and ``h`` are an extension (initial geometry of meshless scenes).
+NEOPLASM_KEYS = ("kind", "region", "host", "t_end", "dt", "remesh_every", "mechanics_every", "radius", "h",
+                 "tumour", "cyst")
+TUMOUR_KEYS = ("D_c", "lambda", "eps0", "u_c1", "K_B", "K_Q", "K_A", "K_P", "K_D", "K_R", "gamma", "u_p0",
+               "u_q0")
+#: Tumour rates that may be expressions of ``u_c``.
+TUMOUR_RATE_KEYS = ("K_B", "K_Q", "K_A", "K_P", "K_D")
+CYST_KEYS = ("model", "strain", "beta", "C_minus", "temperature", "E", "viscosity", "f0")
+CYST_MODELS = ("sphere", "shape")
+CYST_STRAINS = ("log", "engineering")
+#: Tables of a mechanics analysis: not allowed in a growth-only scene.
+MECHANICS_TABLES = ("solver", "material", "contact", "dirichlet", "traction", "pressure", "body_force",
+                    "initial_velocity")
 
 
 # --------------------------------------------------------------------------------------
@@ -472,6 +491,141 @@ class OutputSpec:
 
 
 @dataclass(frozen=True)
+class TumourSpec:
+    """``[neoplasm.tumour]``: parameters of Problem P_T (SPEC §6.1), SI units.
+
+    Parameters
+    ----------
+    D_c
+        Nutrient diffusivity (m²/s), > 0.
+    lambda_
+        Nutrient consumption rate (1/s), > 0 (key ``lambda``).
+    eps0
+        Nutrient time-scale ratio, >= 0; 0 = quasi-steady nutrient.
+    u_c1
+        Nutrient concentration on the tumour boundary (reference units), >= 0.
+    K_B, K_Q, K_A, K_P, K_D
+        Birth, quiescence, apoptosis, proliferation-recovery and death rates (1/s):
+        numbers or :class:`~bonecontact.expressions.RateExpression` of ``u_c``.
+    K_R
+        Removal rate (1/s), a number.
+    gamma
+        Surface tension (m³/s: σ is the velocity potential in m²/s, σ = γκ), >= 0.
+    u_p0, u_q0
+        Initial uniform proliferating / quiescent fractions, >= 0, sum <= 1.
+    """
+
+    D_c: float = 1.0
+    lambda_: float = 1.0
+    eps0: float = 0.0
+    u_c1: float = 1.0
+    K_B: float | RateExpression = 1.0
+    K_Q: float | RateExpression = 0.0
+    K_A: float | RateExpression = 0.0
+    K_P: float | RateExpression = 0.0
+    K_D: float | RateExpression = 0.0
+    K_R: float = 0.0
+    gamma: float = 0.0
+    u_p0: float = 1.0
+    u_q0: float = 0.0
+
+    def as_table(self) -> dict[str, Any]:
+        """The parameters keyed as in the scene (``lambda``), for
+        :meth:`bonecontact.tumour.TumourParameters.from_dict`."""
+        return {("lambda" if k == "lambda_" else k): getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class CystSpec:
+    """``[neoplasm.cyst]``: the osmotic/Maxwell cyst model (SPEC §6.2), SI units.
+
+    Parameters
+    ----------
+    model
+        ``"sphere"`` (closed ODE; a cylinder per unit length in 2D) or ``"shape"``
+        (moving wall; parsed, not run yet).
+    strain
+        ``"log"`` or ``"engineering"``.
+    beta
+        Supply rate of osmotic material (mol m⁻² s⁻¹), >= 0.
+    C_minus
+        Osmolarity outside the cyst (mol/m³), > 0.
+    temperature
+        Absolute temperature (K), > 0.
+    E
+        Modulus of the surrounding tissue (Pa), > 0.
+    viscosity
+        Viscosity of the surrounding tissue (Pa s), > 0.
+    f0
+        Initial osmotic excess pressure P_h⁺ − P_h⁻ (Pa), > −R_g T C⁻ (so that C⁺ > 0).
+    """
+
+    beta: float
+    C_minus: float
+    model: Literal["sphere", "shape"] = "sphere"
+    strain: Literal["log", "engineering"] = "log"
+    temperature: float = 310.0
+    E: float = 1.0e6
+    viscosity: float = 1.0e9
+    f0: float = 0.0
+
+    def parameters(self) -> dict[str, Any]:
+        """Keyword arguments of :class:`bonecontact.cyst.CystParameters`."""
+        return {k: getattr(self, k) for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")}
+
+
+@dataclass(frozen=True)
+class NeoplasmSpec:
+    """``[neoplasm]``: a growing tumour or cyst.
+
+    Parameters
+    ----------
+    kind
+        ``"tumour"`` or ``"cyst"``.
+    region
+        Cell physical group holding the neoplasm at t = 0 (scenes with a mesh), else ``None``.
+    host
+        Cell groups it may grow into (may be empty; checked against the mesh).
+    t_end, dt
+        Growth time and step (s); the last step is shortened to end at ``t_end``.
+    remesh_every
+        Growth steps between remeshes (tumour), >= 0; 0 = never.
+    mechanics_every
+        Run the scene's ``[analysis]`` every N growth steps; 0 = only after growth.
+    radius
+        Extension: initial radius (m) of a meshless scene (disc in 2D, ball in 3D).
+    h
+        Extension: tumour mesh size (m); default ``radius / 8`` (meshless) or the mean
+        boundary edge of ``region``.
+    tumour, cyst
+        The parameters of the model named by ``kind`` (the other is ``None``).
+    """
+
+    kind: Literal["tumour", "cyst"]
+    t_end: float
+    dt: float
+    region: str | None = None
+    host: tuple[str, ...] = ()
+    remesh_every: int = 1
+    mechanics_every: int = 0
+    radius: float | None = None
+    h: float | None = None
+    tumour: TumourSpec | None = None
+    cyst: CystSpec | None = None
+
+    @property
+    def n_steps(self) -> int:
+        """Number of growth steps, ``ceil(t_end / dt)``."""
+        return max(1, math.ceil(self.t_end / self.dt * (1.0 - 1e-12)))
+
+    def times(self) -> npt.NDArray[np.float64]:
+        """Times at the end of each growth step (``k dt``, the last one exactly ``t_end``)."""
+        t = np.arange(1, self.n_steps + 1, dtype=np.float64) * self.dt
+        t[-1] = self.t_end
+        return t
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene.
 
@@ -482,11 +636,12 @@ class Scene:
     name
         Scene name (``[scene].name``, defaults to the file name without suffix).
     mesh_path
-        Absolute path of the mesh (given relative to the scene file).
+        Absolute path of the mesh (given relative to the scene file); ``None`` only in a
+        meshless growth-only scene.
     dimension
         2 (plane strain) or 3.
     analysis, solver
-        ``[analysis]`` and ``[solver]``.
+        ``[analysis]`` (``None`` in a growth-only scene) and ``[solver]``.
     materials, contacts, dirichlet, initial_velocities
         The entries of the arrays of tables, in file order.
     loads
@@ -495,13 +650,16 @@ class Scene:
         ``[output]``.
     raw
         The parsed TOML document, untouched.
+    neoplasm
+        ``[neoplasm]``, or ``None``.  A scene with ``[neoplasm]`` and no ``[analysis]``
+        is a *growth-only* scene.
     """
 
     path: Path
     name: str
-    mesh_path: Path
+    mesh_path: Path | None
     dimension: int
-    analysis: Analysis
+    analysis: Analysis | None
     solver: SolverOptions
     materials: tuple[MaterialSpec, ...]
     contacts: tuple[ContactSpec, ...]
@@ -510,6 +668,12 @@ class Scene:
     initial_velocities: tuple[InitialVelocitySpec, ...]
     output: OutputSpec
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    neoplasm: NeoplasmSpec | None = None
+
+    @property
+    def growth_only(self) -> bool:
+        """``[neoplasm]`` without ``[analysis]``: the growth runs alone (``growth.csv``)."""
+        return self.neoplasm is not None and self.analysis is None
 
     @property
     def cell_regions(self) -> tuple[str, ...]:
@@ -920,6 +1084,161 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
     return OutputSpec(directory=directory, fields_every=fields_every, probes=probes)  # type: ignore[arg-type]
 
 
+def _sub_table(tab: _Table, key: str) -> _Table | None:
+    """``[neoplasm.<key>]`` as a table, or ``None`` when absent."""
+    if not tab.has(key):
+        return None
+    value = tab.data[key]
+    if not isinstance(value, dict):
+        raise tab.error(key, f"must be a table [neoplasm.{key}], got {_describe(value)}")
+    return _Table(value, f"[neoplasm.{key}]")
+
+
+def _read_rate(tab: _Table, key: str, default: float, u_c1: float) -> float | RateExpression:
+    """A tumour rate: a number, or an expression string of ``u_c`` (checked at ``u_c = u_c1``)."""
+    value = tab.raw(key, False)
+    if value is _MISSING:
+        return default
+    if isinstance(value, str):
+        try:
+            expr = parse_rate(value)
+            probe = expr(u_c1)
+        except ExpressionError as exc:
+            raise tab.error(key, f"invalid expression of u_c: {exc}") from None
+        except (ArithmeticError, ValueError) as exc:
+            raise tab.error(key, f'expression "{value}" cannot be evaluated at u_c = u_c1 = {u_c1!r} '
+                                 f"({exc})") from None
+        if not math.isfinite(probe):
+            raise tab.error(key, f'expression "{value}" is not finite at u_c = u_c1 = {u_c1!r}')
+        return expr
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise tab.error(key, f'must be a number (1/s) or an expression string of u_c such as '
+                             f'"2.0*(u_c - 0.7)", got {_describe(value)}')
+    return tab._as_number(key, value)
+
+
+def _read_tumour(tab: _Table) -> TumourSpec:
+    tab.check_keys(TUMOUR_KEYS)
+    d = TumourSpec()
+    D_c = tab.number("D_c", default=d.D_c, positive=True)
+    lam = tab.number("lambda", default=d.lambda_, positive=True)
+    eps0 = tab.number("eps0", default=d.eps0, nonnegative=True)
+    u_c1 = tab.number("u_c1", default=d.u_c1, nonnegative=True)
+    assert u_c1 is not None
+    rates = {k: _read_rate(tab, k, getattr(d, k), u_c1) for k in TUMOUR_RATE_KEYS}
+    K_R = tab.number("K_R", default=d.K_R)
+    gamma = tab.number("gamma", default=d.gamma, nonnegative=True)
+    u_p0 = tab.number("u_p0", default=d.u_p0, nonnegative=True)
+    u_q0 = tab.number("u_q0", default=d.u_q0, nonnegative=True)
+    assert u_p0 is not None and u_q0 is not None
+    if u_p0 > 1.0:
+        raise tab.error("u_p0", f"must satisfy 0 <= u_p0 <= 1, got {u_p0!r}")
+    if u_p0 + u_q0 > 1.0 + 1e-14:
+        raise tab.error("u_q0", f"must satisfy u_p0 + u_q0 <= 1 (volume fractions), got "
+                                f"u_p0 = {u_p0!r}, u_q0 = {u_q0!r}")
+    return TumourSpec(D_c=D_c, lambda_=lam, eps0=eps0, u_c1=u_c1, K_R=K_R, gamma=gamma,  # type: ignore[arg-type]
+                      u_p0=u_p0, u_q0=u_q0, **rates)
+
+
+def _read_cyst(tab: _Table) -> CystSpec:
+    tab.check_keys(CYST_KEYS)
+    model = tab.string("model", default="sphere", choices=CYST_MODELS)
+    strain = tab.string("strain", default="log", choices=CYST_STRAINS)
+    beta = tab.number("beta", required=True, nonnegative=True, why=" (osmotic supply rate, mol m-2 s-1)")
+    C_minus = tab.number("C_minus", required=True, positive=True, why=" (outside osmolarity, mol/m3)")
+    temperature = tab.number("temperature", default=310.0, positive=True)
+    E = tab.number("E", default=1.0e6, positive=True)
+    viscosity = tab.number("viscosity", default=1.0e9, positive=True)
+    f0 = tab.number("f0", default=0.0)
+    assert temperature is not None and C_minus is not None and f0 is not None
+    r_gas = 8.314462618  # J mol-1 K-1, as bonecontact.cyst.R_GAS
+    if f0 <= -r_gas * temperature * C_minus:
+        raise tab.error("f0", f"must be > -R_g T C_minus = {-r_gas * temperature * C_minus:.6g} Pa "
+                              f"(the osmolarity inside the cyst must stay positive), got {f0!r}")
+    return CystSpec(beta=beta, C_minus=C_minus, model=model, strain=strain,  # type: ignore[arg-type]
+                    temperature=temperature, E=E, viscosity=viscosity, f0=f0)  # type: ignore[arg-type]
+
+
+def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -> NeoplasmSpec | None:
+    """``[neoplasm]`` and its sub-table (SCENE_FORMAT additions of issue #5)."""
+    tab = _table(doc, "neoplasm", required=False)
+    if tab is None:
+        return None
+    tab.check_keys(NEOPLASM_KEYS)
+    kind = tab.string("kind", required=True, choices=NEOPLASM_KINDS)
+    assert kind is not None
+    # initial geometry: a cell group of the mesh, or (extension) radius + h without a mesh
+    if has_mesh:
+        region = tab.string("region", required=True, why=" (the cell group holding the neoplasm at t = 0)")
+        if tab.has("radius"):
+            raise tab.error("radius", "is only for scenes without a mesh; with a mesh the initial "
+                                      'neoplasm is the cell group named by "region"')
+    else:
+        if tab.has("region"):
+            raise tab.error("region", "names a cell group of the mesh, but [scene] has no mesh; "
+                                      "give the initial size with radius = ... (m) instead")
+        region = None
+    radius = tab.number("radius", required=not has_mesh, positive=True,
+                        why=" (initial radius in m of a scene without a mesh: a disc in 2D, a ball in 3D)")
+    h = tab.number("h", positive=True)
+    if h is not None and kind == "cyst":
+        raise tab.error("h", 'is the tumour mesh size; the cyst model "sphere" has no mesh')
+    raw_host = tab.raw("host", False)
+    host: tuple[str, ...] = ()
+    if raw_host is not _MISSING:
+        if isinstance(raw_host, list) and not raw_host:
+            host = ()
+        else:
+            host = tab.names("host")
+        if host and not has_mesh:
+            raise tab.error("host", "names cell groups of the mesh, but [scene] has no mesh; "
+                                    "write host = [] or leave it out")
+        if region is not None and region in host:
+            raise tab.error("host", f'must not contain the neoplasm region "{region}" itself')
+    t_end = tab.number("t_end", required=True, positive=True, why=" (growth time, s)")
+    dt = tab.number("dt", required=True, positive=True, why=" (growth step, s)")
+    assert t_end is not None and dt is not None
+    if dt > t_end * (1.0 + 1e-12):
+        raise tab.error("dt", f"must be <= t_end = {t_end!r}, got {dt!r}")
+    remesh_every = tab.integer("remesh_every", default=1, minimum=0)
+    mechanics_every = tab.integer("mechanics_every", default=0, minimum=0)
+    assert mechanics_every is not None
+    if mechanics_every > 0 and not has_analysis:
+        raise tab.error("mechanics_every", f"is {mechanics_every} but the scene has no [analysis] to run; "
+                                           "a growth-only scene needs mechanics_every = 0")
+    tumour_tab, cyst_tab = _sub_table(tab, "tumour"), _sub_table(tab, "cyst")
+    other = cyst_tab if kind == "tumour" else tumour_tab
+    if other is not None:
+        raise tab.error("tumour" if kind == "cyst" else "cyst",
+                        f'[neoplasm.{"tumour" if kind == "cyst" else "cyst"}] is given but kind = "{kind}"; '
+                        f'write the parameters under [neoplasm.{kind}]')
+    tumour = cyst = None
+    if kind == "tumour":
+        tumour = _read_tumour(tumour_tab or _Table({}, "[neoplasm.tumour]"))
+    else:
+        if cyst_tab is None:
+            raise SceneError(None, "[neoplasm.cyst]", None,
+                             'missing required table (kind = "cyst" needs at least beta and C_minus)')
+        cyst = _read_cyst(cyst_tab)
+    return NeoplasmSpec(kind=kind, t_end=t_end, dt=dt, region=region, host=host,  # type: ignore[arg-type]
+                        remesh_every=remesh_every, mechanics_every=mechanics_every,  # type: ignore[arg-type]
+                        radius=radius, h=h, tumour=tumour, cyst=cyst)
+
+
+def _reject_mechanics_tables(doc: Mapping[str, Any]) -> None:
+    """A growth-only scene has no mechanics: its tables would be silently unused."""
+    for name in MECHANICS_TABLES:
+        if name in doc:
+            label = f"[{name}]" if name == "solver" else f"[[{name}]]"
+            raise SceneError(None, label, None,
+                             "belongs to a mechanics analysis, but this growth-only scene ([neoplasm] "
+                             "without [analysis]) has none; remove it")
+    out = doc.get("output")
+    if isinstance(out, dict) and "probes" in out:
+        raise SceneError(None, "[output]", "probes", "probes sample the mechanics fields; a growth-only "
+                                                     "scene writes growth.csv only, remove probes")
+
+
 def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_friction: bool = False) -> Scene:
     # format first: a different version may have different tables
     top = _Table(doc, None)
@@ -930,23 +1249,36 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
         raise top.error("format", f"unsupported scene format {fmt}; this package reads format {FORMAT_VERSION}")
     top.check_keys(TOP_LEVEL_KEYS, what="top-level key or table")
 
+    has_neoplasm = "neoplasm" in doc
     scene_tab = _table(doc, "scene", required=True)
     assert scene_tab is not None
     scene_tab.check_keys(SCENE_KEYS)
     name = scene_tab.string("name", default=path.stem)
-    mesh = scene_tab.string("mesh", required=True)  # path of the gmsh .msh file
-    assert mesh is not None and name is not None
+    # a growth-only scene may be meshless ([neoplasm] radius = ...)
+    mesh = scene_tab.string("mesh", required=not has_neoplasm)  # path of the gmsh .msh file
+    assert name is not None
     dim = scene_tab.integer("dimension", required=True, why=" (2 for plane strain or 3)")
     if dim not in (2, 3):
         raise scene_tab.error("dimension", f"must be 2 (plane strain) or 3, got {dim}")
-    mesh_path = Path(mesh)
-    if not mesh_path.is_absolute():
-        mesh_path = path.parent / mesh_path
-    mesh_path = mesh_path.resolve()
-    if not mesh_path.is_file():
-        raise scene_tab.error("mesh", f'mesh file "{mesh}" not found (looked for {mesh_path})')
+    mesh_path: Path | None = None
+    if mesh is not None:
+        mesh_path = Path(mesh)
+        if not mesh_path.is_absolute():
+            mesh_path = path.parent / mesh_path
+        mesh_path = mesh_path.resolve()
+        if not mesh_path.is_file():
+            raise scene_tab.error("mesh", f'mesh file "{mesh}" not found (looked for {mesh_path})')
 
+    if has_neoplasm and "analysis" not in doc:  # growth-only scene
+        _reject_mechanics_tables(doc)
+        neoplasm = _read_neoplasm(doc, mesh_path is not None, has_analysis=False)
+        output = _read_output(doc, dim)
+        return Scene(path=path, name=name, mesh_path=mesh_path, dimension=dim, analysis=None,
+                     solver=default_solver_options(), materials=(), contacts=(), dirichlet=(), loads=(),
+                     initial_velocities=(), output=output, raw=doc, neoplasm=neoplasm)
     analysis = _read_analysis(doc)
+    if mesh_path is None:
+        raise scene_tab.error("mesh", "missing required key (a scene with an [analysis] needs a mesh)")
     static = analysis.kind == "static"
     solver = _read_solver(doc)
     materials = _read_materials(doc, dim, analysis.kind == "dynamic")
@@ -955,6 +1287,12 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
     loads = _read_loads(doc, dim, static)
     initial_velocities = _read_initial_velocities(doc, dim)
     output = _read_output(doc, dim)
+    neoplasm = _read_neoplasm(doc, True, has_analysis=True)
+    if neoplasm is not None:
+        raise SceneError(None, "[neoplasm]", None,
+                         "growth together with an [analysis] (the neoplasm coupled to the loaded bone) is "
+                         "not supported yet by this version of bonecontact; run the growth alone (a scene "
+                         "with [neoplasm] and without [analysis], [[material]] and loads)")
     return Scene(path=path, name=name, mesh_path=mesh_path, dimension=dim, analysis=analysis,
                  solver=solver, materials=materials, contacts=contacts, dirichlet=dirichlet,
                  loads=loads, initial_velocities=initial_velocities, output=output, raw=doc)
@@ -1029,8 +1367,10 @@ def check_against_mesh(scene: Scene, groups: Mapping[str, tuple[int, int]], tdim
         group (dim ``tdim - 1``); two materials claim the same cell group tag; a
         cell group has no material; two ``[[dirichlet]]`` entries fix the same
         component of the same boundary; a traction acts on a component that a
-        ``[[dirichlet]]`` entry fixes on the same boundary.  Messages list the
-        available names of the right dimension.
+        ``[[dirichlet]]`` entry fixes on the same boundary; the ``[neoplasm]``
+        region or a host group is not a cell group, or a host has the region's tag.
+        Messages list the available names of the right dimension.  A growth-only
+        scene has no materials, so its cell groups need none.
     """
     file = str(scene.path)
     if tdim != scene.dimension or gdim != scene.dimension:
@@ -1066,7 +1406,17 @@ def check_against_mesh(scene: Scene, groups: Mapping[str, tuple[int, int]], tdim
                                  f'region "{r}" (tag {tag}) has the same cells as a region of material '
                                  f'"{owner[tag]}"')
             owner[tag] = m.name
+    if scene.neoplasm is not None:
+        neo = scene.neoplasm
+        if neo.region is not None:
+            rtag = require(neo.region, tdim, "[neoplasm]", "region")
+            for h in neo.host:
+                if require(h, tdim, "[neoplasm]", "host") == rtag:
+                    raise SceneError(file, "[neoplasm]", "host",
+                                     f'"{h}" has the same cells (tag {rtag}) as the neoplasm region "{neo.region}"')
     for name, (d, tag) in sorted(groups.items()):
+        if scene.growth_only:  # no mechanics: cell groups need no material
+            break
         if d == tdim and tag not in owner:
             raise SceneError(file, "[[material]]", "regions",
                              f'cell group "{name}" has no material; list it in the regions of a [[material]]')

@@ -144,7 +144,7 @@ CASES: list[tuple[str, list[tuple], str | None, str | None, str]] = [
     ("format-string", [("set", ("format",), "1")], "format", None, "integer 1"),
     ("format-bool", [("set", ("format",), True)], "format", None, "boolean"),
     ("unknown-top-level-key", [("set", ("colour",), "red")], "colour", None, "allowed: format, scene"),
-    ("unknown-top-level-table", [("set", ("neoplasm",), {"kind": "tumour"})], "neoplasm", None,
+    ("unknown-top-level-table", [("set", ("fracture",), {"kind": "brittle"})], "fracture", None,
      "not supported yet"),
     ("scene-table-missing", [("del", ("scene",))], None, "[scene]", "missing required table"),
     ("scene-not-a-table", [("set", ("scene",), 3)], "scene", None, "must be a table"),
