@@ -15,21 +15,44 @@ dynamic        M + Δt² K + Δt Kv                       Δt² F(t) + M(2uⁿ �
 Dirichlet conditions are imposed by symmetric elimination on the fixed operator
 (rows and columns of A replaced by the identity, prescribed values lifted into the
 right-hand side with the unmodified operator).
+
+Energy balance (``Integrator(..., energy_balance=True)``)
+----------------------------------------------------------
+With Eⁿ = ½ vⁿᵀ M vⁿ + ½ uⁿᵀ K uⁿ (kinetic only in dynamic runs), vⁿ = (uⁿ − uⁿ⁻¹)/Δt,
+Δu = uⁿ⁺¹ − uⁿ and the physical residual of the step
+r = M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt² + K uⁿ⁺¹ + Kv vⁿ⁺¹ − Fⁿ⁺¹ (the force that contact and
+Dirichlet supports exert), testing the scheme with Δu gives exactly
+
+    Eⁿ⁺¹ − Eⁿ = W_ext + W_dir + W_c − D_visc − D_num,
+    W_ext = Fⁿ⁺¹·Δu,   W_dir = Σ_{Dirichlet dofs} r_i Δu_i,   W_c = Σ_{other dofs} r_i Δu_i,
+    D_visc = Δt |vⁿ⁺¹|²_Kv,   D_num = ½|vⁿ⁺¹ − vⁿ|²_M + ½|Δu|²_K   (both ≥ 0).
+
+The contact work is computed independently of the residual, from the mortar
+multipliers and gaps: W_c = Σ_p D_pp λ_p (g_pⁿ⁺¹ − g_pⁿ) over the slave nodes
+(λ_p ≥ 0 the pressure, g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) the nodal gap).
+With λ_p gⁿ⁺¹_p = 0 (complementarity) it equals −Σ D λ gⁿ ≤ 0: contact only dissipates.
+The residual-based value is kept as ``contact_work_residual``; their difference, and
+the balance defect ``Eⁿ⁺¹ − Eⁿ − (W_ext + W_dir + W_c − D_visc − D_num)``, measure how
+well the discrete contact forces are those of the multipliers (solver tolerance).
+Quasi-static and static steps obey the same identity without the kinetic and mass
+terms (``D_visc = |Δu|²_Kv/Δt``; static: no viscous term).
 """
 
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Literal
 
+import numpy as np
 from dolfinx import fem
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .linalg import create_solver, owned_global_rows, rigid_body_modes
 from .mechanics import Mechanics
 
-__all__ = ["Integrator", "StepInfo", "Energy"]
+__all__ = ["Integrator", "StepInfo", "Energy", "EnergyBalance"]
 
 Kind = Literal["static", "quasistatic", "dynamic"]
 
@@ -44,6 +67,58 @@ class Energy:
     @property
     def total(self) -> float:
         return self.kinetic + self.strain
+
+
+@dataclass
+class EnergyBalance:
+    """Energy balance of one step, or of a run (cumulative), in J (J/m in 2D).
+
+    See the module docstring: ``kinetic + strain`` after the step(s) equals the value
+    before plus ``external_work + dirichlet_work + contact_work − viscous_dissipation
+    − numerical_dissipation`` up to ``defect``.
+
+    Attributes
+    ----------
+    kinetic, strain
+        Energies after the step (for a cumulative record: at the current time).
+    external_work
+        Work of the applied loads, Fⁿ⁺¹·Δu.
+    dirichlet_work
+        Work of the support reactions on prescribed (moving) displacements.
+    contact_work
+        Work of the contact pressures, Σ D_pp λ_p Δg_p (≤ 0), from the multipliers.
+    contact_work_residual
+        The same from the step residual on the dofs without Dirichlet conditions.
+    viscous_dissipation
+        Kelvin–Voigt dissipation Δt |vⁿ⁺¹|²_Kv (≥ 0).
+    numerical_dissipation
+        Dissipation of the first-order scheme, ½|Δv|²_M + ½|Δu|²_K (≥ 0).
+    defect
+        ``ΔE − (W_ext + W_dir + W_c − D_visc − D_num)``; round-off / solver tolerance.
+    """
+
+    kinetic: float = 0.0
+    strain: float = 0.0
+    external_work: float = 0.0
+    dirichlet_work: float = 0.0
+    contact_work: float = 0.0
+    contact_work_residual: float = 0.0
+    viscous_dissipation: float = 0.0
+    numerical_dissipation: float = 0.0
+    defect: float = 0.0
+
+    @property
+    def total(self) -> float:
+        """Kinetic plus strain energy."""
+        return self.kinetic + self.strain
+
+    def accumulate(self, step: "EnergyBalance") -> None:
+        """Add the works of ``step`` and take its energies (running totals)."""
+        for f in fields(self):
+            if f.name in ("kinetic", "strain"):
+                setattr(self, f.name, getattr(step, f.name))
+            else:
+                setattr(self, f.name, getattr(self, f.name) + getattr(step, f.name))
 
 
 @dataclass
@@ -80,10 +155,16 @@ class Integrator:
     contact_options
         Keyword arguments for :class:`~bonecontact.pdas.ContactSolver`
         (``max_iterations``, ``c_n``, ``gap_tol``).
+    energy_balance
+        Compute the energy balance of every step (module docstring; a few
+        matrix–vector products per step): ``self.last_balance`` holds the last
+        step's :class:`EnergyBalance`, ``self.balance`` the running totals since
+        :meth:`set_initial`.
     """
 
     def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12,
-                 contact: list | None = None, contact_options: dict | None = None):
+                 contact: list | None = None, contact_options: dict | None = None,
+                 energy_balance: bool = False):
         if dt <= 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         if kind not in ("static", "quasistatic", "dynamic"):
@@ -130,6 +211,20 @@ class Integrator:
         self.setup_time = _time.perf_counter() - t0
         self._b, self._w = self.A.createVecs()
         self._F = self._b.duplicate()
+        self._coeffs = coeffs
+        self.energy_balance = bool(energy_balance)
+        self.last_balance: EnergyBalance | None = None
+        self.balance = EnergyBalance()
+        self._interfaces = list(contact or [])
+        self._eb: dict = {}
+        if self.energy_balance:
+            self._eb = {k: self._b.duplicate() for k in ("du", "du_prev", "r", "tmp")}
+            if self._interfaces:
+                from .mortar import basis_transform, rotation_matrix
+
+                self._eb["Qt"] = basis_transform(V, self._interfaces)
+                self._eb["T"] = rotation_matrix(V, self._interfaces)
+            self._reset_balance()
 
     # -------------------------------------------------------------- set-up
     def set_initial(self, u0: fem.Function | None = None, v0: fem.Function | None = None) -> None:
@@ -138,6 +233,8 @@ class Integrator:
         self.velocity.x.array[:] = 0.0 if v0 is None else v0.x.array
         self.u_nm1.x.array[:] = self.u_n.x.array - self.dt * self.velocity.x.array
         self.u.x.array[:] = self.u_n.x.array
+        if self.energy_balance:
+            self._reset_balance()
 
     # ---------------------------------------------------------------- steps
     def rhs(self, t: float) -> PETSc.Vec:
@@ -193,6 +290,9 @@ class Integrator:
             its = self.last_contact.linear_iterations
         else:
             its = self.solve_linear(b, self.u)
+        if self.energy_balance:
+            self.last_balance = self._balance_step()
+            self.balance.accumulate(self.last_balance)
         self._advance(t)
         return StepInfo(self.step_count, t, its, _time.perf_counter() - t0)
 
@@ -221,10 +321,92 @@ class Integrator:
             kin = 0.5 * self._w.dot(v)
         return Energy(kin, strain)
 
+    # ------------------------------------------------------- energy balance
+    def contact_gaps(self, u: fem.Function | None = None) -> list[np.ndarray]:
+        """Nodal normal gaps g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) of every contact
+        interface for the displacement ``u`` (default: the current state ``u_n``), in
+        the order of ``interface.blocks`` (owned slave nodes).  Needs ``energy_balance``.
+        """
+        if "Qt" not in self._eb:
+            raise RuntimeError("contact_gaps needs Integrator(..., contact=[...], energy_balance=True)")
+        U = (self.u_n if u is None else u).x.petsc_vec
+        Qt, T, tmp, r = self._eb["Qt"], self._eb["T"], self._eb["tmp"], self._eb["r"]
+        Qt.mult(U, tmp)
+        tmp.aypx(-1.0, U)
+        tmp.axpy(1.0, U)                  # Û = (2I − Qᵀ) U  (Qᵀ − I is nilpotent)
+        T.mult(tmp, r)                    # rows bs·p: n_p·Û_p
+        bs = self.model.V.dofmap.index_map_bs
+        return [itf.gap - r.array[bs * itf.blocks] for itf in self._interfaces]
+
+    def _reset_balance(self) -> None:
+        e = self.energy()
+        self.balance = EnergyBalance(kinetic=e.kinetic, strain=e.strain)
+        self.last_balance = None
+        self._gaps = self.contact_gaps() if "Qt" in self._eb else []
+
+    def _balance_step(self) -> EnergyBalance:
+        """Energy balance of the step just solved (``self.u`` holds uⁿ⁺¹; history not shifted)."""
+        m, eb = self.model, self._eb
+        c_mass, c_el, c_visc = self._coeffs
+        du, dup, r, tmp = eb["du"], eb["du_prev"], eb["r"], eb["tmp"]
+        u, un, unm1 = self.u.x.petsc_vec, self.u_n.x.petsc_vec, self.u_nm1.x.petsc_vec
+        du.waxpy(-1.0, un, u)
+        dup.waxpy(-1.0, unm1, un)
+
+        def sq(A: PETSc.Mat, x: PETSc.Vec) -> float:
+            A.mult(x, tmp)
+            return tmp.dot(x)
+
+        # r = (c_M M (Δu − Δu_prev) + c_K K u + c_V Kv Δu)/c_K − F
+        m.K.mult(u, r)
+        r.axpy(-1.0, self._F)
+        kinetic = num = visc = 0.0
+        if c_mass:
+            dup.aypx(-1.0, du)                         # Δu − Δu_prev
+            m.M.mult(dup, tmp)
+            r.axpy(c_mass / c_el, tmp)
+            num += 0.5 * c_mass / c_el * tmp.dot(dup)
+            kinetic = 0.5 * c_mass / c_el * sq(m.M, du)
+        if c_visc and m.Kv is not None:
+            m.Kv.mult(du, tmp)
+            r.axpy(c_visc / c_el, tmp)
+            visc = c_visc / c_el * tmp.dot(du)
+        m.K.mult(du, tmp)
+        num += 0.5 * tmp.dot(du)
+        strain = 0.5 * sq(m.K, u)
+        w_ext = self._F.dot(du)
+        # split r·Δu into Dirichlet rows and the rest
+        r.pointwiseMult(r, du)
+        local = r.array_r
+        bc = self._bc_owned_local
+        w_dir_local = float(local[bc].sum()) if bc.size else 0.0
+        comm = self.model.mesh.comm
+        w_dir = comm.allreduce(w_dir_local, op=MPI.SUM)
+        w_res = comm.allreduce(float(local.sum()) - w_dir_local, op=MPI.SUM)
+        w_c = 0.0
+        if self._gaps:
+            gaps = self.contact_gaps(self.u)
+            res = self.last_contact
+            local_c = 0.0
+            for k, itf in enumerate(self._interfaces):
+                p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
+                local_c += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
+            w_c = comm.allreduce(local_c, op=MPI.SUM)
+            self._gaps = gaps
+        else:
+            w_c = w_res
+        before = self.balance.total
+        defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)
+        return EnergyBalance(kinetic=kinetic, strain=strain, external_work=w_ext, dirichlet_work=w_dir,
+                             contact_work=w_c, contact_work_residual=w_res, viscous_dissipation=visc,
+                             numerical_dissipation=num, defect=defect)
+
     def destroy(self) -> None:
         """Free the PETSc objects."""
         if self.contact is not None:
             self.contact.destroy()
+        for obj in self._eb.values():
+            obj.destroy()
         for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F):
             if obj is not None:
                 obj.destroy()
