@@ -1169,7 +1169,10 @@ def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -
     assert kind is not None
     # initial geometry: a cell group of the mesh, or (extension) radius + h without a mesh
     if has_mesh:
-        region = tab.string("region", required=True, why=" (the cell group holding the neoplasm at t = 0)")
+        if not tab.has("region"):
+            raise tab.error("region", "missing required key (the cell group of the mesh holding the "
+                                      "neoplasm at t = 0)")
+        region = tab.string("region", required=True)
         if tab.has("radius"):
             raise tab.error("radius", "is only for scenes without a mesh; with a mesh the initial "
                                       'neoplasm is the cell group named by "region"')
