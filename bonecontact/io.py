@@ -26,10 +26,14 @@ from mpi4py import MPI
 
 from . import __version__
 
-__all__ = ["StressFields", "Probes", "ResultsWriter", "HISTORY_COLUMNS", "ProbeError"]
+__all__ = ["StressFields", "Probes", "ResultsWriter", "HISTORY_COLUMNS", "ENERGY_COLUMNS", "ProbeError"]
 
 HISTORY_COLUMNS = ["step", "time", "pair", "normal_force", "tangential_force", "n_active", "n_stick",
                    "n_slip", "pdas_iterations", "kinetic_energy", "strain_energy"]
+#: extra history.csv columns of dynamic runs: running totals of the energy balance
+#: (:class:`bonecontact.timestepping.EnergyBalance`), J or J/m in 2D
+ENERGY_COLUMNS = ["external_work", "dirichlet_work", "contact_work", "viscous_dissipation",
+                  "numerical_dissipation"]
 
 
 class ProbeError(ValueError):
@@ -173,9 +177,14 @@ class ResultsWriter:
         Output directory (created).
     scene
         Scene name (for the summary).
+    probes
+        Probe points (``probes.csv``), if any.
+    extra_history_columns
+        Columns appended to ``HISTORY_COLUMNS`` (dynamic runs: ``ENERGY_COLUMNS``).
     """
 
-    def __init__(self, comm: MPI.Comm, directory: Path, scene: str, probes: Probes | None = None):
+    def __init__(self, comm: MPI.Comm, directory: Path, scene: str, probes: Probes | None = None,
+                 extra_history_columns: Sequence[str] = ()):
         self.comm = comm
         self.dir = Path(directory)
         self.scene = scene
@@ -188,7 +197,7 @@ class ResultsWriter:
             self.dir.mkdir(parents=True, exist_ok=True)
             self._hist = open(self.dir / "history.csv", "w", newline="")
             self._hist_w = csv.writer(self._hist)
-            self._hist_w.writerow(HISTORY_COLUMNS)
+            self._hist_w.writerow(HISTORY_COLUMNS + list(extra_history_columns))
             if probes is not None and len(probes.points):
                 self._probe_file = open(self.dir / "probes.csv", "w", newline="")
                 self._probe_w = csv.writer(self._probe_file)

@@ -17,7 +17,7 @@ from dolfinx.io import gmsh as gmshio
 from mpi4py import MPI
 from tqdm import tqdm
 
-from .io import ProbeError, Probes, ResultsWriter, StressFields
+from .io import ENERGY_COLUMNS, ProbeError, Probes, ResultsWriter, StressFields
 from .mechanics import Mechanics
 from .scene import Scene, SceneError, check_against_mesh
 from .timestepping import Integrator
@@ -194,15 +194,17 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
     model = sm.model
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = _steps(scene)
+    dynamic = scene.analysis.kind == "dynamic"  # dynamic runs book the energy balance
     integ = Integrator(model, scene.analysis.kind, dt, linear=scene.solver.linear,
                        rtol=min(1e-2 * scene.solver.tolerance, 1e-12), contact=sm.interfaces or None,
-                       contact_options={"max_iterations": scene.solver.max_iterations})
+                       contact_options={"max_iterations": scene.solver.max_iterations}, energy_balance=dynamic)
     integ.set_initial(None, sm.v0)
     stress = StressFields(model.mesh, model.stress_expression(integ.u, integ.velocity))
-    writer = ResultsWriter(comm, outdir, scene.name, sm.probes)
+    writer = ResultsWriter(comm, outdir, scene.name, sm.probes, ENERGY_COLUMNS if dynamic else ())
     every = scene.output.fields_every
 
     fields_written = [-1]
+    e0 = integ.balance.total
 
     def record(step: int, t: float, write_fields: bool, tables: bool = True) -> None:
         model.update_nodal_volumetric(integ.u, integ.velocity)
@@ -213,17 +215,18 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
             return
         e = integ.energy()
         res = integ.last_contact
+        works = [getattr(integ.balance, c) for c in ENERGY_COLUMNS] if dynamic else []
         if not sm.interfaces:
-            writer.history([[step, t, "", 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain]])
+            writer.history([[step, t, "", 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain, *works]])
         else:
             rows = []
             for k, itf in enumerate(sm.interfaces):
                 if res is None:  # initial state: no contact solve yet
-                    rows.append([step, t, itf.name, 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain])
+                    rows.append([step, t, itf.name, 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain, *works])
                     continue
                 # frictionless: active nodes slide freely ("slip"), no tangential traction
                 rows.append([step, t, itf.name, res.normal_force[k], 0.0, res.n_active[k], 0, res.n_active[k],
-                             res.iterations, e.kinetic, e.strain])
+                             res.iterations, e.kinetic, e.strain, *works])
                 status = np.where(res.active[k], "slip", "open")
                 writer.contact_table(itf.name, itf.coords, res.gap[k], res.pressure[k],
                                      np.zeros((itf.num_owned, itf.gdim - 1)), res.slip[k], list(status))
@@ -261,6 +264,10 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
                            "pdas_iterations": {"total": int(sum(pdas_its)), "max": int(max(pdas_its, default=0))},
                            "solver": "PDAS (semi-smooth Newton), frictionless, dual mortar",
                            "setup_time_s": integ.contact.setup_time}
+    if dynamic:
+        b = integ.balance
+        info["energy"] = {"initial": e0, "final": b.total, **{c: getattr(b, c) for c in ENERGY_COLUMNS},
+                          "defect": b.defect}
     if message is not None:
         info["message"] = message
     summary = writer.summary(status, **info)

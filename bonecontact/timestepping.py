@@ -88,7 +88,8 @@ class EnergyBalance:
     contact_work
         Work of the contact pressures, Σ D_pp λ_p Δg_p (≤ 0), from the multipliers.
     contact_work_residual
-        The same from the step residual on the dofs without Dirichlet conditions.
+        The same from the step residual on the dofs without Dirichlet conditions
+        (without contact: the residual of the linear solve, ~ solver tolerance).
     viscous_dissipation
         Kelvin–Voigt dissipation Δt |vⁿ⁺¹|²_Kv (≥ 0).
     numerical_dissipation
@@ -393,8 +394,6 @@ class Integrator:
                 local_c += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
             w_c = comm.allreduce(local_c, op=MPI.SUM)
             self._gaps = gaps
-        else:
-            w_c = w_res
         before = self.balance.total
         defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)
         return EnergyBalance(kinetic=kinetic, strain=strain, external_work=w_ext, dirichlet_work=w_dir,

@@ -185,7 +185,13 @@ def test_valid_scene_runs_and_energy_is_plausible(tmp_path, meshes):
     assert summary["steps"] == 2
     header = (out / "history.csv").read_text().splitlines()[0]
     assert header == ("step,time,pair,normal_force,tangential_force,n_active,n_stick,n_slip,"
-                      "pdas_iterations,kinetic_energy,strain_energy")
+                      "pdas_iterations,kinetic_energy,strain_energy,external_work,dirichlet_work,"
+                      "contact_work,viscous_dissipation,numerical_dissipation")
+    # dynamic run: the energy balance closes (E = W_ext + W_dir + W_c - D_visc - D_num from rest)
+    last = [float(x) for x in (out / "history.csv").read_text().splitlines()[-1].split(",")[3:]]
+    e, works = last[6] + last[7], last[8] + last[9] + last[10] - last[11] - last[12]
+    assert e > 0.0 and works == pytest.approx(e, rel=1e-9)
+    assert summary["energy"]["final"] == pytest.approx(e, rel=1e-12)
     assert (out / "probes.csv").read_text().splitlines()[0].startswith("step,time,probe,x,y,u_x,u_y")
 
 
