@@ -78,7 +78,7 @@ beta = {beta}
 C_minus = 1.0
 temperature = 310.0
 E = 1.0e6
-viscosity = 1.0e9
+viscosity = {viscosity}
 f0 = {f0}
 
 [output]
@@ -223,7 +223,7 @@ INVALID = [
     ("cyst-beta-negative", C, _sub("beta = {beta}", "beta = -1e-11"), "beta", [">= 0"]),
     ("cyst-beta-missing", C, _sub("beta = {beta}\n", ""), "beta", ["missing"]),
     ("cyst-C_minus-zero", C, _sub("C_minus = 1.0", "C_minus = 0.0"), "C_minus", ["> 0"]),
-    ("cyst-viscosity-string", C, _sub("viscosity = 1.0e9", 'viscosity = "high"'), "viscosity", ["number"]),
+    ("cyst-viscosity-string", C, _sub("viscosity = {viscosity}", 'viscosity = "high"'), "viscosity", ["number"]),
     ("cyst-f0-too-negative", C, _sub("f0 = {f0}", "f0 = -1.0e4"), "f0", ["osmolarity"]),
     ("cyst-unknown-key", C, _sub("f0 = {f0}", "f0 = {f0}\nalpha = 3.0"), "alpha", ["allowed: model, strain"]),
     # growth-only scenes have no mechanics
@@ -242,7 +242,7 @@ INVALID = [
 ]
 
 BASES = {T: TUMOUR, C: CYST, M: REGION}
-CYST_DEFAULTS = {"dim": 3, "t_end": YEAR, "dt": YEAR / 12, "beta": 3.2e-11, "f0": 0.0}
+CYST_DEFAULTS = {"dim": 3, "t_end": YEAR, "dt": YEAR / 12, "beta": 3.2e-11, "f0": 0.0, "viscosity": 1.0e9}
 
 
 def _scene_text(base: str, edit, out: Path, mesh: Path) -> str:
@@ -330,7 +330,7 @@ def test_cyst_beta_zero_limit(shared_dir):
     assert header == ["time", "volume", "surface_area", "equivalent_radius", "pressure"]
     assert len(g) == 21 and g[0, 0] == 0.0 and g[-1, 0] == pytest.approx(200 * YEAR, rel=1e-15)
     R_inf = R0 * (1.0 + f0 / (R_GAS * T_ * 1.0)) ** (1.0 / 3.0)
-    assert g[-1, 3] == pytest.approx(R_inf, rel=1e-6)
+    assert g[-1, 3] == pytest.approx(R_inf, rel=1e-6, abs=0)
     assert abs(g[-1, 4]) < 1e-6 * f0 and g[0, 4] == f0
     assert g[-1, 3] > 1.05 * R0                                   # it did grow
     np.testing.assert_allclose(g[:, 1], 4 / 3 * np.pi * g[:, 3] ** 3, rtol=1e-14)
@@ -341,18 +341,34 @@ def test_cyst_beta_zero_limit(shared_dir):
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_cyst_long_time_rate(shared_dir, dim):
-    """Log strain: dR/dt → β/C⁻ (linear growth, about 1 mm/year), to 1e-6; in 2D the
-    columns are area, perimeter and sqrt(A/π)."""
+    """Log strain: dR/dt → β/C⁻ (linear growth), to 1e-6 relative; in 2D the columns are
+    area, perimeter and sqrt(A/π).
+
+    The rate approaches β/C⁻ algebraically, with a relative deviation of about
+    f/(R_g T C⁻) ≈ βν/(R_g T C⁻² R) (see the next test), so a soft surrounding
+    (ν = 1e5 Pa s) is used to reach 1e-6 within 20 years.
+    """
     beta = 3.2e-11
-    _, g, _ = _run_cyst(shared_dir, f"rate{dim}", dim=dim, beta=beta, t_end=200 * YEAR, dt=YEAR)
+    _, g, _ = _run_cyst(shared_dir, f"rate{dim}", dim=dim, beta=beta, viscosity=1.0e5, t_end=20 * YEAR, dt=YEAR)
     rate = (g[-1, 3] - g[-2, 3]) / (g[-1, 0] - g[-2, 0])
-    assert rate == pytest.approx(beta / 1.0, rel=1e-6)
-    # the osmotic excess that drives it decays like 1/R: f = βν/(C⁻R − dτβ), τ = ν/E (Pa)
-    tau = 1.0e9 / 1.0e6
-    assert g[-1, 4] == pytest.approx(beta * 1.0e9 / (1.0 * g[-1, 3] - dim * tau * beta), rel=1e-4)
+    assert rate == pytest.approx(beta / 1.0, rel=1e-6, abs=0)
     if dim == 2:
         np.testing.assert_allclose(g[:, 1], np.pi * g[:, 3] ** 2, rtol=1e-14)
         np.testing.assert_allclose(g[:, 2], 2 * np.pi * g[:, 3], rtol=1e-14)
+
+
+def test_cyst_radicular_approach(shared_dir):
+    """Radicular parameters (ν = 1e9 Pa s), 200 years: the excess pressure decays like
+    f = βν/(C⁻R − 3τβ) (τ = ν/E), and the rate is β/C⁻ (≈ 1 mm/year) up to the
+    predicted relative deficit ≈ f/(R_g T C⁻)."""
+    beta, nu, E, C = 3.2e-11, 1.0e9, 1.0e6, 1.0
+    _, g, _ = _run_cyst(shared_dir, "radicular", beta=beta, t_end=200 * YEAR, dt=YEAR)
+    R, f = g[-1, 3], g[-1, 4]
+    assert f == pytest.approx(beta * nu / (C * R - 3 * (nu / E) * beta), rel=1e-4, abs=0)
+    rate = (g[-1, 3] - g[-2, 3]) / (g[-1, 0] - g[-2, 0])
+    deficit = 1.0 - rate / (beta / C)
+    assert 0.0 < deficit < 2.0 * f / (R_GAS * 310.0 * C)
+    assert rate * 1e3 * YEAR == pytest.approx(1.01, abs=0.01)     # mm per year
 
 
 # --------------------------------------------------------------------------------------
