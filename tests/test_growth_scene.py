@@ -228,7 +228,8 @@ INVALID = [
     ("cyst-unknown-key", C, _sub("f0 = {f0}", "f0 = {f0}\nalpha = 3.0"), "alpha", ["allowed: model, strain"]),
     # growth-only scenes have no mechanics
     ("growth-only-material", T, _sub("[output]", '[[material]]\nname = "m"\nregions = ["b"]\nmodel = "isotropic"\n'
-                                                 "E = 1e9\nnu = 0.3\n\n[output]"), None, ["[[material]]", "growth-only"]),
+                                                 "E = 1e9\nnu = 0.3\n\n[output]"), None,
+     ["[[material]]", "growth-only"]),
     ("growth-only-probes", T, _sub('directory = "{out}"', 'directory = "{out}"\nprobes = [[0.0, 0.0]]'), "probes",
      ["growth.csv"]),
     ("coupled-not-yet", M, _sub("[neoplasm]", '[analysis]\nkind = "static"\n\n[[material]]\nname = "m"\n'
