@@ -422,3 +422,29 @@ def test_growth_csv_same_on_1_and_2_ranks(tmp_path):
     np.testing.assert_allclose(g2, g1, rtol=1e-10, atol=0)
     # the region's disc (radius 1, h = 0.25) is the initial tumour, and it grows
     assert g1[0, 3] == pytest.approx(1.0, rel=0.01) and g1[-1, 3] > 1.05 * g1[0, 3]
+
+
+def test_failed_growth_step_exit_1_rows_kept(shared_dir, monkeypatch):
+    """A growth step that raises (e.g. gmsh cannot remesh): exit 1, status "failed" with the
+    step in the message, and the rows of the steps done are in growth.csv."""
+    import json
+
+    from bonecontact import growth
+
+    step = growth.TumourGrowth.step
+
+    def failing(self, dt):
+        if self.steps == 2:
+            raise RuntimeError("simulated remesh failure")
+        step(self, dt)
+
+    monkeypatch.setattr(growth.TumourGrowth, "step", failing)
+    out = shared_dir / "out-fail"
+    scene = _write(shared_dir, "fail.toml", TUMOUR.format(out=out))
+    assert main(["run", str(scene), "-q"]) == 1
+    _, g = _read_growth(out / "growth.csv")
+    np.testing.assert_allclose(g[:, 0], [0.0, 0.2, 0.4], rtol=1e-14)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "failed" and s["growth"]["steps"] == 2
+    assert "growth step 3" in s["message"] and "simulated remesh failure" in s["message"]
+    assert s["growth"]["final_radius"] == g[-1, 3]
