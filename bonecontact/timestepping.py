@@ -52,7 +52,7 @@ from petsc4py import PETSc
 from .linalg import create_solver, owned_global_rows, rigid_body_modes
 from .mechanics import Mechanics
 
-__all__ = ["Integrator", "StepInfo", "Energy", "EnergyBalance"]
+__all__ = ["Integrator", "StepInfo", "Energy", "EnergyBalance", "redistributed_mass"]
 
 Kind = Literal["static", "quasistatic", "dynamic"]
 
@@ -122,6 +122,72 @@ class EnergyBalance:
                 setattr(self, f.name, getattr(self, f.name) + getattr(step, f.name))
 
 
+def redistributed_mass(model: Mechanics, interfaces: list) -> PETSc.Mat:
+    """Mass matrix without inertia at the slave contact nodes (chatter removal).
+
+    Mass redistribution in the spirit of Khenous, Laborde & Renard (Eur. J. Mech. A
+    27, 2008) and, for dual mortars, Hager, Hüeber & Wohlmuth (IJNME 73, 2008): in
+    every cell that has slave nodes carrying a multiplier (set C) and other nodes
+    (set N), the element mass matrix M_e is replaced by PᵀM_eP, where P sets the
+    value at each node of C to the mean of the values at the nodes of N.  Then the
+    rows and columns of the contact nodes vanish, the matrix stays symmetric positive
+    semi-definite on each cell (definite overall as long as every body has interior
+    nodes), and the total mass of each cell (P reproduces constants) and hence
+    momentum are kept; the cell's centre of mass moves towards its interior nodes by
+    O(h) (first moments are not kept).  Cells whose nodes all lie in C are unchanged.
+    Element matrices use the cell density (DG0 ``rho``) and the exact P1 mass matrix
+    ρ|T|(1 + δ_ij)/((d+1)(d+2)).
+
+    Parameters
+    ----------
+    model
+        The mechanics model (P1 vector space ``model.V``).
+    interfaces
+        Contact interfaces (:func:`bonecontact.mortar.build_interface`).
+
+    Returns
+    -------
+    PETSc.Mat
+        ``M + ΔM`` (a new matrix with the pattern of ``model.M``).
+    """
+    V, msh = model.V, model.mesh
+    bs = V.dofmap.index_map_bs
+    tdim = msh.topology.dim
+    mark = fem.Function(V)
+    for itf in interfaces:
+        mark.x.array[bs * itf.blocks] = 1.0
+    mark.x.scatter_forward()  # owned slave blocks → ghosts
+    contact_block = mark.x.array[::bs] > 0.0
+    cells = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
+    blocks = V.dofmap.list[cells]
+    flags = contact_block[blocks]
+    sel = flags.any(axis=1) & ~flags.all(axis=1)
+    cells, blocks, flags = cells[sel], blocks[sel], flags[sel]
+    M = model.M.duplicate(copy=True)
+    M.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+    if cells.size:
+        x = msh.geometry.x[msh.geometry.dofmaps[0][cells]][:, :, :tdim]       # (n, d+1, d)
+        jac = x[:, 1:, :] - x[:, :1, :]
+        vol = np.abs(np.linalg.det(jac)) / np.prod(np.arange(1, tdim + 1))
+        rho = model.fields.rho
+        rho_c = rho.x.array[rho.function_space.dofmap.list[cells, 0]]
+        nn = tdim + 1
+        base = (np.ones((nn, nn)) + np.eye(nn)) / (nn * (nn + 1))
+        gblocks = V.dofmap.index_map.local_to_global(blocks.ravel()).reshape(blocks.shape)
+        comp = np.arange(bs)
+        for c in range(cells.size):
+            Me = rho_c[c] * vol[c] * base
+            P = np.eye(nn)
+            interior = ~flags[c]
+            for k in np.flatnonzero(flags[c]):
+                P[k, :] = interior / interior.sum()
+            dMe = P.T @ Me @ P - Me
+            dofs = (bs * gblocks[c][:, None] + comp[None, :]).ravel().astype(PETSc.IntType)
+            M.setValues(dofs, dofs, np.kron(dMe, np.eye(bs)).ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+    M.assemble()
+    return M
+
+
 @dataclass
 class StepInfo:
     """What one step did."""
@@ -161,11 +227,16 @@ class Integrator:
         matrix–vector products per step): ``self.last_balance`` holds the last
         step's :class:`EnergyBalance`, ``self.balance`` the running totals since
         :meth:`set_initial`.
+    mass_redistribution
+        Dynamic contact only: use the mass matrix of :func:`redistributed_mass` (no
+        inertia at slave contact nodes; total mass kept) instead of the consistent
+        one — the chatter-removal option of issue #4.  ``self.M`` is the mass matrix
+        in use (kinetic energy and balance are computed with it).
     """
 
     def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12,
                  contact: list | None = None, contact_options: dict | None = None,
-                 energy_balance: bool = False):
+                 energy_balance: bool = False, mass_redistribution: bool = False):
         if dt <= 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         if kind not in ("static", "quasistatic", "dynamic"):
@@ -190,6 +261,15 @@ class Integrator:
         if kind == "dynamic":
             _ = model.M  # raises a clear error without density
         self.A = model.combined_operator(*coeffs)
+        self.M = model.M if kind == "dynamic" else None
+        self._dM = None
+        if mass_redistribution:
+            if kind != "dynamic" or not contact:
+                raise ValueError("mass_redistribution needs a dynamic analysis with contact")
+            self.M = redistributed_mass(model, contact)
+            self._dM = self.M.duplicate(copy=True)
+            self._dM.axpy(-1.0, model.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            self.A.axpy(coeffs[0], self._dM, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         self._bc_local = model.bc_dofs()
         self._bc_rows = owned_global_rows(V, self._bc_local)
         self._bc_owned_local = self._bc_local[self._bc_local < model.num_owned]
@@ -255,7 +335,7 @@ class Integrator:
             b.scale(dt * dt)
             w.waxpy(-1.0, self.u_nm1.x.petsc_vec, self.u_n.x.petsc_vec)
             w.axpy(1.0, self.u_n.x.petsc_vec)  # w = 2uⁿ − uⁿ⁻¹
-            m.M.multAdd(w, b, b)
+            self.M.multAdd(w, b, b)
             if m.Kv is not None:
                 m.Kv.mult(self.u_n.x.petsc_vec, w)
                 b.axpy(dt, w)
@@ -318,7 +398,7 @@ class Integrator:
         kin = 0.0
         if self.kind == "dynamic":
             v = self.velocity.x.petsc_vec
-            m.M.mult(v, self._w)
+            self.M.mult(v, self._w)
             kin = 0.5 * self._w.dot(v)
         return Energy(kin, strain)
 
@@ -346,7 +426,9 @@ class Integrator:
         self._gaps = self.contact_gaps() if "Qt" in self._eb else []
 
     def _balance_step(self) -> EnergyBalance:
-        """Energy balance of the step just solved (``self.u`` holds uⁿ⁺¹; history not shifted)."""
+        """Energy balance of the step just solved (``self.u`` holds uⁿ⁺¹; history not shifted).
+
+        Local dot products and one collective reduction per step."""
         m, eb = self.model, self._eb
         c_mass, c_el, c_visc = self._coeffs
         du, dup, r, tmp = eb["du"], eb["du_prev"], eb["r"], eb["tmp"]
@@ -354,46 +436,42 @@ class Integrator:
         du.waxpy(-1.0, un, u)
         dup.waxpy(-1.0, unm1, un)
 
-        def sq(A: PETSc.Mat, x: PETSc.Vec) -> float:
-            A.mult(x, tmp)
-            return tmp.dot(x)
+        def ldot(a: PETSc.Vec, b: PETSc.Vec) -> float:
+            return float(np.dot(a.array_r, b.array_r))
 
+        # local parts of: kinetic, strain, W_ext, W_dir, W_res, W_c, D_visc, D_num
+        part = np.zeros(8)
         # r = (c_M M (Δu − Δu_prev) + c_K K u + c_V Kv Δu)/c_K − F
         m.K.mult(u, r)
+        part[1] = 0.5 * ldot(r, u)
         r.axpy(-1.0, self._F)
-        kinetic = num = visc = 0.0
         if c_mass:
+            self.M.mult(du, tmp)
+            part[0] = 0.5 * c_mass / c_el * ldot(tmp, du)
             dup.aypx(-1.0, du)                         # Δu − Δu_prev
-            m.M.mult(dup, tmp)
+            self.M.mult(dup, tmp)
             r.axpy(c_mass / c_el, tmp)
-            num += 0.5 * c_mass / c_el * tmp.dot(dup)
-            kinetic = 0.5 * c_mass / c_el * sq(m.M, du)
+            part[7] += 0.5 * c_mass / c_el * ldot(tmp, dup)
         if c_visc and m.Kv is not None:
             m.Kv.mult(du, tmp)
             r.axpy(c_visc / c_el, tmp)
-            visc = c_visc / c_el * tmp.dot(du)
+            part[6] = c_visc / c_el * ldot(tmp, du)
         m.K.mult(du, tmp)
-        num += 0.5 * tmp.dot(du)
-        strain = 0.5 * sq(m.K, u)
-        w_ext = self._F.dot(du)
+        part[7] += 0.5 * ldot(tmp, du)
+        part[2] = ldot(self._F, du)
         # split r·Δu into Dirichlet rows and the rest
-        r.pointwiseMult(r, du)
-        local = r.array_r
+        rdu = r.array_r * du.array_r
         bc = self._bc_owned_local
-        w_dir_local = float(local[bc].sum()) if bc.size else 0.0
-        comm = self.model.mesh.comm
-        w_dir = comm.allreduce(w_dir_local, op=MPI.SUM)
-        w_res = comm.allreduce(float(local.sum()) - w_dir_local, op=MPI.SUM)
-        w_c = 0.0
+        part[3] = float(rdu[bc].sum()) if bc.size else 0.0
+        part[4] = float(rdu.sum()) - part[3]
         if self._gaps:
             gaps = self.contact_gaps(self.u)
             res = self.last_contact
-            local_c = 0.0
             for k, itf in enumerate(self._interfaces):
                 p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
-                local_c += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
-            w_c = comm.allreduce(local_c, op=MPI.SUM)
+                part[5] += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
             self._gaps = gaps
+        kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(part, op=MPI.SUM)
         before = self.balance.total
         defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)
         return EnergyBalance(kinetic=kinetic, strain=strain, external_work=w_ext, dirichlet_work=w_dir,
@@ -406,6 +484,9 @@ class Integrator:
             self.contact.destroy()
         for obj in self._eb.values():
             obj.destroy()
+        if self._dM is not None:
+            for obj in (self._dM, self.M):
+                obj.destroy()
         for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F):
             if obj is not None:
                 obj.destroy()

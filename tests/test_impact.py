@@ -44,7 +44,7 @@ _RUNS: dict[int, object] = {}
 
 def _run(n: int):
     if n not in _RUNS:
-        _RUNS[n] = run_bar_impact(P, P.duration / n, t_end=P.t_contact + 1.25 * P.duration)
+        _RUNS[n] = run_bar_impact(P, P.duration / n, t_end=P.t_contact + 1.1 * P.duration)
     return _RUNS[n]
 
 
@@ -88,6 +88,56 @@ def test_bar_impact_energy(n):
     assert wc.sum() < 0.0
     k0 = int(np.argmax(r.n_active > 0))
     assert abs(wc[k0]) > 0.99 * abs(wc.sum())
+
+
+def test_mass_redistribution_option():
+    """Chatter-removal option (``Integrator(..., mass_redistribution=True)``, N = 400).
+
+    The redistributed mass matrix has no rows at the slave contact nodes, keeps the
+    total mass, and the impact still meets the references: start, duration (measured
+    exact), mean force (−3.9 %), exchanged velocities (3.9 %, inside 5 % of the damping
+    prediction), energy never increasing, balance closed.  What it changes (measured,
+    see benchmarks/README.md): the first-step force spike of the consistent mass is
+    gone, but the force rings more during contact, and the errors are not smaller —
+    so it is not the default."""
+    from mpi4py import MPI
+
+    from bonecontact.impact import STRIKER, STRIKER_END, STRUCK, STRUCK_END, two_bars_2d
+    from bonecontact.materials import Isotropic
+    from bonecontact.mechanics import Mechanics
+    from bonecontact.mortar import build_interface
+    from bonecontact.timestepping import redistributed_mass
+
+    msh, ct, ft = two_bars_2d(MPI.COMM_WORLD, P)
+    mat = Isotropic(E=P.E, nu=0.0, rho=P.rho)
+    m = Mechanics(msh, {STRIKER: mat, STRUCK: mat}, ct, ft)
+    itf = build_interface(m.V, ft, STRUCK_END, STRIKER_END)
+    Mr = redistributed_mass(m, [itf])
+    one, w = Mr.createVecs()
+    one.set(1.0)
+    Mr.mult(one, w)
+    assert w.sum() == pytest.approx(2 * 2 * P.mass, rel=1e-12)  # 2 bars × 2 components
+    assert MPI.COMM_WORLD.allreduce(itf.num_owned) == P.ny + 1
+    rows = (2 * itf.blocks[:, None] + np.arange(2)[None, :]).ravel()
+    dense_rows = np.abs(w.array[rows]).max(initial=0.0)   # M_r 1 vanishes at contact dofs
+    assert MPI.COMM_WORLD.allreduce(dense_rows, op=MPI.MAX) < 1e-14 * P.mass
+    diag = Mr.getDiagonal()
+    assert MPI.COMM_WORLD.allreduce(np.abs(diag.array[rows]).max(initial=0.0), op=MPI.MAX) < 1e-14 * P.mass
+    for obj in (Mr, one, w, diag):
+        obj.destroy()
+
+    n = 400
+    r = run_bar_impact(P, P.duration / n, t_end=P.t_contact + 1.1 * P.duration,
+                       integrator_options={"mass_redistribution": True})
+    err = r.errors()
+    assert P.t_contact <= r.t_start < P.t_contact + r.dt and r.episodes == 1
+    assert abs(err["duration"]) < 0.03 and abs(err["mean_force"]) < 0.05, err
+    assert err["v_striker"] == pytest.approx(np.sqrt(2.0 / (np.pi * n)), rel=0.05), err
+    assert r.v_striker[-1] + r.v_struck[-1] == pytest.approx(P.v0, rel=1e-10)
+    e0 = r.energy[0]
+    assert np.all(np.diff(r.energy) <= 1e-12 * e0)
+    assert max(abs(b.defect) for b in r.balance) < 1e-10 * e0
+    assert err["mean_force"] == pytest.approx(-0.03876, abs=2e-5)  # same on every rank count
 
 
 @pytest.mark.parametrize("kind", ["dynamic", "quasistatic"])
