@@ -22,6 +22,9 @@ $PY benchmarks/bench_hertz.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_hertz.py $quick
 $PY benchmarks/summarize.py hertz hertz_vi hertz3d
 
+echo "== dynamic contact: two-bar impact error and energy drift against dt"
+$PY benchmarks/bench_impact.py $quick
+
 # further studies (growth) add their scripts here
 for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
   if [ -f "$extra" ]; then echo "== $extra"; $PY "$extra" $quick; fi
