@@ -33,10 +33,15 @@ starts supported wherever it touches; then the PDAS keeps at least those nodes w
 pressure stays positive.  (The remaining rigid modes that frictionless contact cannot
 remove — sliding along the contact plane — must be fixed by the scene.)
 
-Linear solvers: ``"direct"`` — MUMPS LU of the (non-symmetric) condensed matrix,
-re-factorised numerically only when the active set changes (same non-zero pattern);
-``"iterative"`` — GMRES preconditioned by GAMG (smoothed aggregation) on the same
-matrix.  Warm starts make the iterative solves cheap in time-stepping runs.
+Linear solvers: ``"direct"`` — MUMPS LU.  By default (``strategy="lowrank"``) one
+set is factorised and the systems of the other sets are solved exactly by low-rank
+updates of it (:mod:`bonecontact.lowrank`): a contact solve costs about one
+factorisation plus a few multi-right-hand-side solves, and later steps of a run reuse
+the factorisation.  ``strategy="refactor"`` re-factorises (numerically; the symbolic
+analysis is reused) in every iteration — the reference the tests compare against.
+``"iterative"`` — CG/GMRES preconditioned by GAMG (smoothed aggregation) on the
+eliminated matrix of every iteration (``strategy="refactor"`` only).  Warm starts make
+the iterative solves cheap in time-stepping runs.
 
 Units: λ_n in Pa (N/m² — in 2D plane strain per unit thickness); forces in N (N/m in 2D).
 """
@@ -53,6 +58,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .linalg import configure_ksp
+from .lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
 from .mortar import ContactInterface, basis_transform, rotation_matrix
 
 __all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult", "snes_vi_solve"]
@@ -84,6 +90,8 @@ class PDASResult:
     n_active: list[int]
     history: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
+    factorizations: int = 0
+    columns: int = 0
 
 
 def _allsum(comm: MPI.Comm, x) -> float:
@@ -118,12 +126,21 @@ class ContactSolver:
         slave surface size).
     rtol
         Krylov tolerance (iterative solver).
+    strategy
+        ``"lowrank"`` (default with ``linear="direct"``): one factorisation reused through
+        low-rank updates; ``"refactor"``: factorise/precondition every iteration
+        (the only choice with ``linear="iterative"``).
+    max_columns, rebase_ratio
+        Low-rank strategy: cache limit (columns) and the cost ratio (columns against one
+        factorisation) beyond which the current set is refactorised instead
+        (:class:`bonecontact.lowrank.LowRankActiveSetSolver`).
     """
 
     def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, interfaces: list[ContactInterface],
                  bc_rows: npt.ArrayLike | None = None, *, linear: str = "direct", force_scale: float = 1.0,
                  c_n: float | None = None, max_iterations: int = 50, gap_tol: float | None = None,
-                 rtol: float = 1e-12, prefix: str = "bc_contact_"):
+                 rtol: float = 1e-12, prefix: str = "bc_contact_", strategy: str = "auto",
+                 max_columns: int = 2000, rebase_ratio: float = 1.0):
         t0 = time.perf_counter()
         self.V, self.interfaces = V, list(interfaces)
         self.comm = V.mesh.comm
@@ -139,8 +156,12 @@ class ContactSolver:
         start = self.bs * V.dofmap.index_map.local_range[0]
         self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - start).astype(np.int32)
-        self.B = self.At.duplicate(copy=True)
-        self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        if strategy == "auto":
+            strategy = "lowrank" if linear == "direct" else "refactor"
+        if strategy not in ("lowrank", "refactor") or (strategy == "lowrank" and linear != "direct"):
+            raise ValueError(f"contact strategy must be 'lowrank' (direct solver only) or 'refactor', "
+                             f"got {strategy!r} with linear={linear!r}")
+        self.strategy = strategy
         self.nrow_local = [self.bs * itf.blocks.astype(np.int64) for itf in self.interfaces]
         self.nrow_global = [self.bs * itf.global_blocks for itf in self.interfaces]
         diag = self.At.getDiagonal()
@@ -160,12 +181,22 @@ class ContactSolver:
         self.Uh.set(0.0)
         self._r0, self._rhs, self._w = self.At.createVecLeft(), self.At.createVecLeft(), self.At.createVecLeft()
         self._Fh = self.Qt.createVecRight()
-        self.ksp = PETSc.KSP().create(self.comm)
-        self.ksp.setOptionsPrefix(prefix)
-        configure_ksp(self.ksp, linear, rtol=rtol, prefix=prefix, max_it=3000)
-        if linear == "iterative":
-            self.ksp.setInitialGuessNonzero(True)
-        self.ksp.setFromOptions()
+        self.B = self.ksp = self.lowrank = None
+        if strategy == "lowrank":
+            self.lowrank = LowRankActiveSetSolver(self.At, self.bc_rows, self.nrow_local, self.diag_value,
+                                                  prefix=prefix, max_columns=max_columns,
+                                                  rebase_ratio=rebase_ratio)
+        else:
+            self.B = self.At.duplicate(copy=True)
+            self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+            self.ksp = PETSc.KSP().create(self.comm)
+            self.ksp.setOptionsPrefix(prefix)
+            configure_ksp(self.ksp, linear, rtol=rtol, prefix=prefix, max_it=3000)
+            if linear == "direct":
+                PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1    # detect null pivots (singular sets)
+            if linear == "iterative":
+                self.ksp.setInitialGuessNonzero(True)
+            self.ksp.setFromOptions()
         self.setup_time = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ helpers
@@ -209,51 +240,82 @@ class ContactSolver:
         if self.bc_local.size:
             r0.array[self.bc_local] = b.array[self.bc_local]
         active = [a.copy() for a in self.active]
-        Uh_new = self.Uh.duplicate()
         history: list[dict] = []
         seen = {self._signature(active): 0}
         lin_total = 0
         lam_list = un_list = None
-        values = self._rhs.duplicate()
+        lr = self.lowrank
+        split = np.cumsum([r.size for r in self.nrow_local])[:-1]
+        if lr is not None:
+            f0, c0 = lr.factorizations, lr.columns
+            lr.begin(r0, b.array[self.bc_local], self._concat([itf.gap for itf in self.interfaces]),
+                     self._replicate(active))
+            scale = self._replicate(self.row_scale)
+            x_prev = lr._gather(self.Uh.array[lr.L])
+            margin = None
+        else:
+            values = self._rhs.duplicate()
+            Uh_new = self.Uh.duplicate()
         for k in range(1, self.max_iterations + 1):
-            values.set(0.0)
-            if self.bc_local.size:
-                values.array[self.bc_local] = b.array[self.bc_local]
-            for itf, rl, a in zip(self.interfaces, self.nrow_local, active):
-                values.array[rl[a]] = itf.gap[a]
-            r0.copy(self._rhs)
-            self._operator(active, self._rhs, values)
-            self.ksp.setOperators(self.B)
-            self.Uh.copy(Uh_new)
-            try:
-                self.ksp.solve(self._rhs, Uh_new)
-            except PETSc.Error as exc:
-                raise ContactConvergenceError(f"contact: linear solve failed in PDAS iteration {k} "
-                                              f"(singular system? PETSc error {exc.ierr})", history) from None
-            reason = self.ksp.getConvergedReason()
-            its = self.ksp.getIterationNumber()
+            if lr is not None:
+                try:
+                    xN, wN, info = lr.solve_set(self._replicate(active), scale, margin)
+                except SingularActiveSetError as exc:
+                    raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", history) from None
+                its = 1
+                un_list = np.split(lr._own(xN), split)
+                w_list = np.split(lr._own(wN), split)
+                nrm = float(np.linalg.norm(xN))
+                update = float(np.linalg.norm(xN - x_prev)) / nrm if nrm > 0 else 0.0
+                x_prev = xN
+                extra = {"columns": info["columns"], "refactorized": info["refactorized"]}
+            else:
+                values.set(0.0)
+                if self.bc_local.size:
+                    values.array[self.bc_local] = b.array[self.bc_local]
+                for itf, rl, a in zip(self.interfaces, self.nrow_local, active):
+                    values.array[rl[a]] = itf.gap[a]
+                r0.copy(self._rhs)
+                self._operator(active, self._rhs, values)
+                self.ksp.setOperators(self.B)
+                self.Uh.copy(Uh_new)
+                try:
+                    self.ksp.solve(self._rhs, Uh_new)
+                except PETSc.Error as exc:
+                    raise ContactConvergenceError(f"contact: linear solve failed in PDAS iteration {k} "
+                                                  f"(singular system? PETSc error {exc.ierr})", history) from None
+                if null_pivots(self.ksp):
+                    raise ContactConvergenceError(f"contact: the system of the active set is singular "
+                                                  f"({null_pivots(self.ksp)} null pivots: a body without support?) "
+                                                  f"in PDAS iteration {k}", history)
+                reason = self.ksp.getConvergedReason()
+                its = self.ksp.getIterationNumber()
+                if reason < 0:
+                    raise ContactConvergenceError(f"contact: linear solver diverged (reason {reason}) in PDAS "
+                                                  f"iteration {k}", history)
+                self.At.mult(Uh_new, self._w)
+                self._w.aypx(-1.0, r0)                       # w = T F̂ − At Û
+                w_list = [self._w.array[rl] for rl in self.nrow_local]
+                un_list = [Uh_new.array[rl] for rl in self.nrow_local]
+                self._w.waxpy(-1.0, self.Uh, Uh_new)
+                nrm = Uh_new.norm()
+                update = self._w.norm() / nrm if nrm > 0 else 0.0
+                Uh_new.copy(self.Uh)
+                extra = {}
             lin_total += its
-            if reason < 0:
-                raise ContactConvergenceError(f"contact: linear solver diverged (reason {reason}) in PDAS "
-                                              f"iteration {k}", history)
-            # multipliers and normal displacements
-            self.At.mult(Uh_new, self._w)
-            self._w.aypx(-1.0, r0)                       # w = T F̂ − At Û
-            lam_list = [self._w.array[rl] / itf.D for rl, itf in zip(self.nrow_local, self.interfaces)]
-            un_list = [Uh_new.array[rl] for rl in self.nrow_local]
+            # multipliers (SPEC (46)) and the new active set
+            lam_list = [w / itf.D for w, itf in zip(w_list, self.interfaces)]
             lam_scale = comm.allreduce(max([float(np.abs(x).max()) if x.size else 0.0 for x in lam_list] + [0.0]),
                                        op=MPI.MAX)
             eps = 1e-10 * max(lam_scale, 1e-300)
-            new = [lam + self.c_n * (un - itf.gap) > eps
-                   for lam, un, itf in zip(lam_list, un_list, self.interfaces)]
+            ind = [lam + self.c_n * (un - itf.gap) for lam, un, itf in zip(lam_list, un_list, self.interfaces)]
+            new = [i > eps for i in ind]
+            if lr is not None:
+                margin = np.abs(self._replicate(ind) - eps)
             changed = _allsum(comm, int(sum(int((n != a).sum()) for n, a in zip(new, active))))
-            self._w.waxpy(-1.0, self.Uh, Uh_new)
-            nrm = Uh_new.norm()
-            update = self._w.norm() / nrm if nrm > 0 else 0.0
             n_act = _allsum(comm, int(sum(int(a.sum()) for a in active)))
             history.append({"iteration": k, "active": n_act, "changed": changed, "update": update,
-                            "linear_iterations": its})
-            Uh_new.copy(self.Uh)
+                            "linear_iterations": its, **extra})
             if changed == 0:
                 break
             active = new
@@ -265,12 +327,18 @@ class ContactSolver:
         else:
             raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
                                           history)
+        if lr is not None:
+            lr.finish(self.Uh)
+            n_fact, n_cols = lr.factorizations - f0, lr.columns - c0
+        else:
+            values.destroy()
+            Uh_new.destroy()
+            n_fact, n_cols = (len(history) if self.linear == "direct" else 0), 0
         self.active = active
         uhat = self.Tt.createVecLeft()
         self.Tt.mult(self.Uh, uhat)                   # Û = Tᵀ Ũ
         self.Qt.mult(uhat, u.x.petsc_vec)             # U = Qᵀ Û
         uhat.destroy()
-        values.destroy()
         u.x.scatter_forward()
         pressure = [np.where(a, lam, 0.0) * self.force_scale for lam, a in zip(lam_list, active)]
         gaps = [itf.gap - un for itf, un in zip(self.interfaces, un_list)]
@@ -279,7 +347,16 @@ class ContactSolver:
         n_active = [_allsum(comm, int(a.sum())) for a in active]
         return PDASResult(iterations=len(history), linear_iterations=lin_total, active=[a.copy() for a in active],
                           pressure=pressure, gap=gaps, slip=slips, normal_force=forces, n_active=n_active,
-                          history=history, wall_time=time.perf_counter() - t0)
+                          history=history, wall_time=time.perf_counter() - t0, factorizations=n_fact,
+                          columns=n_cols)
+
+    def _concat(self, parts: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate([np.asarray(p, dtype=np.float64) for p in parts] + [np.zeros(0)])
+
+    def _replicate(self, parts: list[np.ndarray]) -> np.ndarray:
+        """Per-interface owned arrays → one array over all slave nodes, identical on every rank."""
+        dtype = parts[0].dtype if parts else np.float64
+        return self.lowrank._gather(np.concatenate(list(parts) + [np.zeros(0, dtype=dtype)]))
 
     def reset(self) -> None:
         """Forget the warm start (cold start from the closed-gap set next time)."""
@@ -287,9 +364,12 @@ class ContactSolver:
         self.Uh.set(0.0)
 
     def destroy(self) -> None:
+        if self.lowrank is not None:
+            self.lowrank.destroy()
         for obj in (self.ksp, self.B, self.At, self.T, self.Tt, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
                     self._w, self._Fh):
-            obj.destroy()
+            if obj is not None:
+                obj.destroy()
 
 
 def snes_vi_solve(A: PETSc.Mat, b: PETSc.Vec, lower: PETSc.Vec, upper: PETSc.Vec,

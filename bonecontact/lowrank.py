@@ -1,0 +1,326 @@
+"""One LU factorisation for a whole PDAS solve (and for many of them): low-rank updates.
+
+Every PDAS iteration solves the condensed, rotated contact system with the Dirichlet
+unknowns and the *active* normal unknowns eliminated (fixed to known values),
+
+.. math::  B_{\\mathcal A}\\,x = b_{\\mathcal A},
+
+and only the set :math:`\\mathcal A` changes between iterations (and between the steps
+of a time-stepped run).  Refactorising :math:`B_{\\mathcal A}` each time makes a contact
+solve cost one factorisation per iteration.  Here one *base* set :math:`\\mathcal C` is
+factorised, :math:`B_0 = B_{\\mathcal C}`, and the system of any other set is solved
+exactly through a small dense system whose size is the number of nodes in which
+:math:`\\mathcal A` and :math:`\\mathcal C` differ:
+
+* :math:`P = \\mathcal A\\setminus\\mathcal C` (newly fixed normal unknowns): a force
+  :math:`\\mu_p` at row :math:`p` enforces :math:`x_p = g_p`; its response is the
+  column :math:`W_p = B_0^{-1} e_p`;
+* :math:`Z = \\mathcal C\\setminus\\mathcal A` (released unknowns): the value
+  :math:`x_z = g_z + s_z` becomes unknown, with the response :math:`X_z` of a unit
+  value at :math:`z` (:math:`B_0 X_z = \\delta e_z - (A e_z)|_{\\rm free}`), and row
+  :math:`z` of the full equations must hold: :math:`(A x)_z = r_z`.
+
+With the base solution :math:`x_b = B_0^{-1} b_{\\mathcal C}`,
+:math:`x = x_b + \\sum_z s_z X_z + \\sum_p \\mu_p W_p`; the unknowns
+:math:`(s, \\mu)` solve the :math:`|P|+|Z|` equations above.  Only the values of the
+columns (and of :math:`A` times them) at the slave normal rows are kept — replicated
+on every rank, ``n_slave × n_columns`` numbers — so the PDAS set update needs no
+further solve; the full field is obtained by one last solve with the forces and values
+found.  Columns are computed in blocks (MUMPS multi-right-hand-side solve) the first
+time a node needs one and cached while the base is kept, so in a time-stepped run a
+step usually costs one forward/backward solve.
+
+When the columns a set needs would cost more than a factorisation (times measured as
+the run goes), or the cache exceeds ``max_columns``, the current set becomes the new
+base (one numeric refactorisation, same pattern).  The result is the same discrete
+solution as refactorising every iteration, to round-off (tests compare the two).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .linalg import configure_ksp
+
+__all__ = ["LowRankActiveSetSolver", "SingularActiveSetError", "null_pivots"]
+
+
+class SingularActiveSetError(RuntimeError):
+    """The system of an active set is singular (e.g. a body left without support)."""
+
+
+def null_pivots(ksp: PETSc.KSP) -> int:
+    """Null pivots MUMPS found in the last factorisation of ``ksp`` (needs ICNTL(24) = 1)."""
+    pc = ksp.getPC()
+    if pc.getType() != "lu" or pc.getFactorSolverType() != "mumps":
+        return 0
+    return int(pc.getFactorMatrix().getMumpsInfog(28))
+
+
+def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
+    M = PETSc.Mat().createDense(((nloc, PETSc.DECIDE), (PETSc.DECIDE, k)), comm=comm)
+    M.setUp()
+    M.zeroEntries()
+    M.assemble()
+    return M
+
+
+class LowRankActiveSetSolver:
+    """Solve ``B_A x = b_A`` for changing sets ``A`` of fixed slave-normal unknowns.
+
+    Parameters
+    ----------
+    A
+        The operator in the nodal frames (``T Â Tᵀ`` of :class:`bonecontact.pdas.ContactSolver`).
+    bc_rows
+        Owned global rows with Dirichlet conditions (always eliminated).
+    normal_rows
+        Per interface, the owned *local* rows of the slave normal unknowns.
+    diag_value
+        Diagonal put on eliminated rows (as in the refactorising solver).
+    prefix
+        PETSc options prefix of the LU solver (MUMPS by default).
+    max_columns
+        Cache limit (columns); beyond it the base is refactorised.
+    rebase_ratio
+        Refactorise when the columns an iteration needs are estimated to cost more than
+        ``rebase_ratio`` factorisations.
+    """
+
+    def __init__(self, A: PETSc.Mat, bc_rows: npt.NDArray, normal_rows: list[npt.NDArray], diag_value: float,
+                 prefix: str = "bc_contact_lr_", max_columns: int = 2000, rebase_ratio: float = 1.0):
+        self.A = A
+        self.comm: MPI.Comm = A.getComm().tompi4py()
+        self.start = A.getOwnershipRange()[0]
+        self.nloc = A.getLocalSize()[0]
+        self.bc_rows = np.asarray(bc_rows, dtype=PETSc.IntType)
+        self.bc_local = (self.bc_rows - self.start).astype(np.int32)
+        self.L = np.concatenate([np.asarray(r, dtype=np.int32) for r in normal_rows] + [np.zeros(0, np.int32)])
+        counts = self.comm.allgather(int(self.L.size))
+        self.offset = int(sum(counts[: self.comm.rank]))
+        self.ns = int(sum(counts))
+        self.diag_value = float(diag_value)
+        self.max_columns = int(max_columns)
+        self.rebase_ratio = float(rebase_ratio)
+        self.B0 = A.duplicate(copy=True)
+        self.B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.ksp = PETSc.KSP().create(self.comm)
+        self.ksp.setOptionsPrefix(prefix)
+        configure_ksp(self.ksp, "direct", prefix=prefix)
+        PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1    # detect null pivots (singular sets)
+        self.ksp.setFromOptions()
+        self.base: npt.NDArray[np.bool_] | None = None
+        self.cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.t_factor = 0.0
+        self.t_column = 0.0
+        self.factorizations = 0
+        self.columns = 0
+        self._r0 = A.createVecLeft()
+        self._values = A.createVecLeft()
+        self._rhs = A.createVecLeft()
+        self._xb = A.createVecRight()
+        self._tmp = A.createVecLeft()
+        self._gap: npt.NDArray[np.float64] = np.zeros(self.ns)
+
+    # ------------------------------------------------------------------ small utilities
+    def _gather(self, local: npt.NDArray) -> npt.NDArray:
+        """Local values at the slave normal rows → the replicated array (rank order)."""
+        parts = self.comm.allgather(np.ascontiguousarray(local))
+        return np.concatenate(parts, axis=0)
+
+    def _own(self, rep: npt.NDArray) -> npt.NDArray:
+        return rep[self.offset:self.offset + self.L.size]
+
+    def _fixed_local(self, mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.int32]:
+        """Local rows eliminated for the set ``mask``: Dirichlet rows and fixed normal rows."""
+        return np.concatenate([self.bc_local, self.L[self._own(mask)]]).astype(np.int32)
+
+    def _lift(self, v: PETSc.Vec, fixed_local: npt.NDArray[np.int32], out: PETSc.Vec) -> None:
+        """``out = r0 − A v`` on free rows and ``δ v`` on the fixed ones (what
+        ``MatZeroRowsColumns`` does to a right-hand side)."""
+        self.A.mult(v, out)
+        out.aypx(-1.0, self._r0)
+        out.array[fixed_local] = self.diag_value * v.array[fixed_local]
+
+    # ------------------------------------------------------------------ factorisation
+    def factorize(self, mask: npt.NDArray[np.bool_]) -> None:
+        """Make ``mask`` (replicated, length ``ns``) the base set: assemble and factorise ``B_C``."""
+        t0 = time.perf_counter()
+        self.A.copy(self.B0, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        rows = (self._fixed_local(mask).astype(np.int64) + self.start).astype(PETSc.IntType)
+        self.B0.zeroRowsColumns(rows, diag=self.diag_value)
+        self.ksp.setOperators(self.B0)
+        try:
+            self.ksp.setUp()
+        except PETSc.Error as exc:
+            raise SingularActiveSetError(f"LU factorisation failed (PETSc error {exc.ierr})") from None
+        nulls = null_pivots(self.ksp)
+        if nulls:
+            raise SingularActiveSetError(f"the system of the active set is singular ({nulls} null pivots: "
+                                         f"a body without support?)")
+        self.base = mask.copy()
+        self.cache.clear()
+        self.factorizations += 1
+        self.t_factor = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+
+    # ------------------------------------------------------------------ one contact solve
+    def begin(self, r0: PETSc.Vec, bc_values: npt.NDArray, gap_local: npt.NDArray,
+              initial: npt.NDArray[np.bool_]) -> None:
+        """Start a contact solve with right-hand side ``r0`` (nodal frames, Dirichlet rows
+        holding their values ``bc_values``) and the local gaps of the slave normal rows;
+        factorise at ``initial`` (replicated mask) if there is no base yet."""
+        r0.copy(self._r0)
+        self._bc_values = np.asarray(bc_values, dtype=np.float64)
+        self._gap = self._gather(np.asarray(gap_local, dtype=np.float64))
+        self._r0N = self._gather(self._r0.array[self.L])
+        if self.base is None:
+            self.factorize(initial)
+        self._base_solve()
+
+    def _values_for(self, mask: npt.NDArray[np.bool_], extra: npt.NDArray | None = None) -> PETSc.Vec:
+        v = self._values
+        v.set(0.0)
+        if self.bc_local.size:
+            v.array[self.bc_local] = self._bc_values
+        own = self._own(mask)
+        vals = self._own(self._gap if extra is None else self._gap + extra)
+        v.array[self.L[own]] = vals[own]
+        return v
+
+    def _base_solve(self) -> None:
+        t0 = time.perf_counter()
+        fixed = self._fixed_local(self.base)
+        self._lift(self._values_for(self.base), fixed, self._rhs)
+        self.ksp.solve(self._rhs, self._xb)
+        self.A.mult(self._xb, self._tmp)
+        self._xbN = self._gather(self._xb.array[self.L])
+        self._AxbN = self._gather(self._tmp.array[self.L])
+        self.t_solve = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        if self.t_column == 0.0:
+            self.t_column = 0.25 * self.t_solve   # first estimate (multi-RHS solves), then measured
+
+    def _compute_columns(self, qs: list[int]) -> None:
+        """Columns for the replicated positions ``qs`` (X-type if in the base, W-type if not)."""
+        t0 = time.perf_counter()
+        k = len(qs)
+        lo, hi = self.offset, self.offset + self.L.size
+        Rm = _dense(self.comm, self.nloc, k)
+        R = Rm.getDenseArray(readonly=False)
+        xq = [j for j, q in enumerate(qs) if self.base[q]]
+        if xq:
+            U = _dense(self.comm, self.nloc, k)
+            Ua = U.getDenseArray(readonly=False)
+            for j in xq:
+                if lo <= qs[j] < hi:
+                    Ua[self.L[qs[j] - lo], j] = 1.0
+            U.assemble()
+            AU = self.A.matMult(U)
+            R[:, :] = -AU.getDenseArray()
+            R[self._fixed_local(self.base), :] = 0.0
+            AU.destroy()
+            U.destroy()
+        for j, q in enumerate(qs):
+            if lo <= q < hi:
+                R[self.L[q - lo], j] = self.diag_value if self.base[q] else 1.0
+        Rm.assemble()
+        Xm = _dense(self.comm, self.nloc, k)
+        F = self.ksp.getPC().getFactorMatrix()
+        F.matSolve(Rm, Xm)
+        KXm = self.A.matMult(Xm)
+        colN = self._gather(Xm.getDenseArray()[self.L, :])
+        kcolN = self._gather(KXm.getDenseArray()[self.L, :])
+        for j, q in enumerate(qs):
+            self.cache[q] = (colN[:, j].copy(), kcolN[:, j].copy())
+        for M in (Rm, Xm, KXm):
+            M.destroy()
+        self.columns += k
+        dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        self.t_column = dt / k
+
+    def solve_set(self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64],
+                  margin: npt.NDArray[np.float64] | None = None) -> tuple[npt.NDArray, npt.NDArray, dict]:
+        """Solve the system of the set ``active`` (replicated mask).
+
+        Parameters
+        ----------
+        active
+            Replicated mask of the fixed (active) normal unknowns.
+        scale
+            Replicated stiffness scale of the normal rows (balances the small system).
+        margin
+            Optional replicated distance of each node from switching (e.g.
+            ``|λ + c_n (u_n − g)|`` of the previous iteration).  When columns must be
+            computed anyway, as many again are computed for the nodes closest to
+            switching (one block costs little more than a few columns).
+
+        Returns
+        -------
+        (x_N, w_N, info)
+            Replicated normal unknowns and residual ``r0 − A x`` at the normal rows, and
+            ``{"columns": new columns, "refactorized": bool, "size": |P|+|Z|}``.
+        """
+        refactorized = False
+        diff = np.flatnonzero(active != self.base)
+        missing = [int(q) for q in diff if int(q) not in self.cache]
+        too_many = len(self.cache) + len(missing) > self.max_columns
+        if missing and (too_many or len(missing) * self.t_column > self.rebase_ratio * self.t_factor):
+            self.factorize(active)
+            self._base_solve()
+            refactorized = True
+            diff, missing = np.zeros(0, dtype=np.int64), []
+        if missing and margin is not None:
+            same = (active == self.base)
+            order = np.argsort(margin, kind="stable")
+            extra = [int(q) for q in order if same[q] and int(q) not in self.cache][: len(missing)]
+            room = self.max_columns - len(self.cache) - len(missing)
+            missing += extra[: max(room, 0)]
+        new_cols = len(missing)
+        if missing:
+            self._compute_columns(missing)
+        Z = [int(q) for q in diff if self.base[q]]
+        P = [int(q) for q in diff if not self.base[q]]
+        cols = Z + P
+        xN, wN = self._xbN.copy(), self._r0N - self._AxbN
+        self._y = (Z, P, np.zeros(0))
+        if cols:
+            G = np.column_stack([self.cache[q][0] for q in cols])
+            KG = np.column_stack([self.cache[q][1] for q in cols])
+            # unknowns: s_z (displacement) then mu_p = scale_p * mu~_p; rows: Z (force, / scale) then P
+            csc = np.concatenate([np.ones(len(Z)), scale[P]])
+            M = np.vstack([KG[Z, :] / scale[Z, None], G[P, :]]) * csc[None, :]
+            rhs = np.concatenate([(self._r0N[Z] - self._AxbN[Z]) / scale[Z], self._gap[P] - self._xbN[P]])
+            if len(cols) <= 1500 and np.linalg.cond(M) > 1e13:
+                raise SingularActiveSetError(f"the system of the active set is singular "
+                                             f"(condition number of the {len(cols)}×{len(cols)} update > 1e13)")
+            try:
+                y = np.linalg.solve(M, rhs) * csc
+            except np.linalg.LinAlgError:
+                raise SingularActiveSetError("the system of the active set is singular") from None
+            xN += G @ y
+            wN -= KG @ y
+            self._y = (Z, P, y)
+        return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
+
+    def finish(self, out: PETSc.Vec) -> None:
+        """Write the full solution of the last :meth:`solve_set` into ``out`` (one solve)."""
+        Z, P, y = self._y
+        extra = np.zeros(self.ns)
+        if Z:
+            extra[Z] = y[: len(Z)]
+        v = self._values_for(self.base, extra)
+        self._lift(v, self._fixed_local(self.base), self._rhs)
+        if P:
+            lo, hi = self.offset, self.offset + self.L.size
+            for p, mu in zip(P, y[len(Z):]):
+                if lo <= p < hi:
+                    self._rhs.array[self.L[p - lo]] += mu
+        self.ksp.solve(self._rhs, out)
+
+    def destroy(self) -> None:
+        for obj in (self.ksp, self.B0, self._r0, self._values, self._rhs, self._xb, self._tmp):
+            obj.destroy()
