@@ -29,7 +29,9 @@ Dirichlet supports exert), testing the scheme with Δu gives exactly
 
 The contact work is computed independently of the residual, from the mortar
 multipliers and gaps: W_c = Σ_p D_pp λ_p (g_pⁿ⁺¹ − g_pⁿ) over the slave nodes
-(λ_p ≥ 0 the pressure, g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) the nodal gap).
+(λ_p ≥ 0 the pressure, g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) the nodal gap, as
+the PDAS returns it after each step, and from :meth:`Integrator.contact_gaps` for the
+initial state).
 With λ_p gⁿ⁺¹_p = 0 (complementarity) it equals −Σ D λ gⁿ ≤ 0: contact only dissipates.
 The residual-based value is kept as ``contact_work_residual``; their difference, and
 the balance defect ``Eⁿ⁺¹ − Eⁿ − (W_ext + W_dir + W_c − D_visc − D_num)``, measure how
@@ -423,7 +425,16 @@ class Integrator:
         e = self.energy()
         self.balance = EnergyBalance(kinetic=e.kinetic, strain=e.strain)
         self.last_balance = None
-        self._gaps = self.contact_gaps() if "Qt" in self._eb else []
+        self._gaps = self._snap(self.contact_gaps()) if "Qt" in self._eb else []
+
+    def _snap(self, gaps: list[np.ndarray]) -> list[np.ndarray]:
+        """Gaps with |g| below 1e-12 of the slave surface size (geometric round-off of
+        touching bodies) set to 0, so that closed contact does exactly no work."""
+        out = []
+        for itf, g in zip(self._interfaces, gaps):
+            tol = 1e-12 * itf.slave_area ** (1.0 / max(itf.gdim - 1, 1))
+            out.append(np.where(np.abs(g) <= tol, 0.0, g))
+        return out
 
     def _balance_step(self) -> EnergyBalance:
         """Energy balance of the step just solved (``self.u`` holds uⁿ⁺¹; history not shifted).
@@ -465,8 +476,10 @@ class Integrator:
         part[3] = float(rdu[bc].sum()) if bc.size else 0.0
         part[4] = float(rdu.sum()) - part[3]
         if self._gaps:
-            gaps = self.contact_gaps(self.u)
+            # gaps after the step as the PDAS returns them (exactly 0 at active nodes,
+            # so persistent contact does exactly no work); before: the previous ones
             res = self.last_contact
+            gaps = self._snap(res.gap if res is not None else self.contact_gaps(self.u))
             for k, itf in enumerate(self._interfaces):
                 p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
                 part[5] += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
