@@ -19,20 +19,36 @@ def test_beta_zero_spends_the_osmotic_excess(dim, strain):
     p = CystParameters(**{**RADICULAR, "beta": 0.0, "f0": 500.0, "strain": strain})
     R0 = 2e-3
     h = grow_sphere(p, R0, 200 * YEAR, np.array([0.0, 200 * YEAR]), dim=dim)
-    assert h.R[-1] == pytest.approx(equilibrium_radius(p, R0, dim), rel=1e-6)
+    assert h.R[-1] == pytest.approx(equilibrium_radius(p, R0, dim), rel=1e-6, abs=0)
     assert abs(h.f[-1]) < 1e-6 * 500.0
     # the solute content s = C⁺ v = (C⁻ + f/α) v is conserved
     s = (p.C_minus + h.f / p.alpha) * h.volume
-    assert s[-1] == pytest.approx(s[0], rel=1e-8)
+    assert s[-1] == pytest.approx(s[0], rel=1e-8, abs=0)
 
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_long_time_rate_log_strain(dim):
+    """Long-time rate β/C⁻ to 1e-6 (abs=0: rates are ~1e-11 m/s, so pytest.approx's
+    default absolute tolerance of 1e-12 would make the check vacuous).  The approach
+    to β/C⁻ is algebraic, f ~ ν β / (α C⁻ R); with a soft surrounding (ν = 1e5 Pa s)
+    the residual is far below 1e-6 after 200 years."""
+    p = CystParameters(**{**RADICULAR, "viscosity": 1.0e5})
+    t = np.array([199.0, 200.0]) * YEAR
+    h = grow_sphere(p, 1e-3, 200 * YEAR, np.r_[0.0, t], dim=dim)
+    rate = (h.R[-1] - h.R[-2]) / YEAR
+    assert rate == pytest.approx(long_time_rate(p, 1e-3, dim), rel=1e-6, abs=0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_radicular_rate_after_200_years(dim):
+    """The radicular set itself (ν = 1e9 Pa s) still lags β/C⁻ by ~4e-5 after 200 years
+    (the algebraic approach above), and grows ≈ 1 mm of radius per year."""
     p = CystParameters(**RADICULAR)
     t = np.array([199.0, 200.0]) * YEAR
     h = grow_sphere(p, 1e-3, 200 * YEAR, np.r_[0.0, t], dim=dim)
     rate = (h.R[-1] - h.R[-2]) / YEAR
-    assert rate == pytest.approx(long_time_rate(p, 1e-3, dim), rel=1e-6)
+    lag = 1.0 - rate / long_time_rate(p, 1e-3, dim)
+    assert 0.0 < lag < 1e-4
     assert rate * 1e3 * YEAR == pytest.approx(1.01, abs=0.01)   # ≈ 1 mm per year
 
 
@@ -42,7 +58,7 @@ def test_long_time_rate_engineering_strain():
     t = np.array([499.0, 500.0]) * YEAR
     h = grow_sphere(p, R0, 500 * YEAR, np.r_[0.0, t])
     rate = (h.R[-1] - h.R[-2]) / YEAR
-    assert rate == pytest.approx(long_time_rate(p, R0), rel=1e-4)
+    assert rate == pytest.approx(long_time_rate(p, R0), rel=1e-4, abs=0)
 
 
 def test_viscous_limit():
