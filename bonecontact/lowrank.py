@@ -79,8 +79,9 @@ class LowRankActiveSetSolver:
         The operator in the nodal frames (``T Â Tᵀ`` of :class:`bonecontact.pdas.ContactSolver`).
     bc_rows
         Owned global rows with Dirichlet conditions (always eliminated).
-    normal_rows
-        Per interface, the owned *local* rows of the slave normal unknowns.
+    rows
+        The owned *local* rows of the contact unknowns (slave normal and tangential
+        rows in the nodal frames), in the order of the replicated arrays.
     diag_value
         Diagonal put on eliminated rows (as in the refactorising solver).
     prefix
@@ -92,7 +93,7 @@ class LowRankActiveSetSolver:
         ``rebase_ratio`` factorisations.
     """
 
-    def __init__(self, A: PETSc.Mat, bc_rows: npt.NDArray, normal_rows: list[npt.NDArray], diag_value: float,
+    def __init__(self, A: PETSc.Mat, bc_rows: npt.NDArray, rows: npt.NDArray, diag_value: float,
                  prefix: str = "bc_contact_lr_", max_columns: int = 2000, rebase_ratio: float = 1.0):
         self.A = A
         self.comm: MPI.Comm = A.getComm().tompi4py()
@@ -100,7 +101,7 @@ class LowRankActiveSetSolver:
         self.nloc = A.getLocalSize()[0]
         self.bc_rows = np.asarray(bc_rows, dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - self.start).astype(np.int32)
-        self.L = np.concatenate([np.asarray(r, dtype=np.int32) for r in normal_rows] + [np.zeros(0, np.int32)])
+        self.L = np.asarray(rows, dtype=np.int32)
         counts = self.comm.allgather(int(self.L.size))
         self.offset = int(sum(counts[: self.comm.rank]))
         self.ns = int(sum(counts))
@@ -125,7 +126,9 @@ class LowRankActiveSetSolver:
         self._rhs = A.createVecLeft()
         self._xb = A.createVecRight()
         self._tmp = A.createVecLeft()
-        self._gap: npt.NDArray[np.float64] = np.zeros(self.ns)
+        self._vals: npt.NDArray[np.float64] = np.zeros(self.ns)
+        self._wg: npt.NDArray[np.float64] = np.zeros(self.ns)
+        self._reff = A.createVecLeft()
 
     # ------------------------------------------------------------------ small utilities
     def _gather(self, local: npt.NDArray) -> npt.NDArray:
@@ -141,10 +144,10 @@ class LowRankActiveSetSolver:
         return np.concatenate([self.bc_local, self.L[self._own(mask)]]).astype(np.int32)
 
     def _lift(self, v: PETSc.Vec, fixed_local: npt.NDArray[np.int32], out: PETSc.Vec) -> None:
-        """``out = r0 − A v`` on free rows and ``δ v`` on the fixed ones (what
-        ``MatZeroRowsColumns`` does to a right-hand side)."""
+        """``out = r − A v`` on free rows and ``δ v`` on the fixed ones (what
+        ``MatZeroRowsColumns`` does to a right-hand side), ``r = r0 − w_given``."""
         self.A.mult(v, out)
-        out.aypx(-1.0, self._r0)
+        out.aypx(-1.0, self._reff)
         out.array[fixed_local] = self.diag_value * v.array[fixed_local]
 
     # ------------------------------------------------------------------ factorisation
@@ -169,18 +172,31 @@ class LowRankActiveSetSolver:
         self.t_factor = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
 
     # ------------------------------------------------------------------ one contact solve
-    def begin(self, r0: PETSc.Vec, bc_values: npt.NDArray, gap_local: npt.NDArray,
+    def begin(self, r0: PETSc.Vec, bc_values: npt.NDArray, values: npt.NDArray,
               initial: npt.NDArray[np.bool_]) -> None:
         """Start a contact solve with right-hand side ``r0`` (nodal frames, Dirichlet rows
-        holding their values ``bc_values``) and the local gaps of the slave normal rows;
+        holding their values ``bc_values``) and the replicated values the contact rows
+        take when fixed (gaps for normal rows, the previous slip for tangential ones);
         factorise at ``initial`` (replicated mask) if there is no base yet."""
         r0.copy(self._r0)
+        r0.copy(self._reff)
         self._bc_values = np.asarray(bc_values, dtype=np.float64)
-        self._gap = self._gather(np.asarray(gap_local, dtype=np.float64))
+        self._vals = np.asarray(values, dtype=np.float64).copy()
+        self._wg = np.zeros(self.ns)
         self._r0N = self._gather(self._r0.array[self.L])
         if self.base is None:
             self.factorize(initial)
         self._base_solve()
+
+    def _set_given(self, wgiven: npt.NDArray | None) -> bool:
+        """Prescribed residuals ``w`` (e.g. friction forces at slip rows); True if changed."""
+        wg = np.zeros(self.ns) if wgiven is None else np.asarray(wgiven, dtype=np.float64)
+        if np.array_equal(wg, self._wg):
+            return False
+        self._wg = wg.copy()
+        self._r0.copy(self._reff)
+        self._reff.array[self.L] -= self._own(wg)
+        return True
 
     def _values_for(self, mask: npt.NDArray[np.bool_], extra: npt.NDArray | None = None) -> PETSc.Vec:
         v = self._values
@@ -188,7 +204,7 @@ class LowRankActiveSetSolver:
         if self.bc_local.size:
             v.array[self.bc_local] = self._bc_values
         own = self._own(mask)
-        vals = self._own(self._gap if extra is None else self._gap + extra)
+        vals = self._own(self._vals if extra is None else self._vals + extra)
         v.array[self.L[own]] = vals[own]
         return v
 
@@ -243,6 +259,7 @@ class LowRankActiveSetSolver:
         self.t_column = dt / k
 
     def solve_set(self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64],
+                  wgiven: npt.NDArray[np.float64] | None = None,
                   margin: npt.NDArray[np.float64] | None = None) -> tuple[npt.NDArray, npt.NDArray, dict]:
         """Solve the system of the set ``active`` (replicated mask).
 
@@ -251,7 +268,10 @@ class LowRankActiveSetSolver:
         active
             Replicated mask of the fixed (active) normal unknowns.
         scale
-            Replicated stiffness scale of the normal rows (balances the small system).
+            Replicated stiffness scale of the rows (balances the small system).
+        wgiven
+            Replicated prescribed residual ``w = r0 − A x`` at free rows (friction forces
+            at slip rows; zero elsewhere).
         margin
             Optional replicated distance of each node from switching (e.g.
             ``|λ + c_n (u_n − g)|`` of the previous iteration).  When columns must be
@@ -265,6 +285,8 @@ class LowRankActiveSetSolver:
             ``{"columns": new columns, "refactorized": bool, "size": |P|+|Z|}``.
         """
         refactorized = False
+        if self._set_given(wgiven):
+            self._base_solve()
         diff = np.flatnonzero(active != self.base)
         missing = [int(q) for q in diff if int(q) not in self.cache]
         too_many = len(self.cache) + len(missing) > self.max_columns
@@ -293,7 +315,8 @@ class LowRankActiveSetSolver:
             # unknowns: s_z (displacement) then mu_p = scale_p * mu~_p; rows: Z (force, / scale) then P
             csc = np.concatenate([np.ones(len(Z)), scale[P]])
             M = np.vstack([KG[Z, :] / scale[Z, None], G[P, :]]) * csc[None, :]
-            rhs = np.concatenate([(self._r0N[Z] - self._AxbN[Z]) / scale[Z], self._gap[P] - self._xbN[P]])
+            rhs = np.concatenate([(self._r0N[Z] - self._wg[Z] - self._AxbN[Z]) / scale[Z],
+                                  self._vals[P] - self._xbN[P]])
             if len(cols) <= 1500 and np.linalg.cond(M) > 1e13:
                 raise SingularActiveSetError(f"the system of the active set is singular "
                                              f"(condition number of the {len(cols)}×{len(cols)} update > 1e13)")
@@ -322,5 +345,5 @@ class LowRankActiveSetSolver:
         self.ksp.solve(self._rhs, out)
 
     def destroy(self) -> None:
-        for obj in (self.ksp, self.B0, self._r0, self._values, self._rhs, self._xb, self._tmp):
+        for obj in (self.ksp, self.B0, self._r0, self._reff, self._values, self._rhs, self._xb, self._tmp):
             obj.destroy()

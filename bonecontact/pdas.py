@@ -1,37 +1,52 @@
-"""Primal–dual active set (semi-smooth Newton) solver for frictionless mortar contact.
+"""Primal–dual active set (semi-smooth Newton) solver for mortar contact with friction.
 
-Algorithm (SPEC §5.1–5.3), on the condensed system of SPEC §4.3
------------------------------------------------------------------
+Algorithm (SPEC §5), on the condensed system of SPEC §4.3
+----------------------------------------------------------
 With ``Qᵀ`` from :func:`bonecontact.mortar.basis_transform`, the unknowns are
 ``Û = Q⁻ᵀ U`` (relative displacements at slave nodes), ``Â = Q A Qᵀ`` and
-``F̂ = Q F``; the multipliers act only on the slave rows and the weak non-penetration
-condition is nodal: ``n_pᵀ Û_p ≤ g_p = d_p / D_pp``.  The rows of every slave node are
-rotated into its frame ``[n_p; t_p]`` (matrix ``T``), so that each node has one normal
-row and ``gdim − 1`` tangential rows.  At iteration k, with the active set ``A``:
+``F̂ = Q F``; the multipliers act only on the slave rows and the weak contact
+conditions are nodal.  The rows of every slave node are rotated into its frame
+``[n_p; t_p(; t2_p)]`` (matrix ``T``): one normal row and ``gdim − 1`` tangential rows,
+whose unknowns are the normal approach ``u_n,p`` and the relative tangential
+displacement ``u_t,p``.  The contact force on the rows is ``−w`` with
+``w = T(F̂ − ÂÛ)`` and the multipliers are ``λ = w / D_pp`` (SPEC (46)); ``λ_n > 0`` is
+a pressure.  The slip of a step is ``Δu_t = u_t − u_t^{old}``.
 
-* ``p ∉ A``: the rows stay ``(T Â Û)_p = (T F̂)_p`` (λ_p = 0);
-* ``p ∈ A``: the normal row is replaced by ``s_p n_pᵀ Û_p = s_p g_p`` (``s_p`` the
-  diagonal of the row it replaces, for conditioning); the tangential rows stay
-  (frictionless: λ_t = 0).
+Sets at iteration k (SPEC §5.2) and what each does to the rows (SPEC §5.3):
 
-After the solve, ``λ_n,p = (T(F̂ − ÂÛ))_{p,n} / D_pp`` (SPEC (46)) and the new set is
-``A = {p : λ_n,p + c_n (n_pᵀÛ_p − g_p) > 0}``.  The iteration stops when the set does
-not change — the last solve is then the exact discrete solution of the linear
-complementarity problem.  It fails with :class:`ContactConvergenceError` (iteration
-history attached) when the iteration limit is reached or a set repeats (cycling), and
-never returns an unconverged state.  ``c_n`` defaults to the mean ratio of the normal
-rows' diagonal to ``D_pp`` (≈ E/h: stiffness per contact area), so the set update
-weighs gaps and pressures on the scale of the problem.
+* open (``p ∉ A_n``): all rows stay (λ = 0);
+* ``p ∈ A_n``: the normal row is replaced by ``u_n,p = g_p`` (gap ``d_p / D_pp``);
+* stick (``p ∈ A_n``, ``|λ_t + c_t Δu_t| ≤ ĝ_p``): the tangential rows are replaced by
+  ``u_t,p = u_t^{old}`` (no slip in the step);
+* slip (``|λ_t + c_t Δu_t| > ĝ_p``): the tangential rows carry the traction
+  ``λ_t = ĝ_p s_p`` with ``s_p = (λ_t + c_t Δu_t)/|λ_t + c_t Δu_t|`` of the previous
+  iterate.  In 2D ``s_p = ±1`` and this is exactly the semi-smooth Newton step of
+  C_t (SPEC (51)); in 3D the slip direction is iterated to a fixed point (the sets
+  *and* the directions must settle, to ``direction_tol``), a damped alternative to
+  the Hüeber–Stadler–Wohlmuth linearisation that keeps every linear system of the
+  same (eliminated, symmetric) kind.
+* frictionless pairs: the tangential rows always stay (λ_t = 0); their active nodes
+  are reported as ``slip``.
+
+Friction bounds ``ĝ_p``: Tresca, the given bound; Coulomb ``previous_step`` (semi-
+implicit), ``μ λ_n,p`` of the previous step — one Tresca problem per step; Coulomb
+``fixed_point`` (Algorithm FP), ``μ max(0, λ_n,p)`` from the current iterate, updated
+every ``fp_every`` iterations until its relative change is below ``fp_tol``.  Any
+other outcome — iteration limit, a repeated set (cycling) with unchanged bounds, a
+singular system — raises :class:`ContactConvergenceError` with the iteration history;
+an unconverged state is never returned.  ``c_n = c_t`` default to the mean ratio of
+the normal rows' diagonal to ``D_pp`` (≈ E/h), so the set updates weigh gaps, slips
+and tractions on the scale of the problem.
 
 Dirichlet rows of master dofs, mixed with slave rows by ``Q``, are reset to the
 identity after the transformation, so ``U = Qᵀ Û`` meets every Dirichlet condition.
 
 Non-singular first systems: without a warm start the active set begins with every
 node whose gap is within ``gap_tol`` of the smallest gap of its pair (the closed-gap
-nodes when the bodies touch, the closest ones when they start apart).  A body held only by contact therefore
-starts supported wherever it touches; then the PDAS keeps at least those nodes whose
-pressure stays positive.  (The remaining rigid modes that frictionless contact cannot
-remove — sliding along the contact plane — must be fixed by the scene.)
+nodes when the bodies touch, the closest ones when they start apart), sticking if the
+pair has friction.  A body held only by contact therefore starts supported wherever
+it touches.  (Rigid modes that the contact cannot remove — sliding along a
+frictionless contact plane — must be fixed by the scene.)
 
 Linear solvers: ``"direct"`` — MUMPS LU.  By default (``strategy="lowrank"``) one
 set is factorised and the systems of the other sets are solved exactly by low-rank
@@ -39,17 +54,22 @@ updates of it (:mod:`bonecontact.lowrank`): a contact solve costs about one
 factorisation plus a few multi-right-hand-side solves, and later steps of a run reuse
 the factorisation.  ``strategy="refactor"`` re-factorises (numerically; the symbolic
 analysis is reused) in every iteration — the reference the tests compare against.
-``"iterative"`` — CG/GMRES preconditioned by GAMG (smoothed aggregation) on the
-eliminated matrix of every iteration (``strategy="refactor"`` only).  Warm starts make
-the iterative solves cheap in time-stepping runs.
+``"iterative"`` — CG preconditioned by GAMG (smoothed aggregation) on the eliminated
+matrix of every iteration (``strategy="refactor"`` only).
 
-Units: λ_n in Pa (N/m² — in 2D plane strain per unit thickness); forces in N (N/m in 2D).
+All set decisions are taken on arrays gathered over the slave nodes of every rank
+(``n_slave × gdim`` numbers), identically on every rank; the linear algebra stays
+distributed.
+
+Units: λ in Pa (N/m² — in 2D plane strain per unit thickness); forces in N (N/m in 2D);
+slips in m.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -61,24 +81,56 @@ from .linalg import configure_ksp
 from .lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
 from .mortar import ContactInterface, basis_transform, rotation_matrix
 
-__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult", "snes_vi_solve"]
+__all__ = ["ContactConvergenceError", "ContactSolver", "FrictionLaw", "PDASResult", "snes_vi_solve"]
 
 
 class ContactConvergenceError(RuntimeError):
     """The PDAS iteration did not converge; ``history`` holds one dict per iteration."""
 
     def __init__(self, message: str, history: list[dict]):
-        lines = [message, "  it  active  changed  |dU|/|U|      linear_its"]
+        lines = [message, "  it  active  stick  slip  changed  |dU|/|U|    bound_change"]
         for h in history:
-            lines.append(f"  {h['iteration']:2d}  {h['active']:6d}  {h['changed']:7d}  {h['update']:.3e}  "
-                         f"{h['linear_iterations']:6d}")
+            lines.append(f"  {h['iteration']:2d}  {h['active']:6d}  {h.get('stick', 0):5d}  {h.get('slip', 0):4d}  "
+                         f"{h['changed']:7d}  {h['update']:.3e}  {h.get('bound_change', 0.0):.3e}")
         super().__init__("\n".join(lines))
         self.history = history
 
 
+@dataclass(frozen=True)
+class FrictionLaw:
+    """Friction of one contact pair.
+
+    Parameters
+    ----------
+    kind
+        ``"none"``, ``"tresca"`` (bound ``bound`` in Pa) or ``"coulomb"`` (coefficient
+        ``coefficient``).
+    update
+        Coulomb only: ``"previous_step"`` (bound μ λ_n of the previous step) or
+        ``"fixed_point"`` (Algorithm FP).
+    """
+
+    kind: Literal["none", "tresca", "coulomb"] = "none"
+    coefficient: float = 0.0
+    bound: float = 0.0
+    update: Literal["previous_step", "fixed_point"] = "previous_step"
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("none", "tresca", "coulomb"):
+            raise ValueError(f"friction kind must be 'none', 'tresca' or 'coulomb', got {self.kind!r}")
+        if self.update not in ("previous_step", "fixed_point"):
+            raise ValueError(f"coulomb update must be 'previous_step' or 'fixed_point', got {self.update!r}")
+        if self.coefficient < 0 or self.bound < 0:
+            raise ValueError("friction coefficient and bound must be >= 0")
+
+
 @dataclass
 class PDASResult:
-    """Outcome of one contact solve (per interface lists hold owned slave nodes)."""
+    """Outcome of one contact solve (per interface lists hold owned slave nodes).
+
+    ``traction_t`` (Pa) and ``slip`` (the tangential slip of the step, m) have
+    ``gdim − 1`` columns; ``status`` is ``"open"``, ``"stick"`` or ``"slip"`` per node.
+    """
 
     iterations: int
     linear_iterations: int
@@ -92,6 +144,12 @@ class PDASResult:
     wall_time: float = 0.0
     factorizations: int = 0
     columns: int = 0
+    traction_t: list[npt.NDArray[np.float64]] = field(default_factory=list)
+    status: list[npt.NDArray[np.str_]] = field(default_factory=list)
+    tangential_force: list[float] = field(default_factory=list)
+    n_stick: list[int] = field(default_factory=list)
+    n_slip: list[int] = field(default_factory=list)
+    bound_updates: int = 0
 
 
 def _allsum(comm: MPI.Comm, x) -> float:
@@ -99,7 +157,7 @@ def _allsum(comm: MPI.Comm, x) -> float:
 
 
 class ContactSolver:
-    """Frictionless PDAS on the condensed mortar system (see the module docstring).
+    """PDAS for mortar contact with Tresca/Coulomb friction (see the module docstring).
 
     Parameters
     ----------
@@ -117,10 +175,13 @@ class ContactSolver:
     force_scale
         Factor turning the operator's forces into physical ones (1 for static;
         1/Δt quasistatic; 1/Δt² dynamic, matching ``combined_operator``).
-    c_n
-        Complementarity parameter (default: see the module docstring).
+    friction
+        One :class:`FrictionLaw` for every pair, or a list with one per pair
+        (default: frictionless).
+    c_n, c_t
+        Complementarity parameters (default: see the module docstring), in Pa/m.
     max_iterations
-        PDAS iteration limit.
+        PDAS iteration limit (all iterations of a solve, bound updates included).
     gap_tol
         Gaps below this (m) count as closed for the cold start (default 1e-9 × the
         slave surface size).
@@ -134,62 +195,99 @@ class ContactSolver:
         Low-rank strategy: cache limit (columns) and the cost ratio (columns against one
         factorisation) beyond which the current set is refactorised instead
         (:class:`bonecontact.lowrank.LowRankActiveSetSolver`).
+    fp_every, fp_tol
+        Coulomb ``fixed_point``: update the bounds every ``fp_every`` iterations (and
+        whenever the sets have settled); converged when their relative change is
+        below ``fp_tol``.
+    direction_tol
+        3D friction: slip directions must change by less than this between iterations.
     """
 
     def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, interfaces: list[ContactInterface],
                  bc_rows: npt.ArrayLike | None = None, *, linear: str = "direct", force_scale: float = 1.0,
-                 c_n: float | None = None, max_iterations: int = 50, gap_tol: float | None = None,
-                 rtol: float = 1e-12, prefix: str = "bc_contact_", strategy: str = "auto",
-                 max_columns: int = 2000, rebase_ratio: float = 1.0):
+                 friction: FrictionLaw | list[FrictionLaw] | None = None,
+                 c_n: float | None = None, c_t: float | None = None, max_iterations: int = 50,
+                 gap_tol: float | None = None, rtol: float = 1e-12, prefix: str = "bc_contact_",
+                 strategy: str = "auto", max_columns: int = 2000, rebase_ratio: float = 1.0,
+                 fp_every: int = 1, fp_tol: float = 1e-8, direction_tol: float = 1e-8):
         t0 = time.perf_counter()
         self.V, self.interfaces = V, list(interfaces)
         self.comm = V.mesh.comm
-        self.bs = V.dofmap.index_map_bs
+        comm = self.comm
+        self.bs = bs = V.dofmap.index_map_bs
         self.force_scale = float(force_scale)
         self.max_iterations = int(max_iterations)
         self.linear = linear
+        self.fp_every, self.fp_tol, self.direction_tol = max(int(fp_every), 1), float(fp_tol), float(direction_tol)
+        if friction is None:
+            friction = FrictionLaw()
+        self.frictions = list(friction) if isinstance(friction, (list, tuple)) else [friction] * len(self.interfaces)
+        if len(self.frictions) != len(self.interfaces):
+            raise ValueError(f"{len(self.frictions)} friction laws for {len(self.interfaces)} contact pairs")
         self.Qt = basis_transform(V, self.interfaces)
         self.Ahat = A.PtAP(self.Qt)
         self.T = rotation_matrix(V, self.interfaces)
         self.Tt = self.T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
         self.At = self.Ahat.PtAP(self.Tt)          # T Â Tᵀ: unknowns in the nodal frames
-        start = self.bs * V.dofmap.index_map.local_range[0]
+        start = bs * V.dofmap.index_map.local_range[0]
         self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - start).astype(np.int32)
+        self._start = start
         if strategy == "auto":
             strategy = "lowrank" if linear == "direct" else "refactor"
         if strategy not in ("lowrank", "refactor") or (strategy == "lowrank" and linear != "direct"):
             raise ValueError(f"contact strategy must be 'lowrank' (direct solver only) or 'refactor', "
                              f"got {strategy!r} with linear={linear!r}")
         self.strategy = strategy
-        self.nrow_local = [self.bs * itf.blocks.astype(np.int64) for itf in self.interfaces]
-        self.nrow_global = [self.bs * itf.global_blocks for itf in self.interfaces]
+        # ---- layout: owned slave nodes (interface by interface) and their contact rows
+        self.nrow_local = [bs * itf.blocks.astype(np.int64) for itf in self.interfaces]
+        sizes = [itf.num_owned for itf in self.interfaces]
+        self._m = int(sum(sizes))
+        self._split = np.cumsum(sizes)[:-1]
+        counts = comm.allgather(self._m)
+        self._node_off = int(sum(counts[: comm.rank]))
+        self.NS = int(sum(counts))
+        nodes_local = np.concatenate(self.nrow_local + [np.zeros(0, np.int64)])
+        self._L = np.concatenate([nodes_local + j for j in range(bs)]).astype(np.int32)   # component-major
+        offs = np.cumsum([0] + counts[:-1])
+        self._ridx = [np.concatenate([bs * o + j * c + np.arange(c) for o, c in zip(offs, counts)]).astype(np.int64)
+                      for j in range(bs)]
+        # ---- replicated node data
+        self._D = self._gn(np.concatenate([itf.D for itf in self.interfaces] + [np.zeros(0)]))
+        self._gap = self._gn(np.concatenate([itf.gap for itf in self.interfaces] + [np.zeros(0)]))
+        kind = {"none": 0, "tresca": 1, "coulomb": 2}
+        per = lambda f: self._gn(np.concatenate([np.full(n, f(fl), dtype=float)  # noqa: E731
+                                                 for n, fl in zip(sizes, self.frictions)] + [np.zeros(0)]))
+        self._fkind = per(lambda fl: kind[fl.kind]).astype(int)
+        self._fric = self._fkind > 0
+        self._mu = per(lambda fl: fl.coefficient)
+        self._bound = per(lambda fl: fl.bound) / self.force_scale
+        self._fp = (self._fkind == 2) & (per(lambda fl: fl.update == "fixed_point") > 0)
         diag = self.At.getDiagonal()
-        self.row_scale = [np.abs(diag.array[r]) for r in self.nrow_local]
-        num = _allsum(self.comm, float(sum((s / itf.D).sum() for s, itf in zip(self.row_scale, self.interfaces))))
-        cnt = _allsum(self.comm, sum(itf.num_owned for itf in self.interfaces))
-        self.c_n = float(c_n) / self.force_scale if c_n is not None else (num / max(cnt, 1))
+        self._scale = np.maximum(self._gn(np.abs(diag.array[self._L])), 1e-300)
+        diag.destroy()
+        sn = self._scale[self._ridx[0]]
+        num = float((sn / np.where(self._D > 0, self._D, 1.0)).sum())
+        self.c_n = float(c_n) / self.force_scale if c_n is not None else (num / max(self.NS, 1))
+        self.c_t = float(c_t) / self.force_scale if c_t is not None else self.c_n
         # value on the diagonal of eliminated rows: the mean normal-row stiffness
-        self.diag_value = float(num / max(cnt, 1)) * float(np.mean(np.concatenate(
-            [i.D for i in self.interfaces] + [np.ones(1)]))) if cnt else 1.0
-        self.diag_value = self.comm.allreduce(self.diag_value, op=MPI.MAX)
+        self.diag_value = (num / max(self.NS, 1)) * float(np.mean(self._D)) if self.NS else 1.0
         gdim = V.mesh.geometry.dim
         size = max([itf.slave_area ** (1.0 / (gdim - 1)) for itf in self.interfaces] + [1e-300])
         self.gap_tol = float(gap_tol) if gap_tol is not None else 1e-9 * size
-        self.active = self._cold_start()
         self.Uh = self.At.createVecRight()
-        self.Uh.set(0.0)
         self._r0, self._rhs, self._w = self.At.createVecLeft(), self.At.createVecLeft(), self.At.createVecLeft()
         self._Fh = self.Qt.createVecRight()
+        self.reset()
         self.B = self.ksp = self.lowrank = None
         if strategy == "lowrank":
-            self.lowrank = LowRankActiveSetSolver(self.At, self.bc_rows, self.nrow_local, self.diag_value,
+            self.lowrank = LowRankActiveSetSolver(self.At, self.bc_rows, self._L, self.diag_value,
                                                   prefix=prefix, max_columns=max_columns,
                                                   rebase_ratio=rebase_ratio)
         else:
             self.B = self.At.duplicate(copy=True)
             self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
-            self.ksp = PETSc.KSP().create(self.comm)
+            self.ksp = PETSc.KSP().create(comm)
             self.ksp.setOptionsPrefix(prefix)
             configure_ksp(self.ksp, linear, rtol=rtol, prefix=prefix, max_it=3000)
             if linear == "direct":
@@ -199,8 +297,16 @@ class ContactSolver:
             self.ksp.setFromOptions()
         self.setup_time = time.perf_counter() - t0
 
-    # ------------------------------------------------------------------ helpers
-    def _cold_start(self) -> list[np.ndarray]:
+    # ------------------------------------------------------------------ layout helpers
+    def _gn(self, local: npt.NDArray) -> npt.NDArray:
+        """Local per-node (or per-row) values → the replicated array, identical on all ranks."""
+        return np.concatenate(self.comm.allgather(np.ascontiguousarray(local)), axis=0)
+
+    def _own(self, rep: npt.NDArray) -> list[npt.NDArray]:
+        """Replicated per-node array → this rank's nodes, split by interface."""
+        return np.split(rep[self._node_off:self._node_off + self._m], self._split)
+
+    def _cold_start(self) -> npt.NDArray[np.bool_]:
         """Initial active set: the nodes of each pair whose gap is within ``gap_tol`` of
         the smallest gap of that pair (the closed-gap nodes when the bodies touch; the
         closest nodes when they start apart, so a body held only by contact is
@@ -209,121 +315,165 @@ class ContactSolver:
         for itf in self.interfaces:
             gmin = self.comm.allreduce(float(itf.gap.min()) if itf.num_owned else np.inf, op=MPI.MIN)
             out.append(itf.gap <= max(gmin, 0.0) + self.gap_tol)
-        return out
+        return self._gn(np.concatenate(out + [np.zeros(0, bool)]))
 
+    @property
+    def active(self) -> list[npt.NDArray[np.bool_]]:
+        """The current (warm-start) active set, per interface, owned nodes."""
+        return [a.copy() for a in self._own(self._an)]
 
-    def _operator(self, active: list[np.ndarray], rhs: PETSc.Vec, values: PETSc.Vec) -> None:
-        """B = At with the Dirichlet rows and the active normal rows (and columns)
-        eliminated: Ũ_i = values_i there, lifted into ``rhs`` (B stays symmetric)."""
+    def reset(self) -> None:
+        """Forget the warm start (cold start from the closed-gap set next time)."""
+        self._an = self._cold_start()
+        self._stick = self._an & self._fric
+        self._dir = np.zeros((self.NS, self.bs - 1))
+        self._lam_n_prev = np.zeros(self.NS)
+        self.Uh.set(0.0)
+
+    def _fixed_rows(self, an: npt.NDArray, stick: npt.NDArray) -> npt.NDArray[np.bool_]:
+        fixed = np.zeros(self.bs * self.NS, dtype=bool)
+        fixed[self._ridx[0][an]] = True
+        st = an & stick & self._fric
+        for j in range(1, self.bs):
+            fixed[self._ridx[j][st]] = True
+        return fixed
+
+    # ------------------------------------------------------------------ linear solves
+    def _solve_refactor(self, fixed, values, wg, b) -> tuple[np.ndarray, np.ndarray, int]:
+        """Eliminate the fixed rows (symmetric), prescribe ``w`` at force rows, solve."""
+        v = self._rhs.duplicate()
+        v.set(0.0)
+        if self.bc_local.size:
+            v.array[self.bc_local] = b.array[self.bc_local]
+        lo = self.bs * self._node_off
+        own_fixed = fixed[lo:lo + self._L.size]
+        v.array[self._L[own_fixed]] = values[lo:lo + self._L.size][own_fixed]
+        self._r0.copy(self._rhs)
+        self._rhs.array[self._L] -= wg[lo:lo + self._L.size]
         self.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        rows = np.concatenate([self.bc_rows.astype(np.int64)]
-                              + [g[a] for g, a in zip(self.nrow_global, active)]).astype(PETSc.IntType)
-        self.B.zeroRowsColumns(rows, diag=self.diag_value, x=values, b=rhs)
-
-    def _signature(self, active: list[np.ndarray]) -> tuple:
-        local = tuple(int(b) for itf, a in zip(self.interfaces, active) for b in itf.global_blocks[a])
-        return tuple(sorted(sum(self.comm.allgather(local), ())))
+        rows = np.concatenate([self.bc_rows.astype(np.int64),
+                               self._L[own_fixed].astype(np.int64) + self._start]).astype(PETSc.IntType)
+        self.B.zeroRowsColumns(rows, diag=self.diag_value, x=v, b=self._rhs)
+        v.destroy()
+        self.ksp.setOperators(self.B)
+        try:
+            self.ksp.solve(self._rhs, self.Uh)
+        except PETSc.Error as exc:
+            raise SingularActiveSetError(f"linear solve failed (singular system? PETSc error {exc.ierr})") from None
+        if null_pivots(self.ksp):
+            raise SingularActiveSetError(f"the system of the active set is singular ({null_pivots(self.ksp)} "
+                                         f"null pivots: a body without support?)")
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise SingularActiveSetError(f"the linear solver diverged (reason {reason})")
+        self.At.mult(self.Uh, self._w)
+        self._w.aypx(-1.0, self._r0)                       # w = T F̂ − At Û
+        return self._gn(self.Uh.array[self._L]), self._gn(self._w.array[self._L]), self.ksp.getIterationNumber()
 
     # -------------------------------------------------------------------- solve
     def solve(self, b: PETSc.Vec, u: fem.Function) -> PDASResult:
         """Solve one contact problem ``A U = b + contact forces``; write ``U`` into ``u``.
 
         ``b`` is the right-hand side of the step with Dirichlet lifting applied (as
-        for the plain linear solve).  The active set and ``Û`` are warm-started from
-        the previous call.
+        for the plain linear solve).  Sets, slip directions and ``Û`` are warm-started
+        from the previous call; the slip of this step is measured from its ``Û``.
         """
         t0 = time.perf_counter()
-        comm = self.comm
+        comm, bs, NS = self.comm, self.bs, self.NS
         self.Qt.multTranspose(b, self._Fh)
         self.T.mult(self._Fh, self._r0)
-        r0 = self._r0
         if self.bc_local.size:
-            r0.array[self.bc_local] = b.array[self.bc_local]
-        active = [a.copy() for a in self.active]
-        history: list[dict] = []
-        seen = {self._signature(active): 0}
-        lin_total = 0
-        lam_list = un_list = None
+            self._r0.array[self.bc_local] = b.array[self.bc_local]
+        R = self._ridx
+        D, gap, fric = self._D, self._gap, self._fric
+        Dsafe = np.where(D > 0, D, 1.0)
+        xold = self._gn(self.Uh.array[self._L])
+        values = xold.copy()
+        values[R[0]] = gap
+        an, stick, dirs = self._an.copy(), self._stick & self._an & fric, self._dir.copy()
+        g = np.where(self._fkind == 1, self._bound, self._mu * np.maximum(self._lam_n_prev, 0.0))
         lr = self.lowrank
-        split = np.cumsum([r.size for r in self.nrow_local])[:-1]
         if lr is not None:
             f0, c0 = lr.factorizations, lr.columns
-            lr.begin(r0, b.array[self.bc_local], self._concat([itf.gap for itf in self.interfaces]),
-                     self._replicate(active))
-            scale = self._replicate(self.row_scale)
-            x_prev = lr._gather(self.Uh.array[lr.L])
-            margin = None
-        else:
-            values = self._rhs.duplicate()
-            Uh_new = self.Uh.duplicate()
+            lr.begin(self._r0, b.array[self.bc_local], values, self._fixed_rows(an, stick))
+        history: list[dict] = []
+        seen: set = set()
+        lin_total, n_bound = 0, 0
+        margin = None
+        x_prev = xold
         for k in range(1, self.max_iterations + 1):
-            if lr is not None:
-                try:
-                    xN, wN, info = lr.solve_set(self._replicate(active), scale, margin)
-                except SingularActiveSetError as exc:
-                    raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", history) from None
-                its = 1
-                un_list = np.split(lr._own(xN), split)
-                w_list = np.split(lr._own(wN), split)
-                nrm = float(np.linalg.norm(xN))
-                update = float(np.linalg.norm(xN - x_prev)) / nrm if nrm > 0 else 0.0
-                x_prev = xN
-                extra = {"columns": info["columns"], "refactorized": info["refactorized"]}
-            else:
-                values.set(0.0)
-                if self.bc_local.size:
-                    values.array[self.bc_local] = b.array[self.bc_local]
-                for itf, rl, a in zip(self.interfaces, self.nrow_local, active):
-                    values.array[rl[a]] = itf.gap[a]
-                r0.copy(self._rhs)
-                self._operator(active, self._rhs, values)
-                self.ksp.setOperators(self.B)
-                self.Uh.copy(Uh_new)
-                try:
-                    self.ksp.solve(self._rhs, Uh_new)
-                except PETSc.Error as exc:
-                    raise ContactConvergenceError(f"contact: linear solve failed in PDAS iteration {k} "
-                                                  f"(singular system? PETSc error {exc.ierr})", history) from None
-                if null_pivots(self.ksp):
-                    raise ContactConvergenceError(f"contact: the system of the active set is singular "
-                                                  f"({null_pivots(self.ksp)} null pivots: a body without support?) "
-                                                  f"in PDAS iteration {k}", history)
-                reason = self.ksp.getConvergedReason()
-                its = self.ksp.getIterationNumber()
-                if reason < 0:
-                    raise ContactConvergenceError(f"contact: linear solver diverged (reason {reason}) in PDAS "
-                                                  f"iteration {k}", history)
-                self.At.mult(Uh_new, self._w)
-                self._w.aypx(-1.0, r0)                       # w = T F̂ − At Û
-                w_list = [self._w.array[rl] for rl in self.nrow_local]
-                un_list = [Uh_new.array[rl] for rl in self.nrow_local]
-                self._w.waxpy(-1.0, self.Uh, Uh_new)
-                nrm = Uh_new.norm()
-                update = self._w.norm() / nrm if nrm > 0 else 0.0
-                Uh_new.copy(self.Uh)
-                extra = {}
+            fixed = self._fixed_rows(an, stick)
+            slip = an & fric & ~stick
+            wg = np.zeros(bs * NS)
+            for j in range(1, bs):
+                wg[R[j][slip]] = (g * D * dirs[:, j - 1])[slip]
+            try:
+                if lr is not None:
+                    x, w, info = lr.solve_set(fixed, self._scale, wg, margin)
+                    its = 1
+                    extra = {"columns": info["columns"], "refactorized": info["refactorized"]}
+                else:
+                    x, w, its = self._solve_refactor(fixed, values, wg, b)
+                    extra = {}
+            except SingularActiveSetError as exc:
+                raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", history) from None
             lin_total += its
-            # multipliers (SPEC (46)) and the new active set
-            lam_list = [w / itf.D for w, itf in zip(w_list, self.interfaces)]
-            lam_scale = comm.allreduce(max([float(np.abs(x).max()) if x.size else 0.0 for x in lam_list] + [0.0]),
-                                       op=MPI.MAX)
+            lam_n = w[R[0]] / Dsafe
+            lam_t = np.stack([w[R[j]] / Dsafe for j in range(1, bs)], axis=1)
+            un = x[R[0]]
+            dut = np.stack([x[R[j]] - xold[R[j]] for j in range(1, bs)], axis=1)
+            lam_scale = float(np.abs(lam_n).max()) if NS else 0.0
             eps = 1e-10 * max(lam_scale, 1e-300)
-            ind = [lam + self.c_n * (un - itf.gap) for lam, un, itf in zip(lam_list, un_list, self.interfaces)]
-            new = [i > eps for i in ind]
-            if lr is not None:
-                margin = np.abs(self._replicate(ind) - eps)
-            changed = _allsum(comm, int(sum(int((n != a).sum()) for n, a in zip(new, active))))
-            n_act = _allsum(comm, int(sum(int(a.sum()) for a in active)))
-            history.append({"iteration": k, "active": n_act, "changed": changed, "update": update,
-                            "linear_iterations": its, **extra})
-            if changed == 0:
+            ind_n = lam_n + self.c_n * (un - gap)
+            new_an = ind_n > eps
+            # Coulomb fixed point (Algorithm FP): bounds from the current normal multipliers
+            changed_sets = int((new_an != an).sum())
+            z = lam_t + self.c_t * dut
+            zn = np.linalg.norm(z, axis=1)
+            bound_change = 0.0
+            if self._fp.any():
+                settle = changed_sets == 0 and self._tangential_changes(new_an, an, stick, dirs, z, zn, g, eps) == 0
+                if k % self.fp_every == 0 or settle:
+                    g_new = g.copy()
+                    g_new[self._fp] = self._mu[self._fp] * np.maximum(lam_n[self._fp], 0.0)
+                    den = float(np.linalg.norm(g_new[self._fp]))
+                    bound_change = float(np.linalg.norm(g_new[self._fp] - g[self._fp])) / den if den > 0 else 0.0
+                    if bound_change > 0.0:
+                        g = g_new
+                        n_bound += 1
+                        seen.clear()
+            gtol = 1e-10 * max(float(g.max()) if NS else 0.0, eps)
+            new_slip = new_an & fric & (zn > g + gtol)
+            new_stick = new_an & fric & ~new_slip
+            new_dirs = dirs.copy()
+            nz = new_slip & (zn > 0)
+            new_dirs[nz] = z[nz] / zn[nz, None]
+            changed_t = int(((new_stick != stick) & new_an & fric).sum())
+            both = new_slip & slip
+            if bs == 2:
+                changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
+            else:
+                changed_t += int((np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum())
+            changed = changed_sets + changed_t
+            nrm = float(np.linalg.norm(x))
+            update = float(np.linalg.norm(x - x_prev)) / nrm if nrm > 0 else 0.0
+            x_prev = x
+            history.append({"iteration": k, "active": int(an.sum()), "stick": int((an & stick & fric).sum()),
+                            "slip": int(slip.sum()), "changed": changed, "update": update,
+                            "bound_change": bound_change, "linear_iterations": its, **extra})
+            if changed == 0 and bound_change <= self.fp_tol:
                 break
-            active = new
-            sig = self._signature(active)
+            # margins: how close each row is to switching (for speculative low-rank columns)
+            margin = np.full(bs * NS, np.inf)
+            margin[R[0]] = np.abs(ind_n - eps)
+            for j in range(1, bs):
+                margin[R[j][new_an & fric]] = np.abs(zn - g)[new_an & fric]
+            an, stick, dirs = new_an, new_stick, new_dirs
+            sig = (an.tobytes(), stick.tobytes(), np.sign(dirs).tobytes() if bs == 2 else dirs.round(6).tobytes())
             if sig in seen:
-                raise ContactConvergenceError(f"contact: the active set cycles (iteration {k + 1} repeats "
-                                              f"iteration {seen[sig]})", history)
-            seen[sig] = k
+                raise ContactConvergenceError(f"contact: the active set cycles (iteration {k + 1} repeats an "
+                                              f"earlier set)", history)
+            seen.add(sig)
         else:
             raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
                                           history)
@@ -331,37 +481,47 @@ class ContactSolver:
             lr.finish(self.Uh)
             n_fact, n_cols = lr.factorizations - f0, lr.columns - c0
         else:
-            values.destroy()
-            Uh_new.destroy()
             n_fact, n_cols = (len(history) if self.linear == "direct" else 0), 0
-        self.active = active
+        self._an, self._stick, self._dir = an, stick & an & fric, dirs
+        self._lam_n_prev = np.where(an, lam_n, 0.0)
         uhat = self.Tt.createVecLeft()
         self.Tt.mult(self.Uh, uhat)                   # Û = Tᵀ Ũ
         self.Qt.mult(uhat, u.x.petsc_vec)             # U = Qᵀ Û
         uhat.destroy()
         u.x.scatter_forward()
-        pressure = [np.where(a, lam, 0.0) * self.force_scale for lam, a in zip(lam_list, active)]
-        gaps = [itf.gap - un for itf, un in zip(self.interfaces, un_list)]
-        slips = [np.stack([self.Uh.array[rl + j] for j in range(1, self.bs)], axis=1) for rl in self.nrow_local]
-        forces = [_allsum(comm, float((itf.weight * p).sum())) for itf, p in zip(self.interfaces, pressure)]
-        n_active = [_allsum(comm, int(a.sum())) for a in active]
-        return PDASResult(iterations=len(history), linear_iterations=lin_total, active=[a.copy() for a in active],
-                          pressure=pressure, gap=gaps, slip=slips, normal_force=forces, n_active=n_active,
+        return self._result(an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0)
+
+    def _tangential_changes(self, new_an, an, stick, dirs, z, zn, g, eps) -> int:
+        gtol = 1e-10 * max(float(g.max()) if self.NS else 0.0, eps)
+        new_slip = new_an & self._fric & (zn > g + gtol)
+        new_stick = new_an & self._fric & ~new_slip
+        return int(((new_stick != (stick & an)) & new_an & self._fric).sum())
+
+    def _result(self, an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0):
+        comm, fs = self.comm, self.force_scale
+        fric = self._fric
+        pressure_r = np.where(an, lam_n, 0.0) * fs
+        trac_r = np.where(an[:, None] & fric[:, None], lam_t, 0.0) * fs
+        status_r = np.where(~an, "open", np.where(fric & stick, "stick", "slip"))
+        act, pres, gaps, slips, tracs, stats = (self._own(an), self._own(pressure_r), self._own(self._gap - un),
+                                                self._own(dut), self._own(trac_r), self._own(status_r))
+        forces, tforces, n_active, n_stick, n_slip = [], [], [], [], []
+        for k, itf in enumerate(self.interfaces):
+            forces.append(_allsum(comm, float((itf.weight * pres[k]).sum())))
+            ft = np.zeros(itf.gdim)
+            for j in range(self.bs - 1):
+                if itf.num_owned:
+                    ft += ((itf.weight * tracs[k][:, j])[:, None] * itf.tangents[:, j, :]).sum(axis=0)
+            ft = comm.allreduce(ft, op=MPI.SUM)
+            tforces.append(float(np.linalg.norm(ft)))
+            n_active.append(_allsum(comm, int(act[k].sum())))
+            n_stick.append(_allsum(comm, int((stats[k] == "stick").sum())))
+            n_slip.append(_allsum(comm, int((stats[k] == "slip").sum())))
+        return PDASResult(iterations=len(history), linear_iterations=lin_total, active=[a.copy() for a in act],
+                          pressure=pres, gap=gaps, slip=slips, normal_force=forces, n_active=n_active,
                           history=history, wall_time=time.perf_counter() - t0, factorizations=n_fact,
-                          columns=n_cols)
-
-    def _concat(self, parts: list[np.ndarray]) -> np.ndarray:
-        return np.concatenate([np.asarray(p, dtype=np.float64) for p in parts] + [np.zeros(0)])
-
-    def _replicate(self, parts: list[np.ndarray]) -> np.ndarray:
-        """Per-interface owned arrays → one array over all slave nodes, identical on every rank."""
-        dtype = parts[0].dtype if parts else np.float64
-        return self.lowrank._gather(np.concatenate(list(parts) + [np.zeros(0, dtype=dtype)]))
-
-    def reset(self) -> None:
-        """Forget the warm start (cold start from the closed-gap set next time)."""
-        self.active = self._cold_start()
-        self.Uh.set(0.0)
+                          columns=n_cols, traction_t=tracs, status=stats, tangential_force=tforces,
+                          n_stick=n_stick, n_slip=n_slip, bound_updates=n_bound)
 
     def destroy(self) -> None:
         if self.lowrank is not None:

@@ -19,6 +19,7 @@ from tqdm import tqdm
 
 from .io import ENERGY_COLUMNS, ProbeError, Probes, ResultsWriter, StressFields
 from .mechanics import Mechanics
+from .pdas import FrictionLaw
 from .scene import Scene, SceneError, check_against_mesh
 from .timestepping import Integrator
 
@@ -197,7 +198,10 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
     dynamic = scene.analysis.kind == "dynamic"  # dynamic runs book the energy balance
     integ = Integrator(model, scene.analysis.kind, dt, linear=scene.solver.linear,
                        rtol=min(1e-2 * scene.solver.tolerance, 1e-12), contact=sm.interfaces or None,
-                       contact_options={"max_iterations": scene.solver.max_iterations}, energy_balance=dynamic)
+                       contact_options={"max_iterations": scene.solver.max_iterations,
+                                        "friction": [FrictionLaw(c.friction, c.coefficient, c.bound, c.coulomb_update)
+                                                     for c in scene.contacts]},
+                       energy_balance=dynamic)
     integ.set_initial(None, sm.v0)
     stress = StressFields(model.mesh, model.stress_expression(integ.u, integ.velocity))
     writer = ResultsWriter(comm, outdir, scene.name, sm.probes, ENERGY_COLUMNS if dynamic else ())
@@ -224,12 +228,11 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
                 if res is None:  # initial state: no contact solve yet
                     rows.append([step, t, itf.name, 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain, *works])
                     continue
-                # frictionless: active nodes slide freely ("slip"), no tangential traction
-                rows.append([step, t, itf.name, res.normal_force[k], 0.0, res.n_active[k], 0, res.n_active[k],
-                             res.iterations, e.kinetic, e.strain, *works])
-                status = np.where(res.active[k], "slip", "open")
+                # frictionless pairs: active nodes slide freely ("slip"), no tangential traction
+                rows.append([step, t, itf.name, res.normal_force[k], res.tangential_force[k], res.n_active[k],
+                             res.n_stick[k], res.n_slip[k], res.iterations, e.kinetic, e.strain, *works])
                 writer.contact_table(itf.name, itf.coords, res.gap[k], res.pressure[k],
-                                     np.zeros((itf.num_owned, itf.gdim - 1)), res.slip[k], list(status))
+                                     res.traction_t[k], res.slip[k], list(res.status[k]))
             writer.history(rows)
         writer.probe_rows(step, t, integ.u, integ.velocity, stress)
         if write_fields:
@@ -237,7 +240,7 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
             fields_written[0] = step
 
     status, message = "converged", None
-    lin_its, pdas_its = [], []
+    lin_its, pdas_its, bound_updates = [], [], []
     info = {"dofs": model.num_dofs, "analysis": scene.analysis.kind, "dt": dt, "setup_time_s": integ.setup_time,
             "linear_solver": scene.solver.linear}
     try:
@@ -249,6 +252,7 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
             lin_its.append(si.linear_iterations)
             if integ.last_contact is not None:
                 pdas_its.append(integ.last_contact.iterations)
+                bound_updates.append(integ.last_contact.bound_updates)
             last = k == nsteps
             record(k, integ.t, (every > 0 and k % every == 0) or last)
             bar.update(1)
@@ -262,7 +266,10 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
     if sm.interfaces:
         info["contact"] = {"pairs": [i.name for i in sm.interfaces],
                            "pdas_iterations": {"total": int(sum(pdas_its)), "max": int(max(pdas_its, default=0))},
-                           "solver": "PDAS (semi-smooth Newton), frictionless, dual mortar",
+                           "friction": [c.friction for c in scene.contacts],
+                           "bound_updates": int(sum(bound_updates)),
+                           "solver": "PDAS (semi-smooth Newton), dual mortar; Tresca/Coulomb friction "
+                                     "(Coulomb fixed_point: outer = bound_updates, inner = pdas_iterations)",
                            "setup_time_s": integ.contact.setup_time}
     if dynamic:
         b = integ.balance

@@ -986,6 +986,17 @@ def _read_contacts(doc: Mapping[str, Any], allow_contact: bool,
         if friction != "none" and not allow_friction:
             raise tab.error("friction", f'"{friction}" friction is not supported yet by this version of '
                                         'bonecontact; allowed for now: "none"')
+        # a non-default value of another friction law's key is an error, not silently ignored
+        spec = specs[-1]
+        if spec.coefficient > 0 and friction != "coulomb":
+            raise tab.error("coefficient", f'is the Coulomb coefficient, but this pair has friction = "{friction}" '
+                                           '(use friction = "coulomb", or "bound" for Tresca)')
+        if spec.bound > 0 and friction != "tresca":
+            raise tab.error("bound", f'is the Tresca bound (Pa), but this pair has friction = "{friction}" '
+                                     '(use friction = "tresca", or "coefficient" for Coulomb)')
+        if spec.coulomb_update != "previous_step" and friction != "coulomb":
+            raise tab.error("coulomb_update", f'applies to Coulomb friction only, but this pair has '
+                                              f'friction = "{friction}"')
     return tuple(specs)
 
 
@@ -1301,7 +1312,7 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
                  loads=loads, initial_velocities=initial_velocities, output=output, raw=doc)
 
 
-def load_scene(path: str | Path, *, allow_contact: bool = True, allow_friction: bool = False) -> Scene:
+def load_scene(path: str | Path, *, allow_contact: bool = True, allow_friction: bool = True) -> Scene:
     """Read and validate a scene file (everything that does not need the mesh).
 
     Parameters

@@ -135,12 +135,12 @@ CASES = [
     ("format_not_1", _sub("format = 1", "format = 2"), ["format"]),
 ]
 
-# Frictionless contact is supported; friction lands with issue #4 and is "not supported yet".
-CONTACT_NOT_YET = ("friction_not_supported_yet", _sub(
+# A friction key of another law (a Coulomb coefficient on a Tresca pair) is an input error.
+CONTACT_NOT_YET = ("friction_key_of_another_law", _sub(
     "[[dirichlet]]",
-    '[[contact]]\nname = "joint"\nslave = "top"\nmaster = "bottom"\nfriction = "coulomb"\n'
+    '[[contact]]\nname = "joint"\nslave = "top"\nmaster = "bottom"\nfriction = "tresca"\n'
     'coefficient = 0.3\n\n[[dirichlet]]'),
-    ["friction", "not supported", "none"])
+    ["coefficient", "coulomb", "tresca"])
 
 
 def _check_input_error(res: subprocess.CompletedProcess, words: list[str], out: Path, nproc: int) -> None:
