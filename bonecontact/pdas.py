@@ -16,7 +16,8 @@ Sets at iteration k (SPEC §5.2) and what each does to the rows (SPEC §5.3):
 
 * open (``p ∉ A_n``): all rows stay (λ = 0);
 * ``p ∈ A_n``: the normal row is replaced by ``u_n,p = g_p`` (gap ``d_p / D_pp``);
-* stick (``p ∈ A_n``, ``|λ_t + c_t Δu_t| ≤ ĝ_p``): the tangential rows are replaced by
+* stick (``p ∈ A_n``, ``|λ_t + c_t Δu_t| ≤ ĝ_p``, or a slip node whose slip reversed
+  under the prescribed traction): the tangential rows are replaced by
   ``u_t,p = u_t^{old}`` (no slip in the step);
 * slip (``|λ_t + c_t Δu_t| > ĝ_p``): the tangential rows carry the traction
   ``λ_t = ĝ_p s_p`` with ``s_p = (λ_t + c_t Δu_t)/|λ_t + c_t Δu_t|`` of the previous
@@ -390,7 +391,9 @@ class ContactSolver:
         xold = self._gn(self.Uh.array[self._L])
         values = xold.copy()
         values[R[0]] = gap
-        an, stick, dirs = self._an.copy(), self._stick & self._an & fric, self._dir.copy()
+        # stick predictor: every active friction node starts the step sticking (the
+        # elastic trial state); the first solve shows where the bound is exceeded
+        an, stick, dirs = self._an.copy(), self._an & fric, self._dir.copy()
         g = np.where(self._fkind == 1, self._bound, self._mu * np.maximum(self._lam_n_prev, 0.0))
         lr = self.lowrank
         if lr is not None:
@@ -444,10 +447,14 @@ class ContactSolver:
                         seen.clear()
             gtol = 1e-10 * max(float(g.max()) if NS else 0.0, eps)
             new_slip = new_an & fric & (zn > g + gtol)
-            new_stick = new_an & fric & ~new_slip
             new_dirs = dirs.copy()
             nz = new_slip & (zn > 0)
             new_dirs[nz] = z[nz] / zn[nz, None]
+            # a node whose slip reverses under the prescribed traction overshot: it sticks
+            # next (without this, large c_t makes whole slip zones flip back and forth)
+            reverse = new_slip & slip & ((new_dirs * dirs).sum(axis=1) < 0.0)
+            new_slip &= ~reverse
+            new_stick = new_an & fric & ~new_slip
             changed_t = int(((new_stick != stick) & new_an & fric).sum())
             both = new_slip & slip
             if bs == 2:
