@@ -17,10 +17,16 @@ $MPIEXEC -n 2 $PY benchmarks/bench_timestep.py $quick
 $PY benchmarks/summarize.py timestep
 
 echo "== contact: Hertz 2D error/time, PDAS iterations, PDAS vs SNES VI (1 and 2 ranks)"
-rm -f benchmarks/results/hertz.csv benchmarks/results/hertz_vi.csv benchmarks/results/hertz3d.csv
+rm -f benchmarks/results/hertz.csv benchmarks/results/hertz_steps.csv benchmarks/results/hertz_vi.csv benchmarks/results/hertz3d.csv
 $PY benchmarks/bench_hertz.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_hertz.py $quick
-$PY benchmarks/summarize.py hertz hertz_vi hertz3d
+$PY benchmarks/summarize.py hertz hertz_steps hertz_vi hertz3d
+
+echo "== friction: Cattaneo-Mindlin error/time, PDAS iterations vs mu and mesh, previous_step vs fixed_point"
+rm -f benchmarks/results/friction.csv
+$PY benchmarks/bench_friction.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_friction.py --quick
+$PY benchmarks/summarize.py friction
 
 echo "== dynamic contact: two-bar impact error and energy drift against dt"
 $PY benchmarks/bench_impact.py $quick

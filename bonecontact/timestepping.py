@@ -483,6 +483,9 @@ class Integrator:
             for k, itf in enumerate(self._interfaces):
                 p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
                 part[5] += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
+                if res is not None and res.traction_t and itf.num_owned:
+                    # friction: the force −D λ_t on the slip Δu_t of the step (≤ 0)
+                    part[5] -= float((itf.D[:, None] * res.traction_t[k] * res.slip[k]).sum())
             self._gaps = gaps
         kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(part, op=MPI.SUM)
         before = self.balance.total

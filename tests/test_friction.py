@@ -240,7 +240,7 @@ def test_energy_never_increases_with_friction(law, dt):
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "dynamic", dt, contact=[itf], contact_options={"friction": law})
+    integ = Integrator(m, "dynamic", dt, contact=[itf], contact_options={"friction": law}, energy_balance=True)
     v0 = fem.Function(m.V)
     upper = md.cell_tags.find(pg["upper"])
     dofs = fem.locate_dofs_topological(m.V, md.mesh.topology.dim, upper)
@@ -258,4 +258,8 @@ def test_energy_never_increases_with_friction(law, dt):
                                                 if itf.num_owned else 0.0, op=MPI.MAX))
     assert traction > 0.0
     assert e_prev < e0
+    # the balance closes with the friction work booked in contact_work (≤ 0)
+    b = integ.balance
+    assert abs(b.defect) < 1e-9 * e0
+    assert b.contact_work < 0.0
     integ.destroy()
