@@ -54,6 +54,10 @@ def main(argv: list[str] | None = None) -> int:
                 from .growth import build_growth
 
                 build_growth(scene, comm)
+            elif scene.neoplasm is not None:  # coupled: growth model, host mesh at t = 0, mechanics
+                from .coupling import check_coupled
+
+                check_coupled(scene, comm)
             else:
                 build_model(scene, comm)
             _say(f"{args.scene}: ok", comm)

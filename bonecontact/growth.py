@@ -181,9 +181,10 @@ def _measure(msh) -> float:
 
 
 def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGrowth | TumourGrowth:
-    """Check a growth-only scene against its mesh and build the growth model (collective).
+    """Check a neoplasm scene against its mesh and build the growth model (collective).
 
-    Nothing is written.
+    Growth-only and coupled scenes (:mod:`bonecontact.coupling`, which adds the
+    mechanics) alike.  Nothing is written.
 
     Raises
     ------
@@ -192,9 +193,8 @@ def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGro
     """
     neo = scene.neoplasm
     file = str(scene.path)
-    if neo is None or not scene.growth_only:
-        raise SceneError(file, "[neoplasm]", None, "build_growth needs a growth-only scene "
-                                                   "([neoplasm] without [analysis])")
+    if neo is None:  # growth-only or coupled (bonecontact.coupling) scenes
+        raise SceneError(file, "[neoplasm]", None, "build_growth needs a scene with [neoplasm]")
     dim = scene.dimension
     if neo.kind == "cyst":
         from .cyst import CystParameters

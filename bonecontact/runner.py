@@ -190,6 +190,10 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
         from .growth import run_growth
 
         return run_growth(scene, comm, output, progress)
+    if scene.neoplasm is not None:  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
+        from .coupling import run_coupled
+
+        return run_coupled(scene, comm, output, progress)
     t_start = time.perf_counter()
     sm = build_model(scene, comm)
     model = sm.model

@@ -652,7 +652,8 @@ class Scene:
         The parsed TOML document, untouched.
     neoplasm
         ``[neoplasm]``, or ``None``.  A scene with ``[neoplasm]`` and no ``[analysis]``
-        is a *growth-only* scene.
+        is a *growth-only* scene; with both it is a *coupled* scene (2D only, run by
+        :mod:`bonecontact.coupling`).
     """
 
     path: Path
@@ -1302,14 +1303,16 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
     initial_velocities = _read_initial_velocities(doc, dim)
     output = _read_output(doc, dim)
     neoplasm = _read_neoplasm(doc, True, has_analysis=True)
-    if neoplasm is not None:
+    # growth coupled to the loaded bone (bonecontact.coupling, docs/neoplasm_format.md): 2D only for now
+    if neoplasm is not None and dim != 2:
         raise SceneError(None, "[neoplasm]", None,
                          "growth together with an [analysis] (the neoplasm coupled to the loaded bone) is "
-                         "not supported yet by this version of bonecontact; run the growth alone (a scene "
-                         "with [neoplasm] and without [analysis], [[material]] and loads)")
+                         "supported in 2D only by this version of bonecontact; in 3D run the growth alone "
+                         "(a scene with [neoplasm] and without [analysis], [[material]] and loads)")
     return Scene(path=path, name=name, mesh_path=mesh_path, dimension=dim, analysis=analysis,
                  solver=solver, materials=materials, contacts=contacts, dirichlet=dirichlet,
-                 loads=loads, initial_velocities=initial_velocities, output=output, raw=doc)
+                 loads=loads, initial_velocities=initial_velocities, output=output, raw=doc,
+                 neoplasm=neoplasm)
 
 
 def load_scene(path: str | Path, *, allow_contact: bool = True, allow_friction: bool = True) -> Scene:
@@ -1382,7 +1385,8 @@ def check_against_mesh(scene: Scene, groups: Mapping[str, tuple[int, int]], tdim
         cell group has no material; two ``[[dirichlet]]`` entries fix the same
         component of the same boundary; a traction acts on a component that a
         ``[[dirichlet]]`` entry fixes on the same boundary; the ``[neoplasm]``
-        region or a host group is not a cell group, or a host has the region's tag.
+        region or a host group is not a cell group, or a host has the region's tag; the
+        cyst region of a coupled scene has a material (it is a cavity and takes none).
         Messages list the available names of the right dimension.  A growth-only
         scene has no materials, so its cell groups need none.
     """
@@ -1428,10 +1432,16 @@ def check_against_mesh(scene: Scene, groups: Mapping[str, tuple[int, int]], tdim
                 if require(h, tdim, "[neoplasm]", "host") == rtag:
                     raise SceneError(file, "[neoplasm]", "host",
                                      f'"{h}" has the same cells (tag {rtag}) as the neoplasm region "{neo.region}"')
+    # a coupled cyst ([neoplasm] kind = "cyst" with [analysis]) is a pressurised cavity: no material
+    cavity = scene.neoplasm.region if scene.neoplasm is not None and scene.neoplasm.kind == "cyst" else None
+    if cavity is not None and not scene.growth_only and groups[cavity][1] in owner:
+        raise SceneError(file, "[[material]]", "regions",
+                         f'cell group "{cavity}" is the cyst of [neoplasm]: a pressurised cavity in the '
+                         f'mechanics, it takes no material; remove it from the regions of "{owner[groups[cavity][1]]}"')
     for name, (d, tag) in sorted(groups.items()):
         if scene.growth_only:  # no mechanics: cell groups need no material
             break
-        if d == tdim and tag not in owner:
+        if d == tdim and tag not in owner and name != cavity:
             raise SceneError(file, "[[material]]", "regions",
                              f'cell group "{name}" has no material; list it in the regions of a [[material]]')
 
