@@ -11,7 +11,14 @@ A scene with ``[neoplasm]`` and no ``[analysis]`` (``Scene.growth_only``) runs h
 * ``kind = "cyst"``, ``model = "sphere"``: the closed osmotic/Maxwell ODE of
   :mod:`bonecontact.cyst` (a sphere in 3D, a cylinder per unit length in 2D), integrated
   step by step with Radau (rtol 1e-11).  The initial radius is ``radius`` or the
-  equivalent radius of ``region``.  ``model = "shape"`` is not supported yet (input error).
+  equivalent radius of ``region``.
+* ``kind = "cyst"``, ``model = "shape"``: the moving-wall cyst of
+  :mod:`bonecontact.cyst_shape` (volume and wall area from the current cyst mesh, the wall
+  moved with the uniform normal velocity of the osmotic/Maxwell balance, gmsh-remeshed
+  every ``remesh_every`` steps).  The initial cyst is the cell group ``region`` (its
+  boundary kept as the wall: 2D re-sampled at the mean boundary edge h, 3D the surface
+  triangulation kept) or, meshless, a disc (2D) / ball (3D) of ``radius`` with mesh
+  size h = radius/8.  The mesh size then scales with the cyst's equivalent radius.
 
 Results (rank 0 writes, one row per growth step, flushed as the run goes):
 
@@ -20,8 +27,8 @@ Results (rank 0 writes, one row per growth step, flushed as the run goes):
     3D volume m³, surface area m², equivalent radius (3V/4π)^(1/3) m; 2D area m² (per unit
     thickness), perimeter m, equivalent radius √(A/π) m; ``pressure`` = P_h⁺ − P_h⁻, the
     osmotic excess pressure of the cyst lumen over its surroundings, in Pa.  Row 0 is t = 0.
-``boundary.csv`` (tumour)
-    The final tumour boundary vertices ``x,y[,z]`` (m); 2D in counter-clockwise order.
+``boundary.csv`` (tumour, shape cyst)
+    The final tumour / cyst wall vertices ``x,y[,z]`` (m); 2D in counter-clockwise order.
 ``summary.json``
     The usual run summary plus a ``growth`` entry (steps, remeshes, initial and final
     radius, status, units).
@@ -51,8 +58,8 @@ from tqdm import tqdm
 from . import __version__
 from .scene import Scene, SceneError
 
-__all__ = ["GROWTH_COLUMNS", "CystSphereGrowth", "TumourGrowth", "build_growth", "run_growth",
-           "surface_tension_dt_limit"]
+__all__ = ["GROWTH_COLUMNS", "CystShapeGrowth", "CystSphereGrowth", "TumourGrowth", "build_growth",
+           "run_growth", "surface_tension_dt_limit"]
 
 #: Columns of growth.csv (cysts add ``pressure``).
 GROWTH_COLUMNS = ("time", "volume", "surface_area", "equivalent_radius")
@@ -119,6 +126,51 @@ class CystSphereGrowth:
                 "strain": self.params.strain, "final_pressure_Pa": self.f}
 
 
+class CystShapeGrowth:
+    """A :class:`bonecontact.cyst_shape.CystShapeModel` as a growth-scene driver."""
+
+    columns = GROWTH_COLUMNS + ("pressure",)
+
+    def __init__(self, model: Any):
+        self.model = model
+        self.dim = model.dim
+
+    @property
+    def t(self) -> float:
+        return self.model.t
+
+    @property
+    def steps(self) -> int:
+        return self.model.steps
+
+    @property
+    def remeshes(self) -> int:
+        return self.model.remeshes
+
+    @property
+    def f(self) -> float:
+        """Osmotic excess pressure P_h⁺ − P_h⁻ now (Pa)."""
+        return self.model.f
+
+    def step(self, dt: float) -> None:
+        """One growth step (collective); the model remeshes every ``remesh_every`` steps."""
+        self.model.step(dt)
+
+    def row(self) -> list[float]:
+        """``volume, surface_area, equivalent_radius, pressure`` of the current cyst mesh."""
+        m = self.model
+        v, S = m.volume(), m.surface_area()
+        R = math.sqrt(v / math.pi) if self.dim == 2 else (3.0 * v / (4.0 * math.pi)) ** (1.0 / 3.0)
+        return [v, S, R, m.f]
+
+    def info(self) -> dict[str, Any]:
+        m = self.model
+        im = m.mesh.topology.index_map(self.dim)
+        return {"model": f"cyst moving wall (osmotic/Maxwell, SPEC 6.2), {self.dim}D, remeshed by gmsh",
+                "strain": m.params.strain, "final_pressure_Pa": m.f, "h_m": m.h0,
+                "final_h_m": m.mesh_size(), "final_cells": int(im.size_global)}
+
+
 class TumourGrowth:
     """A :class:`bonecontact.tumour.TumourModel` with a remesh counter."""
 
@@ -180,7 +232,8 @@ def _measure(msh) -> float:
     return msh.comm.allreduce(fem.assemble_scalar(one), op=MPI.SUM)
 
 
-def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGrowth | TumourGrowth:
+def build_growth(scene: Scene,
+                 comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGrowth | CystShapeGrowth | TumourGrowth:
     """Check a neoplasm scene against its mesh and build the growth model (collective).
 
     Growth-only and coupled scenes (:mod:`bonecontact.coupling`, which adds the
@@ -201,20 +254,18 @@ def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGro
 
         spec = neo.cyst
         assert spec is not None
-        if spec.model != "sphere":
-            raise SceneError(file, "[neoplasm.cyst]", "model",
-                             f'"{spec.model}" (the moving-wall cyst) is not supported yet by this version of '
-                             'bonecontact; allowed for now: "sphere"')
+        try:
+            params = CystParameters(**spec.parameters())
+        except ValueError as exc:  # the scene reader checks the same ranges
+            raise SceneError(file, "[neoplasm.cyst]", None, str(exc)) from None
+        if spec.model == "shape":
+            return _build_cyst_shape(scene, params, comm)
         if neo.region is not None:
             sub = _region_mesh(scene, comm)
             v = _measure(sub)
             R0 = math.sqrt(v / math.pi) if dim == 2 else (3.0 * v / (4.0 * math.pi)) ** (1.0 / 3.0)
         else:
             R0 = float(neo.radius)  # type: ignore[arg-type]
-        try:
-            params = CystParameters(**spec.parameters())
-        except ValueError as exc:  # the scene reader checks the same ranges
-            raise SceneError(file, "[neoplasm.cyst]", None, str(exc)) from None
         return CystSphereGrowth(params, R0, dim)
 
     from . import remesh
@@ -236,16 +287,8 @@ def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGro
         except remesh.RemeshError as exc:
             raise SceneError(file, "[neoplasm]", "h", f"gmsh cannot mesh the initial tumour: {exc}") from None
         return TumourGrowth(model, neo.remesh_every)
-    sub = _region_mesh(scene, comm)
-    try:
-        b = remesh.gather_boundary(sub)
-    except remesh.RemeshError as exc:
-        raise SceneError(file, "[neoplasm]", "region",
-                         f'the boundary of "{neo.region}" must be one closed {"curve" if dim == 2 else "surface"} '
-                         f"(a simply connected region): {exc}") from None
-    edges = b.points[b.facets[:, 1]] - b.points[b.facets[:, 0]] if dim == 2 else \
-        b.points[b.facets[:, [1, 2, 0]]] - b.points[b.facets]
-    h = neo.h if neo.h is not None else float(np.mean(np.linalg.norm(edges.reshape(-1, dim), axis=1)))
+    b, mean_edge = _region_boundary(scene, comm)
+    h = neo.h if neo.h is not None else mean_edge
     _check_dt(scene, params.gamma, h)
     try:
         if dim == 2:
@@ -256,6 +299,53 @@ def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> CystSphereGro
         raise SceneError(file, "[neoplasm]", "region",
                          f'gmsh cannot mesh the tumour region "{neo.region}": {exc}') from None
     return TumourGrowth(model, neo.remesh_every)
+
+
+def _region_boundary(scene: Scene, comm: MPI.Comm):
+    """The boundary of the ``region`` cells and its mean edge length (errors on ``region``)."""
+    from . import remesh
+
+    neo = scene.neoplasm
+    assert neo is not None
+    dim = scene.dimension
+    sub = _region_mesh(scene, comm)
+    try:
+        b = remesh.gather_boundary(sub)
+    except remesh.RemeshError as exc:
+        raise SceneError(str(scene.path), "[neoplasm]", "region",
+                         f'the boundary of "{neo.region}" must be one closed {"curve" if dim == 2 else "surface"} '
+                         f"(a simply connected region): {exc}") from None
+    edges = b.points[b.facets[:, 1]] - b.points[b.facets[:, 0]] if dim == 2 else \
+        b.points[b.facets[:, [1, 2, 0]]] - b.points[b.facets]
+    return b, float(np.mean(np.linalg.norm(edges.reshape(-1, dim), axis=1)))
+
+
+def _build_cyst_shape(scene: Scene, params: Any, comm: MPI.Comm) -> CystShapeGrowth:
+    """The moving-wall cyst from ``region`` or a meshless disc/ball (collective)."""
+    from . import remesh
+    from .cyst_shape import CystShapeModel
+
+    neo = scene.neoplasm
+    assert neo is not None
+    file, dim = str(scene.path), scene.dimension
+    kwargs = {"remesh_every": neo.remesh_every}
+    if neo.region is None:
+        R = float(neo.radius)  # type: ignore[arg-type]
+        try:
+            model = (CystShapeModel.disc if dim == 2 else CystShapeModel.ball)(comm, R, params, R / 8.0, **kwargs)
+        except remesh.RemeshError as exc:
+            raise SceneError(file, "[neoplasm]", "radius", f"gmsh cannot mesh the initial cyst: {exc}") from None
+        return CystShapeGrowth(model)
+    b, h = _region_boundary(scene, comm)
+    try:
+        if dim == 2:
+            model = CystShapeModel(comm, remesh.resample_closed_curve(b.points, h), params, h, **kwargs)
+        else:
+            model = CystShapeModel(comm, remesh.surface_mesh(b.points, b.facets, h, comm), params, h, **kwargs)
+    except remesh.RemeshError as exc:
+        raise SceneError(file, "[neoplasm]", "region",
+                         f'gmsh cannot mesh the cyst region "{neo.region}": {exc}') from None
+    return CystShapeGrowth(model)
 
 
 def _check_dt(scene: Scene, gamma: float, h: float) -> None:
@@ -275,7 +365,7 @@ def _fmt(x: float) -> str:
 
 def run_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None,
                progress: bool = True):
-    """Run a growth-only scene: growth.csv, boundary.csv (tumour) and summary.json.
+    """Run a growth-only scene: growth.csv, boundary.csv (tumour, shape cyst) and summary.json.
 
     Returns
     -------
@@ -301,7 +391,7 @@ def run_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | Non
     comm.barrier()
 
     def record(t: float) -> list[float]:
-        vals = driver.row()  # collective (tumour)
+        vals = driver.row()  # collective (tumour, shape cyst)
         if writer is not None:
             writer.writerow([f"{t:.15g}"] + [_fmt(v) for v in vals])  # k*dt printed as written
             fh.flush()
@@ -325,7 +415,7 @@ def run_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | Non
         if fh is not None:
             fh.close()
     b = None
-    if isinstance(driver, TumourGrowth):
+    if isinstance(driver, (TumourGrowth, CystShapeGrowth)):
         try:
             b = driver.model.boundary()   # collective; replicated
         except RuntimeError:  # a failed remesh may leave no usable boundary: skip the file
