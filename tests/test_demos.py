@@ -14,6 +14,7 @@ solution).  The static solution comes from a second run of the same scene with
 from __future__ import annotations
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -158,3 +159,27 @@ def test_knee2d_force_balance_and_symmetry(demo_runs):
     # centroid of the pressure distribution close to the axis (meshes are not symmetric)
     assert abs((x * p).sum() / p.sum()) < 0.02 * (x[on].max() - x[on].min())
     assert (out / "contact_pressure.png").stat().st_size > 10_000
+
+
+def test_knee2d_gait_cycle_with_friction(demo_runs):
+    """Knee demo, part 2 (dynamic gait cycle, Coulomb μ = 0.02): serial and 2 ranks give
+    the same history; in swing (load held at 0.1 × body weight from t = 0.6 s) the contact
+    carries the applied 1.75 kN/m once the Kelvin–Voigt transient has died out; the
+    energy balance closes (friction work booked); stick and slip both occur; and
+    |tangential force| ≤ μ × normal force at every step."""
+    (r1, o1), (r2, o2) = demo_runs["knee2d", 1], demo_runs["knee2d", 2]
+    assert r1.returncode == 0 and r2.returncode == 0
+    a, b = _table(o1 / "gait" / "history.csv"), _table(o2 / "gait" / "history.csv")
+    scale = np.abs(a).max(axis=0)
+    assert (np.abs(a - b) <= 1e-8 * (np.abs(a) + scale)).all()
+    h = np.genfromtxt(o1 / "gait" / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    late = h["time"] >= 0.8
+    assert np.allclose(h["normal_force"][late], 0.1 * 2.9167e5 * 0.06, rtol=0.01)
+    assert h["n_stick"].max() > 0 and h["n_slip"].max() > 0
+    # (the semi-implicit bound uses the previous step's pressure: 5 % slack)
+    assert (h["tangential_force"] <= 0.02 * h["normal_force"] * 1.05 + 1e-9).all()
+    s = json.loads((o1 / "gait" / "summary.json").read_text())
+    assert s["status"] == "converged" and s["contact"]["friction"] == ["coulomb"]
+    assert abs(s["energy"]["defect"]) < 1e-8 * s["energy"]["external_work"]
+    assert s["energy"]["contact_work"] < 0
+    assert (o1 / "gait_contact.png").stat().st_size > 10_000
