@@ -64,8 +64,7 @@ def null_pivots(ksp: PETSc.KSP) -> int:
 
 def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
     M = PETSc.Mat().createDense(((nloc, PETSc.DECIDE), (PETSc.DECIDE, k)), comm=comm)
-    M.setUp()
-    M.zeroEntries()
+    M.setUp()                      # PETSc allocates the dense block zeroed
     M.assemble()
     return M
 
