@@ -528,15 +528,21 @@ class _Coupled:
 
     def polygon(self) -> tuple[npt.NDArray[np.float64], float]:
         """Current neoplasm boundary (ccw) and the mesh size on it (collective)."""
-        if self.cavity:
+        if self.cavity and hasattr(self.driver, "R"):  # cyst ODE: a circle about the region's centroid
             R = self.driver.R
             h = min(max(self.h_region, 2 * math.pi * R / 256), 2 * math.pi * R / 32)
             return neoplasm_polygon(self.center, R, h), h
-        b = self.driver.model.boundary()
-        return np.asarray(b.points[:, :2]), float(self.driver.model.h)
+        # tumour (or a moving-wall cyst): the current boundary of the growth mesh
+        m = self.driver.model
+        b = m.boundary()
+        h = float(m.h) if hasattr(m, "h") else float(np.mean(np.linalg.norm(np.diff(b.points[:, :2], axis=0), axis=1)))
+        return np.asarray(b.points[:, :2]), h
 
     def pressure(self) -> float | None:
-        return self.driver.f if self.cavity else None
+        """Cyst: P_h+ - P_h- now (Pa); tumour: ``None``."""
+        if not self.cavity:
+            return None
+        return float(self.driver.f if hasattr(self.driver, "f") else self.driver.model.f)
 
     def host_mesh(self, path: Path | None) -> tuple[HostMesh, npt.NDArray[np.float64]]:
         poly, h = self.polygon()

@@ -183,3 +183,31 @@ def test_knee2d_gait_cycle_with_friction(demo_runs):
     assert abs(s["energy"]["defect"]) < 1e-8 * s["energy"]["external_work"]
     assert s["energy"]["contact_work"] < 0
     assert (o1 / "gait_contact.png").stat().st_size > 10_000
+
+
+def test_jaw_cyst_growth_and_cavity(demo_runs):
+    """Jaw-cyst demo: the keratocyst's radius follows the cyst ODE integrated in one go
+    (bonecontact.cyst.grow_sphere, 2D) to 1e-8, the bone is analysed after 9, 18 and 27
+    months, and the cavity in the rebuilt mesh grows with the cyst (area = pi R^2 within
+    the polygon's 0.2 %) while the load is carried."""
+    import json
+    import math
+    import tomllib
+
+    from bonecontact.cyst import CystParameters, grow_sphere
+
+    res, out = demo_runs["jaw_cyst", 1]
+    assert res.returncode == 0, res.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    g = np.genfromtxt(out / "growth.csv", delimiter=",", names=True)
+    p = tomllib.loads((ROOT / "data" / "neoplasms.toml").read_text())["cyst"]["keratocyst"]
+    params = CystParameters(**{k: p[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")})
+    ref = grow_sphere(params, float(g["equivalent_radius"][0]), float(g["time"][-1]), g["time"], dim=2)
+    np.testing.assert_allclose(g["equivalent_radius"], ref.R, rtol=1e-8)
+    an = s["coupling"]["analyses"]
+    assert [round(a["time"] / (365.25 * 86400 / 12)) for a in an] == [9, 18, 27]
+    for a in an:
+        assert a["status"] == "converged"
+        assert a["neoplasm_area_in_bone"] == pytest.approx(math.pi * a["equivalent_radius"] ** 2, rel=2e-3)
+    assert an[-1]["equivalent_radius"] > 2 * an[0]["equivalent_radius"]
+    assert (out / "radicular" / "growth.csv").is_file() and (out / "jaw_cyst_von_mises.png").is_file()

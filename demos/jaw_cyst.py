@@ -1,0 +1,285 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3 (bonecontact)
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Odontogenic cysts in a jaw-bone section, then a bite
+#
+# A 2D (plane-strain) section along the body of a mandible, 60 mm × 24 mm: a cortical
+# shell 2.5 mm thick around a cancellous core.  A cyst starts as a 1.5 mm disc in the
+# cancellous bone below a tooth and grows over years by the osmotic/Maxwell model of
+# SPEC §6.2 (`bonecontact.cyst`, the cylinder ODE per unit length) with the two parameter
+# sets of `data/neoplasms.toml`:
+#
+# * a **radicular cyst** (≈ 1 mm of radius per year), grown for 3 years;
+# * a **keratocyst** (β four times larger, ≈ 4 mm per year), grown for 27 months, with the
+#   bone analysed every 9 months on the way (`mechanics_every`).
+#
+# After (and during) the growth the host mesh is rebuilt by gmsh around the cyst
+# (`bonecontact.coupling`): bone that the cyst has taken — cancellous and, as it thins the
+# shell, cortical — becomes a cavity whose wall carries the cyst pressure P_h⁺ − P_h⁻ (a few
+# tens of Pa: the osmotic excess, small beside a bite).  The section is then loaded by a
+# bite-force-like traction, 3 MPa on a 10 mm occlusal patch above the cyst (≈ 300 N on a
+# 10 mm × 10 mm tooth), clamped at both ends.  Static, SI units (2D forces per metre).
+#
+# `python demos/jaw_cyst.py [OUTPUT_DIR]`, `mpiexec -n 2 python demos/jaw_cyst.py`, or as a
+# notebook.  `BONECONTACT_DEMO_QUICK=1` takes a coarser mesh and 3-month growth steps
+# (what the test suite runs).  The keratocyst's results are written into OUTPUT_DIR itself
+# (`growth.csv`, `history.csv`, `summary.json`, fields, `mechanics_<step>/` for the
+# intermediate analyses), the radicular cyst's into `OUTPUT_DIR/radicular/`.
+
+# %%
+import json
+import os
+import sys
+import tomllib
+from pathlib import Path
+
+from mpi4py import MPI  # before dolfinx
+
+import numpy as np
+
+from bonecontact.runner import run_scene
+from bonecontact.scene import load_scene
+
+comm = MPI.COMM_WORLD
+here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
+root = here.parent if (here.parent / "data" / "scenes").is_dir() else here
+args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
+output = Path(args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/jaw_cyst")).resolve()
+quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
+
+MM, MONTH = 1e-3, 365.25 * 86400.0 / 12
+L, H, T = 60 * MM, 24 * MM, 2.5 * MM          # section length, height, cortical thickness
+XC, YC, R0 = 30 * MM, 12.5 * MM, 1.5 * MM      # cyst centre and initial radius
+PATCH = (25 * MM, 35 * MM)                     # occlusal patch under the bite
+h = (1.0 if quick else 0.6) * MM               # mesh size (finer near the cyst)
+dt_months = 3 if quick else 1
+cysts = tomllib.loads((root / "data" / "neoplasms.toml").read_text())["cyst"]
+if comm.rank == 0:
+    output.mkdir(parents=True, exist_ok=True)
+comm.barrier()
+
+# %% [markdown]
+# ## The jaw section (gmsh)
+# Cell groups `cortical`, `cancellous`, `cyst`; facet groups `symphysis` (x = 0), `ramus`
+# (x = L), `occlusal` (the loaded patch).
+
+# %%
+def jaw_mesh(path: Path) -> None:
+    if comm.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        outer = occ.addRectangle(0, 0, 0, L, H, roundedRadius=4 * MM)
+        inner = occ.addRectangle(T, T, 0, L - 2 * T, H - 2 * T, roundedRadius=2 * MM)
+        cyst = occ.addDisk(XC, YC, 0, R0, R0)
+        pts = [occ.addPoint(x, H, 0) for x in PATCH]
+        _, m = occ.fragment([(2, outer), (2, inner), (2, cyst)], [(0, p) for p in pts])
+        occ.synchronize()
+        cyst_s = [t for d, t in m[2] if d == 2]
+        canc_s = [t for d, t in m[1] if d == 2 and t not in cyst_s]
+        cort_s = [t for d, t in m[0] if d == 2 and t not in cyst_s + canc_s]
+        gmsh.model.addPhysicalGroup(2, cort_s, 1, name="cortical")
+        gmsh.model.addPhysicalGroup(2, canc_s, 2, name="cancellous")
+        gmsh.model.addPhysicalGroup(2, cyst_s, 3, name="cyst")
+        rim = [abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in cort_s + canc_s + cyst_s], combined=True)]
+        com = {c: occ.getCenterOfMass(1, c) for c in rim}
+        pick = {"symphysis": [c for c in rim if abs(com[c][0]) < 1e-9],
+                "ramus": [c for c in rim if abs(com[c][0] - L) < 1e-9],
+                "occlusal": [c for c in rim if abs(com[c][1] - H) < 1e-9 and PATCH[0] < com[c][0] < PATCH[1]]}
+        for k, (name, cs) in enumerate(pick.items()):
+            gmsh.model.addPhysicalGroup(1, cs, 4 + k, name=name)
+        f = gmsh.model.mesh.field
+        d = f.add("Distance")
+        f.setNumbers(d, "PointsList", [occ.addPoint(XC, YC, 0)])
+        occ.synchronize()
+        th = f.add("Threshold")
+        f.setNumber(th, "InField", d)
+        f.setNumber(th, "SizeMin", h / 2)
+        f.setNumber(th, "SizeMax", h)
+        f.setNumber(th, "DistMin", 3 * R0)
+        f.setNumber(th, "DistMax", 6 * R0)
+        f.setAsBackgroundMesh(th)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+        gmsh.finalize()
+    comm.barrier()
+
+
+jaw_mesh(output / "jaw.msh")
+
+# %% [markdown]
+# ## The coupled scenes
+# `[neoplasm]` (the cyst and where it may grow) together with `[analysis]` (the bite):
+# `bonecontact run` accepts the same file.
+
+# %%
+SCENE = """format = 1
+[scene]
+name = "jaw_{kind}"
+mesh = "{mesh}"
+dimension = 2
+
+[analysis]
+kind = "static"
+load_steps = 1
+
+[[material]]
+name = "cortical"
+regions = ["cortical"]
+model = "isotropic"
+E = 17.0e9
+nu = 0.3
+
+[[material]]
+name = "cancellous"
+regions = ["cancellous"]
+model = "isotropic"
+E = 1.0e9
+nu = 0.25
+
+[[dirichlet]]
+boundary = "symphysis"
+value = [0.0, 0.0]
+
+[[dirichlet]]
+boundary = "ramus"
+value = [0.0, 0.0]
+
+[[traction]]
+boundary = "occlusal"
+value = [0.0, -3.0e6]
+
+[neoplasm]
+kind = "cyst"
+region = "cyst"
+host = ["cancellous", "cortical"]
+t_end = {t_end}
+dt = {dt}
+mechanics_every = {every}
+
+[neoplasm.cyst]
+{params}
+
+[output]
+directory = "{out}"
+fields_every = 0
+"""
+
+
+def cyst_table(name: str) -> str:
+    keys = ("model", "strain", "beta", "C_minus", "temperature", "E", "viscosity", "f0")
+    return "\n".join(f"{k} = {json.dumps(cysts[name][k])}" for k in keys)
+
+
+runs = {"keratocyst": (output, 27, 9), "radicular": (output / "radicular", 36, 0)}
+results = {}
+for kind, (out, months, every) in runs.items():
+    text = SCENE.format(kind=kind, mesh=output / "jaw.msh", t_end=months * MONTH, dt=dt_months * MONTH,
+                        every=every // dt_months if every else 0, params=cyst_table(kind), out=out)
+    path = output / f"jaw_{kind}.toml"
+    if comm.rank == 0:
+        path.write_text(text)
+    comm.barrier()
+    res = run_scene(load_scene(path), comm, output=out, progress=comm.rank == 0)
+    if res.status != "converged":
+        raise SystemExit(f"{kind}: run failed: {res.summary.get('message')}")
+    results[kind] = res.summary
+    if comm.rank == 0:
+        g = res.summary["growth"]
+        print(f"{kind}: R {g['initial_radius'] / MM:.2f} -> {g['final_radius'] / MM:.2f} mm in {months} months; "
+              f"{len(res.summary['coupling']['analyses'])} analyses, {res.summary['dofs']} dofs at the end")
+
+# %% [markdown]
+# ## Stress in the thinning bone
+# von Mises stress from each analysis (pyvista reads the `.pvd` files): the peak in the bone
+# within 2 mm of the cyst wall (99.5th percentile of the cells there, to stay clear of
+# single-cell corner values), and the thinnest remaining bone below and above the cyst.
+
+# %%
+def bone_near_cyst(directory: Path, R: float) -> tuple[float, float]:
+    import pyvista as pv
+
+    reader = pv.get_reader(str(directory / "fields.pvd"))
+    reader.set_active_time_point(len(reader.time_values) - 1)
+    grid = reader.read().combine()
+    vm = np.asarray(grid.cell_data[next(n for n in grid.cell_data if "von" in n.lower())])
+    c = np.asarray(grid.cell_centers().points)[:, :2]
+    near = np.hypot(c[:, 0] - XC, c[:, 1] - YC) < R + 2 * MM
+    return float(np.percentile(vm[near], 99.5)), float(np.percentile(vm, 99.5))
+
+
+if comm.rank == 0:
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = []
+    for kind, s in results.items():
+        for a in s["coupling"]["analyses"]:
+            R = a["equivalent_radius"]
+            near, whole = bone_near_cyst(Path(a["directory"]), R)
+            rows.append((kind, a["time"] / (12 * MONTH), R, min(YC - R, H - YC - R), near, whole,
+                         a["cavity_pressure_Pa"]))
+            print(f"{kind:10s} t = {rows[-1][1]:4.2f} y: R = {R / MM:5.2f} mm, thinnest bone "
+                  f"{rows[-1][3] / MM:5.2f} mm, von Mises near the cyst {near / 1e6:6.2f} MPa "
+                  f"(whole section {whole / 1e6:6.2f} MPa), cyst pressure {a['cavity_pressure_Pa']:.1f} Pa")
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    for kind, s in results.items():
+        out = runs[kind][0]
+        g = np.genfromtxt(out / "growth.csv", delimiter=",", names=True)
+        ax1.plot(g["time"] / (12 * MONTH), g["equivalent_radius"] / MM, label=kind)
+        rk = [r for r in rows if r[0] == kind]
+        ax2.plot([r[3] / MM for r in rk], [r[4] / 1e6 for r in rk], "o-", label=kind)
+    ax1.axhline((H - T - YC) / MM, color="grey", ls=":", label="cyst reaches the cortex (above it)")
+    ax1.set_xlabel("time (years)")
+    ax1.set_ylabel("cyst radius (mm)")
+    ax1.set_title("cyst growth (osmotic/Maxwell ODE)")
+    ax1.grid(alpha=0.3)
+    ax1.legend()
+    ax2.set_xlabel("thinnest bone between cyst and surface (mm)")
+    ax2.set_ylabel("von Mises near the cyst, 99.5 % (MPa)")
+    ax2.set_title("bite of 3 MPa on the occlusal patch")
+    ax2.invert_xaxis()
+    ax2.grid(alpha=0.3)
+    ax2.legend()
+    fig.tight_layout()
+    fig.savefig(output / "jaw_cyst_growth.png", dpi=120)
+    plt.close(fig)
+
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    plotter = pv.Plotter(shape=(2, 1), window_size=(1100, 900), off_screen=True)
+    for i, (kind, out) in enumerate([("keratocyst", output), ("radicular", output / "radicular")]):
+        reader = pv.get_reader(str(out / "fields.pvd"))
+        reader.set_active_time_point(len(reader.time_values) - 1)
+        grid = reader.read().combine()
+        vm = next(n for n in grid.cell_data if "von" in n.lower())
+        grid.cell_data["von Mises (MPa)"] = grid.cell_data[vm] / 1e6
+        plotter.subplot(i, 0)
+        plotter.add_text(f"{kind}, after {runs[kind][1]} months", font_size=10)
+        plotter.add_mesh(grid.copy(), scalars="von Mises (MPa)", cmap="inferno", clim=(0, 15), show_edges=False,
+                         scalar_bar_args={"title": f"von Mises (MPa) {kind}", "fmt": "%.0f", "n_labels": 4})
+        plotter.view_xy()
+        plotter.camera.zoom(1.7)
+    plotter.screenshot(str(output / "jaw_cyst_von_mises.png"))
+    plotter.close()
+    print(f"pictures: {output / 'jaw_cyst_growth.png'}, {output / 'jaw_cyst_von_mises.png'}")
+comm.barrier()
