@@ -232,9 +232,10 @@ INVALID = [
      ["[[material]]", "growth-only"]),
     ("growth-only-probes", T, _sub('directory = "{out}"', 'directory = "{out}"\nprobes = [[0.0, 0.0]]'), "probes",
      ["growth.csv"]),
-    ("coupled-not-yet", M, _sub("[neoplasm]", '[analysis]\nkind = "static"\n\n[[material]]\nname = "m"\n'
-                                              'regions = ["bone", "tumour"]\nmodel = "isotropic"\nE = 1e9\nnu = 0.3\n'
-                                              "\n[neoplasm]"), None, ["not supported yet"]),
+    # coupled scenes (bonecontact.coupling): the tumour region needs its (near-fluid) material
+    ("coupled-tumour-no-material", M, _sub("[neoplasm]", '[analysis]\nkind = "static"\n\n[[material]]\nname = "m"\n'
+                                                         'regions = ["bone"]\nmodel = "isotropic"\nE = 1e9\nnu = 0.3\n'
+                                                         "\n[neoplasm]"), "regions", ['"tumour"', "no material"]),
     # checks against the mesh
     ("region-unknown", M, _sub('region = "tumour"', 'region = "marrow"'), "region", ['"marrow"', '"tumour"']),
     ("region-facet-group", M, _sub('region = "tumour"', 'region = "rim"'), "region", ["facet group"]),
