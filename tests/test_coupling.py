@@ -433,3 +433,25 @@ def test_coupled_run_same_on_two_ranks(disc_mesh, tmp_path):
                                        equal_nan=True, err_msg=f"{name}:{k}")
     s = [json.loads((o / "summary.json").read_text()) for o in outs]
     assert [a["cells"] for a in s[0]["coupling"]["analyses"]] == [a["cells"] for a in s[1]["coupling"]["analyses"]]
+
+
+def test_growing_tumour_becomes_the_inclusion(tmp_shared_path):
+    """A tumour growing (R 2.0 -> 3.7 mm, remeshed every step) into the plate: each analysis's
+    mesh holds the tumour's current area as tumour-material cells (to 0.5 %: the
+    tumour mesh and the embedded boundary polygon are the same polygon, meshed twice)."""
+    mesh, out = tmp_shared_path / "plate.msh", tmp_shared_path / "out"
+    plate_with_inclusion(mesh, 0.01, 0.002, 2e-4, 2e-3)
+    text = PLATE_SCENE.format(mesh=mesh, E=E_BONE, nu=NU_BONE, E_i=1e6, nu_i=0.499, formulation="nodal_pressure",
+                              sigma0=1e6, out=out)
+    text = (text.replace("t_end = 1.0\ndt = 1.0\nremesh_every = 0",
+                         "t_end = 2.0\ndt = 0.25\nremesh_every = 1\nmechanics_every = 4\nh = 2.5e-4")
+            .replace("K_B = 0.0", 'K_B = "2.0*(u_c - 0.5)"\nD_c = 4.0e-6'))
+    res = _run(text, tmp_shared_path, out)
+    assert res.status == "converged", res.summary.get("message")
+    g = _read_csv(out / "growth.csv")
+    an = res.summary["coupling"]["analyses"]
+    assert [a["growth_step"] for a in an] == [4, 8]
+    assert g["equivalent_radius"][-1] > 1.5 * g["equivalent_radius"][0]
+    for a in an:
+        assert a["wall_group"] == "tumour_wall" and a["cavity_pressure_Pa"] is None
+        assert a["neoplasm_area_in_bone"] == pytest.approx(g["volume"][a["growth_step"]], rel=5e-3)
