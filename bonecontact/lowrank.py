@@ -274,8 +274,8 @@ class LowRankActiveSetSolver:
         margin
             Optional replicated distance of each node from switching (e.g.
             ``|λ + c_n (u_n − g)|`` of the previous iteration).  When columns must be
-            computed anyway, as many again are computed for the nodes closest to
-            switching (one block costs little more than a few columns).
+            computed anyway, as many again are computed for the fixed rows of the base
+            closest to being released (one block costs little more than a few columns).
 
         Returns
         -------
@@ -295,7 +295,9 @@ class LowRankActiveSetSolver:
             refactorized = True
             diff, missing = np.zeros(0, dtype=np.int64), []
         if missing and margin is not None:
-            same = (active == self.base)
+            # speculate on releases only: fixed rows of the base closest to being freed
+            # (a cold-started PDAS overshoots, then releases nodes for several iterations)
+            same = active & self.base
             order = np.argsort(margin, kind="stable")
             extra = [int(q) for q in order if same[q] and int(q) not in self.cache][: len(missing)]
             room = self.max_columns - len(self.cache) - len(missing)
