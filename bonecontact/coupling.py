@@ -401,15 +401,30 @@ def _build_host_serial(geo: HostGeometry, region: str, host: tuple[str, ...], po
             a, b = gmsh.model.getParametrizationBounds(1, c)
             mids[c] = np.asarray(gmsh.model.getValue(1, c, [0.5 * (a[0] + b[0])]))[:2]
         facet_names = []
+        # the body of every kept curve (from the surfaces it bounds) and of every facet
+        # group (from the cell group holding its first edge): bodies that touch (contact
+        # pairs with zero gap) must not take each other's curves
+        surf_body = {p: bodies[g] for p, g in group_of.items()}
+        if not cavity:
+            surf_body.update({p: bodies[region] for p in neo_pieces})
+        curve_body = {}
+        for c in mids:
+            up, _ = gmsh.model.getAdjacencies(1, c)
+            bs = {surf_body[int(u)] for u in up if int(u) in surf_body}
+            curve_body[c] = bs.pop() if len(bs) == 1 else None
+        cell_nodes = {n: set(np.unique(t).tolist()) for n, (_, t) in geo.cells.items()}
         for g, (tag, edges) in geo.facets.items():
             if not len(edges):
                 continue
+            owner = next((bodies[n] for n, nodes in cell_nodes.items() if int(edges[0, 0]) in nodes), None)
             pa, pb = geo.x[edges[:, 0]], geo.x[edges[:, 1]]
             d = pb - pa
             ll = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
             tol = 1e-6 * np.sqrt(ll)
             members = []
             for c, m in mids.items():
+                if owner is not None and curve_body.get(c) not in (None, owner):
+                    continue
                 s = np.clip(np.einsum("ij,ij->i", m - pa, d) / ll, 0.0, 1.0)
                 dist = np.linalg.norm(pa + s[:, None] * d - m, axis=1)
                 if np.any(dist < tol):

@@ -592,7 +592,7 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
 def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, condyle_radius: float = 0.03,
             shaft_height: float = 0.03, plateau_half_width: float = 0.045, plateau_depth: float = 0.05,
             cartilage: float = 3e-3, cortical: float = 2e-3, h_contact: float = 4e-4, h_far: float = 4e-3,
-            tibia_ratio: float = 1.6) -> MeshData | Path:
+            tibia_ratio: float = 1.6, tumour: tuple[float, float, float] | None = None) -> MeshData | Path:
     """A 2D (frontal-plane) knee: a femoral condyle resting on the tibial plateau.
 
     Femur: the lower half of a disc of radius ``condyle_radius`` centred at
@@ -612,7 +612,8 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         ``tibia_cartilage``, ``tibia_cortical``, ``tibia_cancellous``; facet groups
         ``femur_contact`` (cartilage surface of the condyle: slave), ``tibia_contact``
         (cartilage surface of the plateau: master), ``femur_top``, ``femur_sides`` (the
-        vertical sides of the shaft), ``tibia_bottom``.
+        vertical sides of the shaft), ``tibia_bottom``.  With ``tumour = (x, y, r)`` (a
+        disc inside the tibial cancellous bone) also the cell group ``tibia_tumour``.
     """
     _positive(condyle_radius=condyle_radius, shaft_height=shaft_height, plateau_half_width=plateau_half_width,
               plateau_depth=plateau_depth, cartilage=cartilage, cortical=cortical, h_contact=h_contact,
@@ -639,12 +640,20 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         t_canc = occ.addRectangle(-w, -plateau_depth, 0, 2 * w, plateau_depth - cartilage - cortical)
         t_cort = occ.addRectangle(-w, -cartilage - cortical, 0, 2 * w, cortical)
         t_cart = occ.addRectangle(-w, -cartilage, 0, 2 * w, cartilage)
-        tib_out, tib_map = occ.fragment([(2, t_canc), (2, t_cort), (2, t_cart)], [])
+        t_parts = [(2, t_canc), (2, t_cort), (2, t_cart)]
+        if tumour is not None:
+            tx, ty, tr = tumour
+            if not (-w < tx - tr and tx + tr < w and -plateau_depth < ty - tr and ty + tr < -cartilage - cortical):
+                raise ValueError(f"tumour disc {tumour} must lie inside the tibial cancellous bone")
+            t_parts.append((2, occ.addDisk(tx, ty, 0, tr, tr)))
+        tib_out, tib_map = occ.fragment(t_parts, [])
         occ.synchronize()
         f_cart = [t for _, t in fem_map[0]]
         f_cort = [t for _, t in fem_map[1]]
         f_canc = [t for _, t in fem_map[2]] + [t for _, t in fem_map[3]]
         tb_canc, tb_cort, tb_cart = ([t for _, t in tib_map[i]] for i in range(3))
+        tb_tum = [t for _, t in tib_map[3]] if tumour is not None else []
+        tb_canc = [t for t in tb_canc if t not in tb_tum]
 
         def curves_of(surfs):
             return {abs(c) for s in surfs for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)}
@@ -665,7 +674,8 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         tib_bottom = [c for c in curves_of(tb_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] + plateau_depth) < tol]
         f = gmsh.model.mesh.field
         fields = []
-        for surfs, h in ((f_cart + f_cort + f_canc, h_contact), (tb_cart + tb_cort + tb_canc, tibia_ratio * h_contact)):
+        for surfs, h in ((f_cart + f_cort + f_canc, h_contact),
+                         (tb_cart + tb_cort + tb_canc + tb_tum, tibia_ratio * h_contact)):
             dist = f.add("Distance")
             f.setNumbers(dist, "CurvesList", fem_contact + tib_contact)
             f.setNumber(dist, "Sampling", 200)
@@ -698,8 +708,9 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         groups = _Groups()
         for name, tags in (("femur_cartilage", f_cart), ("femur_cortical", f_cort), ("femur_cancellous", f_canc),
                            ("tibia_cartilage", tb_cart), ("tibia_cortical", tb_cort),
-                           ("tibia_cancellous", tb_canc)):
-            groups(2, tags, name)
+                           ("tibia_cancellous", tb_canc), ("tibia_tumour", tb_tum)):
+            if tags:
+                groups(2, tags, name)
         groups(1, fem_contact, "femur_contact")
         groups(1, tib_contact, "tibia_contact")
         groups(1, fem_top, "femur_top")

@@ -455,3 +455,38 @@ def test_growing_tumour_becomes_the_inclusion(tmp_shared_path):
     for a in an:
         assert a["wall_group"] == "tumour_wall" and a["cavity_pressure_Pa"] is None
         assert a["neoplasm_area_in_bone"] == pytest.approx(g["volume"][a["growth_step"]], rel=5e-3)
+
+
+def test_host_mesh_keeps_touching_bodies_apart(tmp_shared_path):
+    """The knee with a tibial tumour: the femur and the tibia touch at the joint (zero
+    gap).  Rebuilding the host mesh around the tumour must keep them separate bodies —
+    no curve of one may join the other's facet group (a tibia edge whose midpoint lies
+    on the femur's contact surface once did), so the contact pair still shares no node —
+    and keep every facet group; the tumour cells in the new mesh have the tumour's area."""
+    import gmsh
+
+    from bonecontact.coupling import build_host_mesh, neoplasm_polygon, read_host_geometry
+
+    root = Path(__file__).resolve().parents[1]
+    path = tmp_shared_path / "knee_host.msh"
+    R = 0.0055
+    if MPI.COMM_WORLD.rank == 0:
+        geo = read_host_geometry(root / "data" / "scenes" / "knee2d_tumour.msh")
+    else:
+        geo = None
+    hm = build_host_mesh(geo, "tibia_tumour", ("tibia_cancellous",), neoplasm_polygon((0.004, -0.02), R, 4e-4),
+                         False, 4e-4, path)
+    assert {"femur_contact", "tibia_contact", "femur_sides", "tibia_bottom", "femur_top"} <= set(hm.facet_groups)
+    assert hm.neoplasm_area == pytest.approx(math.pi * R ** 2, rel=0.01)
+    if MPI.COMM_WORLD.rank == 0:
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        try:
+            gmsh.merge(str(path))
+            nodes = {}
+            for d, t in gmsh.model.getPhysicalGroups(1):
+                nodes[gmsh.model.getPhysicalName(d, t)] = set(gmsh.model.mesh.getNodesForPhysicalGroup(d, t)[0])
+        finally:
+            gmsh.finalize()
+        assert not (nodes["femur_contact"] & nodes["tibia_contact"])
+        assert len(nodes["femur_contact"]) > 100 and len(nodes["tibia_contact"]) > 50

@@ -12,6 +12,9 @@ Writes ``knee2d.msh``: a 2D frontal section of the knee — femoral condyle (rad
 50 mm deep; cartilage, subchondral plate, cancellous), meshed separately (non-matching
 at the joint; 0.4 mm / 0.64 mm elements at the contact).  See
 :func:`bonecontact.meshing.knee_2d`.
+
+Writes ``knee2d_tumour.msh``: the same knee with a 5 mm tumour disc (cell group
+``tibia_tumour``) in the proximal tibia, centred 4 mm lateral, 20 mm below the plateau.
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
@@ -27,6 +30,8 @@ def main() -> None:
     path = long_bone_2d(HERE / "long_bone.msh", h=1.6e-3)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
     path = knee_2d(path=HERE / "knee2d.msh")
+    print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
+    path = knee_2d(path=HERE / "knee2d_tumour.msh", tumour=(0.004, -0.02, 0.005))
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
 
 
