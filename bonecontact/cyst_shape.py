@@ -27,14 +27,16 @@ run (log strain) V_n → β/C⁻ for any shape.
 Discretisation (one step t → t + Δt)
 ------------------------------------
 1. The boundary of the current mesh is gathered on every rank (:func:`bonecontact.remesh.gather_boundary`,
-   keyed by gmsh node, partition independent); vertex normals n_i (2D: chord normals,
-   3D: area-weighted triangle normals).
-2. The boundary vertices move to x_i + δ n_i.  The enclosed volume of the moved polygon /
+   keyed by gmsh node, partition independent), and the vertex offset directions m_i
+   (:func:`offset_directions`): 2D the miter vectors, so that every edge moves parallel to
+   itself by δ (the discrete parallel curve, dv/dδ = S_c exactly); 3D the area-weighted
+   normals scaled so that dv/dδ = S_c at δ = 0.
+2. The boundary vertices move to x_i + δ m_i.  The enclosed volume of the moved polygon /
    polyhedron is an exact polynomial v(δ) (quadratic in 2D, cubic in 3D, fitted exactly
    from d + 1 evaluations), and the wall area S(δ) (perimeter / sum of triangle areas) is
    evaluated directly.  The system (δ, f) with dδ/dt = g v(δ) / v′(δ) is integrated over
    Δt with Radau (rtol 1e-10), so v_c and S_c follow the discrete wall within the step.
-3. The boundary is displaced by δ n_i, extended harmonically into the mesh
+3. The boundary is displaced by δ m_i, extended harmonically into the mesh
    (:class:`bonecontact.remesh.MeshMotion`); the mesh volume then equals v(δ) to round-off.
 4. Every ``remesh_every`` steps the cyst is re-meshed by gmsh: 2D the boundary is
    re-sampled by arclength (periodic spline) and the disc re-meshed, 3D the volume is
@@ -71,10 +73,10 @@ from scipy.integrate import solve_ivp
 import ufl
 from dolfinx import fem, mesh as dmesh
 
-from . import curvature, remesh
+from . import remesh
 from .cyst import CystParameters
 
-__all__ = ["CystShapeModel", "boundary_measures"]
+__all__ = ["CystShapeModel", "boundary_measures", "offset_directions"]
 
 
 def _measures(points: npt.NDArray[np.float64], facets: npt.NDArray[np.int64]) -> tuple[float, float]:
@@ -98,10 +100,40 @@ def boundary_measures(b: remesh.Boundary) -> tuple[float, float]:
     return _measures(b.points, b.facets)
 
 
-def _normals(b: remesh.Boundary) -> npt.NDArray[np.float64]:
+def offset_directions(b: remesh.Boundary) -> npt.NDArray[np.float64]:
+    """Vertex displacement per unit wall offset δ, so that the wall moves by δ along its normal.
+
+    2D: the miter vector m_i with m_i·ν = 1 for the outward unit normals ν of both edges
+    at vertex i, so every edge moves parallel to itself by exactly δ (the discrete parallel
+    curve: dA/dδ equals the perimeter for every δ, and a regular polygon stays regular).
+    3D (a triangle can only move parallel when its vertices agree): m_i along the area-weighted
+    normal N_i = ∂V/∂x_i = ⅓ Σ A_f ν_f, scaled to m_i = N_i s_i / |N_i|² with the vertex's
+    share s_i = ⅓ Σ A_f of the area, so that dV/dδ = S at δ = 0.
+
+    Raises
+    ------
+    RemeshError
+        At a 2D corner sharper than about 100° (the miter would exceed √5 δ).
+    """
+    x = b.points
     if b.gdim == 2:
-        return curvature.polygon_normals(b.points)
-    return curvature.vertex_normals(b.points, b.facets)
+        e = np.roll(x, -1, axis=0) - x                 # edge i: x_i -> x_{i+1} (counter-clockwise)
+        nu = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+        a, c = np.roll(nu, 1, axis=0), nu              # edges before and after vertex i
+        den = 1.0 + np.einsum("ij,ij->i", a, c)
+        if np.any(den < 0.2):
+            raise remesh.RemeshError(f"cyst wall has a corner sharper than ~100 degrees "
+                                     f"(min 1 + cos = {den.min():.3g}); refine or smooth the wall")
+        return (a + c) / den[:, None]
+    t = b.facets
+    fn = 0.5 * np.cross(x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]])   # A_f ν_f
+    N = np.zeros_like(x)
+    share = np.zeros(len(x))
+    fa = np.linalg.norm(fn, axis=1)
+    for k in range(3):
+        np.add.at(N, t[:, k], fn / 3.0)
+        np.add.at(share, t[:, k], fa / 3.0)
+    return N * (share / np.einsum("ij,ij->i", N, N))[:, None]
 
 
 class CystShapeModel:
@@ -262,7 +294,7 @@ class CystShapeModel:
         if not dt > 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         b = self.boundary()
-        normals = _normals(b)
+        normals = offset_directions(b)
         rhs, L = self._rhs(b.points, normals, b.facets)
         p = self.params
         sol = solve_ivp(rhs, (0.0, dt), [0.0, self.f], method="Radau", rtol=1e-10,

@@ -218,7 +218,6 @@ INVALID = [
     ("rate-domain", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "log(u_c - 1)"'), "K_B", ["u_c1"]),
     # [neoplasm.cyst]
     ("cyst-model-value", C, _sub('model = "sphere"', 'model = "ellipsoid"'), "model", ['"sphere", "shape"']),
-    ("cyst-model-shape", C, _sub('model = "sphere"', 'model = "shape"'), "model", ["not supported yet", "sphere"]),
     ("cyst-strain-value", C, _sub('strain = "log"', 'strain = "green"'), "strain", ['"log", "engineering"']),
     ("cyst-beta-negative", C, _sub("beta = {beta}", "beta = -1e-11"), "beta", [">= 0"]),
     ("cyst-beta-missing", C, _sub("beta = {beta}\n", ""), "beta", ["missing"]),
@@ -280,8 +279,8 @@ def test_example_scenes_check(capsys):
 @pytest.mark.serial
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_invalid_input_real_command(tmp_path, nproc):
-    """The installed command (also under mpiexec -n 2): exit 2 on a shape cyst and a bad rate."""
-    for base, edit, words in [(C, _sub('model = "sphere"', 'model = "shape"'), ['key "model"', "not supported yet"]),
+    """The installed command (also under mpiexec -n 2): exit 2 on a bad cyst strain and a bad rate."""
+    for base, edit, words in [(C, _sub('strain = "log"', 'strain = "green"'), ['key "strain"', '"engineering"']),
                               (T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "exp(u_c"'), ['key "K_B"'])]:
         out = tmp_path / "out"
         scene = tmp_path / "scene.toml"
