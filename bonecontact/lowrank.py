@@ -118,6 +118,8 @@ class LowRankActiveSetSolver:
         self.cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.t_factor = 0.0
         self.t_column = 0.0
+        self.t_block = 0.0
+        self.t_solve = 0.0
         self.factorizations = 0
         self.columns = 0
         self._r0 = A.createVecLeft()
@@ -167,8 +169,11 @@ class LowRankActiveSetSolver:
                                          f"a body without support?)")
         self.base = mask.copy()
         self.cache.clear()
+        dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        # the first factorisation includes the symbolic analysis, which later ones reuse:
+        # count 70 % of it as the cost of a refactorisation until one is measured
+        self.t_factor = 0.7 * dt if self.factorizations == 0 else dt
         self.factorizations += 1
-        self.t_factor = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
 
     # ------------------------------------------------------------------ one contact solve
     def begin(self, r0: PETSc.Vec, bc_values: npt.NDArray, values: npt.NDArray,
@@ -211,13 +216,18 @@ class LowRankActiveSetSolver:
         t0 = time.perf_counter()
         fixed = self._fixed_local(self.base)
         self._lift(self._values_for(self.base), fixed, self._rhs)
+        t1 = time.perf_counter()
         self.ksp.solve(self._rhs, self._xb)
+        t_solve = time.perf_counter() - t1
         self.A.mult(self._xb, self._tmp)
         self._xbN = self._gather(self._xb.array[self.L])
         self._AxbN = self._gather(self._tmp.array[self.L])
-        self.t_solve = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        self.t_solve = self.comm.allreduce(t_solve, op=MPI.MAX)
         if self.t_column == 0.0:
-            self.t_column = 0.25 * self.t_solve   # first estimate (multi-RHS solves), then measured
+            # first estimate of a block of k columns: (1.3 + 0.15 k) solves (MUMPS
+            # multi-right-hand-side solves, measured in 2D); then measured per block
+            self.t_column = 0.15 * self.t_solve
+            self.t_block = 1.3 * self.t_solve
 
     def _compute_columns(self, qs: list[int]) -> None:
         """Columns for the replicated positions ``qs`` (X-type if in the base, W-type if not)."""
@@ -255,7 +265,7 @@ class LowRankActiveSetSolver:
             M.destroy()
         self.columns += k
         dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-        self.t_column = dt / k
+        self.t_column = max(dt - self.t_block, 0.1 * dt) / k
 
     def solve_set(self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64],
                   wgiven: npt.NDArray[np.float64] | None = None,
@@ -289,7 +299,9 @@ class LowRankActiveSetSolver:
         diff = np.flatnonzero(active != self.base)
         missing = [int(q) for q in diff if int(q) not in self.cache]
         too_many = len(self.cache) + len(missing) > self.max_columns
-        if missing and (too_many or len(missing) * self.t_column > self.rebase_ratio * self.t_factor):
+        cost_columns = self.t_block + len(missing) * self.t_column
+        cost_rebase = self.rebase_ratio * self.t_factor + self.t_solve
+        if missing and (too_many or cost_columns > cost_rebase):
             self.factorize(active)
             self._base_solve()
             refactorized = True
