@@ -274,7 +274,10 @@ def _build_host_serial(geo: HostGeometry, region: str, host: tuple[str, ...], po
 
     if region not in geo.cells:
         raise CouplingError(f'the mesh has no cell group "{region}"')
-    poly = np.asarray(polygon, dtype=np.float64)
+    # rounded to 0.1 nm: the polygon comes from reductions whose round-off differs with
+    # the number of ranks, and gmsh's mesh is not continuous in its input (1e-15 changes
+    # of the radius gave a different mesh on 2 ranks)
+    poly = np.round(np.asarray(polygon, dtype=np.float64), 10)
     if _signed_area(poly) < 0:
         poly = poly[::-1]
     size = geo.node_size()
