@@ -83,7 +83,9 @@ def test_lowrank_equals_refactor_on_hertz():
             # one factorisation; a column for every node whose status ever differed from the cold start
             assert got["fact"] == 1 and got["cols"] >= int(ref["active"].sum()) - 1
         elif name == "default":
-            assert got["fact"] <= 2 < ref["fact"]
+            # how often it refactorises depends on measured times (its cost model), so
+            # only "never more often than the refactorising strategy" is deterministic
+            assert got["fact"] <= ref["fact"]
         else:
             assert got["fact"] > 2                    # the cache limit forces rebases
     for r in [ref]:
@@ -109,18 +111,19 @@ def _tilting_blocks():
 
 def test_lowrank_reuses_the_factorisation_across_steps():
     """Quasi-static steps whose contact zone shrinks every step: the low-rank strategy
-    factorises at most twice in the whole run and matches the refactorising one."""
+    factorises once in the whole run (timing-based rebases off) and matches the
+    refactorising one at every step."""
     m, itf = _tilting_blocks()
     ref = _run(m, itf, kind="static", steps=4, strategy="refactor")
-    got = _run(m, itf, kind="static", steps=4)
+    got = _run(m, itf, kind="static", steps=4, rebase_ratio=1e12)   # no timing-based rebase
     sets = [int(r["active"].sum()) for r in ref]
     assert sets[0] > sets[1] > sets[2] > sets[3] > 0         # the set really changes
     for g, r in zip(got, ref):
         assert np.array_equal(g["active"], r["active"])
         assert _rel(g["u"], r["u"]) < 1e-10
         assert np.abs(g["p"] - r["p"]).max() < 1e-10 * r["p"].max()
-    assert sum(g["fact"] for g in got) <= 2 < sum(r["fact"] for r in ref)
-    assert all(g["fact"] == 0 for g in got[1:]) or sum(g["fact"] for g in got) == 2
+    assert sum(g["fact"] for g in got) == 1 < sum(r["fact"] for r in ref)
+    assert all(g["fact"] == 0 for g in got[1:])
 
 
 @pytest.mark.parametrize("strategy", ["lowrank", "refactor"])
