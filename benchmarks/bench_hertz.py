@@ -55,7 +55,9 @@ def hertz_case(h: float, strategy: str = "lowrank", repeat: int = 2) -> dict:
     return best
 
 
-def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
+def _hertz_model(h: float, schedule=None):
+    """The Hertz cylinder/block model and its contact interface (approach δ, optionally
+    scheduled on the pseudo-time)."""
     delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
     md = meshing.hertz_2d(COMM, h_contact=h, zone=1.5 * A_REF, h_far=2e-3)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
@@ -64,16 +66,17 @@ def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
     m.add_dirichlet(m.facets(pg["cyl_top"]), 0, 0.0)
-    m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta)
+    if schedule is None:
+        m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta)
+    else:
+        m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta, schedule=schedule)
     itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"strategy": strategy})
-    COMM.barrier()
-    t0 = time.perf_counter()
-    integ.step()
-    COMM.barrier()
-    t_contact = time.perf_counter() - t0
-    r = integ.last_contact
-    # one linear solve of the same operator without contact (factorisation + solve)
+    return m, itf
+
+
+def _time_linear_solve(integ: Integrator) -> float:
+    """Wall time of ONE linear solve of the step operator without contact (fresh KSP:
+    symbolic + numeric factorisation + solve)."""
     b = integ.rhs(1.0)
     integ._apply_dirichlet(1.0, b)
     COMM.barrier()
@@ -82,7 +85,22 @@ def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
     x = b.duplicate()
     ksp.solve(b, x)
     COMM.barrier()
-    t_linear = time.perf_counter() - t0
+    t = time.perf_counter() - t0
+    for o in (ksp, x, b):
+        o.destroy()
+    return t
+
+
+def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
+    m, itf = _hertz_model(h)
+    integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"strategy": strategy})
+    COMM.barrier()
+    t0 = time.perf_counter()
+    integ.step()
+    COMM.barrier()
+    t_contact = time.perf_counter() - t0
+    r = integ.last_contact
+    t_linear = _time_linear_solve(integ)
     x_all = np.concatenate(COMM.allgather(itf.coords[:, 0]))
     lam = np.concatenate(COMM.allgather(r.pressure[0]))
     o = np.argsort(x_all)
@@ -97,8 +115,6 @@ def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
            "err_profile": float(f"{np.abs(lam[sel] - hertz_2d.pressure(xs[sel], P, R, E1, NU, E2, NU)).max() / p0_ref:.2e}"),
            "t_contact_s": round(t_contact, 3), "t_linear_s": round(t_linear, 3),
            "ratio": round(t_contact / t_linear, 2)}
-    ksp.destroy()
-    x.destroy()
     integ.destroy()
     return row
 
@@ -106,16 +122,7 @@ def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
 def stepped_case(h: float, strategy: str, steps: int = 8) -> dict:
     """The Hertz cylinder pushed down in ``steps`` equal static increments (warm starts):
     the cost of a contact step once the run is going, and how often it factorises."""
-    delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
-    md = meshing.hertz_2d(COMM, h_contact=h, zone=1.5 * A_REF, h_far=2e-3)
-    pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["cylinder"]: Isotropic(E=E1, nu=NU), pg["block"]: Isotropic(E=E2, nu=NU)},
-                  md.cell_tags, md.facet_tags)
-    for c in (0, 1):
-        m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
-    m.add_dirichlet(m.facets(pg["cyl_top"]), 0, 0.0)
-    m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta, schedule=lambda t: t / steps)
-    itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
+    m, itf = _hertz_model(h, schedule=lambda t: t / steps)
     integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"strategy": strategy})
     times, its, facts = [], [], []
     for _ in range(steps):
@@ -126,22 +133,12 @@ def stepped_case(h: float, strategy: str, steps: int = 8) -> dict:
         times.append(time.perf_counter() - t0)
         its.append(integ.last_contact.iterations)
         facts.append(integ.last_contact.factorizations)
-    b = integ.rhs(1.0)
-    integ._apply_dirichlet(1.0, b)
-    COMM.barrier()
-    t0 = time.perf_counter()
-    ksp = create_solver(integ.A_bc, "direct", prefix="bench_lin_")
-    x = b.duplicate()
-    ksp.solve(b, x)
-    COMM.barrier()
-    t_linear = time.perf_counter() - t0
+    t_linear = _time_linear_solve(integ)
     row = {"a_over_h": round(A_REF / h, 1), "dofs": m.num_dofs, "ranks": COMM.size, "strategy": strategy,
            "steps": steps, "pdas_its_per_step": " ".join(map(str, its)),
            "factorizations": sum(facts), "t_total_s": round(sum(times), 3),
            "t_later_step_s": round(float(np.mean(times[1:])), 3), "t_linear_s": round(t_linear, 3),
            "later_step_ratio": round(float(np.mean(times[1:])) / t_linear, 2)}
-    ksp.destroy()
-    x.destroy()
     integ.destroy()
     return row
 
