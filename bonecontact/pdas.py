@@ -326,7 +326,6 @@ class ContactSolver:
     def reset(self) -> None:
         """Forget the warm start (cold start from the closed-gap set next time)."""
         self._an = self._cold_start()
-        self._stick = self._an & self._fric
         self._dir = np.zeros((self.NS, self.bs - 1))
         self._lam_n_prev = np.zeros(self.NS)
         self.Uh.set(0.0)
@@ -436,7 +435,9 @@ class ContactSolver:
             zn = np.linalg.norm(z, axis=1)
             bound_change = 0.0
             if self._fp.any():
-                settle = changed_sets == 0 and self._tangential_changes(new_an, an, stick, dirs, z, zn, g, eps) == 0
+                # the sets have settled for the current bounds: update them now
+                trial_stick = new_an & fric & ~self._slip_set(new_an, zn, g, eps)
+                settle = changed_sets == 0 and not ((trial_stick != stick) & new_an & fric).any()
                 if k % self.fp_every == 0 or settle:
                     g_new = g.copy()
                     g_new[self._fp] = self._mu[self._fp] * np.maximum(lam_n[self._fp], 0.0)
@@ -446,8 +447,7 @@ class ContactSolver:
                         g = g_new
                         n_bound += 1
                         seen.clear()
-            gtol = 1e-10 * max(float(g.max()) if NS else 0.0, eps)
-            new_slip = new_an & fric & (zn > g + gtol)
+            new_slip = self._slip_set(new_an, zn, g, eps)
             new_dirs = dirs.copy()
             nz = new_slip & (zn > 0)
             new_dirs[nz] = z[nz] / zn[nz, None]
@@ -509,7 +509,7 @@ class ContactSolver:
             n_fact, n_cols = lr.factorizations - f0, lr.columns - c0
         else:
             n_fact, n_cols = (len(history) if self.linear == "direct" else 0), 0
-        self._an, self._stick, self._dir = an, stick & an & fric, dirs
+        self._an, self._dir = an, dirs
         self._lam_n_prev = np.where(an, lam_n, 0.0)
         uhat = self.Tt.createVecLeft()
         self.Tt.mult(self.Uh, uhat)                   # Û = Tᵀ Ũ
@@ -518,11 +518,10 @@ class ContactSolver:
         u.x.scatter_forward()
         return self._result(an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0)
 
-    def _tangential_changes(self, new_an, an, stick, dirs, z, zn, g, eps) -> int:
+    def _slip_set(self, an: np.ndarray, zn: np.ndarray, g: np.ndarray, eps: float) -> np.ndarray:
+        """Active friction nodes with |λ_t + c_t Δu_t| above the bound (SPEC §5.2)."""
         gtol = 1e-10 * max(float(g.max()) if self.NS else 0.0, eps)
-        new_slip = new_an & self._fric & (zn > g + gtol)
-        new_stick = new_an & self._fric & ~new_slip
-        return int(((new_stick != (stick & an)) & new_an & self._fric).sum())
+        return an & self._fric & (zn > g + gtol)
 
     def _result(self, an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0):
         comm, fs = self.comm, self.force_scale

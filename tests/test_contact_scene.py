@@ -107,6 +107,25 @@ def test_patch_scene(tmp_path):
     assert summary["status"] == "converged" and summary["contact"]["pairs"] == ["joint"]
 
 
+def _assert_same_on_ranks(tables: dict) -> None:
+    """The contact table and history of 2 and 3 ranks equal the serial ones (rtol 1e-8;
+    the per-column scale is floored at 1e-3 of the contact size so that columns that are
+    zero up to round-off — slip, tangential traction of frictionless contact — compare),
+    and the nodes' status (open/stick/slip) is the same."""
+    words = ("hertz", "open", "slip", "stick")
+    for name in ("contact_hertz.csv", "history.csv"):
+        h1, r1 = tables[1][name]
+        a1 = np.array([[float(v) if v not in words else 0.0 for v in r] for r in r1])
+        scale = np.maximum(np.abs(a1).max(axis=0), 1e-3 * A_REF)
+        for n in (2, 3):
+            hn, rn = tables[n][name]
+            assert hn == h1 and len(rn) == len(r1)
+            if name.startswith("contact"):
+                assert [r[-1] for r in rn] == [r[-1] for r in r1]
+            an = np.array([[float(v) if v not in words else 0.0 for v in r] for r in rn])
+            assert (np.abs(an - a1) <= 1e-8 * (np.abs(a1) + scale)).all(), f"{name}: {n} ranks differ"
+
+
 HERTZ = """format = 1
 [scene]
 name = "hertz"
@@ -162,19 +181,7 @@ def test_hertz_scene_same_on_1_2_3_ranks(tmp_path, linear):
         res = _run(scene, tmp_path / f"out{n}", n)
         assert res.returncode == 0, f"{n} ranks:\n{res.stderr}"
         tables[n] = {name: _csv(tmp_path / f"out{n}" / name) for name in ("contact_hertz.csv", "history.csv")}
-    for name in ("contact_hertz.csv", "history.csv"):
-        h1, r1 = tables[1][name]
-        a1 = np.array([[float(v) if v not in ("hertz", "open", "slip") else 0.0 for v in r] for r in r1])
-        # per-column scale, floored at 1e-3 of the contact size so that columns that
-        # are zero up to round-off (slip, tangential traction of frictionless contact) compare
-        scale = np.maximum(np.abs(a1).max(axis=0), 1e-3 * A_REF)
-        for n in (2, 3):
-            hn, rn = tables[n][name]
-            assert hn == h1 and len(rn) == len(r1)
-            if name.startswith("contact"):
-                assert [r[-1] for r in rn] == [r[-1] for r in r1]      # open/slip status per node
-            an = np.array([[float(v) if v not in ("hertz", "open", "slip") else 0.0 for v in r] for r in rn])
-            assert (np.abs(an - a1) <= 1e-8 * (np.abs(a1) + scale)).all(), f"{name}: {n} ranks differ"
+    _assert_same_on_ranks(tables)
     # the pressure is Hertz's for the measured load (same tolerances as tests/test_hertz.py)
     hh, hist = tables[1]["history.csv"]
     load = float(dict(zip(hh, hist[-1]))["normal_force"])
@@ -293,18 +300,7 @@ schedule = [[0.0, 0.0], [0.5, 0.0], [1.0, 1.0]]""")
         res = _run(scene, tmp_path / f"out{n}", n)
         assert res.returncode == 0, f"{n} ranks:\n{res.stderr}"
         tables[n] = {name: _csv(tmp_path / f"out{n}" / name) for name in ("contact_hertz.csv", "history.csv")}
-    words = ("hertz", "open", "slip", "stick")
-    for name in ("contact_hertz.csv", "history.csv"):
-        h1, r1 = tables[1][name]
-        a1 = np.array([[float(v) if v not in words else 0.0 for v in r] for r in r1])
-        scale = np.maximum(np.abs(a1).max(axis=0), 1e-3 * A_REF)
-        for n in (2, 3):
-            hn, rn = tables[n][name]
-            assert hn == h1 and len(rn) == len(r1)
-            if name.startswith("contact"):
-                assert [r[-1] for r in rn] == [r[-1] for r in r1]
-            an = np.array([[float(v) if v not in words else 0.0 for v in r] for r in rn])
-            assert (np.abs(an - a1) <= 1e-8 * (np.abs(a1) + scale)).all(), f"{name}: {n} ranks differ"
+    _assert_same_on_ranks(tables)
     header, rows = tables[1]["contact_hertz.csv"]
     col = {k: i for i, k in enumerate(header)}
     status = [r[col["status"]] for r in rows]
