@@ -270,7 +270,8 @@ class LowRankActiveSetSolver:
 
     def solve_set(self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64],
                   wgiven: npt.NDArray[np.float64] | None = None,
-                  margin: npt.NDArray[np.float64] | None = None) -> tuple[npt.NDArray, npt.NDArray, dict]:
+                  margin: npt.NDArray[np.float64] | None = None,
+                  coupled: tuple | None = None) -> tuple[npt.NDArray, npt.NDArray, dict]:
         """Solve the system of the set ``active`` (replicated mask).
 
         Parameters
@@ -287,6 +288,13 @@ class LowRankActiveSetSolver:
             ``|λ + c_n (u_n − g)|`` of the previous iteration).  When columns must be
             computed anyway, as many again are computed for the fixed rows of the base
             closest to being released (one block costs little more than a few columns).
+        coupled
+            Optional rows whose equation is replaced by a small coupled one (the
+            linearised slip condition of 3D friction):
+            ``(rows, G, H, h)`` with ``rows`` (m, r) replicated row indices (free in
+            ``active``, zero ``wgiven``) and, for every group ``i``,
+            ``G_i w[rows_i] + H_i x[rows_i] = h_i`` with ``G_i, H_i`` (r × r).  Each such row
+            gets one unknown (a force if free in the base, a value if fixed in it).
 
         Returns
         -------
@@ -297,7 +305,14 @@ class LowRankActiveSetSolver:
         refactorized = False
         if self._set_given(wgiven):
             self._base_solve()
-        diff = np.flatnonzero(active != self.base)
+        crow = np.zeros(0, dtype=np.int64) if coupled is None else np.asarray(coupled[0], dtype=np.int64)
+
+        def needed() -> np.ndarray:
+            d = active != self.base
+            d[crow.ravel()] = True
+            return np.flatnonzero(d)
+
+        diff = needed()
         missing = [int(q) for q in diff if int(q) not in self.cache]
         too_many = len(self.cache) + len(missing) > self.max_columns
         cost_columns = self.t_block + len(missing) * self.t_column
@@ -306,7 +321,8 @@ class LowRankActiveSetSolver:
             self.factorize(active)
             self._base_solve()
             refactorized = True
-            diff, missing = np.zeros(0, dtype=np.int64), []
+            diff = needed()
+            missing = [int(q) for q in diff if int(q) not in self.cache]
         if missing and margin is not None:
             # speculate on releases only: fixed rows of the base closest to being freed
             # (a cold-started PDAS overshoots, then releases nodes for several iterations)
@@ -318,19 +334,34 @@ class LowRankActiveSetSolver:
         new_cols = len(missing)
         if missing:
             self._compute_columns(missing)
-        Z = [int(q) for q in diff if self.base[q]]
-        P = [int(q) for q in diff if not self.base[q]]
-        cols = Z + P
+        cols = [int(q) for q in diff]
         xN, wN = self._xbN.copy(), self._r0N - self._AxbN
-        self._y = (Z, P, np.zeros(0))
+        self._y = (cols, np.zeros(0))
         if cols:
+            pos = {q: i for i, q in enumerate(cols)}
             G = np.column_stack([self.cache[q][0] for q in cols])
             KG = np.column_stack([self.cache[q][1] for q in cols])
-            # unknowns: s_z (displacement) then mu_p = scale_p * mu~_p; rows: Z (force, / scale) then P
-            csc = np.concatenate([np.ones(len(Z)), scale[P]])
-            M = np.vstack([KG[Z, :] / scale[Z, None], G[P, :]]) * csc[None, :]
-            rhs = np.concatenate([(self._r0N[Z] - self._wg[Z] - self._AxbN[Z]) / scale[Z],
-                                  self._vals[P] - self._xbN[P]])
+            base = self.base[cols]
+            # unknowns: value shifts s (base-fixed rows) and forces mu = scale * mu~ (base-free rows)
+            csc = np.where(base, 1.0, scale[cols])
+            M = np.empty((len(cols), len(cols)))
+            rhs = np.empty(len(cols))
+            fix = active[cols]
+            M[fix] = G[np.asarray(cols)[fix], :]
+            rhs[fix] = (self._vals - xN)[np.asarray(cols)[fix]]
+            free = ~fix
+            c_free = np.asarray(cols)[free]
+            M[free] = KG[c_free, :] / scale[c_free, None]
+            rhs[free] = (wN - self._wg)[c_free] / scale[c_free]
+            if coupled is not None:
+                _, Gc, Hc, hc = coupled
+                for i in range(crow.shape[0]):
+                    r = crow[i]
+                    for a in range(r.size):
+                        q = int(r[a])
+                        M[pos[q]] = (Hc[i, a] @ G[r, :] - Gc[i, a] @ KG[r, :]) / scale[q]
+                        rhs[pos[q]] = (hc[i, a] - Gc[i, a] @ wN[r] - Hc[i, a] @ xN[r]) / scale[q]
+            M *= csc[None, :]
             # one LU and LAPACK's O(m²) 1-norm condition estimate (not an SVD per iteration)
             lu, piv, info = lapack.dgetrf(M)
             rcond = lapack.dgecon(lu, float(np.abs(M).sum(axis=0).max()), norm="1")[0] if info == 0 else 0.0
@@ -340,22 +371,22 @@ class LowRankActiveSetSolver:
             y = lapack.dgetrs(lu, piv, rhs)[0] * csc
             xN += G @ y
             wN -= KG @ y
-            self._y = (Z, P, y)
+            self._y = (cols, y)
         return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
 
     def finish(self, out: PETSc.Vec) -> None:
         """Write the full solution of the last :meth:`solve_set` into ``out`` (one solve)."""
-        Z, P, y = self._y
+        cols, y = self._y
         extra = np.zeros(self.ns)
-        if Z:
-            extra[Z] = y[: len(Z)]
+        base = self.base[cols] if cols else np.zeros(0, bool)
+        if cols:
+            extra[np.asarray(cols)[base]] = y[base]
         v = self._values_for(self.base, extra)
         self._lift(v, self._fixed_local(self.base), self._rhs)
-        if P:
-            lo, hi = self.offset, self.offset + self.L.size
-            for p, mu in zip(P, y[len(Z):]):
-                if lo <= p < hi:
-                    self._rhs.array[self.L[p - lo]] += mu
+        lo, hi = self.offset, self.offset + self.L.size
+        for q, mu, b in zip(cols, y, base):
+            if not b and lo <= q < hi:
+                self._rhs.array[self.L[q - lo]] += mu
         self.ksp.solve(self._rhs, out)
 
     def destroy(self) -> None:

@@ -201,7 +201,14 @@ class ContactSolver:
         whenever the sets have settled); converged when their relative change is
         below ``fp_tol``.
     direction_tol
-        3D friction: slip directions must change by less than this between iterations.
+        3D friction: slip directions must change by less than this between iterations
+        (and, with ``slip_3d="newton"``, the slip traction must equal the bound times the
+        direction to this relative accuracy).
+    slip_3d
+        3D slip nodes: ``"newton"`` (default) — the damped semi-smooth Newton
+        linearisation of C_t (Hüeber–Stadler–Wohlmuth), nonsymmetric rows;
+        ``"fixed_point"`` — the traction is prescribed along the previous slip direction
+        and the direction iterated (Aitken-accelerated) to a fixed point.
     """
 
     def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, interfaces: list[ContactInterface],
@@ -210,7 +217,8 @@ class ContactSolver:
                  c_n: float | None = None, c_t: float | None = None, max_iterations: int = 50,
                  gap_tol: float | None = None, rtol: float = 1e-12, prefix: str = "bc_contact_",
                  strategy: str = "auto", max_columns: int = 2000, rebase_ratio: float = 1.0,
-                 fp_every: int = 1, fp_tol: float = 1e-8, direction_tol: float = 1e-6):
+                 fp_every: int = 1, fp_tol: float = 1e-8, direction_tol: float = 1e-6,
+                 slip_3d: str = "newton"):
         t0 = time.perf_counter()
         self.V, self.interfaces = V, list(interfaces)
         self.comm = V.mesh.comm
@@ -220,6 +228,9 @@ class ContactSolver:
         self.max_iterations = int(max_iterations)
         self.linear = linear
         self.fp_every, self.fp_tol, self.direction_tol = max(int(fp_every), 1), float(fp_tol), float(direction_tol)
+        if slip_3d not in ("newton", "fixed_point"):
+            raise ValueError(f"slip_3d must be 'newton' or 'fixed_point', got {slip_3d!r}")
+        self.slip_3d = slip_3d
         if friction is None:
             friction = FrictionLaw()
         self.frictions = list(friction) if isinstance(friction, (list, tuple)) else [friction] * len(self.interfaces)
@@ -264,6 +275,7 @@ class ContactSolver:
         self._mu = per(lambda fl: fl.coefficient)
         self._bound = per(lambda fl: fl.bound) / self.force_scale
         self._fp = (self._fkind == 2) & (per(lambda fl: fl.update == "fixed_point") > 0)
+        self._newton_3d = bs == 3 and slip_3d == "newton" and bool(self._fric.any())
         diag = self.At.getDiagonal()
         self._scale = np.maximum(self._gn(np.abs(diag.array[self._L])), 1e-300)
         diag.destroy()
@@ -295,6 +307,8 @@ class ContactSolver:
                 PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1    # detect null pivots (singular sets)
             if linear == "iterative":
                 self.ksp.setInitialGuessNonzero(True)
+                if self._newton_3d:
+                    self.ksp.setType("gmres")       # the linearised slip rows are nonsymmetric
             self.ksp.setFromOptions()
         self.setup_time = time.perf_counter() - t0
 
@@ -339,8 +353,9 @@ class ContactSolver:
         return fixed
 
     # ------------------------------------------------------------------ linear solves
-    def _solve_refactor(self, fixed, values, wg, b) -> tuple[np.ndarray, np.ndarray, int]:
-        """Eliminate the fixed rows (symmetric), prescribe ``w`` at force rows, solve."""
+    def _solve_refactor(self, fixed, values, wg, b, coupled=None) -> tuple[np.ndarray, np.ndarray, int]:
+        """Eliminate the fixed rows (symmetric), prescribe ``w`` at force rows, replace the
+        rows of ``coupled`` by their linearised slip equations, solve."""
         v = self._rhs.duplicate()
         v.set(0.0)
         if self.bc_local.size:
@@ -355,6 +370,8 @@ class ContactSolver:
                                self._L[own_fixed].astype(np.int64) + self._start]).astype(PETSc.IntType)
         self.B.zeroRowsColumns(rows, diag=self.diag_value, x=v, b=self._rhs)
         v.destroy()
+        if coupled is not None:
+            self._replace_rows(coupled, lo)
         self.ksp.setOperators(self.B)
         try:
             self.ksp.solve(self._rhs, self.Uh)
@@ -369,6 +386,33 @@ class ContactSolver:
         self.At.mult(self.Uh, self._w)
         self._w.aypx(-1.0, self._r0)                       # w = T F̂ − At Û
         return self._gn(self.Uh.array[self._L]), self._gn(self._w.array[self._L]), self.ksp.getIterationNumber()
+
+    def _replace_rows(self, coupled, lo: int) -> None:
+        """Rows ``q`` of a slip node (free, no prescribed force): with ``w = rhs − B x``
+        there, ``G w + H x = h`` becomes ``G B x − H x = G rhs − h`` (same pattern: the
+        rows of one node share their columns)."""
+        crow, Gc, Hc, hc = coupled
+        hi = lo + self._L.size
+        mine = np.flatnonzero((crow[:, 0] >= lo) & (crow[:, 0] < hi))
+        updates = []
+        for i in mine:
+            grows = [int(self._L[q - lo]) + self._start for q in crow[i]]
+            data = [self.B.getRow(r) for r in grows]
+            cols = data[0][0]
+            vals = np.array([d[1] for d in data])
+            if any(not np.array_equal(d[0], cols) for d in data):
+                raise RuntimeError("contact: the rows of a slave node do not share their sparsity pattern")
+            rhs_loc = np.array([self._rhs.array[r - self._start] for r in grows])
+            new = Gc[i] @ vals
+            for a, r in enumerate(grows):
+                for b_, c in enumerate(grows):
+                    new[a, int(np.flatnonzero(cols == c)[0])] -= Hc[i, a, b_]
+            updates.append((grows, cols, new))
+            self._rhs.array[np.array(grows) - self._start] = Gc[i] @ rhs_loc - hc[i]
+        for grows, cols, new in updates:          # (no MatGetRow once values are set)
+            for a, r in enumerate(grows):
+                self.B.setValues([r], cols, new[a], addv=PETSc.InsertMode.INSERT_VALUES)
+        self.B.assemble()
 
     # -------------------------------------------------------------------- solve
     def solve(self, b: PETSc.Vec, u: fem.Function) -> PDASResult:
@@ -404,19 +448,27 @@ class ContactSolver:
         margin = None
         x_prev = xold
         aitken: list = [None, 1.0]       # 3D slip directions: previous residual, relaxation
+        lam_t_k = z_k = None             # 3D Newton: traction and ξ = λ_t + c_t Δu_t of the last iterate
+        newton = self._newton_3d
         for k in range(1, self.max_iterations + 1):
             fixed = self._fixed_rows(an, stick)
             slip = an & fric & ~stick
             wg = np.zeros(bs * NS)
-            for j in range(1, bs):
-                wg[R[j][slip]] = (g * D * dirs[:, j - 1])[slip]
+            coupled = None
+            if newton:
+                # (a slip node with a zero bound is a free row with zero force: no Newton row)
+                if (slip & (g > 0.0)).any():
+                    coupled = self._slip_newton_rows(np.flatnonzero(slip & (g > 0.0)), lam_t_k, z_k, g, xold)
+            else:
+                for j in range(1, bs):
+                    wg[R[j][slip]] = (g * D * dirs[:, j - 1])[slip]
             try:
                 if lr is not None:
-                    x, w, info = lr.solve_set(fixed, self._scale, wg, margin)
+                    x, w, info = lr.solve_set(fixed, self._scale, wg, margin, coupled)
                     its = 1
                     extra = {"columns": info["columns"], "refactorized": info["refactorized"]}
                 else:
-                    x, w, its = self._solve_refactor(fixed, values, wg, b)
+                    x, w, its = self._solve_refactor(fixed, values, wg, b, coupled)
                     extra = {}
             except SingularActiveSetError as exc:
                 raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", history) from None
@@ -461,11 +513,18 @@ class ContactSolver:
             if bs == 2:
                 changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
                 turned = 0
+            elif newton:   # 3D Newton: directions settled and λ_t = ĝ s on the slip nodes (ĝ > 0)
+                bg = both & (g > 0.0)
+                turned = int((np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum())
+                gs = max(float(g.max()) if NS else 0.0, eps)
+                off = np.linalg.norm(lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1) > self.direction_tol * gs
+                turned += int(off.sum())
             else:   # 3D: slip directions converge (linearly) to a fixed point
                 turned = int((np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum())
                 # Aitken-accelerated direction update while the sets stay the same
                 res_d = np.where(both[:, None], new_dirs - dirs, 0.0).ravel()
-                if changed_sets + changed_t == 0 and aitken[0] is not None and aitken[0].shape == res_d.shape:
+                if (changed_sets + changed_t == 0 and aitken[0] is not None
+                        and aitken[0].shape == res_d.shape):
                     dr = res_d - aitken[0]
                     den = float(dr @ dr)
                     if den > 0:
@@ -494,6 +553,7 @@ class ContactSolver:
             for j in range(1, bs):
                 margin[R[j][new_an & fric]] = np.abs(zn - g)[new_an & fric]
             an, stick, dirs = new_an, new_stick, new_dirs
+            lam_t_k, z_k = lam_t, z
             if changed_sets + changed_t == 0:
                 continue          # only 3D slip directions still turning: not a cycle
             sig = (an.tobytes(), stick.tobytes(), np.sign(dirs).tobytes() if bs == 2 else b"")
@@ -517,6 +577,38 @@ class ContactSolver:
         uhat.destroy()
         u.x.scatter_forward()
         return self._result(an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0)
+
+    def _slip_newton_rows(self, S: npt.NDArray, lam_t: npt.NDArray, z: npt.NDArray, g: npt.NDArray,
+                          xold: npt.NDArray) -> tuple:
+        """The damped semi-smooth Newton rows of 3D slip nodes ``S`` (Hüeber–Stadler–Wohlmuth).
+
+        At a slip node, ``C_t = |ξ| λ_t − ĝ ξ = 0`` with ``ξ = λ_t + c_t Δu_t``.  Linearised at
+        the last iterate ``(λ^k, ξ^k)``, ``n = ξ^k/|ξ^k|``:
+
+        ``|ξ^k| λ_t − ĝ ξ + θ λ̃ nᵀ (ξ − ξ^k) = 0``,
+
+        with ``λ̃ = ĝ λ^k / max(ĝ, |λ^k|)`` (the traction projected on the friction disc) and
+        ``θ ∈ (0, 1]`` damping the term where ``λ̃ᵀn < 0`` so that the 2×2 block acting on
+        ``λ_t`` stays positive definite (eigenvalue ≥ half of ``1 − ĝ/|ξ^k|``).  θ = 1 is the
+        exact Newton step; every θ keeps the solution (at ``ξ = ξ^k`` the row reads
+        ``λ_t = ĝ n``).  With ``λ_t = w_t / D``, ``Δu_t = x_t − x_t^{old}`` the rows read
+        ``G w_t + H x_t = h``.
+        """
+        R, D, c = self._ridx, self._D[S], self.c_t
+        rows = np.stack([R[j][S] for j in range(1, self.bs)], axis=1)
+        zk, lk, gk = z[S], lam_t[S], g[S]
+        zn = np.linalg.norm(zk, axis=1)
+        n = zk / zn[:, None]
+        lt = lk * (gk / np.maximum(np.maximum(gk, np.linalg.norm(lk, axis=1)), 1e-300))[:, None]
+        ltn = (lt * n).sum(axis=1)
+        theta = np.where(ltn >= 0.0, 1.0, np.minimum(1.0, (zn - gk) / (2.0 * np.maximum(-ltn, 1e-300))))
+        eye = np.eye(self.bs - 1)[None, :, :]
+        outer = (theta[:, None] * lt)[:, :, None] * n[:, None, :]                    # θ λ̃ nᵀ
+        Gm = (1.0 - gk / zn)[:, None, None] * eye + outer / zn[:, None, None]
+        Hp = c * (outer - gk[:, None, None] * eye) / zn[:, None, None]
+        xo = xold[rows]
+        h = D[:, None] * (theta[:, None] * lt + np.einsum("iab,ib->ia", Hp, xo))
+        return rows, Gm, D[:, None, None] * Hp, h
 
     def _slip_set(self, an: np.ndarray, zn: np.ndarray, g: np.ndarray, eps: float) -> np.ndarray:
         """Active friction nodes with |λ_t + c_t Δu_t| above the bound (SPEC §5.2)."""
