@@ -18,7 +18,10 @@ exactly through a small dense system whose size is the number of nodes in which
 * :math:`Z = \\mathcal C\\setminus\\mathcal A` (released unknowns): the value
   :math:`x_z = g_z + s_z` becomes unknown, with the response :math:`X_z` of a unit
   value at :math:`z` (:math:`B_0 X_z = \\delta e_z - (A e_z)|_{\\rm free}`), and row
-  :math:`z` of the full equations must hold: :math:`(A x)_z = r_z`.
+  :math:`z` of the full equations must hold: :math:`(A x)_z = r_z`;
+* rows with a replaced equation (3D slip rows of the semi-smooth Newton friction
+  step, :math:`G w + H x = h` per node): an unknown force (free in the base, column
+  :math:`W`) or value (fixed in the base, column :math:`X`), and that equation.
 
 With the base solution :math:`x_b = B_0^{-1} b_{\\mathcal C}`,
 :math:`x = x_b + \\sum_z s_z X_z + \\sum_p \\mu_p W_p`; the unknowns

@@ -19,13 +19,18 @@ Sets at iteration k (SPEC §5.2) and what each does to the rows (SPEC §5.3):
 * stick (``p ∈ A_n``, ``|λ_t + c_t Δu_t| ≤ ĝ_p``, or a slip node whose slip reversed
   under the prescribed traction): the tangential rows are replaced by
   ``u_t,p = u_t^{old}`` (no slip in the step);
-* slip (``|λ_t + c_t Δu_t| > ĝ_p``): the tangential rows carry the traction
-  ``λ_t = ĝ_p s_p`` with ``s_p = (λ_t + c_t Δu_t)/|λ_t + c_t Δu_t|`` of the previous
-  iterate.  In 2D ``s_p = ±1`` and this is exactly the semi-smooth Newton step of
-  C_t (SPEC (51)); in 3D the slip direction is iterated to a fixed point (the sets
-  *and* the directions must settle, to ``direction_tol``; Aitken-accelerated while the
-  sets stay fixed), an alternative to the Hüeber–Stadler–Wohlmuth linearisation that
-  keeps every linear system of the same (eliminated, symmetric) kind.
+* slip (``|λ_t + c_t Δu_t| > ĝ_p``): in 2D the tangential rows carry the traction
+  ``λ_t = ĝ_p s_p`` with ``s_p = sign(λ_t + c_t Δu_t)`` of the previous iterate —
+  exactly the semi-smooth Newton step of C_t (SPEC (51)).  In 3D (default
+  ``slip_3d="newton"``) the rows are replaced by the damped semi-smooth Newton
+  linearisation of ``|ξ| λ_t − ĝ ξ = 0``, ``ξ = λ_t + c_t Δu_t``
+  (Hüeber–Stadler–Wohlmuth 2008; see :meth:`ContactSolver._slip_newton_rows`): a
+  nonsymmetric 2×2 coupling of traction and slip per node, locally superlinear
+  (5–6 iterations per Cattaneo–Mindlin increment).  ``slip_3d="fixed_point"``
+  prescribes ``λ_t = ĝ_p s_p`` along the previous direction and iterates the
+  direction to a fixed point (Aitken-accelerated; symmetric systems, linear
+  convergence, 8–18 iterations).  In 3D the sets *and* the directions must settle
+  (to ``direction_tol``), and with Newton rows ``|λ_t − ĝ s| ≤ direction_tol · max ĝ``.
 * frictionless pairs: the tangential rows always stay (λ_t = 0); their active nodes
   are reported as ``slip``.
 
