@@ -28,6 +28,12 @@ $PY benchmarks/bench_friction.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_friction.py --quick
 $PY benchmarks/summarize.py friction
 
+echo "== 3D friction: semi-smooth Newton slip rows vs the slip-direction fixed point"
+rm -f benchmarks/results/friction3d.csv
+$PY benchmarks/bench_friction3d.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_friction3d.py --quick
+$PY benchmarks/summarize.py friction3d
+
 echo "== dynamic contact: two-bar impact error and energy drift against dt"
 $PY benchmarks/bench_impact.py $quick
 
