@@ -111,6 +111,13 @@ class LowRankActiveSetSolver:
         self.diag_value = float(diag_value)
         self.max_columns = int(max_columns)
         self.rebase_ratio = float(rebase_ratio)
+        # the contact rows of A (A·X is only ever needed there)
+        lo_c, hi_c = A.getOwnershipRangeColumn()
+        isrow = PETSc.IS().createGeneral((self.L.astype(np.int64) + self.start).astype(PETSc.IntType), comm=self.comm)
+        iscol = PETSc.IS().createStride(hi_c - lo_c, first=lo_c, step=1, comm=self.comm)
+        self.AL = A.createSubMatrix(isrow, iscol)
+        isrow.destroy()
+        iscol.destroy()
         self.B0 = A.duplicate(copy=True)
         self.B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(self.comm)
@@ -260,9 +267,9 @@ class LowRankActiveSetSolver:
         Xm = _dense(self.comm, self.nloc, k)
         F = self.ksp.getPC().getFactorMatrix()
         F.matSolve(Rm, Xm)
-        KXm = self.A.matMult(Xm)
+        KXm = self.AL.matMult(Xm)
         colN = self._gather(Xm.getDenseArray()[self.L, :])
-        kcolN = self._gather(KXm.getDenseArray()[self.L, :])
+        kcolN = self._gather(KXm.getDenseArray())
         for j, q in enumerate(qs):
             self.cache[q] = (colN[:, j].copy(), kcolN[:, j].copy())
         for M in (Rm, Xm, KXm):
@@ -393,5 +400,5 @@ class LowRankActiveSetSolver:
         self.ksp.solve(self._rhs, out)
 
     def destroy(self) -> None:
-        for obj in (self.ksp, self.B0, self._r0, self._reff, self._values, self._rhs, self._xb, self._tmp):
+        for obj in (self.ksp, self.B0, self.AL, self._r0, self._reff, self._values, self._rhs, self._xb, self._tmp):
             obj.destroy()
