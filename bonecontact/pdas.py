@@ -593,9 +593,10 @@ class ContactSolver:
         ``|ξ^k| λ_t − ĝ ξ + θ λ̃ nᵀ (ξ − ξ^k) = 0``,
 
         with ``λ̃ = ĝ λ^k / max(ĝ, |λ^k|)`` (the traction projected on the friction disc) and
-        ``θ ∈ (0, 1]`` damping the term where ``λ̃ᵀn < 0`` so that the 2×2 block acting on
-        ``λ_t`` stays positive definite (eigenvalue ≥ half of ``1 − ĝ/|ξ^k|``).  θ = 1 is the
-        exact Newton step; every θ keeps the solution (at ``ξ = ξ^k`` the row reads
+        ``θ = β = 1/(1 − αδ)`` where ``λ^k`` points away from ``ξ^k``
+        (``α = λ^kᵀn/|λ^k| < 0``, ``δ = min(|λ^k|/ĝ, 1)``), else θ = 1: the damping of
+        Hüeber–Stadler–Wohlmuth (SPEC appendix A).  θ = 1 with ``|λ^k| ≤ ĝ`` is the exact
+        Newton step; every θ keeps the solution (at ``ξ = ξ^k`` the row reads
         ``λ_t = ĝ n``).  With ``λ_t = w_t / D``, ``Δu_t = x_t − x_t^{old}`` the rows read
         ``G w_t + H x_t = h``.
         """
@@ -605,8 +606,12 @@ class ContactSolver:
         zn = np.linalg.norm(zk, axis=1)
         n = zk / zn[:, None]
         lt = lk * (gk / np.maximum(np.maximum(gk, np.linalg.norm(lk, axis=1)), 1e-300))[:, None]
-        ltn = (lt * n).sum(axis=1)
-        theta = np.where(ltn >= 0.0, 1.0, np.minimum(1.0, (zn - gk) / (2.0 * np.maximum(-ltn, 1e-300))))
+        # HSW damping (SPEC appendix A): where λ^k points away from ξ^k (α < 0) the term is
+        # scaled by β = 1/(1 − αδ) ∈ [1/2, 1), δ = min(|λ^k|/ĝ, 1)
+        lnorm = np.linalg.norm(lk, axis=1)
+        alpha = (lk * n).sum(axis=1) / np.maximum(lnorm, 1e-300)
+        delta = np.minimum(lnorm / np.maximum(gk, 1e-300), 1.0)
+        theta = 1.0 / (1.0 - np.minimum(alpha, 0.0) * delta)
         eye = np.eye(self.bs - 1)[None, :, :]
         outer = (theta[:, None] * lt)[:, :, None] * n[:, None, :]                    # θ λ̃ nᵀ
         Gm = (1.0 - gk / zn)[:, None, None] * eye + outer / zn[:, None, None]
