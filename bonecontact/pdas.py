@@ -52,7 +52,12 @@ node whose gap is within ``gap_tol`` of the smallest gap of its pair (the closed
 nodes when the bodies touch, the closest ones when they start apart), sticking if the
 pair has friction.  A body held only by contact therefore starts supported wherever
 it touches.  (Rigid modes that the contact cannot remove — sliding along a
-frictionless contact plane — must be fixed by the scene.)
+frictionless contact plane — must be fixed by the scene.)  Held at those few nodes,
+the first solve overestimates the contact zone (≈ √2 in radius for a Hertzian
+contact), so the first set update of a cold start is damped: of the newly
+penetrating nodes only those deeper than ``cold_start_fraction`` (0.7) of the deepest
+are activated.  The PDAS then approaches the final set from near it (Hertz 2D: 3–5
+iterations instead of 5–7, no overshoot); the solution is the same.
 
 Linear solvers: ``"direct"`` — MUMPS LU.  By default (``strategy="lowrank"``) one
 set is factorised and the systems of the other sets are solved exactly by low-rank
