@@ -532,7 +532,7 @@ class ContactSolver:
             new_dirs[nz] = z[nz] / zn[nz, None]
             # a node whose slip reverses under the prescribed traction overshot: it sticks
             # next (without this, large c_t makes whole slip zones flip back and forth)
-            reverse = new_slip & slip & ((new_dirs * dirs).sum(axis=1) < 0.0)
+            reverse = new_slip & slip & (g > 0.0) & ((new_dirs * dirs).sum(axis=1) < 0.0)
             new_slip &= ~reverse
             new_stick = new_an & fric & ~new_slip
             changed_t = int(((new_stick != stick) & new_an & fric).sum())
@@ -644,9 +644,11 @@ class ContactSolver:
         return rows, Gm, D[:, None, None] * Hp, h
 
     def _slip_set(self, an: np.ndarray, zn: np.ndarray, g: np.ndarray, eps: float) -> np.ndarray:
-        """Active friction nodes with |λ_t + c_t Δu_t| above the bound (SPEC §5.2)."""
+        """Active friction nodes with |λ_t + c_t Δu_t| above the bound (SPEC §5.2); a node
+        with a zero bound (Coulomb with no pressure yet) slips: it carries no tangential
+        traction (a "stick" decided on round-off of ξ ≈ 0 could only toggle)."""
         gtol = 1e-10 * max(float(g.max()) if self.NS else 0.0, eps)
-        return an & self._fric & (zn > g + gtol)
+        return an & self._fric & ((zn > g + gtol) | (g <= 0.0))
 
     def _result(self, an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0):
         comm, fs = self.comm, self.force_scale
