@@ -329,6 +329,6 @@ class CystShapeModel:
         if self.dim == 2:
             msh = remesh.polygon_mesh(remesh.resample_closed_curve(b.points, h), h, self.comm)
         else:
-            msh = remesh.surface_mesh(b.points, b.facets, h, self.comm)
+            msh, _ = remesh.moved_surface_mesh(b.points, b.facets, h, self.comm)
         self._setup(msh)
         self.remeshes += 1

@@ -70,6 +70,8 @@ __all__ = [
     "resample_closed_curve",
     "sphere_mesh",
     "surface_mesh",
+    "smooth_surface",
+    "moved_surface_mesh",
     "transfer",
     "vertex_to_geometry",
 ]
@@ -177,6 +179,57 @@ def surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
 
     return _run_gmsh("surface", 3, build, comm)
+
+
+def smooth_surface(points: npt.ArrayLike, triangles: npt.ArrayLike, passes: int = 5,
+                   lam: float = 0.5, mu: float = -0.53) -> npt.NDArray[np.float64]:
+    """Taubin λ|μ smoothing of a closed triangulated surface (vertex positions only).
+
+    Each pass moves every vertex by ``λ`` then by ``μ`` (< −λ) times the offset to the
+    mean of its edge neighbours: the first step smooths, the second inflates back, so
+    noise at the scale of the edges is removed without the shrinkage of plain Laplacian
+    smoothing (Taubin 1995).  Used to repair a moved surface that gmsh can no longer
+    tetrahedralise (self-intersections at the scale of the mesh).
+    """
+    x = np.array(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    n = x.shape[0]
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.unique(np.sort(e, axis=1), axis=0)
+    rows = np.concatenate([e[:, 0], e[:, 1]])
+    cols = np.concatenate([e[:, 1], e[:, 0]])
+    deg = np.bincount(rows, minlength=n).astype(np.float64)
+
+    def offset(y: np.ndarray) -> np.ndarray:
+        s = np.zeros_like(y)
+        np.add.at(s, rows, y[cols])
+        return s / deg[:, None] - y
+
+    for _ in range(passes):
+        x += lam * offset(x)
+        x += mu * offset(x)
+    return x
+
+
+def moved_surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
+                       comm: MPI.Comm) -> tuple[dmesh.Mesh, bool]:
+    """Tetrahedralise a moved closed surface, repairing it if gmsh cannot.
+
+    The surface is kept as it is when possible (:func:`surface_mesh`).  A surface moved by
+    a noisy nodal velocity can intersect itself at the scale of its edges ("PLC Error: a
+    segment and a facet intersect"); it is then Taubin-smoothed
+    (:func:`smooth_surface`, rank 0) and tetrahedralised again.
+
+    Returns
+    -------
+    (mesh, smoothed)
+        The distributed mesh and whether the surface had to be smoothed.
+    """
+    try:
+        return surface_mesh(points, triangles, h, comm), False
+    except RemeshError:
+        pts = smooth_surface(points, triangles) if comm.rank == 0 else None
+        return surface_mesh(pts, triangles, h, comm), True
 
 
 def sphere_mesh(radius: float, h: float, comm: MPI.Comm,
