@@ -18,7 +18,6 @@ from __future__ import annotations
 import dolfinx_solver  # noqa: F401
 
 import argparse
-import csv
 import time
 from pathlib import Path
 
@@ -32,6 +31,8 @@ from bonecontact.mechanics import Mechanics
 from bonecontact.mortar import build_interface
 from bonecontact.pdas import FrictionLaw
 from bonecontact.timestepping import Integrator
+
+from bench_hertz import _write  # noqa: E402  (benchmarks/ is the script directory)
 
 COMM = MPI.COMM_WORLD
 R, E, NU, MU, A_T, DRAG, INCR = 0.01, 2.0e9, 0.3, 0.3, 1.0e-3, 1.5e-5, 4
@@ -104,15 +105,7 @@ def main() -> None:
             rows.append(row)
             if COMM.rank == 0:
                 print("friction3d", row, flush=True)
-    if COMM.rank == 0:
-        path = OUT / "friction3d.csv"
-        new = not path.exists()
-        with open(path, "a", newline="") as f:
-            w = csv.DictWriter(f, list(rows[0]) + ["date"])
-            if new:
-                w.writeheader()
-            for r in rows:
-                w.writerow({**r, "date": time.strftime("%Y-%m-%d", time.gmtime())})
+    _write("friction3d", rows)
 
 
 if __name__ == "__main__":

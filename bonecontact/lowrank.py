@@ -183,7 +183,7 @@ class LowRankActiveSetSolver:
         dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
         # the first factorisation includes the symbolic analysis, which later ones reuse:
         # count half of it as the cost of a refactorisation until one is measured
-        # (numeric / first = 0.40-0.50 measured on 2D Hertz meshes, 1 and 2 ranks)
+        # (numeric / first = 0.37-0.50 measured on 2D Hertz meshes, 1 and 2 ranks)
         self.t_factor = 0.5 * dt if self.factorizations == 0 else dt
         self.factorizations += 1
 

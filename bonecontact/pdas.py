@@ -26,10 +26,10 @@ Sets at iteration k (SPEC §5.2) and what each does to the rows (SPEC §5.3):
   linearisation of ``|ξ| λ_t − ĝ ξ = 0``, ``ξ = λ_t + c_t Δu_t``
   (Hüeber–Stadler–Wohlmuth 2008; see :meth:`ContactSolver._slip_newton_rows`): a
   nonsymmetric 2×2 coupling of traction and slip per node, locally superlinear
-  (5–6 iterations per Cattaneo–Mindlin increment).  ``slip_3d="fixed_point"``
+  (4–6 iterations per Cattaneo–Mindlin increment).  ``slip_3d="fixed_point"``
   prescribes ``λ_t = ĝ_p s_p`` along the previous direction and iterates the
   direction to a fixed point (Aitken-accelerated; symmetric systems, linear
-  convergence, 8–18 iterations).  In 3D the sets *and* the directions must settle
+  convergence, 6–18 iterations).  In 3D the sets *and* the directions must settle
   (to ``direction_tol``), and with Newton rows ``|λ_t − ĝ s| ≤ direction_tol · max ĝ``.
 * frictionless pairs: the tangential rows always stay (λ_t = 0); their active nodes
   are reported as ``slip``.
@@ -56,8 +56,8 @@ frictionless contact plane — must be fixed by the scene.)  Held at those few n
 the first solve overestimates the contact zone (≈ √2 in radius for a Hertzian
 contact), so the first set update of a cold start is damped: of the newly
 penetrating nodes only those deeper than ``cold_start_fraction`` (0.7) of the deepest
-are activated.  The PDAS then approaches the final set from near it (Hertz 2D: 3–5
-iterations instead of 5–7, no overshoot); the solution is the same.
+are activated.  The PDAS then approaches the final set from near it (Hertz 2D: 2–5
+iterations instead of 4–7 for a/h = 5–40, no overshoot); the solution is the same.
 
 Linear solvers: ``"direct"`` — MUMPS LU.  By default (``strategy="lowrank"``) one
 set is factorised and the systems of the other sets are solved exactly by low-rank
