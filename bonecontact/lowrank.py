@@ -25,7 +25,8 @@ exactly through a small dense system whose size is the number of nodes in which
 
 With the base solution :math:`x_b = B_0^{-1} b_{\\mathcal C}`,
 :math:`x = x_b + \\sum_z s_z X_z + \\sum_p \\mu_p W_p`; the unknowns
-:math:`(s, \\mu)` solve the :math:`|P|+|Z|` equations above.  Only the values of the
+:math:`(s, \\mu)` solve the equations above, one per row in which the set differs from the
+base (or whose equation is replaced).  Only the values of the
 columns (and of :math:`A` times them) at the slave normal rows are kept — replicated
 on every rank, ``n_slave × n_columns`` numbers — so the PDAS set update needs no
 further solve; the full field is obtained by one last solve with the forces and values
@@ -312,7 +313,7 @@ class LowRankActiveSetSolver:
         -------
         (x_N, w_N, info)
             Replicated normal unknowns and residual ``r0 − A x`` at the normal rows, and
-            ``{"columns": new columns, "refactorized": bool, "size": |P|+|Z|}``.
+            ``{"columns": new columns, "refactorized": bool, "size": unknowns of the small system}``.
         """
         refactorized = False
         if self._set_given(wgiven):
@@ -367,12 +368,12 @@ class LowRankActiveSetSolver:
             rhs[free] = (wN - self._wg)[c_free] / scale[c_free]
             if coupled is not None:
                 _, Gc, Hc, hc = coupled
-                for i in range(crow.shape[0]):
-                    r = crow[i]
-                    for a in range(r.size):
-                        q = int(r[a])
-                        M[pos[q]] = (Hc[i, a] @ G[r, :] - Gc[i, a] @ KG[r, :]) / scale[q]
-                        rhs[pos[q]] = (hc[i, a] - Gc[i, a] @ wN[r] - Hc[i, a] @ xN[r]) / scale[q]
+                q = crow.ravel()
+                idx = np.array([pos[int(v)] for v in q], dtype=np.int64)
+                Mc = np.einsum("iab,ibk->iak", Hc, G[crow]) - np.einsum("iab,ibk->iak", Gc, KG[crow])
+                rc = hc - np.einsum("iab,ib->ia", Gc, wN[crow]) - np.einsum("iab,ib->ia", Hc, xN[crow])
+                M[idx] = Mc.reshape(q.size, len(cols)) / scale[q, None]
+                rhs[idx] = rc.ravel() / scale[q]
             M *= csc[None, :]
             # one LU and LAPACK's O(m²) 1-norm condition estimate (not an SVD per iteration)
             lu, piv, info = lapack.dgetrf(M)
