@@ -26,13 +26,13 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from bonecontact import meshing
-from bonecontact.analytic import contact_modulus, hertz_2d
-from bonecontact.materials import Isotropic
-from bonecontact.mechanics import Mechanics
-from bonecontact.mortar import build_interface
-from bonecontact.pdas import FrictionLaw
-from bonecontact.timestepping import Integrator
+from bonecontact.meshing import shapes as meshing
+from bonecontact.verification.analytic import contact_modulus, hertz_2d
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import FrictionLaw
+from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
 R, A_REF, E, NU = 0.01, 5.0e-4, 2.0e9, 0.3

@@ -24,13 +24,13 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from bonecontact import meshing
-from bonecontact.analytic import hertz_3d
-from bonecontact.materials import Isotropic
-from bonecontact.mechanics import Mechanics
-from bonecontact.mortar import build_interface
-from bonecontact.pdas import FrictionLaw
-from bonecontact.timestepping import Integrator
+from bonecontact.meshing import shapes as meshing
+from bonecontact.verification.analytic import hertz_3d
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import FrictionLaw
+from bonecontact.mechanics.integrator import Integrator
 
 from bench_hertz import _write  # noqa: E402  (benchmarks/ is the script directory)
 

@@ -32,14 +32,14 @@ import numpy as np
 import ufl
 from mpi4py import MPI
 
-from bonecontact import meshing
-from bonecontact.analytic import contact_modulus, hertz_2d
-from bonecontact.linalg import create_solver
-from bonecontact.materials import Isotropic
-from bonecontact.mechanics import Mechanics
-from bonecontact.mortar import RigidPlane, build_interface
-from bonecontact.pdas import snes_vi_solve
-from bonecontact.timestepping import Integrator
+from bonecontact.meshing import shapes as meshing
+from bonecontact.verification.analytic import contact_modulus, hertz_2d
+from bonecontact.common.linalg import create_solver
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.contact.interface import RigidPlane, build_interface
+from bonecontact.contact.pdas import snes_vi_solve
+from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
 R, A_REF, E1, E2, NU = 0.01, 5.0e-4, 2.0e9, 17.0e9, 0.3

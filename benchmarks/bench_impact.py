@@ -1,6 +1,6 @@
 """Two-bar impact (issue #4): impact error and energy drift against the time step.
 
-Set-up of :mod:`bonecontact.impact` (L = 0.1 m, H = 0.01 m, ν = 0, E = 1 GPa,
+Set-up of :mod:`bonecontact.verification.impact` (L = 0.1 m, H = 0.01 m, ν = 0, E = 1 GPa,
 ρ = 1000 kg/m³, c = 1000 m/s, v₀ = 1 m/s, gap 10.2 µm, frictionless dual mortar + PDAS,
 MUMPS), run to t₀ + 1.1·2L/c, for N = 2L/(cΔt) steps per contact duration, with the
 consistent mass matrix and with the chatter-removal option (``mass_redistribution``).
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from bonecontact.impact import BarImpact, run_bar_impact
+from bonecontact.verification.impact import BarImpact, run_bar_impact
 
 
 def run(nx: int, n: int, redistribute: bool) -> dict:

@@ -33,9 +33,9 @@ import ufl
 from dolfinx import mesh
 from mpi4py import MPI
 
-from bonecontact.materials import Isotropic
-from bonecontact.mechanics import Mechanics
-from bonecontact.timestepping import Integrator
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
 MAT = Isotropic(E=17.0e9, nu=0.3, rho=1900.0, tau_v=1.0e-5)

@@ -20,7 +20,7 @@ from mpi4py import MPI
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
-from bonecontact.tumour import TumourModel, TumourParameters
+from bonecontact.neoplasm.tumour import TumourModel, TumourParameters
 
 
 def run(h: float, dt: float, t_end: float = 6.0) -> dict:

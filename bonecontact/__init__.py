@@ -7,4 +7,4 @@ Units are SI throughout (m, kg, s, Pa, N).
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx / petsc4py)
 
-__version__ = "0.1.0"
+from bonecontact.common.version import __version__

@@ -17,7 +17,7 @@
 # A 2D (plane-strain) section along the body of a mandible, 60 mm × 24 mm: a cortical
 # shell 2.5 mm thick around a cancellous core.  A cyst starts as a 1.5 mm disc in the
 # cancellous bone below a tooth and grows over years by the osmotic/Maxwell model of
-# SPEC §6.2 (`bonecontact.cyst`, the cylinder ODE per unit length) with the two parameter
+# SPEC §6.2 (`bonecontact.neoplasm.cyst`, the cylinder ODE per unit length) with the two parameter
 # sets of `data/neoplasms.toml`:
 #
 # * a **radicular cyst** (≈ 1 mm of radius per year), grown for 3 years;
@@ -25,7 +25,7 @@
 #   bone analysed every 9 months on the way (`mechanics_every`).
 #
 # After (and during) the growth the host mesh is rebuilt by gmsh around the cyst
-# (`bonecontact.coupling`): bone that the cyst has taken — cancellous and, as it thins the
+# (`bonecontact.run.coupled`): bone that the cyst has taken — cancellous and, as it thins the
 # shell, cortical — becomes a cavity whose wall carries the cyst pressure P_h⁺ − P_h⁻ (a few
 # tens of Pa: the osmotic excess, small beside a bite).  The section is then loaded by a
 # bite-force-like traction, 3 MPa on a 10 mm occlusal patch above the cyst (≈ 300 N on a
@@ -48,8 +48,8 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact.runner import run_scene
-from bonecontact.scene import load_scene
+from bonecontact.run.dispatch import run_scene
+from bonecontact.scene.spec import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()

@@ -36,8 +36,8 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact.runner import run_scene
-from bonecontact.scene import load_scene
+from bonecontact.run.dispatch import run_scene
+from bonecontact.scene.spec import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()

@@ -18,13 +18,6 @@ import pytest
 from mpi4py import MPI
 
 
-def pytest_configure(config):
-    config.addinivalue_line(
-        "markers", "serial: spawns its own mpiexec/subprocesses; runs only in the serial session"
-    )
-    config.addinivalue_line("markers", "slow: long-running test")
-
-
 def pytest_collection_modifyitems(config, items):
     if MPI.COMM_WORLD.size == 1:
         return

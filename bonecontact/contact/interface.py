@@ -1,0 +1,409 @@
+"""Dual-mortar contact interfaces as distributed PETSc operators (SPEC §4).
+
+A :class:`ContactInterface` is built from two facet groups of one mesh — the slave
+surface (it carries the multiplier) and the master surface — on bodies whose
+interfaces do not share nodes, or from a slave group and a rigid plane.  It holds, for
+the slave nodes that this rank owns and that carry a multiplier (``D_pp > 0``):
+
+* averaged unit nodal normals ``n_p`` (out of the slave body) and tangents ``t_p``,
+* the diagonal mortar matrix ``D_pp = ∫ ψ_p φ_p``, the weighted gap ``d_p = ∫ ψ_p g``
+  and the nodal gap ``d_p / D_pp``,
+
+and the triplets of ``M̂ = D⁻¹M`` in global dof numbering.  :func:`basis_transform`
+turns those into the PETSc matrix ``Qᵀ`` of SPEC §4.3 (``U = Qᵀ Û``), so that
+``Â = Q A Qᵀ = A.PtAP(Qᵀ)`` and ``F̂ = Q F``.
+
+Parallel design: a contact surface is small compared with the mesh, so its nodes and
+facets (not the system) are gathered on every rank; every rank integrates the slave
+facets it owns against all master facets (vectorised, :mod:`bonecontact.contact.mortar_geometry`),
+``D`` and the weighted gap are summed over ranks, and each row of ``M̂`` is sent to the
+rank owning it.  Normals are computed from the gathered surface, so a node shared by
+several ranks has the same normal everywhere and results do not depend on the
+partition.
+
+Units: coordinates in m; ``D`` in m (2D, per unit thickness) or m²; gaps in m.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from bonecontact.contact import mortar_geometry as mg
+
+__all__ = ["ContactInterface", "ContactInputError", "RigidPlane", "build_interface", "basis_transform",
+           "rotation_matrix"]
+
+
+class ContactInputError(ValueError):
+    """A contact interface cannot be built from the given surfaces (collective)."""
+
+
+@dataclass(frozen=True)
+class RigidPlane:
+    """A rigid, fixed obstacle ``{x : (x − point)·normal = 0}``.
+
+    ``normal`` points from the deformable body into the obstacle.
+    """
+
+    point: tuple[float, ...]
+    normal: tuple[float, ...]
+
+
+@dataclass
+class ContactInterface:
+    """One slave/master contact pair, distributed (see the module docstring).
+
+    Attributes
+    ----------
+    name
+        Pair name (used in output file names).
+    gdim
+        Geometric dimension.
+    blocks, global_blocks
+        Local and global block (node) indices in ``V`` of the owned slave nodes that
+        carry a multiplier.
+    coords, normals, tangents
+        Their reference coordinates, unit normals (out of the slave body) and tangents
+        (``(n, gdim-1, gdim)``).
+    D, weighted_gap
+        ``D_pp`` and ``d_p``; ``gap = d_p / D_pp`` is the nodal (normal) gap in m.
+    weight
+        ``∫ψ_p``, the measure a nodal multiplier acts on (``= D_pp`` except next to
+        nodes without a multiplier); the contact force is ``Σ_p weight_p λ_p``.
+    qt_rows, qt_cols, qt_vals
+        Entries of ``M̂`` (rows: slave dofs, columns: master dofs, global dof numbers)
+        that this rank owns — the off-identity part of ``Qᵀ``.
+    slave_area, covered_area
+        Measure of the whole slave surface and of its part covered by the master.
+    """
+
+    name: str
+    gdim: int
+    blocks: npt.NDArray[np.int32]
+    global_blocks: npt.NDArray[np.int64]
+    coords: npt.NDArray[np.float64]
+    normals: npt.NDArray[np.float64]
+    tangents: npt.NDArray[np.float64]
+    D: npt.NDArray[np.float64]
+    weighted_gap: npt.NDArray[np.float64]
+    weight: npt.NDArray[np.float64]
+    qt_rows: npt.NDArray[np.int64] = field(repr=False)
+    qt_cols: npt.NDArray[np.int64] = field(repr=False)
+    qt_vals: npt.NDArray[np.float64] = field(repr=False)
+    slave_area: float = 0.0
+    covered_area: float = 0.0
+    rigid: bool = False
+
+    @property
+    def gap(self) -> npt.NDArray[np.float64]:
+        """Nodal normal gap ``d_p / D_pp`` (m, ≥ 0 when open)."""
+        return self.weighted_gap / self.D
+
+    @property
+    def num_owned(self) -> int:
+        return int(self.blocks.size)
+
+
+# ------------------------------------------------------------------------ surfaces
+def _vertex_to_block(V: fem.FunctionSpace) -> npt.NDArray[np.int32]:
+    """Local dof block of every local vertex (P1 Lagrange on a P1 geometry)."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    c2v = msh.topology.connectivity(tdim, 0)
+    nv = tdim + 1
+    nverts = msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts
+    v2b = np.full(nverts, -1, dtype=np.int32)
+    v2b[c2v.array.reshape(-1, nv)] = V.dofmap.list
+    return v2b
+
+
+def _local_surface(V: fem.FunctionSpace, facet_tags, tag: int):
+    """Owned facets of group ``tag``: global blocks, vertex coords, interior points."""
+    msh = V.mesh
+    tdim, gdim = msh.topology.dim, msh.geometry.dim
+    fdim = tdim - 1
+    msh.topology.create_connectivity(fdim, 0)
+    msh.topology.create_connectivity(fdim, tdim)
+    msh.topology.create_connectivity(tdim, 0)
+    n_owned_f = msh.topology.index_map(fdim).size_local
+    facets = facet_tags.find(tag)
+    facets = facets[facets < n_owned_f]
+    f2v = msh.topology.connectivity(fdim, 0)
+    f2c = msh.topology.connectivity(fdim, tdim)
+    verts = f2v.array.reshape(-1, gdim)[facets] if facets.size else np.zeros((0, gdim), np.int32)
+    blocks = _vertex_to_block(V)[verts]
+    xdof = V.tabulate_dof_coordinates()[:, :gdim]
+    coords = xdof[blocks]
+    cells = f2c.array[f2c.offsets[facets]] if facets.size else np.zeros(0, np.int32)
+    gx = msh.geometry.x[:, :gdim]
+    interior = gx[msh.geometry.dofmaps[0][cells]].mean(axis=1) if facets.size else np.zeros((0, gdim))
+    imap = V.dofmap.index_map
+    gblocks = imap.local_to_global(blocks.ravel().astype(np.int32)).reshape(blocks.shape)
+    return gblocks.astype(np.int64), coords, interior
+
+
+def _gather_surface(comm: MPI.Comm, gblocks, coords, interior):
+    """Gather a surface on every rank; compact node numbering.
+
+    Returns (node_gids, node_coords, facets (compact), interior, own facet slice).
+    """
+    parts = comm.allgather((gblocks, coords, interior))
+    counts = [p[0].shape[0] for p in parts]
+    start = int(sum(counts[: comm.rank]))
+    gdim = coords.shape[-1] if coords.size else parts[0][1].shape[-1]
+    gb = np.concatenate([p[0] for p in parts]).reshape(-1, gdim)
+    xc = np.concatenate([p[1] for p in parts]).reshape(-1, gdim, gdim)
+    inner = np.concatenate([p[2] for p in parts]).reshape(-1, gdim)
+    gids, inv = np.unique(gb.ravel(), return_inverse=True)
+    facets = inv.reshape(gb.shape)
+    node_x = np.zeros((gids.size, gdim))
+    node_x[facets.ravel()] = xc.reshape(-1, gdim)
+    return gids, node_x, facets, inner, slice(start, start + counts[comm.rank])
+
+
+def _allreduce(comm: MPI.Comm, a: np.ndarray, op, dtype=np.float64) -> np.ndarray:
+    """Element-wise reduction of a NumPy array over all ranks (as ``dtype`` on every
+    rank: an empty ``bincount`` is int64 on one rank and float64 on another)."""
+    a = np.ascontiguousarray(a, dtype=dtype)
+    out = np.empty_like(a)
+    comm.Allreduce(a, out, op=op)
+    return out
+
+
+def _owner_ranges(comm: MPI.Comm, V: fem.FunctionSpace) -> npt.NDArray[np.int64]:
+    r = V.dofmap.index_map.local_range
+    return np.array(comm.allgather(int(r[0])) + [V.dofmap.index_map.size_global], dtype=np.int64)
+
+
+def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | RigidPlane, *,
+                    dirichlet_dofs: npt.ArrayLike | None = None, name: str = "contact",
+                    search_radius: float | None = None, max_penetration: float | None = None,
+                    ) -> ContactInterface:
+    """Build a contact interface (collective).
+
+    Parameters
+    ----------
+    V
+        P1 vector function space of the mesh that holds all bodies.
+    facet_tags
+        Facet ``MeshTags`` with the slave and master groups.
+    slave
+        Tag of the slave facets (the multiplier lives here; choose the finer or the
+        softer side, as usual for mortar methods).
+    master
+        Tag of the master facets, or a :class:`RigidPlane`.
+    dirichlet_dofs
+        Local dof indices (unrolled) with Dirichlet conditions: slave nodes with any
+        of them carry no multiplier (the dual basis is modified there, SPEC §4.1).
+    name
+        Pair name.
+    search_radius
+        Normal search distance for master facets (default: a few slave element sizes).
+    max_penetration
+        Initial interpenetration (negative nodal gap) beyond which the input is
+        rejected; default 1e-6 × the size of the slave surface.
+
+    Raises
+    ------
+    ContactInputError
+        Empty groups, degenerate facets, a slave surface that no master facet covers,
+        initial interpenetration.
+    """
+    msh = V.mesh
+    comm = msh.comm
+    gdim = msh.geometry.dim
+    bs = V.dofmap.index_map_bs
+    s_loc = _local_surface(V, facet_tags, slave)
+    s_gids, s_x, s_f, s_in, own = _gather_surface(comm, *s_loc)
+    if s_f.shape[0] == 0:
+        raise ContactInputError(f"contact {name!r}: the slave facet group {slave} is empty")
+    normals_f, measure = mg.facet_normals(s_x, s_f, s_in)
+    size = float(np.ptp(s_x, axis=0).max()) or 1.0
+    if (measure <= 1e-12 * size ** (gdim - 1)).any():
+        raise ContactInputError(f"contact {name!r}: degenerate (zero-measure) facets in slave group {slave}")
+    normals = mg.nodal_normals(s_x, s_f, s_in)
+
+    # slave nodes with Dirichlet dofs carry no multiplier
+    ranges = _owner_ranges(comm, V)
+    lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
+    mask = np.zeros(s_gids.size, dtype=np.int32)
+    if dirichlet_dofs is not None:
+        bc_blocks = np.unique(np.asarray(dirichlet_dofs, dtype=np.int64) // bs)
+        bc_blocks = bc_blocks[bc_blocks < V.dofmap.index_map.size_local]
+        gbc = V.dofmap.index_map.local_to_global(bc_blocks.astype(np.int32)).astype(np.int64)
+        mask[np.isin(s_gids, gbc)] = 1
+    mask = _allreduce(comm, mask, MPI.MAX, dtype=np.int32).astype(bool)
+
+    own_f = s_f[own]
+    if isinstance(master, RigidPlane):
+        nu = np.asarray(master.normal, dtype=float)[:gdim]
+        nu = nu / np.linalg.norm(nu)
+        x0 = np.asarray(master.point, dtype=float)[:gdim]
+        base = mg.reference_dual_coefficients(gdim)
+        coeffs = mg.modify_dual_coefficients(base, mask[own_f]) if mask.any() else base
+        # facet matrices D_f[j, k] = ∫ψ_j φ_k (diagonal unless the basis was modified)
+        mass = mg.element_mass_matrices(s_x[own_f]) if own_f.size else np.zeros((0, gdim, gdim))
+        c = np.broadcast_to(coeffs, (own_f.shape[0], gdim, gdim))
+        dfac = np.einsum("fjl,flk->fjk", c, mass)
+        gap_nodal = (x0 - s_x) @ nu
+        d = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjj->fj", dfac).ravel(),
+                                         minlength=s_gids.size), MPI.SUM)
+        wgap = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjk,fk->fj", dfac,
+                                                                             gap_nodal[own_f]).ravel(),
+                                            minlength=s_gids.size), MPI.SUM)
+        jj, kk = np.nonzero(~np.eye(gdim, dtype=bool))
+        off_r = own_f[:, jj].ravel()
+        off_c = own_f[:, kk].ravel()
+        off_v = dfac[:, jj, kk].ravel()
+        normals = np.broadcast_to(nu, s_x.shape).copy()
+        m_rows = m_cols = np.zeros(0, np.int64)
+        m_vals = np.zeros(0)
+        covered = float(measure.sum())
+        m_gids = np.zeros(0, np.int64)
+    else:
+        m_loc = _local_surface(V, facet_tags, master)
+        m_gids, m_x, m_f, m_in, _ = _gather_surface(comm, *m_loc)
+        if m_f.shape[0] == 0:
+            raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
+        if np.isin(m_gids, s_gids).any():
+            raise ContactInputError(f"contact {name!r}: slave and master surfaces share nodes; the bodies "
+                                    "must be meshed separately (no shared interface nodes)")
+        h_s = float(measure.max()) if gdim == 2 else float(np.sqrt(2.0 * measure.max()))
+        radius = search_radius if search_radius is not None else 3.0 * h_s
+        contrib = mg.assemble_mortar(s_x, own_f, normals, m_x, m_f, search_radius=radius,
+                                     slave_node_mask=mask if mask.any() else None)
+        d = _allreduce(comm, contrib.d, MPI.SUM)
+        wgap = _allreduce(comm, contrib.gap, MPI.SUM)
+        covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
+        m_rows, m_cols, m_vals = contrib.m_rows, contrib.m_cols, contrib.m_vals
+        off_r, off_c, off_v = contrib.d_off_rows, contrib.d_off_cols, contrib.d_off_vals
+        if covered <= 0.0:
+            raise ContactInputError(f"contact {name!r}: no master facet (group {master}) lies opposite the "
+                                    f"slave surface (group {slave}) within {radius:.3g} m")
+    slave_area = float(measure.sum())
+    # A node carries a multiplier when at least a tenth of its support is covered by the
+    # master: barely covered nodes (D_pp → 0, or < 0 for the dual basis) would give
+    # M̂ = D⁻¹M and d_p/D_pp without bound.  Such nodes only occur where the master
+    # ends (far from any contact zone when the master is sized as it should be).
+    full = np.bincount(s_f.ravel(), weights=np.repeat(measure / gdim, gdim), minlength=s_gids.size)
+    carries = d >= 0.1 * full
+    # owned slave nodes
+    owned = (s_gids >= lo) & (s_gids < hi) & carries
+    idx = np.flatnonzero(owned)
+    gap_all = np.where(carries, wgap / np.where(carries, d, 1.0), np.inf)
+    tol = max_penetration if max_penetration is not None else 1e-6 * size
+    worst = comm.allreduce(float(gap_all[carries].min()) if carries.any() else np.inf, op=MPI.MIN)
+    if worst < -tol:
+        raise ContactInputError(f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
+                                f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes")
+
+    # M̂ rows to their owners: rows = slave dofs, cols = master dofs (global dof numbers).
+    # Off-diagonal D entries that couple a node carrying a multiplier to a slave node
+    # without one (boundary-modified dual basis) act like master entries with −D_pq.
+    comp = np.arange(bs)
+    rows_l, cols_l, vals_l = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+    if m_vals.size:
+        keep = carries[m_rows]
+        r, c, v = m_rows[keep], m_cols[keep], m_vals[keep] / d[m_rows[keep]]
+        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
+        cols_l.append((bs * m_gids[c][:, None] + comp[None, :]).ravel())
+        vals_l.append(np.repeat(v, bs))
+    sel = carries[off_r] & ~carries[off_c] & (off_v != 0.0)
+    if sel.any():
+        r, c, v = off_r[sel], off_c[sel], -off_v[sel] / d[off_r[sel]]
+        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
+        cols_l.append((bs * s_gids[c][:, None] + comp[None, :]).ravel())
+        vals_l.append(np.repeat(v, bs))
+    rows, cols, vals = np.concatenate(rows_l), np.concatenate(cols_l), np.concatenate(vals_l)
+    # ∫ψ_p: the area a nodal multiplier acts on (D_pp plus the modified-basis part)
+    extra = np.bincount(off_r[sel], weights=off_v[sel], minlength=s_gids.size) if sel.any() \
+        else np.zeros(s_gids.size)
+    weight = d + _allreduce(comm, extra, MPI.SUM)
+    owner = np.searchsorted(bs * ranges, rows, side="right") - 1
+    send = [(rows[owner == k], cols[owner == k], vals[owner == k]) for k in range(comm.size)]
+    recv = comm.alltoall(send)
+    q_rows = np.concatenate([x[0] for x in recv]).astype(np.int64)
+    q_cols = np.concatenate([x[1] for x in recv]).astype(np.int64)
+    q_vals = np.concatenate([x[2] for x in recv])
+
+    n = normals[idx]
+    return ContactInterface(
+        name=name, gdim=gdim,
+        blocks=(s_gids[idx] - lo).astype(np.int32), global_blocks=s_gids[idx],
+        coords=s_x[idx], normals=n, tangents=mg.nodal_tangents(n) if idx.size else np.zeros((0, gdim - 1, gdim)),
+        D=d[idx], weighted_gap=wgap[idx], weight=weight[idx],
+        qt_rows=q_rows, qt_cols=q_cols, qt_vals=q_vals,
+        slave_area=slave_area, covered_area=float(covered), rigid=isinstance(master, RigidPlane))
+
+
+# ------------------------------------------------------------------------ operators
+def _csr_matrix(comm: MPI.Comm, n_local: int, n_global: int, row_start: int,
+                rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> PETSc.Mat:
+    """Distributed AIJ matrix from owned-row triplets (duplicates summed)."""
+    order = np.lexsort((cols, rows))
+    rows, cols, vals = rows[order], cols[order], vals[order]
+    if rows.size:
+        first = np.ones(rows.size, dtype=bool)
+        first[1:] = (rows[1:] != rows[:-1]) | (cols[1:] != cols[:-1])
+        starts = np.flatnonzero(first)
+        vals = np.add.reduceat(vals, starts)
+        rows, cols = rows[starts], cols[starts]
+    indptr = np.zeros(n_local + 1, dtype=PETSc.IntType)
+    np.add.at(indptr, rows - row_start + 1, 1)
+    indptr = np.cumsum(indptr).astype(PETSc.IntType)
+    A = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)),
+                              csr=(indptr, cols.astype(PETSc.IntType), vals), comm=comm)
+    A.assemble()
+    return A
+
+
+def basis_transform(V: fem.FunctionSpace, interfaces: list[ContactInterface]) -> PETSc.Mat:
+    """``Qᵀ = I + Σ (M̂ in slave rows / master columns)``, so that ``U = Qᵀ Û``.
+
+    ``Â = A.PtAP(Qᵀ) = Q A Qᵀ`` and ``F̂ = Q F = (Qᵀ)ᵀ F``.
+    """
+    comm = V.mesh.comm
+    imap, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+    n_local, n_global = bs * imap.size_local, bs * imap.size_global
+    start = bs * imap.local_range[0]
+    diag = np.arange(start, start + n_local, dtype=np.int64)
+    rows = np.concatenate([diag] + [i.qt_rows for i in interfaces])
+    cols = np.concatenate([diag] + [i.qt_cols for i in interfaces])
+    vals = np.concatenate([np.ones(n_local)] + [i.qt_vals for i in interfaces])
+    return _csr_matrix(comm, n_local, n_global, start, rows, cols, vals)
+
+
+def rotation_matrix(V: fem.FunctionSpace, interfaces: list[ContactInterface]) -> PETSc.Mat:
+    """Row rotation ``T``: identity except at slave nodes, whose rows become ``[n_p; t_p]``.
+
+    Row ``bs·p`` of ``T·x`` is the normal component of node ``p``, rows
+    ``bs·p + 1 …`` its tangential components.
+    """
+    comm = V.mesh.comm
+    imap, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+    n_local, n_global = bs * imap.size_local, bs * imap.size_global
+    start = bs * imap.local_range[0]
+    special = np.zeros(n_local, dtype=bool)
+    r_list, c_list, v_list = [], [], []
+    for itf in interfaces:
+        if itf.num_owned == 0:
+            continue
+        frame = np.concatenate([itf.normals[:, None, :], itf.tangents], axis=1)  # (n, bs, bs)
+        base = bs * itf.global_blocks
+        rr = (base[:, None, None] + np.arange(bs)[None, :, None]) + 0 * np.arange(bs)[None, None, :]
+        cc = (base[:, None, None] + np.arange(bs)[None, None, :]) + 0 * np.arange(bs)[None, :, None]
+        r_list.append(rr.ravel())
+        c_list.append(cc.ravel())
+        v_list.append(frame.ravel())
+        special[(bs * itf.blocks[:, None] + np.arange(bs)[None, :]).ravel()] = True
+    plain = np.flatnonzero(~special).astype(np.int64) + start
+    rows = np.concatenate([plain] + r_list)
+    cols = np.concatenate([plain] + c_list)
+    vals = np.concatenate([np.ones(plain.size)] + v_list)
+    return _csr_matrix(comm, n_local, n_global, start, rows.astype(np.int64), cols.astype(np.int64), vals)

@@ -1,0 +1,174 @@
+"""Material fields on a mesh: piecewise-constant Voigt stiffness, density, viscosity.
+
+All material models are expressed through one cell-wise (DG0) Voigt stiffness
+field, so that any number of regions, anisotropic axes, and later cells taken over
+by a neoplasm are handled by the same compiled kernels: changing a material only
+changes coefficient values.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem, mesh
+
+from bonecontact.materials.laws import Material, plane_strain_block
+
+__all__ = ["MaterialFields", "material_fields", "deviatoric_block"]
+
+
+def deviatoric_block(mu: float, dim: int) -> npt.NDArray[np.float64]:
+    """NumPy twin of :func:`bonecontact.forms.elastic.deviatoric_voigt`, full 6×6."""
+    C = np.zeros((6, 6))
+    C[:3, :3] = -2.0 * mu / 3.0
+    C[np.arange(3), np.arange(3)] = 4.0 * mu / 3.0
+    C[3, 3] = C[4, 4] = C[5, 5] = mu
+    return C
+
+
+@dataclass
+class MaterialFields:
+    """DG0 coefficient fields describing the materials of a mesh.
+
+    Attributes
+    ----------
+    C, C_v
+        Elastic and viscous Voigt stiffness (nv×nv; nv = 3 in 2D, 6 in 3D). In
+        cells with the nodal-pressure formulation only the deviatoric part.
+    C_zz
+        2D only: the row of σ_zz against [e_xx, e_yy, γ_xy] (plane-strain
+        out-of-plane stress), elastic and viscous (shape (2, 3)).
+    rho
+        Density (0 where not given).
+    kappa, kappa_v
+        Bulk modulus and its viscous counterpart in nodal-pressure cells, 0 elsewhere.
+    chi
+        Indicator of nodal-pressure cells.
+    """
+
+    dim: int
+    C: fem.Function
+    C_v: fem.Function
+    rho: fem.Function
+    kappa: fem.Function
+    kappa_v: fem.Function
+    chi: fem.Function
+    C_zz: fem.Function | None
+    has_viscosity: bool
+    has_nodal_pressure: bool
+    has_density: bool
+
+
+def _cell_dofs(space: fem.FunctionSpace, num_cells: int) -> npt.NDArray[np.int32]:
+    return space.dofmap.list[:num_cells, 0]
+
+
+def material_fields(msh: mesh.Mesh, cell_tags: mesh.MeshTags | None,
+                    materials: Mapping[int, Material] | Material) -> MaterialFields:
+    """Build the DG0 material fields from cell tags.
+
+    Parameters
+    ----------
+    msh
+        The mesh (``gdim`` = 2 for plane strain, or 3).
+    cell_tags
+        Cell markers; may be ``None`` when ``materials`` is a single material.
+    materials
+        Tag → material, or one material for the whole mesh.
+
+    Returns
+    -------
+    MaterialFields
+        Fields usable in the UFL forms of :mod:`bonecontact.forms`.
+
+    Raises
+    ------
+    ValueError
+        If a cell has no material (collective check).
+    """
+    dim = msh.geometry.dim
+    nv = 3 if dim == 2 else 6
+    tdim = msh.topology.dim
+    imap = msh.topology.index_map(tdim)
+    ncells = imap.size_local + imap.num_ghosts
+
+    T0 = fem.functionspace(msh, ("DG", 0, (nv, nv)))
+    S0 = fem.functionspace(msh, ("DG", 0))
+    C = fem.Function(T0, name="C")
+    Cv = fem.Function(T0, name="C_v")
+    rho = fem.Function(S0, name="rho")
+    kap = fem.Function(S0, name="kappa")
+    kapv = fem.Function(S0, name="kappa_v")
+    chi = fem.Function(S0, name="chi")
+    Czz = None
+    if dim == 2:
+        Czz = fem.Function(fem.functionspace(msh, ("DG", 0, (2, 3))), name="C_zz")
+
+    if not isinstance(materials, Mapping):
+        tagged = {0: materials}
+        cell_mat = np.zeros(ncells, dtype=np.int64)
+    else:
+        tagged = dict(materials)
+        cell_mat = np.full(ncells, -1, dtype=np.int64)
+        if cell_tags is not None:
+            for tag in tagged:
+                cell_mat[cell_tags.indices[cell_tags.values == tag]] = tag
+    missing = int(np.sum(cell_mat[: imap.size_local] < 0))
+    missing = msh.comm.allreduce(missing)
+    if missing:
+        raise ValueError(f"{missing} cells have no material (tags with materials: {sorted(tagged)})")
+
+    tdofs = _cell_dofs(T0, ncells)
+    zdofs = _cell_dofs(Czz.function_space, ncells) if Czz is not None else None
+    sdofs = _cell_dofs(S0, ncells)
+    Ca = C.x.array.reshape(-1, nv * nv)
+    Cva = Cv.x.array.reshape(-1, nv * nv)
+    has_visc = has_anp = False
+    has_rho = True
+    for tag, mat in tagged.items():
+        cells = np.flatnonzero(cell_mat == tag)
+        full = mat.voigt()
+        if mat.formulation == "nodal_pressure":
+            has_anp = True
+            Cfull = deviatoric_block(mat.mu, dim)
+            kap.x.array[sdofs[cells]] = mat.kappa
+            kapv.x.array[sdofs[cells]] = mat.tau_v * mat.kappa
+            chi.x.array[sdofs[cells]] = 1.0
+        else:
+            Cfull = full
+        Cd = plane_strain_block(Cfull) if dim == 2 else Cfull
+        Ca[tdofs[cells]] = Cd.ravel()
+        Cva[tdofs[cells]] = mat.tau_v * Cd.ravel()
+        if mat.tau_v > 0:
+            has_visc = True
+        if mat.rho is None:
+            has_rho = False
+        else:
+            rho.x.array[sdofs[cells]] = mat.rho
+        if Czz is not None:
+            row = Cfull[2, [0, 1, 5]]
+            za = Czz.x.array.reshape(-1, 6)
+            za[zdofs[cells]] = np.concatenate([row, mat.tau_v * row])
+    comm = msh.comm
+    has_visc = bool(comm.allreduce(has_visc, op=_mpi_lor()))
+    has_anp = bool(comm.allreduce(has_anp, op=_mpi_lor()))
+    has_rho = bool(comm.allreduce(has_rho, op=_mpi_land()))
+    for f in (C, Cv, rho, kap, kapv, chi) + ((Czz,) if Czz is not None else ()):
+        f.x.scatter_forward()
+    return MaterialFields(dim, C, Cv, rho, kap, kapv, chi, Czz, has_visc, has_anp, has_rho)
+
+
+def _mpi_lor():
+    from mpi4py import MPI
+
+    return MPI.LOR
+
+
+def _mpi_land():
+    from mpi4py import MPI
+
+    return MPI.LAND
+

@@ -1,0 +1,509 @@
+"""Static, quasi-static and dynamic (semi-implicit, SPEC §3.1) integrators.
+
+Each integrator assembles and factorises (or sets up the preconditioner of) its
+time-independent operator once; a step costs one right-hand side (a few
+matrix–vector products and scaled, pre-assembled load vectors) and one solve.
+
+=============  ======================================  ===================================
+kind           operator A                              right-hand side
+=============  ======================================  ===================================
+static         K                                       F(t)
+quasistatic    Δt K + Kv                               Δt F(t) + Kv uⁿ
+dynamic        M + Δt² K + Δt Kv                       Δt² F(t) + M(2uⁿ − uⁿ⁻¹) + Δt Kv uⁿ
+=============  ======================================  ===================================
+
+Dirichlet conditions are imposed by symmetric elimination on the fixed operator
+(rows and columns of A replaced by the identity, prescribed values lifted into the
+right-hand side with the unmodified operator).
+
+Energy balance (``Integrator(..., energy_balance=True)``)
+----------------------------------------------------------
+With Eⁿ = ½ vⁿᵀ M vⁿ + ½ uⁿᵀ K uⁿ (kinetic only in dynamic runs), vⁿ = (uⁿ − uⁿ⁻¹)/Δt,
+Δu = uⁿ⁺¹ − uⁿ and the physical residual of the step
+r = M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt² + K uⁿ⁺¹ + Kv vⁿ⁺¹ − Fⁿ⁺¹ (the force that contact and
+Dirichlet supports exert), testing the scheme with Δu gives exactly
+
+    Eⁿ⁺¹ − Eⁿ = W_ext + W_dir + W_c − D_visc − D_num,
+    W_ext = Fⁿ⁺¹·Δu,   W_dir = Σ_{Dirichlet dofs} r_i Δu_i,   W_c = Σ_{other dofs} r_i Δu_i,
+    D_visc = Δt |vⁿ⁺¹|²_Kv,   D_num = ½|vⁿ⁺¹ − vⁿ|²_M + ½|Δu|²_K   (both ≥ 0).
+
+The contact work is computed independently of the residual, from the mortar
+multipliers and gaps: W_c = Σ_p D_pp λ_p (g_pⁿ⁺¹ − g_pⁿ) over the slave nodes
+(λ_p ≥ 0 the pressure, g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) the nodal gap, as
+the PDAS returns it after each step, and from :meth:`Integrator.contact_gaps` for the
+initial state).
+With λ_p gⁿ⁺¹_p = 0 (complementarity) it equals −Σ D λ gⁿ ≤ 0: contact only dissipates.
+The residual-based value is kept as ``contact_work_residual``; their difference, and
+the balance defect ``Eⁿ⁺¹ − Eⁿ − (W_ext + W_dir + W_c − D_visc − D_num)``, measure how
+well the discrete contact forces are those of the multipliers (solver tolerance).
+Quasi-static and static steps obey the same identity without the kinetic and mass
+terms (``D_visc = |Δu|²_Kv/Δt``; static: no viscous term).
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field, fields
+from typing import Literal
+
+import numpy as np
+from dolfinx import fem
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from bonecontact.common.linalg import create_solver, owned_global_rows, rigid_body_modes
+from bonecontact.mechanics.model import Mechanics
+
+__all__ = ["Integrator", "StepInfo", "Energy", "EnergyBalance", "redistributed_mass"]
+
+Kind = Literal["static", "quasistatic", "dynamic"]
+
+
+@dataclass
+class Energy:
+    """Discrete energies (J, or J/m in 2D): E = ½ vᵀMv + ½ uᵀKu."""
+
+    kinetic: float
+    strain: float
+
+    @property
+    def total(self) -> float:
+        return self.kinetic + self.strain
+
+
+@dataclass
+class EnergyBalance:
+    """Energy balance of one step, or of a run (cumulative), in J (J/m in 2D).
+
+    See the module docstring: ``kinetic + strain`` after the step(s) equals the value
+    before plus ``external_work + dirichlet_work + contact_work − viscous_dissipation
+    − numerical_dissipation`` up to ``defect``.
+
+    Attributes
+    ----------
+    kinetic, strain
+        Energies after the step (for a cumulative record: at the current time).
+    external_work
+        Work of the applied loads, Fⁿ⁺¹·Δu.
+    dirichlet_work
+        Work of the support reactions on prescribed (moving) displacements.
+    contact_work
+        Work of the contact pressures, Σ D_pp λ_p Δg_p (≤ 0), from the multipliers.
+    contact_work_residual
+        The same from the step residual on the dofs without Dirichlet conditions
+        (without contact: the residual of the linear solve, ~ solver tolerance).
+    viscous_dissipation
+        Kelvin–Voigt dissipation Δt |vⁿ⁺¹|²_Kv (≥ 0).
+    numerical_dissipation
+        Dissipation of the first-order scheme, ½|Δv|²_M + ½|Δu|²_K (≥ 0).
+    defect
+        ``ΔE − (W_ext + W_dir + W_c − D_visc − D_num)``; round-off / solver tolerance.
+    """
+
+    kinetic: float = 0.0
+    strain: float = 0.0
+    external_work: float = 0.0
+    dirichlet_work: float = 0.0
+    contact_work: float = 0.0
+    contact_work_residual: float = 0.0
+    viscous_dissipation: float = 0.0
+    numerical_dissipation: float = 0.0
+    defect: float = 0.0
+
+    @property
+    def total(self) -> float:
+        """Kinetic plus strain energy."""
+        return self.kinetic + self.strain
+
+    def accumulate(self, step: "EnergyBalance") -> None:
+        """Add the works of ``step`` and take its energies (running totals)."""
+        for f in fields(self):
+            if f.name in ("kinetic", "strain"):
+                setattr(self, f.name, getattr(step, f.name))
+            else:
+                setattr(self, f.name, getattr(self, f.name) + getattr(step, f.name))
+
+
+def redistributed_mass(model: Mechanics, interfaces: list) -> PETSc.Mat:
+    """Mass matrix without inertia at the slave contact nodes (chatter removal).
+
+    Mass redistribution in the spirit of Khenous, Laborde & Renard (Eur. J. Mech. A
+    27, 2008) and, for dual mortars, Hager, Hüeber & Wohlmuth (IJNME 73, 2008): in
+    every cell that has slave nodes carrying a multiplier (set C) and other nodes
+    (set N), the element mass matrix M_e is replaced by PᵀM_eP, where P sets the
+    value at each node of C to the mean of the values at the nodes of N.  Then the
+    rows and columns of the contact nodes vanish, the matrix stays symmetric positive
+    semi-definite on each cell (definite overall as long as every body has interior
+    nodes), and the total mass of each cell (P reproduces constants) and hence
+    momentum are kept; the cell's centre of mass moves towards its interior nodes by
+    O(h) (first moments are not kept).  Cells whose nodes all lie in C are unchanged.
+    Element matrices use the cell density (DG0 ``rho``) and the exact P1 mass matrix
+    ρ|T|(1 + δ_ij)/((d+1)(d+2)).
+
+    Parameters
+    ----------
+    model
+        The mechanics model (P1 vector space ``model.V``).
+    interfaces
+        Contact interfaces (:func:`bonecontact.contact.interface.build_interface`).
+
+    Returns
+    -------
+    PETSc.Mat
+        ``M + ΔM`` (a new matrix with the pattern of ``model.M``).
+    """
+    V, msh = model.V, model.mesh
+    bs = V.dofmap.index_map_bs
+    tdim = msh.topology.dim
+    mark = fem.Function(V)
+    for itf in interfaces:
+        mark.x.array[bs * itf.blocks] = 1.0
+    mark.x.scatter_forward()  # owned slave blocks → ghosts
+    contact_block = mark.x.array[::bs] > 0.0
+    cells = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
+    blocks = V.dofmap.list[cells]
+    flags = contact_block[blocks]
+    sel = flags.any(axis=1) & ~flags.all(axis=1)
+    cells, blocks, flags = cells[sel], blocks[sel], flags[sel]
+    M = model.M.duplicate(copy=True)
+    M.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+    if cells.size:
+        x = msh.geometry.x[msh.geometry.dofmaps[0][cells]][:, :, :tdim]       # (n, d+1, d)
+        jac = x[:, 1:, :] - x[:, :1, :]
+        vol = np.abs(np.linalg.det(jac)) / np.prod(np.arange(1, tdim + 1))
+        rho = model.fields.rho
+        rho_c = rho.x.array[rho.function_space.dofmap.list[cells, 0]]
+        nn = tdim + 1
+        base = (np.ones((nn, nn)) + np.eye(nn)) / (nn * (nn + 1))
+        gblocks = V.dofmap.index_map.local_to_global(blocks.ravel()).reshape(blocks.shape)
+        comp = np.arange(bs)
+        for c in range(cells.size):
+            Me = rho_c[c] * vol[c] * base
+            P = np.eye(nn)
+            interior = ~flags[c]
+            for k in np.flatnonzero(flags[c]):
+                P[k, :] = interior / interior.sum()
+            dMe = P.T @ Me @ P - Me
+            dofs = (bs * gblocks[c][:, None] + comp[None, :]).ravel().astype(PETSc.IntType)
+            M.setValues(dofs, dofs, np.kron(dMe, np.eye(bs)).ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+    M.assemble()
+    return M
+
+
+@dataclass
+class StepInfo:
+    """What one step did."""
+
+    step: int
+    time: float
+    linear_iterations: int
+    solve_time: float
+    extra: dict = field(default_factory=dict)
+
+
+class Integrator:
+    """Time integrator for a :class:`~bonecontact.mechanics.model.Mechanics` model.
+
+    Parameters
+    ----------
+    model
+        The mechanics model (materials, loads, Dirichlet conditions).
+    kind
+        ``"static"``, ``"quasistatic"`` or ``"dynamic"``.
+    dt
+        Time step (s); for ``"static"`` the load-step size in pseudo-time [0, 1].
+    linear
+        ``"direct"`` (MUMPS) or ``"iterative"`` (CG + GAMG).
+    rtol
+        Krylov tolerance for the iterative solver.
+    contact
+        Contact interfaces (:func:`bonecontact.contact.interface.build_interface`): every step is
+        then solved by the PDAS (:class:`bonecontact.contact.pdas.ContactSolver`) instead of a
+        single linear solve; ``self.last_contact`` holds the last
+        :class:`~bonecontact.contact.pdas.PDASResult`.
+    contact_options
+        Keyword arguments for :class:`~bonecontact.contact.pdas.ContactSolver`
+        (``max_iterations``, ``c_n``, ``gap_tol``).
+    energy_balance
+        Compute the energy balance of every step (module docstring; a few
+        matrix–vector products per step): ``self.last_balance`` holds the last
+        step's :class:`EnergyBalance`, ``self.balance`` the running totals since
+        :meth:`set_initial`.
+    mass_redistribution
+        Dynamic contact only: use the mass matrix of :func:`redistributed_mass` (no
+        inertia at slave contact nodes; total mass kept) instead of the consistent
+        one — the chatter-removal option of issue #4.  ``self.M`` is the mass matrix
+        in use (kinetic energy and balance are computed with it).
+    """
+
+    def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12,
+                 contact: list | None = None, contact_options: dict | None = None,
+                 energy_balance: bool = False, mass_redistribution: bool = False):
+        if dt <= 0:
+            raise ValueError(f"dt must be > 0, got {dt}")
+        if kind not in ("static", "quasistatic", "dynamic"):
+            raise ValueError(f"kind must be static, quasistatic or dynamic, got {kind!r}")
+        self.model, self.kind, self.dt, self.linear = model, kind, float(dt), linear
+        V = model.V
+        self.u = fem.Function(V, name="displacement")
+        self.u_n = fem.Function(V, name="u_n")
+        self.u_nm1 = fem.Function(V, name="u_nm1")
+        self.velocity = fem.Function(V, name="velocity")
+        self._g = fem.Function(V)
+        self.t = 0.0
+        self.step_count = 0
+        t0 = _time.perf_counter()
+        has_visc = model.fields.has_viscosity
+        if kind == "static":
+            coeffs = (0.0, 1.0, 0.0)
+        elif kind == "quasistatic":
+            coeffs = (0.0, self.dt, 1.0 if has_visc else 0.0)
+        else:
+            coeffs = (1.0, self.dt**2, self.dt if has_visc else 0.0)
+        if kind == "dynamic":
+            _ = model.M  # raises a clear error without density
+        self.A = model.combined_operator(*coeffs)
+        self.M = model.M if kind == "dynamic" else None
+        self._dM = None
+        if mass_redistribution:
+            if kind != "dynamic" or not contact:
+                raise ValueError("mass_redistribution needs a dynamic analysis with contact")
+            self.M = redistributed_mass(model, contact)
+            self._dM = self.M.duplicate(copy=True)
+            self._dM.axpy(-1.0, model.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            self.A.axpy(coeffs[0], self._dM, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        self._bc_local = model.bc_dofs()
+        self._bc_rows = owned_global_rows(V, self._bc_local)
+        self._bc_owned_local = self._bc_local[self._bc_local < model.num_owned]
+        # decided collectively: a rank without constrained dofs must still take part
+        # in the collective lifting product of the other ranks
+        self._has_bc = model.mesh.comm.allreduce(int(self._bc_local.size)) > 0
+        self.A_bc = self.A.duplicate(copy=True)
+        self.A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
+        self.contact = None
+        self.last_contact = None
+        if contact:
+            from bonecontact.contact.pdas import ContactSolver
+
+            self.ksp = None
+            self.contact = ContactSolver(V, self.A_bc, contact, self._bc_rows, linear=linear,
+                                         force_scale=1.0 / coeffs[1], rtol=rtol, **(contact_options or {}))
+        else:
+            nns = rigid_body_modes(V) if linear == "iterative" else None
+            self.ksp = create_solver(self.A_bc, linear, nns, rtol=rtol)
+        self.setup_time = _time.perf_counter() - t0
+        self._b, self._w = self.A.createVecs()
+        self._F = self._b.duplicate()
+        self._coeffs = coeffs
+        self.energy_balance = bool(energy_balance)
+        self.last_balance: EnergyBalance | None = None
+        self.balance = EnergyBalance()
+        self._interfaces = list(contact or [])
+        self._eb: dict = {}
+        if self.energy_balance:
+            self._eb = {k: self._b.duplicate() for k in ("du", "du_prev", "r", "tmp")}
+            if self._interfaces:
+                from bonecontact.contact.interface import basis_transform, rotation_matrix
+
+                self._eb["Qt"] = basis_transform(V, self._interfaces)
+                self._eb["T"] = rotation_matrix(V, self._interfaces)
+            self._reset_balance()
+
+    # -------------------------------------------------------------- set-up
+    def set_initial(self, u0: fem.Function | None = None, v0: fem.Function | None = None) -> None:
+        """Initial displacement u⁰ and velocity u¹ (u⁻¹ = u⁰ − Δt u¹)."""
+        self.u_n.x.array[:] = 0.0 if u0 is None else u0.x.array
+        self.velocity.x.array[:] = 0.0 if v0 is None else v0.x.array
+        self.u_nm1.x.array[:] = self.u_n.x.array - self.dt * self.velocity.x.array
+        self.u.x.array[:] = self.u_n.x.array
+        if self.energy_balance:
+            self._reset_balance()
+
+    # ---------------------------------------------------------------- steps
+    def rhs(self, t: float) -> PETSc.Vec:
+        """Right-hand side at time ``t`` (before Dirichlet lifting)."""
+        m, b, w = self.model, self._b, self._w
+        m.load_vector(t, self._F)
+        dt = self.dt
+        if self.kind == "static":
+            self._F.copy(b)
+        elif self.kind == "quasistatic":
+            self._F.copy(b)
+            b.scale(dt)
+            if m.Kv is not None:
+                m.Kv.multAdd(self.u_n.x.petsc_vec, b, b)
+        else:
+            self._F.copy(b)
+            b.scale(dt * dt)
+            w.waxpy(-1.0, self.u_nm1.x.petsc_vec, self.u_n.x.petsc_vec)
+            w.axpy(1.0, self.u_n.x.petsc_vec)  # w = 2uⁿ − uⁿ⁻¹
+            self.M.multAdd(w, b, b)
+            if m.Kv is not None:
+                m.Kv.mult(self.u_n.x.petsc_vec, w)
+                b.axpy(dt, w)
+        return b
+
+    def _apply_dirichlet(self, t: float, b: PETSc.Vec) -> None:
+        if not self._has_bc:
+            return
+        g = self._g
+        self.model.dirichlet_values(t, g)
+        self.A.mult(g.x.petsc_vec, self._w)
+        b.axpy(-1.0, self._w)
+        b.array[self._bc_owned_local] = g.x.array[self._bc_owned_local]
+
+    def solve_linear(self, b: PETSc.Vec, x: fem.Function) -> int:
+        """Solve A_bc x = b; raises if the Krylov solver fails."""
+        self.ksp.solve(b, x.x.petsc_vec)
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise RuntimeError(f"linear solver failed (PETSc reason {reason}, "
+                               f"{self.ksp.getIterationNumber()} iterations, residual {self.ksp.getResidualNorm():.3e})")
+        x.x.scatter_forward()
+        return self.ksp.getIterationNumber()
+
+    def step(self) -> StepInfo:
+        """Advance one step: t ← t + Δt, solve, update history and velocity."""
+        t = (self.step_count + 1) * self.dt  # not a running sum: no round-off drift in t
+        t0 = _time.perf_counter()
+        b = self.rhs(t)
+        self._apply_dirichlet(t, b)
+        if self.contact is not None:
+            self.last_contact = self.contact.solve(b, self.u)
+            its = self.last_contact.linear_iterations
+        else:
+            its = self.solve_linear(b, self.u)
+        if self.energy_balance:
+            self.last_balance = self._balance_step()
+            self.balance.accumulate(self.last_balance)
+        self._advance(t)
+        return StepInfo(self.step_count, t, its, _time.perf_counter() - t0)
+
+    def _advance(self, t: float) -> None:
+        """Shift the history after ``self.u`` has been solved for time ``t``."""
+        if self.kind == "static":
+            self.velocity.x.array[:] = 0.0
+        else:
+            self.velocity.x.array[:] = (self.u.x.array - self.u_n.x.array) / self.dt
+        self.u_nm1.x.array[:] = self.u_n.x.array
+        self.u_n.x.array[:] = self.u.x.array
+        self.t = t
+        self.step_count += 1
+
+    # --------------------------------------------------------------- energy
+    def energy(self) -> Energy:
+        """E = ½ vᵀMv + ½ uᵀKu for the current state (kinetic 0 unless dynamic)."""
+        m = self.model
+        u = self.u_n.x.petsc_vec
+        m.K.mult(u, self._w)
+        strain = 0.5 * self._w.dot(u)
+        kin = 0.0
+        if self.kind == "dynamic":
+            v = self.velocity.x.petsc_vec
+            self.M.mult(v, self._w)
+            kin = 0.5 * self._w.dot(v)
+        return Energy(kin, strain)
+
+    # ------------------------------------------------------- energy balance
+    def contact_gaps(self, u: fem.Function | None = None) -> list[np.ndarray]:
+        """Nodal normal gaps g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) of every contact
+        interface for the displacement ``u`` (default: the current state ``u_n``), in
+        the order of ``interface.blocks`` (owned slave nodes).  Needs ``energy_balance``.
+        """
+        if "Qt" not in self._eb:
+            raise RuntimeError("contact_gaps needs Integrator(..., contact=[...], energy_balance=True)")
+        U = (self.u_n if u is None else u).x.petsc_vec
+        Qt, T, tmp, r = self._eb["Qt"], self._eb["T"], self._eb["tmp"], self._eb["r"]
+        Qt.mult(U, tmp)
+        tmp.aypx(-1.0, U)
+        tmp.axpy(1.0, U)                  # Û = (2I − Qᵀ) U  (Qᵀ − I is nilpotent)
+        T.mult(tmp, r)                    # rows bs·p: n_p·Û_p
+        bs = self.model.V.dofmap.index_map_bs
+        return [itf.gap - r.array[bs * itf.blocks] for itf in self._interfaces]
+
+    def _reset_balance(self) -> None:
+        e = self.energy()
+        self.balance = EnergyBalance(kinetic=e.kinetic, strain=e.strain)
+        self.last_balance = None
+        self._gaps = self._snap(self.contact_gaps()) if "Qt" in self._eb else []
+
+    def _snap(self, gaps: list[np.ndarray]) -> list[np.ndarray]:
+        """Gaps with |g| below 1e-12 of the slave surface size (geometric round-off of
+        touching bodies) set to 0, so that closed contact does exactly no work."""
+        out = []
+        for itf, g in zip(self._interfaces, gaps):
+            tol = 1e-12 * itf.slave_area ** (1.0 / max(itf.gdim - 1, 1))
+            out.append(np.where(np.abs(g) <= tol, 0.0, g))
+        return out
+
+    def _balance_step(self) -> EnergyBalance:
+        """Energy balance of the step just solved (``self.u`` holds uⁿ⁺¹; history not shifted).
+
+        Local dot products and one collective reduction per step."""
+        m, eb = self.model, self._eb
+        c_mass, c_el, c_visc = self._coeffs
+        du, dup, r, tmp = eb["du"], eb["du_prev"], eb["r"], eb["tmp"]
+        u, un, unm1 = self.u.x.petsc_vec, self.u_n.x.petsc_vec, self.u_nm1.x.petsc_vec
+        du.waxpy(-1.0, un, u)
+        dup.waxpy(-1.0, unm1, un)
+
+        def ldot(a: PETSc.Vec, b: PETSc.Vec) -> float:
+            return float(np.dot(a.array_r, b.array_r))
+
+        # local parts of: kinetic, strain, W_ext, W_dir, W_res, W_c, D_visc, D_num
+        part = np.zeros(8)
+        # r = (c_M M (Δu − Δu_prev) + c_K K u + c_V Kv Δu)/c_K − F
+        m.K.mult(u, r)
+        part[1] = 0.5 * ldot(r, u)
+        r.axpy(-1.0, self._F)
+        if c_mass:
+            self.M.mult(du, tmp)
+            part[0] = 0.5 * c_mass / c_el * ldot(tmp, du)
+            dup.aypx(-1.0, du)                         # Δu − Δu_prev
+            self.M.mult(dup, tmp)
+            r.axpy(c_mass / c_el, tmp)
+            part[7] += 0.5 * c_mass / c_el * ldot(tmp, dup)
+        if c_visc and m.Kv is not None:
+            m.Kv.mult(du, tmp)
+            r.axpy(c_visc / c_el, tmp)
+            part[6] = c_visc / c_el * ldot(tmp, du)
+        m.K.mult(du, tmp)
+        part[7] += 0.5 * ldot(tmp, du)
+        part[2] = ldot(self._F, du)
+        # split r·Δu into Dirichlet rows and the rest
+        rdu = r.array_r * du.array_r
+        bc = self._bc_owned_local
+        part[3] = float(rdu[bc].sum()) if bc.size else 0.0
+        part[4] = float(rdu.sum()) - part[3]
+        if self._gaps:
+            # gaps after the step as the PDAS returns them (exactly 0 at active nodes,
+            # so persistent contact does exactly no work); before: the previous ones
+            res = self.last_contact
+            gaps = self._snap(res.gap if res is not None else self.contact_gaps(self.u))
+            for k, itf in enumerate(self._interfaces):
+                p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
+                part[5] += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
+                if res is not None and res.traction_t and itf.num_owned:
+                    # friction: the force −D λ_t on the slip Δu_t of the step (≤ 0)
+                    part[5] -= float((itf.D[:, None] * res.traction_t[k] * res.slip[k]).sum())
+            self._gaps = gaps
+        kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(part, op=MPI.SUM)
+        before = self.balance.total
+        defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)
+        return EnergyBalance(kinetic=kinetic, strain=strain, external_work=w_ext, dirichlet_work=w_dir,
+                             contact_work=w_c, contact_work_residual=w_res, viscous_dissipation=visc,
+                             numerical_dissipation=num, defect=defect)
+
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        if self.contact is not None:
+            self.contact.destroy()
+        for obj in self._eb.values():
+            obj.destroy()
+        if self._dM is not None:
+            for obj in (self._dM, self.M):
+                obj.destroy()
+        for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F):
+            if obj is not None:
+                obj.destroy()
+

@@ -1,0 +1,514 @@
+"""Moving boundaries, remeshing and field transfer for growing neoplasms.
+
+Public API
+----------
+Meshing (gmsh on rank 0, distributed with :func:`dolfinx.io.gmsh.model_to_mesh`):
+
+``polygon_mesh(points, h, comm) -> dolfinx.mesh.Mesh``
+    Triangulate the inside of a closed polygon (2D).  The polygon's nodes become the
+    boundary vertices of the mesh, unchanged and in order (each edge is one facet).
+``surface_mesh(points, triangles, h, comm) -> dolfinx.mesh.Mesh``
+    Tetrahedralise the inside of a closed triangulated surface (3D); the surface
+    triangulation is kept as the boundary of the mesh.
+``sphere_mesh(radius, h, comm) -> dolfinx.mesh.Mesh``
+    A tetrahedral ball (a convenience for 3D initial tumours).
+
+Boundary geometry (replicated on every rank, only the boundary is gathered):
+
+``gather_boundary(mesh) -> Boundary``
+    The exterior boundary as NumPy arrays on every rank: 2D an ordered, counter-clockwise
+    closed loop, 3D vertices + outward-oriented triangles.  Vertices are keyed by the
+    mesh's input (gmsh) node index, so the result does not depend on the partition.
+``curvature.polygon_curvature`` / ``curvature.surface_curvature``
+    (module :mod:`bonecontact.neoplasm.curvature`) mean curvature of the boundary.
+``resample_closed_curve(points, h) -> points``
+    Redistribute the nodes of a closed curve uniformly in arclength (periodic cubic
+    spline through the old nodes, so a fixed smooth boundary is preserved to O(h^4)).
+
+Motion and transfer:
+
+``MeshMotion(mesh)``
+    ``.boundary_vertices`` and ``.move(displacement_on_boundary)``: harmonic extension of
+    a boundary displacement into the mesh (vector P1 Laplace, MUMPS LU) and update of
+    ``mesh.geometry.x``.
+``transfer(u_from, V_to, extrapolate=0.0) -> fem.Function``
+    Non-matching interpolation ``fem.create_interpolation_data`` +
+    ``Function.interpolate_nonmatching`` WITH a coverage check: every target point must be
+    inside the source mesh, or within ``extrapolate`` of it (then the nearest source cell's
+    polynomial is evaluated there: explicit extrapolation).  Points further away raise
+    :class:`CoverageError` naming how many and where - they are never silently zero.
+
+Conventions: the boundary of a 2D mesh is one closed curve (simply connected region);
+curvature is positive for a convex region (circle: 1/R, sphere: 2/R, i.e. kappa =
+kappa_1 + kappa_2 = div n in 3D).
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import gmsh
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import ufl
+from dolfinx import fem, mesh as dmesh
+from dolfinx.fem.petsc import LinearProblem
+from dolfinx.io.gmsh import model_to_mesh
+
+__all__ = [
+    "Boundary",
+    "CoverageError",
+    "MeshMotion",
+    "RemeshError",
+    "gather_boundary",
+    "polygon_area",
+    "polygon_mesh",
+    "resample_closed_curve",
+    "sphere_mesh",
+    "surface_mesh",
+    "smooth_surface",
+    "moved_surface_mesh",
+    "transfer",
+    "vertex_to_geometry",
+]
+
+
+class RemeshError(RuntimeError):
+    """gmsh failed to mesh a moved boundary, or the boundary is not a simple closed curve."""
+
+
+class CoverageError(RuntimeError):
+    """Target points of a transfer lie outside the source mesh (beyond the extrapolation band)."""
+
+
+# ----------------------------------------------------------------------------- gmsh
+def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
+    """Build and mesh a gmsh model on rank 0, then distribute it over ``comm``."""
+    own = comm.rank == 0 and not gmsh.isInitialized()
+    error = None
+    if comm.rank == 0:
+        if own:
+            gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        try:
+            build()
+            gmsh.model.mesh.generate(dim)
+        except Exception as exc:  # reported collectively below
+            error = f"{type(exc).__name__}: {exc}"
+    error = comm.bcast(error, root=0)
+    try:
+        if error is not None:
+            raise RemeshError(f"{name}: {error}")
+        partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
+        data = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=dim,
+                             partitioner=partitioner)
+    finally:
+        if comm.rank == 0:
+            if own:
+                gmsh.finalize()
+            else:
+                gmsh.model.remove()
+    return data.mesh
+
+
+def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
+    """Triangulate the inside of a closed polygon.
+
+    Parameters
+    ----------
+    points
+        ``(N, 2)`` polygon nodes, in order (either orientation), the last not repeating the
+        first.  Only rank 0's array is used.
+    h
+        Target interior mesh size.
+    comm
+        Communicator of the resulting mesh.
+
+    Returns
+    -------
+    The distributed mesh; its boundary vertices are exactly ``points``.
+    """
+    pts = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
+
+    def build() -> None:
+        if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
+            raise ValueError(f"points must have shape (N >= 3, 2), got {pts.shape}")
+        geo = gmsh.model.geo
+        tags = [geo.addPoint(x, y, 0.0, h) for x, y in pts]
+        n = len(tags)
+        lines = [geo.addLine(tags[i], tags[(i + 1) % n]) for i in range(n)]
+        loop = geo.addCurveLoop(lines)
+        surf = geo.addPlaneSurface([loop])
+        geo.synchronize()
+        for line in lines:
+            gmsh.model.mesh.setTransfiniteCurve(line, 2)
+        gmsh.model.addPhysicalGroup(2, [surf], 1, name="tumour")
+        gmsh.model.addPhysicalGroup(1, lines, 1, name="boundary")
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.Algorithm", 6)
+
+    return _run_gmsh("polygon", 2, build, comm)
+
+
+def surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
+                 comm: MPI.Comm) -> dmesh.Mesh:
+    """Tetrahedralise the inside of a closed triangulated surface; the surface is kept.
+
+    ``points`` ``(N, 3)`` and ``triangles`` ``(M, 3)`` (indices into ``points``) are read
+    on rank 0.  The boundary vertices of the result are exactly ``points``.
+    """
+    pts = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
+    tri = np.asarray(triangles, dtype=np.int64) if comm.rank == 0 else None
+
+    def build() -> None:
+        s = gmsh.model.addDiscreteEntity(2)
+        gmsh.model.mesh.addNodes(2, s, np.arange(1, len(pts) + 1), pts.ravel())
+        gmsh.model.mesh.addElementsByType(s, 2, [], (tri + 1).ravel())
+        sl = gmsh.model.geo.addSurfaceLoop([s])
+        vol = gmsh.model.geo.addVolume([sl])
+        gmsh.model.geo.synchronize()
+        gmsh.model.addPhysicalGroup(3, [vol], 1, name="tumour")
+        gmsh.model.addPhysicalGroup(2, [s], 1, name="boundary")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+
+    return _run_gmsh("surface", 3, build, comm)
+
+
+def smooth_surface(points: npt.ArrayLike, triangles: npt.ArrayLike, passes: int = 5,
+                   lam: float = 0.5, mu: float = -0.53) -> npt.NDArray[np.float64]:
+    """Taubin λ|μ smoothing of a closed triangulated surface (vertex positions only).
+
+    Each pass moves every vertex by ``λ`` then by ``μ`` (< −λ) times the offset to the
+    mean of its edge neighbours: the first step smooths, the second inflates back, so
+    noise at the scale of the edges is removed without the shrinkage of plain Laplacian
+    smoothing (Taubin 1995).  Used to repair a moved surface that gmsh can no longer
+    tetrahedralise (self-intersections at the scale of the mesh).
+    """
+    x = np.array(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    n = x.shape[0]
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.unique(np.sort(e, axis=1), axis=0)
+    rows = np.concatenate([e[:, 0], e[:, 1]])
+    cols = np.concatenate([e[:, 1], e[:, 0]])
+    deg = np.bincount(rows, minlength=n).astype(np.float64)
+
+    def offset(y: np.ndarray) -> np.ndarray:
+        s = np.zeros_like(y)
+        np.add.at(s, rows, y[cols])
+        return s / deg[:, None] - y
+
+    for _ in range(passes):
+        x += lam * offset(x)
+        x += mu * offset(x)
+    return x
+
+
+def moved_surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
+                       comm: MPI.Comm) -> tuple[dmesh.Mesh, bool]:
+    """Tetrahedralise a moved closed surface, repairing it if gmsh cannot.
+
+    The surface is kept as it is when possible (:func:`surface_mesh`).  A surface moved by
+    a noisy nodal velocity can intersect itself at the scale of its edges ("PLC Error: a
+    segment and a facet intersect"); it is then Taubin-smoothed
+    (:func:`smooth_surface`, rank 0) and tetrahedralised again.
+
+    Returns
+    -------
+    (mesh, smoothed)
+        The distributed mesh and whether the surface had to be smoothed.
+    """
+    try:
+        return surface_mesh(points, triangles, h, comm), False
+    except RemeshError:
+        pts = smooth_surface(points, triangles) if comm.rank == 0 else None
+        return surface_mesh(pts, triangles, h, comm), True
+
+
+def sphere_mesh(radius: float, h: float, comm: MPI.Comm,
+                centre: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> dmesh.Mesh:
+    """A tetrahedral ball of the given radius and mesh size."""
+
+    def build() -> None:
+        ball = gmsh.model.occ.addSphere(*centre, radius)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [ball], 1, name="tumour")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+
+    return _run_gmsh("sphere", 3, build, comm)
+
+
+# ----------------------------------------------------------------------------- boundary
+def vertex_to_geometry(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
+    """Geometry node of each local vertex (affine P1 geometry)."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim, 0)
+    c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
+    gdm = msh.geometry.dofmaps[0] if hasattr(msh.geometry, "dofmaps") \
+        else msh.geometry.dofmap
+    nv = msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts
+    out = np.empty(nv, dtype=np.int32)
+    out[c2v.ravel()] = np.asarray(gdm)[: c2v.shape[0], : tdim + 1].ravel()
+    return out
+
+
+@dataclass
+class Boundary:
+    """The exterior boundary of a mesh, replicated on every rank.
+
+    Attributes
+    ----------
+    points
+        ``(N, gdim)`` boundary vertex coordinates.  2D: in order along the closed loop,
+        counter-clockwise.
+    keys
+        ``(N,)`` input (gmsh) node index of each point: partition independent.
+    facets
+        2D: ``(N, 2)`` consecutive pairs ``(i, i+1 mod N)``; 3D: ``(M, 3)`` triangles
+        (indices into ``points``) oriented with the outward normal.
+    """
+
+    points: npt.NDArray[np.float64]
+    keys: npt.NDArray[np.int64]
+    facets: npt.NDArray[np.int64]
+
+    @property
+    def gdim(self) -> int:
+        return self.points.shape[1]
+
+
+def _owned_exterior_facets(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
+    fdim = msh.topology.dim - 1
+    msh.topology.create_connectivity(fdim, msh.topology.dim)
+    facets = dmesh.exterior_facet_indices(msh.topology)
+    return facets[facets < msh.topology.index_map(fdim).size_local]
+
+
+def gather_boundary(msh: dmesh.Mesh) -> Boundary:
+    """Gather the exterior boundary of ``msh`` to every rank (only boundary data moves)."""
+    comm = msh.comm
+    tdim = msh.topology.dim
+    fdim = tdim - 1
+    gdim = msh.geometry.dim
+    facets = _owned_exterior_facets(msh)
+    msh.topology.create_connectivity(fdim, 0)
+    msh.topology.create_connectivity(fdim, tdim)
+    msh.topology.create_connectivity(tdim, 0)
+    f2v = msh.topology.connectivity(fdim, 0).array.reshape(-1, tdim)[facets]
+    v2g = vertex_to_geometry(msh)
+    keys = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[v2g[f2v]]
+    xyz = msh.geometry.x[v2g[f2v], :gdim]
+    # outward orientation: compare with the opposite vertex of the (unique) cell
+    f2c = msh.topology.connectivity(fdim, tdim)
+    c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
+    cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int32)
+    centroid = msh.geometry.x[v2g[c2v[cells]], :gdim].mean(axis=1)
+    if tdim == 2:
+        t = xyz[:, 1] - xyz[:, 0]
+        nrm = np.column_stack([t[:, 1], -t[:, 0]])  # right normal of the directed edge
+    else:
+        nrm = np.cross(xyz[:, 1] - xyz[:, 0], xyz[:, 2] - xyz[:, 0])
+    flip = np.einsum("ij,ij->i", nrm, xyz.mean(axis=1) - centroid) < 0
+    if tdim == 2:
+        keys[flip] = keys[flip][:, ::-1]
+        xyz[flip] = xyz[flip][:, ::-1]
+    else:
+        keys[flip] = keys[flip][:, [0, 2, 1]]
+        xyz[flip] = xyz[flip][:, [0, 2, 1]]
+    all_keys = np.concatenate(comm.allgather(keys)).reshape(-1, tdim)
+    all_xyz = np.concatenate(comm.allgather(xyz)).reshape(-1, tdim, gdim)
+    ukeys, first, inverse = np.unique(all_keys.ravel(), return_index=True, return_inverse=True)
+    points = all_xyz.reshape(-1, gdim)[first]
+    conn = inverse.reshape(-1, tdim)
+    if tdim == 3:
+        return Boundary(points, ukeys, conn.astype(np.int64))
+    # 2D: the edges (a -> b) are oriented with the outward normal on the right, i.e. the
+    # domain on the left for a counter-clockwise outer loop; chain them from the lowest key
+    nxt = np.full(len(ukeys), -1, dtype=np.int64)
+    nxt[conn[:, 0]] = conn[:, 1]
+    if np.any(nxt < 0) or len(conn) != len(ukeys):
+        raise RemeshError("boundary is not a closed curve")
+    order = np.empty(len(ukeys), dtype=np.int64)
+    i = 0
+    for k in range(len(ukeys)):
+        order[k] = i
+        i = nxt[i]
+        if i == 0 and k + 1 < len(ukeys):
+            raise RemeshError("boundary has more than one closed curve (holes are not supported)")
+    # right normal outward  <=>  traversal clockwise?  enforce counter-clockwise explicitly
+    pts = points[order]
+    if polygon_area(pts) < 0:
+        order = np.concatenate([order[:1], order[1:][::-1]])
+        pts = points[order]
+    n = len(order)
+    return Boundary(pts, ukeys[order], np.column_stack([np.arange(n), (np.arange(n) + 1) % n]))
+
+
+def polygon_area(points: npt.ArrayLike) -> float:
+    """Signed area of a closed polygon (positive counter-clockwise)."""
+    p = np.asarray(points, dtype=np.float64)
+    q = np.roll(p, -1, axis=0)
+    return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
+
+
+def resample_closed_curve(points: npt.ArrayLike, h: float | None = None,
+                          n: int | None = None) -> npt.NDArray[np.float64]:
+    """Redistribute the nodes of a closed 2D curve uniformly in arclength.
+
+    A periodic cubic spline is passed through the nodes (parametrised by chord length,
+    starting at ``points[0]``, which stays a node) and sampled at ``n`` equally spaced
+    arclength values (``n = max(8, round(L / h))`` when ``n`` is not given).
+    """
+    from scipy.interpolate import CubicSpline
+
+    p = np.asarray(points, dtype=np.float64)
+    chord = np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1)
+    if np.any(chord <= 0):
+        raise RemeshError("closed curve has coincident consecutive nodes")
+    s = np.concatenate([[0.0], np.cumsum(chord)])
+    spline = CubicSpline(s, np.vstack([p, p[:1]]), bc_type="periodic")
+    # arclength of the spline itself (Gauss quadrature per interval)
+    g, w = np.polynomial.legendre.leggauss(5)
+    mid = 0.5 * (s[1:] + s[:-1])[:, None]
+    half = 0.5 * chord[:, None]
+    speed = np.linalg.norm(spline(mid + half * g[None, :], 1), axis=2)
+    arc = np.concatenate([[0.0], np.cumsum((half * speed * w[None, :]).sum(axis=1))])
+    length = arc[-1]
+    if n is None:
+        if h is None:
+            raise ValueError("give h or n")
+        n = max(8, int(round(length / h)))
+    target = np.linspace(0.0, length, n, endpoint=False)
+    # invert arclength(s) by Newton from a linear guess
+    t = np.interp(target, arc, s)
+    for _ in range(20):
+        k = np.clip(np.searchsorted(s, t, side="right") - 1, 0, len(chord) - 1)
+        # arclength from s[k] to t by quadrature
+        a = s[k][:, None]
+        hh = 0.5 * (t - s[k])[:, None]
+        sp = np.linalg.norm(spline(a + hh + hh * g[None, :], 1), axis=2)
+        f = arc[k] + (hh * sp * w[None, :]).sum(axis=1) - target
+        dt = f / np.linalg.norm(spline(t, 1), axis=1)
+        t = t - dt
+        if np.max(np.abs(dt)) < 1e-14 * length:
+            break
+    return spline(t)
+
+
+# ----------------------------------------------------------------------------- motion
+class MeshMotion:
+    """Harmonic extension of a boundary displacement, applied to ``mesh.geometry.x``.
+
+    Parameters
+    ----------
+    msh
+        Mesh with affine (P1) geometry; it is moved in place, so forms built on it stay
+        valid (DOLFINx reads the geometry at assembly).
+    """
+
+    def __init__(self, msh: dmesh.Mesh):
+        self.mesh = msh
+        gdim = msh.geometry.dim
+        self.V = fem.functionspace(msh, ("Lagrange", 1, (gdim,)))
+        fdim = msh.topology.dim - 1
+        msh.topology.create_connectivity(fdim, msh.topology.dim)
+        facets = dmesh.exterior_facet_indices(msh.topology)
+        self.boundary_dofs = fem.locate_dofs_topological(self.V, fdim, facets)
+        self.w = fem.Function(self.V, name="mesh_displacement")
+        self._wb = fem.Function(self.V)
+        u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
+        a = ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx
+        zero = fem.Constant(msh, np.zeros(gdim))
+        L = ufl.inner(zero, v) * ufl.dx
+        bc = fem.dirichletbc(self._wb, self.boundary_dofs)
+        self._problem = LinearProblem(
+            a, L, bcs=[bc], u=self.w, petsc_options_prefix=f"bc_motion_{id(self)}_",
+            petsc_options={"ksp_type": "preonly", "pc_type": "lu",
+                           "pc_factor_mat_solver_type": "mumps"})
+        # map geometry node -> P1 dof (same local ordering on each cell)
+        v2g = vertex_to_geometry(msh)
+        tdim = msh.topology.dim
+        c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
+        dofs = self.V.dofmap.list[: c2v.shape[0]]
+        self._geom = v2g[c2v.ravel()]
+        self._dofs = np.asarray(dofs).ravel()
+
+    def extend(self, displacement: fem.Function) -> fem.Function:
+        """Harmonic extension of the boundary values of ``displacement`` (a function in ``self.V``)."""
+        self._wb.x.array[:] = displacement.x.array
+        self._problem.solve()
+        self.w.x.scatter_forward()
+        return self.w
+
+    def move(self, displacement: fem.Function) -> fem.Function:
+        """Extend ``displacement`` from the boundary and move the mesh by it; return the extension."""
+        w = self.extend(displacement)
+        gdim = self.mesh.geometry.dim
+        bs = gdim
+        arr = w.x.array.reshape(-1, bs)
+        self.mesh.geometry.x[self._geom, :gdim] += arr[self._dofs]
+        return w
+
+
+# ----------------------------------------------------------------------------- transfer
+def _all_cells(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
+    im = msh.topology.index_map(msh.topology.dim)
+    return np.arange(im.size_local + im.num_ghosts, dtype=np.int32)
+
+
+def transfer(u_from: fem.Function, V_to: fem.FunctionSpace, extrapolate: float = 0.0,
+             name: str | None = None) -> fem.Function:
+    """Interpolate ``u_from`` into ``V_to`` (another mesh) and check coverage.
+
+    Parameters
+    ----------
+    u_from
+        Source field.
+    V_to
+        Target space, on a mesh that need not match the source mesh.
+    extrapolate
+        Width of the band outside the source mesh in which target points are accepted:
+        they take the value of the nearest source cell's polynomial (explicit
+        extrapolation).  ``0`` accepts only points inside the source mesh (to round-off).
+
+    Raises
+    ------
+    CoverageError
+        If any target interpolation point lies outside the source mesh by more than
+        ``extrapolate`` (on any rank: raised collectively).
+    """
+    V_from = u_from.function_space
+    cells = _all_cells(V_to.mesh)
+    padding = max(float(extrapolate), 1e-10)
+    data = fem.create_interpolation_data(V_to, V_from, cells, padding=padding)
+    out = fem.Function(V_to, name=name or u_from.name)
+    out.interpolate_nonmatching(u_from, cells, data)
+    # coverage: interpolate ones from a scalar DG0 space on the source mesh
+    W_from = fem.functionspace(V_from.mesh, ("DG", 0))
+    one = fem.Function(W_from)
+    one.x.array[:] = 1.0
+    W_to = V_to.sub(0).collapse()[0] if V_to.dofmap.index_map_bs > 1 else V_to
+    count = fem.Function(W_to)
+    data1 = fem.create_interpolation_data(W_to, W_from, cells, padding=padding)
+    count.interpolate_nonmatching(one, cells, data1)
+    count.x.scatter_forward()
+    nown = W_to.dofmap.index_map.size_local
+    missing = np.flatnonzero(np.abs(count.x.array[:nown] - 1.0) > 1e-8)
+    nmiss = V_to.mesh.comm.allreduce(len(missing), op=MPI.SUM)
+    if nmiss:
+        xyz = W_to.tabulate_dof_coordinates()[missing]
+        where = V_to.mesh.comm.allgather(xyz[:3].tolist())
+        raise CoverageError(
+            f"transfer of '{u_from.name}': {nmiss} target point(s) lie outside the source mesh "
+            f"(extrapolation band {extrapolate:g}); e.g. {sum(where, [])[:3]}")
+    out.x.scatter_forward()
+    return out

@@ -1,0 +1,88 @@
+"""Command line: ``bonecontact run SCENE.toml`` (also under ``mpiexec -n K``).
+
+Exit status: 0 converged; 1 the run failed (solver did not converge — see
+``summary.json``) or an internal error; 2 invalid input (message names the file,
+table and key; nothing is written).  Under MPI an input error is detected on every
+rank (collective checks) and an unexpected error on one rank aborts all ranks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+from pathlib import Path
+
+from mpi4py import MPI
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="bonecontact",
+        description="Dynamic contact of visco-elastic bones with neoplasms (FEniCSx). Units: SI.",
+    )
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene file (TOML, format 1)",
+                       description="Run a scene; results go to [output].directory (or --output).")
+    r.add_argument("scene", type=Path, help="scene file (TOML)")
+    r.add_argument("-o", "--output", type=Path, default=None, help="output directory (overrides the scene)")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    c = sub.add_parser("check", help="validate a scene file and its mesh without running it")
+    c.add_argument("scene", type=Path, help="scene file (TOML)")
+    return p
+
+
+def _say(msg: str, comm: MPI.Comm) -> None:
+    if comm.rank == 0:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    comm = MPI.COMM_WORLD
+    args = _parser().parse_args(argv)
+    from bonecontact.scene.spec import SceneError, format_error, load_scene
+
+    try:
+        from bonecontact.run.dispatch import build_model, run_scene
+
+        scene = load_scene(args.scene)
+        if args.command == "check":
+            if scene.growth_only:
+                from bonecontact.run.growth import build_growth
+
+                build_growth(scene, comm)
+            elif scene.neoplasm is not None:  # coupled: growth model, host mesh at t = 0, mechanics
+                from bonecontact.run.coupled import check_coupled
+
+                check_coupled(scene, comm)
+            else:
+                build_model(scene, comm)
+            _say(f"{args.scene}: ok", comm)
+            return 0
+        result = run_scene(scene, comm, output=args.output, progress=not args.quiet)
+    except SceneError as exc:
+        _say(format_error(exc), comm)
+        return 2
+    except KeyboardInterrupt:
+        _say("interrupted", comm)
+        if comm.size > 1:
+            comm.Abort(130)
+        return 130
+    except Exception:  # an internal error: say so loudly and stop every rank
+        sys.stderr.write(f"[rank {comm.rank}] internal error in bonecontact:\n{traceback.format_exc()}")
+        sys.stderr.flush()
+        if comm.size > 1:
+            comm.Abort(1)
+        return 1
+    if result.status != "converged":
+        _say(f"run failed: {result.summary.get('message', '')} (see {result.output / 'summary.json'})", comm)
+        return 1
+    _say(f"{scene.name}: {result.status}, {result.summary['steps']} steps, results in {result.output}", comm)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

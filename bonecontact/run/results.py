@@ -1,0 +1,300 @@
+"""Results: summary.json, history.csv, probes.csv and fields for ParaView/pyvista.
+
+Files are written incrementally as a run goes (rows by rank 0 only, flushed each
+step; fields every ``fields_every`` steps) so that a failed run leaves its last good
+state on disk.  Stresses are in Pa, displacements in m, velocities in m/s, forces in
+N (N/m in 2D plane strain), energies in J (J/m in 2D).
+
+Fields are written twice, in the same step: ``fields.xdmf`` (+ ``.h5``; ParaView,
+"Xdmf3ReaderT") and ``fields.pvd`` (VTK; ParaView and ``pyvista.read``).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import dolfinx
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem, geometry, io
+from mpi4py import MPI
+
+from bonecontact.common.version import __version__
+
+__all__ = ["StressFields", "Probes", "ResultsWriter", "HISTORY_COLUMNS", "ENERGY_COLUMNS", "ProbeError"]
+
+HISTORY_COLUMNS = ["step", "time", "pair", "normal_force", "tangential_force", "n_active", "n_stick",
+                   "n_slip", "pdas_iterations", "kinetic_energy", "strain_energy"]
+#: extra history.csv columns of dynamic runs: running totals of the energy balance
+#: (:class:`bonecontact.mechanics.integrator.EnergyBalance`), J or J/m in 2D
+ENERGY_COLUMNS = ["external_work", "dirichlet_work", "contact_work", "viscous_dissipation",
+                  "numerical_dissipation"]
+
+
+class ProbeError(ValueError):
+    """A probe point lies outside the mesh."""
+
+    def __init__(self, index: int, point: Sequence[float]):
+        super().__init__(f"probe #{index + 1} at {list(point)} lies outside the mesh")
+        self.index = index
+        self.point = point
+
+
+class StressFields:
+    """Cell-wise (DG0) stress, von Mises and principal stresses of a state.
+
+    Parameters
+    ----------
+    msh
+        Mesh.
+    sigma
+        3×3 UFL stress tensor (plane strain: zz entry is σ_zz).
+    """
+
+    def __init__(self, msh: dolfinx.mesh.Mesh, sigma: ufl.core.expr.Expr):
+        T = fem.functionspace(msh, ("DG", 0, (3, 3)))
+        S = fem.functionspace(msh, ("DG", 0))
+        P = fem.functionspace(msh, ("DG", 0, (3,)))
+        self.stress = fem.Function(T, name="stress")
+        self.von_mises = fem.Function(S, name="von_mises")
+        self.principal = fem.Function(P, name="principal_stress")
+        self._expr = fem.Expression(sigma, T.element.interpolation_points)
+
+    def update(self) -> None:
+        """Re-evaluate from the current state."""
+        self.stress.interpolate(self._expr)
+        s = self.stress.x.array.reshape(-1, 3, 3)
+        s = 0.5 * (s + s.transpose(0, 2, 1))
+        tr = np.trace(s, axis1=1, axis2=2)
+        dev = s - tr[:, None, None] / 3.0 * np.eye(3)
+        self.von_mises.x.array[:] = np.sqrt(1.5 * np.einsum("kij,kij->k", dev, dev))
+        w = np.linalg.eigvalsh(s)[:, ::-1]  # σ1 ≥ σ2 ≥ σ3
+        self.principal.x.array[:] = w.ravel()
+
+
+class Probes:
+    """Point evaluation of displacement, velocity and stress, gathered on rank 0.
+
+    Each point is evaluated in the containing cell of lowest input-mesh index (by the
+    rank that owns it), so the values are the same whatever the number of ranks.
+    """
+
+    def __init__(self, msh: dolfinx.mesh.Mesh, points: Sequence[Sequence[float]]):
+        self.comm = msh.comm
+        self.gdim = msh.geometry.dim
+        pts = np.zeros((len(points), 3))
+        if len(points):
+            pts[:, : self.gdim] = np.asarray(points, dtype=np.float64)
+        self.points = pts
+        tdim = msh.topology.dim
+        ncells = msh.topology.index_map(tdim).size_local
+        tree = geometry.bb_tree(msh, tdim, padding=1e-12)
+        cand = geometry.compute_collisions_points(tree, pts)
+        coll = geometry.compute_colliding_cells(msh, cand, pts)
+        # A point on a cell boundary touches several cells; pick the one with the lowest
+        # ORIGINAL (input-mesh) index over all ranks, so the cell — and therefore the
+        # value of a discontinuous field such as the DG0 stress — is the same whatever
+        # the partition.
+        orig = np.asarray(msh.topology.original_cell_index, dtype=np.int64)
+        big = np.iinfo(np.int64).max
+        found = np.full(len(points), -1, dtype=np.int32)
+        key = np.full(len(points), big, dtype=np.int64)
+        for i in range(len(points)):
+            cells = coll.links(i)
+            cells = cells[cells < ncells]
+            if cells.size:
+                j = int(np.argmin(orig[cells]))
+                found[i], key[i] = cells[j], orig[cells[j]]
+        best = np.empty_like(key)
+        self.comm.Allreduce(key, best, op=MPI.MIN)
+        missing = np.flatnonzero(best == big)
+        if missing.size:
+            raise ProbeError(int(missing[0]), list(points[missing[0]]))
+        have = np.where((key == best) & (found >= 0), self.comm.rank, self.comm.size)
+        owner = np.empty_like(have)
+        self.comm.Allreduce(have, owner, op=MPI.MIN)
+        self.mine = np.flatnonzero(owner == self.comm.rank)
+        self.cells = found[self.mine]
+
+    def evaluate(self, u: fem.Function, v: fem.Function, stress: StressFields) -> npt.NDArray[np.float64] | None:
+        """Rows ``[x.., u.., v.., s.., von_mises]`` per probe on rank 0 (``None`` elsewhere)."""
+        g = self.gdim
+        p = self.points[self.mine]
+        if self.mine.size:
+            uu = u.eval(p, self.cells)
+            vv = v.eval(p, self.cells)
+            ss = stress.stress.eval(p, self.cells).reshape(-1, 3, 3)
+            vm = stress.von_mises.eval(p, self.cells).reshape(-1)
+        else:
+            uu = vv = np.zeros((0, g))
+            ss = np.zeros((0, 3, 3))
+            vm = np.zeros(0)
+        if g == 2:
+            sc = np.column_stack([ss[:, 0, 0], ss[:, 1, 1], ss[:, 2, 2], ss[:, 0, 1]]) if ss.size else np.zeros((0, 4))
+        else:
+            sc = (np.column_stack([ss[:, 0, 0], ss[:, 1, 1], ss[:, 2, 2], ss[:, 0, 1], ss[:, 0, 2], ss[:, 1, 2]])
+                  if ss.size else np.zeros((0, 6)))
+        rows = np.column_stack([p[:, :g], uu.reshape(-1, g), vv.reshape(-1, g), sc, vm]) if self.mine.size else None
+        gathered = self.comm.gather((self.mine, rows), root=0)
+        if self.comm.rank != 0:
+            return None
+        ncol = g + g + g + sc.shape[1] + 1
+        out = np.zeros((len(self.points), ncol))
+        for idx, r in gathered:
+            if r is not None:
+                out[idx] = r
+        return out
+
+    def header(self) -> list[str]:
+        g = self.gdim
+        ax = "xyz"[:g]
+        s = ["s_xx", "s_yy", "s_zz", "s_xy"] if g == 2 else ["s_xx", "s_yy", "s_zz", "s_xy", "s_xz", "s_yz"]
+        return (["step", "time", "probe"] + list(ax) + [f"u_{a}" for a in ax] + [f"v_{a}" for a in ax] + s
+                + ["von_mises"])
+
+
+def _fmt(x) -> str:
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    if isinstance(x, str):
+        return x
+    return repr(float(x))
+
+
+class ResultsWriter:
+    """Incremental writer of a run's results (rank 0 writes tables; fields collectively).
+
+    Parameters
+    ----------
+    comm
+        Communicator of the run.
+    directory
+        Output directory (created).
+    scene
+        Scene name (for the summary).
+    probes
+        Probe points (``probes.csv``), if any.
+    extra_history_columns
+        Columns appended to ``HISTORY_COLUMNS`` (dynamic runs: ``ENERGY_COLUMNS``).
+    """
+
+    def __init__(self, comm: MPI.Comm, directory: Path, scene: str, probes: Probes | None = None,
+                 extra_history_columns: Sequence[str] = ()):
+        self.comm = comm
+        self.dir = Path(directory)
+        self.scene = scene
+        self.probes = probes
+        self.t0 = time.perf_counter()
+        self._xdmf = None
+        self._vtk = None
+        self._hist = self._probe_file = None
+        if comm.rank == 0:
+            self.dir.mkdir(parents=True, exist_ok=True)
+            self._hist = open(self.dir / "history.csv", "w", newline="")
+            self._hist_w = csv.writer(self._hist)
+            self._hist_w.writerow(HISTORY_COLUMNS + list(extra_history_columns))
+            if probes is not None and len(probes.points):
+                self._probe_file = open(self.dir / "probes.csv", "w", newline="")
+                self._probe_w = csv.writer(self._probe_file)
+                self._probe_w.writerow(probes.header())
+        comm.barrier()
+
+    # ------------------------------------------------------------- tables
+    def history(self, rows: Sequence[Sequence]) -> None:
+        """Append history rows (rank 0 only writes)."""
+        if self.comm.rank == 0:
+            for r in rows:
+                self._hist_w.writerow([_fmt(x) for x in r])
+            self._hist.flush()
+
+    def probe_rows(self, step: int, t: float, u: fem.Function, v: fem.Function, stress: StressFields) -> None:
+        """Evaluate the probes (collective) and append their rows."""
+        if self.probes is None or not len(self.probes.points):
+            return
+        vals = self.probes.evaluate(u, v, stress)
+        if self.comm.rank == 0:
+            for i, r in enumerate(vals):
+                self._probe_w.writerow([str(step), _fmt(t), str(i + 1)] + [_fmt(x) for x in r])
+            self._probe_file.flush()
+
+    def contact_table(self, name: str, coords: np.ndarray, gap: np.ndarray, pressure: np.ndarray,
+                      traction_t: np.ndarray, slip_t: np.ndarray, status: Sequence[str]) -> None:
+        """(Re)write ``contact_<name>.csv``: one row per slave node, gathered on rank 0
+        and sorted by coordinates, so the file does not depend on the partition
+        (collective)."""
+        gdim = coords.shape[1]
+        parts = self.comm.gather((coords, gap, pressure, traction_t, slip_t, list(status)), root=0)
+        if self.comm.rank != 0:
+            return
+        x = np.concatenate([q[0] for q in parts]).reshape(-1, gdim)
+        cols = [np.concatenate([q[k] for q in parts]) for k in (1, 2)]
+        tt = np.concatenate([q[3] for q in parts]).reshape(-1, gdim - 1)
+        st = np.concatenate([q[4] for q in parts]).reshape(-1, gdim - 1)
+        stat = sum((q[5] for q in parts), [])
+        key = np.round(x / (1e-9 * max(float(np.abs(x).max()), 1e-30))).astype(np.int64) if x.size else x
+        order = np.lexsort(key.T[::-1]) if x.size else np.zeros(0, dtype=int)
+        ax = "xyz"[:gdim]
+        t_names = ["traction_t"] if gdim == 2 else ["traction_t", "traction_t2"]
+        s_names = ["slip_t"] if gdim == 2 else ["slip_t", "slip_t2"]
+        with open(self.dir / f"contact_{name}.csv", "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(list(ax) + ["gap", "pressure"] + t_names + s_names + ["status"])
+            for i in order:
+                w.writerow([_fmt(v) for v in x[i]] + [_fmt(cols[0][i]), _fmt(cols[1][i])]
+                           + [_fmt(v) for v in tt[i]] + [_fmt(v) for v in st[i]] + [stat[i]])
+
+    # ------------------------------------------------------------- fields
+    def fields(self, t: float, functions: Sequence[fem.Function]) -> None:
+        """Write fields at time ``t`` to fields.xdmf and fields.pvd (collective)."""
+        msh = functions[0].function_space.mesh
+        if self._xdmf is None:
+            self._xdmf = io.XDMFFile(self.comm, str(self.dir / "fields.xdmf"), "w")
+            self._xdmf.write_mesh(msh)
+            self._vtk = io.VTKFile(self.comm, str(self.dir / "fields.pvd"), "w")
+        for f in functions:
+            self._xdmf.write_function(f, t)
+        self._vtk.write_function(list(functions), t)
+
+    # ------------------------------------------------------------ summary
+    def summary(self, status: str, **info) -> dict:
+        """Write summary.json (rank 0) and return its content."""
+        data = {
+            "scene": self.scene,
+            "format": 1,
+            "status": status,
+            "ranks": self.comm.size,
+            "wall_time_s": time.perf_counter() - self.t0,
+            "units": "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)",
+            "bonecontact_version": __version__,
+            "dolfinx_version": dolfinx.__version__,
+        }
+        data.update(info)  # callers may override wall_time_s with the whole run's time
+        if self.comm.rank == 0:
+            with open(self.dir / "summary.json", "w") as f:
+                json.dump(data, f, indent=2, default=_json_default)
+        return data
+
+    def close(self) -> None:
+        for f in (self._xdmf, self._vtk):
+            if f is not None:
+                f.close()
+        self._xdmf = self._vtk = None
+        if self.comm.rank == 0:
+            for f in (self._hist, self._probe_file):
+                if f is not None:
+                    f.close()
+
+
+def _json_default(o):
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(type(o))

@@ -1,0 +1,51 @@
+"""The material library loads, every entry cites a source, and every material is valid."""
+
+import dolfinx_solver  # noqa: F401  (must precede dolfinx / petsc4py)
+
+import pytest
+from mpi4py import MPI
+
+from bonecontact.materials.library import METADATA_KEYS, load_material_library, load_reference_values
+from bonecontact.materials.laws import Isotropic, Orthotropic, TransverselyIsotropic
+
+MODELS = {"isotropic": Isotropic, "transversely_isotropic": TransverselyIsotropic, "orthotropic": Orthotropic}
+
+
+def test_every_entry_has_a_source():
+    materials = load_material_library()
+    references = load_reference_values()
+    assert {"cortical_bone", "cortical_bone_transverse", "cortical_bone_orthotropic",
+            "cancellous_bone", "cartilage", "enamel", "dentin"} <= set(materials)
+    assert {"cortical_strength", "friction_bone_bone"} <= set(references)
+    for entry in list(materials.values()) + list(references.values()):
+        assert isinstance(entry["source"], str) and len(entry["source"]) > 10
+
+
+def test_materials_are_valid_and_stripped_entries_are_scene_keys():
+    for name, entry in load_material_library(metadata=False).items():
+        assert not set(METADATA_KEYS) & set(entry), name
+        params = dict(entry)
+        model = MODELS[params.pop("model")]
+        material = model(**params)  # raises on impossible constants (e.g. not positive definite)
+        assert material.rho > 0 and material.tau_v >= 0, name
+
+
+def test_published_values():
+    lib = load_material_library()
+    rb = lib["cortical_bone_transverse"]
+    # nu_pa (= nu13) is the reciprocal of Reilly-Burstein's nu31 = 0.46
+    assert rb["nu_pa"] == pytest.approx(0.46 * rb["E_p"] / rb["E_a"], rel=1e-4)
+    ashman = lib["cortical_bone_orthotropic"]
+    assert (ashman["E1"], ashman["E2"], ashman["E3"]) == (12.0e9, 13.4e9, 20.0e9)
+    vert = lib["cancellous_bone_vertebral"]
+    assert vert["E"] == pytest.approx(4730e6 * (vert["rho"] / 1000.0) ** 1.56, rel=1e-4)
+    assert load_reference_values()["cortical_strength"]["tension_longitudinal"] == 133.0e6
+
+
+def test_missing_source_is_an_error(tmp_shared_path):
+    path = tmp_shared_path / "bad.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text('[material.x]\nmodel = "isotropic"\nE = 1.0\nnu = 0.3\n')
+    MPI.COMM_WORLD.barrier()
+    with pytest.raises(ValueError, match="source"):
+        load_material_library(path)

@@ -1,0 +1,254 @@
+"""Geometry builders: measures of every named group against the exact geometry.
+
+Runs serially and under ``mpiexec -n 2/3`` (all measures are assembled and summed over
+the ranks).
+"""
+
+import dolfinx_solver  # noqa: F401  (must precede dolfinx)
+
+import math
+from pathlib import Path
+
+import gmsh
+import numpy as np
+import pytest
+import ufl
+from mpi4py import MPI
+
+from dolfinx import default_scalar_type, fem
+from dolfinx.io.gmsh import read_from_msh
+from dolfinx.mesh import compute_incident_entities, entities_to_geometry, exterior_facet_indices, meshtags
+
+from bonecontact.meshing import shapes as meshing
+
+COMM = MPI.COMM_WORLD
+REPO = Path(__file__).resolve().parents[3]
+
+
+def measure(md, name=None):
+    """Area/volume of a cell group, length/area of a facet group (whole boundary if None).
+
+    The group is re-tagged with id 1, so that one compiled form per cell type serves all
+    groups (the JIT cache is keyed on the form, which includes the subdomain ids).
+    """
+    msh = md.mesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    if name is None:
+        dim = tdim - 1
+        entities = exterior_facet_indices(msh.topology)
+    else:
+        dim = md.physical_groups[name].dim
+        tags = md.cell_tags if dim == tdim else md.facet_tags
+        entities = tags.find(md.physical_groups[name].tag)
+    assert dim in (tdim, tdim - 1)
+    marker = meshtags(msh, dim, np.sort(entities).astype(np.int32), np.ones(len(entities), np.int32))
+    kind = "dx" if dim == tdim else "ds"
+    one = fem.Constant(msh, default_scalar_type(1.0))
+    form = fem.form(one * ufl.Measure(kind, domain=msh, subdomain_data=marker)(1))
+    return msh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+
+def count_owned(md, name):
+    """Global number of cells/facets in a physical group."""
+    group = md.physical_groups[name]
+    tags = md.cell_tags if group.dim == md.mesh.topology.dim else md.facet_tags
+    n_owned = md.mesh.topology.index_map(group.dim).size_local
+    local = np.count_nonzero(tags.find(group.tag) < n_owned)
+    return md.mesh.comm.allreduce(int(local), op=MPI.SUM)
+
+
+def group_vertices(md, name):
+    """Global vertex indices and coordinates of the vertices of a group (on every rank)."""
+    msh = md.mesh
+    group = md.physical_groups[name]
+    tags = md.cell_tags if group.dim == msh.topology.dim else md.facet_tags
+    msh.topology.create_connectivity(group.dim, 0)
+    msh.topology.create_connectivity(0, msh.topology.dim)
+    local = compute_incident_entities(msh.topology, tags.find(group.tag), group.dim, 0)
+    glob = msh.topology.index_map(0).local_to_global(local)
+    xyz = msh.geometry.x[entities_to_geometry(msh, 0, local).reshape(-1)]
+    glob = np.concatenate(msh.comm.allgather(glob))
+    xyz = np.concatenate(msh.comm.allgather(xyz))
+    glob, first = np.unique(glob, return_index=True)
+    return glob, xyz[first]
+
+
+def test_quarter_tube():
+    r_in, r_out, h = 0.01, 0.02, 1.0e-3
+    md = meshing.quarter_tube(r_in, r_out, h, COMM)
+    assert set(md.physical_groups) == {"tube", "inner", "outer", "x0", "y0"}
+    # Chords of length <= ~h on an arc of radius r: each arc is off by about pi h^2 / 24 in
+    # area (outer arc loses area, inner arc adds) and pi h^2 / (48 r) in length.
+    area = math.pi * (r_out**2 - r_in**2) / 4
+    assert abs(measure(md, "tube") - area) < 2 * math.pi * h**2 / 24
+    for name, r in (("inner", r_in), ("outer", r_out)):
+        arc = math.pi * r / 2
+        length = measure(md, name)
+        assert length < arc  # a polygon inscribed in the arc
+        assert arc - length < 2 * math.pi * h**2 / (48 * r)
+    for name in ("x0", "y0"):
+        assert measure(md, name) == pytest.approx(r_out - r_in, rel=1e-12)
+
+
+@pytest.mark.parametrize("structured", [False, True])
+def test_rectangle(structured):
+    lx, ly, nx, ny = 0.02, 0.01, 8, 5
+    md = meshing.rectangle(lx, ly, nx, ny, COMM, structured=structured)
+    assert set(md.physical_groups) == {"body", "left", "right", "bottom", "top"}
+    assert measure(md, "body") == pytest.approx(lx * ly, rel=1e-12)
+    for name, length, n in (("left", ly, ny), ("right", ly, ny), ("bottom", lx, nx), ("top", lx, nx)):
+        assert measure(md, name) == pytest.approx(length, rel=1e-12)
+        assert count_owned(md, name) == n
+    if structured:
+        assert count_owned(md, "body") == 2 * nx * ny
+
+
+def test_box():
+    lx, ly, lz, h = 0.02, 0.01, 0.015, 2.5e-3
+    md = meshing.box(lx, ly, lz, h, COMM)
+    assert measure(md, "body") == pytest.approx(lx * ly * lz, rel=1e-12)
+    faces = {"left": ly * lz, "right": ly * lz, "bottom": lx * lz, "top": lx * lz,
+             "front": lx * ly, "back": lx * ly}
+    assert set(md.physical_groups) == {"body", *faces}
+    for name, area in faces.items():
+        assert measure(md, name) == pytest.approx(area, rel=1e-12)
+    # the front face is z = 0, the top face y = ly
+    _, x = group_vertices(md, "front")
+    assert np.allclose(x[:, 2], 0.0)
+    _, x = group_vertices(md, "top")
+    assert np.allclose(x[:, 1], ly)
+
+
+def test_cantilever():
+    L, H, W, h = 0.1, 0.01, 0.008, 2.5e-3
+    md = meshing.cantilever(L, H, W, h, COMM)
+    assert set(md.physical_groups) == {"beam", "clamped", "tip", "top", "bottom", "sides"}
+    assert measure(md, "beam") == pytest.approx(L * H * W, rel=1e-12)
+    for name, area in (("clamped", H * W), ("tip", H * W), ("top", L * W), ("bottom", L * W),
+                       ("sides", 2 * L * H)):
+        assert measure(md, name) == pytest.approx(area, rel=1e-12)
+    _, x = group_vertices(md, "tip")
+    assert np.allclose(x[:, 0], L)
+
+
+def check_long_bone(md, length=0.2, width=0.03, t=5e-3, flare=4e-3, flare_length=0.03):
+    assert set(md.physical_groups) == {"cortical", "cancellous", "distal", "proximal", "periosteum"}
+    total = width * length + 2 * flare * flare_length
+    assert measure(md, "cortical") == pytest.approx(2 * t * length, rel=1e-12)
+    assert measure(md, "cancellous") == pytest.approx(total - 2 * t * length, rel=1e-12)
+    for end in ("distal", "proximal"):
+        assert measure(md, end) == pytest.approx(width + 2 * flare, rel=1e-12)
+    side = length - 2 * flare_length + 2 * math.hypot(flare, flare_length)
+    assert measure(md, "periosteum") == pytest.approx(2 * side, rel=1e-12)
+    # Conforming cortex/core interface: it is interior, so the whole exterior boundary
+    # is exactly the three named facet groups.
+    assert measure(md) == pytest.approx(2 * side + 2 * (width + 2 * flare), rel=1e-12)
+    _, x = group_vertices(md, "distal")
+    assert np.allclose(x[:, 1], 0.0)
+
+
+def test_long_bone_2d():
+    check_long_bone(meshing.long_bone_2d(h=3e-3, comm=COMM))
+
+
+def test_long_bone_2d_without_flare():
+    check_long_bone(meshing.long_bone_2d(h=3e-3, flare=0.0, comm=COMM), flare=0.0)
+
+
+def test_shipped_long_bone_mesh():
+    path = REPO / "data" / "scenes" / "long_bone.msh"
+    assert path.stat().st_size < 300_000
+    md = read_from_msh(path, COMM, 0, gdim=2)
+    check_long_bone(md)
+    n_nodes = md.mesh.topology.index_map(0).size_global
+    assert 2500 < n_nodes < 4500  # element size about 1.5 mm
+
+
+def _check_non_matching(md, dim):
+    """The two bodies share no vertex, and their interface facets are exterior facets."""
+    lower, _ = group_vertices(md, "lower")
+    upper, _ = group_vertices(md, "upper")
+    assert lower.size > 0 and upper.size > 0
+    assert np.intersect1d(lower, upper).size == 0
+    _, xl = group_vertices(md, "lower_contact")
+    _, xu = group_vertices(md, "upper_contact")
+    assert len(xl) != len(xu)  # different mesh sizes
+    # Equal footprints: only the corners of the interface coincide geometrically.
+    dist = np.linalg.norm(xl[:, None, :] - xu[None, :, :], axis=2)
+    assert np.count_nonzero(dist < 1e-12) == 2 ** (dim - 1)
+
+
+def test_two_blocks_2d():
+    w, h0, h1 = 0.02, 0.01, 0.012
+    md = meshing.two_blocks_2d(COMM, upper_height=h1)
+    names = {"lower", "upper", "bottom", "top", "lower_contact", "upper_contact",
+             "lower_left", "lower_right", "upper_left", "upper_right"}
+    assert set(md.physical_groups) == names
+    assert measure(md, "lower") == pytest.approx(w * h0, rel=1e-12)
+    assert measure(md, "upper") == pytest.approx(w * h1, rel=1e-12)
+    for name in ("bottom", "top", "lower_contact", "upper_contact"):
+        assert measure(md, name) == pytest.approx(w, rel=1e-12)
+    for name, length in (("lower_left", h0), ("lower_right", h0), ("upper_left", h1), ("upper_right", h1)):
+        assert measure(md, name) == pytest.approx(length, rel=1e-12)
+    _check_non_matching(md, 2)
+
+
+def test_two_blocks_2d_narrow_upper():
+    md = meshing.two_blocks_2d(COMM, upper_width=0.01, upper_offset=0.004)
+    assert measure(md, "upper_contact") == pytest.approx(0.01, rel=1e-12)
+    assert measure(md, "lower_contact") == pytest.approx(0.02, rel=1e-12)
+    _, x = group_vertices(md, "upper_left")
+    assert np.allclose(x[:, 0], 0.004)
+
+
+def test_two_boxes_3d():
+    w, d, h0, h1 = 0.02, 0.02, 0.01, 0.01
+    md = meshing.two_boxes_3d(COMM)
+    # a list, not a set: every rank must run the collective measures in the same order
+    sides = [f"{b}_{s}" for b in ("lower", "upper") for s in ("left", "right", "front", "back")]
+    assert set(md.physical_groups) == {"lower", "upper", "bottom", "top", "lower_contact", "upper_contact", *sides}
+    assert measure(md, "lower") == pytest.approx(w * d * h0, rel=1e-12)
+    assert measure(md, "upper") == pytest.approx(w * d * h1, rel=1e-12)
+    for name in ("bottom", "top", "lower_contact", "upper_contact"):
+        assert measure(md, name) == pytest.approx(w * d, rel=1e-12)
+    for name in sides:
+        assert measure(md, name) == pytest.approx(w * h0, rel=1e-12)
+    _check_non_matching(md, 3)
+
+
+def test_write_msh_and_read_back(tmp_shared_path):
+    path = meshing.quarter_tube(0.01, 0.02, 2e-3, COMM, path=tmp_shared_path / "sub" / "tube.msh")
+    assert path == tmp_shared_path / "sub" / "tube.msh" and path.is_file()
+    md = read_from_msh(path, COMM, 0, gdim=2)
+    direct = meshing.quarter_tube(0.01, 0.02, 2e-3, COMM)
+    assert md.physical_groups == direct.physical_groups
+    assert measure(md, "tube") == pytest.approx(measure(direct, "tube"), rel=1e-12)
+
+
+def test_keeps_an_existing_gmsh_session():
+    if COMM.rank == 0:
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("mine")
+    try:
+        md = meshing.rectangle(1.0, 1.0, 2, 2, COMM)
+        assert measure(md, "body") == pytest.approx(1.0)
+        if COMM.rank == 0:
+            assert gmsh.isInitialized()
+            assert "mine" in gmsh.model.list()
+    finally:
+        if COMM.rank == 0:
+            gmsh.finalize()
+
+
+@pytest.mark.parametrize("call", [
+    lambda: meshing.quarter_tube(0.02, 0.01, 1e-3, COMM),
+    lambda: meshing.rectangle(1.0, 1.0, 0, 2, COMM),
+    lambda: meshing.box(1.0, -1.0, 1.0, 0.1, COMM),
+    lambda: meshing.long_bone_2d(cortical_thickness=0.02, comm=COMM),
+    lambda: meshing.two_blocks_2d(COMM, h_upper=0.0),
+])
+def test_invalid_geometry_is_rejected(call):
+    with pytest.raises(ValueError):
+        call()
