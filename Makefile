@@ -3,9 +3,15 @@
 #   make install      create .venv (Python >= 3.12, found automatically) and install the
 #                     package editable with its test extras; cheap when already done
 #   make demo         install if needed, then run demos/knee2d.py (DEMO=demos/long_bone.py for the other)
-#   make test         install if needed, then the serial suite and the MPI suite on 2 and 3 ranks
+#   make test         install if needed, then lint, docs, the serial suite and the MPI suite on
+#                     2 and 3 ranks (what CI runs);  make test-serial / make test-parallel  run
+#                     one suite only, without lint and docs
+#   make lint         ruff check and ruff format --check over the repository (changes no file;
+#                     `.venv/bin/ruff check --fix . && .venv/bin/ruff format .` applies the fixes)
+#   make docs         API reference generated from the docstrings (pdoc) into docs/api/;
+#                     fails on any import error or warning
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
-#   make clean        remove caches and test logs;  make distclean  also removes .venv
+#   make clean        remove caches, test logs and docs/api;  make distclean  also removes .venv
 #
 # Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=900
 # PYTEST_ARGS="-k hertz" (added to every pytest call).
@@ -20,6 +26,7 @@ PY           := $(VENV)/bin/python
 MPIEXEC      := $(VENV)/bin/mpiexec
 STAMP        := $(VENV)/.install.stamp
 LOG_DIR      := $(VENV)/test-logs
+DOCS_DIR     := docs/api
 MPI_SIZES    ?= 2 3
 TEST_TIMEOUT ?= 900
 PYTEST_ARGS  ?=
@@ -81,7 +88,7 @@ export RUN_PYTEST
 RANK_LOG := bash -c 'r=$${PMI_RANK:-$${OMPI_COMM_WORLD_RANK:-0}}; \
   if [ "$$r" != 0 ]; then exec >"$$0.rank$$r.log" 2>&1; fi; exec "$$@"'
 
-.PHONY: help install demo test test-serial test-parallel benchmarks clean distclean
+.PHONY: help install demo lint docs test test-serial test-parallel benchmarks clean distclean
 
 help:
 	@sed -n 's/^#   //p' $(firstword $(MAKEFILE_LIST))
@@ -129,7 +136,26 @@ define run_parallel
 done
 endef
 
-test: install
+# Lint: both checks always run, so one pass reports everything; either failing fails the target.
+lint: install
+	@rc=0; \
+	echo "+ $(PY) -m ruff check ."; $(PY) -m ruff check . || rc=1; \
+	echo "+ $(PY) -m ruff format --check ."; $(PY) -m ruff format --check . || rc=1; \
+	if [ $$rc != 0 ]; then echo "error: lint failed (see above)" >&2; exit 1; fi; \
+	echo "== lint: passed"
+
+# API reference: pdoc imports every module (bonecontact/__init__.py imports dolfinx_solver
+# first) and renders the NumPy-style docstrings. `-W error` turns every warning (an unresolvable
+# annotation, a docstring pdoc cannot parse, a deprecation at import) into a failure; a module
+# that fails to import already stops pdoc. A failed run leaves no half-written docs/api.
+docs: install
+	@rm -rf "$(DOCS_DIR)"
+	@echo "+ $(PY) -W error -m pdoc -d numpy bonecontact bonecontact.forms -o $(DOCS_DIR)"
+	@$(PY) -W error -m pdoc -d numpy bonecontact bonecontact.forms -o "$(DOCS_DIR)" \
+	  || { rm -rf "$(DOCS_DIR)"; echo "error: API reference generation failed (see above)" >&2; exit 1; }
+	@echo "== docs: $(DOCS_DIR)/index.html"
+
+test: install lint docs
 	$(run_serial)
 	$(run_parallel)
 
@@ -144,7 +170,7 @@ benchmarks: install
 	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" bash benchmarks/run_all.sh
 
 clean:
-	rm -rf .pytest_cache "$(LOG_DIR)" build *.egg-info
+	rm -rf .pytest_cache "$(LOG_DIR)" build *.egg-info "$(DOCS_DIR)"
 	find . -path ./$(VENV) -prune -o -type d -name __pycache__ -print0 | xargs -0 rm -rf
 
 distclean: clean

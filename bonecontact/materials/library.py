@@ -13,7 +13,7 @@ from typing import Any
 
 __all__ = ["DATA_DIR", "MATERIALS_FILE", "METADATA_KEYS", "load_material_library", "load_reference_values"]
 
-DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+DATA_DIR = Path(__file__).resolve().parents[2] / "data"
 MATERIALS_FILE = DATA_DIR / "materials.toml"
 
 #: Keys of a library entry that are documentation, not scene-file material keys.

@@ -1,0 +1,235 @@
+"""The package's import structure: no cycles, imports one way down the layers.
+
+The modules of ``bonecontact`` are parsed (not imported) and every import of another
+``bonecontact`` module becomes an edge of a directed graph.  Imports under
+``if TYPE_CHECKING:`` are left out: they do not run.  The tests fail on
+
+* any cycle between modules (a strongly connected component with more than one module,
+  or a module importing itself);
+* an import that goes up the layers (``LAYERS`` below, lowest first);
+* a ``bonecontact`` import inside a function (it would hide a cycle);
+* a private name (leading underscore) imported from another module.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = ROOT / "bonecontact"
+FORMS = ROOT / "forms"
+
+#: Subpackages from the bottom up: a module may import its own layer or a lower one.
+LAYERS = ["forms", "common", "materials", "mechanics", "contact", "meshing", "neoplasm", "scene",
+          "verification", "run"]
+
+
+def _module_name(path: Path) -> str:
+    if path.is_relative_to(FORMS):
+        parts = ["bonecontact", "forms", *path.relative_to(FORMS).with_suffix("").parts]
+    else:
+        parts = ["bonecontact", *path.relative_to(PACKAGE).with_suffix("").parts]
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _modules() -> dict[str, Path]:
+    files = sorted(PACKAGE.rglob("*.py")) + sorted(FORMS.rglob("*.py"))
+    return {_module_name(p): p for p in files if "__pycache__" not in p.parts}
+
+
+MODULES = _modules()
+
+
+def _resolve(module: str, name: str | None, current: str, level: int, is_pkg: bool) -> list[str]:
+    """The ``bonecontact`` modules an import statement refers to (empty if external)."""
+    if level:
+        base = current.split(".")
+        base = base[: len(base) - level + (1 if is_pkg else 0)]
+        module = ".".join(base + ([module] if module else []))
+    if not module.startswith("bonecontact"):
+        return []
+    if name is not None and f"{module}.{name}" in MODULES:
+        return [f"{module}.{name}"]
+    return [module] if module in MODULES else []
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
+
+
+def _imports(path: Path) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+    """Every runtime import statement of a file, with whether it sits inside a function."""
+
+    def visit(node: ast.AST, in_function: bool) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                for other in child.orelse:
+                    yield from visit(other, in_function)
+                continue
+            if isinstance(child, ast.Import | ast.ImportFrom):
+                yield child, in_function
+            yield from visit(child, in_function or isinstance(
+                child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda))
+
+    yield from visit(ast.parse(path.read_text(), filename=str(path)), False)
+
+
+def _edges() -> dict[str, set[str]]:
+    graph: dict[str, set[str]] = {m: set() for m in MODULES}
+    for mod, path in MODULES.items():
+        is_pkg = path.name == "__init__.py"
+        for node, _ in _imports(path):
+            if isinstance(node, ast.Import):
+                targets = [t for a in node.names for t in _resolve(a.name, None, mod, 0, is_pkg)]
+            else:
+                targets = [t for a in node.names
+                           for t in _resolve(node.module or "", a.name, mod, node.level, is_pkg)]
+            graph[mod].update(t for t in targets if t != "bonecontact")
+    return graph
+
+
+def _layer(module: str) -> int | None:
+    parts = module.split(".")
+    return LAYERS.index(parts[1]) if len(parts) > 1 and parts[1] in LAYERS else None
+
+
+def _strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's algorithm (iterative): the strongly connected components of the graph."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[list[str]] = []
+    counter = 0
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            for child in children:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph[child]))))
+                    break
+                if child in on_stack:
+                    low[node] = min(low[node], index[child])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        m = stack.pop()
+                        on_stack.discard(m)
+                        component.append(m)
+                        if m == node:
+                            break
+                    components.append(component)
+    return components
+
+
+def test_the_parser_sees_the_package():
+    """The scan finds the subpackages and real edges (so the checks below can fail)."""
+    graph = _edges()
+    assert len(MODULES) > 30
+    assert {m.split(".")[1] for m in MODULES if m.count(".")} >= set(LAYERS)
+    assert "bonecontact.run.cli" in MODULES
+    assert sum(len(v) for v in graph.values()) > 40
+
+
+def test_tarjan_finds_a_planted_cycle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    components = [sorted(c) for c in _strongly_connected(graph) if len(c) > 1]
+    assert components == [["a", "b", "c"]]
+
+
+def test_no_import_cycle():
+    graph = _edges()
+    cycles = [sorted(c) for c in _strongly_connected(graph) if len(c) > 1]
+    cycles += [[m] for m, targets in graph.items() if m in targets]
+    assert not cycles, f"import cycles between modules: {cycles}"
+
+
+def test_imports_run_down_the_layers():
+    upward = []
+    for mod, targets in _edges().items():
+        here = _layer(mod)
+        if here is None:
+            continue
+        for t in targets:
+            there = _layer(t)
+            if there is not None and there > here:
+                upward.append(f"{mod} -> {t}")
+    assert not upward, "imports that go up the layers " + " < ".join(LAYERS) + f": {upward}"
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_no_package_import_inside_a_function(module):
+    path = MODULES[module]
+    inner = [f"{path.relative_to(ROOT)}:{node.lineno}" for node, in_function in _imports(path)
+             if in_function and _is_internal(node)]
+    assert not inner, f"bonecontact imported inside a function (move it to the top): {inner}"
+
+
+def _is_internal(node: ast.Import | ast.ImportFrom) -> bool:
+    if isinstance(node, ast.Import):
+        return any(a.name.startswith("bonecontact") for a in node.names)
+    return node.level > 0 or (node.module or "").startswith("bonecontact")
+
+
+def test_no_private_name_imported_from_another_module():
+    private = []
+    for mod, path in MODULES.items():
+        for node, _ in _imports(path):
+            if isinstance(node, ast.ImportFrom) and _is_internal(node):
+                private += [f"{mod}: {node.module}.{a.name}" for a in node.names
+                            if a.name.startswith("_") and a.name != "__version__"]
+    assert not private, f"private names used across modules: {private}"
+
+
+def _private_uses(path: Path) -> list[str]:
+    """Private names a script takes from ``bonecontact``: imported, or as ``module._name``."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    aliases: set[str] = set()
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            aliases |= {a.asname or a.name.split(".")[0] for a in node.names
+                        if a.name.startswith("bonecontact")}
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("bonecontact"):
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__"):
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.module}.{a.name}")
+                if f"{node.module}.{a.name}" in MODULES:
+                    aliases.add(a.asname or a.name)
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                and node.value.id in aliases and node.attr.startswith("_")
+                and not node.attr.startswith("__")):
+            found.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.value.id}.{node.attr}")
+    return found
+
+
+def test_tests_benchmarks_and_demos_use_the_public_api():
+    scripts = [p for d in ("tests", "benchmarks", "demos") for p in sorted((ROOT / d).rglob("*.py"))
+               if "__pycache__" not in p.parts]
+    assert len(scripts) > 20
+    private = [use for p in scripts for use in _private_uses(p)]
+    assert not private, f"private bonecontact names used outside the package: {private}"
