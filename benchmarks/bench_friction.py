@@ -19,7 +19,6 @@ from __future__ import annotations
 import dolfinx_solver  # noqa: F401
 
 import argparse
-import csv
 import time
 from pathlib import Path
 
@@ -31,8 +30,12 @@ from bonecontact.verification.analytic import contact_modulus, hertz_2d
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
-from bonecontact.contact.pdas import FrictionLaw
+from bonecontact.contact.friction import FrictionLaw
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
+
+from common import write_rows  # (benchmarks/ is the script directory)
 
 COMM = MPI.COMM_WORLD
 R, A_REF, E, NU = 0.01, 5.0e-4, 2.0e9, 0.3
@@ -57,9 +60,8 @@ def mindlin(a_over_h: float, mu: float, update: str, increments: int = 4, fp_tol
     m.add_dirichlet(m.facets(pg["cyl_top"]), 0, DRAG_PER_MU * mu,
                     schedule=lambda t: min(max(t - 1.0, 0.0) / increments, 1.0))
     itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf],
-                       contact_options={"friction": FrictionLaw("coulomb", coefficient=mu, update=update),
-                                        "fp_tol": fp_tol, "max_iterations": 200})
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("coulomb", coefficient=mu, update=update),
+                                        fp_tol=fp_tol, max_iterations=200)))
     its, outer = [], []
     COMM.barrier()
     t0 = time.perf_counter()
@@ -92,19 +94,6 @@ def mindlin(a_over_h: float, mu: float, update: str, increments: int = 4, fp_tol
     return row, q / (mu * p0)
 
 
-def _write(name: str, rows: list[dict]) -> None:
-    if COMM.rank != 0 or not rows:
-        return
-    path = OUT / f"{name}.csv"
-    new = not path.exists()
-    with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, list(rows[0]) + ["q_diff_to_fp_ref", "date"])
-        if new:
-            w.writeheader()
-        for r in rows:
-            w.writerow({"q_diff_to_fp_ref": "", **r, "date": time.strftime("%Y-%m-%d", time.gmtime())})
-
-
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
@@ -125,7 +114,7 @@ def main() -> None:
                 rows.append(row)
                 if COMM.rank == 0:
                     print("friction", row, flush=True)
-    _write("friction", rows)
+    write_rows(OUT, "friction", rows, extra_columns={"q_diff_to_fp_ref": ""})
 
 
 if __name__ == "__main__":

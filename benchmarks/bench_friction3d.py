@@ -29,10 +29,12 @@ from bonecontact.verification.analytic import hertz_3d
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
-from bonecontact.contact.pdas import FrictionLaw
+from bonecontact.contact.friction import FrictionLaw
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
 
-from bench_hertz import _write  # noqa: E402  (benchmarks/ is the script directory)
+from common import write_rows  # (benchmarks/ is the script directory)
 
 COMM = MPI.COMM_WORLD
 R, E, NU, MU, A_T, DRAG, INCR = 0.01, 2.0e9, 0.3, 0.3, 1.0e-3, 1.5e-5, 4
@@ -54,9 +56,8 @@ def mindlin_3d(h: float, slip_3d: str, tol: float = 1e-6) -> tuple[dict, np.ndar
     m.add_dirichlet(m.facets(pg["sphere_top"]), 2, 0.0)
     m.add_dirichlet(m.facets(pg["sphere_top"]), 0, DRAG, schedule=lambda t: min(max(t - 1.0, 0.0) / INCR, 1.0))
     itf = build_interface(m.V, md.facet_tags, pg["sphere_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf],
-                       contact_options={"friction": FrictionLaw("coulomb", coefficient=MU), "max_iterations": 100,
-                                        "slip_3d": slip_3d, "direction_tol": tol})
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("coulomb", coefficient=MU), max_iterations=100,
+                                        slip_3d=slip_3d, direction_tol=tol)))
     its, fac, cols = [], 0, 0
     COMM.barrier()
     t0 = time.perf_counter()
@@ -105,7 +106,7 @@ def main() -> None:
             rows.append(row)
             if COMM.rank == 0:
                 print("friction3d", row, flush=True)
-    _write("friction3d", rows)
+    write_rows(OUT, "friction3d", rows)
 
 
 if __name__ == "__main__":

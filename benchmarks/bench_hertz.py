@@ -8,7 +8,7 @@
    linear-algebra strategies (``lowrank``: one factorisation reused, the default;
    ``refactor``: one factorisation per iteration) with their factorisation counts.
 2. A soft block pressed onto a rigid plane (the discrete problems are identical, see
-   tests/test_pdas.py): wall time of the PDAS and of PETSc SNES ``vinewtonrsls`` at
+   tests/unit/contact/test_pdas.py): wall time of the PDAS and of PETSc SNES ``vinewtonrsls`` at
    equal accuracy (both converged to round-off), and their relative difference.
 
 Usage: python benchmarks/bench_hertz.py [--quick]   (also under mpiexec -n K)
@@ -24,7 +24,6 @@ from __future__ import annotations
 import dolfinx_solver  # noqa: F401
 
 import argparse
-import csv
 import time
 from pathlib import Path
 
@@ -38,8 +37,13 @@ from bonecontact.common.linalg import create_solver
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import RigidPlane, build_interface
-from bonecontact.contact.pdas import snes_vi_solve
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactSolver
+from bonecontact.contact.snes_vi import snes_vi_solve
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.verification.problems import solve_hertz_3d
+
+from common import write_rows  # (benchmarks/ is the script directory)
 
 COMM = MPI.COMM_WORLD
 R, A_REF, E1, E2, NU = 0.01, 5.0e-4, 2.0e9, 17.0e9, 0.3
@@ -78,7 +82,7 @@ def _time_linear_solve(integ: Integrator) -> float:
     """Wall time of ONE linear solve of the step operator without contact (fresh KSP:
     symbolic + numeric factorisation + solve)."""
     b = integ.rhs(1.0)
-    integ._apply_dirichlet(1.0, b)
+    integ.apply_dirichlet(1.0, b)
     COMM.barrier()
     t0 = time.perf_counter()
     ksp = create_solver(integ.A_bc, "direct", prefix="bench_lin_")
@@ -93,7 +97,7 @@ def _time_linear_solve(integ: Integrator) -> float:
 
 def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
     m, itf = _hertz_model(h)
-    integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"strategy": strategy})
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy)))
     COMM.barrier()
     t0 = time.perf_counter()
     integ.step()
@@ -123,7 +127,7 @@ def stepped_case(h: float, strategy: str, steps: int = 8) -> dict:
     """The Hertz cylinder pushed down in ``steps`` equal static increments (warm starts):
     the cost of a contact step once the run is going, and how often it factorises."""
     m, itf = _hertz_model(h, schedule=lambda t: t / steps)
-    integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"strategy": strategy})
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy)))
     times, its, facts = [], [], []
     for _ in range(steps):
         COMM.barrier()
@@ -145,11 +149,6 @@ def stepped_case(h: float, strategy: str, steps: int = 8) -> dict:
 
 def hertz3d_case(h: float) -> dict:
     """Hemisphere on a block (a/R ≈ 0.1), CG + GAMG, cold start."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from test_hertz import solve_hertz_3d  # the same set-up as the test
-
     COMM.barrier()
     t0 = time.perf_counter()
     res = solve_hertz_3d(h)
@@ -172,7 +171,7 @@ def vi_case(n_upper: int) -> dict:
     m.add_traction(pg["top"], ufl.as_vector([0.0, -1e5 * (1.0 - 1.2 * x[0] / W)]))
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], RigidPlane((0.0, H), (0.0, -1.0)),
                           dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf])
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf]))
     COMM.barrier()
     t0 = time.perf_counter()
     integ.step()
@@ -180,7 +179,7 @@ def vi_case(n_upper: int) -> dict:
     t_pdas = time.perf_counter() - t0
     ref = Integrator(m, "static", 1.0)
     b = ref.rhs(1.0)
-    ref._apply_dirichlet(1.0, b)
+    ref.apply_dirichlet(1.0, b)
     A = ref.A_bc
     lb, ub = A.createVecRight(), A.createVecRight()
     lb.set(-1e30)
@@ -203,19 +202,6 @@ def vi_case(n_upper: int) -> dict:
     return row
 
 
-def _write(name: str, rows: list[dict]) -> None:
-    if COMM.rank != 0 or not rows:
-        return
-    path = OUT / f"{name}.csv"
-    new = not path.exists()
-    with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, list(rows[0]) + ["date"])
-        if new:
-            w.writeheader()
-        for r in rows:
-            w.writerow({**r, "date": time.strftime("%Y-%m-%d", time.gmtime())})
-
-
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--quick", action="store_true")
@@ -230,26 +216,26 @@ def main() -> None:
             rows.append(hertz_case(A_REF / k, strategy))
             if COMM.rank == 0:
                 print("hertz", rows[-1], flush=True)
-    _write("hertz", rows)
+    write_rows(OUT, "hertz", rows)
     srows = []
     for k in ([10] if args.quick else [10, 40]):
         for strategy in ("lowrank", "refactor"):
             srows.append(stepped_case(A_REF / k, strategy))
             if COMM.rank == 0:
                 print("stepped", srows[-1], flush=True)
-    _write("hertz_steps", srows)
+    write_rows(OUT, "hertz_steps", srows)
     vrows = []
     for n in ([12, 24] if args.quick else [12, 24, 48, 96]):
         vrows.append(vi_case(n))
         if COMM.rank == 0:
             print("vi", vrows[-1], flush=True)
-    _write("hertz_vi", vrows)
+    write_rows(OUT, "hertz_vi", vrows)
     rows3 = []
     for h in ([4.5e-4] if args.quick else [4.5e-4, 3.3e-4, 2.2e-4]):
         rows3.append(hertz3d_case(h))
         if COMM.rank == 0:
             print("hertz3d", rows3[-1], flush=True)
-    _write("hertz3d", rows3)
+    write_rows(OUT, "hertz3d", rows3)
 
 
 if __name__ == "__main__":

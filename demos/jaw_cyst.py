@@ -17,7 +17,8 @@
 # A 2D (plane-strain) section along the body of a mandible, 60 mm × 24 mm: a cortical
 # shell 2.5 mm thick around a cancellous core.  A cyst starts as a 1.5 mm disc in the
 # cancellous bone below a tooth and grows over years by the osmotic/Maxwell model of
-# SPEC §6.2 (`bonecontact.neoplasm.cyst`, the cylinder ODE per unit length) with the two parameter
+# Ward et al. 2004 as used by Nedoma 2015 (`bonecontact.neoplasm.cyst`, the cylinder ODE
+# per unit length; equations below) with the two parameter
 # sets of `data/neoplasms.toml`:
 #
 # * a **radicular cyst** (≈ 1 mm of radius per year), grown for 3 years;
@@ -36,6 +37,45 @@
 # (what the test suite runs).  The keratocyst's results are written into OUTPUT_DIR itself
 # (`growth.csv`, `history.csv`, `summary.json`, fields, `mechanics_<step>/` for the
 # intermediate analyses), the radicular cyst's into `OUTPUT_DIR/radicular/`.
+#
+# ## The cyst growth ODE
+# Osmotic material $s$ (mol per metre of thickness) enters the lumen through the lining
+# at the rate $\beta$ (mol m⁻² s⁻¹); the lumen's osmotic excess pressure $f$ (Pa) over the
+# surrounding tissue pushes the wall out, and the tissue responds as a Maxwell body
+# (modulus $E$, viscosity $\nu$, relaxation time $\tau = \nu/E$):
+#
+# $$\frac{ds}{dt} = \beta\,S_c, \qquad C^+ = \frac{s}{v_c}, \qquad
+# f = P_h^+ - P_h^- = \alpha\,(C^+ - C^-), \quad \alpha = R_g T, \qquad
+# \tau\,\frac{df}{dt} + f = \nu\,\frac{d\varepsilon}{dt},$$
+#
+# van 't Hoff's law with the gas constant $R_g$ and the body temperature $T = 310$ K.  In 2D
+# the cyst is a cylinder per unit length, $v_c = \pi R^2$, $S_c = 2\pi R$, and with the
+# logarithmic strain $d\varepsilon = dR/R$ this closes to the ODE in $(R, f)$ that the
+# code integrates (Radau, relative tolerance $10^{-11}$), step by step:
+#
+# $$\frac{dR}{dt} = \frac{R f + 2\tau\alpha\beta}{\nu + 2\tau(\alpha C^- + f)}, \qquad
+# \frac{df}{dt} = \frac{2}{R}\Big[\alpha\beta - (\alpha C^- + f)\,\frac{dR}{dt}\Big],
+# \qquad R(0) = R_0, \quad f(0) = f_0 = 0,$$
+#
+# $R_0 \approx 1.5$ mm the equivalent radius $\sqrt{A/\pi}$ of the meshed `cyst` group.
+#
+# Both parameter sets have $C^- = 1$ mol/m³, $E = 1$ MPa, $\nu = 10^9$ Pa s ($\tau = 1000$ s)
+# and $\beta = 3.2\cdot 10^{-11}$ (radicular) or $1.28\cdot 10^{-10}$ mol m⁻² s⁻¹
+# (keratocyst).  For long times $dR/dt \to \beta/C^-$ (1 and 4 mm per year) and
+# $f \approx \beta\nu/(C^- R)$: tens of pascals.  See [the growth notes](../docs/theory/growth.md).
+#
+# ## The coupling
+# One-way: the ODE has its own Maxwell surrounding and does not feel the bone.  At each
+# analysis the jaw mesh is rebuilt with the circle of radius $R(t)$ about the cyst
+# centre embedded; the bone inside it is removed and the static plane-strain problem is
+# solved on what is left, $\Omega(t)$, from an unstressed state:
+#
+# $$-\nabla\cdot\mathbb C\,e(u) = 0 \ \text{in } \Omega(t), \qquad u = 0 \ \text{at both ends}, \qquad
+# \sigma n = (0, -3\ \text{MPa}) \ \text{on the occlusal patch}, \qquad
+# \sigma n = -f(t)\,n \ \text{on the cyst wall},$$
+#
+# $n$ the outer normal of the bone, $\mathbb C$ isotropic (cortical bone 17 GPa, 0.3;
+# cancellous bone 1 GPa, 0.25; Reilly & Burstein 1975), other boundaries traction-free.
 
 # %%
 import json
@@ -48,8 +88,9 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact.run.dispatch import run_scene
-from bonecontact.scene.spec import load_scene
+from bonecontact.common.constants import SECONDS_PER_YEAR
+from bonecontact.run import run_scene
+from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
@@ -58,7 +99,7 @@ args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globa
 output = Path(args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/jaw_cyst")).resolve()
 quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
 
-MM, MONTH = 1e-3, 365.25 * 86400.0 / 12
+MM, MONTH = 1e-3, SECONDS_PER_YEAR / 12
 L, H, T = 60 * MM, 24 * MM, 2.5 * MM          # section length, height, cortical thickness
 XC, YC, R0 = 30 * MM, 12.5 * MM, 1.5 * MM      # cyst centre and initial radius
 PATCH = (25 * MM, 35 * MM)                     # occlusal patch under the bite

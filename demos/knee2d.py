@@ -28,6 +28,72 @@
 # Run with `python demos/knee2d.py [OUTPUT_DIR]` or `mpiexec -n 2 python demos/knee2d.py`,
 # or open as a notebook.  Everything is in `data/scenes/knee2d.toml` and
 # `knee2d_gait.toml`.  Units: SI (2D forces per metre of thickness, pressures in Pa).
+#
+# ## The equations
+# The bodies $\Omega^1$ (femur, the slave side: it carries the contact multiplier) and
+# $\Omega^2$ (tibia) are Kelvin–Voigt solids in plane strain (the contact model of
+# Nedoma 2015), displacement $u$ in m:
+#
+# $$\rho\ddot u - \nabla\cdot\big(\mathbb C^{(0)} e(u) + \mathbb C^{(1)} e(\dot u)\big) = f
+# \quad\text{in } \Omega^1\cup\Omega^2, \qquad e(u) = \tfrac12\big(\nabla u + \nabla u^{\mathsf T}\big),
+# \qquad \mathbb C^{(1)} = \tau_v\,\mathbb C^{(0)},$$
+#
+# with $u = 0$ on the tibial base, $u_x = 0$ on the sides of the femoral shaft and the
+# traction $\sigma n = \bar t = (0, -0.29\ \text{MPa})$ on its top ($f = 0$).  Every tissue
+# is isotropic, $\mathbb C^{(0)} e = 2\mu_L\, e + \lambda_L \operatorname{tr}(e)\, I$ with
+# the Lamé constants $\mu_L, \lambda_L$ from $E, \nu$: cortical bone 17 GPa, 0.3 and cancellous bone 1 GPa, 0.25
+# (Reilly & Burstein 1975), cartilage 10 MPa, 0.4 (Mow et al. 1980).  Part 1 is static
+# ($\rho = 0$, $\tau_v = 0$): $-\nabla\cdot\mathbb C^{(0)} e(u) = 0$, solved at the
+# pseudo-times $t_k = k/4$, $k = 1, \dots, 4$, with the traction $t_k\,\bar t$.
+# More in [the mechanics notes](../docs/theory/mechanics.md).
+#
+# **Contact.**  On the slave surface $\Gamma_c$ (outer normal $n$) the normal gap is
+# $g_n(u) = g_0 - \big(u^1 - u^2\circ\chi\big)\cdot n$ ($g_0$ the initial gap, $\chi$ the
+# projection onto the master surface), $\lambda_n = -\sigma_{nn} \ge 0$ the contact
+# pressure (Pa) and $\lambda_t$ the tangential traction.  Signorini's conditions and
+# Coulomb's law (friction coefficient $\mu$; Part 1 is frictionless, $\lambda_t = 0$):
+#
+# $$g_n \ge 0, \qquad \lambda_n \ge 0, \qquad g_n\,\lambda_n = 0 \qquad \text{on } \Gamma_c,$$
+#
+# $$|\lambda_t| \le \mu\lambda_n, \qquad |\lambda_t| < \mu\lambda_n \Rightarrow \dot u_t = 0, \qquad
+# |\lambda_t| = \mu\lambda_n \Rightarrow \dot u_t = \beta\lambda_t \text{ for some } \beta \ge 0,$$
+#
+# $u_t$ the relative tangential displacement.
+#
+# **Dual mortar discretisation** (Wohlmuth 2000).  P1 elements; the multiplier is
+# $\lambda_h = \sum_p \lambda_p \psi_p$ over the slave nodes $p$, with dual basis functions
+# biorthogonal to the slave traces $\varphi_q$: $\int_{\Gamma_c}\psi_p\varphi_q\,ds = \delta_{pq} D_{pp}$.
+# The mortar matrices are $D_{pp} = \int_{\Gamma_c}\psi_p\varphi_p\,ds$ and
+# $M_{pq} = \int_{\Gamma_c}\psi_p\,(\varphi^{(2)}_q\circ\chi)\,ds$ (master functions
+# $\varphi^{(2)}_q$), $\hat M = D^{-1}M$, and the weighted gap of node $p$ (in m) is
+#
+# $$\tilde g_p(u) = \frac{1}{D_{pp}}\int_{\Gamma_c}\psi_p\,g_n(u)\,ds
+# = \frac{d_p}{D_{pp}} - n_p\cdot\Big(u_p - \sum_q \hat M_{pq}\,u_q\Big), \qquad d_p = \int_{\Gamma_c}\psi_p\,g_0\,ds .$$
+#
+# Because $D$ is diagonal, the discrete contact conditions are nodal:
+# $\tilde g_p \ge 0$, $\lambda_{n,p} \ge 0$, $\tilde g_p\lambda_{n,p} = 0$; node $p$ carries the
+# force $D_{pp}\lambda_p$ and the multipliers are condensed out of the system.
+# See [the mortar notes](../docs/theory/mortar.md).
+#
+# **Primal–dual active set method** (Hüeber & Wohlmuth 2005; Hüeber, Stadler & Wohlmuth 2008).
+# The conditions are rewritten as the semi-smooth equations, with $c_n, c_t > 0$ (Pa/m),
+#
+# $$C_{n,p} = \lambda_{n,p} - \max\big(0,\ \lambda_{n,p} - c_n\,\tilde g_p(u)\big) = 0,$$
+#
+# $$C_{t,p} = \max\big(\hat g_p,\ |\lambda_{t,p} + c_t\,\Delta u_{t,p}|\big)\,\lambda_{t,p}
+# - \hat g_p\,\big(\lambda_{t,p} + c_t\,\Delta u_{t,p}\big) = 0,$$
+#
+# $\Delta u_t$ the slip of the step and $\hat g_p$ the friction bound.  A semi-smooth
+# Newton step on them is the active set update: from the iterate $(u^k, \lambda^k)$,
+#
+# $$\mathcal A^{k+1} = \{p : \lambda^k_{n,p} - c_n\,\tilde g_p(u^k) > 0\}, \qquad
+# \tilde g_p(u^{k+1}) = 0 \ (p \in \mathcal A^{k+1}), \qquad \lambda^{k+1}_{n,p} = 0 \ (p \notin \mathcal A^{k+1});$$
+#
+# active nodes with $|\lambda_t + c_t\Delta u_t| \le \hat g_p$ stick ($\Delta u_{t,p} = 0$),
+# the others slip with $\lambda_{t,p} = \hat g_p\,\operatorname{sign}(\lambda_{t,p} + c_t\Delta u_{t,p})$
+# (2D).  The iteration stops when the sets no longer change; then the discrete problem
+# is solved exactly.  By default $c_n = c_t$ is the mean ratio of the normal rows'
+# diagonal to $D_{pp}$ (about $E/h$).  See [the PDAS notes](../docs/theory/pdas.md).
 
 # %%
 import os
@@ -39,8 +105,8 @@ from mpi4py import MPI  # before dolfinx
 import numpy as np
 
 from bonecontact.verification.analytic import hertz_2d
-from bonecontact.run.dispatch import run_scene
-from bonecontact.scene.spec import load_scene
+from bonecontact.run import run_scene
+from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
@@ -65,10 +131,17 @@ if comm.rank == 0:
 # %% [markdown]
 # ## Contact pressure along the plateau
 # `contact_tibiofemoral.csv` holds, at every slave node of the femoral cartilage, its
-# position, gap and pressure λ_n.  For comparison: Hertz's cylinder-on-half-space
-# profile for the same load with the cartilage–cartilage contact modulus — a thin
-# cartilage layer on bone is stiffer than a half-space of cartilage, so the real
-# contact is narrower and the peak higher.
+# position, nodal weighted gap $\tilde g_p$ and pressure $\lambda_{n,p}$.  For comparison:
+# Hertz's cylinder-on-half-space profile (Hertz 1882; Johnson 1985) for the same load
+# per unit thickness $P$ (N/m, the computed normal contact force), relative radius
+# $R = 0.03$ m and the cartilage–cartilage contact modulus:
+#
+# $$p(x) = p_0\sqrt{1 - x^2/a^2}, \qquad a = \sqrt{\frac{4PR}{\pi E^*}}, \qquad p_0 = \frac{2P}{\pi a},
+# \qquad \frac{1}{E^*} = \frac{1-\nu_1^2}{E_1} + \frac{1-\nu_2^2}{E_2}.$$
+#
+# A thin cartilage layer on bone is stiffer than a half-space of cartilage, so the real
+# contact is narrower and the peak higher (the code is checked against Hertz itself in
+# [the verification notes](../docs/theory/verification.md)).
 
 # %%
 if comm.rank == 0:
@@ -140,6 +213,28 @@ comm.barrier()
 # pressure).  Tangential tractions come from the different lateral expansion of
 # cartilage and bone: parts of the contact stick, parts slip, and the pattern changes
 # through the cycle.  Each step is warm-started and reuses one LU factorisation.
+#
+# Now $\rho > 0$ (bone 1900 and 450 kg/m³, cartilage 1100 kg/m³) and $\tau_v = 2$ ms in
+# bone ($0$ in cartilage), and the traction is $s(t)\,\bar t$ with $s$ the piecewise-linear
+# stance curve.  With the mass, stiffness and viscous matrices
+# $M = (\rho u, v)$, $K = (\mathbb C^{(0)} e(u), e(v))$, $K_v = (\mathbb C^{(1)} e(u), e(v))$
+# the semi-implicit scheme is
+#
+# $$M\,\frac{u^{n+1} - 2u^n + u^{n-1}}{\Delta t^2} + K_v\,\frac{u^{n+1} - u^n}{\Delta t} + K u^{n+1}
+# = F(t^{n+1}) + F_c^{n+1},$$
+#
+# one fixed operator $M + \Delta t^2 K + \Delta t K_v$ for the whole run, with the contact
+# forces $F_c^{n+1}$ from the PDAS of every step and $v^{n+1} = (u^{n+1} - u^n)/\Delta t$.
+# The Coulomb bound is taken from the previous step, $\hat g_p = \mu\,\lambda^{n}_{n,p}$,
+# so each step is a Tresca problem.  The run checks the discrete energy balance
+#
+# $$E^{n+1} - E^n = W_{\text{ext}} + W_{\text{dir}} + W_c - D_{\text{visc}} - D_{\text{num}}, \qquad
+# E = \tfrac12 v^{\mathsf T} M v + \tfrac12 u^{\mathsf T} K u,$$
+#
+# with the contact and friction work $W_c = \sum_p D_{pp}\big(\lambda_{n,p}\,\Delta\tilde g_p - \lambda_{t,p}\cdot\Delta u_{t,p}\big) \le 0$,
+# $D_{\text{visc}} = \Delta t\,|v^{n+1}|^2_{K_v}$ and the scheme's own dissipation
+# $D_{\text{num}} = \tfrac12|v^{n+1} - v^n|^2_M + \tfrac12|u^{n+1} - u^n|^2_K$, both $\ge 0$;
+# the "balance defect" printed below is what is left over.
 
 # %%
 gait_scene = load_scene(root / "data" / "scenes" / "knee2d_gait.toml")

@@ -15,9 +15,10 @@
 # # A tumour growing in the proximal tibia of the loaded 2D knee
 #
 # The knee of `demos/knee2d.py` with a 5 mm disc of tumour tissue in the tibial
-# cancellous bone, 20 mm below the plateau.  The tumour grows for 20 days by the
-# free-boundary model of SPEC §6.1 (Problem P_T: quasi-steady nutrient, proliferation
-# rate μ(u_c − 0.5), pressure σ with V_n = −∂σ/∂n, gmsh remeshing at every step).  Every
+# cancellous bone, 20 mm below the plateau.  The tumour grows for 20 days by a
+# free-boundary model of avascular growth (quasi-steady nutrient $u_c$, proliferation
+# rate $\mu(u_c - 0.5)$, velocity potential $\sigma$ with $V_n = -\partial\sigma/\partial n$,
+# gmsh remeshing at every step; equations below).  Every
 # 4 days gmsh rebuilds the knee mesh with the tumour boundary embedded; the
 # tumour cells become near-fluid soft tissue (E = 50 kPa, ν = 0.49, non-locking
 # `nodal_pressure`) and the body-weight contact analysis of the healthy knee runs on
@@ -27,6 +28,55 @@
 # Run with `python demos/knee_tumour.py [OUTPUT_DIR]` or
 # `mpiexec -n 2 python demos/knee_tumour.py`, or open as a notebook.  The scene is
 # `data/scenes/knee2d_tumour.toml`.  Units: SI (2D forces per metre of thickness).
+#
+# ## The growth problem
+# The tumour $\omega(t)$ holds volume fractions of proliferating ($u_p$) and quiescent
+# ($u_q$) cells, the rest dead, moving with the velocity $v = -\nabla\sigma$; $u_c$ is the
+# nutrient (relative to its value $u_{c1}$ outside).  The code solves
+#
+# $$\varepsilon_0\,\partial_t u_c - D_c\,\Delta u_c + \lambda\,u_c = 0 \ \text{in } \omega(t), \qquad u_c = u_{c1} \ \text{on } \partial\omega(t),$$
+#
+# $$-\Delta\sigma = h \ \text{in } \omega(t), \qquad \sigma = \gamma\kappa \ \text{on } \partial\omega(t), \qquad
+# h = \nabla\cdot v = (K_B + K_R)\,u_p + K_R\,u_q - K_R,$$
+#
+# $$\partial_t u_p + v\cdot\nabla u_p = (K_B - K_Q - K_A)\,u_p + K_P\,u_q - h\,u_p, \qquad
+# \partial_t u_q + v\cdot\nabla u_q = K_Q\,u_p - (K_P + K_D)\,u_q - h\,u_q,$$
+#
+# $$V_n = -\frac{\partial\sigma}{\partial n} \ \text{on } \partial\omega(t),$$
+#
+# with the rates $K_\bullet(u_c)$ in 1/s (birth, proliferating → quiescent, apoptosis,
+# quiescent → proliferating, death, removal of the dead), $\kappa = \nabla\cdot n$ the
+# curvature and $\gamma$ the surface tension (m³/s; $\sigma$ is in m²/s).  This scene
+# takes $\varepsilon_0 = 0$ (quasi-steady nutrient), $D_c = 10^{-9}$ m²/s,
+# $\lambda = 10^{-5}$ 1/s (nutrient length $L = \sqrt{D_c/\lambda} = 10$ mm), $u_{c1} = 1$,
+# $K_B = \mu\,(u_c - \tfrac12)$ with $\mu = 1/(10\ \text{days})$, all other rates and
+# $\gamma$ zero and $u_p = 1$, $u_q = 0$ at $t = 0$.  Then $u_p \equiv 1$, $u_q \equiv 0$
+# and the model is the non-necrotic tumour of Byrne & Chaplain 1995:
+#
+# $$-D_c\Delta u_c + \lambda u_c = 0, \quad -\Delta\sigma = \mu\big(u_c - \tfrac12\big) \ \text{in } \omega(t), \qquad
+# u_c = 1, \quad \sigma = 0, \quad V_n = -\partial_n\sigma \ \text{on } \partial\omega(t);$$
+#
+# for a disc of radius $R$ it reduces to
+# $\dot R = \mu L\big[I_1(R/L)/I_0(R/L) - R/(4L)\big]$.  Each 2-day step solves
+# $u_c$ and $\sigma$ (P1, LU), recovers $V_n$ as the boundary flux of $\sigma$, moves the
+# boundary along its normals by $\Delta t\,V_n$ (explicit Euler; mesh moved by a harmonic
+# extension), transports $u_p, u_q$ by upwind finite volumes, integrates the reaction
+# terms cell by cell (RK4) and remeshes the tumour with gmsh.  See
+# [the growth notes](../docs/theory/growth.md) and [the remeshing notes](../docs/theory/remeshing.md).
+#
+# ## The coupling
+# One-way: the growth does not feel the mechanics.  Every 4 days (and at the end) the
+# knee mesh is rebuilt with the current $\partial\omega$ embedded; cells inside $\omega$
+# become tumour tissue and the static, frictionless contact problem of `demos/knee2d.py`
+# (Signorini conditions, dual mortar, PDAS; body weight in 4 load steps) is solved from
+# an unstressed state,
+#
+# $$-\nabla\cdot\mathbb C^{(0)} e(u) = 0, \qquad \tilde g_p \ge 0, \ \lambda_{n,p} \ge 0, \ \tilde g_p\lambda_{n,p} = 0,$$
+#
+# with the tumour isotropic and nearly incompressible, $E = 50$ kPa, $\nu = 0.49$
+# (bulk modulus $\kappa_b = E/(3(1-2\nu)) \approx 0.83$ MPa, shear modulus $\approx 17$ kPa),
+# its volumetric strain $\operatorname{tr} e(u)$ averaged at the vertices (average nodal
+# pressure, Bonet & Burton 1998) so that the P1 elements do not lock.
 
 # %%
 import json
@@ -38,8 +88,9 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact.run.dispatch import run_scene
-from bonecontact.scene.spec import load_scene
+from bonecontact.common.constants import SECONDS_PER_DAY
+from bonecontact.run import run_scene
+from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
@@ -59,7 +110,7 @@ s = result.summary
 if comm.rank == 0:
     g = s["growth"]
     print(f"tumour: R {1e3 * g['initial_radius']:.2f} -> {1e3 * g['final_radius']:.2f} mm in "
-          f"{g['final_time'] / 86400:.0f} days ({g['steps']} steps, {g['remeshes']} remeshes); "
+          f"{g['final_time'] / SECONDS_PER_DAY:.0f} days ({g['steps']} steps, {g['remeshes']} remeshes); "
           f"{len(s['coupling']['analyses'])} contact analyses; wall time {s['wall_time_s']:.1f} s")
 
 # %% [markdown]
@@ -82,10 +133,10 @@ if comm.rank == 0:
         last = pr[(pr["probe"] == 2) & (pr["step"] == pr["step"].max())]
         hist = np.genfromtxt(Path(a["directory"]) / "history.csv", delimiter=",", names=True, dtype=None,
                              encoding="utf-8")
-        rows.append((a["time"] / 86400, 1e3 * a["equivalent_radius"], -1e6 * float(last["u_y"][0]),
+        rows.append((a["time"] / SECONDS_PER_DAY, 1e3 * a["equivalent_radius"], -1e6 * float(last["u_y"][0]),
                      float(hist["normal_force"][-1])))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    a1.plot(gr["time"] / 86400, 1e3 * gr["equivalent_radius"], "o-", ms=3)
+    a1.plot(gr["time"] / SECONDS_PER_DAY, 1e3 * gr["equivalent_radius"], "o-", ms=3)
     a1.set_xlabel("time (days)")
     a1.set_ylabel("tumour equivalent radius √(A/π) (mm)")
     a1.grid(alpha=0.3)

@@ -26,6 +26,38 @@
 # or open it as a notebook (jupytext).  Results go to `results/long_bone/` (or to the
 # directory given as the first argument or in `BONECONTACT_OUTPUT`).  Units: SI; 2D
 # forces and energies are per metre of thickness.
+#
+# ## The equations
+# Kelvin–Voigt visco-elasticity (the bone model of Nedoma 2015) in plane strain,
+# displacement $u$ in m, on $\Omega$ = cortex $\cup$ core:
+#
+# $$\rho\ddot u - \nabla\cdot\sigma = 0 \quad\text{in } \Omega, \qquad
+# \sigma = \mathbb C^{(0)} e(u) + \mathbb C^{(1)} e(\dot u), \qquad \mathbb C^{(1)} = \tau_v\,\mathbb C^{(0)},
+# \qquad e(u) = \tfrac12\big(\nabla u + \nabla u^{\mathsf T}\big),$$
+#
+# $$u = 0 \ \text{on } \Gamma_{\text{distal}}, \qquad
+# \sigma n = \min(t/t_r, 1)\,\bar t \ \text{on } \Gamma_{\text{proximal}}, \qquad
+# \bar t = (0.2, -1.6)\ \text{MPa}, \quad t_r = 5\ \text{ms}, \qquad u(0) = \dot u(0) = 0,$$
+#
+# with $\tau_v = 2$ ms in both tissues, $\rho = 1900$ kg/m³ (cortex) and 450 kg/m³ (core).
+# The core is isotropic, $E = 1$ GPa, $\nu = 0.25$.  The cortex is transversely isotropic
+# about the bone axis $a = e_y$ (Reilly & Burstein 1975): in its material axes
+# $(1, 2)$ = isotropy plane, $3 = a$, the compliance in Voigt notation
+# $[11, 22, 33, 23, 13, 12]$ (engineering shears) is
+#
+# $$\mathbb S = \begin{pmatrix}
+# 1/E_p & -\nu_p/E_p & -\nu_{pa}/E_p & & & \\
+# -\nu_p/E_p & 1/E_p & -\nu_{pa}/E_p & & & \\
+# -\nu_{pa}/E_p & -\nu_{pa}/E_p & 1/E_a & & & \\
+# & & & 1/G_{pa} & & \\
+# & & & & 1/G_{pa} & \\
+# & & & & & 2(1+\nu_p)/E_p
+# \end{pmatrix}, \qquad \mathbb C^{(0)} = T^{\mathsf T}\,\mathbb S^{-1}\,T,$$
+#
+# $T$ the Voigt rotation from the global to the material axes, with $E_p = 11.5$ GPa,
+# $E_a = 17$ GPa, $\nu_p = 0.58$, $\nu_{pa} = 0.311$ ($\nu_{ap} = \nu_{pa}E_a/E_p$),
+# $G_{pa} = 3.3$ GPa.  Plane strain keeps the $[xx, yy, xy]$ block of $\mathbb C^{(0)}$.
+# More in [the mechanics notes](../docs/theory/mechanics.md).
 
 # %%
 import os
@@ -36,8 +68,8 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact.run.dispatch import run_scene
-from bonecontact.scene.spec import load_scene
+from bonecontact.run import run_scene
+from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
@@ -57,6 +89,20 @@ if comm.rank == 0:
 
 # %% [markdown]
 # ## Run it
+# With P1 elements, the mass, stiffness and viscous matrices
+# $M = (\rho u, v)$, $K = (\mathbb C^{(0)} e(u), e(v))$, $K_v = (\mathbb C^{(1)} e(u), e(v))$
+# and the load vector $F(t)$, the semi-implicit scheme (second difference for the
+# inertia, backward difference for the velocity, stiffness at the new time) is
+#
+# $$M\,\frac{u^{n+1} - 2u^n + u^{n-1}}{\Delta t^2} + K_v\,\frac{u^{n+1} - u^n}{\Delta t} + K u^{n+1} = F(t^{n+1}),
+# \qquad v^{n+1} = \frac{u^{n+1} - u^n}{\Delta t},$$
+#
+# that is $(M + \Delta t^2 K + \Delta t K_v)\,u^{n+1} = \Delta t^2 F(t^{n+1}) + M(2u^n - u^{n-1}) + \Delta t K_v u^n$,
+# with $\Delta t = 0.25$ ms up to $t = 10$ ms and $u^{-1} = u^0 - \Delta t\,v^0$.  It is
+# first-order accurate and unconditionally stable: the energy
+# $E = \tfrac12 v^{\mathsf T} M v + \tfrac12 u^{\mathsf T} K u$ obeys
+# $E^{n+1} - E^n = F^{n+1}\cdot(u^{n+1} - u^n) - \Delta t\,|v^{n+1}|^2_{K_v}
+# - \tfrac12|v^{n+1} - v^n|^2_M - \tfrac12|u^{n+1} - u^n|^2_K$ (work of the supports aside).
 # The operator is assembled and factorised once; each step is one forward/back solve.
 # `history.csv`, `probes.csv`, `summary.json` and the fields (`fields.xdmf` for
 # ParaView, `fields.pvd` for pyvista) are written as the run goes.

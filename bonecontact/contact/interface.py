@@ -15,7 +15,7 @@ turns those into the PETSc matrix ``Qᵀ`` of SPEC §4.3 (``U = Qᵀ Û``), so t
 
 Parallel design: a contact surface is small compared with the mesh, so its nodes and
 facets (not the system) are gathered on every rank; every rank integrates the slave
-facets it owns against all master facets (vectorised, :mod:`bonecontact.contact.mortar_geometry`),
+facets it owns against all master facets (vectorised, :mod:`bonecontact.contact.mortar_assembly`),
 ``D`` and the weighted gap are summed over ranks, and each row of ``M̂`` is sent to the
 rank owning it.  Normals are computed from the gathered surface, so a node shared by
 several ranks has the same normal everywhere and results do not depend on the
@@ -34,7 +34,13 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bonecontact.contact import mortar_geometry as mg
+from bonecontact.contact.dual_basis import (
+    element_mass_matrices,
+    modify_dual_coefficients,
+    reference_dual_coefficients,
+)
+from bonecontact.contact.geometry import facet_normals, nodal_normals, nodal_tangents
+from bonecontact.contact.mortar_assembly import assemble_mortar
 
 __all__ = ["ContactInterface", "ContactInputError", "RigidPlane", "build_interface", "basis_transform",
            "rotation_matrix"]
@@ -181,6 +187,200 @@ def _owner_ranges(comm: MPI.Comm, V: fem.FunctionSpace) -> npt.NDArray[np.int64]
     return np.array(comm.allgather(int(r[0])) + [V.dofmap.index_map.size_global], dtype=np.int64)
 
 
+@dataclass
+class _SlaveSurface:
+    """The slave surface gathered on every rank (compact node numbering)."""
+
+    gids: npt.NDArray[np.int64]          # global block of every node
+    x: npt.NDArray[np.float64]           # node coordinates
+    facets: npt.NDArray[np.int64]        # facets (compact node numbers)
+    interior: npt.NDArray[np.float64]    # a point inside the cell of every facet
+    own: slice                           # the facets this rank owns
+    measure: npt.NDArray[np.float64]     # facet measures
+    normals: npt.NDArray[np.float64]     # averaged unit nodal normals
+    size: float                          # largest extent of the surface (m)
+
+
+@dataclass
+class _MortarData:
+    """Mortar integrals of a slave surface, summed over ranks where they are nodal.
+
+    ``d`` and ``wgap`` (``D_pp``, ``d_p``) are per slave node; ``m_rows/m_cols/m_vals``
+    the local ``M`` triplets (slave node, master node), ``off_*`` the local off-diagonal
+    ``D`` triplets; ``normals`` the nodal normals the gap is measured along.
+    """
+
+    d: npt.NDArray[np.float64]
+    wgap: npt.NDArray[np.float64]
+    normals: npt.NDArray[np.float64]
+    m_gids: npt.NDArray[np.int64]
+    m_rows: npt.NDArray[np.int64]
+    m_cols: npt.NDArray[np.int64]
+    m_vals: npt.NDArray[np.float64]
+    off_r: npt.NDArray[np.int64]
+    off_c: npt.NDArray[np.int64]
+    off_v: npt.NDArray[np.float64]
+    covered: float
+
+
+def _gather_slave_surface(V: fem.FunctionSpace, facet_tags, slave: int, name: str) -> _SlaveSurface:
+    """Gather the slave group on every rank, check it, and compute its nodal normals."""
+    comm, gdim = V.mesh.comm, V.mesh.geometry.dim
+    s_gids, s_x, s_f, s_in, own = _gather_surface(comm, *_local_surface(V, facet_tags, slave))
+    if s_f.shape[0] == 0:
+        raise ContactInputError(f"contact {name!r}: the slave facet group {slave} is empty")
+    _, measure = facet_normals(s_x, s_f, s_in)
+    size = float(np.ptp(s_x, axis=0).max()) or 1.0
+    if (measure <= 1e-12 * size ** (gdim - 1)).any():
+        raise ContactInputError(f"contact {name!r}: degenerate (zero-measure) facets in slave group {slave}")
+    normals = nodal_normals(s_x, s_f, s_in)
+    return _SlaveSurface(s_gids, s_x, s_f, s_in, own, measure, normals, size)
+
+
+def _dirichlet_node_mask(V: fem.FunctionSpace, gids: npt.NDArray[np.int64],
+                         dirichlet_dofs: npt.ArrayLike | None) -> npt.NDArray[np.bool_]:
+    """Slave nodes with Dirichlet dofs (they carry no multiplier); collective."""
+    bs = V.dofmap.index_map_bs
+    mask = np.zeros(gids.size, dtype=np.int32)
+    if dirichlet_dofs is not None:
+        bc_blocks = np.unique(np.asarray(dirichlet_dofs, dtype=np.int64) // bs)
+        bc_blocks = bc_blocks[bc_blocks < V.dofmap.index_map.size_local]
+        gbc = V.dofmap.index_map.local_to_global(bc_blocks.astype(np.int32)).astype(np.int64)
+        mask[np.isin(gids, gbc)] = 1
+    return _allreduce(V.mesh.comm, mask, MPI.MAX, dtype=np.int32).astype(bool)
+
+
+def _rigid_plane_mortar(comm: MPI.Comm, surf: _SlaveSurface, plane: RigidPlane,
+                        mask: npt.NDArray[np.bool_]) -> _MortarData:
+    """``D`` and the weighted gap against a rigid plane (no master nodes, ``M = 0``)."""
+    s_x, n_nodes = surf.x, surf.gids.size
+    gdim = s_x.shape[1]
+    own_f = surf.facets[surf.own]
+    nu = np.asarray(plane.normal, dtype=float)[:gdim]
+    nu = nu / np.linalg.norm(nu)
+    x0 = np.asarray(plane.point, dtype=float)[:gdim]
+    base = reference_dual_coefficients(gdim)
+    coeffs = modify_dual_coefficients(base, mask[own_f]) if mask.any() else base
+    # facet matrices D_f[j, k] = ∫ψ_j φ_k (diagonal unless the basis was modified)
+    mass = element_mass_matrices(s_x[own_f]) if own_f.size else np.zeros((0, gdim, gdim))
+    c = np.broadcast_to(coeffs, (own_f.shape[0], gdim, gdim))
+    dfac = np.einsum("fjl,flk->fjk", c, mass)
+    gap_nodal = (x0 - s_x) @ nu
+    d = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjj->fj", dfac).ravel(),
+                                     minlength=n_nodes), MPI.SUM)
+    wgap = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjk,fk->fj", dfac,
+                                                                         gap_nodal[own_f]).ravel(),
+                                        minlength=n_nodes), MPI.SUM)
+    jj, kk = np.nonzero(~np.eye(gdim, dtype=bool))
+    empty = np.zeros(0, np.int64)
+    return _MortarData(d=d, wgap=wgap, normals=np.broadcast_to(nu, s_x.shape).copy(), m_gids=empty,
+                       m_rows=empty, m_cols=empty, m_vals=np.zeros(0),
+                       off_r=own_f[:, jj].ravel(), off_c=own_f[:, kk].ravel(), off_v=dfac[:, jj, kk].ravel(),
+                       covered=float(surf.measure.sum()))
+
+
+def _master_surface_mortar(V: fem.FunctionSpace, facet_tags, master: int, slave: int, surf: _SlaveSurface,
+                           mask: npt.NDArray[np.bool_], search_radius: float | None,
+                           name: str) -> _MortarData:
+    """Gather the master group on every rank and integrate the owned slave facets against it."""
+    comm, gdim = V.mesh.comm, V.mesh.geometry.dim
+    m_gids, m_x, m_f, _, _ = _gather_surface(comm, *_local_surface(V, facet_tags, master))
+    if m_f.shape[0] == 0:
+        raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
+    if np.isin(m_gids, surf.gids).any():
+        raise ContactInputError(f"contact {name!r}: slave and master surfaces share nodes; the bodies "
+                                "must be meshed separately (no shared interface nodes)")
+    measure = surf.measure
+    h_s = float(measure.max()) if gdim == 2 else float(np.sqrt(2.0 * measure.max()))
+    radius = search_radius if search_radius is not None else 3.0 * h_s
+    contrib = assemble_mortar(surf.x, surf.facets[surf.own], surf.normals, m_x, m_f, search_radius=radius,
+                              slave_node_mask=mask if mask.any() else None)
+    d = _allreduce(comm, contrib.d, MPI.SUM)
+    wgap = _allreduce(comm, contrib.gap, MPI.SUM)
+    covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
+    if covered <= 0.0:
+        raise ContactInputError(f"contact {name!r}: no master facet (group {master}) lies opposite the "
+                                f"slave surface (group {slave}) within {radius:.3g} m")
+    return _MortarData(d=d, wgap=wgap, normals=surf.normals, m_gids=m_gids, m_rows=contrib.m_rows,
+                       m_cols=contrib.m_cols, m_vals=contrib.m_vals, off_r=contrib.d_off_rows,
+                       off_c=contrib.d_off_cols, off_v=contrib.d_off_vals, covered=covered)
+
+
+def _multiplier_nodes(surf: _SlaveSurface, d: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+    """Slave nodes that carry a multiplier.
+
+    A node carries a multiplier when at least a tenth of its support is covered by the
+    master: barely covered nodes (D_pp → 0, or < 0 for the dual basis) would give
+    M̂ = D⁻¹M and d_p/D_pp without bound.  Such nodes only occur where the master
+    ends (far from any contact zone when the master is sized as it should be).
+    """
+    gdim = surf.x.shape[1]
+    full = np.bincount(surf.facets.ravel(), weights=np.repeat(surf.measure / gdim, gdim),
+                       minlength=surf.gids.size)
+    return d >= 0.1 * full
+
+
+def _check_initial_gap(comm: MPI.Comm, surf: _SlaveSurface, mortar: _MortarData, carries: npt.NDArray[np.bool_],
+                       max_penetration: float | None, name: str) -> None:
+    """Reject an initial interpenetration deeper than ``max_penetration`` (collective)."""
+    d, wgap = mortar.d, mortar.wgap
+    gap_all = np.where(carries, wgap / np.where(carries, d, 1.0), np.inf)
+    tol = max_penetration if max_penetration is not None else 1e-6 * surf.size
+    worst = comm.allreduce(float(gap_all[carries].min()) if carries.any() else np.inf, op=MPI.MIN)
+    if worst < -tol:
+        raise ContactInputError(f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
+                                f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes")
+
+
+def _mhat_triplets(comm: MPI.Comm, surf: _SlaveSurface, mortar: _MortarData, carries: npt.NDArray[np.bool_],
+                   bs: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64],
+                                     npt.NDArray[np.float64]]:
+    """Local triplets of ``M̂ = D⁻¹M`` in global dof numbers and the weights ``∫ψ_p``.
+
+    Rows are slave dofs, columns master dofs.  Off-diagonal D entries that couple a
+    node carrying a multiplier to a slave node without one (boundary-modified dual
+    basis) act like master entries with −D_pq.  Returns ``(rows, cols, vals, weight)``,
+    ``weight`` per slave node, summed over ranks.
+    """
+    s_gids, d = surf.gids, mortar.d
+    m_rows, m_cols, m_vals = mortar.m_rows, mortar.m_cols, mortar.m_vals
+    off_r, off_c, off_v = mortar.off_r, mortar.off_c, mortar.off_v
+    comp = np.arange(bs)
+    rows_l, cols_l, vals_l = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+    if m_vals.size:
+        keep = carries[m_rows]
+        r, c, v = m_rows[keep], m_cols[keep], m_vals[keep] / d[m_rows[keep]]
+        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
+        cols_l.append((bs * mortar.m_gids[c][:, None] + comp[None, :]).ravel())
+        vals_l.append(np.repeat(v, bs))
+    sel = carries[off_r] & ~carries[off_c] & (off_v != 0.0)
+    if sel.any():
+        r, c, v = off_r[sel], off_c[sel], -off_v[sel] / d[off_r[sel]]
+        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
+        cols_l.append((bs * s_gids[c][:, None] + comp[None, :]).ravel())
+        vals_l.append(np.repeat(v, bs))
+    rows, cols, vals = np.concatenate(rows_l), np.concatenate(cols_l), np.concatenate(vals_l)
+    # ∫ψ_p: the area a nodal multiplier acts on (D_pp plus the modified-basis part)
+    extra = np.bincount(off_r[sel], weights=off_v[sel], minlength=s_gids.size) if sel.any() \
+        else np.zeros(s_gids.size)
+    weight = d + _allreduce(comm, extra, MPI.SUM)
+    return rows, cols, vals, weight
+
+
+def _send_rows_to_owners(comm: MPI.Comm, row_ranges: npt.NDArray[np.int64], rows: npt.NDArray[np.int64],
+                         cols: npt.NDArray[np.int64], vals: npt.NDArray[np.float64],
+                         ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """Send every triplet to the rank owning its row (``row_ranges``: first row of every
+    rank, then the global size); returns the triplets this rank owns."""
+    owner = np.searchsorted(row_ranges, rows, side="right") - 1
+    send = [(rows[owner == k], cols[owner == k], vals[owner == k]) for k in range(comm.size)]
+    recv = comm.alltoall(send)
+    q_rows = np.concatenate([x[0] for x in recv]).astype(np.int64)
+    q_cols = np.concatenate([x[1] for x in recv]).astype(np.int64)
+    q_vals = np.concatenate([x[2] for x in recv])
+    return q_rows, q_cols, q_vals
+
+
 def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | RigidPlane, *,
                     dirichlet_dofs: npt.ArrayLike | None = None, name: str = "contact",
                     search_radius: float | None = None, max_penetration: float | None = None,
@@ -215,131 +415,37 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         Empty groups, degenerate facets, a slave surface that no master facet covers,
         initial interpenetration.
     """
-    msh = V.mesh
-    comm = msh.comm
-    gdim = msh.geometry.dim
+    comm = V.mesh.comm
+    gdim = V.mesh.geometry.dim
     bs = V.dofmap.index_map_bs
-    s_loc = _local_surface(V, facet_tags, slave)
-    s_gids, s_x, s_f, s_in, own = _gather_surface(comm, *s_loc)
-    if s_f.shape[0] == 0:
-        raise ContactInputError(f"contact {name!r}: the slave facet group {slave} is empty")
-    normals_f, measure = mg.facet_normals(s_x, s_f, s_in)
-    size = float(np.ptp(s_x, axis=0).max()) or 1.0
-    if (measure <= 1e-12 * size ** (gdim - 1)).any():
-        raise ContactInputError(f"contact {name!r}: degenerate (zero-measure) facets in slave group {slave}")
-    normals = mg.nodal_normals(s_x, s_f, s_in)
-
+    # slave surface on every rank, its normals
+    surf = _gather_slave_surface(V, facet_tags, slave, name)
     # slave nodes with Dirichlet dofs carry no multiplier
     ranges = _owner_ranges(comm, V)
     lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
-    mask = np.zeros(s_gids.size, dtype=np.int32)
-    if dirichlet_dofs is not None:
-        bc_blocks = np.unique(np.asarray(dirichlet_dofs, dtype=np.int64) // bs)
-        bc_blocks = bc_blocks[bc_blocks < V.dofmap.index_map.size_local]
-        gbc = V.dofmap.index_map.local_to_global(bc_blocks.astype(np.int32)).astype(np.int64)
-        mask[np.isin(s_gids, gbc)] = 1
-    mask = _allreduce(comm, mask, MPI.MAX, dtype=np.int32).astype(bool)
-
-    own_f = s_f[own]
+    mask = _dirichlet_node_mask(V, surf.gids, dirichlet_dofs)
+    # mortar integrals: D, weighted gap, M
     if isinstance(master, RigidPlane):
-        nu = np.asarray(master.normal, dtype=float)[:gdim]
-        nu = nu / np.linalg.norm(nu)
-        x0 = np.asarray(master.point, dtype=float)[:gdim]
-        base = mg.reference_dual_coefficients(gdim)
-        coeffs = mg.modify_dual_coefficients(base, mask[own_f]) if mask.any() else base
-        # facet matrices D_f[j, k] = ∫ψ_j φ_k (diagonal unless the basis was modified)
-        mass = mg.element_mass_matrices(s_x[own_f]) if own_f.size else np.zeros((0, gdim, gdim))
-        c = np.broadcast_to(coeffs, (own_f.shape[0], gdim, gdim))
-        dfac = np.einsum("fjl,flk->fjk", c, mass)
-        gap_nodal = (x0 - s_x) @ nu
-        d = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjj->fj", dfac).ravel(),
-                                         minlength=s_gids.size), MPI.SUM)
-        wgap = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjk,fk->fj", dfac,
-                                                                             gap_nodal[own_f]).ravel(),
-                                            minlength=s_gids.size), MPI.SUM)
-        jj, kk = np.nonzero(~np.eye(gdim, dtype=bool))
-        off_r = own_f[:, jj].ravel()
-        off_c = own_f[:, kk].ravel()
-        off_v = dfac[:, jj, kk].ravel()
-        normals = np.broadcast_to(nu, s_x.shape).copy()
-        m_rows = m_cols = np.zeros(0, np.int64)
-        m_vals = np.zeros(0)
-        covered = float(measure.sum())
-        m_gids = np.zeros(0, np.int64)
+        mortar = _rigid_plane_mortar(comm, surf, master, mask)
     else:
-        m_loc = _local_surface(V, facet_tags, master)
-        m_gids, m_x, m_f, m_in, _ = _gather_surface(comm, *m_loc)
-        if m_f.shape[0] == 0:
-            raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
-        if np.isin(m_gids, s_gids).any():
-            raise ContactInputError(f"contact {name!r}: slave and master surfaces share nodes; the bodies "
-                                    "must be meshed separately (no shared interface nodes)")
-        h_s = float(measure.max()) if gdim == 2 else float(np.sqrt(2.0 * measure.max()))
-        radius = search_radius if search_radius is not None else 3.0 * h_s
-        contrib = mg.assemble_mortar(s_x, own_f, normals, m_x, m_f, search_radius=radius,
-                                     slave_node_mask=mask if mask.any() else None)
-        d = _allreduce(comm, contrib.d, MPI.SUM)
-        wgap = _allreduce(comm, contrib.gap, MPI.SUM)
-        covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
-        m_rows, m_cols, m_vals = contrib.m_rows, contrib.m_cols, contrib.m_vals
-        off_r, off_c, off_v = contrib.d_off_rows, contrib.d_off_cols, contrib.d_off_vals
-        if covered <= 0.0:
-            raise ContactInputError(f"contact {name!r}: no master facet (group {master}) lies opposite the "
-                                    f"slave surface (group {slave}) within {radius:.3g} m")
-    slave_area = float(measure.sum())
-    # A node carries a multiplier when at least a tenth of its support is covered by the
-    # master: barely covered nodes (D_pp → 0, or < 0 for the dual basis) would give
-    # M̂ = D⁻¹M and d_p/D_pp without bound.  Such nodes only occur where the master
-    # ends (far from any contact zone when the master is sized as it should be).
-    full = np.bincount(s_f.ravel(), weights=np.repeat(measure / gdim, gdim), minlength=s_gids.size)
-    carries = d >= 0.1 * full
+        mortar = _master_surface_mortar(V, facet_tags, master, slave, surf, mask, search_radius, name)
+    # nodes carrying a multiplier, initial interpenetration
+    carries = _multiplier_nodes(surf, mortar.d)
+    _check_initial_gap(comm, surf, mortar, carries, max_penetration, name)
+    # M̂ rows to their owners
+    rows, cols, vals, weight = _mhat_triplets(comm, surf, mortar, carries, bs)
+    q_rows, q_cols, q_vals = _send_rows_to_owners(comm, bs * ranges, rows, cols, vals)
     # owned slave nodes
-    owned = (s_gids >= lo) & (s_gids < hi) & carries
-    idx = np.flatnonzero(owned)
-    gap_all = np.where(carries, wgap / np.where(carries, d, 1.0), np.inf)
-    tol = max_penetration if max_penetration is not None else 1e-6 * size
-    worst = comm.allreduce(float(gap_all[carries].min()) if carries.any() else np.inf, op=MPI.MIN)
-    if worst < -tol:
-        raise ContactInputError(f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
-                                f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes")
-
-    # M̂ rows to their owners: rows = slave dofs, cols = master dofs (global dof numbers).
-    # Off-diagonal D entries that couple a node carrying a multiplier to a slave node
-    # without one (boundary-modified dual basis) act like master entries with −D_pq.
-    comp = np.arange(bs)
-    rows_l, cols_l, vals_l = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
-    if m_vals.size:
-        keep = carries[m_rows]
-        r, c, v = m_rows[keep], m_cols[keep], m_vals[keep] / d[m_rows[keep]]
-        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
-        cols_l.append((bs * m_gids[c][:, None] + comp[None, :]).ravel())
-        vals_l.append(np.repeat(v, bs))
-    sel = carries[off_r] & ~carries[off_c] & (off_v != 0.0)
-    if sel.any():
-        r, c, v = off_r[sel], off_c[sel], -off_v[sel] / d[off_r[sel]]
-        rows_l.append((bs * s_gids[r][:, None] + comp[None, :]).ravel())
-        cols_l.append((bs * s_gids[c][:, None] + comp[None, :]).ravel())
-        vals_l.append(np.repeat(v, bs))
-    rows, cols, vals = np.concatenate(rows_l), np.concatenate(cols_l), np.concatenate(vals_l)
-    # ∫ψ_p: the area a nodal multiplier acts on (D_pp plus the modified-basis part)
-    extra = np.bincount(off_r[sel], weights=off_v[sel], minlength=s_gids.size) if sel.any() \
-        else np.zeros(s_gids.size)
-    weight = d + _allreduce(comm, extra, MPI.SUM)
-    owner = np.searchsorted(bs * ranges, rows, side="right") - 1
-    send = [(rows[owner == k], cols[owner == k], vals[owner == k]) for k in range(comm.size)]
-    recv = comm.alltoall(send)
-    q_rows = np.concatenate([x[0] for x in recv]).astype(np.int64)
-    q_cols = np.concatenate([x[1] for x in recv]).astype(np.int64)
-    q_vals = np.concatenate([x[2] for x in recv])
-
-    n = normals[idx]
+    idx = np.flatnonzero((surf.gids >= lo) & (surf.gids < hi) & carries)
+    n = mortar.normals[idx]
     return ContactInterface(
         name=name, gdim=gdim,
-        blocks=(s_gids[idx] - lo).astype(np.int32), global_blocks=s_gids[idx],
-        coords=s_x[idx], normals=n, tangents=mg.nodal_tangents(n) if idx.size else np.zeros((0, gdim - 1, gdim)),
-        D=d[idx], weighted_gap=wgap[idx], weight=weight[idx],
+        blocks=(surf.gids[idx] - lo).astype(np.int32), global_blocks=surf.gids[idx],
+        coords=surf.x[idx], normals=n, tangents=nodal_tangents(n) if idx.size else np.zeros((0, gdim - 1, gdim)),
+        D=mortar.d[idx], weighted_gap=mortar.wgap[idx], weight=weight[idx],
         qt_rows=q_rows, qt_cols=q_cols, qt_vals=q_vals,
-        slave_area=slave_area, covered_area=float(covered), rigid=isinstance(master, RigidPlane))
+        slave_area=float(surf.measure.sum()), covered_area=float(mortar.covered),
+        rigid=isinstance(master, RigidPlane))
 
 
 # ------------------------------------------------------------------------ operators

@@ -24,7 +24,7 @@ Sets at iteration k (SPEC §5.2) and what each does to the rows (SPEC §5.3):
   exactly the semi-smooth Newton step of C_t (SPEC (51)).  In 3D (default
   ``slip_3d="newton"``) the rows are replaced by the damped semi-smooth Newton
   linearisation of ``|ξ| λ_t − ĝ ξ = 0``, ``ξ = λ_t + c_t Δu_t``
-  (Hüeber–Stadler–Wohlmuth 2008; see :meth:`ContactSolver._slip_newton_rows`): a
+  (Hüeber–Stadler–Wohlmuth 2008; see :func:`bonecontact.contact.friction.slip_newton_rows`): a
   nonsymmetric 2×2 coupling of traction and slip per node, locally superlinear
   (4–6 iterations per Cattaneo–Mindlin increment).  ``slip_3d="fixed_point"``
   prescribes ``λ_t = ĝ_p s_p`` along the previous direction and iterates the
@@ -80,7 +80,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -89,10 +88,20 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bonecontact.common.linalg import configure_ksp
-from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
+from bonecontact.contact.friction import (
+    FRICTION_KIND,
+    aitken_directions,
+    coulomb_fixed_point_bounds,
+    slip_directions,
+    slip_newton_rows,
+    slip_set,
+    step_bounds,
+)
 from bonecontact.contact.interface import ContactInterface, basis_transform, rotation_matrix
+from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
+from bonecontact.contact.options import PDASOptions
 
-__all__ = ["ContactConvergenceError", "ContactSolver", "FrictionLaw", "PDASResult", "snes_vi_solve"]
+__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult"]
 
 
 class ContactConvergenceError(RuntimeError):
@@ -105,34 +114,6 @@ class ContactConvergenceError(RuntimeError):
                          f"{h['changed']:7d}  {h['update']:.3e}  {h.get('bound_change', 0.0):.3e}")
         super().__init__("\n".join(lines))
         self.history = history
-
-
-@dataclass(frozen=True)
-class FrictionLaw:
-    """Friction of one contact pair.
-
-    Parameters
-    ----------
-    kind
-        ``"none"``, ``"tresca"`` (bound ``bound`` in Pa) or ``"coulomb"`` (coefficient
-        ``coefficient``).
-    update
-        Coulomb only: ``"previous_step"`` (bound μ λ_n of the previous step) or
-        ``"fixed_point"`` (Algorithm FP).
-    """
-
-    kind: Literal["none", "tresca", "coulomb"] = "none"
-    coefficient: float = 0.0
-    bound: float = 0.0
-    update: Literal["previous_step", "fixed_point"] = "previous_step"
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("none", "tresca", "coulomb"):
-            raise ValueError(f"friction kind must be 'none', 'tresca' or 'coulomb', got {self.kind!r}")
-        if self.update not in ("previous_step", "fixed_point"):
-            raise ValueError(f"coulomb update must be 'previous_step' or 'fixed_point', got {self.update!r}")
-        if self.coefficient < 0 or self.bound < 0:
-            raise ValueError("friction coefficient and bound must be >= 0")
 
 
 @dataclass
@@ -167,96 +148,123 @@ def _allsum(comm: MPI.Comm, x) -> float:
     return comm.allreduce(x, op=MPI.SUM)
 
 
+@dataclass
+class _PDASState:
+    """The state of one contact solve carried from one PDAS iteration to the next
+    (replicated per-node arrays)."""
+
+    b: PETSc.Vec                      # the step's right-hand side (Dirichlet values)
+    an: npt.NDArray[np.bool_]         # active set A_n
+    stick: npt.NDArray[np.bool_]      # stick set (active friction nodes without slip)
+    dirs: npt.NDArray[np.float64]     # slip directions s_p, (NS, gdim − 1)
+    g: npt.NDArray[np.float64]        # friction bounds ĝ_p (in operator units)
+    xold: npt.NDArray[np.float64]     # unknowns at the start of the step
+    values: npt.NDArray[np.float64]   # prescribed values of fixed rows (gap, old slip)
+    x_prev: npt.NDArray[np.float64]   # unknowns of the previous iteration
+    margin: npt.NDArray[np.float64] | None = None     # rows' distance to switching
+    lam_t_k: npt.NDArray[np.float64] | None = None    # 3D Newton: last traction
+    z_k: npt.NDArray[np.float64] | None = None        # 3D Newton: last ξ = λ_t + c_t Δu_t
+    aitken: list = field(default_factory=lambda: [None, 1.0])   # 3D slip directions: residual, relaxation
+    history: list[dict] = field(default_factory=list)
+    seen: set = field(default_factory=set)
+    lin_total: int = 0
+    n_bound: int = 0
+    f0: int = 0                       # low-rank counters at the start of the solve
+    c0: int = 0
+
+
+@dataclass
+class _Iterate:
+    """What one PDAS iteration computed from its linear solve (replicated arrays)."""
+
+    x: npt.NDArray[np.float64]
+    lam_n: npt.NDArray[np.float64]
+    lam_t: npt.NDArray[np.float64]
+    un: npt.NDArray[np.float64]
+    dut: npt.NDArray[np.float64]
+    eps: float
+    ind_n: npt.NDArray[np.float64]
+    z: npt.NDArray[np.float64]
+    zn: npt.NDArray[np.float64]
+    new_an: npt.NDArray[np.bool_] | None = None
+    new_stick: npt.NDArray[np.bool_] | None = None
+    new_dirs: npt.NDArray[np.float64] | None = None
+    changed_sets: int = 0
+    changed_t: int = 0
+    turned: int = 0
+    bound_change: float = 0.0
+
+
 class ContactSolver:
     """PDAS for mortar contact with Tresca/Coulomb friction (see the module docstring).
+
+    The solver is built in two stages: the constructor takes the space, the contact
+    pairs and the options; :meth:`setup` (called by
+    :class:`bonecontact.mechanics.integrator.Integrator`, which is handed the solver)
+    takes the operator of the time step, its Dirichlet rows, the force scale and the
+    linear solver.  The solver is the integrator's
+    :class:`~bonecontact.mechanics.step_solver.StepSolver`: besides :meth:`solve` it
+    provides the contact gaps and contact work of the energy balance.
 
     Parameters
     ----------
     V
         The P1 vector space of the model.
-    A
-        The operator of one time step with Dirichlet rows and columns already
-        eliminated (e.g. ``Integrator.A_bc``); it is transformed once here.
     interfaces
         The contact pairs (:func:`bonecontact.contact.interface.build_interface`).
-    bc_rows
-        Global PETSc rows (owned) with Dirichlet conditions.
-    linear
-        ``"direct"`` or ``"iterative"``.
-    force_scale
-        Factor turning the operator's forces into physical ones (1 for static;
-        1/Δt quasistatic; 1/Δt² dynamic, matching ``combined_operator``).
-    friction
-        One :class:`FrictionLaw` for every pair, or a list with one per pair
-        (default: frictionless).
-    c_n, c_t
-        Complementarity parameters (default: see the module docstring), in Pa/m.
-    max_iterations
-        PDAS iteration limit (all iterations of a solve, bound updates included).
-    gap_tol
-        Gaps below this (m) count as closed for the cold start (default 1e-9 × the
-        slave surface size).
-    rtol
-        Krylov tolerance (iterative solver).
-    strategy
-        ``"lowrank"`` (default with ``linear="direct"``): one factorisation reused through
-        low-rank updates; ``"refactor"``: factorise/precondition every iteration
-        (the only choice with ``linear="iterative"``).
-    max_columns, rebase_ratio
-        Low-rank strategy: cache limit (columns) and the cost ratio (columns against one
-        factorisation) beyond which the current set is refactorised instead
-        (:class:`bonecontact.contact.lowrank.LowRankActiveSetSolver`).
-    fp_every, fp_tol
-        Coulomb ``fixed_point``: update the bounds every ``fp_every`` iterations (and
-        whenever the sets have settled); converged when their relative change is
-        below ``fp_tol``.
-    direction_tol
-        3D friction: slip directions must change by less than this between iterations
-        (and, with ``slip_3d="newton"``, the slip traction must equal the bound times the
-        direction to this relative accuracy).
-    cold_start_fraction
-        Cold start only (no warm start): the first set update activates, of the nodes
-        that penetrate after the first solve, only those whose penetration exceeds this
-        fraction of the deepest (0 = all).  The first solve holds the bodies at the
-        closest nodes only, so it overestimates the contact zone (by ≈ √2 in radius for
-        a Hertzian contact); the damped update starts the PDAS near the final set and
-        saves iterations and low-rank columns.  Only the path changes: the converged
-        solution is the same.
-    slip_3d
-        3D slip nodes: ``"newton"`` (default) — the damped semi-smooth Newton
-        linearisation of C_t (Hüeber–Stadler–Wohlmuth), nonsymmetric rows;
-        ``"fixed_point"`` — the traction is prescribed along the previous slip direction
-        and the direction iterated (Aitken-accelerated) to a fixed point.
+    options
+        :class:`~bonecontact.contact.options.PDASOptions` (default: all defaults,
+        frictionless).
     """
 
-    def __init__(self, V: fem.FunctionSpace, A: PETSc.Mat, interfaces: list[ContactInterface],
-                 bc_rows: npt.ArrayLike | None = None, *, linear: str = "direct", force_scale: float = 1.0,
-                 friction: FrictionLaw | list[FrictionLaw] | None = None,
-                 c_n: float | None = None, c_t: float | None = None, max_iterations: int = 50,
-                 gap_tol: float | None = None, rtol: float = 1e-12, prefix: str = "bc_contact_",
-                 strategy: str = "auto", max_columns: int = 2000, rebase_ratio: float = 1.0,
-                 fp_every: int = 1, fp_tol: float = 1e-8, direction_tol: float = 1e-6,
-                 slip_3d: str = "newton", cold_start_fraction: float = 0.7):
-        t0 = time.perf_counter()
+    def __init__(self, V: fem.FunctionSpace, interfaces: list[ContactInterface],
+                 options: PDASOptions | None = None):
         self.V, self.interfaces = V, list(interfaces)
+        self.options = options if options is not None else PDASOptions()
+        self.frictions = self.options.frictions(len(self.interfaces))
         self.comm = V.mesh.comm
-        comm = self.comm
-        self.bs = bs = V.dofmap.index_map_bs
+        self.bs = V.dofmap.index_map_bs
+        self.last_result: PDASResult | None = None
+        self.Qt = None
+        self._gap_vecs: tuple[PETSc.Vec, PETSc.Vec] | None = None
+        self._work_gaps: list[npt.NDArray[np.float64]] = []
+
+    @property
+    def slave_blocks(self) -> list[npt.NDArray[np.int32]]:
+        """Local blocks of the owned slave nodes that carry a multiplier, per pair."""
+        return [itf.blocks for itf in self.interfaces]
+
+    def setup(self, A: PETSc.Mat, bc_rows: npt.ArrayLike | None = None, *, force_scale: float = 1.0,
+              linear: str = "direct", rtol: float = 1e-12) -> None:
+        """Transform and factorise (or precondition) the operator of the time step.
+
+        Parameters
+        ----------
+        A
+            The operator of one time step with Dirichlet rows and columns already
+            eliminated (e.g. ``Integrator.A_bc``); it is transformed once here.
+        bc_rows
+            Global PETSc rows (owned) with Dirichlet conditions.
+        force_scale
+            Factor turning the operator's forces into physical ones (1 for static;
+            1/Δt quasistatic; 1/Δt² dynamic, matching ``combined_operator``).
+        linear
+            ``"direct"`` or ``"iterative"``.
+        rtol
+            Krylov tolerance (iterative solver).
+        """
+        t0 = time.perf_counter()
+        opts = self.options
+        V, comm, bs = self.V, self.comm, self.bs
+        c_n, c_t, gap_tol, strategy = opts.c_n, opts.c_t, opts.gap_tol, opts.strategy
+        prefix, max_columns, rebase_ratio, slip_3d = opts.prefix, opts.max_columns, opts.rebase_ratio, opts.slip_3d
         self.force_scale = float(force_scale)
-        self.max_iterations = int(max_iterations)
+        self.max_iterations = int(opts.max_iterations)
         self.linear = linear
-        self.fp_every, self.fp_tol, self.direction_tol = max(int(fp_every), 1), float(fp_tol), float(direction_tol)
-        if slip_3d not in ("newton", "fixed_point"):
-            raise ValueError(f"slip_3d must be 'newton' or 'fixed_point', got {slip_3d!r}")
-        self.slip_3d = slip_3d
-        if not 0.0 <= cold_start_fraction < 1.0:
-            raise ValueError(f"cold_start_fraction must be in [0, 1), got {cold_start_fraction}")
-        self.cold_start_fraction = float(cold_start_fraction)
-        if friction is None:
-            friction = FrictionLaw()
-        self.frictions = list(friction) if isinstance(friction, (list, tuple)) else [friction] * len(self.interfaces)
-        if len(self.frictions) != len(self.interfaces):
-            raise ValueError(f"{len(self.frictions)} friction laws for {len(self.interfaces)} contact pairs")
+        self.fp_every, self.fp_tol = max(int(opts.fp_every), 1), float(opts.fp_tol)
+        self.direction_tol = float(opts.direction_tol)
+        self.slip_3d = opts.slip_3d
+        self.cold_start_fraction = float(opts.cold_start_fraction)
         self.Qt = basis_transform(V, self.interfaces)
         self.Ahat = A.PtAP(self.Qt)
         self.T = rotation_matrix(V, self.interfaces)
@@ -288,7 +296,7 @@ class ContactSolver:
         # ---- replicated node data
         self._D = self._gn(np.concatenate([itf.D for itf in self.interfaces] + [np.zeros(0)]))
         self._gap = self._gn(np.concatenate([itf.gap for itf in self.interfaces] + [np.zeros(0)]))
-        kind = {"none": 0, "tresca": 1, "coulomb": 2}
+        kind = FRICTION_KIND
         per = lambda f: self._gn(np.concatenate([np.full(n, f(fl), dtype=float)  # noqa: E731
                                                  for n, fl in zip(sizes, self.frictions)] + [np.zeros(0)]))
         self._fkind = per(lambda fl: kind[fl.kind]).astype(int)
@@ -443,212 +451,227 @@ class ContactSolver:
         ``b`` is the right-hand side of the step with Dirichlet lifting applied (as
         for the plain linear solve).  Sets, slip directions and ``Û`` are warm-started
         from the previous call; the slip of this step is measured from its ``Û``.
+
+        The algorithm, one PDAS iteration per pass of steps 3–9:
+
+        1. right-hand side in the slave frames (:meth:`_assemble_rhs`);
+        2. stick predictor from the previous step (:meth:`_predict`);
+        3. solve the system of the current sets (:meth:`_solve_linear_system`);
+        4. multipliers and indicators from the solution (:meth:`_update_multipliers`);
+        5. new active set (:meth:`_update_active_set`);
+        6. Coulomb fixed point: friction bounds (:meth:`_update_friction_bounds`);
+        7. new stick/slip sets and slip directions (:meth:`_update_slip_sets`);
+        8. converged when nothing changed (:meth:`_check_convergence`);
+        9. accept the new sets, detect cycling (:meth:`_accept_sets`);
+        10. ``U = Qᵀ Tᵀ Ũ`` and the result (:meth:`_finish`).
         """
+        if self.Qt is None:
+            raise RuntimeError("ContactSolver.solve before setup (the Integrator sets the solver up)")
         t0 = time.perf_counter()
-        comm, bs, NS = self.comm, self.bs, self.NS
+        self._assemble_rhs(b)
+        st = self._predict(b)
+        for k in range(1, self.max_iterations + 1):
+            x, w, its, extra = self._solve_linear_system(st, k)
+            it = self._update_multipliers(st, x, w)
+            self._update_active_set(st, it, k)
+            self._update_friction_bounds(st, it, k)
+            self._update_slip_sets(st, it)
+            if self._check_convergence(st, it, k, its, extra):
+                break
+            self._accept_sets(st, it, k)
+        else:
+            raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
+                                          st.history)
+        self.last_result = self._finish(st, it, u, t0)
+        return self.last_result
+
+    def _assemble_rhs(self, b: PETSc.Vec) -> None:
+        """Step 1: ``T F̂ = T Q b`` (Dirichlet rows keep their prescribed values)."""
         self.Qt.multTranspose(b, self._Fh)
         self.T.mult(self._Fh, self._r0)
         if self.bc_local.size:
             self._r0.array[self.bc_local] = b.array[self.bc_local]
+
+    def _predict(self, b: PETSc.Vec) -> _PDASState:
+        """Step 2: the warm-started sets with every active friction node sticking.
+
+        Stick predictor: every active friction node starts the step sticking (the
+        elastic trial state); the first solve shows where the bound is exceeded.
+        """
         R = self._ridx
-        D, gap, fric = self._D, self._gap, self._fric
-        Dsafe = np.where(D > 0, D, 1.0)
         xold = self._gn(self.Uh.array[self._L])
         values = xold.copy()
-        values[R[0]] = gap
-        # stick predictor: every active friction node starts the step sticking (the
-        # elastic trial state); the first solve shows where the bound is exceeded
-        an, stick, dirs = self._an.copy(), self._an & fric, self._dir.copy()
-        g = np.where(self._fkind == 1, self._bound, self._mu * np.maximum(self._lam_n_prev, 0.0))
+        values[R[0]] = self._gap
+        st = _PDASState(b=b, an=self._an.copy(), stick=self._an & self._fric, dirs=self._dir.copy(),
+                        g=step_bounds(self._fkind, self._bound, self._mu, self._lam_n_prev),
+                        xold=xold, values=values, x_prev=xold)
         lr = self.lowrank
         if lr is not None:
-            f0, c0 = lr.factorizations, lr.columns
-            lr.begin(self._r0, b.array[self.bc_local], values, self._fixed_rows(an, stick))
-        history: list[dict] = []
-        seen: set = set()
-        lin_total, n_bound = 0, 0
-        margin = None
-        x_prev = xold
-        aitken: list = [None, 1.0]       # 3D slip directions: previous residual, relaxation
-        lam_t_k = z_k = None             # 3D Newton: traction and ξ = λ_t + c_t Δu_t of the last iterate
-        newton = self._newton_3d
-        for k in range(1, self.max_iterations + 1):
-            fixed = self._fixed_rows(an, stick)
-            slip = an & fric & ~stick
-            wg = np.zeros(bs * NS)
-            coupled = None
-            if newton:
-                # (a slip node with a zero bound is a free row with zero force: no Newton row)
-                if (slip & (g > 0.0)).any():
-                    coupled = self._slip_newton_rows(np.flatnonzero(slip & (g > 0.0)), lam_t_k, z_k, g, xold)
-            else:
-                for j in range(1, bs):
-                    wg[R[j][slip]] = (g * D * dirs[:, j - 1])[slip]
-            try:
-                if lr is not None:
-                    x, w, info = lr.solve_set(fixed, self._scale, wg, margin, coupled)
-                    its = 1
-                    extra = {"columns": info["columns"], "refactorized": info["refactorized"]}
-                else:
-                    x, w, its = self._solve_refactor(fixed, values, wg, b, coupled)
-                    extra = {}
-            except SingularActiveSetError as exc:
-                raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", history) from None
-            lin_total += its
-            lam_n = w[R[0]] / Dsafe
-            lam_t = np.stack([w[R[j]] / Dsafe for j in range(1, bs)], axis=1)
-            un = x[R[0]]
-            dut = np.stack([x[R[j]] - xold[R[j]] for j in range(1, bs)], axis=1)
-            lam_scale = float(np.abs(lam_n).max()) if NS else 0.0
-            eps = 1e-10 * max(lam_scale, 1e-300)
-            ind_n = lam_n + self.c_n * (un - gap)
-            new_an = ind_n > eps
-            if k == 1 and self._cold and self.cold_start_fraction > 0 and (new_an & ~an).any():
-                # damped first activation (cold start only): of the newly penetrating nodes
-                # keep those within cold_start_fraction of the deepest penetration
-                pen = un - gap
-                new_an &= an | (pen > self.cold_start_fraction * float(pen[new_an & ~an].max()))
-            # Coulomb fixed point (Algorithm FP): bounds from the current normal multipliers
-            changed_sets = int((new_an != an).sum())
-            z = lam_t + self.c_t * dut
-            zn = np.linalg.norm(z, axis=1)
-            bound_change = 0.0
-            if self._fp.any():
-                # the sets have settled for the current bounds: update them now
-                trial_stick = new_an & fric & ~self._slip_set(new_an, zn, g, eps)
-                settle = changed_sets == 0 and not ((trial_stick != stick) & new_an & fric).any()
-                if k % self.fp_every == 0 or settle:
-                    g_new = g.copy()
-                    g_new[self._fp] = self._mu[self._fp] * np.maximum(lam_n[self._fp], 0.0)
-                    den = float(np.linalg.norm(g_new[self._fp]))
-                    bound_change = float(np.linalg.norm(g_new[self._fp] - g[self._fp])) / den if den > 0 else 0.0
-                    if bound_change > 0.0:
-                        g = g_new
-                        n_bound += 1
-                        seen.clear()
-            new_slip = self._slip_set(new_an, zn, g, eps)
-            new_dirs = dirs.copy()
-            nz = new_slip & (zn > 0)
-            new_dirs[nz] = z[nz] / zn[nz, None]
-            # a node whose slip reverses under the prescribed traction overshot: it sticks
-            # next (without this, large c_t makes whole slip zones flip back and forth)
-            reverse = new_slip & slip & (g > 0.0) & ((new_dirs * dirs).sum(axis=1) < 0.0)
-            new_slip &= ~reverse
-            new_stick = new_an & fric & ~new_slip
-            changed_t = int(((new_stick != stick) & new_an & fric).sum())
-            both = new_slip & slip
-            if bs == 2:
-                changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
-                turned = 0
-            elif newton:   # 3D Newton: directions settled and λ_t = ĝ s on the slip nodes (ĝ > 0)
-                bg = both & (g > 0.0)
-                turned = int((np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum())
-                gs = max(float(g.max()) if NS else 0.0, eps)
-                off = np.linalg.norm(lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1) > self.direction_tol * gs
-                turned += int(off.sum())
-            else:   # 3D: slip directions converge (linearly) to a fixed point
-                turned = int((np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum())
-                # Aitken-accelerated direction update while the sets stay the same
-                res_d = np.where(both[:, None], new_dirs - dirs, 0.0).ravel()
-                if (changed_sets + changed_t == 0 and aitken[0] is not None
-                        and aitken[0].shape == res_d.shape):
-                    dr = res_d - aitken[0]
-                    den = float(dr @ dr)
-                    if den > 0:
-                        aitken[1] = float(np.clip(-aitken[1] * float(aitken[0] @ dr) / den, 0.2, 20.0))
-                else:
-                    aitken[1] = 1.0
-                aitken[0] = res_d
-                if aitken[1] != 1.0:
-                    upd = dirs[both] + aitken[1] * (new_dirs[both] - dirs[both])
-                    nrm_d = np.linalg.norm(upd, axis=1)
-                    ok = nrm_d > 1e-12
-                    idx = np.flatnonzero(both)[ok]
-                    new_dirs[idx] = upd[ok] / nrm_d[ok, None]
-            changed = changed_sets + changed_t + turned
-            nrm = float(np.linalg.norm(x))
-            update = float(np.linalg.norm(x - x_prev)) / nrm if nrm > 0 else 0.0
-            x_prev = x
-            history.append({"iteration": k, "active": int(an.sum()), "stick": int((an & stick & fric).sum()),
-                            "slip": int(slip.sum()), "changed": changed, "update": update,
-                            "bound_change": bound_change, "linear_iterations": its, **extra})
-            if changed == 0 and bound_change <= self.fp_tol:
-                break
-            # margins: how close each row is to switching (for speculative low-rank columns)
-            margin = np.full(bs * NS, np.inf)
-            margin[R[0]] = np.abs(ind_n - eps)
-            for j in range(1, bs):
-                margin[R[j][new_an & fric]] = np.abs(zn - g)[new_an & fric]
-            an, stick, dirs = new_an, new_stick, new_dirs
-            lam_t_k, z_k = lam_t, z
-            if changed_sets + changed_t == 0:
-                continue          # only 3D slip directions still turning: not a cycle
-            sig = (an.tobytes(), stick.tobytes(), np.sign(dirs).tobytes() if bs == 2 else b"")
-            if sig in seen:
-                raise ContactConvergenceError(f"contact: the active set cycles (iteration {k + 1} repeats an "
-                                              f"earlier set)", history)
-            seen.add(sig)
+            st.f0, st.c0 = lr.factorizations, lr.columns
+            lr.begin(self._r0, b.array[self.bc_local], values, self._fixed_rows(st.an, st.stick))
+        return st
+
+    def _solve_linear_system(self, st: _PDASState, k: int) -> tuple[np.ndarray, np.ndarray, int, dict]:
+        """Step 3: solve with the rows of the current sets replaced (SPEC §5.3).
+
+        Active normal rows and stick rows are prescribed (``values``); 2D slip rows (and
+        3D fixed-point slip rows) carry the prescribed force ``ĝ D s``; 3D Newton slip
+        rows are replaced by their linearisation.  Returns the replicated unknowns and
+        the forces ``w`` of the contact rows, the linear iterations and extra history.
+        """
+        bs, D, fric, g = self.bs, self._D, self._fric, st.g
+        R = self._ridx
+        fixed = self._fixed_rows(st.an, st.stick)
+        slip = st.an & fric & ~st.stick
+        wg = np.zeros(bs * self.NS)
+        coupled = None
+        if self._newton_3d:
+            # (a slip node with a zero bound is a free row with zero force: no Newton row)
+            if (slip & (g > 0.0)).any():
+                S = np.flatnonzero(slip & (g > 0.0))
+                rows = np.stack([R[j][S] for j in range(1, bs)], axis=1)
+                coupled = slip_newton_rows(rows, D[S], self.c_t, st.lam_t_k[S], st.z_k[S], g[S], st.xold)
         else:
-            raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
-                                          history)
+            for j in range(1, bs):
+                wg[R[j][slip]] = (g * D * st.dirs[:, j - 1])[slip]
+        try:
+            if self.lowrank is not None:
+                x, w, info = self.lowrank.solve_set(fixed, self._scale, wg, st.margin, coupled)
+                its = 1
+                extra = {"columns": info["columns"], "refactorized": info["refactorized"]}
+            else:
+                x, w, its = self._solve_refactor(fixed, st.values, wg, st.b, coupled)
+                extra = {}
+        except SingularActiveSetError as exc:
+            raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", st.history) from None
+        st.lin_total += its
+        return x, w, its, extra
+
+    def _update_multipliers(self, st: _PDASState, x: np.ndarray, w: np.ndarray) -> _Iterate:
+        """Step 4: ``λ = w / D``, the normal approach, the slip of the step, the normal
+        indicator ``λ_n + c_n (u_n − g)`` and ``ξ = λ_t + c_t Δu_t``."""
+        bs, R = self.bs, self._ridx
+        Dsafe = np.where(self._D > 0, self._D, 1.0)
+        lam_n = w[R[0]] / Dsafe
+        lam_t = np.stack([w[R[j]] / Dsafe for j in range(1, bs)], axis=1)
+        un = x[R[0]]
+        dut = np.stack([x[R[j]] - st.xold[R[j]] for j in range(1, bs)], axis=1)
+        lam_scale = float(np.abs(lam_n).max()) if self.NS else 0.0
+        eps = 1e-10 * max(lam_scale, 1e-300)
+        ind_n = lam_n + self.c_n * (un - self._gap)
+        z = lam_t + self.c_t * dut
+        return _Iterate(x=x, lam_n=lam_n, lam_t=lam_t, un=un, dut=dut, eps=eps, ind_n=ind_n, z=z,
+                        zn=np.linalg.norm(z, axis=1))
+
+    def _update_active_set(self, st: _PDASState, it: _Iterate, k: int) -> None:
+        """Step 5: ``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0`` (SPEC §5.2).
+
+        Damped first activation (cold start only): of the newly penetrating nodes keep
+        those within ``cold_start_fraction`` of the deepest penetration.
+        """
+        an = st.an
+        new_an = it.ind_n > it.eps
+        if k == 1 and self._cold and self.cold_start_fraction > 0 and (new_an & ~an).any():
+            pen = it.un - self._gap
+            new_an &= an | (pen > self.cold_start_fraction * float(pen[new_an & ~an].max()))
+        it.new_an = new_an
+        it.changed_sets = int((new_an != an).sum())
+
+    def _update_friction_bounds(self, st: _PDASState, it: _Iterate, k: int) -> None:
+        """Step 6: Coulomb fixed point (Algorithm FP): bounds from the current normal
+        multipliers, every ``fp_every`` iterations and whenever the sets have settled
+        for the current bounds."""
+        it.bound_change = 0.0
+        if not self._fp.any():
+            return
+        fric, g, new_an = self._fric, st.g, it.new_an
+        trial_stick = new_an & fric & ~slip_set(new_an, fric, it.zn, g, it.eps)
+        settle = it.changed_sets == 0 and not ((trial_stick != st.stick) & new_an & fric).any()
+        if k % self.fp_every == 0 or settle:
+            g_new, it.bound_change = coulomb_fixed_point_bounds(g, self._fp, self._mu, it.lam_n)
+            if it.bound_change > 0.0:
+                st.g = g_new
+                st.n_bound += 1
+                st.seen.clear()
+
+    def _update_slip_sets(self, st: _PDASState, it: _Iterate) -> None:
+        """Step 7: stick/slip sets and slip directions, and how many of them changed.
+
+        2D: a slip node changes when its direction (sign) flips.  3D Newton: directions
+        settled and ``λ_t = ĝ s`` on the slip nodes (ĝ > 0).  3D fixed point: directions
+        converge (linearly, Aitken-accelerated) to a fixed point.
+        """
+        fric, g, dirs, new_an = self._fric, st.g, st.dirs, it.new_an
+        slip = st.an & fric & ~st.stick
+        new_slip, new_dirs = slip_directions(slip_set(new_an, fric, it.zn, g, it.eps), slip, it.z, it.zn, g, dirs)
+        new_stick = new_an & fric & ~new_slip
+        changed_t = int(((new_stick != st.stick) & new_an & fric).sum())
+        both = new_slip & slip
+        if self.bs == 2:
+            changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
+            turned = 0
+        elif self._newton_3d:
+            bg = both & (g > 0.0)
+            turned = int((np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum())
+            gs = max(float(g.max()) if self.NS else 0.0, it.eps)
+            off = np.linalg.norm(it.lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1) > self.direction_tol * gs
+            turned += int(off.sum())
+        else:
+            turned = int((np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum())
+            aitken_directions(both, dirs, new_dirs, it.changed_sets + changed_t != 0, st.aitken)
+        it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned
+
+    def _check_convergence(self, st: _PDASState, it: _Iterate, k: int, its: int, extra: dict) -> bool:
+        """Step 8: record the iteration; converged when no set, sign or direction changed
+        and the friction bounds are settled."""
+        changed = it.changed_sets + it.changed_t + it.turned
+        nrm = float(np.linalg.norm(it.x))
+        update = float(np.linalg.norm(it.x - st.x_prev)) / nrm if nrm > 0 else 0.0
+        st.x_prev = it.x
+        an, fric = st.an, self._fric
+        st.history.append({"iteration": k, "active": int(an.sum()), "stick": int((an & st.stick & fric).sum()),
+                           "slip": int((an & fric & ~st.stick).sum()), "changed": changed, "update": update,
+                           "bound_change": it.bound_change, "linear_iterations": its, **extra})
+        return changed == 0 and it.bound_change <= self.fp_tol
+
+    def _accept_sets(self, st: _PDASState, it: _Iterate, k: int) -> None:
+        """Step 9: take the new sets, with the margins of every row to switching (for the
+        speculative low-rank columns); a repeated set with unchanged bounds is cycling."""
+        bs, R, fric = self.bs, self._ridx, self._fric
+        margin = np.full(bs * self.NS, np.inf)
+        margin[R[0]] = np.abs(it.ind_n - it.eps)
+        for j in range(1, bs):
+            margin[R[j][it.new_an & fric]] = np.abs(it.zn - st.g)[it.new_an & fric]
+        st.margin = margin
+        st.an, st.stick, st.dirs = it.new_an, it.new_stick, it.new_dirs
+        st.lam_t_k, st.z_k = it.lam_t, it.z
+        if it.changed_sets + it.changed_t == 0:
+            return          # only 3D slip directions still turning: not a cycle
+        sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes() if bs == 2 else b"")
+        if sig in st.seen:
+            raise ContactConvergenceError(f"contact: the active set cycles (iteration {k + 1} repeats an "
+                                          f"earlier set)", st.history)
+        st.seen.add(sig)
+
+    def _finish(self, st: _PDASState, it: _Iterate, u: fem.Function, t0: float) -> PDASResult:
+        """Step 10: keep the sets for the next warm start, write ``U = Qᵀ Tᵀ Ũ`` into ``u``."""
+        lr = self.lowrank
         if lr is not None:
             lr.finish(self.Uh)
-            n_fact, n_cols = lr.factorizations - f0, lr.columns - c0
+            n_fact, n_cols = lr.factorizations - st.f0, lr.columns - st.c0
         else:
-            n_fact, n_cols = (len(history) if self.linear == "direct" else 0), 0
-        self._an, self._dir = an, dirs
+            n_fact, n_cols = (len(st.history) if self.linear == "direct" else 0), 0
+        an = st.an
+        self._an, self._dir = an, st.dirs
         self._cold = False
-        self._lam_n_prev = np.where(an, lam_n, 0.0)
+        self._lam_n_prev = np.where(an, it.lam_n, 0.0)
         uhat = self.Tt.createVecLeft()
         self.Tt.mult(self.Uh, uhat)                   # Û = Tᵀ Ũ
         self.Qt.mult(uhat, u.x.petsc_vec)             # U = Qᵀ Û
         uhat.destroy()
         u.x.scatter_forward()
-        return self._result(an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0)
-
-    def _slip_newton_rows(self, S: npt.NDArray, lam_t: npt.NDArray, z: npt.NDArray, g: npt.NDArray,
-                          xold: npt.NDArray) -> tuple:
-        """The damped semi-smooth Newton rows of 3D slip nodes ``S`` (Hüeber–Stadler–Wohlmuth).
-
-        At a slip node, ``C_t = |ξ| λ_t − ĝ ξ = 0`` with ``ξ = λ_t + c_t Δu_t``.  Linearised at
-        the last iterate ``(λ^k, ξ^k)``, ``n = ξ^k/|ξ^k|``:
-
-        ``|ξ^k| λ_t − ĝ ξ + θ λ̃ nᵀ (ξ − ξ^k) = 0``,
-
-        with ``λ̃ = ĝ λ^k / max(ĝ, |λ^k|)`` (the traction projected on the friction disc) and
-        ``θ = β = 1/(1 − αδ)`` where ``λ^k`` points away from ``ξ^k``
-        (``α = λ^kᵀn/|λ^k| < 0``, ``δ = min(|λ^k|/ĝ, 1)``), else θ = 1: the damping of
-        Hüeber–Stadler–Wohlmuth (SPEC appendix A).  θ = 1 with ``|λ^k| ≤ ĝ`` is the exact
-        Newton step; every θ keeps the solution (at ``ξ = ξ^k`` the row reads
-        ``λ_t = ĝ n``).  With ``λ_t = w_t / D``, ``Δu_t = x_t − x_t^{old}`` the rows read
-        ``G w_t + H x_t = h``.
-        """
-        R, D, c = self._ridx, self._D[S], self.c_t
-        rows = np.stack([R[j][S] for j in range(1, self.bs)], axis=1)
-        zk, lk, gk = z[S], lam_t[S], g[S]
-        zn = np.linalg.norm(zk, axis=1)
-        n = zk / zn[:, None]
-        lt = lk * (gk / np.maximum(np.maximum(gk, np.linalg.norm(lk, axis=1)), 1e-300))[:, None]
-        # HSW damping (SPEC appendix A): where λ^k points away from ξ^k (α < 0) the term is
-        # scaled by β = 1/(1 − αδ) ∈ [1/2, 1), δ = min(|λ^k|/ĝ, 1)
-        lnorm = np.linalg.norm(lk, axis=1)
-        alpha = (lk * n).sum(axis=1) / np.maximum(lnorm, 1e-300)
-        delta = np.minimum(lnorm / np.maximum(gk, 1e-300), 1.0)
-        theta = 1.0 / (1.0 - np.minimum(alpha, 0.0) * delta)
-        eye = np.eye(self.bs - 1)[None, :, :]
-        outer = (theta[:, None] * lt)[:, :, None] * n[:, None, :]                    # θ λ̃ nᵀ
-        Gm = (1.0 - gk / zn)[:, None, None] * eye + outer / zn[:, None, None]
-        Hp = c * (outer - gk[:, None, None] * eye) / zn[:, None, None]
-        xo = xold[rows]
-        h = D[:, None] * (theta[:, None] * lt + np.einsum("iab,ib->ia", Hp, xo))
-        return rows, Gm, D[:, None, None] * Hp, h
-
-    def _slip_set(self, an: np.ndarray, zn: np.ndarray, g: np.ndarray, eps: float) -> np.ndarray:
-        """Active friction nodes with |λ_t + c_t Δu_t| above the bound (SPEC §5.2); a node
-        with a zero bound (Coulomb with no pressure yet) slips: it carries no tangential
-        traction (a "stick" decided on round-off of ξ ≈ 0 could only toggle)."""
-        gtol = 1e-10 * max(float(g.max()) if self.NS else 0.0, eps)
-        return an & self._fric & ((zn > g + gtol) | (g <= 0.0))
+        return self._result(an, st.stick, it.lam_n, it.lam_t, it.un, it.dut, st.history, st.lin_total, n_fact,
+                            n_cols, st.n_bound, t0)
 
     def _result(self, an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0):
         comm, fs = self.comm, self.force_scale
@@ -676,53 +699,62 @@ class ContactSolver:
                           columns=n_cols, traction_t=tracs, status=stats, tangential_force=tforces,
                           n_stick=n_stick, n_slip=n_slip, bound_updates=n_bound)
 
+    # ------------------------------------------------------------------ energy balance
+    def contact_gaps(self, u: fem.Function) -> list[npt.NDArray[np.float64]]:
+        """Nodal normal gaps g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) of every pair for the
+        displacement ``u``, in the order of ``interface.blocks`` (owned slave nodes)."""
+        if self._gap_vecs is None:
+            self._gap_vecs = (self.Qt.createVecLeft(), self.T.createVecLeft())
+        tmp, r = self._gap_vecs
+        U = u.x.petsc_vec
+        self.Qt.mult(U, tmp)
+        tmp.aypx(-1.0, U)
+        tmp.axpy(1.0, U)                  # Û = (2I − Qᵀ) U  (Qᵀ − I is nilpotent)
+        self.T.mult(tmp, r)               # rows bs·p: n_p·Û_p
+        bs = self.bs
+        return [itf.gap - r.array[bs * itf.blocks] for itf in self.interfaces]
+
+    def _snap(self, gaps: list[npt.NDArray[np.float64]]) -> list[npt.NDArray[np.float64]]:
+        """Gaps with |g| below 1e-12 of the slave surface size (geometric round-off of
+        touching bodies) set to 0, so that closed contact does exactly no work."""
+        out = []
+        for itf, g in zip(self.interfaces, gaps):
+            tol = 1e-12 * itf.slave_area ** (1.0 / max(itf.gdim - 1, 1))
+            out.append(np.where(np.abs(g) <= tol, 0.0, g))
+        return out
+
+    def start_contact_work(self, u: fem.Function) -> None:
+        """Take the gaps of ``u`` (the initial state) as those before the next step."""
+        self._work_gaps = self._snap(self.contact_gaps(u))
+
+    def contact_work(self, u: fem.Function) -> float:
+        """This rank's part of the contact work of the step just solved (``u``: its solution).
+
+        ``W_c = Σ_p D_pp λ_p (g_pⁿ⁺¹ − g_pⁿ)`` over the owned slave nodes, minus the friction
+        work ``Σ_p D_pp λ_t,p · Δu_t,p`` (≤ 0).  The gaps after the step are those the PDAS
+        returned (exactly 0 at active nodes, so persistent contact does exactly no work);
+        before: those of the previous step (or of :meth:`start_contact_work`).
+        """
+        res = self.last_result
+        gaps = self._snap(res.gap if res is not None else self.contact_gaps(u))
+        work = 0.0
+        for k, itf in enumerate(self.interfaces):
+            p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
+            work += float((itf.D * p * (gaps[k] - self._work_gaps[k])).sum())
+            if res is not None and res.traction_t and itf.num_owned:
+                # friction: the force −D λ_t on the slip Δu_t of the step (≤ 0)
+                work -= float((itf.D[:, None] * res.traction_t[k] * res.slip[k]).sum())
+        self._work_gaps = gaps
+        return work
+
     def destroy(self) -> None:
+        """Free the PETSc objects."""
+        if self.Qt is None:
+            return
         if self.lowrank is not None:
             self.lowrank.destroy()
         for obj in (self.ksp, self.B, self.At, self.T, self.Tt, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
-                    self._w, self._Fh):
+                    self._w, self._Fh, *(self._gap_vecs or ())):
             if obj is not None:
                 obj.destroy()
 
-
-def snes_vi_solve(A: PETSc.Mat, b: PETSc.Vec, lower: PETSc.Vec, upper: PETSc.Vec,
-                  prefix: str = "vi_") -> tuple[PETSc.Vec, int, int]:
-    """Independent reference: solve ``A x = b`` subject to ``lower ≤ x ≤ upper`` with
-    PETSc's reduced-space active-set Newton (SNES ``vinewtonrsls``, MUMPS inside).
-
-    For a body pressed onto a rigid plane the dual-mortar constraint is nodal, so this
-    is the same discrete problem as the PDAS solves (tests and benchmarks compare them).
-
-    Returns
-    -------
-    (x, iterations, converged_reason)
-    """
-    snes = PETSc.SNES().create(A.getComm())
-    snes.setOptionsPrefix(prefix)
-    r = A.createVecLeft()
-
-    def residual(snes_, x, f):
-        A.mult(x, f)
-        f.axpy(-1.0, b)
-
-    def jacobian(snes_, x, J, P):
-        return True  # linear problem: the Jacobian is A
-
-    snes.setFunction(residual, r)
-    snes.setJacobian(jacobian, A, A)
-    snes.setType("vinewtonrsls")
-    snes.getLineSearch().setType("basic")
-    snes.setVariableBounds(lower, upper)
-    snes.setTolerances(atol=1e-12 * b.norm(), rtol=1e-12, stol=0.0, max_it=200)
-    ksp = snes.getKSP()
-    ksp.setType("preonly")
-    ksp.getPC().setType("lu")
-    ksp.getPC().setFactorSolverType("mumps")
-    snes.setFromOptions()
-    x = A.createVecRight()
-    x.set(0.0)
-    snes.solve(None, x)
-    out = (x, snes.getIterationNumber(), snes.getConvergedReason())
-    snes.destroy()
-    r.destroy()
-    return out

@@ -53,6 +53,7 @@ from petsc4py import PETSc
 
 from bonecontact.common.linalg import create_solver, owned_global_rows, rigid_body_modes
 from bonecontact.mechanics.model import Mechanics
+from bonecontact.mechanics.step_solver import StepSolver
 
 __all__ = ["Integrator", "StepInfo", "Energy", "EnergyBalance", "redistributed_mass"]
 
@@ -124,7 +125,7 @@ class EnergyBalance:
                 setattr(self, f.name, getattr(self, f.name) + getattr(step, f.name))
 
 
-def redistributed_mass(model: Mechanics, interfaces: list) -> PETSc.Mat:
+def redistributed_mass(model: Mechanics, slave_blocks: list[np.ndarray]) -> PETSc.Mat:
     """Mass matrix without inertia at the slave contact nodes (chatter removal).
 
     Mass redistribution in the spirit of Khenous, Laborde & Renard (Eur. J. Mech. A
@@ -144,8 +145,9 @@ def redistributed_mass(model: Mechanics, interfaces: list) -> PETSc.Mat:
     ----------
     model
         The mechanics model (P1 vector space ``model.V``).
-    interfaces
-        Contact interfaces (:func:`bonecontact.contact.interface.build_interface`).
+    slave_blocks
+        Local dof blocks of the slave contact nodes, per contact pair (e.g.
+        ``interface.blocks``, or :attr:`StepSolver.slave_blocks`).
 
     Returns
     -------
@@ -156,8 +158,8 @@ def redistributed_mass(model: Mechanics, interfaces: list) -> PETSc.Mat:
     bs = V.dofmap.index_map_bs
     tdim = msh.topology.dim
     mark = fem.Function(V)
-    for itf in interfaces:
-        mark.x.array[bs * itf.blocks] = 1.0
+    for blocks in slave_blocks:
+        mark.x.array[bs * blocks] = 1.0
     mark.x.scatter_forward()  # owned slave blocks → ghosts
     contact_block = mark.x.array[::bs] > 0.0
     cells = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
@@ -217,13 +219,20 @@ class Integrator:
     rtol
         Krylov tolerance for the iterative solver.
     contact
-        Contact interfaces (:func:`bonecontact.contact.interface.build_interface`): every step is
-        then solved by the PDAS (:class:`bonecontact.contact.pdas.ContactSolver`) instead of a
-        single linear solve; ``self.last_contact`` holds the last
-        :class:`~bonecontact.contact.pdas.PDASResult`.
-    contact_options
-        Keyword arguments for :class:`~bonecontact.contact.pdas.ContactSolver`
-        (``max_iterations``, ``c_n``, ``gap_tol``).
+        A step solver (:class:`~bonecontact.mechanics.step_solver.StepSolver`), in practice
+        the contact solver: every step is then solved by it instead of a single linear
+        solve.  The integrator sets it up with its operator (Dirichlet rows eliminated),
+        its Dirichlet rows, the force scale of the scheme, ``linear`` and ``rtol``;
+        ``self.last_contact`` holds the result of the last step (for the PDAS a
+        :class:`~bonecontact.contact.pdas.PDASResult`).  From a notebook::
+
+            itf = build_interface(model.V, facet_tags, slave=3, master=4)
+            integ = Integrator(model, "static", 1.0,
+                               contact=ContactSolver(model.V, [itf], PDASOptions(max_iterations=30)))
+
+        (``ContactSolver``, ``PDASOptions`` and ``build_interface`` from
+        :mod:`bonecontact.contact`).  The integrator destroys the solver in
+        :meth:`destroy`.
     energy_balance
         Compute the energy balance of every step (module docstring; a few
         matrix–vector products per step): ``self.last_balance`` holds the last
@@ -237,8 +246,8 @@ class Integrator:
     """
 
     def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12,
-                 contact: list | None = None, contact_options: dict | None = None,
-                 energy_balance: bool = False, mass_redistribution: bool = False):
+                 contact: StepSolver | None = None, energy_balance: bool = False,
+                 mass_redistribution: bool = False):
         if dt <= 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         if kind not in ("static", "quasistatic", "dynamic"):
@@ -268,7 +277,7 @@ class Integrator:
         if mass_redistribution:
             if kind != "dynamic" or not contact:
                 raise ValueError("mass_redistribution needs a dynamic analysis with contact")
-            self.M = redistributed_mass(model, contact)
+            self.M = redistributed_mass(model, contact.slave_blocks)
             self._dM = self.M.duplicate(copy=True)
             self._dM.axpy(-1.0, model.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             self.A.axpy(coeffs[0], self._dM, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
@@ -280,14 +289,11 @@ class Integrator:
         self._has_bc = model.mesh.comm.allreduce(int(self._bc_local.size)) > 0
         self.A_bc = self.A.duplicate(copy=True)
         self.A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
-        self.contact = None
+        self.contact = contact
         self.last_contact = None
-        if contact:
-            from bonecontact.contact.pdas import ContactSolver
-
+        if contact is not None:
             self.ksp = None
-            self.contact = ContactSolver(V, self.A_bc, contact, self._bc_rows, linear=linear,
-                                         force_scale=1.0 / coeffs[1], rtol=rtol, **(contact_options or {}))
+            contact.setup(self.A_bc, self._bc_rows, force_scale=1.0 / coeffs[1], linear=linear, rtol=rtol)
         else:
             nns = rigid_body_modes(V) if linear == "iterative" else None
             self.ksp = create_solver(self.A_bc, linear, nns, rtol=rtol)
@@ -298,15 +304,9 @@ class Integrator:
         self.energy_balance = bool(energy_balance)
         self.last_balance: EnergyBalance | None = None
         self.balance = EnergyBalance()
-        self._interfaces = list(contact or [])
         self._eb: dict = {}
         if self.energy_balance:
             self._eb = {k: self._b.duplicate() for k in ("du", "du_prev", "r", "tmp")}
-            if self._interfaces:
-                from bonecontact.contact.interface import basis_transform, rotation_matrix
-
-                self._eb["Qt"] = basis_transform(V, self._interfaces)
-                self._eb["T"] = rotation_matrix(V, self._interfaces)
             self._reset_balance()
 
     # -------------------------------------------------------------- set-up
@@ -343,7 +343,8 @@ class Integrator:
                 b.axpy(dt, w)
         return b
 
-    def _apply_dirichlet(self, t: float, b: PETSc.Vec) -> None:
+    def apply_dirichlet(self, t: float, b: PETSc.Vec) -> None:
+        """Lift the Dirichlet values at time ``t`` into ``b`` (symmetric elimination)."""
         if not self._has_bc:
             return
         g = self._g
@@ -367,7 +368,7 @@ class Integrator:
         t = (self.step_count + 1) * self.dt  # not a running sum: no round-off drift in t
         t0 = _time.perf_counter()
         b = self.rhs(t)
-        self._apply_dirichlet(t, b)
+        self.apply_dirichlet(t, b)
         if self.contact is not None:
             self.last_contact = self.contact.solve(b, self.u)
             its = self.last_contact.linear_iterations
@@ -408,33 +409,19 @@ class Integrator:
     def contact_gaps(self, u: fem.Function | None = None) -> list[np.ndarray]:
         """Nodal normal gaps g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) of every contact
         interface for the displacement ``u`` (default: the current state ``u_n``), in
-        the order of ``interface.blocks`` (owned slave nodes).  Needs ``energy_balance``.
+        the order of ``interface.blocks`` (owned slave nodes), from the contact solver.
+        Needs ``energy_balance``.
         """
-        if "Qt" not in self._eb:
-            raise RuntimeError("contact_gaps needs Integrator(..., contact=[...], energy_balance=True)")
-        U = (self.u_n if u is None else u).x.petsc_vec
-        Qt, T, tmp, r = self._eb["Qt"], self._eb["T"], self._eb["tmp"], self._eb["r"]
-        Qt.mult(U, tmp)
-        tmp.aypx(-1.0, U)
-        tmp.axpy(1.0, U)                  # Û = (2I − Qᵀ) U  (Qᵀ − I is nilpotent)
-        T.mult(tmp, r)                    # rows bs·p: n_p·Û_p
-        bs = self.model.V.dofmap.index_map_bs
-        return [itf.gap - r.array[bs * itf.blocks] for itf in self._interfaces]
+        if self.contact is None or not self.energy_balance:
+            raise RuntimeError("contact_gaps needs Integrator(..., contact=ContactSolver(...), energy_balance=True)")
+        return self.contact.contact_gaps(self.u_n if u is None else u)
 
     def _reset_balance(self) -> None:
         e = self.energy()
         self.balance = EnergyBalance(kinetic=e.kinetic, strain=e.strain)
         self.last_balance = None
-        self._gaps = self._snap(self.contact_gaps()) if "Qt" in self._eb else []
-
-    def _snap(self, gaps: list[np.ndarray]) -> list[np.ndarray]:
-        """Gaps with |g| below 1e-12 of the slave surface size (geometric round-off of
-        touching bodies) set to 0, so that closed contact does exactly no work."""
-        out = []
-        for itf, g in zip(self._interfaces, gaps):
-            tol = 1e-12 * itf.slave_area ** (1.0 / max(itf.gdim - 1, 1))
-            out.append(np.where(np.abs(g) <= tol, 0.0, g))
-        return out
+        if self.contact is not None:
+            self.contact.start_contact_work(self.u_n)
 
     def _balance_step(self) -> EnergyBalance:
         """Energy balance of the step just solved (``self.u`` holds uⁿ⁺¹; history not shifted).
@@ -475,18 +462,9 @@ class Integrator:
         bc = self._bc_owned_local
         part[3] = float(rdu[bc].sum()) if bc.size else 0.0
         part[4] = float(rdu.sum()) - part[3]
-        if self._gaps:
-            # gaps after the step as the PDAS returns them (exactly 0 at active nodes,
-            # so persistent contact does exactly no work); before: the previous ones
-            res = self.last_contact
-            gaps = self._snap(res.gap if res is not None else self.contact_gaps(self.u))
-            for k, itf in enumerate(self._interfaces):
-                p = res.pressure[k] if res is not None else np.zeros(itf.num_owned)
-                part[5] += float((itf.D * p * (gaps[k] - self._gaps[k])).sum())
-                if res is not None and res.traction_t and itf.num_owned:
-                    # friction: the force −D λ_t on the slip Δu_t of the step (≤ 0)
-                    part[5] -= float((itf.D[:, None] * res.traction_t[k] * res.slip[k]).sum())
-            self._gaps = gaps
+        if self.contact is not None:
+            # from the multipliers and the gaps the contact solver returned
+            part[5] = self.contact.contact_work(self.u)
         kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(part, op=MPI.SUM)
         before = self.balance.total
         defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)

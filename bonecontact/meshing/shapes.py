@@ -1,4 +1,5 @@
-"""Parametric gmsh geometries with named physical groups.
+"""Parametric gmsh geometries with named physical groups (the bone sections are in
+:mod:`bonecontact.meshing.anatomy`).
 
 Every builder creates a gmsh model on rank 0 of ``comm`` and either distributes it as a
 DOLFINx mesh (returning :class:`dolfinx.io.gmsh.MeshData`, whose ``physical_groups`` maps
@@ -15,142 +16,32 @@ Units are SI (m).  Conventions shared by all builders:
 * ``h`` is the target element size.  Physical-group tags are unique over all dimensions.
 
 gmsh is initialised only if it is not already (and then finalised again), with terminal
-output off; a gmsh error on rank 0 is raised as :class:`MeshingError` on every rank.
+output off (:func:`bonecontact.meshing.session.gmsh_session`); a gmsh error on rank 0 is
+raised as :class:`~bonecontact.meshing.builder.MeshingError` on every rank.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
-import numpy as np
-
 import gmsh
+from dolfinx.io.gmsh import MeshData
 from mpi4py import MPI
 
-from dolfinx.io.gmsh import MeshData, model_to_mesh
+from bonecontact.meshing.builder import (PhysicalGroups, block_groups, boundary_tags, bounding_box, check_positive,
+                                         entities_at, generate, set_size)
 
 __all__ = [
-    "MeshingError",
     "quarter_tube",
     "rectangle",
     "box",
     "cantilever",
-    "long_bone_2d",
     "two_blocks_2d",
     "two_boxes_3d",
     "hertz_2d",
     "hertz_3d",
     "stacked_blocks_2d",
-    "knee_2d",
 ]
-
-_EPS = 1e-9  # relative tolerance for picking entities by their centre of mass
-
-
-class MeshingError(RuntimeError):
-    """gmsh failed to build or mesh a geometry."""
-
-
-# ----------------------------------------------------------------------------- plumbing
-@contextmanager
-def _gmsh_model(name: str) -> Iterator[None]:
-    """A fresh, quiet gmsh model; gmsh is initialised (and finalised) here if needed."""
-    own = not gmsh.isInitialized()
-    if own:
-        gmsh.initialize(interruptible=False)
-    terminal = gmsh.option.getNumber("General.Terminal")
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add(name)
-    try:
-        yield
-    finally:
-        if own:
-            gmsh.finalize()
-        else:
-            gmsh.model.remove()
-            gmsh.option.setNumber("General.Terminal", terminal)
-
-
-def _generate(name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | None,
-              path: str | Path | None) -> MeshData | Path:
-    """Run ``build`` (geometry, sizes, physical groups) on rank 0, mesh, then distribute or write."""
-    comm = MPI.COMM_WORLD if comm is None else comm
-    with _gmsh_model(name) if comm.rank == 0 else nullcontext():
-        error = None
-        if comm.rank == 0:
-            try:
-                build()
-                gmsh.model.mesh.generate(dim)
-                if path is not None:
-                    Path(path).parent.mkdir(parents=True, exist_ok=True)
-                    gmsh.write(str(path))
-            except Exception as exc:  # reported on every rank below
-                error = f"{type(exc).__name__}: {exc}"
-        error = comm.bcast(error, root=0)
-        if error is not None:
-            raise MeshingError(f"{name}: {error}")
-        if path is not None:
-            comm.barrier()
-            return Path(path)
-        return model_to_mesh(gmsh.model, comm, 0, gdim=dim)
-
-
-def _bbox(dim: int, tag: int) -> tuple[float, ...]:
-    return gmsh.model.getBoundingBox(dim, tag)
-
-
-def _boundary(dim: int, tag: int) -> list[int]:
-    """Tags of the (dim-1)-entities bounding entity (dim, tag)."""
-    return [abs(t) for _, t in gmsh.model.getBoundary([(dim, tag)], combined=False, oriented=False)]
-
-
-def _where(tags: list[int], dim: int, axis: int, value: float, scale: float) -> list[int]:
-    """The entities among ``tags`` whose centre of mass has ``x[axis] = value``.
-
-    (For the axis-aligned faces of a block this picks exactly the face in that plane; OCC
-    bounding boxes are padded by its tolerance, centres of mass are not.)
-    """
-    tol = _EPS * scale
-    return [t for t in tags if abs(gmsh.model.occ.getCenterOfMass(dim, t)[axis] - value) < tol]
-
-
-def _set_size(dimtags: list[tuple[int, int]], h: float) -> None:
-    """Target size ``h`` at every point of the given entities."""
-    points = gmsh.model.getBoundary(dimtags, combined=False, oriented=False, recursive=True)
-    gmsh.model.mesh.setSize(points, h)
-
-
-class _Groups:
-    """Adds named physical groups with tags that are unique over all dimensions."""
-
-    def __init__(self) -> None:
-        self._next = 1
-
-    def __call__(self, dim: int, tags: list[int], name: str) -> None:
-        if not tags:
-            raise MeshingError(f"physical group {name!r} would be empty")
-        gmsh.model.addPhysicalGroup(dim, sorted(set(tags)), self._next, name=name)
-        self._next += 1
-
-
-def _positive(**values: float) -> None:
-    for key, v in values.items():
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{key} must be a positive number (SI units), got {v!r}")
-
-
-def _block_groups(groups: _Groups, dim: int, tag: int, prefix: str, lo: tuple[float, ...],
-                  hi: tuple[float, ...], scale: float, names: dict[str, str] | None = None) -> None:
-    """Tag the faces of an axis-aligned block by side: left/right (x), bottom/top (y),
-    front/back (z, 3D), named ``prefix + side`` unless ``names`` renames a side."""
-    sides = _boundary(dim, tag)
-    names = names or {}
-    for axis, (low, high) in enumerate((("left", "right"), ("bottom", "top"), ("front", "back"))[:dim]):
-        for side, value in ((low, lo[axis]), (high, hi[axis])):
-            groups(dim - 1, _where(sides, dim - 1, axis, value, scale), names.get(side, prefix + side))
 
 
 # ----------------------------------------------------------------------------- builders
@@ -177,7 +68,7 @@ def quarter_tube(r_in: float, r_out: float, h: float, comm: MPI.Comm | None,
         Cell group ``"tube"``; facet groups ``"inner"`` (r = r_in), ``"outer"``
         (r = r_out), ``"x0"`` (the edge on x = 0) and ``"y0"`` (the edge on y = 0).
     """
-    _positive(r_in=r_in, r_out=r_out, h=h)
+    check_positive(r_in=r_in, r_out=r_out, h=h)
     if r_in >= r_out:
         raise ValueError(f"r_in must be smaller than r_out, got r_in={r_in}, r_out={r_out}")
 
@@ -193,13 +84,13 @@ def quarter_tube(r_in: float, r_out: float, h: float, comm: MPI.Comm | None,
         surface = occ.addPlaneSurface([occ.addCurveLoop([y0, outer, x0, inner])])
         occ.remove([(0, c)])
         occ.synchronize()
-        _set_size([(2, surface)], h)
-        groups = _Groups()
+        set_size([(2, surface)], h)
+        groups = PhysicalGroups()
         groups(2, [surface], "tube")
         for tag, name in ((inner, "inner"), (outer, "outer"), (x0, "x0"), (y0, "y0")):
             groups(1, [tag], name)
 
-    return _generate("quarter_tube", 2, build, comm, path)
+    return generate("quarter_tube", 2, build, comm, path)
 
 
 def rectangle(lx: float, ly: float, nx: int, ny: int, comm: MPI.Comm | None,
@@ -226,25 +117,25 @@ def rectangle(lx: float, ly: float, nx: int, ny: int, comm: MPI.Comm | None,
         Cell group ``"body"``; facet groups ``"left"`` (x = 0), ``"right"`` (x = lx),
         ``"bottom"`` (y = 0), ``"top"`` (y = ly).
     """
-    _positive(lx=lx, ly=ly)
+    check_positive(lx=lx, ly=ly)
     if int(nx) != nx or int(ny) != ny or nx < 1 or ny < 1:
         raise ValueError(f"nx and ny must be positive integers, got nx={nx!r}, ny={ny!r}")
 
     def build() -> None:
         surface = gmsh.model.occ.addRectangle(0, 0, 0, lx, ly)
         gmsh.model.occ.synchronize()
-        _set_size([(2, surface)], min(lx / nx, ly / ny))
-        for curve in _boundary(2, surface):
-            b = _bbox(1, curve)
+        set_size([(2, surface)], min(lx / nx, ly / ny))
+        for curve in boundary_tags(2, surface):
+            b = bounding_box(1, curve)
             along_x = abs(b[3] - b[0]) > abs(b[4] - b[1])
             gmsh.model.mesh.setTransfiniteCurve(curve, int(nx if along_x else ny) + 1)
         if structured:
             gmsh.model.mesh.setTransfiniteSurface(surface)
-        groups = _Groups()
+        groups = PhysicalGroups()
         groups(2, [surface], "body")
-        _block_groups(groups, 2, surface, "", (0, 0), (lx, ly), max(lx, ly))
+        block_groups(groups, 2, surface, "", (0, 0), (lx, ly), max(lx, ly))
 
-    return _generate("rectangle", 2, build, comm, path)
+    return generate("rectangle", 2, build, comm, path)
 
 
 def box(lx: float, ly: float, lz: float, h: float, comm: MPI.Comm | None,
@@ -268,17 +159,17 @@ def box(lx: float, ly: float, lz: float, h: float, comm: MPI.Comm | None,
         Cell group ``"body"``; facet groups ``"left"``/``"right"`` (x = 0 / lx),
         ``"bottom"``/``"top"`` (y = 0 / ly), ``"front"``/``"back"`` (z = 0 / lz).
     """
-    _positive(lx=lx, ly=ly, lz=lz, h=h)
+    check_positive(lx=lx, ly=ly, lz=lz, h=h)
 
     def build() -> None:
         volume = gmsh.model.occ.addBox(0, 0, 0, lx, ly, lz)
         gmsh.model.occ.synchronize()
-        _set_size([(3, volume)], h)
-        groups = _Groups()
+        set_size([(3, volume)], h)
+        groups = PhysicalGroups()
         groups(3, [volume], "body")
-        _block_groups(groups, 3, volume, "", (0, 0, 0), (lx, ly, lz), max(lx, ly, lz))
+        block_groups(groups, 3, volume, "", (0, 0, 0), (lx, ly, lz), max(lx, ly, lz))
 
-    return _generate("box", 3, build, comm, path)
+    return generate("box", 3, build, comm, path)
 
 
 def cantilever(L: float, H: float, W: float, h: float, comm: MPI.Comm | None,
@@ -302,106 +193,23 @@ def cantilever(L: float, H: float, W: float, h: float, comm: MPI.Comm | None,
         Cell group ``"beam"``; facet groups ``"clamped"`` (x = 0), ``"tip"`` (x = L),
         ``"bottom"`` (y = 0), ``"top"`` (y = H) and ``"sides"`` (z = 0 and z = W).
     """
-    _positive(L=L, H=H, W=W, h=h)
+    check_positive(L=L, H=H, W=W, h=h)
 
     def build() -> None:
         volume = gmsh.model.occ.addBox(0, 0, 0, L, H, W)
         gmsh.model.occ.synchronize()
-        _set_size([(3, volume)], h)
-        faces = _boundary(3, volume)
+        set_size([(3, volume)], h)
+        faces = boundary_tags(3, volume)
         scale = max(L, H, W)
-        groups = _Groups()
+        groups = PhysicalGroups()
         groups(3, [volume], "beam")
-        groups(2, _where(faces, 2, 0, 0.0, scale), "clamped")
-        groups(2, _where(faces, 2, 0, L, scale), "tip")
-        groups(2, _where(faces, 2, 1, 0.0, scale), "bottom")
-        groups(2, _where(faces, 2, 1, H, scale), "top")
-        groups(2, _where(faces, 2, 2, 0.0, scale) + _where(faces, 2, 2, W, scale), "sides")
+        groups(2, entities_at(faces, 2, 0, 0.0, scale), "clamped")
+        groups(2, entities_at(faces, 2, 0, L, scale), "tip")
+        groups(2, entities_at(faces, 2, 1, 0.0, scale), "bottom")
+        groups(2, entities_at(faces, 2, 1, H, scale), "top")
+        groups(2, entities_at(faces, 2, 2, 0.0, scale) + entities_at(faces, 2, 2, W, scale), "sides")
 
-    return _generate("cantilever", 3, build, comm, path)
-
-
-def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: float = 0.2,
-                 width: float = 0.03, cortical_thickness: float = 5e-3, flare: float = 4e-3,
-                 flare_length: float = 0.03, comm: MPI.Comm | None = None) -> MeshData | Path:
-    """Longitudinal section through the diaphysis of a long bone (plane strain).
-
-    The bone axis is y, ``0 <= y <= length``, centred on ``x = 0``.  Its outer half-width
-    is ``width/2`` along the shaft and grows linearly to ``width/2 + flare`` over
-    ``flare_length`` at each end (the metaphyseal flare; ``flare = 0`` gives a plain
-    rectangle).  Two cortical strips of constant horizontal thickness
-    ``cortical_thickness`` follow the outer contour and enclose the cancellous/medullary
-    core, which runs from end to end.  Cortex and core are one conforming body (OCC
-    fragment: the nodes on their interface are shared).
-
-    Exact measures: total area ``width*length + 2*flare*flare_length``, cortical area
-    ``2*cortical_thickness*length``; each end has width ``width + 2*flare``.
-
-    Parameters
-    ----------
-    path
-        If given, write a gmsh ``.msh`` file there instead of building a DOLFINx mesh
-        (``data/scenes/make_meshes.py`` writes ``data/scenes/long_bone.msh`` this way).
-    h
-        Target element size in m.
-    length, width, cortical_thickness, flare, flare_length
-        Geometry in m; ``cortical_thickness < width/2`` and ``2*flare_length < length``.
-    comm
-        MPI communicator (``None``: ``MPI.COMM_WORLD``).
-
-    Returns
-    -------
-    dolfinx.io.gmsh.MeshData or pathlib.Path
-        Cell groups ``"cortical"`` and ``"cancellous"``; facet groups ``"distal"``
-        (y = 0), ``"proximal"`` (y = length) and ``"periosteum"`` (the outer sides).
-    """
-    _positive(h=h, length=length, width=width, cortical_thickness=cortical_thickness,
-              flare_length=flare_length)
-    if not (math.isfinite(flare) and flare >= 0):
-        raise ValueError(f"flare must be >= 0 (m), got {flare!r}")
-    if cortical_thickness >= width / 2:
-        raise ValueError(f"cortical_thickness ({cortical_thickness}) must be below width/2 ({width / 2})")
-    if 2 * flare_length >= length:
-        raise ValueError(f"2*flare_length ({2 * flare_length}) must be below length ({length})")
-
-    def half_profile(offset: float) -> list[tuple[float, float]]:
-        """(x, y) of the right-hand contour, shifted inwards by ``offset``, bottom to top."""
-        w = width / 2 - offset
-        if flare == 0:
-            return [(w, 0.0), (w, length)]
-        return [(w + flare, 0.0), (w, flare_length), (w, length - flare_length), (w + flare, length)]
-
-    def polygon(offset: float) -> int:
-        right = half_profile(offset)
-        ring = right + [(-x, y) for x, y in reversed(right)]
-        occ = gmsh.model.occ
-        pts = [occ.addPoint(x, y, 0) for x, y in ring]
-        lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
-        return occ.addPlaneSurface([occ.addCurveLoop(lines)])
-
-    def build() -> None:
-        outer = polygon(0.0)
-        core = polygon(cortical_thickness)
-        gmsh.model.occ.fragment([(2, outer)], [(2, core)])
-        gmsh.model.occ.synchronize()
-        surfaces = [t for _, t in gmsh.model.getEntities(2)]
-        cancellous = [s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[0]) < _EPS * width]
-        cortical = [s for s in surfaces if s not in cancellous]
-        if len(cancellous) != 1 or len(cortical) != 2:
-            raise MeshingError(f"expected 1 core and 2 cortical strips, got {len(cancellous)} and {len(cortical)}")
-        _set_size([(2, s) for s in surfaces], h)
-        groups = _Groups()
-        groups(2, cortical, "cortical")
-        groups(2, cancellous, "cancellous")
-        curves = [t for _, t in gmsh.model.getEntities(1)]
-        exterior = [c for c in curves if len(gmsh.model.getAdjacencies(1, c)[0]) == 1]
-        distal = _where(exterior, 1, 1, 0.0, length)
-        proximal = _where(exterior, 1, 1, length, length)
-        groups(1, distal, "distal")
-        groups(1, proximal, "proximal")
-        groups(1, [c for c in exterior if c not in distal + proximal], "periosteum")
-
-    return _generate("long_bone_2d", 2, build, comm, path)
+    return generate("cantilever", 3, build, comm, path)
 
 
 def _two_blocks(dim: int, size: tuple[float, ...], heights: tuple[float, float],
@@ -428,17 +236,17 @@ def _two_blocks(dim: int, size: tuple[float, ...], heights: tuple[float, float],
         lower = block(lower_lo, lower_hi)
         upper = block(upper_lo, upper_hi)
         gmsh.model.occ.synchronize()
-        _set_size([(dim, lower)], h[0])
-        _set_size([(dim, upper)], h[1])
-        groups = _Groups()
+        set_size([(dim, lower)], h[0])
+        set_size([(dim, upper)], h[1])
+        groups = PhysicalGroups()
         groups(dim, [lower], "lower")
         groups(dim, [upper], "upper")
-        _block_groups(groups, dim, lower, "lower_", lower_lo, lower_hi, scale,
+        block_groups(groups, dim, lower, "lower_", lower_lo, lower_hi, scale,
                       {"top": "lower_contact", "bottom": "bottom"})
-        _block_groups(groups, dim, upper, "upper_", upper_lo, upper_hi, scale,
+        block_groups(groups, dim, upper, "upper_", upper_lo, upper_hi, scale,
                       {"bottom": "upper_contact", "top": "top"})
 
-    return _generate(name, dim, build, comm, path)
+    return generate(name, dim, build, comm, path)
 
 
 def two_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *,
@@ -473,7 +281,7 @@ def two_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, 
         ``"lower_left"``, ``"lower_right"``, ``"upper_left"``, ``"upper_right"``.
     """
     upper_width = width if upper_width is None else upper_width
-    _positive(width=width, lower_height=lower_height, upper_height=upper_height,
+    check_positive(width=width, lower_height=lower_height, upper_height=upper_height,
               upper_width=upper_width, h_lower=h_lower, h_upper=h_upper)
     return _two_blocks(2, (width,), (lower_height, upper_height), (upper_width,), (upper_offset,),
                        (h_lower, h_upper), comm, path, "two_blocks_2d")
@@ -513,7 +321,7 @@ def two_boxes_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *
     """
     upper_width = width if upper_width is None else upper_width
     upper_depth = depth if upper_depth is None else upper_depth
-    _positive(width=width, depth=depth, lower_height=lower_height, upper_height=upper_height,
+    check_positive(width=width, depth=depth, lower_height=lower_height, upper_height=upper_height,
               upper_width=upper_width, upper_depth=upper_depth, h_lower=h_lower, h_upper=h_upper)
     return _two_blocks(3, (width, depth), (lower_height, upper_height), (upper_width, upper_depth),
                        tuple(upper_offset), (h_lower, h_upper), comm, path, "two_boxes_3d")
@@ -537,7 +345,7 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         slave), ``"block_contact"`` (top of the block: master), ``"cyl_top"`` (the flat
         face y = radius), ``"block_bottom"``, ``"block_sides"``.
     """
-    _positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
+    check_positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
               h_contact=h_contact, h_far=h_far, zone=zone, block_ratio=block_ratio)
     R, w, hb = radius, block_half_width, block_height
 
@@ -577,7 +385,7 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        groups = _Groups()
+        groups = PhysicalGroups()
         groups(2, [cyl], "cylinder")
         groups(2, [block], "block")
         groups(1, [a1, a2], "cyl_contact")
@@ -586,138 +394,7 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         groups(1, [bottom], "block_bottom")
         groups(1, [left, right], "block_sides")
 
-    return _generate("hertz_2d", 2, build, comm, path)
-
-
-def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, condyle_radius: float = 0.03,
-            shaft_height: float = 0.03, plateau_half_width: float = 0.045, plateau_depth: float = 0.05,
-            cartilage: float = 3e-3, cortical: float = 2e-3, h_contact: float = 4e-4, h_far: float = 4e-3,
-            tibia_ratio: float = 1.6, tumour: tuple[float, float, float] | None = None) -> MeshData | Path:
-    """A 2D (frontal-plane) knee: a femoral condyle resting on the tibial plateau.
-
-    Femur: the lower half of a disc of radius ``condyle_radius`` centred at
-    ``(0, condyle_radius)`` under a rectangular shaft ``shaft_height`` tall; the condyle
-    carries a cartilage layer (thickness ``cartilage``) over a cortical shell
-    (``cortical``) around a cancellous core.  Tibia: the block
-    ``[-w, w] x [-plateau_depth, 0]`` with a cartilage layer on top over a cortical
-    (subchondral) plate and a cancellous core.  The two bones touch at the origin with
-    zero gap; they are meshed separately (non-matching at the joint, element sizes
-    ``h_contact`` (femur) and ``tibia_ratio * h_contact`` (tibia) near the contact,
-    ``h_far`` away from it), each bone's layers conforming.
-
-    Returns
-    -------
-    dolfinx.io.gmsh.MeshData or pathlib.Path
-        Cell groups ``femur_cartilage``, ``femur_cortical``, ``femur_cancellous``,
-        ``tibia_cartilage``, ``tibia_cortical``, ``tibia_cancellous``; facet groups
-        ``femur_contact`` (cartilage surface of the condyle: slave), ``tibia_contact``
-        (cartilage surface of the plateau: master), ``femur_top``, ``femur_sides`` (the
-        vertical sides of the shaft), ``tibia_bottom``.  With ``tumour = (x, y, r)`` (a
-        disc inside the tibial cancellous bone) also the cell group ``tibia_tumour``.
-    """
-    _positive(condyle_radius=condyle_radius, shaft_height=shaft_height, plateau_half_width=plateau_half_width,
-              plateau_depth=plateau_depth, cartilage=cartilage, cortical=cortical, h_contact=h_contact,
-              h_far=h_far, tibia_ratio=tibia_ratio)
-    R, w = condyle_radius, plateau_half_width
-    if cartilage + cortical >= R / 2:
-        raise ValueError("cartilage + cortical must be well below the condyle radius")
-
-    def build() -> None:
-        occ = gmsh.model.occ
-        big = 4 * R
-
-        def lower_half(r: float) -> int:
-            d = occ.addDisk(0, R, 0, r, r)
-            cut, _ = occ.cut([(2, d)], [(2, occ.addRectangle(-big, R, 0, 2 * big, big))])
-            return cut[0][1]
-
-        outer, mid, inner = lower_half(R), lower_half(R - cartilage), lower_half(R - cartilage - cortical)
-        cart, _ = occ.cut([(2, outer)], [(2, mid)], removeTool=False)
-        cort, _ = occ.cut([(2, mid)], [(2, inner)], removeTool=False)
-        shaft = occ.addRectangle(-R, R, 0, 2 * R, shaft_height)
-        fem_parts = [cart[0], cort[0], (2, inner), (2, shaft)]
-        fem_out, fem_map = occ.fragment(fem_parts, [])
-        t_canc = occ.addRectangle(-w, -plateau_depth, 0, 2 * w, plateau_depth - cartilage - cortical)
-        t_cort = occ.addRectangle(-w, -cartilage - cortical, 0, 2 * w, cortical)
-        t_cart = occ.addRectangle(-w, -cartilage, 0, 2 * w, cartilage)
-        t_parts = [(2, t_canc), (2, t_cort), (2, t_cart)]
-        if tumour is not None:
-            tx, ty, tr = tumour
-            if not (-w < tx - tr and tx + tr < w and -plateau_depth < ty - tr and ty + tr < -cartilage - cortical):
-                raise ValueError(f"tumour disc {tumour} must lie inside the tibial cancellous bone")
-            t_parts.append((2, occ.addDisk(tx, ty, 0, tr, tr)))
-        tib_out, tib_map = occ.fragment(t_parts, [])
-        occ.synchronize()
-        f_cart = [t for _, t in fem_map[0]]
-        f_cort = [t for _, t in fem_map[1]]
-        f_canc = [t for _, t in fem_map[2]] + [t for _, t in fem_map[3]]
-        tb_canc, tb_cort, tb_cart = ([t for _, t in tib_map[i]] for i in range(3))
-        tb_tum = [t for _, t in tib_map[3]] if tumour is not None else []
-        tb_canc = [t for t in tb_canc if t not in tb_tum]
-
-        def curves_of(surfs):
-            return {abs(c) for s in surfs for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)}
-
-        tol = 1e-7 * R
-        def midpoint(c):
-            lo, hi = gmsh.model.getParametrizationBounds(1, c)
-            return np.asarray(gmsh.model.getValue(1, c, [0.5 * (lo[0] + hi[0])])[:2])
-
-        fem_contact = [c for c in curves_of(f_cart)
-                       if abs(np.hypot(*(midpoint(c) - np.array([0.0, R]))) - R) < 1e-6 * R
-                       and midpoint(c)[1] < R - tol]
-        fem_top = [c for c in curves_of(f_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] - (R + shaft_height)) < tol]
-        fem_sides = [c for c in curves_of(f_canc)
-                     if abs(abs(gmsh.model.occ.getCenterOfMass(1, c)[0]) - R) < tol
-                     and gmsh.model.occ.getCenterOfMass(1, c)[1] > R + tol]
-        tib_contact = [c for c in curves_of(tb_cart) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1]) < tol]
-        tib_bottom = [c for c in curves_of(tb_canc) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1] + plateau_depth) < tol]
-        f = gmsh.model.mesh.field
-        fields = []
-        for surfs, h in ((f_cart + f_cort + f_canc, h_contact),
-                         (tb_cart + tb_cort + tb_canc + tb_tum, tibia_ratio * h_contact)):
-            dist = f.add("Distance")
-            f.setNumbers(dist, "CurvesList", fem_contact + tib_contact)
-            f.setNumber(dist, "Sampling", 200)
-            thr = f.add("Threshold")
-            f.setNumber(thr, "InField", dist)
-            f.setNumber(thr, "SizeMin", h)
-            f.setNumber(thr, "SizeMax", h_far)
-            f.setNumber(thr, "DistMin", 0.15 * R)
-            f.setNumber(thr, "DistMax", 0.8 * R)
-            box = f.add("Box")  # keep the thin layers resolved everywhere
-            f.setNumber(box, "VIn", min(h_far, cartilage / 2))
-            f.setNumber(box, "VOut", h_far)
-            f.setNumber(box, "XMin", -big)
-            f.setNumber(box, "XMax", big)
-            f.setNumber(box, "YMin", -cartilage - cortical)
-            f.setNumber(box, "YMax", 0.0)
-            res = f.add("Restrict")
-            mn = f.add("Min")
-            f.setNumbers(mn, "FieldsList", [thr] + ([box] if surfs[0] in tb_cart else []))
-            f.setNumber(res, "InField", mn)
-            f.setNumbers(res, "SurfacesList", surfs)
-            f.setNumbers(res, "CurvesList", sorted(curves_of(surfs)))
-            fields.append(res)
-        fmin = f.add("Min")
-        f.setNumbers(fmin, "FieldsList", fields)
-        f.setAsBackgroundMesh(fmin)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        groups = _Groups()
-        for name, tags in (("femur_cartilage", f_cart), ("femur_cortical", f_cort), ("femur_cancellous", f_canc),
-                           ("tibia_cartilage", tb_cart), ("tibia_cortical", tb_cort),
-                           ("tibia_cancellous", tb_canc), ("tibia_tumour", tb_tum)):
-            if tags:
-                groups(2, tags, name)
-        groups(1, fem_contact, "femur_contact")
-        groups(1, tib_contact, "tibia_contact")
-        groups(1, fem_top, "femur_top")
-        groups(1, fem_sides, "femur_sides")
-        groups(1, tib_bottom, "tibia_bottom")
-
-    return _generate("knee_2d", 2, build, comm, path)
+    return generate("hertz_2d", 2, build, comm, path)
 
 
 def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, radius: float = 0.01,
@@ -738,7 +415,7 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         curved surface: slave), ``"block_contact"`` (top of the block: master),
         ``"sphere_top"`` (the flat face y = radius), ``"block_bottom"``.
     """
-    _positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
+    check_positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
               h_contact=h_contact, h_far=h_far, zone=zone, block_ratio=block_ratio)
     R, w, hb = radius, block_half_width, block_height
 
@@ -784,7 +461,7 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        groups = _Groups()
+        groups = PhysicalGroups()
         groups(3, [sph], "sphere")
         groups(3, [block], "block")
         groups(2, s_contact, "sphere_contact")
@@ -792,7 +469,7 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         groups(2, s_top, "sphere_top")
         groups(2, b_bottom, "block_bottom")
 
-    return _generate("hertz_3d", 3, build, comm, path)
+    return generate("hertz_3d", 3, build, comm, path)
 
 
 def stacked_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, width: float = 0.02,
@@ -809,7 +486,7 @@ def stacked_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = No
     """
     if len(heights) != len(sizes) or len(heights) < 2:
         raise ValueError("heights and sizes must have the same length (>= 2)")
-    _positive(width=width, **{f"height{i}": h for i, h in enumerate(heights)},
+    check_positive(width=width, **{f"height{i}": h for i, h in enumerate(heights)},
               **{f"size{i}": h for i, h in enumerate(sizes)})
 
     def build() -> None:
@@ -818,13 +495,13 @@ def stacked_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = No
             tags.append(gmsh.model.occ.addRectangle(0, y0, 0, width, h))
             y0 += h
         gmsh.model.occ.synchronize()
-        groups = _Groups()
+        groups = PhysicalGroups()
         y0 = 0.0
         scale = max(width, sum(heights))
         for i, (t, h, hs) in enumerate(zip(tags, heights, sizes), start=1):
-            _set_size([(2, t)], hs)
+            set_size([(2, t)], hs)
             groups(2, [t], f"block{i}")
-            _block_groups(groups, 2, t, f"block{i}_", (0.0, y0), (width, y0 + h), scale)
+            block_groups(groups, 2, t, f"block{i}_", (0.0, y0), (width, y0 + h), scale)
             y0 += h
 
-    return _generate("stacked_blocks_2d", 2, build, comm, path)
+    return generate("stacked_blocks_2d", 2, build, comm, path)

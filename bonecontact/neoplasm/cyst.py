@@ -30,19 +30,34 @@ E in Pa.  1 mm of radius per year needs β/C⁻ ≈ 3.2·10⁻¹¹ m/s.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-__all__ = ["R_GAS", "SECONDS_PER_YEAR", "CystParameters", "CystHistory", "grow_sphere", "equilibrium_radius",
+from bonecontact.common.constants import R_GAS
+
+__all__ = ["CystParameters", "CystParameterError", "CystHistory", "radius_rate", "grow_sphere", "equilibrium_radius",
            "long_time_rate"]
 
-#: Molar gas constant (J mol⁻¹ K⁻¹).
-R_GAS = 8.314462618
-#: Julian year (s).
-SECONDS_PER_YEAR = 365.25 * 86400.0
+
+class CystParameterError(ValueError):
+    """A cyst parameter outside its allowed range.
+
+    Parameters
+    ----------
+    key
+        The parameter (a key of ``[neoplasm.cyst]``).
+    message
+        What is wrong and what is allowed, e.g. ``"must be > 0, got 0.0"``.
+    """
+
+    def __init__(self, key: str, message: str):
+        super().__init__(f"cyst parameter {key} {message}")
+        self.key = key
+        self.message = message
 
 
 @dataclass(frozen=True)
@@ -75,16 +90,31 @@ class CystParameters:
     f0: float = 0.0
     strain: Literal["log", "engineering"] = "log"
 
+    #: Allowed values of ``strain``.
+    STRAINS = ("log", "engineering")
+    #: Fields that must be >= 0 / > 0 (all finite except ``E``, which may be ``inf``).
+    NONNEGATIVE = ("beta",)
+    POSITIVE = ("C_minus", "temperature", "E", "viscosity")
+
     def __post_init__(self) -> None:
-        checks = {"beta": self.beta >= 0, "C_minus": self.C_minus > 0, "temperature": self.temperature > 0,
-                  "E": self.E > 0, "viscosity": self.viscosity > 0}
-        for key, ok in checks.items():
+        """Check the parameters (raises :class:`CystParameterError` naming the first bad one)."""
+        if self.strain not in self.STRAINS:
+            choices = ", ".join(f'"{s}"' for s in self.STRAINS)
+            raise CystParameterError("strain", f"must be one of {choices}, got {self.strain!r}")
+        for key in self.NONNEGATIVE + self.POSITIVE:
             value = getattr(self, key)
-            if not ok or (key != "E" and not np.isfinite(value)):
-                raise ValueError(f"cyst parameter {key} = {getattr(self, key)!r} is not allowed "
-                                 f"(beta >= 0; C_minus, temperature, E, viscosity > 0)")
-        if self.strain not in ("log", "engineering"):
-            raise ValueError(f'cyst parameter strain = {self.strain!r}; allowed: "log", "engineering"')
+            if key != "E" and not np.isfinite(value):
+                raise CystParameterError(key, f"must be a finite number, got {value!r}")
+            if key in self.NONNEGATIVE and not value >= 0:
+                raise CystParameterError(key, f"must be >= 0, got {value!r}")
+            if key in self.POSITIVE and not value > 0:
+                raise CystParameterError(key, f"must be > 0, got {value!r}")
+        if not np.isfinite(self.f0):
+            raise CystParameterError("f0", f"must be a finite number, got {self.f0!r}")
+        f_min = -self.alpha * self.C_minus
+        if self.f0 <= f_min:
+            raise CystParameterError("f0", f"must be > -R_g T C_minus = {f_min:.6g} Pa "
+                                           f"(the osmolarity inside the cyst must stay positive), got {self.f0!r}")
 
     @property
     def alpha(self) -> float:
@@ -117,10 +147,26 @@ class CystHistory:
         return 4.0 * np.pi * self.R**2 if self.dim == 3 else 2.0 * np.pi * self.R
 
 
-def _rhs(p: CystParameters, R0: float, d: int):
+def radius_rate(p: CystParameters, R0: float, d: int) -> Callable[[float, Sequence[float]], list[float]]:
+    """Right-hand side of the closed cyst ODE in (R, f), for :func:`scipy.integrate.solve_ivp`.
+
+    Parameters
+    ----------
+    p
+        Model parameters.
+    R0
+        Initial radius (m); the reference radius of engineering strain.
+    d
+        3 (sphere) or 2 (cylinder, per unit length).
+
+    Returns
+    -------
+    callable
+        ``rate(t, [R, f]) -> [dR/dt, df/dt]`` (see the module docstring).
+    """
     a, C, b, nu, tau = p.alpha, p.C_minus, p.beta, p.viscosity, p.tau
 
-    def rhs(t, y):
+    def rhs(t: float, y: Sequence[float]) -> list[float]:
         R, f = y
         visc = nu * (R / R0 if p.strain == "engineering" else 1.0)
         dR = (R * f + d * tau * a * b) / (visc + d * tau * (a * C + f))
@@ -155,7 +201,7 @@ def grow_sphere(p: CystParameters, R0: float, t_end: float, t_eval: np.ndarray |
         raise ValueError("R0 and t_end must be > 0")
     t_eval = np.linspace(0.0, t_end, 201) if t_eval is None else np.asarray(t_eval, float)
     # f scale for the absolute tolerance: the osmotic pressure scale αC⁻
-    sol = solve_ivp(_rhs(p, R0, dim), (0.0, t_end), [R0, p.f0], method="Radau", t_eval=t_eval, rtol=rtol,
+    sol = solve_ivp(radius_rate(p, R0, dim), (0.0, t_end), [R0, p.f0], method="Radau", t_eval=t_eval, rtol=rtol,
                     atol=[1e-14 * R0, 1e-12 * max(p.alpha * p.C_minus, abs(p.f0), 1.0)])
     if not sol.success:
         raise RuntimeError(f"cyst ODE integration failed: {sol.message}")

@@ -59,13 +59,15 @@ from dolfinx import fem, mesh as dmesh
 from dolfinx.fem.petsc import LinearProblem
 from dolfinx.io.gmsh import model_to_mesh
 
+from bonecontact.common.geometry import signed_polygon_area
+from bonecontact.meshing.session import gmsh_session
+
 __all__ = [
     "Boundary",
     "CoverageError",
     "MeshMotion",
     "RemeshError",
     "gather_boundary",
-    "polygon_area",
     "polygon_mesh",
     "resample_closed_curve",
     "sphere_mesh",
@@ -88,31 +90,20 @@ class CoverageError(RuntimeError):
 # ----------------------------------------------------------------------------- gmsh
 def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
     """Build and mesh a gmsh model on rank 0, then distribute it over ``comm``."""
-    own = comm.rank == 0 and not gmsh.isInitialized()
     error = None
-    if comm.rank == 0:
-        if own:
-            gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add(name)
-        try:
-            build()
-            gmsh.model.mesh.generate(dim)
-        except Exception as exc:  # reported collectively below
-            error = f"{type(exc).__name__}: {exc}"
-    error = comm.bcast(error, root=0)
-    try:
+    with gmsh_session(name) if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                build()
+                gmsh.model.mesh.generate(dim)
+            except Exception as exc:  # reported collectively below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
         if error is not None:
             raise RemeshError(f"{name}: {error}")
         partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
         data = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=dim,
                              partitioner=partitioner)
-    finally:
-        if comm.rank == 0:
-            if own:
-                gmsh.finalize()
-            else:
-                gmsh.model.remove()
     return data.mesh
 
 
@@ -346,18 +337,11 @@ def gather_boundary(msh: dmesh.Mesh) -> Boundary:
             raise RemeshError("boundary has more than one closed curve (holes are not supported)")
     # right normal outward  <=>  traversal clockwise?  enforce counter-clockwise explicitly
     pts = points[order]
-    if polygon_area(pts) < 0:
+    if signed_polygon_area(pts) < 0:
         order = np.concatenate([order[:1], order[1:][::-1]])
         pts = points[order]
     n = len(order)
     return Boundary(pts, ukeys[order], np.column_stack([np.arange(n), (np.arange(n) + 1) % n]))
-
-
-def polygon_area(points: npt.ArrayLike) -> float:
-    """Signed area of a closed polygon (positive counter-clockwise)."""
-    p = np.asarray(points, dtype=np.float64)
-    q = np.roll(p, -1, axis=0)
-    return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
 
 
 def resample_closed_curve(points: npt.ArrayLike, h: float | None = None,

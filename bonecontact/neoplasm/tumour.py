@@ -92,7 +92,7 @@ from dolfinx.fem.petsc import LinearProblem
 from bonecontact.neoplasm import curvature
 from bonecontact.neoplasm import remesh
 
-__all__ = ["TumourParameters", "TumourModel", "TumourError"]
+__all__ = ["TumourParameters", "TumourModel", "TumourError", "TumourParameterError"]
 
 Rate = float | Callable[[Any], Any]
 
@@ -101,9 +101,55 @@ class TumourError(RuntimeError):
     """Bad tumour parameters or a failed growth step."""
 
 
+class TumourParameterError(TumourError, ValueError):
+    """A tumour parameter outside its allowed range.
+
+    Parameters
+    ----------
+    key
+        The parameter as named in ``[neoplasm.tumour]`` (``lambda`` for ``lambda_``).
+    message
+        What is wrong and what is allowed, e.g. ``"must be > 0, got 0.0"``.
+    where
+        Where the parameters come from (prefix of ``str(error)``).
+    """
+
+    def __init__(self, key: str, message: str, where: str = "[neoplasm.tumour]"):
+        super().__init__(f"{where}: '{key}' {message}")
+        self.key = key
+        self.message = message
+
+
+def _scene_key(name: str) -> str:
+    """The ``[neoplasm.tumour]`` key of a field (``lambda_`` -> ``lambda``)."""
+    return "lambda" if name == "lambda_" else name
+
+
 @dataclass
 class TumourParameters:
-    """Parameters of Problem P_T (SPEC §6.1), mirroring ``[neoplasm.tumour]``."""
+    """Parameters of Problem P_T (SPEC §6.1), mirroring ``[neoplasm.tumour]``, SI units.
+
+    Attributes
+    ----------
+    D_c
+        Nutrient diffusivity (m²/s), > 0.
+    lambda_
+        Nutrient consumption rate (1/s), > 0 (key ``lambda``).
+    eps0
+        Nutrient time-scale ratio, >= 0; 0 = quasi-steady nutrient.
+    u_c1
+        Nutrient concentration on the tumour boundary (reference units), >= 0.
+    K_B, K_Q, K_A, K_P, K_D
+        Birth, quiescence, apoptosis, proliferation-recovery and death rates (1/s):
+        numbers or callables ``K(u_c)`` (e.g. a parsed scene expression).
+    K_R
+        Removal rate (1/s), a number.
+    gamma
+        Surface tension (m³/s: σ is the velocity potential in m²/s, σ = γκ), >= 0.
+    u_p0, u_q0
+        Initial uniform proliferating / quiescent fractions, >= 0, ``u_p0 <= 1`` and
+        ``u_p0 + u_q0 <= 1``.
+    """
 
     D_c: float = 1.0
     lambda_: float = 1.0
@@ -119,7 +165,18 @@ class TumourParameters:
     u_p0: float = 1.0
     u_q0: float = 0.0
 
+    #: Rates that may be callables of the nutrient u_c.
     RATES = ("K_B", "K_Q", "K_A", "K_P", "K_D")
+    #: Numeric fields, in field order.
+    NUMBERS = ("D_c", "lambda_", "eps0", "u_c1", "K_R", "gamma", "u_p0", "u_q0")
+    #: Fields that must be > 0 / >= 0.
+    POSITIVE = ("D_c", "lambda_")
+    NONNEGATIVE = ("eps0", "u_c1", "gamma", "u_p0", "u_q0")
+
+    @classmethod
+    def keys(cls) -> tuple[str, ...]:
+        """The keys of ``[neoplasm.tumour]``, in field order (``lambda`` for ``lambda_``)."""
+        return tuple(_scene_key(f.name) for f in dataclasses.fields(cls))
 
     @classmethod
     def from_dict(cls, table: Mapping[str, Any], where: str = "[neoplasm.tumour]") -> "TumourParameters":
@@ -129,7 +186,7 @@ class TumourParameters:
         for key, value in table.items():
             name = "lambda_" if key == "lambda" else key
             if name not in known:
-                allowed = sorted("lambda" if k == "lambda_" else k for k in known)
+                allowed = sorted(_scene_key(k) for k in known)
                 raise TumourError(f"{where}: unknown key '{key}'; allowed: {', '.join(allowed)}")
             kwargs[name] = value
         p = cls(**kwargs)
@@ -137,22 +194,32 @@ class TumourParameters:
         return p
 
     def validate(self, where: str = "[neoplasm.tumour]") -> None:
-        for name in ("D_c", "lambda_", "eps0", "u_c1", "K_R", "gamma", "u_p0", "u_q0"):
+        """Check types and ranges.
+
+        Raises
+        ------
+        TumourParameterError
+            The first offending parameter (its key and what is allowed).
+        """
+        for name in self.NUMBERS:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise TumourError(f"{where}: '{name.rstrip('_')}' must be a finite number, got {v!r}")
-        for name in ("D_c", "lambda_"):
-            if getattr(self, name) <= 0:
-                raise TumourError(f"{where}: '{name.rstrip('_')}' must be > 0")
-        for name in ("eps0", "gamma"):
-            if getattr(self, name) < 0:
-                raise TumourError(f"{where}: '{name}' must be >= 0")
-        if self.u_p0 < 0 or self.u_q0 < 0 or self.u_p0 + self.u_q0 > 1:
-            raise TumourError(f"{where}: need u_p0 >= 0, u_q0 >= 0, u_p0 + u_q0 <= 1")
+                raise TumourParameterError(_scene_key(name), f"must be a finite number, got {v!r}", where)
         for name in self.RATES:
             v = getattr(self, name)
             if not callable(v) and (not isinstance(v, (int, float)) or isinstance(v, bool)):
-                raise TumourError(f"{where}: '{name}' must be a number or a callable of u_c, got {v!r}")
+                raise TumourParameterError(name, f"must be a number or a callable of u_c, got {v!r}", where)
+        for name in self.NUMBERS:
+            v = getattr(self, name)
+            if name in self.POSITIVE and v <= 0:
+                raise TumourParameterError(_scene_key(name), f"must be > 0, got {v!r}", where)
+            if name in self.NONNEGATIVE and v < 0:
+                raise TumourParameterError(name, f"must be >= 0, got {v!r}", where)
+        if self.u_p0 > 1.0:
+            raise TumourParameterError("u_p0", f"must satisfy 0 <= u_p0 <= 1, got {self.u_p0!r}", where)
+        if self.u_p0 + self.u_q0 > 1.0 + 1e-14:
+            raise TumourParameterError("u_q0", f"must satisfy u_p0 + u_q0 <= 1 (volume fractions), got "
+                                               f"u_p0 = {self.u_p0!r}, u_q0 = {self.u_q0!r}", where)
 
 
 class TumourModel:

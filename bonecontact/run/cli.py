@@ -15,6 +15,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from bonecontact.run.dispatch import check, run_scene
+from bonecontact.scene import SceneError, format_error, load_scene
+
 __all__ = ["main"]
 
 
@@ -43,23 +46,10 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     comm = MPI.COMM_WORLD
     args = _parser().parse_args(argv)
-    from bonecontact.scene.spec import SceneError, format_error, load_scene
-
     try:
-        from bonecontact.run.dispatch import build_model, run_scene
-
         scene = load_scene(args.scene)
         if args.command == "check":
-            if scene.growth_only:
-                from bonecontact.run.growth import build_growth
-
-                build_growth(scene, comm)
-            elif scene.neoplasm is not None:  # coupled: growth model, host mesh at t = 0, mechanics
-                from bonecontact.run.coupled import check_coupled
-
-                check_coupled(scene, comm)
-            else:
-                build_model(scene, comm)
+            check(scene, comm)
             _say(f"{args.scene}: ok", comm)
             return 0
         result = run_scene(scene, comm, output=args.output, progress=not args.quiet)

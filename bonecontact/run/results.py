@@ -1,4 +1,9 @@
-"""Results: summary.json, history.csv, probes.csv and fields for ParaView/pyvista.
+"""Results: summary.json, history.csv, growth.csv, probes.csv and fields for ParaView/pyvista.
+
+The one writer of every run's result files: mechanics runs (:class:`ResultsWriter`),
+growth tables (:class:`GrowthTable`, growth-only and coupled runs), point lists
+(:func:`write_points`) and summary.json (:func:`run_summary`, :func:`write_summary`; format
+number :data:`SUMMARY_FORMAT`).
 
 Files are written incrementally as a run goes (rows by rank 0 only, flushed each
 step; fields every ``fields_every`` steps) so that a failed run leaves its last good
@@ -15,7 +20,9 @@ import csv
 import json
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import dolfinx
 import numpy as np
@@ -24,9 +31,22 @@ import ufl
 from dolfinx import fem, geometry, io
 from mpi4py import MPI
 
+from bonecontact.common.formatting import format_cell, format_float
 from bonecontact.common.version import __version__
 
-__all__ = ["StressFields", "Probes", "ResultsWriter", "HISTORY_COLUMNS", "ENERGY_COLUMNS", "ProbeError"]
+if TYPE_CHECKING:
+    from bonecontact.mechanics.integrator import Integrator
+
+__all__ = ["StressFields", "Probes", "ResultsWriter", "HISTORY_COLUMNS", "ENERGY_COLUMNS", "ProbeError",
+           "SUMMARY_FORMAT", "MECHANICS_UNITS", "GROWTH_UNITS", "RunResult", "GrowthTable", "run_summary",
+           "write_summary", "write_points"]
+
+#: Format number of summary.json (every run kind).
+SUMMARY_FORMAT = 1
+#: ``units`` entry of a mechanics (and coupled) run's summary.json
+MECHANICS_UNITS = "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)"
+#: ``units`` entry of a growth-only run's summary.json
+GROWTH_UNITS = "SI (m, kg, s, Pa, N; 2D: per unit thickness)"
 
 HISTORY_COLUMNS = ["step", "time", "pair", "normal_force", "tangential_force", "n_active", "n_stick",
                    "n_slip", "pdas_iterations", "kinetic_energy", "strain_energy"]
@@ -158,12 +178,97 @@ class Probes:
                 + ["von_mises"])
 
 
-def _fmt(x) -> str:
-    if isinstance(x, (int, np.integer)):
-        return str(int(x))
-    if isinstance(x, str):
-        return x
-    return repr(float(x))
+@dataclass
+class RunResult:
+    """Outcome of a run (:func:`bonecontact.run.dispatch.run_scene`)."""
+
+    status: str
+    summary: dict
+    integrator: Integrator | None
+    output: Path
+
+
+def run_summary(scene: str, status: str, comm: MPI.Comm, wall_time_s: float, /, *, units: str = MECHANICS_UNITS,
+                **info: Any) -> dict[str, Any]:
+    """The content of summary.json: the common header, then ``info`` (which may override it).
+
+    Parameters
+    ----------
+    scene
+        Scene name.
+    status
+        ``"converged"`` or ``"failed"``.
+    comm
+        Communicator of the run (its size is ``ranks``).
+    wall_time_s
+        Wall time of the run (s).
+    units
+        The ``units`` entry (:data:`MECHANICS_UNITS` or :data:`GROWTH_UNITS`).
+    **info
+        Further entries, in order (``wall_time_s`` here overrides the argument).
+    """
+    data = {
+        "scene": scene,
+        "format": SUMMARY_FORMAT,
+        "status": status,
+        "ranks": comm.size,
+        "wall_time_s": wall_time_s,
+        "units": units,
+        "bonecontact_version": __version__,
+        "dolfinx_version": dolfinx.__version__,
+    }
+    data.update(info)  # callers may override wall_time_s with the whole run's time
+    return data
+
+
+def write_summary(comm: MPI.Comm, directory: Path, summary: dict[str, Any]) -> None:
+    """Write ``summary.json`` into ``directory`` (rank 0; not collective)."""
+    if comm.rank == 0:
+        with open(Path(directory) / "summary.json", "w") as f:
+            json.dump(summary, f, indent=2, default=_json_default)
+
+
+class GrowthTable:
+    """``growth.csv``, written by rank 0 row by row (flushed) as a growth runs.
+
+    Parameters
+    ----------
+    comm
+        Communicator of the run (collective constructor: rank 0 creates the file).
+    directory
+        Output directory (created).
+    columns
+        Header: ``time`` and the driver's columns.
+    """
+
+    def __init__(self, comm: MPI.Comm, directory: Path, columns: Sequence[str]):
+        self.comm = comm
+        self._file = self._writer = None
+        if comm.rank == 0:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+            self._file = open(Path(directory) / "growth.csv", "w", newline="")
+            self._writer = csv.writer(self._file)
+            self._writer.writerow(columns)
+        comm.barrier()
+
+    def row(self, t: float, values: Sequence[float]) -> None:
+        """Append ``t`` (printed as written: ``k*dt`` to 15 digits) and the values."""
+        if self._writer is not None:
+            self._writer.writerow([f"{t:.15g}"] + [format_float(v) for v in values])
+            self._file.flush()
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = self._writer = None
+
+
+def write_points(path: Path, columns: Sequence[str], points: npt.ArrayLike) -> None:
+    """Write a point list (one row per point, :func:`format_float` text); call on rank 0."""
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(list(columns))
+        w.writerows([[format_float(x) for x in p] for p in points])
 
 
 class ResultsWriter:
@@ -209,7 +314,7 @@ class ResultsWriter:
         """Append history rows (rank 0 only writes)."""
         if self.comm.rank == 0:
             for r in rows:
-                self._hist_w.writerow([_fmt(x) for x in r])
+                self._hist_w.writerow([format_cell(x) for x in r])
             self._hist.flush()
 
     def probe_rows(self, step: int, t: float, u: fem.Function, v: fem.Function, stress: StressFields) -> None:
@@ -219,7 +324,7 @@ class ResultsWriter:
         vals = self.probes.evaluate(u, v, stress)
         if self.comm.rank == 0:
             for i, r in enumerate(vals):
-                self._probe_w.writerow([str(step), _fmt(t), str(i + 1)] + [_fmt(x) for x in r])
+                self._probe_w.writerow([str(step), format_cell(t), str(i + 1)] + [format_cell(x) for x in r])
             self._probe_file.flush()
 
     def contact_table(self, name: str, coords: np.ndarray, gap: np.ndarray, pressure: np.ndarray,
@@ -245,8 +350,8 @@ class ResultsWriter:
             w = csv.writer(f)
             w.writerow(list(ax) + ["gap", "pressure"] + t_names + s_names + ["status"])
             for i in order:
-                w.writerow([_fmt(v) for v in x[i]] + [_fmt(cols[0][i]), _fmt(cols[1][i])]
-                           + [_fmt(v) for v in tt[i]] + [_fmt(v) for v in st[i]] + [stat[i]])
+                w.writerow([format_cell(v) for v in x[i]] + [format_cell(cols[0][i]), format_cell(cols[1][i])]
+                           + [format_cell(v) for v in tt[i]] + [format_cell(v) for v in st[i]] + [stat[i]])
 
     # ------------------------------------------------------------- fields
     def fields(self, t: float, functions: Sequence[fem.Function]) -> None:
@@ -263,20 +368,8 @@ class ResultsWriter:
     # ------------------------------------------------------------ summary
     def summary(self, status: str, **info) -> dict:
         """Write summary.json (rank 0) and return its content."""
-        data = {
-            "scene": self.scene,
-            "format": 1,
-            "status": status,
-            "ranks": self.comm.size,
-            "wall_time_s": time.perf_counter() - self.t0,
-            "units": "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)",
-            "bonecontact_version": __version__,
-            "dolfinx_version": dolfinx.__version__,
-        }
-        data.update(info)  # callers may override wall_time_s with the whole run's time
-        if self.comm.rank == 0:
-            with open(self.dir / "summary.json", "w") as f:
-                json.dump(data, f, indent=2, default=_json_default)
+        data = run_summary(self.scene, status, self.comm, time.perf_counter() - self.t0, **info)
+        write_summary(self.comm, self.dir, data)
         return data
 
     def close(self) -> None:
@@ -290,11 +383,10 @@ class ResultsWriter:
                     f.close()
 
 
-def _json_default(o):
+def _json_default(o: object) -> int | float | str:
+    """NumPy numbers as numbers; anything else json cannot write (paths...) as its text."""
     if isinstance(o, (np.integer,)):
         return int(o)
     if isinstance(o, (np.floating,)):
         return float(o)
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(type(o))
+    return str(o)

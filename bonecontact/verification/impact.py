@@ -41,6 +41,7 @@ from mpi4py import MPI
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import EnergyBalance, Integrator
 
 __all__ = ["BarImpact", "ImpactResult", "two_bars_2d", "run_bar_impact", "STRIKER", "STRUCK",
@@ -245,7 +246,7 @@ def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm:
     linear
         ``"direct"`` or ``"iterative"``.
     integrator_options
-        Extra keyword arguments for the Integrator (e.g. ``contact_options``).
+        Extra keyword arguments for the Integrator (e.g. ``mass_redistribution``).
 
     Returns
     -------
@@ -256,7 +257,7 @@ def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm:
     model = Mechanics(msh, {STRIKER: mat, STRUCK: mat}, ct, ft)
     itf = build_interface(model.V, ft, STRUCK_END, STRIKER_END, name="impact")
     t0 = time.perf_counter()
-    integ = Integrator(model, "dynamic", dt, linear=linear, contact=[itf], energy_balance=True,
+    integ = Integrator(model, "dynamic", dt, linear=linear, contact=ContactSolver(model.V, [itf]), energy_balance=True,
                        **(integrator_options or {}))
     setup = time.perf_counter() - t0
     split = p.length + 0.5 * p.gap

@@ -44,6 +44,20 @@ def _table(path: Path) -> np.ndarray:
     return np.array([[_num(v) for v in r] for r in rows])
 
 
+def _check_png(path: Path, size: tuple[int, int]) -> None:
+    """A PNG file of ``size`` = (width, height) pixels whose pixels are not all the same."""
+    import struct
+
+    import matplotlib.image
+
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n", f"{path.name} is not a PNG"
+    assert struct.unpack(">II", head[16:24]) == size, path.name
+    img = matplotlib.image.imread(path)
+    assert img.shape[:2] == (size[1], size[0])
+    assert float(np.ptp(img[..., :3])) > 0.1, f"{path.name} is blank"
+
+
 @pytest.fixture(scope="module")
 def demo_runs(tmp_path_factory):
     """Run every demo serially and on 2 ranks once; map (name, nproc) → output dir."""
@@ -158,7 +172,8 @@ def test_knee2d_force_balance_and_symmetry(demo_runs):
     assert on.sum() >= 10
     # centroid of the pressure distribution close to the axis (meshes are not symmetric)
     assert abs((x * p).sum() / p.sum()) < 0.02 * (x[on].max() - x[on].min())
-    assert (out / "contact_pressure.png").stat().st_size > 10_000
+    _check_png(out / "contact_pressure.png", (840, 480))  # figsize (7, 4) at 120 dpi
+    _check_png(out / "knee2d_von_mises.png", (1000, 800))  # pyvista window_size
 
 
 def test_knee2d_gait_cycle_with_friction(demo_runs):
@@ -182,7 +197,7 @@ def test_knee2d_gait_cycle_with_friction(demo_runs):
     assert s["status"] == "converged" and s["contact"]["friction"] == ["coulomb"]
     assert abs(s["energy"]["defect"]) < 1e-8 * s["energy"]["external_work"]
     assert s["energy"]["contact_work"] < 0
-    assert (o1 / "gait_contact.png").stat().st_size > 10_000
+    _check_png(o1 / "gait_contact.png", (840, 720))  # figsize (7, 6) at 120 dpi
 
 
 def test_jaw_cyst_growth_and_cavity(demo_runs):
@@ -210,7 +225,20 @@ def test_jaw_cyst_growth_and_cavity(demo_runs):
         assert a["status"] == "converged"
         assert a["neoplasm_area_in_bone"] == pytest.approx(math.pi * a["equivalent_radius"] ** 2, rel=2e-3)
     assert an[-1]["equivalent_radius"] > 2 * an[0]["equivalent_radius"]
-    assert (out / "radicular" / "growth.csv").is_file() and (out / "jaw_cyst_von_mises.png").is_file()
+    # the radicular cyst: 36 months in one go, then one analysis; its radius follows the ODE too
+    rad = tomllib.loads((ROOT / "data" / "neoplasms.toml").read_text())["cyst"]["radicular"]
+    g2 = np.genfromtxt(out / "radicular" / "growth.csv", delimiter=",", names=True)
+    assert g2["time"][0] == 0.0
+    assert g2["time"][-1] == pytest.approx(36 * 365.25 * 86400 / 12, rel=1e-12)
+    assert np.all(np.diff(g2["equivalent_radius"]) > 0)
+    p2 = CystParameters(**{k: rad[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")})
+    ref2 = grow_sphere(p2, float(g2["equivalent_radius"][0]), float(g2["time"][-1]), g2["time"], dim=2)
+    np.testing.assert_allclose(g2["equivalent_radius"], ref2.R, rtol=1e-8)
+    s2 = json.loads((out / "radicular" / "summary.json").read_text())
+    assert s2["status"] == "converged" and len(s2["coupling"]["analyses"]) == 1
+    # the pictures: PNGs of the size the demo asks for, not blank
+    _check_png(out / "jaw_cyst_growth.png", (1320, 480))   # figsize (11, 4) at 120 dpi
+    _check_png(out / "jaw_cyst_von_mises.png", (1100, 900))  # pyvista window_size
 
 
 def test_knee_tumour_growth_and_loaded_bone(demo_runs):
@@ -236,3 +264,5 @@ def test_knee_tumour_growth_and_loaded_bone(demo_runs):
         pr = np.genfromtxt(d / "probes.csv", delimiter=",", names=True)
         vm.append(-float(pr["u_y"][(pr["probe"] == 2) & (pr["step"] == pr["step"].max())][0]))
     assert np.all(np.diff(vm) > 0), vm
+    _check_png(out / "tumour_growth.png", (1200, 480))  # figsize (10, 4) at 120 dpi
+    _check_png(out / "knee_tumour_von_mises.png", (1000, 900))  # pyvista window_size

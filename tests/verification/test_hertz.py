@@ -28,7 +28,9 @@ from bonecontact.verification.analytic import contact_modulus, hertz_2d
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.verification.problems import solve_hertz_3d
 
 COMM = MPI.COMM_WORLD
 R, A_REF, NU = 0.01, 5.0e-4, 0.3
@@ -47,7 +49,7 @@ def solve_hertz(E1: float, E2: float, h: float, ratio: float = 1.7, linear: str 
     m.add_dirichlet(m.facets(pg["cyl_top"]), 0, 0.0)
     m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta)
     itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, linear=linear, contact=[itf])
+    integ = Integrator(m, "static", 1.0, linear=linear, contact=ContactSolver(m.V, [itf]))
     integ.step()
     r = integ.last_contact
     x = np.concatenate(COMM.allgather(itf.coords[:, 0]))
@@ -90,36 +92,6 @@ def test_hertz_2d_iterations_under_refinement():
     assert max(its) <= 8, its
     assert errs[-1] < errs[0], errs               # the profile error shrinks under refinement
 
-
-def solve_hertz_3d(h: float, E1: float = 2.0e9, E2: float = 17.0e9):
-    """Hemisphere (R = 10 mm) on a block, approach δ = a²/R for a ≈ 1 mm (a/R ≈ 0.1);
-    CG + GAMG on the condensed system.  Returns relative errors of the contact radius
-    (fit of λ² = p₀²(1 − r²/a²) over r < 0.8a) and of the fitted peak pressure."""
-    from bonecontact.verification.analytic import hertz_3d
-
-    a_t = 1.0e-3
-    md = meshing.hertz_3d(COMM, h_contact=h, zone=1.5 * a_t)
-    pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["sphere"]: Isotropic(E=E1, nu=NU), pg["block"]: Isotropic(E=E2, nu=NU)},
-                  md.cell_tags, md.facet_tags)
-    for c in range(3):
-        m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
-        m.add_dirichlet(m.facets(pg["sphere_top"]), c, -a_t**2 / R if c == 1 else 0.0)
-    itf = build_interface(m.V, md.facet_tags, pg["sphere_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, linear="iterative", contact=[itf])
-    integ.step()
-    r = integ.last_contact
-    X = np.concatenate(COMM.allgather(itf.coords))
-    lam = np.concatenate(COMM.allgather(r.pressure[0]))
-    P = COMM.allreduce(float(-(itf.weight * r.pressure[0] * itf.normals[:, 1]).sum()), op=MPI.SUM)
-    rr = np.hypot(X[:, 0], X[:, 2])
-    a_ref, p0_ref = hertz_3d.radius(P, R, E1, NU, E2, NU), hertz_3d.peak_pressure(P, R, E1, NU, E2, NU)
-    sel = rr < 0.8 * a_ref
-    c0, c1 = np.linalg.lstsq(np.c_[np.ones(sel.sum()), rr[sel] ** 2], lam[sel] ** 2, rcond=None)[0]
-    out = {"a": np.sqrt(-c0 / c1) / a_ref - 1.0, "p0": np.sqrt(c0) / p0_ref - 1.0, "a_over_R": a_ref / R,
-           "iterations": r.iterations}
-    integ.destroy()
-    return out
 
 
 def test_hertz_3d_sphere_on_block():

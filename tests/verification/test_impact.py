@@ -32,8 +32,23 @@ import dolfinx_solver  # noqa: F401
 
 import numpy as np
 import pytest
+from mpi4py import MPI
 
-from bonecontact.verification.impact import BarImpact, run_bar_impact
+from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import ContactSolver
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.integrator import Integrator, redistributed_mass
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing import shapes as meshing
+from bonecontact.verification.impact import (
+    STRIKER,
+    STRIKER_END,
+    STRUCK,
+    STRUCK_END,
+    BarImpact,
+    run_bar_impact,
+    two_bars_2d,
+)
 
 P = BarImpact(nx=40, ny=2, gap=1.02e-5)
 # serial figures (errors() at N = 400 and 100), asserted on every rank count
@@ -102,19 +117,11 @@ def test_mass_redistribution_option():
     (measured there): the first-step force spike of the consistent mass at small
     Courant numbers is gone, but the force rings more during contact, and the errors
     are not smaller — so it is not the default."""
-    from mpi4py import MPI
-
-    from bonecontact.verification.impact import STRIKER, STRIKER_END, STRUCK, STRUCK_END, two_bars_2d
-    from bonecontact.materials.laws import Isotropic
-    from bonecontact.mechanics.model import Mechanics
-    from bonecontact.contact.interface import build_interface
-    from bonecontact.mechanics.integrator import redistributed_mass
-
     msh, ct, ft = two_bars_2d(MPI.COMM_WORLD, P)
     mat = Isotropic(E=P.E, nu=0.0, rho=P.rho)
     m = Mechanics(msh, {STRIKER: mat, STRUCK: mat}, ct, ft)
     itf = build_interface(m.V, ft, STRUCK_END, STRIKER_END)
-    Mr = redistributed_mass(m, [itf])
+    Mr = redistributed_mass(m, [itf.blocks])
     one, w = Mr.createVecs()
     one.set(1.0)
     Mr.mult(one, w)
@@ -150,14 +157,6 @@ def test_energy_balance_loads_viscosity_supports(kind):
     step below 1e-9 of the largest energy (measured ~1e-13); contact work ≤ 0 and equal
     to its residual-based value; viscous and numerical dissipation ≥ 0 and positive
     overall; the running totals reproduce the final energy."""
-    from mpi4py import MPI
-
-    from bonecontact.meshing import shapes as meshing
-    from bonecontact.materials.laws import Isotropic
-    from bonecontact.mechanics.model import Mechanics
-    from bonecontact.contact.interface import build_interface
-    from bonecontact.mechanics.integrator import Integrator
-
     md = meshing.two_blocks_2d(MPI.COMM_WORLD, h_lower=0.02 / 5, h_upper=0.02 / 7)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
     mats = {pg["lower"]: Isotropic(E=1e8, nu=0.3, rho=1900.0, tau_v=5e-4),
@@ -169,7 +168,7 @@ def test_energy_balance_loads_viscosity_supports(kind):
         m.add_dirichlet(m.facets(pg[side]), 0, 0.0)
     m.add_traction(pg["top"], [0.0, -2e5], schedule=ramp)
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, kind, 1e-4, contact=[itf], energy_balance=True)
+    integ = Integrator(m, kind, 1e-4, contact=ContactSolver(m.V, [itf]), energy_balance=True)
     integ.set_initial()
     steps = []
     for _ in range(20):

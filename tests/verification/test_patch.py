@@ -23,6 +23,7 @@ from bonecontact.meshing import shapes as meshing
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
@@ -61,7 +62,7 @@ def patch(dim: int, h_lower: float, h_upper: float, E_lower: float, E_upper: flo
     m.add_traction(pg["top"], [0.0, -P] + [0.0] * (dim - 2))
     s, ms = ("upper_contact", "lower_contact") if slave == "upper" else ("lower_contact", "upper_contact")
     itf = build_interface(m.V, md.facet_tags, pg[s], pg[ms], dirichlet_dofs=m.bc_dofs(), name="patch")
-    integ = Integrator(m, "static", 1.0, linear=linear, contact=[itf])
+    integ = Integrator(m, "static", 1.0, linear=linear, contact=ContactSolver(m.V, [itf]))
     integ.step()
     res = integ.last_contact
     lam = res.pressure[0]
@@ -140,7 +141,7 @@ def test_patch_kelvin_voigt_time_stepping(kind):
         m.add_dirichlet(m.facets(pg[side]), 0, 0.0)
     m.add_traction(pg["top"], [0.0, -P], schedule=lambda t: min(t / 1e-3, 1.0))
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, kind, 1e-4, contact=[itf])
+    integ = Integrator(m, kind, 1e-4, contact=ContactSolver(m.V, [itf]))
     for _ in range(40):
         integ.step()
         load = P * 0.02 * min(integ.t / 1e-3, 1.0)
@@ -172,7 +173,7 @@ def test_patch_two_contact_pairs():
     bc = m.bc_dofs()
     pairs = [build_interface(m.V, md.facet_tags, pg["block2_bottom"], pg["block1_top"], dirichlet_dofs=bc, name="a"),
              build_interface(m.V, md.facet_tags, pg["block3_bottom"], pg["block2_top"], dirichlet_dofs=bc, name="b")]
-    integ = Integrator(m, "static", 1.0, contact=pairs)
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, pairs))
     integ.step()
     r = integ.last_contact
     for k in range(2):

@@ -21,7 +21,8 @@ from bonecontact.verification.analytic import contact_modulus, hertz_2d
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
-from bonecontact.contact.pdas import ContactConvergenceError
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
 from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
@@ -47,7 +48,7 @@ def _hertz():
 
 
 def _run(m, itf, kind="static", steps=1, **options):
-    integ = Integrator(m, kind, 1.0, contact=[itf], contact_options=options)
+    integ = Integrator(m, kind, 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(**options)))
     out = []
     for _ in range(steps):
         integ.step()
@@ -156,7 +157,7 @@ def test_singular_active_set_is_reported(strategy):
     m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
     m.add_traction(pg["top"], [0.0, 1.0e5])
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"strategy": strategy})
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy)))
     with pytest.raises(ContactConvergenceError) as info:
         integ.step()
     assert "singular" in str(info.value)

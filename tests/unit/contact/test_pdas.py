@@ -25,7 +25,9 @@ from bonecontact.meshing import shapes as meshing
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import RigidPlane, build_interface
-from bonecontact.contact.pdas import ContactConvergenceError, snes_vi_solve
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
+from bonecontact.contact.snes_vi import snes_vi_solve
 from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
@@ -59,7 +61,7 @@ def test_partial_liftoff_complementarity_and_force_balance():
     md, pg, m = _model()
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"],
                           dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf])
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf]))
     integ.step()
     r = integ.last_contact
     lam, gap = r.pressure[0], r.gap[0]
@@ -81,7 +83,7 @@ def test_iteration_limit_raises_with_history():
     md, pg, m = _model()
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"],
                           dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf], contact_options={"max_iterations": 1})
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(max_iterations=1)))
     with pytest.raises(ContactConvergenceError) as info:
         integ.step()
     assert len(info.value.history) == 1 and info.value.history[0]["changed"] > 0
@@ -94,7 +96,7 @@ def test_pdas_equals_snes_vi_on_rigid_plane():
     md, pg, m = _model()
     plane = RigidPlane(point=(0.0, H), normal=(0.0, -1.0))
     itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], plane, dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=[itf])
+    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf]))
     integ.step()
     u_pdas = integ.u.x.petsc_vec.copy()
     its = integ.last_contact.iterations
@@ -102,7 +104,7 @@ def test_pdas_equals_snes_vi_on_rigid_plane():
     # the same discrete problem for SNES VI: A_bc u = b with u_y ≥ −g at the slave nodes
     ref = Integrator(m, "static", 1.0)
     b = ref.rhs(1.0)
-    ref._apply_dirichlet(1.0, b)
+    ref.apply_dirichlet(1.0, b)
     A = ref.A_bc
     lb, ub = A.createVecRight(), A.createVecRight()
     lb.set(-1e30)

@@ -1,4 +1,4 @@
-"""Geometry builders: measures of every named group against the exact geometry.
+"""Parametric geometry builders (bonecontact.meshing.shapes): measures of every named group against the exact geometry.
 
 Runs serially and under ``mpiexec -n 2/3`` (all measures are assembled and summed over
 the ranks).
@@ -7,71 +7,18 @@ the ranks).
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
 import math
-from pathlib import Path
 
 import gmsh
 import numpy as np
 import pytest
-import ufl
 from mpi4py import MPI
 
-from dolfinx import default_scalar_type, fem
 from dolfinx.io.gmsh import read_from_msh
-from dolfinx.mesh import compute_incident_entities, entities_to_geometry, exterior_facet_indices, meshtags
 
 from bonecontact.meshing import shapes as meshing
+from mesh_measures import count_owned, group_vertices, measure
 
 COMM = MPI.COMM_WORLD
-REPO = Path(__file__).resolve().parents[3]
-
-
-def measure(md, name=None):
-    """Area/volume of a cell group, length/area of a facet group (whole boundary if None).
-
-    The group is re-tagged with id 1, so that one compiled form per cell type serves all
-    groups (the JIT cache is keyed on the form, which includes the subdomain ids).
-    """
-    msh = md.mesh
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, tdim)
-    if name is None:
-        dim = tdim - 1
-        entities = exterior_facet_indices(msh.topology)
-    else:
-        dim = md.physical_groups[name].dim
-        tags = md.cell_tags if dim == tdim else md.facet_tags
-        entities = tags.find(md.physical_groups[name].tag)
-    assert dim in (tdim, tdim - 1)
-    marker = meshtags(msh, dim, np.sort(entities).astype(np.int32), np.ones(len(entities), np.int32))
-    kind = "dx" if dim == tdim else "ds"
-    one = fem.Constant(msh, default_scalar_type(1.0))
-    form = fem.form(one * ufl.Measure(kind, domain=msh, subdomain_data=marker)(1))
-    return msh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
-
-
-def count_owned(md, name):
-    """Global number of cells/facets in a physical group."""
-    group = md.physical_groups[name]
-    tags = md.cell_tags if group.dim == md.mesh.topology.dim else md.facet_tags
-    n_owned = md.mesh.topology.index_map(group.dim).size_local
-    local = np.count_nonzero(tags.find(group.tag) < n_owned)
-    return md.mesh.comm.allreduce(int(local), op=MPI.SUM)
-
-
-def group_vertices(md, name):
-    """Global vertex indices and coordinates of the vertices of a group (on every rank)."""
-    msh = md.mesh
-    group = md.physical_groups[name]
-    tags = md.cell_tags if group.dim == msh.topology.dim else md.facet_tags
-    msh.topology.create_connectivity(group.dim, 0)
-    msh.topology.create_connectivity(0, msh.topology.dim)
-    local = compute_incident_entities(msh.topology, tags.find(group.tag), group.dim, 0)
-    glob = msh.topology.index_map(0).local_to_global(local)
-    xyz = msh.geometry.x[entities_to_geometry(msh, 0, local).reshape(-1)]
-    glob = np.concatenate(msh.comm.allgather(glob))
-    xyz = np.concatenate(msh.comm.allgather(xyz))
-    glob, first = np.unique(glob, return_index=True)
-    return glob, xyz[first]
 
 
 def test_quarter_tube():
@@ -130,39 +77,6 @@ def test_cantilever():
         assert measure(md, name) == pytest.approx(area, rel=1e-12)
     _, x = group_vertices(md, "tip")
     assert np.allclose(x[:, 0], L)
-
-
-def check_long_bone(md, length=0.2, width=0.03, t=5e-3, flare=4e-3, flare_length=0.03):
-    assert set(md.physical_groups) == {"cortical", "cancellous", "distal", "proximal", "periosteum"}
-    total = width * length + 2 * flare * flare_length
-    assert measure(md, "cortical") == pytest.approx(2 * t * length, rel=1e-12)
-    assert measure(md, "cancellous") == pytest.approx(total - 2 * t * length, rel=1e-12)
-    for end in ("distal", "proximal"):
-        assert measure(md, end) == pytest.approx(width + 2 * flare, rel=1e-12)
-    side = length - 2 * flare_length + 2 * math.hypot(flare, flare_length)
-    assert measure(md, "periosteum") == pytest.approx(2 * side, rel=1e-12)
-    # Conforming cortex/core interface: it is interior, so the whole exterior boundary
-    # is exactly the three named facet groups.
-    assert measure(md) == pytest.approx(2 * side + 2 * (width + 2 * flare), rel=1e-12)
-    _, x = group_vertices(md, "distal")
-    assert np.allclose(x[:, 1], 0.0)
-
-
-def test_long_bone_2d():
-    check_long_bone(meshing.long_bone_2d(h=3e-3, comm=COMM))
-
-
-def test_long_bone_2d_without_flare():
-    check_long_bone(meshing.long_bone_2d(h=3e-3, flare=0.0, comm=COMM), flare=0.0)
-
-
-def test_shipped_long_bone_mesh():
-    path = REPO / "data" / "scenes" / "long_bone.msh"
-    assert path.stat().st_size < 300_000
-    md = read_from_msh(path, COMM, 0, gdim=2)
-    check_long_bone(md)
-    n_nodes = md.mesh.topology.index_map(0).size_global
-    assert 2500 < n_nodes < 4500  # element size about 1.5 mm
 
 
 def _check_non_matching(md, dim):
@@ -246,7 +160,6 @@ def test_keeps_an_existing_gmsh_session():
     lambda: meshing.quarter_tube(0.02, 0.01, 1e-3, COMM),
     lambda: meshing.rectangle(1.0, 1.0, 0, 2, COMM),
     lambda: meshing.box(1.0, -1.0, 1.0, 0.1, COMM),
-    lambda: meshing.long_bone_2d(cortical_thickness=0.02, comm=COMM),
     lambda: meshing.two_blocks_2d(COMM, h_upper=0.0),
 ])
 def test_invalid_geometry_is_rejected(call):

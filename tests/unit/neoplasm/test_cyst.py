@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bonecontact.neoplasm.cyst import SECONDS_PER_YEAR, CystParameters, equilibrium_radius, grow_sphere, long_time_rate
+from bonecontact.common.constants import SECONDS_PER_YEAR
+from bonecontact.neoplasm.cyst import CystParameters, equilibrium_radius, grow_sphere, long_time_rate
 
 YEAR = SECONDS_PER_YEAR
 # radicular-cyst-like: β/C⁻ = 3.2e-11 m/s ≈ 1 mm of radius per year

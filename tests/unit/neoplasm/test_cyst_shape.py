@@ -18,7 +18,8 @@ import pytest
 from mpi4py import MPI
 
 from bonecontact.run.cli import main
-from bonecontact.neoplasm.cyst import SECONDS_PER_YEAR as YEAR, CystParameters, grow_sphere
+from bonecontact.common.constants import SECONDS_PER_YEAR as YEAR
+from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
 from bonecontact.neoplasm.cyst_shape import CystShapeModel
 
 RADICULAR = dict(beta=3.2e-11, C_minus=1.0, temperature=310.0, E=1.0e6, viscosity=1.0e9)

@@ -51,14 +51,15 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
+from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
-from bonecontact.run.dispatch import run_scene
-from bonecontact.scene.spec import SceneError, load_scene
+from bonecontact.run import run_scene
+from bonecontact.scene import SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parents[3]
 BIN = Path(sys.executable).parent
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
-YEAR = 365.25 * 86400.0
+YEAR = SECONDS_PER_YEAR
 
 
 # ----------------------------------------------------------------------------- meshes
@@ -465,7 +466,7 @@ def test_host_mesh_keeps_touching_bodies_apart(tmp_shared_path):
     and keep every facet group; the tumour cells in the new mesh have the tumour's area."""
     import gmsh
 
-    from bonecontact.run.coupled import build_host_mesh, neoplasm_polygon, read_host_geometry
+    from bonecontact.neoplasm.host import build_host_mesh, neoplasm_polygon, read_host_geometry
 
     root = Path(__file__).resolve().parents[3]
     path = tmp_shared_path / "knee_host.msh"

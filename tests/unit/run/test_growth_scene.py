@@ -22,14 +22,14 @@ from mpi4py import MPI
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
+from bonecontact.common.constants import R_GAS, SECONDS_PER_YEAR
 from bonecontact.run.cli import main
 from bonecontact.scene.expressions import ExpressionError, parse_rate
 
 ROOT = Path(__file__).resolve().parents[3]
 BIN = Path(sys.executable).parent
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
-YEAR = 365.25 * 86400.0
-R_GAS = 8.314462618
+YEAR = SECONDS_PER_YEAR
 
 # a meshless 2D tumour (Byrne-Chaplain reduction, lengths in units of sqrt(D_c/lambda) = 1)
 TUMOUR = """format = 1
@@ -429,7 +429,7 @@ def test_failed_growth_step_exit_1_rows_kept(shared_dir, monkeypatch):
     step in the message, and the rows of the steps done are in growth.csv."""
     import json
 
-    from bonecontact.run import growth
+    from bonecontact.neoplasm import growth
 
     step = growth.TumourGrowth.step
 

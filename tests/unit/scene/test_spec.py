@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from bonecontact.materials.laws import Isotropic, Orthotropic, TransverselyIsotropic
-from bonecontact.scene.spec import (
+from bonecontact.scene import (
     Analysis,
     ContactSpec,
     DirichletSpec,
@@ -357,6 +357,25 @@ def test_rule(tmp_path, ops, key, table, contains):
 def test_base_document_is_valid(tmp_path):
     scene = base_scene(tmp_path)
     assert scene.name == "knee"
+    assert scene.path == (tmp_path / "scene.toml").absolute()
+    assert scene.mesh_path == (tmp_path / "knee.msh").resolve()
+    assert scene.dimension == 2 and scene.neoplasm is None and not scene.growth_only
+    assert [(m.name, m.regions) for m in scene.materials] == [
+        ("cortical", ("upper",)), ("trabecular", ("lower",)), ("plate", ("plate",))]
+    cort, trab, plate = (m.material for m in scene.materials)
+    assert (cort.E, cort.nu, cort.rho, cort.tau_v) == (17.0e9, 0.3, 1900.0, 1e-3)
+    assert (trab.E_p, trab.E_a, trab.nu_p, trab.nu_pa, trab.G_pa, trab.rho) == (1.0e9, 2.0e9, 0.3, 0.2, 0.5e9, 1000.0)
+    assert (plate.E1, plate.E2, plate.E3, plate.nu12, plate.nu13, plate.nu23, plate.G12, plate.G13, plate.G23,
+            plate.rho) == (10e9, 12e9, 8e9, 0.3, 0.25, 0.2, 4e9, 3e9, 3.5e9, 2000.0)
+    assert scene.contacts == (ContactSpec("joint", "upper_contact", "lower_contact", "coulomb", 0.3, 0.0,
+                                          "fixed_point"),)
+    assert [(d.boundary, d.value) for d in scene.dirichlet] == [("bottom", (0.0, 0.0)), ("side", (None, 1e-3))]
+    assert [(ld.kind, ld.target, ld.value) for ld in scene.loads] == [
+        ("traction", ("top",), (0.0, -1.0e6)), ("pressure", ("cyst_wall",), 6.5e3),
+        ("body_force", ("upper",), (0.0, -9.81e3))]
+    assert scene.initial_velocities == (InitialVelocitySpec(("upper",), (0.0, -1.0)),)
+    assert scene.output.probes == ((0.01, 0.02),)
+    assert scene.cell_regions == ("upper", "lower", "plate")
 
 
 def test_malformed_toml_names_line_and_column(tmp_path):
@@ -405,6 +424,9 @@ def test_quasistatic_needs_no_rho(tmp_path):
     doc = _apply(BASE, [("set", ("analysis", "kind"), "quasistatic"), ("del", ("material", 0, "rho"))])
     scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert scene.materials[0].material.rho is None
+    assert scene.analysis == Analysis("quasistatic", 1.0, 0.1, 1)
+    assert (scene.materials[0].material.E, scene.materials[0].material.tau_v) == (17.0e9, 1e-3)
+    assert scene.materials[1].material.rho == 1000.0
 
 
 # --------------------------------------------------------------------------------------
@@ -571,8 +593,14 @@ def test_3d_scene(tmp_path):
     ])
     scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert scene.dimension == 3 and scene.dirichlet[1].value == (None, None, 0.0)
+    assert scene.dirichlet[0].value == (0.0, 0.0, 0.0) and scene.dirichlet[1].components == (2,)
+    assert scene.materials[1].material.axis == (0.0, 0.0, 1.0)
+    assert scene.materials[2].material.axes == ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    assert [ld.value for ld in scene.loads] == [(0.0, 0.0, -1.0), 6.5e3, (0.0, 0.0, -1.0)]
+    assert scene.initial_velocities[0].value == (0.0, 0.0, -1.0)
+    assert scene.output.probes == ((0.0, 0.0, 0.0),)
     groups = {k: (d + 1, t) for k, (d, t) in GROUPS.items()}
-    check_against_mesh(scene, groups, 3, 3)
+    assert check_against_mesh(scene, groups, 3, 3) is None
 
 
 def test_nodal_pressure_formulation(tmp_path):
@@ -580,6 +608,8 @@ def test_nodal_pressure_formulation(tmp_path):
                         ("set", ("material", 0, "nu"), 0.4999)])
     scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
     assert scene.materials[0].material.formulation == "nodal_pressure"
+    assert (scene.materials[0].material.E, scene.materials[0].material.nu) == (17.0e9, 0.4999)
+    assert scene.materials[1].material.formulation == "displacement"
 
 
 # --------------------------------------------------------------------------------------
@@ -673,7 +703,15 @@ def _without(name: str) -> dict[str, tuple[int, int]]:
 
 
 def test_mesh_valid(tmp_path):
-    check_against_mesh(base_scene(tmp_path), GROUPS, 2, 2)
+    scene = base_scene(tmp_path)
+    assert check_against_mesh(scene, GROUPS, 2, 2) is None
+    # every name the scene uses is a group of the right dimension of the fake mesh
+    assert {r: GROUPS[r][0] for r in scene.cell_regions} == {"upper": 2, "lower": 2, "plate": 2}
+    facets = {d.boundary for d in scene.dirichlet} | {ld.target[0] for ld in scene.loads if ld.kind != "body_force"}
+    assert facets == {"bottom", "side", "top", "cyst_wall"} and all(GROUPS[f][0] == 1 for f in facets)
+    # and the check is active: dropping one of them fails
+    with pytest.raises(SceneError):
+        check_against_mesh(scene, _without("side"), 2, 2)
 
 
 @pytest.mark.parametrize("tdim, gdim", [(3, 3), (2, 3), (3, 2)])

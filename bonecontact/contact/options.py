@@ -1,0 +1,82 @@
+"""Options of the PDAS contact solver (:class:`bonecontact.contact.pdas.ContactSolver`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bonecontact.contact.friction import FrictionLaw
+
+__all__ = ["PDASOptions"]
+
+
+@dataclass(frozen=True)
+class PDASOptions:
+    """Options of the primal–dual active set contact solver, validated on construction.
+
+    The linear solver (``"direct"`` / ``"iterative"``), its Krylov tolerance and the
+    force scale of the operator are not options: they come from the integrator that
+    sets the solver up (:meth:`bonecontact.contact.pdas.ContactSolver.setup`).
+    """
+
+    #: One :class:`~bonecontact.contact.friction.FrictionLaw` for every pair, or a list
+    #: (or tuple) with one per pair; ``None``: frictionless.
+    friction: FrictionLaw | list[FrictionLaw] | tuple[FrictionLaw, ...] | None = None
+    #: Normal complementarity parameter (Pa/m); ``None``: the mean ratio of the normal
+    #: rows' diagonal to ``D_pp`` (≈ E/h).
+    c_n: float | None = None
+    #: Tangential complementarity parameter (Pa/m); ``None``: equal to ``c_n``.
+    c_t: float | None = None
+    #: PDAS iteration limit (all iterations of a solve, bound updates included).
+    max_iterations: int = 50
+    #: Gaps below this (m) count as closed for the cold start; ``None``: 1e-9 × the
+    #: slave surface size.
+    gap_tol: float | None = None
+    #: PETSc options prefix of the contact linear solver.
+    prefix: str = "bc_contact_"
+    #: ``"lowrank"`` (one factorisation reused through low-rank updates; direct solver
+    #: only), ``"refactor"`` (factorise / precondition every iteration) or ``"auto"``
+    #: (``"lowrank"`` with the direct solver, else ``"refactor"``).
+    strategy: str = "auto"
+    #: Low-rank strategy: cache limit (columns) of
+    #: :class:`bonecontact.contact.lowrank.LowRankActiveSetSolver`.
+    max_columns: int = 2000
+    #: Low-rank strategy: the cost ratio (columns against one factorisation) beyond
+    #: which the current set is refactorised instead.
+    rebase_ratio: float = 1.0
+    #: Coulomb ``fixed_point``: update the bounds every ``fp_every`` iterations (and
+    #: whenever the sets have settled); values below 1 count as 1.
+    fp_every: int = 1
+    #: Coulomb ``fixed_point``: converged when the relative change of the bounds is
+    #: below this.
+    fp_tol: float = 1e-8
+    #: 3D friction: slip directions must change by less than this between iterations
+    #: (and, with ``slip_3d="newton"``, the slip traction must equal the bound times
+    #: the direction to this relative accuracy).
+    direction_tol: float = 1e-6
+    #: 3D slip nodes: ``"newton"`` — the damped semi-smooth Newton linearisation of
+    #: C_t (Hüeber–Stadler–Wohlmuth), nonsymmetric rows; ``"fixed_point"`` — the
+    #: traction is prescribed along the previous slip direction and the direction
+    #: iterated (Aitken-accelerated) to a fixed point.
+    slip_3d: str = "newton"
+    #: Cold start only: the first set update activates, of the nodes that penetrate
+    #: after the first solve, only those whose penetration exceeds this fraction of the
+    #: deepest (0 = all), in [0, 1).  Only the path changes, not the solution.
+    cold_start_fraction: float = 0.7
+
+    def __post_init__(self) -> None:
+        if self.slip_3d not in ("newton", "fixed_point"):
+            raise ValueError(f"slip_3d must be 'newton' or 'fixed_point', got {self.slip_3d!r}")
+        if not 0.0 <= self.cold_start_fraction < 1.0:
+            raise ValueError(f"cold_start_fraction must be in [0, 1), got {self.cold_start_fraction}")
+        if self.strategy not in ("auto", "lowrank", "refactor"):
+            raise ValueError(f"contact strategy must be 'auto', 'lowrank' or 'refactor', got {self.strategy!r}")
+        if int(self.max_iterations) < 1:
+            raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
+
+    def frictions(self, n_pairs: int) -> list[FrictionLaw]:
+        """One friction law per contact pair."""
+        friction = FrictionLaw() if self.friction is None else self.friction
+        laws = list(friction) if isinstance(friction, (list, tuple)) else [friction] * n_pairs
+        if len(laws) != n_pairs:
+            raise ValueError(f"{len(laws)} friction laws for {n_pairs} contact pairs")
+        return laws

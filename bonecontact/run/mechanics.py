@@ -1,0 +1,320 @@
+"""Mechanics runs: mesh → model → integrator → results (SCENE_FORMAT.md).
+
+A scene with ``[analysis]`` and no ``[neoplasm]`` runs here (:func:`run_mechanics`,
+chosen by :func:`bonecontact.run.dispatch.run_scene`); coupled runs
+(:mod:`bonecontact.run.coupled`) run their analyses here too.
+
+Everything that can be wrong with the input is checked before any result file is
+written; :class:`~bonecontact.scene.errors.SceneError` is raised on *every* rank (all
+checks are collective), so a CLI can exit with status 2 on all ranks at once.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from dolfinx import fem
+from mpi4py import MPI
+from tqdm import tqdm
+
+from bonecontact.contact.interface import ContactInputError, build_interface
+from bonecontact.contact.friction import FrictionLaw
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactSolver
+from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing.io import read_gmsh_mesh
+from bonecontact.run.results import (ENERGY_COLUMNS, ProbeError, Probes, ResultsWriter, RunResult,
+                                     StressFields)
+from bonecontact.scene import Scene, SceneError, check_against_mesh
+
+__all__ = ["SceneModel", "build_model", "read_mesh", "run_mechanics"]
+
+
+@dataclass
+class SceneModel:
+    """What a scene builds before it runs."""
+
+    scene: Scene
+    mesh_data: object
+    groups: dict[str, tuple[int, int]]
+    model: Mechanics
+    v0: fem.Function | None
+    probes: Probes
+    interfaces: list = None  # mortar.ContactInterface per [[contact]] pair
+
+
+# ----------------------------------------------------------------------------- set-up
+def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
+    """Read the scene's gmsh file; check dimension and physical groups (collective).
+
+    Returns
+    -------
+    (MeshData, groups)
+        ``groups`` maps physical-group name → (dim, tag).
+    """
+    path = scene.mesh_path
+    file = str(scene.path)
+    if not path.is_file():
+        raise SceneError(file, "[scene]", "mesh", f"mesh file {str(path)!r} does not exist")
+    try:
+        tdim, md = read_gmsh_mesh(path, comm, scene.dimension)
+    except ValueError as exc:
+        raise SceneError(file, "[scene]", "mesh", f"cannot read gmsh file {str(path)!r}: {exc}") from None
+    if tdim != scene.dimension:
+        raise SceneError(file, "[scene]", "dimension",
+                         f"is {scene.dimension} but the mesh {path.name} has dimension {tdim}")
+    groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in md.physical_groups.items()}
+    check_against_mesh(scene, groups, md.mesh.topology.dim, md.mesh.geometry.dim)
+    return md, groups
+
+
+def build_model(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
+    """Build the mechanics model of a scene (no output written).
+
+    Raises
+    ------
+    SceneError
+        For every input problem that needs the mesh (collective).
+    """
+    md, groups = read_mesh(scene, comm)
+    tag = {name: t for name, (d, t) in groups.items()}
+    model = _mechanics(scene, md, tag)
+    _add_dirichlet(scene, model, tag)
+    _add_loads(scene, model, tag)
+    v0 = _initial_velocity(scene, model, tag)
+    try:
+        probes = Probes(md.mesh, scene.output.probes)
+    except ProbeError as exc:
+        raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
+    interfaces = _contact_interfaces(scene, model, md, tag)
+    return SceneModel(scene, md, groups, model, v0, probes, interfaces)
+
+
+def _mechanics(scene: Scene, md: Any, tag: dict[str, int]) -> Mechanics:
+    """The model with each region's material."""
+    materials = {}
+    for spec in scene.materials:
+        for region in spec.regions:
+            materials[tag[region]] = spec.material
+    return Mechanics(md.mesh, materials, md.cell_tags, md.facet_tags)
+
+
+def _add_dirichlet(scene: Scene, model: Mechanics, tag: dict[str, int]) -> None:
+    for d in scene.dirichlet:
+        facets = model.facets(tag[d.boundary])
+        for comp, val in enumerate(d.value):
+            if val is not None:
+                model.add_dirichlet(facets, comp, float(val), d.schedule)
+
+
+def _add_loads(scene: Scene, model: Mechanics, tag: dict[str, int]) -> None:
+    for ld in scene.loads:
+        tags = [tag[n] for n in ld.target]
+        if ld.kind == "traction":
+            model.add_traction(tags, ld.value, ld.schedule)
+        elif ld.kind == "pressure":
+            model.add_pressure(tags, float(ld.value), ld.schedule)
+        else:
+            model.add_body_force(ld.value, tags, ld.schedule)
+
+
+def _initial_velocity(scene: Scene, model: Mechanics, tag: dict[str, int]) -> fem.Function | None:
+    if not scene.initial_velocities:
+        return None
+    v0 = fem.Function(model.V, name="initial_velocity")
+    bs = model.V.dofmap.index_map_bs
+    for iv in scene.initial_velocities:
+        cells = model.cells([tag[r] for r in iv.regions])
+        blocks = np.unique(model.V.dofmap.list[cells])
+        for c, val in enumerate(iv.value):
+            v0.x.array[bs * blocks + c] = val
+    return v0
+
+
+def _contact_interfaces(scene: Scene, model: Mechanics, md: Any, tag: dict[str, int]) -> list:
+    """One mortar interface per ``[[contact]]`` pair (input errors as SceneError)."""
+    interfaces = []
+    if scene.contacts:
+        bc = model.bc_dofs()
+        for i, c in enumerate(scene.contacts):
+            try:
+                interfaces.append(build_interface(model.V, md.facet_tags, tag[c.slave], tag[c.master],
+                                                  dirichlet_dofs=bc, name=c.name))
+            except ContactInputError as exc:
+                raise SceneError(str(scene.path), f'[[contact]] #{i + 1} "{c.name}"', "slave",
+                                 str(exc).replace(f"contact {c.name!r}: ", "")) from None
+    return interfaces
+
+
+def _steps(scene: Scene) -> tuple[int, float]:
+    a = scene.analysis
+    if a.kind == "static":
+        return a.load_steps, 1.0 / a.load_steps
+    n = int(round(a.t_end / a.dt))
+    if abs(n * a.dt - a.t_end) > 1e-9 * a.t_end:
+        n = int(np.ceil(a.t_end / a.dt - 1e-9))
+    return max(n, 1), a.dt
+
+
+def _integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> Integrator:
+    """The time integrator of the scene's analysis (with its contact pairs)."""
+    model = sm.model
+    contact = None
+    if sm.interfaces:
+        options = PDASOptions(max_iterations=scene.solver.max_iterations,
+                              friction=[FrictionLaw(c.friction, c.coefficient, c.bound, c.coulomb_update)
+                                        for c in scene.contacts])
+        contact = ContactSolver(model.V, sm.interfaces, options)
+    integ = Integrator(model, scene.analysis.kind, dt, linear=scene.solver.linear,
+                       rtol=min(1e-2 * scene.solver.tolerance, 1e-12), contact=contact,
+                       energy_balance=dynamic)
+    return integ
+
+
+# ----------------------------------------------------------------------------- recording
+class _Recorder:
+    """Writes the tables (history, contact, probes) and fields of a state as the run goes."""
+
+    def __init__(self, scene: Scene, sm: SceneModel, integ: Integrator, comm: MPI.Comm, outdir: Path,
+                 dynamic: bool):
+        self.sm, self.integ, self.dynamic = sm, integ, dynamic
+        self.stress = StressFields(sm.model.mesh, sm.model.stress_expression(integ.u, integ.velocity))
+        self.writer = ResultsWriter(comm, outdir, scene.name, sm.probes, ENERGY_COLUMNS if dynamic else ())
+        self.fields_written = -1
+
+    def _write_fields(self, t: float) -> None:
+        integ, stress = self.integ, self.stress
+        self.writer.fields(t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal])
+
+    def record(self, step: int, t: float, write_fields: bool, tables: bool = True) -> None:
+        """Record the current state (collective); ``tables=False`` after a failure: only
+        make sure the last good state's fields exist."""
+        integ, sm = self.integ, self.sm
+        sm.model.update_nodal_volumetric(integ.u, integ.velocity)
+        self.stress.update()
+        if not tables:
+            if self.fields_written != step:
+                self._write_fields(t)
+            return
+        self.writer.history(self._history_rows(step, t))
+        self.writer.probe_rows(step, t, integ.u, integ.velocity, self.stress)
+        if write_fields:
+            self._write_fields(t)
+            self.fields_written = step
+
+    def _history_rows(self, step: int, t: float) -> list[list]:
+        """One history row per contact pair (one row without pairs); rewrites the contact tables."""
+        integ, sm = self.integ, self.sm
+        e = integ.energy()
+        res = integ.last_contact
+        works = [getattr(integ.balance, c) for c in ENERGY_COLUMNS] if self.dynamic else []
+        if not sm.interfaces:
+            return [[step, t, "", 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain, *works]]
+        rows = []
+        for k, itf in enumerate(sm.interfaces):
+            if res is None:  # initial state: no contact solve yet
+                rows.append([step, t, itf.name, 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain, *works])
+                continue
+            # frictionless pairs: active nodes slide freely ("slip"), no tangential traction
+            rows.append([step, t, itf.name, res.normal_force[k], res.tangential_force[k], res.n_active[k],
+                         res.n_stick[k], res.n_slip[k], res.iterations, e.kinetic, e.strain, *works])
+            self.writer.contact_table(itf.name, itf.coords, res.gap[k], res.pressure[k],
+                                      res.traction_t[k], res.slip[k], list(res.status[k]))
+        return rows
+
+
+@dataclass
+class _Counts:
+    """Solver iteration counts over the run."""
+
+    linear: list[int]
+    pdas: list[int]
+    bound_updates: list[int]
+
+
+def _step_through(scene: Scene, comm: MPI.Comm, integ: Integrator, rec: _Recorder, nsteps: int, dt: float,
+                  progress: bool) -> tuple[str, str | None, _Counts]:
+    """Record the initial state, then step and record; a failed step ends the run.
+
+    Returns ``(status, message, counts)``.
+    """
+    every = scene.output.fields_every
+    counts = _Counts([], [], [])
+    status, message = "converged", None
+    try:
+        rec.record(0, 0.0, every > 0)
+        bar = tqdm(total=nsteps, desc=scene.name, unit="step", disable=(comm.rank != 0) or not progress,
+                   dynamic_ncols=True)
+        for k in range(1, nsteps + 1):
+            si = integ.step()
+            counts.linear.append(si.linear_iterations)
+            if integ.last_contact is not None:
+                counts.pdas.append(integ.last_contact.iterations)
+                counts.bound_updates.append(integ.last_contact.bound_updates)
+            last = k == nsteps
+            rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
+            bar.update(1)
+        bar.close()
+    except RuntimeError as exc:
+        status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
+        rec.record(integ.step_count, integ.t, True, tables=False)  # last good state (its rows are written)
+    return status, message, counts
+
+
+def _run_info(scene: Scene, sm: SceneModel, integ: Integrator, counts: _Counts, dynamic: bool, e0: float,
+              t_start: float) -> dict[str, Any]:
+    """Steps, iterations, contact and energy entries of the summary."""
+    info: dict[str, Any] = {
+        "steps": integ.step_count,
+        "linear_iterations": {"total": int(sum(counts.linear)), "max": int(max(counts.linear, default=0))},
+        "wall_time_s": time.perf_counter() - t_start}
+    if sm.interfaces:
+        info["contact"] = {"pairs": [i.name for i in sm.interfaces],
+                           "pdas_iterations": {"total": int(sum(counts.pdas)),
+                                               "max": int(max(counts.pdas, default=0))},
+                           "friction": [c.friction for c in scene.contacts],
+                           "bound_updates": int(sum(counts.bound_updates)),
+                           "solver": "PDAS (semi-smooth Newton), dual mortar; Tresca/Coulomb friction "
+                                     "(Coulomb fixed_point: outer = bound_updates, inner = pdas_iterations)",
+                           "setup_time_s": integ.contact.setup_time}
+    if dynamic:
+        b = integ.balance
+        info["energy"] = {"initial": e0, "final": b.total, **{c: getattr(b, c) for c in ENERGY_COLUMNS},
+                          "defect": b.defect}
+    return info
+
+
+# ----------------------------------------------------------------------------- run
+def run_mechanics(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None,
+                  progress: bool = True) -> RunResult:
+    """Validate, build and run a mechanics scene, writing its results incrementally.
+
+    Returns
+    -------
+    RunResult
+        ``status`` is ``"converged"`` or ``"failed"`` (then ``summary["message"]``
+        says why; the last good state is in the output files).
+    """
+    t_start = time.perf_counter()
+    sm = build_model(scene, comm)
+    outdir = Path(output) if output is not None else scene.output.directory
+    nsteps, dt = _steps(scene)
+    dynamic = scene.analysis.kind == "dynamic"  # dynamic runs book the energy balance
+    integ = _integrator(scene, sm, dt, dynamic)
+    integ.set_initial(None, sm.v0)
+    rec = _Recorder(scene, sm, integ, comm, outdir, dynamic)
+    e0 = integ.balance.total
+    info = {"dofs": sm.model.num_dofs, "analysis": scene.analysis.kind, "dt": dt, "setup_time_s": integ.setup_time,
+            "linear_solver": scene.solver.linear}
+    status, message, counts = _step_through(scene, comm, integ, rec, nsteps, dt, progress)
+    info.update(_run_info(scene, sm, integ, counts, dynamic, e0, t_start))
+    if message is not None:
+        info["message"] = message
+    summary = rec.writer.summary(status, **info)
+    rec.writer.close()
+    return RunResult(status, summary, integ, outdir)

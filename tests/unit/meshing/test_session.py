@@ -1,0 +1,44 @@
+"""The gmsh session helper (bonecontact.meshing.session): owns gmsh only if it started it."""
+
+import dolfinx_solver  # noqa: F401  (must precede dolfinx)
+
+import gmsh
+import pytest
+from mpi4py import MPI
+
+from bonecontact.meshing.session import gmsh_session
+
+pytestmark = pytest.mark.skipif(MPI.COMM_WORLD.rank != 0, reason="gmsh runs on rank 0 only")
+
+
+def test_session_initialises_and_finalises():
+    assert not gmsh.isInitialized()
+    with gmsh_session("a"):
+        assert gmsh.isInitialized()
+        assert gmsh.model.getCurrent() == "a"
+        assert gmsh.option.getNumber("General.Terminal") == 0
+    assert not gmsh.isInitialized()
+
+
+def test_sessions_nest_and_keep_an_outer_session():
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 1)
+        gmsh.model.add("outer")
+        with gmsh_session("inner"):
+            with gmsh_session():
+                assert gmsh.model.getCurrent() == "inner"
+                assert gmsh.option.getNumber("General.Terminal") == 0
+            assert "inner" in gmsh.model.list()
+        assert gmsh.isInitialized()
+        assert "inner" not in gmsh.model.list() and "outer" in gmsh.model.list()
+        assert gmsh.option.getNumber("General.Terminal") == 1
+    finally:
+        gmsh.finalize()
+
+
+def test_session_finalises_after_an_error():
+    with pytest.raises(RuntimeError):
+        with gmsh_session("b"):
+            raise RuntimeError("boom")
+    assert not gmsh.isInitialized()
