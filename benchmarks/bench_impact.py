@@ -1,4 +1,4 @@
-"""Two-bar impact (issue #4): impact error and energy drift against the time step.
+"""Two-bar impact: impact error and energy drift against the time step.
 
 Set-up of :mod:`bonecontact.verification.impact` (L = 0.1 m, H = 0.01 m, ν = 0, E = 1 GPa,
 ρ = 1000 kg/m³, c = 1000 m/s, v₀ = 1 m/s, gap 10.2 µm, frictionless dual mortar + PDAS,

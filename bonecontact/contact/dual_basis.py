@@ -67,7 +67,7 @@ GAUSS_SEGMENT: tuple[FloatArray, FloatArray] = _gauss_segment()
 TRIANGLE_RULE: tuple[FloatArray, FloatArray] = _radon_triangle()
 
 # ----------------------------------------------------------------------------------
-# Primal and dual P1 shape functions (SPEC §4.1)
+# Primal and dual P1 shape functions (docs/theory/mortar.md#dual-basis)
 # ----------------------------------------------------------------------------------
 
 #: Closed-form dual coefficients on an affine segment: psi_1 = 2 phi_1 - phi_2, ...
@@ -251,7 +251,7 @@ def dual_coefficients(vertices: npt.ArrayLike) -> FloatArray:
 
 
 def modify_dual_coefficients(coeffs: npt.ArrayLike, mask: npt.ArrayLike) -> FloatArray:
-    """Boundary modification of the dual basis (SPEC §4.1).
+    """Boundary modification of the dual basis (docs/theory/mortar.md#dual-basis).
 
     On each element the dual function of every masked node (multiplier must
     vanish there: Dirichlet node, crosspoint, end of the contact zone) is set to

@@ -1,4 +1,4 @@
-"""Dual-mortar contact interfaces as distributed PETSc operators (SPEC §4).
+"""Dual-mortar contact interfaces as distributed PETSc operators (docs/theory/mortar.md#dual-mortar-discretisation).
 
 A :class:`ContactInterface` is built from two facet groups of one mesh — the slave
 surface (it carries the multiplier) and the master surface — on bodies whose
@@ -10,7 +10,7 @@ the slave nodes that this rank owns and that carry a multiplier (``D_pp > 0``):
   and the nodal gap ``d_p / D_pp``,
 
 and the triplets of ``M̂ = D⁻¹M`` in global dof numbering.  :func:`basis_transform`
-turns those into the PETSc matrix ``Qᵀ`` of SPEC §4.3 (``U = Qᵀ Û``), so that
+turns those into the PETSc matrix ``Qᵀ`` of docs/theory/mortar.md#condensation-of-the-multipliers (``U = Qᵀ Û``), so that
 ``Â = Q A Qᵀ = A.PtAP(Qᵀ)`` and ``F̂ = Q F``.
 
 Parallel design: a contact surface is small compared with the mesh, so its nodes and
@@ -400,7 +400,7 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
         Tag of the master facets, or a :class:`RigidPlane`.
     dirichlet_dofs
         Local dof indices (unrolled) with Dirichlet conditions: slave nodes with any
-        of them carry no multiplier (the dual basis is modified there, SPEC §4.1).
+        of them carry no multiplier (the dual basis is modified there, docs/theory/mortar.md#dual-basis).
     name
         Pair name.
     search_radius

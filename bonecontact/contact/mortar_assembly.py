@@ -9,7 +9,7 @@ triangle projected into the slave triangle's plane, clipped, fan-triangulated an
 integrated with the 7-point rule.
 
 The gap is ``g = (x_master - x_slave) . n`` with ``n`` the normalised interpolation of
-the slave nodal normals (``g >= 0`` means separated, SPEC §2.3).
+the slave nodal normals (``g >= 0`` means separated, docs/theory/mortar.md#contact-conditions).
 """
 
 from __future__ import annotations
@@ -406,7 +406,7 @@ class MortarContributions:
 
     Node ids are local indices into the slave / master coordinate arrays passed
     to :func:`assemble_mortar`; each block multiplies the ``gdim x gdim``
-    identity (SPEC §4.2).
+    identity (docs/theory/mortar.md#mortar-matrices).
 
     Attributes
     ----------

@@ -1,4 +1,4 @@
-"""Static, quasi-static and dynamic (semi-implicit, SPEC §3.1) integrators.
+"""Static, quasi-static and dynamic (semi-implicit, docs/theory/mechanics.md#time-discretisation) integrators.
 
 Each integrator assembles and factorises (or sets up the preconditioner of) its
 time-independent operator once; a step costs one right-hand side (a few
@@ -241,7 +241,7 @@ class Integrator:
     mass_redistribution
         Dynamic contact only: use the mass matrix of :func:`redistributed_mass` (no
         inertia at slave contact nodes; total mass kept) instead of the consistent
-        one — the chatter-removal option of issue #4.  ``self.M`` is the mass matrix
+        one — the chatter-removal option.  ``self.M`` is the mass matrix
         in use (kinetic energy and balance are computed with it).
     """
 

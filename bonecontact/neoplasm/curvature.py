@@ -2,7 +2,7 @@
 
 Convention: kappa = div n (n the outward unit normal), positive for convex bodies:
 a circle of radius R has kappa = 1/R, a sphere kappa = 2/R (the SUM of the principal
-curvatures, kappa_1 + kappa_2; SPEC §6.1's c_kappa = 1).
+curvatures, kappa_1 + kappa_2; docs/theory/growth.md#tumour-model's c_kappa = 1).
 
 ``polygon_curvature(points)``
     Menger curvature (inverse circumradius of each node and its two neighbours), signed;

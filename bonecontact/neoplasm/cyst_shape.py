@@ -1,11 +1,11 @@
-"""The general-shape (moving-wall) odontogenic cyst of SPEC §6.2 on a remeshed cyst mesh.
+"""The general-shape (moving-wall) odontogenic cyst of docs/theory/growth.md#cyst-model on a remeshed cyst mesh.
 
 The closed sphere/cylinder ODE of :mod:`bonecontact.neoplasm.cyst` assumes v_c = 4πR³/3 and
 S_c = 4πR².  Here the cyst is a mesh (2D: a polygon-bounded disc mesh, per unit
 thickness; 3D: a tetrahedral mesh inside a closed triangulated surface), and the volume
 v_c and lining (wall) area S_c are taken from the current mesh every step.
 
-Model (SPEC §6.2 with v_c, S_c from the geometry)
+Model (docs/theory/growth.md#cyst-model with v_c, S_c from the geometry)
 -------------------------------------------------
     ds/dt = β S_c,   f = α (s/v_c − C⁻),   τ df/dt + f = ν_eff dε/dt
 

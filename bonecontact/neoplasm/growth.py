@@ -4,7 +4,7 @@ The drivers behind growth-only and coupled runs (:mod:`bonecontact.run.growth`,
 :mod:`bonecontact.run.coupled`; format in ``docs/neoplasm_format.md``):
 
 * :class:`TumourGrowth`: a :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of
-  SPEC §6.1 on a moving, gmsh-remeshed tumour mesh);
+  docs/theory/growth.md#tumour-model on a moving, gmsh-remeshed tumour mesh);
 * :class:`CystSphereGrowth`: the closed osmotic/Maxwell ODE of :mod:`bonecontact.neoplasm.cyst`
   (a sphere in 3D, a cylinder per unit length in 2D), integrated step by step with Radau
   (rtol 1e-11);
@@ -52,7 +52,7 @@ def surface_tension_dt_limit(gamma: float, h: float) -> float:
 
 
 class CystSphereGrowth:
-    """The closed cyst ODE (SPEC §6.2) advanced step by step.
+    """The closed cyst ODE (docs/theory/growth.md#cyst-model) advanced step by step.
 
     Parameters
     ----------
@@ -96,8 +96,8 @@ class CystSphereGrowth:
         return [math.pi * R**2, 2.0 * math.pi * R, R, self.f]
 
     def info(self) -> dict[str, Any]:
-        return {"model": "cyst sphere ODE (osmotic/Maxwell, SPEC 6.2)" if self.dim == 3
-                else "cyst cylinder ODE per unit length (osmotic/Maxwell, SPEC 6.2)",
+        return {"model": "cyst sphere ODE (osmotic/Maxwell)" if self.dim == 3
+                else "cyst cylinder ODE per unit length (osmotic/Maxwell)",
                 "strain": self.params.strain, "final_pressure_Pa": self.f}
 
 
@@ -141,7 +141,7 @@ class CystShapeGrowth:
     def info(self) -> dict[str, Any]:
         m = self.model
         im = m.mesh.topology.index_map(self.dim)
-        return {"model": f"cyst moving wall (osmotic/Maxwell, SPEC 6.2), {self.dim}D, remeshed by gmsh",
+        return {"model": f"cyst moving wall (osmotic/Maxwell), {self.dim}D, remeshed by gmsh",
                 "strain": m.params.strain, "final_pressure_Pa": m.f, "h_m": m.h0,
                 "final_h_m": m.mesh_size(), "final_cells": int(im.size_global)}
 
@@ -177,7 +177,7 @@ class TumourGrowth:
 
     def info(self) -> dict[str, Any]:
         im = self.model.mesh.topology.index_map(self.dim)
-        return {"model": f"tumour P_T (SPEC 6.1), {self.dim}D, remeshed by gmsh", "h_m": self.model.h,
+        return {"model": f"tumour P_T , {self.dim}D, remeshed by gmsh", "h_m": self.model.h,
                 "final_cells": int(im.size_global)}
 
 

@@ -1,4 +1,4 @@
-"""Avascular tumour growth, Problem P_T of SPEC §6.1, on a moving and remeshed domain.
+"""Avascular tumour growth, Problem P_T of docs/theory/growth.md#tumour-model, on a moving and remeshed domain.
 
 Public API (for the growth-scene driver)
 ----------------------------------------
@@ -127,7 +127,7 @@ def _scene_key(name: str) -> str:
 
 @dataclass
 class TumourParameters:
-    """Parameters of Problem P_T (SPEC §6.1), mirroring ``[neoplasm.tumour]``, SI units.
+    """Parameters of Problem P_T (docs/theory/growth.md#tumour-model), mirroring ``[neoplasm.tumour]``, SI units.
 
     Attributes
     ----------

@@ -1,4 +1,4 @@
-"""Neoplasm growth coupled to the loaded bone (issue #5, SPEC §6; 2D).
+"""Neoplasm growth coupled to the loaded bone (docs/theory/growth.md#neoplasm-growth; 2D).
 
 A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]`` (``docs/neoplasm_format.md``).
 :func:`run_coupled` (called by :func:`bonecontact.run.dispatch.run_scene`) runs it:

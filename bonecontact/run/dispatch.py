@@ -1,4 +1,4 @@
-"""Run a scene: choose the run kind, then run it or only check it (SCENE_FORMAT.md).
+"""Run a scene: choose the run kind, then run it or only check it (docs/scene_format.md).
 
 * ``[analysis]`` without ``[neoplasm]``: mechanics (:mod:`bonecontact.run.mechanics`);
 * ``[neoplasm]`` without ``[analysis]``: growth only (:mod:`bonecontact.run.growth`);

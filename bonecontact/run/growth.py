@@ -6,7 +6,7 @@ A scene with ``[neoplasm]`` and no ``[analysis]`` (``Scene.growth_only``) runs h
 this module builds them from a scene (:func:`build_growth`) and writes the results
 (:mod:`bonecontact.run.results`).
 
-* ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of SPEC §6.1
+* ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of docs/theory/growth.md#tumour-model
   on a moving, gmsh-remeshed tumour mesh).  The initial tumour is the cell group
   ``region`` of the scene's mesh (its boundary is extracted and re-sampled at the mesh
   size ``h``), or, in a meshless scene, a disc (2D) / ball (3D) of ``radius`` (extension).

@@ -1,4 +1,4 @@
-"""Mechanics runs: mesh → model → integrator → results (SCENE_FORMAT.md).
+"""Mechanics runs: mesh → model → integrator → results (docs/scene_format.md).
 
 A scene with ``[analysis]`` and no ``[neoplasm]`` runs here (:func:`run_mechanics`,
 chosen by :func:`bonecontact.run.dispatch.run_scene`); coupled runs

@@ -570,7 +570,7 @@ def _read_cyst(tab: _Table) -> CystSpec:
 
 
 def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -> NeoplasmSpec | None:
-    """``[neoplasm]`` and its sub-table (SCENE_FORMAT additions of issue #5)."""
+    """``[neoplasm]`` and its sub-table (the neoplasm tables of docs/neoplasm_format.md)."""
     tab = _table(doc, "neoplasm", required=False)
     if tab is None:
         return None

@@ -2,9 +2,8 @@
 
 A *scene* is one TOML file describing a loaded part of the skeleton: the mesh,
 the analysis (static, quasi-static or dynamic), the materials of the cell
-regions, contact pairs, boundary conditions, loads and output.  The public
-contract is ``SCENE_FORMAT.md``; ``docs/scene_format.md`` documents the format as
-this package implements it.
+regions, contact pairs, boundary conditions, loads and output.
+``docs/scene_format.md`` documents the format.
 
 The scene is read in two steps: :func:`bonecontact.scene.reader.load_scene` reads the
 file and checks everything that does not need the mesh and builds the dataclasses of
@@ -341,7 +340,7 @@ class OutputSpec:
 
 @dataclass(frozen=True)
 class CystSpec:
-    """``[neoplasm.cyst]``: the osmotic/Maxwell cyst model (SPEC §6.2).
+    """``[neoplasm.cyst]``: the osmotic/Maxwell cyst model (docs/theory/growth.md#cyst-model).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Closed-form reference solutions used by the tests, benchmarks and demos (SI units).
 
-Hertz contact of elastic bodies (SPEC §8 and Appendix A; K. L. Johnson,
+Hertz contact of elastic bodies (docs/theory/verification.md#hertz-contact; K. L. Johnson,
 *Contact Mechanics*, Cambridge University Press 1985, §4.2–4.3):
 
 * plane strain, a cylinder on a half-space (or two cylinders), load P per unit

@@ -232,7 +232,7 @@ def test_tangential_load_beyond_the_bound_stops_with_a_diagnostic():
 # ----------------------------------------------------------------------------- dynamics
 # (Tresca is left out: its bound does not vanish with the pressure, and in this impact a
 # node at the edge of the contact zone toggles open/slip — the PDAS stops with a cycling
-# diagnostic at Δt = 2e-5 s instead of converging; see the module docs / issue #4 notes.)
+# diagnostic at Δt = 2e-5 s instead of converging; see the module docstring.)
 @pytest.mark.parametrize("law", [FrictionLaw("coulomb", coefficient=0.5),
                                  FrictionLaw("coulomb", coefficient=0.5, update="fixed_point")],
                          ids=["coulomb-previous", "coulomb-fixed-point"])

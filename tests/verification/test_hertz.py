@@ -1,6 +1,6 @@
 """Plane-strain Hertz contact: a half cylinder pressed onto a block, non-matching meshes.
 
-Reference (SPEC §8, Johnson, *Contact Mechanics*, 1985, §4.3): for a load P per unit
+Reference (docs/theory/verification.md#verification-references, Johnson, *Contact Mechanics*, 1985, §4.3): for a load P per unit
 thickness, half-width a = √(4PR/(πE*)), peak pressure p₀ = 2P/(πa), profile
 p(x) = p₀ √(1 − x²/a²), with 1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂.  The load is chosen so
 that a/R = 0.05 (Hertz's half-space assumption; the finite-a/R correction is
@@ -10,7 +10,7 @@ which also removes the rotation about the disc centre that frictionless contact 
 circle cannot resist), and the load P is the measured vertical contact resultant.
 
 Measured half-width: the least-squares fit of λ² = p₀²(1 − x²/a²) over |x| < 0.8a;
-peak pressure: the largest nodal multiplier.  Tolerances (issue #3): a and p₀ within 2 %,
+peak pressure: the largest nodal multiplier.  Tolerances: a and p₀ within 2 %,
 the profile within 3 % of p₀ for |x| < 0.8a; PDAS iterations ≤ 8 on three successive
 refinements (a/h = 5, 10, 20) from a cold start.
 """

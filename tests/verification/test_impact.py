@@ -1,4 +1,4 @@
-"""Longitudinal impact of two identical elastic bars, frictionless dynamic contact (issue #4).
+"""Longitudinal impact of two identical elastic bars, frictionless dynamic contact.
 
 Set-up (:mod:`bonecontact.verification.impact`): plane-strain strips L = 0.1 m, H = 0.01 m, ν = 0,
 E = 1 GPa, ρ = 1000 kg/m³ (c = 1000 m/s, 2L/c = 0.2 ms), 40 × 2 × 2 triangles per bar,

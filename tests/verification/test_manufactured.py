@@ -1,7 +1,7 @@
 """Manufactured solutions: spatial rates of P1 in 2D/3D and the temporal rate of the scheme.
 
 Every check compares the finite-element solution with a closed-form exact solution
-(SPEC §8, row "forms, time scheme"):
+(docs/theory/verification.md#verification-references, row "forms, time scheme"):
 
 * 2D plane strain, unit square (triangles), orthotropic bone (Ashman 1984 constants)
   with its material axes rotated by 30° about z: L² rate 2 ± 0.2, H¹ rate 1 ± 0.2.
@@ -169,7 +169,7 @@ def test_mms_3d_two_materials_contrast():
 
 
 def test_mms_dynamic_kelvin_voigt_temporal_rate():
-    """Temporal rate of the semi-implicit scheme (SPEC §3.1) with Kelvin–Voigt viscosity.
+    """Temporal rate of the semi-implicit scheme (docs/theory/mechanics.md#time-discretisation) with Kelvin–Voigt viscosity.
 
     u(x, t) = sin(ωt) g(x) with g affine on the unit square (8×8 triangles): P1 holds
     it exactly, so the error is purely temporal.  ρü − div τ = −ρω² sin(ωt) g (the

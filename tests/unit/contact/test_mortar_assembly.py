@@ -1,4 +1,4 @@
-"""Tests of the mortar integrals and the assembled D, M and weighted gap (SPEC §4.2, §8 "D, M").
+"""Tests of the mortar integrals and the assembled D, M and weighted gap (docs/theory/mortar.md#mortar-matrices, docs/theory/verification.md#verification-references "D, M").
 
 Pure NumPy: safe to run redundantly on every rank under
 ``mpiexec -n 2 python -m mpi4py -m pytest``.

@@ -4,7 +4,7 @@ The references are built here from the engineering constants alone: a fourth-ord
 compliance tensor S_ijkl in the material frame (ε = S : σ), rotated to the global
 frame with the rotation matrix by ``np.einsum``, independently of the package's
 Voigt rotation.  Constants: Ashman et al. 1984 (orthotropic cortical bone) and
-Reilly & Burstein 1975 (transversely isotropic), SPEC §9.
+Reilly & Burstein 1975 (transversely isotropic), docs/theory/mechanics.md#material-data.
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)

@@ -1,5 +1,5 @@
-"""Odontogenic cyst growth (SPEC §6.2): the closed sphere / cylinder model against its
-closed-form limits (issue #5: β = 0 limit and long-time rate β/C⁻ to 1e-6)."""
+"""Odontogenic cyst growth (docs/theory/growth.md#cyst-model): the closed sphere / cylinder model against its
+closed-form limits (β = 0 limit and long-time rate β/C⁻ to 1e-6)."""
 
 from __future__ import annotations
 

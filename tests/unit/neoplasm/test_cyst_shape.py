@@ -1,4 +1,4 @@
-"""The moving-wall (general-shape) odontogenic cyst, SPEC §6.2 / issue #5.
+"""The moving-wall (general-shape) odontogenic cyst, docs/theory/growth.md#cyst-model.
 
 References: the closed sphere / cylinder ODE of :mod:`bonecontact.neoplasm.cyst` (a disc or a
 ball must reproduce it within 1 %), and two shape-independent exact results of the model:

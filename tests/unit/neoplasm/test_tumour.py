@@ -1,4 +1,4 @@
-"""Tumour growth (SPEC §6.1) against its exact reductions."""
+"""Tumour growth (docs/theory/growth.md#tumour-model) against its exact reductions."""
 
 import dolfinx_solver  # noqa: F401
 
@@ -65,7 +65,7 @@ def test_uniform_densities_with_surface_tension():
 
 
 def test_radial_quasi_steady_3d():
-    """3D Byrne-Chaplain reduction (SPEC §6.1): R(t) follows dR/dt = mu R [P(R) - u~/3],
+    """3D Byrne-Chaplain reduction (docs/theory/growth.md#tumour-model): R(t) follows dR/dt = mu R [P(R) - u~/3],
     P(R) = (R coth R - 1)/R^2, within 1 % while the ball doubles its radius.
 
     Gmsh ball R0 = 1, h = 0.3 (about 900 tetrahedra), mu = 1, u~ = 0 (no stationary radius,
@@ -224,7 +224,7 @@ def _mode2_rate(mu, gamma, h, dt, t_end, remesh_every):
     (1.0, 0.2, 0.5, 0.03, 3.0, 5),    # stable (surface tension): lambda_2 = -0.0632
 ])
 def test_mode2_linear_stability(mu, gamma, h, dt, t_end, every):
-    """A mode-2 perturbation grows/decays at the linear-theory rate of SPEC §6.1 (within 10%)."""
+    """A mode-2 perturbation grows/decays at the linear-theory rate of docs/theory/growth.md#tumour-model (within 10%)."""
     rate, exact = _mode2_rate(mu, gamma, h, dt, t_end, every)
     assert np.sign(rate) == np.sign(exact)
     assert abs(rate / exact - 1) < 0.10, (rate, exact)

@@ -1,4 +1,4 @@
-"""The ``bonecontact`` command: input validation and failure handling (SCENE_FORMAT.md).
+"""The ``bonecontact`` command: input validation and failure handling (docs/scene_format.md).
 
 Every validation rule of the scene format is exercised through the real command
 (``bonecontact run``), serially and — for a representative subset — under
@@ -176,7 +176,7 @@ def test_invalid_input_exit_2_mpi(case, tmp_path, meshes):
 
 
 def test_valid_scene_runs_and_energy_is_plausible(tmp_path, meshes):
-    """The base scene itself is valid: exit 0 and the results of SCENE_FORMAT.md."""
+    """The base scene itself is valid: exit 0 and the results docs/scene_format.md lists."""
     scene, out = _scene(tmp_path, meshes)
     res = _run(["run", str(scene), "-q"])
     assert res.returncode == 0, res.stderr

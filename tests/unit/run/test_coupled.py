@@ -1,4 +1,4 @@
-"""Neoplasm growth coupled to the loaded bone (issue #5, ``bonecontact.run.coupled``), 2D.
+"""Neoplasm growth coupled to the loaded bone (``bonecontact.run.coupled``), 2D.
 
 Coupled scenes (``[neoplasm]`` with ``[analysis]``) run in-process through
 :func:`bonecontact.run.dispatch.run_scene`, so the tests are collective (serial session and

@@ -1,4 +1,4 @@
-"""Growth-only neoplasm scenes (issue #5): ``[neoplasm]`` validation through the
+"""Growth-only neoplasm scenes: ``[neoplasm]`` validation through the
 ``bonecontact`` command, ``growth.csv`` against independent references, and the same
 ``growth.csv`` on 1 and 2 ranks.
 
@@ -313,7 +313,7 @@ def test_rate_expressions_numbers():
 
 
 # --------------------------------------------------------------------------------------
-# cyst: growth.csv against the closed-form limits of SPEC §6.2
+# cyst: growth.csv against the closed-form limits of docs/theory/growth.md#cyst-model
 # --------------------------------------------------------------------------------------
 def _run_cyst(directory: Path, name: str, **kw) -> tuple[list[str], np.ndarray, dict]:
     import json
@@ -373,7 +373,7 @@ def test_cyst_radicular_approach(shared_dir):
 
 
 # --------------------------------------------------------------------------------------
-# tumour: R(t) of growth.csv against the radius ODE (SPEC §6.1)
+# tumour: R(t) of growth.csv against the radius ODE (docs/theory/growth.md#tumour-model)
 # --------------------------------------------------------------------------------------
 def test_tumour_growth_matches_radius_ode(shared_dir):
     """Quasi-steady, u_p = 1, K_B = μ(u_c − ũ): dR/dt = μ[I1(R)/I0(R) − ũR/2] within 1 %."""

@@ -430,7 +430,7 @@ def test_quasistatic_needs_no_rho(tmp_path):
 
 
 # --------------------------------------------------------------------------------------
-# the full example of SCENE_FORMAT.md
+# the full example of docs/scene_format.md
 # --------------------------------------------------------------------------------------
 EXAMPLE = """\
 format = 1
