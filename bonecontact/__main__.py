@@ -1,5 +1,5 @@
 import sys
 
-from bonecontact.run.cli import main
+from bonecontact.runners.cli import main
 
 sys.exit(main())

@@ -26,7 +26,7 @@
 #   bone analysed every 9 months on the way (`mechanics_every`).
 #
 # After (and during) the growth the host mesh is rebuilt by gmsh around the cyst
-# (`bonecontact.run.coupled`): bone that the cyst has taken — cancellous and, as it thins the
+# (`bonecontact.runners.coupled`): bone that the cyst has taken — cancellous and, as it thins the
 # shell, cortical — becomes a cavity whose wall carries the cyst pressure P_h⁺ − P_h⁻ (a few
 # tens of Pa: the osmotic excess, small beside a bite).  The section is then loaded by a
 # bite-force-like traction, 3 MPa on a 10 mm occlusal patch above the cyst (≈ 300 N on a
@@ -89,7 +89,7 @@ from mpi4py import MPI  # before dolfinx
 import numpy as np
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
-from bonecontact.run import run_scene
+from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD

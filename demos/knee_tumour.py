@@ -89,7 +89,7 @@ from mpi4py import MPI  # before dolfinx
 import numpy as np
 
 from bonecontact.common.constants import SECONDS_PER_DAY
-from bonecontact.run import run_scene
+from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD

@@ -1,7 +1,7 @@
 """Growth drivers: a tumour or a cyst advanced step by step, one table row per step.
 
-The drivers behind growth-only and coupled runs (:mod:`bonecontact.run.growth`,
-:mod:`bonecontact.run.coupled`; format in ``docs/neoplasm_format.md``):
+The drivers behind growth-only and coupled runs (:mod:`bonecontact.runners.growth`,
+:mod:`bonecontact.runners.coupled`; format in ``docs/neoplasm_format.md``):
 
 * :class:`TumourGrowth`: a :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of
   docs/theory/growth.md#tumour-model on a moving, gmsh-remeshed tumour mesh);

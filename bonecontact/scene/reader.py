@@ -701,7 +701,7 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
     initial_velocities = _read_initial_velocities(doc, dim)
     output = _read_output(doc, dim)
     neoplasm = _read_neoplasm(doc, True, has_analysis=True)
-    # growth coupled to the loaded bone (bonecontact.run.coupled, docs/neoplasm_format.md): 2D only for now
+    # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md): 2D only for now
     if neoplasm is not None and dim != 2:
         raise SceneError(None, "[neoplasm]", None,
                          "growth together with an [analysis] (the neoplasm coupled to the loaded bone) is "

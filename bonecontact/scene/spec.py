@@ -437,7 +437,7 @@ class Scene:
     neoplasm
         ``[neoplasm]``, or ``None``.  A scene with ``[neoplasm]`` and no ``[analysis]``
         is a *growth-only* scene; with both it is a *coupled* scene (2D only, run by
-        :mod:`bonecontact.run.coupled`).
+        :mod:`bonecontact.runners.coupled`).
     """
 
     path: Path

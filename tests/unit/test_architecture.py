@@ -25,7 +25,7 @@ FORMS = ROOT / "forms"
 
 #: Subpackages from the bottom up: a module may import its own layer or a lower one.
 LAYERS = ["forms", "common", "materials", "mechanics", "contact", "meshing", "neoplasm", "scene",
-          "verification", "run"]
+          "verification", "runners"]
 
 
 def _module_name(path: Path) -> str:
@@ -150,7 +150,7 @@ def test_the_parser_sees_the_package():
     graph = _edges()
     assert len(MODULES) > 30
     assert {m.split(".")[1] for m in MODULES if m.count(".")} >= set(LAYERS)
-    assert "bonecontact.run.cli" in MODULES
+    assert "bonecontact.runners.cli" in MODULES
     assert sum(len(v) for v in graph.values()) > 40
 
 

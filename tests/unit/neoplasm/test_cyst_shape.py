@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from bonecontact.run.cli import main
+from bonecontact.runners.cli import main
 from bonecontact.common.constants import SECONDS_PER_YEAR as YEAR
 from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
 from bonecontact.neoplasm.cyst_shape import CystShapeModel

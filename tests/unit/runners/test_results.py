@@ -1,4 +1,4 @@
-"""The one results writer (bonecontact.run.results): summary.json, history.csv, growth.csv.
+"""The one results writer (bonecontact.runners.results): summary.json, history.csv, growth.csv.
 
 Collective: runs serially and under ``mpiexec -n 2/3`` (rank 0 writes, every rank returns
 the same content).
@@ -16,7 +16,7 @@ import numpy as np
 from mpi4py import MPI
 
 from bonecontact.common.version import __version__
-from bonecontact.run.results import (ENERGY_COLUMNS, GROWTH_UNITS, HISTORY_COLUMNS, MECHANICS_UNITS,
+from bonecontact.runners.results import (ENERGY_COLUMNS, GROWTH_UNITS, HISTORY_COLUMNS, MECHANICS_UNITS,
                                      SUMMARY_FORMAT, GrowthTable, ResultsWriter, run_summary, write_points,
                                      write_summary)
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from bonecontact.run.dispatch import check, run_scene
+from bonecontact.runners.dispatch import check, run_scene
 from bonecontact.scene import SceneError, format_error, load_scene
 
 __all__ = ["main"]

@@ -1,10 +1,10 @@
 """Growth-only scenes: a tumour or a cyst grown alone, written to ``growth.csv``.
 
 A scene with ``[neoplasm]`` and no ``[analysis]`` (``Scene.growth_only``) runs here
-(:func:`run_growth`, called by :func:`bonecontact.run.dispatch.run_scene`); the format is in
+(:func:`run_growth`, called by :func:`bonecontact.runners.dispatch.run_scene`); the format is in
 ``docs/neoplasm_format.md``.  The growth drivers are in :mod:`bonecontact.neoplasm.growth`;
 this module builds them from a scene (:func:`build_growth`) and writes the results
-(:mod:`bonecontact.run.results`).
+(:mod:`bonecontact.runners.results`).
 
 * ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of docs/theory/growth.md#tumour-model
   on a moving, gmsh-remeshed tumour mesh).  The initial tumour is the cell group
@@ -56,8 +56,8 @@ from bonecontact.neoplasm.growth import (CystShapeGrowth, CystSphereGrowth, Tumo
                                          equivalent_radius, mesh_measure, region_boundary, region_submesh,
                                          surface_tension_dt_limit, tumour_growth)
 from bonecontact.neoplasm.remesh import Boundary, RemeshError
-from bonecontact.run.mechanics import read_mesh
-from bonecontact.run.results import GROWTH_UNITS, GrowthTable, RunResult, run_summary, write_points, write_summary
+from bonecontact.runners.mechanics import read_mesh
+from bonecontact.runners.results import GROWTH_UNITS, GrowthTable, RunResult, run_summary, write_points, write_summary
 from bonecontact.scene import Scene, SceneError
 
 __all__ = ["build_growth", "growth_times", "run_growth"]
@@ -80,7 +80,7 @@ def _region_mesh(scene: Scene, comm: MPI.Comm):
 def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> Driver:
     """Check a neoplasm scene against its mesh and build the growth model (collective).
 
-    Growth-only and coupled scenes (:mod:`bonecontact.run.coupled`, which adds the
+    Growth-only and coupled scenes (:mod:`bonecontact.runners.coupled`, which adds the
     mechanics) alike.  Nothing is written.
 
     Raises
@@ -90,7 +90,7 @@ def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> Driver:
     """
     neo = scene.neoplasm
     file = str(scene.path)
-    if neo is None:  # growth-only or coupled (bonecontact.run.coupled) scenes
+    if neo is None:  # growth-only or coupled (bonecontact.runners.coupled) scenes
         raise SceneError(file, "[neoplasm]", None, "build_growth needs a scene with [neoplasm]")
     dim = scene.dimension
     if neo.kind == "cyst":

@@ -180,7 +180,7 @@ class Probes:
 
 @dataclass
 class RunResult:
-    """Outcome of a run (:func:`bonecontact.run.dispatch.run_scene`)."""
+    """Outcome of a run (:func:`bonecontact.runners.dispatch.run_scene`)."""
 
     status: str
     summary: dict

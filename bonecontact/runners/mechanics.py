@@ -1,8 +1,8 @@
 """Mechanics runs: mesh → model → integrator → results (docs/scene_format.md).
 
 A scene with ``[analysis]`` and no ``[neoplasm]`` runs here (:func:`run_mechanics`,
-chosen by :func:`bonecontact.run.dispatch.run_scene`); coupled runs
-(:mod:`bonecontact.run.coupled`) run their analyses here too.
+chosen by :func:`bonecontact.runners.dispatch.run_scene`); coupled runs
+(:mod:`bonecontact.runners.coupled`) run their analyses here too.
 
 Everything that can be wrong with the input is checked before any result file is
 written; :class:`~bonecontact.scene.errors.SceneError` is raised on *every* rank (all
@@ -28,7 +28,7 @@ from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
-from bonecontact.run.results import (ENERGY_COLUMNS, ProbeError, Probes, ResultsWriter, RunResult,
+from bonecontact.runners.results import (ENERGY_COLUMNS, ProbeError, Probes, ResultsWriter, RunResult,
                                      StressFields)
 from bonecontact.scene import Scene, SceneError, check_against_mesh
 

@@ -1,8 +1,8 @@
 """Run a scene: choose the run kind, then run it or only check it (docs/scene_format.md).
 
-* ``[analysis]`` without ``[neoplasm]``: mechanics (:mod:`bonecontact.run.mechanics`);
-* ``[neoplasm]`` without ``[analysis]``: growth only (:mod:`bonecontact.run.growth`);
-* both: growth coupled to the loaded bone (:mod:`bonecontact.run.coupled`).
+* ``[analysis]`` without ``[neoplasm]``: mechanics (:mod:`bonecontact.runners.mechanics`);
+* ``[neoplasm]`` without ``[analysis]``: growth only (:mod:`bonecontact.runners.growth`);
+* both: growth coupled to the loaded bone (:mod:`bonecontact.runners.coupled`).
 
 Everything that can be wrong with the input is checked before any result file is
 written; :class:`~bonecontact.scene.errors.SceneError` is raised on *every* rank (all
@@ -15,10 +15,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from bonecontact.run.coupled import check_coupled, run_coupled
-from bonecontact.run.growth import build_growth, run_growth
-from bonecontact.run.mechanics import build_model, run_mechanics
-from bonecontact.run.results import RunResult
+from bonecontact.runners.coupled import check_coupled, run_coupled
+from bonecontact.runners.growth import build_growth, run_growth
+from bonecontact.runners.mechanics import build_model, run_mechanics
+from bonecontact.runners.results import RunResult
 from bonecontact.scene import Scene
 
 __all__ = ["check", "run", "run_kind", "run_scene"]
@@ -33,9 +33,20 @@ def run_kind(scene: Scene) -> str:
     return "mechanics"
 
 
-def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None,
+def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: str | Path | None = None,
               progress: bool = True) -> RunResult:
     """Validate, build and run a scene, writing its results incrementally.
+
+    Parameters
+    ----------
+    scene
+        A scene from :func:`bonecontact.scene.load_scene`.
+    comm
+        The communicator the run is distributed over (collective on it).
+    output
+        The results directory; ``None``: the scene's ``[output] directory``.
+    progress
+        Show a progress bar (rank 0 only).
 
     Returns
     -------
@@ -43,6 +54,7 @@ def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None
         ``status`` is ``"converged"`` or ``"failed"`` (then ``summary["message"]``
         says why; the last good state is in the output files).
     """
+    output = None if output is None else Path(output)
     kind = run_kind(scene)
     if kind == "growth":  # [neoplasm] without [analysis]: growth.csv
         return run_growth(scene, comm, output, progress)
@@ -63,6 +75,7 @@ def check(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     SceneError
         On every rank.
     """
+    output = None if output is None else Path(output)
     kind = run_kind(scene)
     if kind == "growth":
         build_growth(scene, comm)

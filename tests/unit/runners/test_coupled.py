@@ -1,7 +1,7 @@
-"""Neoplasm growth coupled to the loaded bone (``bonecontact.run.coupled``), 2D.
+"""Neoplasm growth coupled to the loaded bone (``bonecontact.runners.coupled``), 2D.
 
 Coupled scenes (``[neoplasm]`` with ``[analysis]``) run in-process through
-:func:`bonecontact.run.dispatch.run_scene`, so the tests are collective (serial session and
+:func:`bonecontact.runners.dispatch.run_scene`, so the tests are collective (serial session and
 ``mpiexec -n 2 / -n 3``); the one marked ``serial`` runs the command on 1 and 2 ranks.
 
 References (independent of the code under test):
@@ -53,7 +53,7 @@ from mpi4py import MPI
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
-from bonecontact.run import run_scene
+from bonecontact.runners import run_scene
 from bonecontact.scene import SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -2,7 +2,7 @@
 ``bonecontact`` command, ``growth.csv`` against independent references, and the same
 ``growth.csv`` on 1 and 2 ranks.
 
-Most tests call the command's entry point in-process (``bonecontact.run.cli.main``), so they
+Most tests call the command's entry point in-process (``bonecontact.runners.cli.main``), so they
 are collective and run in the serial and the MPI sessions; the ones marked ``serial``
 spawn ``bonecontact`` / ``mpiexec`` themselves.
 """
@@ -23,7 +23,7 @@ from scipy.integrate import solve_ivp
 from scipy.special import iv
 
 from bonecontact.common.constants import R_GAS, SECONDS_PER_YEAR
-from bonecontact.run.cli import main
+from bonecontact.runners.cli import main
 from bonecontact.scene.expressions import ExpressionError, parse_rate
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -231,7 +231,7 @@ INVALID = [
      ["[[material]]", "growth-only"]),
     ("growth-only-probes", T, _sub('directory = "{out}"', 'directory = "{out}"\nprobes = [[0.0, 0.0]]'), "probes",
      ["growth.csv"]),
-    # coupled scenes (bonecontact.run.coupled): the tumour region needs its (near-fluid) material
+    # coupled scenes (bonecontact.runners.coupled): the tumour region needs its (near-fluid) material
     ("coupled-tumour-no-material", M, _sub("[neoplasm]", '[analysis]\nkind = "static"\n\n[[material]]\nname = "m"\n'
                                                          'regions = ["bone"]\nmodel = "isotropic"\nE = 1e9\nnu = 0.3\n'
                                                          "\n[neoplasm]"), "regions", ['"tumour"', "no material"]),

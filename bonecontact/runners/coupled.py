@@ -1,9 +1,9 @@
 """Neoplasm growth coupled to the loaded bone (docs/theory/growth.md#neoplasm-growth; 2D).
 
 A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]`` (``docs/neoplasm_format.md``).
-:func:`run_coupled` (called by :func:`bonecontact.run.dispatch.run_scene`) runs it:
+:func:`run_coupled` (called by :func:`bonecontact.runners.dispatch.run_scene`) runs it:
 
-1. the growth model of :func:`bonecontact.run.growth.build_growth` (tumour: Problem P_T on its
+1. the growth model of :func:`bonecontact.runners.growth.build_growth` (tumour: Problem P_T on its
    own gmsh-remeshed mesh; cyst: the cylinder ODE of :mod:`bonecontact.neoplasm.cyst`) advances
    step by step and writes ``growth.csv`` as a growth-only run does;
 2. every ``mechanics_every`` growth steps (``0``: once, after the growth) the **host
@@ -24,7 +24,7 @@ A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]`` (``docs/neoplasm_for
    the neoplasm boundary inside the bone becomes the facet group ``"<region>_wall"``;
    every facet group of the scene keeps its name and tag (split where the neoplasm
    crosses it; removed where a cyst has eaten it);
-3. the scene's ``[analysis]`` runs on that mesh (:func:`bonecontact.run.mechanics.run_mechanics`,
+3. the scene's ``[analysis]`` runs on that mesh (:func:`bonecontact.runners.mechanics.run_mechanics`,
    all loads, supports, contacts and probes of the scene).  A cyst adds the load
    ``[[pressure]] boundary = "<region>_wall"`` with value f = P_h⁺ − P_h⁻, the osmotic
    excess pressure of the lumen at that time (the hydrostatic pressure P_h⁻ of the
@@ -61,9 +61,9 @@ from tqdm import tqdm
 
 from bonecontact.neoplasm.host import (CouplingError, HostMesh, build_host_mesh, neoplasm_polygon,
                                        read_host_geometry)
-from bonecontact.run.growth import build_growth, growth_times
-from bonecontact.run.mechanics import build_model, run_mechanics
-from bonecontact.run.results import (SUMMARY_FORMAT, GrowthTable, RunResult, write_points,
+from bonecontact.runners.growth import build_growth, growth_times
+from bonecontact.runners.mechanics import build_model, run_mechanics
+from bonecontact.runners.results import (SUMMARY_FORMAT, GrowthTable, RunResult, write_points,
                                      write_summary)
 from bonecontact.scene import LoadSpec, Scene, SceneError, Schedule
 
