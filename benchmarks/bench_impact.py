@@ -25,8 +25,9 @@ import platform
 import time
 from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
+
+import numpy as np
 
 from bonecontact.verification.impact import BarImpact, run_bar_impact
 
@@ -40,20 +41,35 @@ def run(nx: int, n: int, redistribute: bool) -> dict:
     on = r.n_active > 0
     f = r.force[on] / p.force
     k = f.size
-    mid = f[k // 10: (8 * k) // 10]
+    mid = f[k // 10 : (8 * k) // 10]
     e0 = r.energy[0]
-    return dict(mass="redistributed" if redistribute else "consistent", nx=nx, ny=p.ny,
-                dofs=2 * 2 * (nx + 1) * (p.ny + 1), N=n, dt=p.duration / n,
-                courant=p.c * p.duration / n / (p.length / nx),
-                start_err=err["start"], duration_err=err["duration"], mean_force_err=err["mean_force"],
-                v_striker=err["v_striker"], v_struck_err=err["v_struck"], predicted=float(np.sqrt(2 / (np.pi * n))),
-                energy_loss=r.energy_loss, max_increase=r.energy_increase,
-                defect=max(abs(b.defect) for b in r.balance) / e0,
-                contact_work=sum(b.contact_work for b in r.balance) / e0,
-                force_peak=float(f.max()), force_rms=float(np.sqrt(np.mean((mid - 1.0) ** 2))),
-                episodes=r.episodes, pdas_per_step=r.pdas_iterations / r.time.size, steps=r.time.size,
-                ranks=comm.size, wall_s=comm.allreduce(r.wall_time, op=MPI.MAX),
-                setup_s=comm.allreduce(r.setup_time, op=MPI.MAX))
+    return dict(
+        mass="redistributed" if redistribute else "consistent",
+        nx=nx,
+        ny=p.ny,
+        dofs=2 * 2 * (nx + 1) * (p.ny + 1),
+        N=n,
+        dt=p.duration / n,
+        courant=p.c * p.duration / n / (p.length / nx),
+        start_err=err["start"],
+        duration_err=err["duration"],
+        mean_force_err=err["mean_force"],
+        v_striker=err["v_striker"],
+        v_struck_err=err["v_struck"],
+        predicted=float(np.sqrt(2 / (np.pi * n))),
+        energy_loss=r.energy_loss,
+        max_increase=r.energy_increase,
+        defect=max(abs(b.defect) for b in r.balance) / e0,
+        contact_work=sum(b.contact_work for b in r.balance) / e0,
+        force_peak=float(f.max()),
+        force_rms=float(np.sqrt(np.mean((mid - 1.0) ** 2))),
+        episodes=r.episodes,
+        pdas_per_step=r.pdas_iterations / r.time.size,
+        steps=r.time.size,
+        ranks=comm.size,
+        wall_s=comm.allreduce(r.wall_time, op=MPI.MAX),
+        setup_s=comm.allreduce(r.setup_time, op=MPI.MAX),
+    )
 
 
 def main() -> None:
@@ -82,11 +98,13 @@ def main() -> None:
             for r in rows:
                 w.writerow({**r, "machine": cpu, "date": stamp})
         for r in rows:
-            print(f"{r['mass']:13s} nx={r['nx']:3d} N={r['N']:5d} C={r['courant']:.2f} "
-                  f"dur={r['duration_err']:+.4f} F={r['mean_force_err']:+.4f} v_s={r['v_striker']:.4f} "
-                  f"(pred {r['predicted']:.4f}) loss={r['energy_loss']:.4f} inc={r['max_increase']:.1e} "
-                  f"peak={r['force_peak']:.3f} rms={r['force_rms']:.1e} pdas={r['pdas_per_step']:.2f} "
-                  f"wall={r['wall_s']:.2f}s")
+            print(
+                f"{r['mass']:13s} nx={r['nx']:3d} N={r['N']:5d} C={r['courant']:.2f} "
+                f"dur={r['duration_err']:+.4f} F={r['mean_force_err']:+.4f} v_s={r['v_striker']:.4f} "
+                f"(pred {r['predicted']:.4f}) loss={r['energy_loss']:.4f} inc={r['max_increase']:.1e} "
+                f"peak={r['force_peak']:.3f} rms={r['force_rms']:.1e} pdas={r['pdas_per_step']:.2f} "
+                f"wall={r['wall_s']:.2f}s"
+            )
 
 
 if __name__ == "__main__":

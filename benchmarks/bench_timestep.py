@@ -28,49 +28,77 @@ import platform
 import time
 from pathlib import Path
 
+from mpi4py import MPI
+
 import numpy as np
 import ufl
 from dolfinx import mesh
-from mpi4py import MPI
 
 from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
 
 COMM = MPI.COMM_WORLD
 MAT = Isotropic(E=17.0e9, nu=0.3, rho=1900.0, tau_v=1.0e-5)
 STEPS = 10
-FIELDS = ["dim", "linear", "ranks", "N", "dofs", "setup_s", "step_s", "its_per_step", "rel_L2_error",
-          "machine", "date"]
+FIELDS = [
+    "dim",
+    "linear",
+    "ranks",
+    "N",
+    "dofs",
+    "setup_s",
+    "step_s",
+    "its_per_step",
+    "rel_L2_error",
+    "machine",
+    "date",
+]
 
 
 def _w_ufl(x, dim):
     if dim == 2:
-        return ufl.as_vector([ufl.sin(np.pi * x[0]) * ufl.cos(1.3 * x[1]) + x[0] ** 2,
-                              ufl.exp(x[0] * x[1]) * ufl.sin(2.0 * x[1])])
-    return ufl.as_vector([ufl.sin(np.pi * x[0]) * ufl.cos(1.3 * x[1]) + x[2] ** 2,
-                          ufl.exp(x[0] * x[1]) * ufl.sin(2.0 * x[2]),
-                          ufl.cos(x[0] + x[1] * x[2])])
+        return ufl.as_vector(
+            [
+                ufl.sin(np.pi * x[0]) * ufl.cos(1.3 * x[1]) + x[0] ** 2,
+                ufl.exp(x[0] * x[1]) * ufl.sin(2.0 * x[1]),
+            ]
+        )
+    return ufl.as_vector(
+        [
+            ufl.sin(np.pi * x[0]) * ufl.cos(1.3 * x[1]) + x[2] ** 2,
+            ufl.exp(x[0] * x[1]) * ufl.sin(2.0 * x[2]),
+            ufl.cos(x[0] + x[1] * x[2]),
+        ]
+    )
 
 
 def _w_np(X, dim):
     if dim == 2:
-        return np.array([np.sin(np.pi * X[0]) * np.cos(1.3 * X[1]) + X[0] ** 2,
-                         np.exp(X[0] * X[1]) * np.sin(2.0 * X[1])])
-    return np.array([np.sin(np.pi * X[0]) * np.cos(1.3 * X[1]) + X[2] ** 2,
-                     np.exp(X[0] * X[1]) * np.sin(2.0 * X[2]),
-                     np.cos(X[0] + X[1] * X[2])])
+        return np.array(
+            [
+                np.sin(np.pi * X[0]) * np.cos(1.3 * X[1]) + X[0] ** 2,
+                np.exp(X[0] * X[1]) * np.sin(2.0 * X[1]),
+            ]
+        )
+    return np.array(
+        [
+            np.sin(np.pi * X[0]) * np.cos(1.3 * X[1]) + X[2] ** 2,
+            np.exp(X[0] * X[1]) * np.sin(2.0 * X[2]),
+            np.cos(X[0] + X[1] * X[2]),
+        ]
+    )
 
 
 def run_case(dim: int, N: int, linear: str) -> dict:
     """One manufactured dynamic run; returns a result row (collective)."""
     t0 = time.perf_counter()
-    msh = (mesh.create_unit_square(COMM, N, N) if dim == 2 else mesh.create_unit_cube(COMM, N, N, N))
-    scale = 1.0e-4                       # displacement amplitude (m)
-    c = np.sqrt(MAT.E / MAT.rho)         # bar wave speed (m/s)
-    omega = np.pi * c                    # half a wave across the unit domain per period
+    msh = mesh.create_unit_square(COMM, N, N) if dim == 2 else mesh.create_unit_cube(COMM, N, N, N)
+    scale = 1.0e-4  # displacement amplitude (m)
+    c = np.sqrt(MAT.E / MAT.rho)  # bar wave speed (m/s)
+    omega = np.pi * c  # half a wave across the unit domain per period
     h = 1.0 / N
-    dt = 0.05 * h / c                    # Δt ∝ h
+    dt = 0.05 * h / c  # Δt ∝ h
     x = ufl.SpatialCoordinate(msh)
     w = scale * _w_ufl(x, dim)
     lam, mu = MAT.E * MAT.nu / ((1 + MAT.nu) * (1 - 2 * MAT.nu)), MAT.E / (2 * (1 + MAT.nu))
@@ -84,8 +112,12 @@ def run_case(dim: int, N: int, linear: str) -> dict:
     msh.topology.create_connectivity(fdim, dim)
     bf = mesh.exterior_facet_indices(msh.topology)
     for comp in range(dim):
-        model.add_dirichlet(bf, comp, lambda X, comp=comp: scale * _w_np(X, dim)[comp],
-                            schedule=lambda t: np.sin(omega * t))
+        model.add_dirichlet(
+            bf,
+            comp,
+            lambda X, comp=comp: scale * _w_np(X, dim)[comp],
+            schedule=lambda t: np.sin(omega * t),
+        )
     integ = Integrator(model, "dynamic", dt, linear=linear, rtol=1e-10)
     from dolfinx import fem
 
@@ -102,13 +134,23 @@ def run_case(dim: int, N: int, linear: str) -> dict:
     step = (time.perf_counter() - t1) / STEPS
     ue = float(np.sin(omega * integ.t)) * w
     dx = ufl.dx(domain=msh, metadata={"quadrature_degree": 6})
-    num = COMM.allreduce(fem.assemble_scalar(fem.form(ufl.inner(integ.u - ue, integ.u - ue) * dx)), MPI.SUM)
+    num = COMM.allreduce(
+        fem.assemble_scalar(fem.form(ufl.inner(integ.u - ue, integ.u - ue) * dx)), MPI.SUM
+    )
     den = COMM.allreduce(fem.assemble_scalar(fem.form(ufl.inner(ue, ue) * dx)), MPI.SUM)
     dofs = model.num_dofs
     integ.destroy()
-    return {"dim": dim, "linear": linear, "ranks": COMM.size, "N": N, "dofs": dofs,
-            "setup_s": round(setup, 4), "step_s": round(step, 5), "its_per_step": round(its / STEPS, 1),
-            "rel_L2_error": float(f"{np.sqrt(num / den):.3e}")}
+    return {
+        "dim": dim,
+        "linear": linear,
+        "ranks": COMM.size,
+        "N": N,
+        "dofs": dofs,
+        "setup_s": round(setup, 4),
+        "step_s": round(step, 5),
+        "its_per_step": round(its / STEPS, 1),
+        "rel_L2_error": float(f"{np.sqrt(num / den):.3e}"),
+    }
 
 
 def machine() -> str:
@@ -148,9 +190,12 @@ def main() -> None:
                     row.update(machine=machine(), date=stamp)
                     writer.writerow(row)
                     f.flush()
-                    print(f"{dim}D {linear:9s} ranks={row['ranks']} N={N:4d} dofs={row['dofs']:7d} "
-                          f"setup={row['setup_s']:8.3f}s step={row['step_s']:8.4f}s "
-                          f"its={row['its_per_step']:5.1f} err={row['rel_L2_error']:.3e}", flush=True)
+                    print(
+                        f"{dim}D {linear:9s} ranks={row['ranks']} N={N:4d} dofs={row['dofs']:7d} "
+                        f"setup={row['setup_s']:8.3f}s step={row['step_s']:8.4f}s "
+                        f"its={row['its_per_step']:5.1f} err={row['rel_L2_error']:.3e}",
+                        flush=True,
+                    )
     if COMM.rank == 0:
         f.close()
 

@@ -15,8 +15,9 @@ import csv
 import time
 from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
+
+import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
@@ -36,11 +37,25 @@ def run(h: float, dt: float, t_end: float = 6.0) -> dict:
         ts.append(m.t)
         rs.append(m.equivalent_radius())
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-    ode = solve_ivp(lambda t, R: mu * (iv(1, R) / iv(0, R) - ut * R / 2), (0, ts[-1]), [rs[0]],
-                    t_eval=ts, rtol=1e-11, atol=1e-12)
+    ode = solve_ivp(
+        lambda t, R: mu * (iv(1, R) / iv(0, R) - ut * R / 2),
+        (0, ts[-1]),
+        [rs[0]],
+        t_eval=ts,
+        rtol=1e-11,
+        atol=1e-12,
+    )
     err = float(np.max(np.abs(np.array(rs) / ode.y[0] - 1)))
-    return dict(h=h, dt=dt, ranks=comm.size, cells=m.mesh.topology.index_map(2).size_global,
-                R_end=rs[-1], R_ode=float(ode.y[0][-1]), max_rel_error=err, wall_s=wall)
+    return dict(
+        h=h,
+        dt=dt,
+        ranks=comm.size,
+        cells=m.mesh.topology.index_map(2).size_global,
+        R_end=rs[-1],
+        R_ode=float(ode.y[0][-1]),
+        max_rel_error=err,
+        wall_s=wall,
+    )
 
 
 def main() -> None:
@@ -48,8 +63,19 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "tumour.csv"))
     args = ap.parse_args()
-    cases = [(0.4, 0.4), (0.25, 0.2)] if args.quick else \
-        [(0.4, 0.4), (0.4, 0.2), (0.25, 0.4), (0.25, 0.2), (0.25, 0.1), (0.15, 0.2), (0.15, 0.1)]
+    cases = (
+        [(0.4, 0.4), (0.25, 0.2)]
+        if args.quick
+        else [
+            (0.4, 0.4),
+            (0.4, 0.2),
+            (0.25, 0.4),
+            (0.25, 0.2),
+            (0.25, 0.1),
+            (0.15, 0.2),
+            (0.15, 0.1),
+        ]
+    )
     rows = [run(h, dt) for h, dt in cases]
     if MPI.COMM_WORLD.rank == 0:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)

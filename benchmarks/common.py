@@ -11,8 +11,13 @@ from mpi4py import MPI
 __all__ = ["write_rows"]
 
 
-def write_rows(out_dir: Path, name: str, rows: list[dict], extra_columns: dict[str, str] | None = None,
-               comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+def write_rows(
+    out_dir: Path,
+    name: str,
+    rows: list[dict],
+    extra_columns: dict[str, str] | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> None:
     """Append ``rows`` to ``out_dir/<name>.csv`` on rank 0, with a ``date`` column.
 
     The header (written when the file is new) is the keys of the first row, then

@@ -13,14 +13,19 @@ def timestep_table(path: Path) -> str:
     rows = list(csv.DictReader(open(path)))
     if not rows:
         return ""
-    out = [f"Machine: {rows[-1]['machine']}; date: {rows[-1]['date']}.", "",
-           "| dim | solver | ranks | dofs | set-up (s) | per step (s) | its/step | rel. L² error |",
-           "|---|---|---|---|---|---|---|---|"]
+    out = [
+        f"Machine: {rows[-1]['machine']}; date: {rows[-1]['date']}.",
+        "",
+        "| dim | solver | ranks | dofs | set-up (s) | per step (s) | its/step | rel. L² error |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     key = lambda r: (int(r["dim"]), r["linear"], int(r["ranks"]), int(r["dofs"]))  # noqa: E731
     for r in sorted(rows, key=key):
-        out.append(f"| {r['dim']}D | {'MUMPS LU' if r['linear'] == 'direct' else 'CG+GAMG'} | {r['ranks']} | "
-                   f"{r['dofs']} | {float(r['setup_s']):.3f} | {float(r['step_s']):.4f} | {r['its_per_step']} | "
-                   f"{float(r['rel_L2_error']):.2e} |")
+        out.append(
+            f"| {r['dim']}D | {'MUMPS LU' if r['linear'] == 'direct' else 'CG+GAMG'} | {r['ranks']} | "
+            f"{r['dofs']} | {float(r['setup_s']):.3f} | {float(r['step_s']):.4f} | {r['its_per_step']} | "
+            f"{float(r['rel_L2_error']):.2e} |"
+        )
     return "\n".join(out) + "\n"
 
 

@@ -22,8 +22,15 @@ before ``dolfinx``; importing :mod:`bonecontact` does it.
 import dolfinx_solver  # noqa: F401  (must precede dolfinx / petsc4py)
 
 from bonecontact.common.version import __version__
-from bonecontact.contact import (ContactConvergenceError, ContactSolver, FrictionLaw, PDASOptions,
-                                 PDASResult, RigidPlane, build_interface)
+from bonecontact.contact import (
+    ContactConvergenceError,
+    ContactSolver,
+    FrictionLaw,
+    PDASOptions,
+    PDASResult,
+    RigidPlane,
+    build_interface,
+)
 from bonecontact.materials import Isotropic, Orthotropic, TransverselyIsotropic
 from bonecontact.mechanics import Integrator, Mechanics
 from bonecontact.runners import RunResult, check, run

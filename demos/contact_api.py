@@ -65,8 +65,14 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact import (ContactSolver, Integrator, Isotropic, Mechanics, PDASOptions,
-                         build_interface)
+from bonecontact import (
+    ContactSolver,
+    Integrator,
+    Isotropic,
+    Mechanics,
+    PDASOptions,
+    build_interface,
+)
 from bonecontact.meshing import hertz_2d
 from bonecontact.verification import contact_modulus
 from bonecontact.verification import hertz_2d as hertz
@@ -92,10 +98,15 @@ tag = {name: group.tag for name, group in md.physical_groups.items()}
 # $\delta$ is chosen so that $a \approx$ `a_target`; the load $P$ is then measured.
 
 # %%
-model = Mechanics(md.mesh, {tag["cylinder"]: Isotropic(E=E1, nu=NU),
-                            tag["block"]: Isotropic(E=E2, nu=NU)},
-                  md.cell_tags, md.facet_tags)
-delta = 2.5 * hertz.load_for_half_width(a_target, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
+model = Mechanics(
+    md.mesh,
+    {tag["cylinder"]: Isotropic(E=E1, nu=NU), tag["block"]: Isotropic(E=E2, nu=NU)},
+    md.cell_tags,
+    md.facet_tags,
+)
+delta = (
+    2.5 * hertz.load_for_half_width(a_target, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
+)
 for component in (0, 1):
     model.add_dirichlet(model.facets(tag["block_bottom"]), component, 0.0)
 model.add_dirichlet(model.facets(tag["cyl_top"]), 0, 0.0)
@@ -107,8 +118,9 @@ model.add_dirichlet(model.facets(tag["cyl_top"]), 1, -delta)
 # solver takes its options as one `PDASOptions` object (frictionless here).
 
 # %%
-interface = build_interface(model.V, md.facet_tags, tag["cyl_contact"], tag["block_contact"],
-                            dirichlet_dofs=model.bc_dofs())
+interface = build_interface(
+    model.V, md.facet_tags, tag["cyl_contact"], tag["block_contact"], dirichlet_dofs=model.bc_dofs()
+)
 solver = ContactSolver(model.V, [interface], PDASOptions(max_iterations=30))
 
 # %% [markdown]
@@ -131,21 +143,30 @@ if comm.rank == 0:
 # %%
 x = np.concatenate(comm.allgather(interface.coords[:, 0]))
 pressure = np.concatenate(comm.allgather(result.pressure[0]))
-P = comm.allreduce(float(-(interface.weight * result.pressure[0] * interface.normals[:, 1]).sum()),
-                   op=MPI.SUM)
+P = comm.allreduce(
+    float(-(interface.weight * result.pressure[0] * interface.normals[:, 1]).sum()), op=MPI.SUM
+)
 order = np.argsort(x)
 x, pressure = x[order], pressure[order]
 a_ref = hertz.half_width(P, R, E1, NU, E2, NU)
 p0_ref = hertz.peak_pressure(P, R, E1, NU, E2, NU)
 inner = np.abs(x) < 0.8 * a_ref
-c0, c1 = np.linalg.lstsq(np.c_[np.ones(inner.sum()), x[inner] ** 2], pressure[inner] ** 2, rcond=None)[0]
+c0, c1 = np.linalg.lstsq(
+    np.c_[np.ones(inner.sum()), x[inner] ** 2], pressure[inner] ** 2, rcond=None
+)[0]
 a_fit = np.sqrt(-c0 / c1)  # least-squares fit of λ² = p0² (1 − x²/a²)
-errors = {"load_N_per_m": P, "a_error": a_fit / a_ref - 1.0, "p0_error": pressure.max() / p0_ref - 1.0,
-          "pdas_iterations": result.iterations}
+errors = {
+    "load_N_per_m": P,
+    "a_error": a_fit / a_ref - 1.0,
+    "p0_error": pressure.max() / p0_ref - 1.0,
+    "pdas_iterations": result.iterations,
+}
 if comm.rank == 0:
-    print(f"load P = {P:.4g} N/m: half-width a {a_fit * 1e3:.4f} mm (Hertz {a_ref * 1e3:.4f} mm, "
-          f"{100 * errors['a_error']:+.2f} %), peak pressure {pressure.max() / 1e6:.3f} MPa "
-          f"(Hertz {p0_ref / 1e6:.3f} MPa, {100 * errors['p0_error']:+.2f} %)")
+    print(
+        f"load P = {P:.4g} N/m: half-width a {a_fit * 1e3:.4f} mm (Hertz {a_ref * 1e3:.4f} mm, "
+        f"{100 * errors['a_error']:+.2f} %), peak pressure {pressure.max() / 1e6:.3f} MPa "
+        f"(Hertz {p0_ref / 1e6:.3f} MPa, {100 * errors['p0_error']:+.2f} %)"
+    )
 
 # %% [markdown]
 # ## 6. Write and plot
@@ -162,8 +183,13 @@ if comm.rank == 0:
     import matplotlib.pyplot as plt
 
     output.mkdir(parents=True, exist_ok=True)
-    np.savetxt(output / "pressure.csv", np.c_[x, pressure], delimiter=",", header="x_m,pressure_Pa",
-               comments="")
+    np.savetxt(
+        output / "pressure.csv",
+        np.c_[x, pressure],
+        delimiter=",",
+        header="x_m,pressure_Pa",
+        comments="",
+    )
     (output / "hertz.json").write_text(json.dumps(errors, indent=2))
     xs = np.linspace(-a_ref, a_ref, 201)
     fig, ax = plt.subplots(figsize=(6, 3.5))

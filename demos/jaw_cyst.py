@@ -96,14 +96,16 @@ comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
 root = here.parent if (here.parent / "data" / "scenes").is_dir() else here
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
-output = Path(args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/jaw_cyst")).resolve()
+output = Path(
+    args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/jaw_cyst")
+).resolve()
 quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
 
 MM, MONTH = 1e-3, SECONDS_PER_YEAR / 12
-L, H, T = 60 * MM, 24 * MM, 2.5 * MM          # section length, height, cortical thickness
-XC, YC, R0 = 30 * MM, 12.5 * MM, 1.5 * MM      # cyst centre and initial radius
-PATCH = (25 * MM, 35 * MM)                     # occlusal patch under the bite
-h = (1.0 if quick else 0.6) * MM               # mesh size (finer near the cyst)
+L, H, T = 60 * MM, 24 * MM, 2.5 * MM  # section length, height, cortical thickness
+XC, YC, R0 = 30 * MM, 12.5 * MM, 1.5 * MM  # cyst centre and initial radius
+PATCH = (25 * MM, 35 * MM)  # occlusal patch under the bite
+h = (1.0 if quick else 0.6) * MM  # mesh size (finer near the cyst)
 dt_months = 3 if quick else 1
 cysts = tomllib.loads((root / "data" / "neoplasms.toml").read_text())["cyst"]
 if comm.rank == 0:
@@ -114,6 +116,7 @@ comm.barrier()
 # ## The jaw section (gmsh)
 # Cell groups `cortical`, `cancellous`, `cyst`; facet groups `symphysis` (x = 0), `ramus`
 # (x = L), `occlusal` (the loaded patch).
+
 
 # %%
 def jaw_mesh(path: Path) -> None:
@@ -135,11 +138,20 @@ def jaw_mesh(path: Path) -> None:
         gmsh.model.addPhysicalGroup(2, cort_s, 1, name="cortical")
         gmsh.model.addPhysicalGroup(2, canc_s, 2, name="cancellous")
         gmsh.model.addPhysicalGroup(2, cyst_s, 3, name="cyst")
-        rim = [abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in cort_s + canc_s + cyst_s], combined=True)]
+        rim = [
+            abs(t)
+            for _, t in gmsh.model.getBoundary(
+                [(2, s) for s in cort_s + canc_s + cyst_s], combined=True
+            )
+        ]
         com = {c: occ.getCenterOfMass(1, c) for c in rim}
-        pick = {"symphysis": [c for c in rim if abs(com[c][0]) < 1e-9],
-                "ramus": [c for c in rim if abs(com[c][0] - L) < 1e-9],
-                "occlusal": [c for c in rim if abs(com[c][1] - H) < 1e-9 and PATCH[0] < com[c][0] < PATCH[1]]}
+        pick = {
+            "symphysis": [c for c in rim if abs(com[c][0]) < 1e-9],
+            "ramus": [c for c in rim if abs(com[c][0] - L) < 1e-9],
+            "occlusal": [
+                c for c in rim if abs(com[c][1] - H) < 1e-9 and PATCH[0] < com[c][0] < PATCH[1]
+            ],
+        }
         for k, (name, cs) in enumerate(pick.items()):
             gmsh.model.addPhysicalGroup(1, cs, 4 + k, name=name)
         f = gmsh.model.mesh.field
@@ -230,8 +242,15 @@ def cyst_table(name: str) -> str:
 runs = {"keratocyst": (output, 27, 9), "radicular": (output / "radicular", 36, 0)}
 results = {}
 for kind, (out, months, every) in runs.items():
-    text = SCENE.format(kind=kind, mesh=output / "jaw.msh", t_end=months * MONTH, dt=dt_months * MONTH,
-                        every=every // dt_months if every else 0, params=cyst_table(kind), out=out)
+    text = SCENE.format(
+        kind=kind,
+        mesh=output / "jaw.msh",
+        t_end=months * MONTH,
+        dt=dt_months * MONTH,
+        every=every // dt_months if every else 0,
+        params=cyst_table(kind),
+        out=out,
+    )
     path = output / f"jaw_{kind}.toml"
     if comm.rank == 0:
         path.write_text(text)
@@ -242,14 +261,17 @@ for kind, (out, months, every) in runs.items():
     results[kind] = res.summary
     if comm.rank == 0:
         g = res.summary["growth"]
-        print(f"{kind}: R {g['initial_radius'] / MM:.2f} -> {g['final_radius'] / MM:.2f} mm in {months} months; "
-              f"{len(res.summary['coupling']['analyses'])} analyses, {res.summary['dofs']} dofs at the end")
+        print(
+            f"{kind}: R {g['initial_radius'] / MM:.2f} -> {g['final_radius'] / MM:.2f} mm in {months} months; "
+            f"{len(res.summary['coupling']['analyses'])} analyses, {res.summary['dofs']} dofs at the end"
+        )
 
 # %% [markdown]
 # ## Stress in the thinning bone
 # von Mises stress from each analysis (pyvista reads the `.pvd` files): the peak in the bone
 # within 2 mm of the cyst wall (99.5th percentile of the cells there, to stay clear of
 # single-cell corner values), and the thinnest remaining bone below and above the cyst.
+
 
 # %%
 def bone_near_cyst(directory: Path, R: float) -> tuple[float, float]:
@@ -276,13 +298,24 @@ if comm.rank == 0:
         for a in s["coupling"]["analyses"]:
             R = a["equivalent_radius"]
             near, whole = bone_near_cyst(Path(a["directory"]), R)
-            rows.append((kind, a["time"] / (12 * MONTH), R, min(YC - R, H - YC - R), near, whole,
-                         a["cavity_pressure_Pa"]))
-            print(f"{kind:10s} t = {rows[-1][1]:4.2f} y: R = {R / MM:5.2f} mm, thinnest bone "
-                  f"{rows[-1][3] / MM:5.2f} mm, von Mises near the cyst {near / 1e6:6.2f} MPa "
-                  f"(whole section {whole / 1e6:6.2f} MPa), cyst pressure {a['cavity_pressure_Pa']:.1f} Pa")
+            rows.append(
+                (
+                    kind,
+                    a["time"] / (12 * MONTH),
+                    R,
+                    min(YC - R, H - YC - R),
+                    near,
+                    whole,
+                    a["cavity_pressure_Pa"],
+                )
+            )
+            print(
+                f"{kind:10s} t = {rows[-1][1]:4.2f} y: R = {R / MM:5.2f} mm, thinnest bone "
+                f"{rows[-1][3] / MM:5.2f} mm, von Mises near the cyst {near / 1e6:6.2f} MPa "
+                f"(whole section {whole / 1e6:6.2f} MPa), cyst pressure {a['cavity_pressure_Pa']:.1f} Pa"
+            )
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
-    for kind, s in results.items():
+    for kind in results:
         out = runs[kind][0]
         g = np.genfromtxt(out / "growth.csv", delimiter=",", names=True)
         ax1.plot(g["time"] / (12 * MONTH), g["equivalent_radius"] / MM, label=kind)
@@ -316,8 +349,14 @@ if comm.rank == 0:
         grid.cell_data["von Mises (MPa)"] = grid.cell_data[vm] / 1e6
         plotter.subplot(i, 0)
         plotter.add_text(f"{kind}, after {runs[kind][1]} months", font_size=10)
-        plotter.add_mesh(grid.copy(), scalars="von Mises (MPa)", cmap="inferno", clim=(0, 15), show_edges=False,
-                         scalar_bar_args={"title": f"von Mises (MPa) {kind}", "fmt": "%.0f", "n_labels": 4})
+        plotter.add_mesh(
+            grid.copy(),
+            scalars="von Mises (MPa)",
+            cmap="inferno",
+            clim=(0, 15),
+            show_edges=False,
+            scalar_bar_args={"title": f"von Mises (MPa) {kind}", "fmt": "%.0f", "n_labels": 4},
+        )
         plotter.view_xy()
         plotter.camera.zoom(1.7)
     plotter.screenshot(str(output / "jaw_cyst_von_mises.png"))

@@ -104,9 +104,9 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
-from bonecontact.verification.analytic import hertz_2d
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
+from bonecontact.verification.analytic import hertz_2d
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
@@ -124,9 +124,11 @@ if result.status != "converged":
     raise SystemExit(f"run failed: {result.summary.get('message')}")
 s = result.summary
 if comm.rank == 0:
-    print(f"{s['dofs']} dofs on {comm.size} rank(s); {s['steps']} load steps; PDAS iterations per step: "
-          f"max {s['contact']['pdas_iterations']['max']}, total {s['contact']['pdas_iterations']['total']}; "
-          f"wall time {s['wall_time_s']:.2f} s")
+    print(
+        f"{s['dofs']} dofs on {comm.size} rank(s); {s['steps']} load steps; PDAS iterations per step: "
+        f"max {s['contact']['pdas_iterations']['max']}, total {s['contact']['pdas_iterations']['total']}; "
+        f"wall time {s['wall_time_s']:.2f} s"
+    )
 
 # %% [markdown]
 # ## Contact pressure along the plateau
@@ -150,19 +152,29 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = np.genfromtxt(output / "contact_tibiofemoral.csv", delimiter=",", names=True, dtype=None,
-                         encoding="utf-8")
+    rows = np.genfromtxt(
+        output / "contact_tibiofemoral.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     x, p = rows["x"], rows["pressure"]
-    hist = np.genfromtxt(output / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    hist = np.genfromtxt(
+        output / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     load = float(hist["normal_force"][-1])
     cart = [m for m in scene.materials if m.name == "cartilage"][0].material
     R = 0.03
-    xs = np.linspace(-1.5 * hertz_2d.half_width(load, R, cart.E, cart.nu, cart.E, cart.nu),
-                     1.5 * hertz_2d.half_width(load, R, cart.E, cart.nu, cart.E, cart.nu), 400)
+    xs = np.linspace(
+        -1.5 * hertz_2d.half_width(load, R, cart.E, cart.nu, cart.E, cart.nu),
+        1.5 * hertz_2d.half_width(load, R, cart.E, cart.nu, cart.E, cart.nu),
+        400,
+    )
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.plot(1e3 * x, p / 1e6, "o-", ms=3, label="bonecontact (mortar + PDAS)")
-    ax.plot(1e3 * xs, hertz_2d.pressure(xs, load, R, cart.E, cart.nu, cart.E, cart.nu) / 1e6, "--",
-            label="Hertz, cartilage half-spaces")
+    ax.plot(
+        1e3 * xs,
+        hertz_2d.pressure(xs, load, R, cart.E, cart.nu, cart.E, cart.nu) / 1e6,
+        "--",
+        label="Hertz, cartilage half-spaces",
+    )
     ax.set_xlim(-15, 15)
     ax.set_xlabel("x along the plateau (mm)")
     ax.set_ylabel("contact pressure (MPa)")
@@ -172,8 +184,10 @@ if comm.rank == 0:
     fig.tight_layout()
     fig.savefig(output / "contact_pressure.png", dpi=120)
     width = x[p > 0].max() - x[p > 0].min()
-    print(f"contact width {1e3 * width:.1f} mm, peak pressure {p.max() / 1e6:.2f} MPa, "
-          f"total normal force {load:.0f} N/m (applied 17500 N/m)")
+    print(
+        f"contact width {1e3 * width:.1f} mm, peak pressure {p.max() / 1e6:.2f} MPa, "
+        f"total normal force {load:.0f} N/m (applied 17500 N/m)"
+    )
 
 # %% [markdown]
 # ## Stress, with the contact zone marked
@@ -193,9 +207,21 @@ if comm.rank == 0:
     grid.cell_data["von Mises (MPa)"] = grid.cell_data[vm] / 1e6
     active = np.column_stack([x[p > 0], rows["y"][p > 0], np.zeros((p > 0).sum())])
     plotter = pv.Plotter(window_size=(1000, 800), off_screen=True)
-    plotter.add_mesh(grid, scalars="von Mises (MPa)", cmap="inferno", clim=(0, np.percentile(grid.cell_data["von Mises (MPa)"], 99.5)),
-                     scalar_bar_args={"fmt": "%.2f", "n_labels": 4, "vertical": True, "position_x": 0.86,
-                                      "position_y": 0.25, "height": 0.5, "title_font_size": 14})
+    plotter.add_mesh(
+        grid,
+        scalars="von Mises (MPa)",
+        cmap="inferno",
+        clim=(0, np.percentile(grid.cell_data["von Mises (MPa)"], 99.5)),
+        scalar_bar_args={
+            "fmt": "%.2f",
+            "n_labels": 4,
+            "vertical": True,
+            "position_x": 0.86,
+            "position_y": 0.25,
+            "height": 0.5,
+            "title_font_size": 14,
+        },
+    )
     plotter.add_points(active, color="white", point_size=8, render_points_as_spheres=True)
     plotter.view_xy()
     plotter.camera.zoom(1.4)
@@ -244,10 +270,12 @@ if gait.status != "converged":
     raise SystemExit(f"gait run failed: {gait.summary.get('message')}")
 g = gait.summary
 if comm.rank == 0:
-    print(f"gait: {g['steps']} steps, PDAS iterations per step max {g['contact']['pdas_iterations']['max']}, "
-          f"total {g['contact']['pdas_iterations']['total']}; wall time {g['wall_time_s']:.2f} s; "
-          f"energy: external work {g['energy']['external_work']:.3f} J/m, contact+friction work "
-          f"{g['energy']['contact_work']:.3f} J/m, balance defect {g['energy']['defect']:.1e} J/m")
+    print(
+        f"gait: {g['steps']} steps, PDAS iterations per step max {g['contact']['pdas_iterations']['max']}, "
+        f"total {g['contact']['pdas_iterations']['total']}; wall time {g['wall_time_s']:.2f} s; "
+        f"energy: external work {g['energy']['external_work']:.3f} J/m, contact+friction work "
+        f"{g['energy']['contact_work']:.3f} J/m, balance defect {g['energy']['defect']:.1e} J/m"
+    )
 
 # %%
 if comm.rank == 0:
@@ -256,7 +284,9 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    h = np.genfromtxt(gait_out / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    h = np.genfromtxt(
+        gait_out / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     trac = [t for t in gait_scene.loads if t.kind == "traction"][0]
     applied = np.array([abs(trac.value[1]) * 0.06 * trac.schedule(t) for t in h["time"]])
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)

@@ -79,7 +79,6 @@
 # pressure, Bonet & Burton 1998) so that the P1 elements do not lock.
 
 # %%
-import json
 import os
 import sys
 from pathlib import Path
@@ -109,9 +108,11 @@ if result.status != "converged":
 s = result.summary
 if comm.rank == 0:
     g = s["growth"]
-    print(f"tumour: R {1e3 * g['initial_radius']:.2f} -> {1e3 * g['final_radius']:.2f} mm in "
-          f"{g['final_time'] / SECONDS_PER_DAY:.0f} days ({g['steps']} steps, {g['remeshes']} remeshes); "
-          f"{len(s['coupling']['analyses'])} contact analyses; wall time {s['wall_time_s']:.1f} s")
+    print(
+        f"tumour: R {1e3 * g['initial_radius']:.2f} -> {1e3 * g['final_radius']:.2f} mm in "
+        f"{g['final_time'] / SECONDS_PER_DAY:.0f} days ({g['steps']} steps, {g['remeshes']} remeshes); "
+        f"{len(s['coupling']['analyses'])} contact analyses; wall time {s['wall_time_s']:.1f} s"
+    )
 
 # %% [markdown]
 # ## Tumour size and the subsidence of the plateau above it
@@ -131,10 +132,21 @@ if comm.rank == 0:
     for a in s["coupling"]["analyses"]:
         pr = np.genfromtxt(Path(a["directory"]) / "probes.csv", delimiter=",", names=True)
         last = pr[(pr["probe"] == 2) & (pr["step"] == pr["step"].max())]
-        hist = np.genfromtxt(Path(a["directory"]) / "history.csv", delimiter=",", names=True, dtype=None,
-                             encoding="utf-8")
-        rows.append((a["time"] / SECONDS_PER_DAY, 1e3 * a["equivalent_radius"], -1e6 * float(last["u_y"][0]),
-                     float(hist["normal_force"][-1])))
+        hist = np.genfromtxt(
+            Path(a["directory"]) / "history.csv",
+            delimiter=",",
+            names=True,
+            dtype=None,
+            encoding="utf-8",
+        )
+        rows.append(
+            (
+                a["time"] / SECONDS_PER_DAY,
+                1e3 * a["equivalent_radius"],
+                -1e6 * float(last["u_y"][0]),
+                float(hist["normal_force"][-1]),
+            )
+        )
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
     a1.plot(gr["time"] / SECONDS_PER_DAY, 1e3 * gr["equivalent_radius"], "o-", ms=3)
     a1.set_xlabel("time (days)")
@@ -148,7 +160,9 @@ if comm.rank == 0:
     fig.tight_layout()
     fig.savefig(output / "tumour_growth.png", dpi=120)
     for day, r, sub, fn in rows:
-        print(f"day {day:4.0f}: R = {r:.2f} mm, subsidence under the plate {sub:.2f} µm, contact force {fn:.0f} N/m")
+        print(
+            f"day {day:4.0f}: R = {r:.2f} mm, subsidence under the plate {sub:.2f} µm, contact force {fn:.0f} N/m"
+        )
 
 # %% [markdown]
 # ## Stress in the tibia with the tumour outlined
@@ -168,10 +182,21 @@ if comm.rank == 0:
     ring = np.column_stack([poly["x"], poly["y"], np.full(len(poly), 1e-4)])
     ring = np.vstack([ring, ring[:1]])
     plotter = pv.Plotter(window_size=(1000, 900), off_screen=True)
-    plotter.add_mesh(grid, scalars="von Mises (MPa)", cmap="inferno",
-                     clim=(0, np.percentile(grid.cell_data["von Mises (MPa)"], 99.5)),
-                     scalar_bar_args={"fmt": "%.2f", "n_labels": 4, "vertical": True, "position_x": 0.86,
-                                      "position_y": 0.25, "height": 0.5, "title_font_size": 14})
+    plotter.add_mesh(
+        grid,
+        scalars="von Mises (MPa)",
+        cmap="inferno",
+        clim=(0, np.percentile(grid.cell_data["von Mises (MPa)"], 99.5)),
+        scalar_bar_args={
+            "fmt": "%.2f",
+            "n_labels": 4,
+            "vertical": True,
+            "position_x": 0.86,
+            "position_y": 0.25,
+            "height": 0.5,
+            "title_font_size": 14,
+        },
+    )
     plotter.add_lines(np.repeat(ring, 2, axis=0)[1:-1], color="cyan", width=3)
     plotter.view_xy()
     plotter.camera.zoom(1.3)

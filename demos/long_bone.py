@@ -84,8 +84,10 @@ output = Path(args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results
 # %%
 scene = load_scene(root / "data" / "scenes" / "long_bone.toml")
 if comm.rank == 0:
-    print(f"scene {scene.name}: {scene.analysis.kind}, t_end = {scene.analysis.t_end} s, "
-          f"dt = {scene.analysis.dt} s, materials: {', '.join(m.name for m in scene.materials)}")
+    print(
+        f"scene {scene.name}: {scene.analysis.kind}, t_end = {scene.analysis.t_end} s, "
+        f"dt = {scene.analysis.dt} s, materials: {', '.join(m.name for m in scene.materials)}"
+    )
 
 # %% [markdown]
 # ## Run it
@@ -114,15 +116,24 @@ if result.status != "converged":
     raise SystemExit(f"run failed: {summary.get('message')}")
 
 # %%
-history = np.loadtxt(output / "history.csv", delimiter=",", skiprows=1, usecols=(0, 1, 9, 10)) \
-    if comm.rank == 0 else None
+history = (
+    np.loadtxt(output / "history.csv", delimiter=",", skiprows=1, usecols=(0, 1, 9, 10))
+    if comm.rank == 0
+    else None
+)
 probes = np.loadtxt(output / "probes.csv", delimiter=",", skiprows=1) if comm.rank == 0 else None
 if comm.rank == 0:
     last = probes[probes[:, 0] == probes[:, 0].max()]
-    print(f"{summary['dofs']} dofs on {comm.size} rank(s), {summary['steps']} steps, "
-          f"wall time {summary['wall_time_s']:.2f} s (set-up {summary['setup_time_s']:.2f} s)")
-    print(f"proximal end (probe 4) at t = {last[3, 1]:.4f} s: u = ({last[3, 5]:.3e}, {last[3, 6]:.3e}) m")
-    print(f"mid-shaft cortex von Mises: {last[0, -1] / 1e6:.2f} MPa (x < 0), {last[1, -1] / 1e6:.2f} MPa (x > 0)")
+    print(
+        f"{summary['dofs']} dofs on {comm.size} rank(s), {summary['steps']} steps, "
+        f"wall time {summary['wall_time_s']:.2f} s (set-up {summary['setup_time_s']:.2f} s)"
+    )
+    print(
+        f"proximal end (probe 4) at t = {last[3, 1]:.4f} s: u = ({last[3, 5]:.3e}, {last[3, 6]:.3e}) m"
+    )
+    print(
+        f"mid-shaft cortex von Mises: {last[0, -1] / 1e6:.2f} MPa (x < 0), {last[1, -1] / 1e6:.2f} MPa (x > 0)"
+    )
     print(f"energy at t_end: kinetic {history[-1, 2]:.3e} J/m, strain {history[-1, 3]:.3e} J/m")
 
 # %% [markdown]
@@ -153,13 +164,20 @@ if comm.rank == 0:
     plotter.add_text(f"displacement (x{scale:.0f})", font_size=10)
     warped.point_data["|u| (mm)"] = grid.point_data["|u| (mm)"]
     bar = {"fmt": "%.2f", "n_labels": 4, "position_x": 0.2, "width": 0.6}
-    plotter.add_mesh(warped, scalars="|u| (mm)", cmap="viridis", show_edges=False, scalar_bar_args=bar)
+    plotter.add_mesh(
+        warped, scalars="|u| (mm)", cmap="viridis", show_edges=False, scalar_bar_args=bar
+    )
     plotter.add_mesh(grid, style="wireframe", color="grey", opacity=0.15)
     plotter.view_xy()
     plotter.subplot(0, 1)
     plotter.add_text("von Mises stress", font_size=10)
-    plotter.add_mesh(grid, scalars="von Mises (MPa)", cmap="inferno", show_edges=False,
-                     scalar_bar_args={**bar, "fmt": "%.1f"})
+    plotter.add_mesh(
+        grid,
+        scalars="von Mises (MPa)",
+        cmap="inferno",
+        show_edges=False,
+        scalar_bar_args={**bar, "fmt": "%.1f"},
+    )
     plotter.view_xy()
     plotter.screenshot(str(png))
     plotter.close()

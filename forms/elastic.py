@@ -27,14 +27,16 @@ def deviatoric_voigt(mu, dim: int) -> ufl.core.expr.Expr:
     a, b = 4 * mu / 3, -2 * mu / 3
     if dim == 2:
         return ufl.as_matrix([[a, b, 0], [b, a, 0], [0, 0, mu]])
-    return ufl.as_matrix([
-        [a, b, b, 0, 0, 0],
-        [b, a, b, 0, 0, 0],
-        [b, b, a, 0, 0, 0],
-        [0, 0, 0, mu, 0, 0],
-        [0, 0, 0, 0, mu, 0],
-        [0, 0, 0, 0, 0, mu],
-    ])
+    return ufl.as_matrix(
+        [
+            [a, b, b, 0, 0, 0],
+            [b, a, b, 0, 0, 0],
+            [b, b, a, 0, 0, 0],
+            [0, 0, 0, mu, 0, 0],
+            [0, 0, 0, 0, mu, 0],
+            [0, 0, 0, 0, 0, mu],
+        ]
+    )
 
 
 def volumetric_coupling(u, q, chi, dx: ufl.Measure = ufl.dx) -> ufl.Form:

@@ -34,13 +34,20 @@ else:  # pragma: no cover - ffcx exec()s this file without a package context
 
 def dynamic_lhs(u, v, rho, C, C_v, dt, dim: int, dx: ufl.Measure = ufl.dx) -> ufl.Form:
     """A(u, v) = (ρu, v) + Δt² a⁽⁰⁾(u, v) + Δt a⁽¹⁾(u, v)."""
-    return mass_form(u, v, rho, dx) + dt**2 * elastic_form(u, v, C, dim, dx) + dt * viscous_form(u, v, C_v, dim, dx)
+    return (
+        mass_form(u, v, rho, dx)
+        + dt**2 * elastic_form(u, v, C, dim, dx)
+        + dt * viscous_form(u, v, C_v, dim, dx)
+    )
 
 
 def dynamic_rhs(v, f, u_n, u_nm1, rho, C_v, dt, dim: int, dx: ufl.Measure = ufl.dx) -> ufl.Form:
     """ℓ(v) = Δt² (f, v) + (ρ(2uⁿ − uⁿ⁻¹), v) + Δt a⁽¹⁾(uⁿ, v)."""
-    return (dt**2 * body_force_form(f, v, dx) + mass_form(2 * u_n - u_nm1, v, rho, dx)
-            + dt * viscous_form(u_n, v, C_v, dim, dx))
+    return (
+        dt**2 * body_force_form(f, v, dx)
+        + mass_form(2 * u_n - u_nm1, v, rho, dx)
+        + dt * viscous_form(u_n, v, C_v, dim, dx)
+    )
 
 
 def quasistatic_lhs(u, v, C, C_v, dt, dim: int, dx: ufl.Measure = ufl.dx) -> ufl.Form:

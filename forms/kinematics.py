@@ -37,16 +37,20 @@ def stress(C: ufl.core.expr.Expr, u: ufl.core.expr.Expr, dim: int) -> ufl.core.e
     return tensor_from_voigt(ufl.dot(C, voigt_strain(strain(u), dim)), dim)
 
 
-def isotropic_voigt(lmbda: ufl.core.expr.Expr, mu: ufl.core.expr.Expr, dim: int) -> ufl.core.expr.Expr:
+def isotropic_voigt(
+    lmbda: ufl.core.expr.Expr, mu: ufl.core.expr.Expr, dim: int
+) -> ufl.core.expr.Expr:
     """Voigt stiffness λ δ_ij δ_kl + μ(δ_ik δ_jl + δ_il δ_jk) (plane strain in 2D)."""
     if dim == 2:
         return ufl.as_matrix([[lmbda + 2 * mu, lmbda, 0], [lmbda, lmbda + 2 * mu, 0], [0, 0, mu]])
     d = lmbda + 2 * mu
-    return ufl.as_matrix([
-        [d, lmbda, lmbda, 0, 0, 0],
-        [lmbda, d, lmbda, 0, 0, 0],
-        [lmbda, lmbda, d, 0, 0, 0],
-        [0, 0, 0, mu, 0, 0],
-        [0, 0, 0, 0, mu, 0],
-        [0, 0, 0, 0, 0, mu],
-    ])
+    return ufl.as_matrix(
+        [
+            [d, lmbda, lmbda, 0, 0, 0],
+            [lmbda, d, lmbda, 0, 0, 0],
+            [lmbda, lmbda, d, 0, 0, 0],
+            [0, 0, 0, mu, 0, 0],
+            [0, 0, 0, 0, mu, 0],
+            [0, 0, 0, 0, 0, mu],
+        ]
+    )

@@ -14,8 +14,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-import pytest
 from mpi4py import MPI
+
+import pytest
 
 
 def pytest_collection_modifyitems(config, items):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["format_float", "format_cell"]
+__all__ = ["format_cell", "format_float"]
 
 
 def format_float(x: float) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["cross2", "signed_polygon_area", "polygon_area"]
+__all__ = ["cross2", "polygon_area", "signed_polygon_area"]
 
 
 def cross2(a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.float64]:

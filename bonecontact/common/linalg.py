@@ -8,23 +8,26 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-import numpy.typing as npt
-from dolfinx import fem, la
 from mpi4py import MPI
 from petsc4py import PETSc
 
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem, la
+
 __all__ = [
-    "configure_ksp",
-    "body_labels",
-    "rigid_body_modes",
-    "create_solver",
     "LinearSolverInfo",
+    "body_labels",
+    "configure_ksp",
+    "create_solver",
     "owned_global_rows",
+    "rigid_body_modes",
 ]
 
 
-def owned_global_rows(V: fem.FunctionSpace, local_dofs: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
+def owned_global_rows(
+    V: fem.FunctionSpace, local_dofs: npt.NDArray[np.int32]
+) -> npt.NDArray[np.int32]:
     """Global PETSc rows of the *owned* entries among unrolled local dof indices."""
     bs = V.dofmap.index_map_bs
     imap = V.dofmap.index_map
@@ -135,8 +138,9 @@ class LinearSolverInfo:
     setup_time: float = 0.0
 
 
-def configure_ksp(ksp: PETSc.KSP, kind: str, rtol: float = 1e-12, prefix: str = "bc_",
-                  max_it: int = 2000) -> None:
+def configure_ksp(
+    ksp: PETSc.KSP, kind: str, rtol: float = 1e-12, prefix: str = "bc_", max_it: int = 2000
+) -> None:
     """Set a KSP up as the package's direct (MUMPS LU) or iterative (CG + smoothed-
     aggregation GAMG, Chebyshev/Jacobi smoothing) solver; the options can be overridden
     on the command line under ``prefix``."""
@@ -159,8 +163,13 @@ def configure_ksp(ksp: PETSc.KSP, kind: str, rtol: float = 1e-12, prefix: str = 
         raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {kind!r}")
 
 
-def create_solver(A: PETSc.Mat, kind: str = "direct", near_nullspace: PETSc.NullSpace | None = None,
-                  rtol: float = 1e-12, prefix: str = "bc_") -> PETSc.KSP:
+def create_solver(
+    A: PETSc.Mat,
+    kind: str = "direct",
+    near_nullspace: PETSc.NullSpace | None = None,
+    rtol: float = 1e-12,
+    prefix: str = "bc_",
+) -> PETSc.KSP:
     """A KSP for the (symmetric positive definite) operator ``A``.
 
     Parameters

@@ -14,15 +14,22 @@ import numpy.typing as npt
 from bonecontact.contact.dual_basis import TRIANGLE_RULE
 from bonecontact.contact.geometry import FloatArray, IntArray, cross2
 
-__all__ = ["clip_polygons_by_triangles", "fan_quadrature", "polygon_areas",
-           "project_points_to_lines_along_directions", "project_points_to_segments_interpolated_normal"]
+__all__ = [
+    "clip_polygons_by_triangles",
+    "fan_quadrature",
+    "polygon_areas",
+    "project_points_to_lines_along_directions",
+    "project_points_to_segments_interpolated_normal",
+]
 
 # ----------------------------------------------------------------------------------
 # Polygon clipping (Sutherland-Hodgman, padded arrays)
 # ----------------------------------------------------------------------------------
 
 
-def _clip_halfplane(poly: FloatArray, count: IntArray, dist: FloatArray) -> tuple[FloatArray, IntArray]:
+def _clip_halfplane(
+    poly: FloatArray, count: IntArray, dist: FloatArray
+) -> tuple[FloatArray, IntArray]:
     """Clip padded convex polygons by the half-planes ``dist >= 0``.
 
     Parameters

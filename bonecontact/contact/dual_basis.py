@@ -16,9 +16,22 @@ import numpy.typing as npt
 
 from bonecontact.contact.geometry import FloatArray, simplex_measure
 
-__all__ = ["DUAL_COEFFS_SEGMENT", "DUAL_COEFFS_TRIANGLE", "GAUSS_SEGMENT", "TRIANGLE_RULE", "dual_coefficients",
-           "dual_coefficients_from_mass", "dual_segment", "dual_triangle", "element_mass_matrices",
-           "evaluate_dual", "modify_dual_coefficients", "reference_dual_coefficients", "shape_segment", "shape_triangle"]
+__all__ = [
+    "DUAL_COEFFS_SEGMENT",
+    "DUAL_COEFFS_TRIANGLE",
+    "GAUSS_SEGMENT",
+    "TRIANGLE_RULE",
+    "dual_coefficients",
+    "dual_coefficients_from_mass",
+    "dual_segment",
+    "dual_triangle",
+    "element_mass_matrices",
+    "evaluate_dual",
+    "modify_dual_coefficients",
+    "reference_dual_coefficients",
+    "shape_segment",
+    "shape_triangle",
+]
 
 # ----------------------------------------------------------------------------------
 # Quadrature rules

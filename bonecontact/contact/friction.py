@@ -23,8 +23,16 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["FRICTION_KIND", "FrictionLaw", "aitken_directions", "coulomb_fixed_point_bounds", "slip_directions", "slip_newton_rows",
-           "slip_set", "step_bounds"]
+__all__ = [
+    "FRICTION_KIND",
+    "FrictionLaw",
+    "aitken_directions",
+    "coulomb_fixed_point_bounds",
+    "slip_directions",
+    "slip_newton_rows",
+    "slip_set",
+    "step_bounds",
+]
 
 #: Integer codes of the friction kinds in the per-node arrays.
 FRICTION_KIND = {"none": 0, "tresca": 1, "coulomb": 2}
@@ -51,22 +59,34 @@ class FrictionLaw:
 
     def __post_init__(self) -> None:
         if self.kind not in ("none", "tresca", "coulomb"):
-            raise ValueError(f"friction kind must be 'none', 'tresca' or 'coulomb', got {self.kind!r}")
+            raise ValueError(
+                f"friction kind must be 'none', 'tresca' or 'coulomb', got {self.kind!r}"
+            )
         if self.update not in ("previous_step", "fixed_point"):
-            raise ValueError(f"coulomb update must be 'previous_step' or 'fixed_point', got {self.update!r}")
+            raise ValueError(
+                f"coulomb update must be 'previous_step' or 'fixed_point', got {self.update!r}"
+            )
         if self.coefficient < 0 or self.bound < 0:
             raise ValueError("friction coefficient and bound must be >= 0")
 
 
-def step_bounds(kind: npt.NDArray[np.int_], bound: npt.NDArray[np.float64], mu: npt.NDArray[np.float64],
-                lam_n_prev: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+def step_bounds(
+    kind: npt.NDArray[np.int_],
+    bound: npt.NDArray[np.float64],
+    mu: npt.NDArray[np.float64],
+    lam_n_prev: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float64]:
     """Friction bounds at the start of a step: the Tresca bound, or Coulomb ``μ max(0, λ_n)``
     with the normal multipliers of the previous step (semi-implicit)."""
     return np.where(kind == FRICTION_KIND["tresca"], bound, mu * np.maximum(lam_n_prev, 0.0))
 
 
-def coulomb_fixed_point_bounds(g: npt.NDArray[np.float64], fp: npt.NDArray[np.bool_], mu: npt.NDArray[np.float64],
-                               lam_n: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], float]:
+def coulomb_fixed_point_bounds(
+    g: npt.NDArray[np.float64],
+    fp: npt.NDArray[np.bool_],
+    mu: npt.NDArray[np.float64],
+    lam_n: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], float]:
     """Algorithm FP: the bounds ``μ max(0, λ_n)`` of the current iterate at the nodes ``fp``.
 
     Returns the new bounds and their relative change (0 when they are all zero).
@@ -78,8 +98,13 @@ def coulomb_fixed_point_bounds(g: npt.NDArray[np.float64], fp: npt.NDArray[np.bo
     return g_new, change
 
 
-def slip_set(an: npt.NDArray[np.bool_], fric: npt.NDArray[np.bool_], zn: npt.NDArray[np.float64],
-             g: npt.NDArray[np.float64], eps: float) -> npt.NDArray[np.bool_]:
+def slip_set(
+    an: npt.NDArray[np.bool_],
+    fric: npt.NDArray[np.bool_],
+    zn: npt.NDArray[np.float64],
+    g: npt.NDArray[np.float64],
+    eps: float,
+) -> npt.NDArray[np.bool_]:
     """Active friction nodes with ``|λ_t + c_t Δu_t|`` (``zn``) above the bound (docs/theory/pdas.md#active-set-rule).
 
     A node with a zero bound (Coulomb with no pressure yet) slips: it carries no
@@ -89,9 +114,14 @@ def slip_set(an: npt.NDArray[np.bool_], fric: npt.NDArray[np.bool_], zn: npt.NDA
     return an & fric & ((zn > g + gtol) | (g <= 0.0))
 
 
-def slip_directions(new_slip: npt.NDArray[np.bool_], slip: npt.NDArray[np.bool_], z: npt.NDArray[np.float64],
-                    zn: npt.NDArray[np.float64], g: npt.NDArray[np.float64], dirs: npt.NDArray[np.float64],
-                    ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]:
+def slip_directions(
+    new_slip: npt.NDArray[np.bool_],
+    slip: npt.NDArray[np.bool_],
+    z: npt.NDArray[np.float64],
+    zn: npt.NDArray[np.float64],
+    g: npt.NDArray[np.float64],
+    dirs: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]:
     """Slip directions ``ξ/|ξ|`` of the new slip nodes, and the slip set without reversals.
 
     A node whose slip reverses under the prescribed traction overshot: it sticks next
@@ -108,9 +138,15 @@ def slip_directions(new_slip: npt.NDArray[np.bool_], slip: npt.NDArray[np.bool_]
     return new_slip & ~reverse, new_dirs
 
 
-def slip_newton_rows(rows: npt.NDArray[np.int64], D: npt.NDArray[np.float64], c_t: float,
-                     lam_t: npt.NDArray[np.float64], z: npt.NDArray[np.float64], g: npt.NDArray[np.float64],
-                     xold: npt.NDArray[np.float64]) -> tuple:
+def slip_newton_rows(
+    rows: npt.NDArray[np.int64],
+    D: npt.NDArray[np.float64],
+    c_t: float,
+    lam_t: npt.NDArray[np.float64],
+    z: npt.NDArray[np.float64],
+    g: npt.NDArray[np.float64],
+    xold: npt.NDArray[np.float64],
+) -> tuple:
     """The damped semi-smooth Newton rows of 3D slip nodes (Hüeber–Stadler–Wohlmuth).
 
     At a slip node, ``C_t = |ξ| λ_t − ĝ ξ = 0`` with ``ξ = λ_t + c_t Δu_t``.  Linearised at
@@ -152,7 +188,7 @@ def slip_newton_rows(rows: npt.NDArray[np.int64], D: npt.NDArray[np.float64], c_
     delta = np.minimum(lnorm / np.maximum(gk, 1e-300), 1.0)
     theta = 1.0 / (1.0 - np.minimum(alpha, 0.0) * delta)
     eye = np.eye(rows.shape[1])[None, :, :]
-    outer = (theta[:, None] * lt)[:, :, None] * n[:, None, :]                    # θ λ̃ nᵀ
+    outer = (theta[:, None] * lt)[:, :, None] * n[:, None, :]  # θ λ̃ nᵀ
     Gm = (1.0 - gk / zn)[:, None, None] * eye + outer / zn[:, None, None]
     Hp = c_t * (outer - gk[:, None, None] * eye) / zn[:, None, None]
     xo = xold[rows]
@@ -160,8 +196,13 @@ def slip_newton_rows(rows: npt.NDArray[np.int64], D: npt.NDArray[np.float64], c_
     return rows, Gm, D[:, None, None] * Hp, h
 
 
-def aitken_directions(both: npt.NDArray[np.bool_], dirs: npt.NDArray[np.float64], new_dirs: npt.NDArray[np.float64],
-                      sets_changed: bool, aitken: list) -> None:
+def aitken_directions(
+    both: npt.NDArray[np.bool_],
+    dirs: npt.NDArray[np.float64],
+    new_dirs: npt.NDArray[np.float64],
+    sets_changed: bool,
+    aitken: list,
+) -> None:
     """Aitken-accelerated fixed point of the 3D slip directions (in place).
 
     ``aitken`` is ``[previous residual, relaxation]``, carried between iterations; the

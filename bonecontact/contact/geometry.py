@@ -10,8 +10,17 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["BoolArray", "FloatArray", "IntArray", "cross2", "facet_normals", "nodal_normals",
-           "nodal_tangents", "normalise", "simplex_measure"]
+__all__ = [
+    "BoolArray",
+    "FloatArray",
+    "IntArray",
+    "cross2",
+    "facet_normals",
+    "nodal_normals",
+    "nodal_tangents",
+    "normalise",
+    "simplex_measure",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]

@@ -28,11 +28,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from mpi4py import MPI
+from petsc4py import PETSc
+
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
-from mpi4py import MPI
-from petsc4py import PETSc
 
 from bonecontact.contact.dual_basis import (
     element_mass_matrices,
@@ -42,8 +43,14 @@ from bonecontact.contact.dual_basis import (
 from bonecontact.contact.geometry import facet_normals, nodal_normals, nodal_tangents
 from bonecontact.contact.mortar_assembly import assemble_mortar
 
-__all__ = ["ContactInterface", "ContactInputError", "RigidPlane", "build_interface", "basis_transform",
-           "rotation_matrix"]
+__all__ = [
+    "ContactInputError",
+    "ContactInterface",
+    "RigidPlane",
+    "basis_transform",
+    "build_interface",
+    "rotation_matrix",
+]
 
 
 class ContactInputError(ValueError):
@@ -148,7 +155,9 @@ def _local_surface(V: fem.FunctionSpace, facet_tags, tag: int):
     coords = xdof[blocks]
     cells = f2c.array[f2c.offsets[facets]] if facets.size else np.zeros(0, np.int32)
     gx = msh.geometry.x[:, :gdim]
-    interior = gx[msh.geometry.dofmaps[0][cells]].mean(axis=1) if facets.size else np.zeros((0, gdim))
+    interior = (
+        gx[msh.geometry.dofmaps[0][cells]].mean(axis=1) if facets.size else np.zeros((0, gdim))
+    )
     imap = V.dofmap.index_map
     gblocks = imap.local_to_global(blocks.ravel().astype(np.int32)).reshape(blocks.shape)
     return gblocks.astype(np.int64), coords, interior
@@ -191,14 +200,14 @@ def _owner_ranges(comm: MPI.Comm, V: fem.FunctionSpace) -> npt.NDArray[np.int64]
 class _SlaveSurface:
     """The slave surface gathered on every rank (compact node numbering)."""
 
-    gids: npt.NDArray[np.int64]          # global block of every node
-    x: npt.NDArray[np.float64]           # node coordinates
-    facets: npt.NDArray[np.int64]        # facets (compact node numbers)
-    interior: npt.NDArray[np.float64]    # a point inside the cell of every facet
-    own: slice                           # the facets this rank owns
-    measure: npt.NDArray[np.float64]     # facet measures
-    normals: npt.NDArray[np.float64]     # averaged unit nodal normals
-    size: float                          # largest extent of the surface (m)
+    gids: npt.NDArray[np.int64]  # global block of every node
+    x: npt.NDArray[np.float64]  # node coordinates
+    facets: npt.NDArray[np.int64]  # facets (compact node numbers)
+    interior: npt.NDArray[np.float64]  # a point inside the cell of every facet
+    own: slice  # the facets this rank owns
+    measure: npt.NDArray[np.float64]  # facet measures
+    normals: npt.NDArray[np.float64]  # averaged unit nodal normals
+    size: float  # largest extent of the surface (m)
 
 
 @dataclass
@@ -232,13 +241,16 @@ def _gather_slave_surface(V: fem.FunctionSpace, facet_tags, slave: int, name: st
     _, measure = facet_normals(s_x, s_f, s_in)
     size = float(np.ptp(s_x, axis=0).max()) or 1.0
     if (measure <= 1e-12 * size ** (gdim - 1)).any():
-        raise ContactInputError(f"contact {name!r}: degenerate (zero-measure) facets in slave group {slave}")
+        raise ContactInputError(
+            f"contact {name!r}: degenerate (zero-measure) facets in slave group {slave}"
+        )
     normals = nodal_normals(s_x, s_f, s_in)
     return _SlaveSurface(s_gids, s_x, s_f, s_in, own, measure, normals, size)
 
 
-def _dirichlet_node_mask(V: fem.FunctionSpace, gids: npt.NDArray[np.int64],
-                         dirichlet_dofs: npt.ArrayLike | None) -> npt.NDArray[np.bool_]:
+def _dirichlet_node_mask(
+    V: fem.FunctionSpace, gids: npt.NDArray[np.int64], dirichlet_dofs: npt.ArrayLike | None
+) -> npt.NDArray[np.bool_]:
     """Slave nodes with Dirichlet dofs (they carry no multiplier); collective."""
     bs = V.dofmap.index_map_bs
     mask = np.zeros(gids.size, dtype=np.int32)
@@ -250,8 +262,9 @@ def _dirichlet_node_mask(V: fem.FunctionSpace, gids: npt.NDArray[np.int64],
     return _allreduce(V.mesh.comm, mask, MPI.MAX, dtype=np.int32).astype(bool)
 
 
-def _rigid_plane_mortar(comm: MPI.Comm, surf: _SlaveSurface, plane: RigidPlane,
-                        mask: npt.NDArray[np.bool_]) -> _MortarData:
+def _rigid_plane_mortar(
+    comm: MPI.Comm, surf: _SlaveSurface, plane: RigidPlane, mask: npt.NDArray[np.bool_]
+) -> _MortarData:
     """``D`` and the weighted gap against a rigid plane (no master nodes, ``M = 0``)."""
     s_x, n_nodes = surf.x, surf.gids.size
     gdim = s_x.shape[1]
@@ -266,44 +279,90 @@ def _rigid_plane_mortar(comm: MPI.Comm, surf: _SlaveSurface, plane: RigidPlane,
     c = np.broadcast_to(coeffs, (own_f.shape[0], gdim, gdim))
     dfac = np.einsum("fjl,flk->fjk", c, mass)
     gap_nodal = (x0 - s_x) @ nu
-    d = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjj->fj", dfac).ravel(),
-                                     minlength=n_nodes), MPI.SUM)
-    wgap = _allreduce(comm, np.bincount(own_f.ravel(), weights=np.einsum("fjk,fk->fj", dfac,
-                                                                         gap_nodal[own_f]).ravel(),
-                                        minlength=n_nodes), MPI.SUM)
+    d = _allreduce(
+        comm,
+        np.bincount(own_f.ravel(), weights=np.einsum("fjj->fj", dfac).ravel(), minlength=n_nodes),
+        MPI.SUM,
+    )
+    wgap = _allreduce(
+        comm,
+        np.bincount(
+            own_f.ravel(),
+            weights=np.einsum("fjk,fk->fj", dfac, gap_nodal[own_f]).ravel(),
+            minlength=n_nodes,
+        ),
+        MPI.SUM,
+    )
     jj, kk = np.nonzero(~np.eye(gdim, dtype=bool))
     empty = np.zeros(0, np.int64)
-    return _MortarData(d=d, wgap=wgap, normals=np.broadcast_to(nu, s_x.shape).copy(), m_gids=empty,
-                       m_rows=empty, m_cols=empty, m_vals=np.zeros(0),
-                       off_r=own_f[:, jj].ravel(), off_c=own_f[:, kk].ravel(), off_v=dfac[:, jj, kk].ravel(),
-                       covered=float(surf.measure.sum()))
+    return _MortarData(
+        d=d,
+        wgap=wgap,
+        normals=np.broadcast_to(nu, s_x.shape).copy(),
+        m_gids=empty,
+        m_rows=empty,
+        m_cols=empty,
+        m_vals=np.zeros(0),
+        off_r=own_f[:, jj].ravel(),
+        off_c=own_f[:, kk].ravel(),
+        off_v=dfac[:, jj, kk].ravel(),
+        covered=float(surf.measure.sum()),
+    )
 
 
-def _master_surface_mortar(V: fem.FunctionSpace, facet_tags, master: int, slave: int, surf: _SlaveSurface,
-                           mask: npt.NDArray[np.bool_], search_radius: float | None,
-                           name: str) -> _MortarData:
+def _master_surface_mortar(
+    V: fem.FunctionSpace,
+    facet_tags,
+    master: int,
+    slave: int,
+    surf: _SlaveSurface,
+    mask: npt.NDArray[np.bool_],
+    search_radius: float | None,
+    name: str,
+) -> _MortarData:
     """Gather the master group on every rank and integrate the owned slave facets against it."""
     comm, gdim = V.mesh.comm, V.mesh.geometry.dim
     m_gids, m_x, m_f, _, _ = _gather_surface(comm, *_local_surface(V, facet_tags, master))
     if m_f.shape[0] == 0:
         raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
     if np.isin(m_gids, surf.gids).any():
-        raise ContactInputError(f"contact {name!r}: slave and master surfaces share nodes; the bodies "
-                                "must be meshed separately (no shared interface nodes)")
+        raise ContactInputError(
+            f"contact {name!r}: slave and master surfaces share nodes; the bodies "
+            "must be meshed separately (no shared interface nodes)"
+        )
     measure = surf.measure
     h_s = float(measure.max()) if gdim == 2 else float(np.sqrt(2.0 * measure.max()))
     radius = search_radius if search_radius is not None else 3.0 * h_s
-    contrib = assemble_mortar(surf.x, surf.facets[surf.own], surf.normals, m_x, m_f, search_radius=radius,
-                              slave_node_mask=mask if mask.any() else None)
+    contrib = assemble_mortar(
+        surf.x,
+        surf.facets[surf.own],
+        surf.normals,
+        m_x,
+        m_f,
+        search_radius=radius,
+        slave_node_mask=mask if mask.any() else None,
+    )
     d = _allreduce(comm, contrib.d, MPI.SUM)
     wgap = _allreduce(comm, contrib.gap, MPI.SUM)
     covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
     if covered <= 0.0:
-        raise ContactInputError(f"contact {name!r}: no master facet (group {master}) lies opposite the "
-                                f"slave surface (group {slave}) within {radius:.3g} m")
-    return _MortarData(d=d, wgap=wgap, normals=surf.normals, m_gids=m_gids, m_rows=contrib.m_rows,
-                       m_cols=contrib.m_cols, m_vals=contrib.m_vals, off_r=contrib.d_off_rows,
-                       off_c=contrib.d_off_cols, off_v=contrib.d_off_vals, covered=covered)
+        raise ContactInputError(
+            f"contact {name!r}: no master facet (group {master}) lies opposite the "
+            f"slave surface (group {slave}) within {radius:.3g} m"
+        )
+    return _MortarData(
+        d=d,
+        wgap=wgap,
+        normals=surf.normals,
+        m_gids=m_gids,
+        m_rows=contrib.m_rows,
+        m_cols=contrib.m_cols,
+        m_vals=contrib.m_vals,
+        off_r=contrib.d_off_rows,
+        off_c=contrib.d_off_cols,
+        off_v=contrib.d_off_vals,
+        covered=covered,
+    )
 
 
 def _multiplier_nodes(surf: _SlaveSurface, d: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
@@ -315,26 +374,41 @@ def _multiplier_nodes(surf: _SlaveSurface, d: npt.NDArray[np.float64]) -> npt.ND
     ends (far from any contact zone when the master is sized as it should be).
     """
     gdim = surf.x.shape[1]
-    full = np.bincount(surf.facets.ravel(), weights=np.repeat(surf.measure / gdim, gdim),
-                       minlength=surf.gids.size)
+    full = np.bincount(
+        surf.facets.ravel(), weights=np.repeat(surf.measure / gdim, gdim), minlength=surf.gids.size
+    )
     return d >= 0.1 * full
 
 
-def _check_initial_gap(comm: MPI.Comm, surf: _SlaveSurface, mortar: _MortarData, carries: npt.NDArray[np.bool_],
-                       max_penetration: float | None, name: str) -> None:
+def _check_initial_gap(
+    comm: MPI.Comm,
+    surf: _SlaveSurface,
+    mortar: _MortarData,
+    carries: npt.NDArray[np.bool_],
+    max_penetration: float | None,
+    name: str,
+) -> None:
     """Reject an initial interpenetration deeper than ``max_penetration`` (collective)."""
     d, wgap = mortar.d, mortar.wgap
     gap_all = np.where(carries, wgap / np.where(carries, d, 1.0), np.inf)
     tol = max_penetration if max_penetration is not None else 1e-6 * surf.size
     worst = comm.allreduce(float(gap_all[carries].min()) if carries.any() else np.inf, op=MPI.MIN)
     if worst < -tol:
-        raise ContactInputError(f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
-                                f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes")
+        raise ContactInputError(
+            f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
+            f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes"
+        )
 
 
-def _mhat_triplets(comm: MPI.Comm, surf: _SlaveSurface, mortar: _MortarData, carries: npt.NDArray[np.bool_],
-                   bs: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64],
-                                     npt.NDArray[np.float64]]:
+def _mhat_triplets(
+    comm: MPI.Comm,
+    surf: _SlaveSurface,
+    mortar: _MortarData,
+    carries: npt.NDArray[np.bool_],
+    bs: int,
+) -> tuple[
+    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]
+]:
     """Local triplets of ``M̂ = D⁻¹M`` in global dof numbers and the weights ``∫ψ_p``.
 
     Rows are slave dofs, columns master dofs.  Off-diagonal D entries that couple a
@@ -361,15 +435,22 @@ def _mhat_triplets(comm: MPI.Comm, surf: _SlaveSurface, mortar: _MortarData, car
         vals_l.append(np.repeat(v, bs))
     rows, cols, vals = np.concatenate(rows_l), np.concatenate(cols_l), np.concatenate(vals_l)
     # ∫ψ_p: the area a nodal multiplier acts on (D_pp plus the modified-basis part)
-    extra = np.bincount(off_r[sel], weights=off_v[sel], minlength=s_gids.size) if sel.any() \
+    extra = (
+        np.bincount(off_r[sel], weights=off_v[sel], minlength=s_gids.size)
+        if sel.any()
         else np.zeros(s_gids.size)
+    )
     weight = d + _allreduce(comm, extra, MPI.SUM)
     return rows, cols, vals, weight
 
 
-def _send_rows_to_owners(comm: MPI.Comm, row_ranges: npt.NDArray[np.int64], rows: npt.NDArray[np.int64],
-                         cols: npt.NDArray[np.int64], vals: npt.NDArray[np.float64],
-                         ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+def _send_rows_to_owners(
+    comm: MPI.Comm,
+    row_ranges: npt.NDArray[np.int64],
+    rows: npt.NDArray[np.int64],
+    cols: npt.NDArray[np.int64],
+    vals: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]:
     """Send every triplet to the rank owning its row (``row_ranges``: first row of every
     rank, then the global size); returns the triplets this rank owns."""
     owner = np.searchsorted(row_ranges, rows, side="right") - 1
@@ -381,10 +462,17 @@ def _send_rows_to_owners(comm: MPI.Comm, row_ranges: npt.NDArray[np.int64], rows
     return q_rows, q_cols, q_vals
 
 
-def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | RigidPlane, *,
-                    dirichlet_dofs: npt.ArrayLike | None = None, name: str = "contact",
-                    search_radius: float | None = None, max_penetration: float | None = None,
-                    ) -> ContactInterface:
+def build_interface(
+    V: fem.FunctionSpace,
+    facet_tags,
+    slave: int,
+    master: int | RigidPlane,
+    *,
+    dirichlet_dofs: npt.ArrayLike | None = None,
+    name: str = "contact",
+    search_radius: float | None = None,
+    max_penetration: float | None = None,
+) -> ContactInterface:
     """Build a contact interface (collective).
 
     Parameters
@@ -428,7 +516,9 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
     if isinstance(master, RigidPlane):
         mortar = _rigid_plane_mortar(comm, surf, master, mask)
     else:
-        mortar = _master_surface_mortar(V, facet_tags, master, slave, surf, mask, search_radius, name)
+        mortar = _master_surface_mortar(
+            V, facet_tags, master, slave, surf, mask, search_radius, name
+        )
     # nodes carrying a multiplier, initial interpenetration
     carries = _multiplier_nodes(surf, mortar.d)
     _check_initial_gap(comm, surf, mortar, carries, max_penetration, name)
@@ -439,18 +529,35 @@ def build_interface(V: fem.FunctionSpace, facet_tags, slave: int, master: int | 
     idx = np.flatnonzero((surf.gids >= lo) & (surf.gids < hi) & carries)
     n = mortar.normals[idx]
     return ContactInterface(
-        name=name, gdim=gdim,
-        blocks=(surf.gids[idx] - lo).astype(np.int32), global_blocks=surf.gids[idx],
-        coords=surf.x[idx], normals=n, tangents=nodal_tangents(n) if idx.size else np.zeros((0, gdim - 1, gdim)),
-        D=mortar.d[idx], weighted_gap=mortar.wgap[idx], weight=weight[idx],
-        qt_rows=q_rows, qt_cols=q_cols, qt_vals=q_vals,
-        slave_area=float(surf.measure.sum()), covered_area=float(mortar.covered),
-        rigid=isinstance(master, RigidPlane))
+        name=name,
+        gdim=gdim,
+        blocks=(surf.gids[idx] - lo).astype(np.int32),
+        global_blocks=surf.gids[idx],
+        coords=surf.x[idx],
+        normals=n,
+        tangents=nodal_tangents(n) if idx.size else np.zeros((0, gdim - 1, gdim)),
+        D=mortar.d[idx],
+        weighted_gap=mortar.wgap[idx],
+        weight=weight[idx],
+        qt_rows=q_rows,
+        qt_cols=q_cols,
+        qt_vals=q_vals,
+        slave_area=float(surf.measure.sum()),
+        covered_area=float(mortar.covered),
+        rigid=isinstance(master, RigidPlane),
+    )
 
 
 # ------------------------------------------------------------------------ operators
-def _csr_matrix(comm: MPI.Comm, n_local: int, n_global: int, row_start: int,
-                rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> PETSc.Mat:
+def _csr_matrix(
+    comm: MPI.Comm,
+    n_local: int,
+    n_global: int,
+    row_start: int,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    vals: np.ndarray,
+) -> PETSc.Mat:
     """Distributed AIJ matrix from owned-row triplets (duplicates summed)."""
     order = np.lexsort((cols, rows))
     rows, cols, vals = rows[order], cols[order], vals[order]
@@ -463,8 +570,11 @@ def _csr_matrix(comm: MPI.Comm, n_local: int, n_global: int, row_start: int,
     indptr = np.zeros(n_local + 1, dtype=PETSc.IntType)
     np.add.at(indptr, rows - row_start + 1, 1)
     indptr = np.cumsum(indptr).astype(PETSc.IntType)
-    A = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)),
-                              csr=(indptr, cols.astype(PETSc.IntType), vals), comm=comm)
+    A = PETSc.Mat().createAIJ(
+        size=((n_local, n_global), (n_local, n_global)),
+        csr=(indptr, cols.astype(PETSc.IntType), vals),
+        comm=comm,
+    )
     A.assemble()
     return A
 
@@ -512,4 +622,6 @@ def rotation_matrix(V: fem.FunctionSpace, interfaces: list[ContactInterface]) ->
     rows = np.concatenate([plain] + r_list)
     cols = np.concatenate([plain] + c_list)
     vals = np.concatenate([np.ones(plain.size)] + v_list)
-    return _csr_matrix(comm, n_local, n_global, start, rows.astype(np.int64), cols.astype(np.int64), vals)
+    return _csr_matrix(
+        comm, n_local, n_global, start, rows.astype(np.int64), cols.astype(np.int64), vals
+    )

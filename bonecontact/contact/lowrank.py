@@ -44,10 +44,11 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
 from scipy.linalg import lapack
 
 from bonecontact.common.linalg import configure_ksp
@@ -69,7 +70,7 @@ def null_pivots(ksp: PETSc.KSP) -> int:
 
 def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
     M = PETSc.Mat().createDense(((nloc, PETSc.DECIDE), (PETSc.DECIDE, k)), comm=comm)
-    M.setUp()                      # PETSc allocates the dense block zeroed
+    M.setUp()  # PETSc allocates the dense block zeroed
     M.assemble()
     return M
 
@@ -97,8 +98,16 @@ class LowRankActiveSetSolver:
         ``rebase_ratio`` factorisations.
     """
 
-    def __init__(self, A: PETSc.Mat, bc_rows: npt.NDArray, rows: npt.NDArray, diag_value: float,
-                 prefix: str = "bc_contact_lr_", max_columns: int = 2000, rebase_ratio: float = 1.0):
+    def __init__(
+        self,
+        A: PETSc.Mat,
+        bc_rows: npt.NDArray,
+        rows: npt.NDArray,
+        diag_value: float,
+        prefix: str = "bc_contact_lr_",
+        max_columns: int = 2000,
+        rebase_ratio: float = 1.0,
+    ):
         self.A = A
         self.comm: MPI.Comm = A.getComm().tompi4py()
         self.start = A.getOwnershipRange()[0]
@@ -114,7 +123,9 @@ class LowRankActiveSetSolver:
         self.rebase_ratio = float(rebase_ratio)
         # the contact rows of A (A·X is only ever needed there)
         lo_c, hi_c = A.getOwnershipRangeColumn()
-        isrow = PETSc.IS().createGeneral((self.L.astype(np.int64) + self.start).astype(PETSc.IntType), comm=self.comm)
+        isrow = PETSc.IS().createGeneral(
+            (self.L.astype(np.int64) + self.start).astype(PETSc.IntType), comm=self.comm
+        )
         iscol = PETSc.IS().createStride(hi_c - lo_c, first=lo_c, step=1, comm=self.comm)
         self.AL = A.createSubMatrix(isrow, iscol)
         isrow.destroy()
@@ -124,7 +135,7 @@ class LowRankActiveSetSolver:
         self.ksp = PETSc.KSP().create(self.comm)
         self.ksp.setOptionsPrefix(prefix)
         configure_ksp(self.ksp, "direct", prefix=prefix)
-        PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1    # detect null pivots (singular sets)
+        PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1  # detect null pivots (singular sets)
         self.ksp.setFromOptions()
         self.base: npt.NDArray[np.bool_] | None = None
         self.cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -150,7 +161,7 @@ class LowRankActiveSetSolver:
         return np.concatenate(parts, axis=0)
 
     def _own(self, rep: npt.NDArray) -> npt.NDArray:
-        return rep[self.offset:self.offset + self.L.size]
+        return rep[self.offset : self.offset + self.L.size]
 
     def _fixed_local(self, mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.int32]:
         """Local rows eliminated for the set ``mask``: Dirichlet rows and fixed normal rows."""
@@ -174,11 +185,15 @@ class LowRankActiveSetSolver:
         try:
             self.ksp.setUp()
         except PETSc.Error as exc:
-            raise SingularActiveSetError(f"LU factorisation failed (PETSc error {exc.ierr})") from None
+            raise SingularActiveSetError(
+                f"LU factorisation failed (PETSc error {exc.ierr})"
+            ) from None
         nulls = null_pivots(self.ksp)
         if nulls:
-            raise SingularActiveSetError(f"the system of the active set is singular ({nulls} null pivots: "
-                                         f"a body without support?)")
+            raise SingularActiveSetError(
+                f"the system of the active set is singular ({nulls} null pivots: "
+                f"a body without support?)"
+            )
         self.base = mask.copy()
         self.cache.clear()
         dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
@@ -189,8 +204,13 @@ class LowRankActiveSetSolver:
         self.factorizations += 1
 
     # ------------------------------------------------------------------ one contact solve
-    def begin(self, r0: PETSc.Vec, bc_values: npt.NDArray, values: npt.NDArray,
-              initial: npt.NDArray[np.bool_]) -> None:
+    def begin(
+        self,
+        r0: PETSc.Vec,
+        bc_values: npt.NDArray,
+        values: npt.NDArray,
+        initial: npt.NDArray[np.bool_],
+    ) -> None:
         """Start a contact solve with right-hand side ``r0`` (nodal frames, Dirichlet rows
         holding their values ``bc_values``) and the replicated values the contact rows
         take when fixed (gaps for normal rows, the previous slip for tangential ones);
@@ -215,7 +235,9 @@ class LowRankActiveSetSolver:
         self._reff.array[self.L] -= self._own(wg)
         return True
 
-    def _values_for(self, mask: npt.NDArray[np.bool_], extra: npt.NDArray | None = None) -> PETSc.Vec:
+    def _values_for(
+        self, mask: npt.NDArray[np.bool_], extra: npt.NDArray | None = None
+    ) -> PETSc.Vec:
         v = self._values
         v.set(0.0)
         if self.bc_local.size:
@@ -226,7 +248,6 @@ class LowRankActiveSetSolver:
         return v
 
     def _base_solve(self) -> None:
-        t0 = time.perf_counter()
         fixed = self._fixed_local(self.base)
         self._lift(self._values_for(self.base), fixed, self._rhs)
         t1 = time.perf_counter()
@@ -281,10 +302,14 @@ class LowRankActiveSetSolver:
         dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
         self.t_column = max(dt - self.t_block, 0.1 * dt) / k
 
-    def solve_set(self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64],
-                  wgiven: npt.NDArray[np.float64] | None = None,
-                  margin: npt.NDArray[np.float64] | None = None,
-                  coupled: tuple | None = None) -> tuple[npt.NDArray, npt.NDArray, dict]:
+    def solve_set(
+        self,
+        active: npt.NDArray[np.bool_],
+        scale: npt.NDArray[np.float64],
+        wgiven: npt.NDArray[np.float64] | None = None,
+        margin: npt.NDArray[np.float64] | None = None,
+        coupled: tuple | None = None,
+    ) -> tuple[npt.NDArray, npt.NDArray, dict]:
         """Solve the system of the set ``active`` (replicated mask).
 
         Parameters
@@ -318,7 +343,11 @@ class LowRankActiveSetSolver:
         refactorized = False
         if self._set_given(wgiven):
             self._base_solve()
-        crow = np.zeros(0, dtype=np.int64) if coupled is None else np.asarray(coupled[0], dtype=np.int64)
+        crow = (
+            np.zeros(0, dtype=np.int64)
+            if coupled is None
+            else np.asarray(coupled[0], dtype=np.int64)
+        )
 
         def needed() -> np.ndarray:
             d = active != self.base
@@ -370,17 +399,29 @@ class LowRankActiveSetSolver:
                 _, Gc, Hc, hc = coupled
                 q = crow.ravel()
                 idx = np.array([pos[int(v)] for v in q], dtype=np.int64)
-                Mc = np.einsum("iab,ibk->iak", Hc, G[crow]) - np.einsum("iab,ibk->iak", Gc, KG[crow])
-                rc = hc - np.einsum("iab,ib->ia", Gc, wN[crow]) - np.einsum("iab,ib->ia", Hc, xN[crow])
+                Mc = np.einsum("iab,ibk->iak", Hc, G[crow]) - np.einsum(
+                    "iab,ibk->iak", Gc, KG[crow]
+                )
+                rc = (
+                    hc
+                    - np.einsum("iab,ib->ia", Gc, wN[crow])
+                    - np.einsum("iab,ib->ia", Hc, xN[crow])
+                )
                 M[idx] = Mc.reshape(q.size, len(cols)) / scale[q, None]
                 rhs[idx] = rc.ravel() / scale[q]
             M *= csc[None, :]
             # one LU and LAPACK's O(m²) 1-norm condition estimate (not an SVD per iteration)
             lu, piv, info = lapack.dgetrf(M)
-            rcond = lapack.dgecon(lu, float(np.abs(M).sum(axis=0).max()), norm="1")[0] if info == 0 else 0.0
+            rcond = (
+                lapack.dgecon(lu, float(np.abs(M).sum(axis=0).max()), norm="1")[0]
+                if info == 0
+                else 0.0
+            )
             if rcond < 1e-13:
-                raise SingularActiveSetError(f"the system of the active set is singular (condition number "
-                                             f"of the {len(cols)}×{len(cols)} update > 1e13)")
+                raise SingularActiveSetError(
+                    f"the system of the active set is singular (condition number "
+                    f"of the {len(cols)}×{len(cols)} update > 1e13)"
+                )
             y = lapack.dgetrs(lu, piv, rhs)[0] * csc
             xN += G @ y
             wN -= KG @ y
@@ -403,5 +444,15 @@ class LowRankActiveSetSolver:
         self.ksp.solve(self._rhs, out)
 
     def destroy(self) -> None:
-        for obj in (self.ksp, self.B0, self.AL, self._r0, self._reff, self._values, self._rhs, self._xb, self._tmp):
+        for obj in (
+            self.ksp,
+            self.B0,
+            self.AL,
+            self._r0,
+            self._reff,
+            self._values,
+            self._rhs,
+            self._xb,
+            self._tmp,
+        ):
             obj.destroy()

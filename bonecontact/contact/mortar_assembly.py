@@ -43,8 +43,15 @@ from bonecontact.contact.geometry import (
 )
 from bonecontact.contact.search import facet_bounding_boxes, find_candidate_pairs
 
-__all__ = ["MortarContributions", "MortarPairs", "PairIntegrals", "assemble_mortar", "compute_mortar_pairs",
-           "integrate_segment_pairs", "integrate_triangle_pairs"]
+__all__ = [
+    "MortarContributions",
+    "MortarPairs",
+    "PairIntegrals",
+    "assemble_mortar",
+    "compute_mortar_pairs",
+    "integrate_segment_pairs",
+    "integrate_triangle_pairs",
+]
 
 # ----------------------------------------------------------------------------------
 # Segment-based integration
@@ -142,7 +149,10 @@ def integrate_segment_pairs(
     x1, x2 = xs[:, 0], xs[:, 1]
     n1, n2 = ns[:, 0], ns[:, 1]
     xi_ends = np.stack(
-        [project_points_to_segments_interpolated_normal(xm[:, k], x1, x2, n1, n2) for k in range(2)],
+        [
+            project_points_to_segments_interpolated_normal(xm[:, k], x1, x2, n1, n2)
+            for k in range(2)
+        ],
         axis=1,
     )
     lo = np.clip(np.min(xi_ends, axis=1), 0.0, 1.0)
@@ -371,10 +381,14 @@ def compute_mortar_pairs(
     if search_radius is None:
         search_radius = _default_search_radius(xs, fs)
     coeffs = (
-        None if dual_coeffs is None else np.broadcast_to(np.asarray(dual_coeffs, float), (len(fs), nv, nv))
+        None
+        if dual_coeffs is None
+        else np.broadcast_to(np.asarray(dual_coeffs, float), (len(fs), nv, nv))
     )
 
-    ia, ib = find_candidate_pairs(*facet_bounding_boxes(xs, fs, search_radius), *facet_bounding_boxes(xm, fm))
+    ia, ib = find_candidate_pairs(
+        *facet_bounding_boxes(xs, fs, search_radius), *facet_bounding_boxes(xm, fm)
+    )
     integrate = integrate_segment_pairs if gdim == 2 else integrate_triangle_pairs
     parts: list[tuple[IntArray, IntArray, PairIntegrals]] = []
     for start in range(0, len(ia), chunk_size):
@@ -382,14 +396,20 @@ def compute_mortar_pairs(
         res = integrate(xs[fs[sa]], ns[fs[sa]], xm[fm[sb]], None if coeffs is None else coeffs[sa])
         keep = res.area > 0.0
         parts.append(
-            (sa[keep], sb[keep], PairIntegrals(res.area[keep], res.d[keep], res.m[keep], res.gap[keep]))
+            (
+                sa[keep],
+                sb[keep],
+                PairIntegrals(res.area[keep], res.d[keep], res.m[keep], res.gap[keep]),
+            )
         )
     if not parts:
         z = np.zeros(0, dtype=np.int64)
         return MortarPairs(
             z,
             z.copy(),
-            PairIntegrals(np.zeros(0), np.zeros((0, nv, nv)), np.zeros((0, nv, nv)), np.zeros((0, nv))),
+            PairIntegrals(
+                np.zeros(0), np.zeros((0, nv, nv)), np.zeros((0, nv, nv)), np.zeros((0, nv))
+            ),
         )
     return MortarPairs(
         np.concatenate([p[0] for p in parts]),

@@ -67,9 +67,13 @@ class PDASOptions:
         if self.slip_3d not in ("newton", "fixed_point"):
             raise ValueError(f"slip_3d must be 'newton' or 'fixed_point', got {self.slip_3d!r}")
         if not 0.0 <= self.cold_start_fraction < 1.0:
-            raise ValueError(f"cold_start_fraction must be in [0, 1), got {self.cold_start_fraction}")
+            raise ValueError(
+                f"cold_start_fraction must be in [0, 1), got {self.cold_start_fraction}"
+            )
         if self.strategy not in ("auto", "lowrank", "refactor"):
-            raise ValueError(f"contact strategy must be 'auto', 'lowrank' or 'refactor', got {self.strategy!r}")
+            raise ValueError(
+                f"contact strategy must be 'auto', 'lowrank' or 'refactor', got {self.strategy!r}"
+            )
         if int(self.max_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
 

@@ -81,11 +81,12 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from mpi4py import MPI
+from petsc4py import PETSc
+
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
-from mpi4py import MPI
-from petsc4py import PETSc
 
 from bonecontact.common.linalg import configure_ksp
 from bonecontact.contact.friction import (
@@ -110,8 +111,10 @@ class ContactConvergenceError(RuntimeError):
     def __init__(self, message: str, history: list[dict]):
         lines = [message, "  it  active  stick  slip  changed  |dU|/|U|    bound_change"]
         for h in history:
-            lines.append(f"  {h['iteration']:2d}  {h['active']:6d}  {h.get('stick', 0):5d}  {h.get('slip', 0):4d}  "
-                         f"{h['changed']:7d}  {h['update']:.3e}  {h.get('bound_change', 0.0):.3e}")
+            lines.append(
+                f"  {h['iteration']:2d}  {h['active']:6d}  {h.get('stick', 0):5d}  {h.get('slip', 0):4d}  "
+                f"{h['changed']:7d}  {h['update']:.3e}  {h.get('bound_change', 0.0):.3e}"
+            )
         super().__init__("\n".join(lines))
         self.history = history
 
@@ -153,23 +156,25 @@ class _PDASState:
     """The state of one contact solve carried from one PDAS iteration to the next
     (replicated per-node arrays)."""
 
-    b: PETSc.Vec                      # the step's right-hand side (Dirichlet values)
-    an: npt.NDArray[np.bool_]         # active set A_n
-    stick: npt.NDArray[np.bool_]      # stick set (active friction nodes without slip)
-    dirs: npt.NDArray[np.float64]     # slip directions s_p, (NS, gdim − 1)
-    g: npt.NDArray[np.float64]        # friction bounds ĝ_p (in operator units)
-    xold: npt.NDArray[np.float64]     # unknowns at the start of the step
-    values: npt.NDArray[np.float64]   # prescribed values of fixed rows (gap, old slip)
-    x_prev: npt.NDArray[np.float64]   # unknowns of the previous iteration
-    margin: npt.NDArray[np.float64] | None = None     # rows' distance to switching
-    lam_t_k: npt.NDArray[np.float64] | None = None    # 3D Newton: last traction
-    z_k: npt.NDArray[np.float64] | None = None        # 3D Newton: last ξ = λ_t + c_t Δu_t
-    aitken: list = field(default_factory=lambda: [None, 1.0])   # 3D slip directions: residual, relaxation
+    b: PETSc.Vec  # the step's right-hand side (Dirichlet values)
+    an: npt.NDArray[np.bool_]  # active set A_n
+    stick: npt.NDArray[np.bool_]  # stick set (active friction nodes without slip)
+    dirs: npt.NDArray[np.float64]  # slip directions s_p, (NS, gdim − 1)
+    g: npt.NDArray[np.float64]  # friction bounds ĝ_p (in operator units)
+    xold: npt.NDArray[np.float64]  # unknowns at the start of the step
+    values: npt.NDArray[np.float64]  # prescribed values of fixed rows (gap, old slip)
+    x_prev: npt.NDArray[np.float64]  # unknowns of the previous iteration
+    margin: npt.NDArray[np.float64] | None = None  # rows' distance to switching
+    lam_t_k: npt.NDArray[np.float64] | None = None  # 3D Newton: last traction
+    z_k: npt.NDArray[np.float64] | None = None  # 3D Newton: last ξ = λ_t + c_t Δu_t
+    aitken: list = field(
+        default_factory=lambda: [None, 1.0]
+    )  # 3D slip directions: residual, relaxation
     history: list[dict] = field(default_factory=list)
     seen: set = field(default_factory=set)
     lin_total: int = 0
     n_bound: int = 0
-    f0: int = 0                       # low-rank counters at the start of the solve
+    f0: int = 0  # low-rank counters at the start of the solve
     c0: int = 0
 
 
@@ -217,8 +222,12 @@ class ContactSolver:
         frictionless).
     """
 
-    def __init__(self, V: fem.FunctionSpace, interfaces: list[ContactInterface],
-                 options: PDASOptions | None = None):
+    def __init__(
+        self,
+        V: fem.FunctionSpace,
+        interfaces: list[ContactInterface],
+        options: PDASOptions | None = None,
+    ):
         self.V, self.interfaces = V, list(interfaces)
         self.options = options if options is not None else PDASOptions()
         self.frictions = self.options.frictions(len(self.interfaces))
@@ -234,8 +243,15 @@ class ContactSolver:
         """Local blocks of the owned slave nodes that carry a multiplier, per pair."""
         return [itf.blocks for itf in self.interfaces]
 
-    def setup(self, A: PETSc.Mat, bc_rows: npt.ArrayLike | None = None, *, force_scale: float = 1.0,
-              linear: str = "direct", rtol: float = 1e-12) -> None:
+    def setup(
+        self,
+        A: PETSc.Mat,
+        bc_rows: npt.ArrayLike | None = None,
+        *,
+        force_scale: float = 1.0,
+        linear: str = "direct",
+        rtol: float = 1e-12,
+    ) -> None:
         """Transform and factorise (or precondition) the operator of the time step.
 
         Parameters
@@ -257,7 +273,12 @@ class ContactSolver:
         opts = self.options
         V, comm, bs = self.V, self.comm, self.bs
         c_n, c_t, gap_tol, strategy = opts.c_n, opts.c_t, opts.gap_tol, opts.strategy
-        prefix, max_columns, rebase_ratio, slip_3d = opts.prefix, opts.max_columns, opts.rebase_ratio, opts.slip_3d
+        prefix, max_columns, rebase_ratio, slip_3d = (
+            opts.prefix,
+            opts.max_columns,
+            opts.rebase_ratio,
+            opts.slip_3d,
+        )
         self.force_scale = float(force_scale)
         self.max_iterations = int(opts.max_iterations)
         self.linear = linear
@@ -269,16 +290,20 @@ class ContactSolver:
         self.Ahat = A.PtAP(self.Qt)
         self.T = rotation_matrix(V, self.interfaces)
         self.Tt = self.T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
-        self.At = self.Ahat.PtAP(self.Tt)          # T Â Tᵀ: unknowns in the nodal frames
+        self.At = self.Ahat.PtAP(self.Tt)  # T Â Tᵀ: unknowns in the nodal frames
         start = bs * V.dofmap.index_map.local_range[0]
         self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - start).astype(np.int32)
         self._start = start
         if strategy == "auto":
             strategy = "lowrank" if linear == "direct" else "refactor"
-        if strategy not in ("lowrank", "refactor") or (strategy == "lowrank" and linear != "direct"):
-            raise ValueError(f"contact strategy must be 'lowrank' (direct solver only) or 'refactor', "
-                             f"got {strategy!r} with linear={linear!r}")
+        if strategy not in ("lowrank", "refactor") or (
+            strategy == "lowrank" and linear != "direct"
+        ):
+            raise ValueError(
+                f"contact strategy must be 'lowrank' (direct solver only) or 'refactor', "
+                f"got {strategy!r} with linear={linear!r}"
+            )
         self.strategy = strategy
         # ---- layout: owned slave nodes (interface by interface) and their contact rows
         self.nrow_local = [bs * itf.blocks.astype(np.int64) for itf in self.interfaces]
@@ -289,16 +314,29 @@ class ContactSolver:
         self._node_off = int(sum(counts[: comm.rank]))
         self.NS = int(sum(counts))
         nodes_local = np.concatenate(self.nrow_local + [np.zeros(0, np.int64)])
-        self._L = np.concatenate([nodes_local + j for j in range(bs)]).astype(np.int32)   # component-major
+        self._L = np.concatenate([nodes_local + j for j in range(bs)]).astype(
+            np.int32
+        )  # component-major
         offs = np.cumsum([0] + counts[:-1])
-        self._ridx = [np.concatenate([bs * o + j * c + np.arange(c) for o, c in zip(offs, counts)]).astype(np.int64)
-                      for j in range(bs)]
+        self._ridx = [
+            np.concatenate([bs * o + j * c + np.arange(c) for o, c in zip(offs, counts)]).astype(
+                np.int64
+            )
+            for j in range(bs)
+        ]
         # ---- replicated node data
         self._D = self._gn(np.concatenate([itf.D for itf in self.interfaces] + [np.zeros(0)]))
         self._gap = self._gn(np.concatenate([itf.gap for itf in self.interfaces] + [np.zeros(0)]))
         kind = FRICTION_KIND
-        per = lambda f: self._gn(np.concatenate([np.full(n, f(fl), dtype=float)  # noqa: E731
-                                                 for n, fl in zip(sizes, self.frictions)] + [np.zeros(0)]))
+
+        def per(f):
+            return self._gn(
+                np.concatenate(
+                    [np.full(n, f(fl), dtype=float) for n, fl in zip(sizes, self.frictions)]
+                    + [np.zeros(0)]
+                )
+            )
+
         self._fkind = per(lambda fl: kind[fl.kind]).astype(int)
         self._fric = self._fkind > 0
         self._mu = per(lambda fl: fl.coefficient)
@@ -318,14 +356,24 @@ class ContactSolver:
         size = max([itf.slave_area ** (1.0 / (gdim - 1)) for itf in self.interfaces] + [1e-300])
         self.gap_tol = float(gap_tol) if gap_tol is not None else 1e-9 * size
         self.Uh = self.At.createVecRight()
-        self._r0, self._rhs, self._w = self.At.createVecLeft(), self.At.createVecLeft(), self.At.createVecLeft()
+        self._r0, self._rhs, self._w = (
+            self.At.createVecLeft(),
+            self.At.createVecLeft(),
+            self.At.createVecLeft(),
+        )
         self._Fh = self.Qt.createVecRight()
         self.reset()
         self.B = self.ksp = self.lowrank = None
         if strategy == "lowrank":
-            self.lowrank = LowRankActiveSetSolver(self.At, self.bc_rows, self._L, self.diag_value,
-                                                  prefix=prefix, max_columns=max_columns,
-                                                  rebase_ratio=rebase_ratio)
+            self.lowrank = LowRankActiveSetSolver(
+                self.At,
+                self.bc_rows,
+                self._L,
+                self.diag_value,
+                prefix=prefix,
+                max_columns=max_columns,
+                rebase_ratio=rebase_ratio,
+            )
         else:
             self.B = self.At.duplicate(copy=True)
             self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
@@ -333,11 +381,13 @@ class ContactSolver:
             self.ksp.setOptionsPrefix(prefix)
             configure_ksp(self.ksp, linear, rtol=rtol, prefix=prefix, max_it=3000)
             if linear == "direct":
-                PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1    # detect null pivots (singular sets)
+                PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = (
+                    1  # detect null pivots (singular sets)
+                )
             if linear == "iterative":
                 self.ksp.setInitialGuessNonzero(True)
                 if self._newton_3d:
-                    self.ksp.setType("gmres")       # the linearised slip rows are nonsymmetric
+                    self.ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
             self.ksp.setFromOptions()
         self.setup_time = time.perf_counter() - t0
 
@@ -348,7 +398,7 @@ class ContactSolver:
 
     def _own(self, rep: npt.NDArray) -> list[npt.NDArray]:
         """Replicated per-node array → this rank's nodes, split by interface."""
-        return np.split(rep[self._node_off:self._node_off + self._m], self._split)
+        return np.split(rep[self._node_off : self._node_off + self._m], self._split)
 
     def _cold_start(self) -> npt.NDArray[np.bool_]:
         """Initial active set: the nodes of each pair whose gap is within ``gap_tol`` of
@@ -357,7 +407,9 @@ class ContactSolver:
         supported from the first solve)."""
         out = []
         for itf in self.interfaces:
-            gmin = self.comm.allreduce(float(itf.gap.min()) if itf.num_owned else np.inf, op=MPI.MIN)
+            gmin = self.comm.allreduce(
+                float(itf.gap.min()) if itf.num_owned else np.inf, op=MPI.MIN
+            )
             out.append(itf.gap <= max(gmin, 0.0) + self.gap_tol)
         return self._gn(np.concatenate(out + [np.zeros(0, bool)]))
 
@@ -383,7 +435,9 @@ class ContactSolver:
         return fixed
 
     # ------------------------------------------------------------------ linear solves
-    def _solve_refactor(self, fixed, values, wg, b, coupled=None) -> tuple[np.ndarray, np.ndarray, int]:
+    def _solve_refactor(
+        self, fixed, values, wg, b, coupled=None
+    ) -> tuple[np.ndarray, np.ndarray, int]:
         """Eliminate the fixed rows (symmetric), prescribe ``w`` at force rows, replace the
         rows of ``coupled`` by their linearised slip equations, solve."""
         v = self._rhs.duplicate()
@@ -391,13 +445,14 @@ class ContactSolver:
         if self.bc_local.size:
             v.array[self.bc_local] = b.array[self.bc_local]
         lo = self.bs * self._node_off
-        own_fixed = fixed[lo:lo + self._L.size]
-        v.array[self._L[own_fixed]] = values[lo:lo + self._L.size][own_fixed]
+        own_fixed = fixed[lo : lo + self._L.size]
+        v.array[self._L[own_fixed]] = values[lo : lo + self._L.size][own_fixed]
         self._r0.copy(self._rhs)
-        self._rhs.array[self._L] -= wg[lo:lo + self._L.size]
+        self._rhs.array[self._L] -= wg[lo : lo + self._L.size]
         self.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        rows = np.concatenate([self.bc_rows.astype(np.int64),
-                               self._L[own_fixed].astype(np.int64) + self._start]).astype(PETSc.IntType)
+        rows = np.concatenate(
+            [self.bc_rows.astype(np.int64), self._L[own_fixed].astype(np.int64) + self._start]
+        ).astype(PETSc.IntType)
         self.B.zeroRowsColumns(rows, diag=self.diag_value, x=v, b=self._rhs)
         v.destroy()
         if coupled is not None:
@@ -406,16 +461,24 @@ class ContactSolver:
         try:
             self.ksp.solve(self._rhs, self.Uh)
         except PETSc.Error as exc:
-            raise SingularActiveSetError(f"linear solve failed (singular system? PETSc error {exc.ierr})") from None
+            raise SingularActiveSetError(
+                f"linear solve failed (singular system? PETSc error {exc.ierr})"
+            ) from None
         if null_pivots(self.ksp):
-            raise SingularActiveSetError(f"the system of the active set is singular ({null_pivots(self.ksp)} "
-                                         f"null pivots: a body without support?)")
+            raise SingularActiveSetError(
+                f"the system of the active set is singular ({null_pivots(self.ksp)} "
+                f"null pivots: a body without support?)"
+            )
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             raise SingularActiveSetError(f"the linear solver diverged (reason {reason})")
         self.At.mult(self.Uh, self._w)
-        self._w.aypx(-1.0, self._r0)                       # w = T F̂ − At Û
-        return self._gn(self.Uh.array[self._L]), self._gn(self._w.array[self._L]), self.ksp.getIterationNumber()
+        self._w.aypx(-1.0, self._r0)  # w = T F̂ − At Û
+        return (
+            self._gn(self.Uh.array[self._L]),
+            self._gn(self._w.array[self._L]),
+            self.ksp.getIterationNumber(),
+        )
 
     def _replace_rows(self, coupled, lo: int) -> None:
         """Rows ``q`` of a slip node (free, no prescribed force): with ``w = rhs − B x``
@@ -431,15 +494,17 @@ class ContactSolver:
             cols = data[0][0]
             vals = np.array([d[1] for d in data])
             if any(not np.array_equal(d[0], cols) for d in data):
-                raise RuntimeError("contact: the rows of a slave node do not share their sparsity pattern")
+                raise RuntimeError(
+                    "contact: the rows of a slave node do not share their sparsity pattern"
+                )
             rhs_loc = np.array([self._rhs.array[r - self._start] for r in grows])
             new = Gc[i] @ vals
-            for a, r in enumerate(grows):
+            for a in range(len(grows)):
                 for b_, c in enumerate(grows):
                     new[a, int(np.flatnonzero(cols == c)[0])] -= Hc[i, a, b_]
             updates.append((grows, cols, new))
             self._rhs.array[np.array(grows) - self._start] = Gc[i] @ rhs_loc - hc[i]
-        for grows, cols, new in updates:          # (no MatGetRow once values are set)
+        for grows, cols, new in updates:  # (no MatGetRow once values are set)
             for a, r in enumerate(grows):
                 self.B.setValues([r], cols, new[a], addv=PETSc.InsertMode.INSERT_VALUES)
         self.B.assemble()
@@ -466,7 +531,9 @@ class ContactSolver:
         10. ``U = Qᵀ Tᵀ Ũ`` and the result (:meth:`_finish`).
         """
         if self.Qt is None:
-            raise RuntimeError("ContactSolver.solve before setup (the Integrator sets the solver up)")
+            raise RuntimeError(
+                "ContactSolver.solve before setup (the Integrator sets the solver up)"
+            )
         t0 = time.perf_counter()
         self._assemble_rhs(b)
         st = self._predict(b)
@@ -480,8 +547,9 @@ class ContactSolver:
                 break
             self._accept_sets(st, it, k)
         else:
-            raise ContactConvergenceError(f"contact: no convergence in {self.max_iterations} PDAS iterations",
-                                          st.history)
+            raise ContactConvergenceError(
+                f"contact: no convergence in {self.max_iterations} PDAS iterations", st.history
+            )
         self.last_result = self._finish(st, it, u, t0)
         return self.last_result
 
@@ -502,16 +570,25 @@ class ContactSolver:
         xold = self._gn(self.Uh.array[self._L])
         values = xold.copy()
         values[R[0]] = self._gap
-        st = _PDASState(b=b, an=self._an.copy(), stick=self._an & self._fric, dirs=self._dir.copy(),
-                        g=step_bounds(self._fkind, self._bound, self._mu, self._lam_n_prev),
-                        xold=xold, values=values, x_prev=xold)
+        st = _PDASState(
+            b=b,
+            an=self._an.copy(),
+            stick=self._an & self._fric,
+            dirs=self._dir.copy(),
+            g=step_bounds(self._fkind, self._bound, self._mu, self._lam_n_prev),
+            xold=xold,
+            values=values,
+            x_prev=xold,
+        )
         lr = self.lowrank
         if lr is not None:
             st.f0, st.c0 = lr.factorizations, lr.columns
             lr.begin(self._r0, b.array[self.bc_local], values, self._fixed_rows(st.an, st.stick))
         return st
 
-    def _solve_linear_system(self, st: _PDASState, k: int) -> tuple[np.ndarray, np.ndarray, int, dict]:
+    def _solve_linear_system(
+        self, st: _PDASState, k: int
+    ) -> tuple[np.ndarray, np.ndarray, int, dict]:
         """Step 3: solve with the rows of the current sets replaced (docs/theory/pdas.md#linear-system-of-one-iteration).
 
         Active normal rows and stick rows are prescribed (``values``); 2D slip rows (and
@@ -530,7 +607,9 @@ class ContactSolver:
             if (slip & (g > 0.0)).any():
                 S = np.flatnonzero(slip & (g > 0.0))
                 rows = np.stack([R[j][S] for j in range(1, bs)], axis=1)
-                coupled = slip_newton_rows(rows, D[S], self.c_t, st.lam_t_k[S], st.z_k[S], g[S], st.xold)
+                coupled = slip_newton_rows(
+                    rows, D[S], self.c_t, st.lam_t_k[S], st.z_k[S], g[S], st.xold
+                )
         else:
             for j in range(1, bs):
                 wg[R[j][slip]] = (g * D * st.dirs[:, j - 1])[slip]
@@ -543,7 +622,9 @@ class ContactSolver:
                 x, w, its = self._solve_refactor(fixed, st.values, wg, st.b, coupled)
                 extra = {}
         except SingularActiveSetError as exc:
-            raise ContactConvergenceError(f"contact: {exc} (PDAS iteration {k})", st.history) from None
+            raise ContactConvergenceError(
+                f"contact: {exc} (PDAS iteration {k})", st.history
+            ) from None
         st.lin_total += its
         return x, w, its, extra
 
@@ -560,8 +641,17 @@ class ContactSolver:
         eps = 1e-10 * max(lam_scale, 1e-300)
         ind_n = lam_n + self.c_n * (un - self._gap)
         z = lam_t + self.c_t * dut
-        return _Iterate(x=x, lam_n=lam_n, lam_t=lam_t, un=un, dut=dut, eps=eps, ind_n=ind_n, z=z,
-                        zn=np.linalg.norm(z, axis=1))
+        return _Iterate(
+            x=x,
+            lam_n=lam_n,
+            lam_t=lam_t,
+            un=un,
+            dut=dut,
+            eps=eps,
+            ind_n=ind_n,
+            z=z,
+            zn=np.linalg.norm(z, axis=1),
+        )
 
     def _update_active_set(self, st: _PDASState, it: _Iterate, k: int) -> None:
         """Step 5: ``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0`` (docs/theory/pdas.md#active-set-rule).
@@ -603,7 +693,9 @@ class ContactSolver:
         """
         fric, g, dirs, new_an = self._fric, st.g, st.dirs, it.new_an
         slip = st.an & fric & ~st.stick
-        new_slip, new_dirs = slip_directions(slip_set(new_an, fric, it.zn, g, it.eps), slip, it.z, it.zn, g, dirs)
+        new_slip, new_dirs = slip_directions(
+            slip_set(new_an, fric, it.zn, g, it.eps), slip, it.z, it.zn, g, dirs
+        )
         new_stick = new_an & fric & ~new_slip
         changed_t = int(((new_stick != st.stick) & new_an & fric).sum())
         both = new_slip & slip
@@ -612,16 +704,25 @@ class ContactSolver:
             turned = 0
         elif self._newton_3d:
             bg = both & (g > 0.0)
-            turned = int((np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum())
+            turned = int(
+                (np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum()
+            )
             gs = max(float(g.max()) if self.NS else 0.0, it.eps)
-            off = np.linalg.norm(it.lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1) > self.direction_tol * gs
+            off = (
+                np.linalg.norm(it.lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1)
+                > self.direction_tol * gs
+            )
             turned += int(off.sum())
         else:
-            turned = int((np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum())
+            turned = int(
+                (np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum()
+            )
             aitken_directions(both, dirs, new_dirs, it.changed_sets + changed_t != 0, st.aitken)
         it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned
 
-    def _check_convergence(self, st: _PDASState, it: _Iterate, k: int, its: int, extra: dict) -> bool:
+    def _check_convergence(
+        self, st: _PDASState, it: _Iterate, k: int, its: int, extra: dict
+    ) -> bool:
         """Step 8: record the iteration; converged when no set, sign or direction changed
         and the friction bounds are settled."""
         changed = it.changed_sets + it.changed_t + it.turned
@@ -629,9 +730,19 @@ class ContactSolver:
         update = float(np.linalg.norm(it.x - st.x_prev)) / nrm if nrm > 0 else 0.0
         st.x_prev = it.x
         an, fric = st.an, self._fric
-        st.history.append({"iteration": k, "active": int(an.sum()), "stick": int((an & st.stick & fric).sum()),
-                           "slip": int((an & fric & ~st.stick).sum()), "changed": changed, "update": update,
-                           "bound_change": it.bound_change, "linear_iterations": its, **extra})
+        st.history.append(
+            {
+                "iteration": k,
+                "active": int(an.sum()),
+                "stick": int((an & st.stick & fric).sum()),
+                "slip": int((an & fric & ~st.stick).sum()),
+                "changed": changed,
+                "update": update,
+                "bound_change": it.bound_change,
+                "linear_iterations": its,
+                **extra,
+            }
+        )
         return changed == 0 and it.bound_change <= self.fp_tol
 
     def _accept_sets(self, st: _PDASState, it: _Iterate, k: int) -> None:
@@ -646,11 +757,13 @@ class ContactSolver:
         st.an, st.stick, st.dirs = it.new_an, it.new_stick, it.new_dirs
         st.lam_t_k, st.z_k = it.lam_t, it.z
         if it.changed_sets + it.changed_t == 0:
-            return          # only 3D slip directions still turning: not a cycle
+            return  # only 3D slip directions still turning: not a cycle
         sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes() if bs == 2 else b"")
         if sig in st.seen:
-            raise ContactConvergenceError(f"contact: the active set cycles (iteration {k + 1} repeats an "
-                                          f"earlier set)", st.history)
+            raise ContactConvergenceError(
+                f"contact: the active set cycles (iteration {k + 1} repeats an earlier set)",
+                st.history,
+            )
         st.seen.add(sig)
 
     def _finish(self, st: _PDASState, it: _Iterate, u: fem.Function, t0: float) -> PDASResult:
@@ -666,38 +779,75 @@ class ContactSolver:
         self._cold = False
         self._lam_n_prev = np.where(an, it.lam_n, 0.0)
         uhat = self.Tt.createVecLeft()
-        self.Tt.mult(self.Uh, uhat)                   # Û = Tᵀ Ũ
-        self.Qt.mult(uhat, u.x.petsc_vec)             # U = Qᵀ Û
+        self.Tt.mult(self.Uh, uhat)  # Û = Tᵀ Ũ
+        self.Qt.mult(uhat, u.x.petsc_vec)  # U = Qᵀ Û
         uhat.destroy()
         u.x.scatter_forward()
-        return self._result(an, st.stick, it.lam_n, it.lam_t, it.un, it.dut, st.history, st.lin_total, n_fact,
-                            n_cols, st.n_bound, t0)
+        return self._result(
+            an,
+            st.stick,
+            it.lam_n,
+            it.lam_t,
+            it.un,
+            it.dut,
+            st.history,
+            st.lin_total,
+            n_fact,
+            n_cols,
+            st.n_bound,
+            t0,
+        )
 
-    def _result(self, an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0):
+    def _result(
+        self, an, stick, lam_n, lam_t, un, dut, history, lin_total, n_fact, n_cols, n_bound, t0
+    ):
         comm, fs = self.comm, self.force_scale
         fric = self._fric
         pressure_r = np.where(an, lam_n, 0.0) * fs
         trac_r = np.where(an[:, None] & fric[:, None], lam_t, 0.0) * fs
         status_r = np.where(~an, "open", np.where(fric & stick, "stick", "slip"))
-        act, pres, gaps, slips, tracs, stats = (self._own(an), self._own(pressure_r), self._own(self._gap - un),
-                                                self._own(dut), self._own(trac_r), self._own(status_r))
+        act, pres, gaps, slips, tracs, stats = (
+            self._own(an),
+            self._own(pressure_r),
+            self._own(self._gap - un),
+            self._own(dut),
+            self._own(trac_r),
+            self._own(status_r),
+        )
         forces, tforces, n_active, n_stick, n_slip = [], [], [], [], []
         for k, itf in enumerate(self.interfaces):
             forces.append(_allsum(comm, float((itf.weight * pres[k]).sum())))
             ft = np.zeros(itf.gdim)
             for j in range(self.bs - 1):
                 if itf.num_owned:
-                    ft += ((itf.weight * tracs[k][:, j])[:, None] * itf.tangents[:, j, :]).sum(axis=0)
+                    ft += ((itf.weight * tracs[k][:, j])[:, None] * itf.tangents[:, j, :]).sum(
+                        axis=0
+                    )
             ft = comm.allreduce(ft, op=MPI.SUM)
             tforces.append(float(np.linalg.norm(ft)))
             n_active.append(_allsum(comm, int(act[k].sum())))
             n_stick.append(_allsum(comm, int((stats[k] == "stick").sum())))
             n_slip.append(_allsum(comm, int((stats[k] == "slip").sum())))
-        return PDASResult(iterations=len(history), linear_iterations=lin_total, active=[a.copy() for a in act],
-                          pressure=pres, gap=gaps, slip=slips, normal_force=forces, n_active=n_active,
-                          history=history, wall_time=time.perf_counter() - t0, factorizations=n_fact,
-                          columns=n_cols, traction_t=tracs, status=stats, tangential_force=tforces,
-                          n_stick=n_stick, n_slip=n_slip, bound_updates=n_bound)
+        return PDASResult(
+            iterations=len(history),
+            linear_iterations=lin_total,
+            active=[a.copy() for a in act],
+            pressure=pres,
+            gap=gaps,
+            slip=slips,
+            normal_force=forces,
+            n_active=n_active,
+            history=history,
+            wall_time=time.perf_counter() - t0,
+            factorizations=n_fact,
+            columns=n_cols,
+            traction_t=tracs,
+            status=stats,
+            tangential_force=tforces,
+            n_stick=n_stick,
+            n_slip=n_slip,
+            bound_updates=n_bound,
+        )
 
     # ------------------------------------------------------------------ energy balance
     def contact_gaps(self, u: fem.Function) -> list[npt.NDArray[np.float64]]:
@@ -709,8 +859,8 @@ class ContactSolver:
         U = u.x.petsc_vec
         self.Qt.mult(U, tmp)
         tmp.aypx(-1.0, U)
-        tmp.axpy(1.0, U)                  # Û = (2I − Qᵀ) U  (Qᵀ − I is nilpotent)
-        self.T.mult(tmp, r)               # rows bs·p: n_p·Û_p
+        tmp.axpy(1.0, U)  # Û = (2I − Qᵀ) U  (Qᵀ − I is nilpotent)
+        self.T.mult(tmp, r)  # rows bs·p: n_p·Û_p
         bs = self.bs
         return [itf.gap - r.array[bs * itf.blocks] for itf in self.interfaces]
 
@@ -753,8 +903,20 @@ class ContactSolver:
             return
         if self.lowrank is not None:
             self.lowrank.destroy()
-        for obj in (self.ksp, self.B, self.At, self.T, self.Tt, self.Ahat, self.Qt, self.Uh, self._r0, self._rhs,
-                    self._w, self._Fh, *(self._gap_vecs or ())):
+        for obj in (
+            self.ksp,
+            self.B,
+            self.At,
+            self.T,
+            self.Tt,
+            self.Ahat,
+            self.Qt,
+            self.Uh,
+            self._r0,
+            self._rhs,
+            self._w,
+            self._Fh,
+            *(self._gap_vecs or ()),
+        ):
             if obj is not None:
                 obj.destroy()
-

@@ -12,8 +12,9 @@ from petsc4py import PETSc
 __all__ = ["snes_vi_solve"]
 
 
-def snes_vi_solve(A: PETSc.Mat, b: PETSc.Vec, lower: PETSc.Vec, upper: PETSc.Vec,
-                  prefix: str = "vi_") -> tuple[PETSc.Vec, int, int]:
+def snes_vi_solve(
+    A: PETSc.Mat, b: PETSc.Vec, lower: PETSc.Vec, upper: PETSc.Vec, prefix: str = "vi_"
+) -> tuple[PETSc.Vec, int, int]:
     """Independent reference: solve ``A x = b`` subject to ``lower ≤ x ≤ upper`` with
     PETSc's reduced-space active-set Newton (SNES ``vinewtonrsls``, MUMPS inside).
 

@@ -17,7 +17,7 @@ from dolfinx import fem, mesh
 
 from bonecontact.materials.laws import Material, plane_strain_block
 
-__all__ = ["MaterialFields", "material_fields", "deviatoric_block"]
+__all__ = ["MaterialFields", "deviatoric_block", "material_fields"]
 
 
 def deviatoric_block(mu: float, dim: int) -> npt.NDArray[np.float64]:
@@ -66,8 +66,9 @@ def _cell_dofs(space: fem.FunctionSpace, num_cells: int) -> npt.NDArray[np.int32
     return space.dofmap.list[:num_cells, 0]
 
 
-def material_fields(msh: mesh.Mesh, cell_tags: mesh.MeshTags | None,
-                    materials: Mapping[int, Material] | Material) -> MaterialFields:
+def material_fields(
+    msh: mesh.Mesh, cell_tags: mesh.MeshTags | None, materials: Mapping[int, Material] | Material
+) -> MaterialFields:
     """Build the DG0 material fields from cell tags.
 
     Parameters
@@ -119,7 +120,9 @@ def material_fields(msh: mesh.Mesh, cell_tags: mesh.MeshTags | None,
     missing = int(np.sum(cell_mat[: imap.size_local] < 0))
     missing = msh.comm.allreduce(missing)
     if missing:
-        raise ValueError(f"{missing} cells have no material (tags with materials: {sorted(tagged)})")
+        raise ValueError(
+            f"{missing} cells have no material (tags with materials: {sorted(tagged)})"
+        )
 
     tdofs = _cell_dofs(T0, ncells)
     zdofs = _cell_dofs(Czz.function_space, ncells) if Czz is not None else None
@@ -171,4 +174,3 @@ def _mpi_land():
     from mpi4py import MPI
 
     return MPI.LAND
-

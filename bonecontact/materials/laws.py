@@ -18,14 +18,14 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
-    "MaterialError",
-    "Isotropic",
-    "TransverselyIsotropic",
-    "Orthotropic",
-    "Material",
     "FORMULATIONS",
-    "voigt_rotation",
+    "Isotropic",
+    "Material",
+    "MaterialError",
+    "Orthotropic",
+    "TransverselyIsotropic",
     "plane_strain_block",
+    "voigt_rotation",
 ]
 
 #: Volumetric formulations a material may select.  ``"displacement"`` is the plain
@@ -143,8 +143,9 @@ def _frame_from_axis(axis: npt.ArrayLike, key: str = "axis") -> npt.NDArray[np.f
     return np.array([e1, e2, a])
 
 
-def _orthotropic_compliance(E: tuple[float, float, float], nu: dict[tuple[int, int], float],
-                            G: tuple[float, float, float]) -> npt.NDArray[np.float64]:
+def _orthotropic_compliance(
+    E: tuple[float, float, float], nu: dict[tuple[int, int], float], G: tuple[float, float, float]
+) -> npt.NDArray[np.float64]:
     """Compliance in material axes; ``nu[(i,j)]`` is ν_ij (ν_ji = ν_ij E_j/E_i)."""
     S = np.zeros((6, 6))
     for i in range(3):
@@ -166,7 +167,9 @@ class _Base:
 
     def _check_formulation(self) -> None:
         if self.formulation not in FORMULATIONS:
-            raise MaterialError("formulation", f"must be one of {list(FORMULATIONS)}, got {self.formulation!r}")
+            raise MaterialError(
+                "formulation", f"must be one of {list(FORMULATIONS)}, got {self.formulation!r}"
+            )
 
     def voigt(self) -> npt.NDArray[np.float64]:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -261,8 +264,11 @@ class TransverselyIsotropic(_Base):
     def _material_voigt(self) -> npt.NDArray[np.float64]:
         Ep, Ea = self.E_p, self.E_a
         Gp = Ep / (2.0 * (1.0 + self.nu_p))
-        S = _orthotropic_compliance((Ep, Ep, Ea), {(0, 1): self.nu_p, (0, 2): self.nu_pa, (1, 2): self.nu_pa},
-                                    (self.G_pa, self.G_pa, Gp))
+        S = _orthotropic_compliance(
+            (Ep, Ep, Ea),
+            {(0, 1): self.nu_p, (0, 2): self.nu_pa, (1, 2): self.nu_pa},
+            (self.G_pa, self.G_pa, Gp),
+        )
         return np.linalg.inv(S)
 
     def voigt(self) -> npt.NDArray[np.float64]:
@@ -305,9 +311,11 @@ class Orthotropic(_Base):
         _check_spd(self._material_voigt(), "nu12")
 
     def _material_voigt(self) -> npt.NDArray[np.float64]:
-        S = _orthotropic_compliance((self.E1, self.E2, self.E3),
-                                    {(0, 1): self.nu12, (0, 2): self.nu13, (1, 2): self.nu23},
-                                    (self.G23, self.G13, self.G12))
+        S = _orthotropic_compliance(
+            (self.E1, self.E2, self.E3),
+            {(0, 1): self.nu12, (0, 2): self.nu13, (1, 2): self.nu23},
+            (self.G23, self.G13, self.G12),
+        )
         return np.linalg.inv(S)
 
     def voigt(self) -> npt.NDArray[np.float64]:

@@ -11,7 +11,13 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-__all__ = ["DATA_DIR", "MATERIALS_FILE", "METADATA_KEYS", "load_material_library", "load_reference_values"]
+__all__ = [
+    "DATA_DIR",
+    "MATERIALS_FILE",
+    "METADATA_KEYS",
+    "load_material_library",
+    "load_reference_values",
+]
 
 DATA_DIR = Path(__file__).resolve().parents[2] / "data"
 MATERIALS_FILE = DATA_DIR / "materials.toml"
@@ -31,7 +37,9 @@ def _load(path: str | Path | None, section: str) -> dict[str, dict[str, Any]]:
     return entries
 
 
-def load_material_library(path: str | Path | None = None, *, metadata: bool = True) -> dict[str, dict[str, Any]]:
+def load_material_library(
+    path: str | Path | None = None, *, metadata: bool = True
+) -> dict[str, dict[str, Any]]:
     """Material entries of the library, by name.
 
     Parameters
@@ -55,7 +63,10 @@ def load_material_library(path: str | Path | None = None, *, metadata: bool = Tr
     """
     entries = _load(path, "material")
     if not metadata:
-        entries = {name: {k: v for k, v in e.items() if k not in METADATA_KEYS} for name, e in entries.items()}
+        entries = {
+            name: {k: v for k, v in e.items() if k not in METADATA_KEYS}
+            for name, e in entries.items()
+        }
     return entries
 
 

@@ -46,16 +46,17 @@ import time as _time
 from dataclasses import dataclass, field, fields
 from typing import Literal
 
-import numpy as np
-from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
+
+import numpy as np
+from dolfinx import fem
 
 from bonecontact.common.linalg import create_solver, owned_global_rows, rigid_body_modes
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.step_solver import StepSolver
 
-__all__ = ["Integrator", "StepInfo", "Energy", "EnergyBalance", "redistributed_mass"]
+__all__ = ["Energy", "EnergyBalance", "Integrator", "StepInfo", "redistributed_mass"]
 
 Kind = Literal["static", "quasistatic", "dynamic"]
 
@@ -116,7 +117,7 @@ class EnergyBalance:
         """Kinetic plus strain energy."""
         return self.kinetic + self.strain
 
-    def accumulate(self, step: "EnergyBalance") -> None:
+    def accumulate(self, step: EnergyBalance) -> None:
         """Add the works of ``step`` and take its energies (running totals)."""
         for f in fields(self):
             if f.name in ("kinetic", "strain"):
@@ -170,7 +171,7 @@ def redistributed_mass(model: Mechanics, slave_blocks: list[np.ndarray]) -> PETS
     M = model.M.duplicate(copy=True)
     M.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
     if cells.size:
-        x = msh.geometry.x[msh.geometry.dofmaps[0][cells]][:, :, :tdim]       # (n, d+1, d)
+        x = msh.geometry.x[msh.geometry.dofmaps[0][cells]][:, :, :tdim]  # (n, d+1, d)
         jac = x[:, 1:, :] - x[:, :1, :]
         vol = np.abs(np.linalg.det(jac)) / np.prod(np.arange(1, tdim + 1))
         rho = model.fields.rho
@@ -187,7 +188,9 @@ def redistributed_mass(model: Mechanics, slave_blocks: list[np.ndarray]) -> PETS
                 P[k, :] = interior / interior.sum()
             dMe = P.T @ Me @ P - Me
             dofs = (bs * gblocks[c][:, None] + comp[None, :]).ravel().astype(PETSc.IntType)
-            M.setValues(dofs, dofs, np.kron(dMe, np.eye(bs)).ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+            M.setValues(
+                dofs, dofs, np.kron(dMe, np.eye(bs)).ravel(), addv=PETSc.InsertMode.ADD_VALUES
+            )
     M.assemble()
     return M
 
@@ -245,9 +248,17 @@ class Integrator:
         in use (kinetic energy and balance are computed with it).
     """
 
-    def __init__(self, model: Mechanics, kind: Kind, dt: float, linear: str = "direct", rtol: float = 1e-12,
-                 contact: StepSolver | None = None, energy_balance: bool = False,
-                 mass_redistribution: bool = False):
+    def __init__(
+        self,
+        model: Mechanics,
+        kind: Kind,
+        dt: float,
+        linear: str = "direct",
+        rtol: float = 1e-12,
+        contact: StepSolver | None = None,
+        energy_balance: bool = False,
+        mass_redistribution: bool = False,
+    ):
         if dt <= 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         if kind not in ("static", "quasistatic", "dynamic"):
@@ -293,7 +304,9 @@ class Integrator:
         self.last_contact = None
         if contact is not None:
             self.ksp = None
-            contact.setup(self.A_bc, self._bc_rows, force_scale=1.0 / coeffs[1], linear=linear, rtol=rtol)
+            contact.setup(
+                self.A_bc, self._bc_rows, force_scale=1.0 / coeffs[1], linear=linear, rtol=rtol
+            )
         else:
             nns = rigid_body_modes(V) if linear == "iterative" else None
             self.ksp = create_solver(self.A_bc, linear, nns, rtol=rtol)
@@ -358,8 +371,10 @@ class Integrator:
         self.ksp.solve(b, x.x.petsc_vec)
         reason = self.ksp.getConvergedReason()
         if reason < 0:
-            raise RuntimeError(f"linear solver failed (PETSc reason {reason}, "
-                               f"{self.ksp.getIterationNumber()} iterations, residual {self.ksp.getResidualNorm():.3e})")
+            raise RuntimeError(
+                f"linear solver failed (PETSc reason {reason}, "
+                f"{self.ksp.getIterationNumber()} iterations, residual {self.ksp.getResidualNorm():.3e})"
+            )
         x.x.scatter_forward()
         return self.ksp.getIterationNumber()
 
@@ -413,7 +428,9 @@ class Integrator:
         Needs ``energy_balance``.
         """
         if self.contact is None or not self.energy_balance:
-            raise RuntimeError("contact_gaps needs Integrator(..., contact=ContactSolver(...), energy_balance=True)")
+            raise RuntimeError(
+                "contact_gaps needs Integrator(..., contact=ContactSolver(...), energy_balance=True)"
+            )
         return self.contact.contact_gaps(self.u_n if u is None else u)
 
     def _reset_balance(self) -> None:
@@ -446,7 +463,7 @@ class Integrator:
         if c_mass:
             self.M.mult(du, tmp)
             part[0] = 0.5 * c_mass / c_el * ldot(tmp, du)
-            dup.aypx(-1.0, du)                         # Δu − Δu_prev
+            dup.aypx(-1.0, du)  # Δu − Δu_prev
             self.M.mult(dup, tmp)
             r.axpy(c_mass / c_el, tmp)
             part[7] += 0.5 * c_mass / c_el * ldot(tmp, dup)
@@ -465,12 +482,22 @@ class Integrator:
         if self.contact is not None:
             # from the multipliers and the gaps the contact solver returned
             part[5] = self.contact.contact_work(self.u)
-        kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(part, op=MPI.SUM)
+        kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(
+            part, op=MPI.SUM
+        )
         before = self.balance.total
         defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)
-        return EnergyBalance(kinetic=kinetic, strain=strain, external_work=w_ext, dirichlet_work=w_dir,
-                             contact_work=w_c, contact_work_residual=w_res, viscous_dissipation=visc,
-                             numerical_dissipation=num, defect=defect)
+        return EnergyBalance(
+            kinetic=kinetic,
+            strain=strain,
+            external_work=w_ext,
+            dirichlet_work=w_dir,
+            contact_work=w_c,
+            contact_work_residual=w_res,
+            viscous_dissipation=visc,
+            numerical_dissipation=num,
+            defect=defect,
+        )
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
@@ -484,4 +511,3 @@ class Integrator:
         for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F):
             if obj is not None:
                 obj.destroy()
-

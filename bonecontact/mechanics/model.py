@@ -18,19 +18,20 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+from petsc4py import PETSc
+
 import numpy as np
 import numpy.typing as npt
 import ufl
 from dolfinx import default_scalar_type, fem, mesh
 from dolfinx.fem import petsc as fem_petsc
-from petsc4py import PETSc
 
-from bonecontact.materials.constitutive import MaterialFields, material_fields
 from bonecontact.forms.elastic import elastic_form, nodal_weight, volumetric_coupling
 from bonecontact.forms.kinematics import strain, tensor_from_voigt, voigt_strain
 from bonecontact.forms.loads import body_force_form, pressure_form, traction_form
 from bonecontact.forms.mass import mass_form
 from bonecontact.forms.viscous import viscous_form
+from bonecontact.materials.constitutive import MaterialFields, material_fields
 from bonecontact.materials.laws import Material
 
 __all__ = ["Mechanics", "Schedule", "constant_schedule"]
@@ -79,12 +80,19 @@ class Mechanics:
         Mesh markers (facet tags are needed for boundary loads and conditions).
     """
 
-    def __init__(self, msh: mesh.Mesh, materials: Mapping[int, Material] | Material,
-                 cell_tags: mesh.MeshTags | None = None, facet_tags: mesh.MeshTags | None = None):
+    def __init__(
+        self,
+        msh: mesh.Mesh,
+        materials: Mapping[int, Material] | Material,
+        cell_tags: mesh.MeshTags | None = None,
+        facet_tags: mesh.MeshTags | None = None,
+    ):
         self.mesh = msh
         self.dim = msh.geometry.dim
         if msh.topology.dim != self.dim:
-            raise ValueError("manifold meshes are not supported: topological and geometric dimensions differ")
+            raise ValueError(
+                "manifold meshes are not supported: topological and geometric dimensions differ"
+            )
         self.cell_tags = cell_tags
         self.facet_tags = facet_tags
         tdim = msh.topology.dim
@@ -121,7 +129,9 @@ class Mechanics:
         if self.facet_tags is None:
             raise ValueError("the mesh has no facet tags")
         tags = [tag] if np.isscalar(tag) else list(tag)
-        return np.unique(np.concatenate([self.facet_tags.find(int(t)) for t in tags])).astype(np.int32)
+        return np.unique(np.concatenate([self.facet_tags.find(int(t)) for t in tags])).astype(
+            np.int32
+        )
 
     def cells(self, tag: int | Sequence[int] | None) -> npt.NDArray[np.int32]:
         """Local cell indices (owned and ghost) with the given tag(s); all cells for ``None``."""
@@ -130,11 +140,17 @@ class Mechanics:
             im = self.mesh.topology.index_map(tdim)
             return np.arange(im.size_local + im.num_ghosts, dtype=np.int32)
         tags = [tag] if np.isscalar(tag) else list(tag)
-        return np.unique(np.concatenate([self.cell_tags.find(int(t)) for t in tags])).astype(np.int32)
+        return np.unique(np.concatenate([self.cell_tags.find(int(t)) for t in tags])).astype(
+            np.int32
+        )
 
-    def add_dirichlet(self, facets: npt.NDArray[np.int32], component: int,
-                      value: float | Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]] = 0.0,
-                      schedule: Schedule = constant_schedule) -> None:
+    def add_dirichlet(
+        self,
+        facets: npt.NDArray[np.int32],
+        component: int,
+        value: float | Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]] = 0.0,
+        schedule: Schedule = constant_schedule,
+    ) -> None:
         """Prescribe one displacement component on a set of facets.
 
         The imposed value is ``schedule(t) * value`` where ``value`` is a number or a
@@ -191,19 +207,32 @@ class Mechanics:
             return value
         return fem.Constant(self.mesh, np.asarray(value, dtype=default_scalar_type))
 
-    def add_traction(self, tags: int | Sequence[int], value, schedule: Schedule = constant_schedule) -> None:
+    def add_traction(
+        self, tags: int | Sequence[int], value, schedule: Schedule = constant_schedule
+    ) -> None:
         """Traction vector (Pa) on the facets with ``tags``."""
-        self.add_load(traction_form(self._vector(value), self._v, self._measure("ds", tags)), schedule)
+        self.add_load(
+            traction_form(self._vector(value), self._v, self._measure("ds", tags)), schedule
+        )
 
-    def add_pressure(self, tags: int | Sequence[int], value, schedule: Schedule = constant_schedule) -> None:
+    def add_pressure(
+        self, tags: int | Sequence[int], value, schedule: Schedule = constant_schedule
+    ) -> None:
         """Normal pressure (Pa), positive pushing into the body."""
-        p = value if isinstance(value, ufl.core.expr.Expr) else fem.Constant(self.mesh, default_scalar_type(value))
+        p = (
+            value
+            if isinstance(value, ufl.core.expr.Expr)
+            else fem.Constant(self.mesh, default_scalar_type(value))
+        )
         self.add_load(pressure_form(p, self._v, self.n, self._measure("ds", tags)), schedule)
 
-    def add_body_force(self, value, tags: int | Sequence[int] | None = None,
-                       schedule: Schedule = constant_schedule) -> None:
+    def add_body_force(
+        self, value, tags: int | Sequence[int] | None = None, schedule: Schedule = constant_schedule
+    ) -> None:
         """Body force (N/m³) on the cells with ``tags`` (all cells for ``None``)."""
-        self.add_load(body_force_form(self._vector(value), self._v, self._measure("dx", tags)), schedule)
+        self.add_load(
+            body_force_form(self._vector(value), self._v, self._measure("dx", tags)), schedule
+        )
 
     def load_vector(self, t: float, b: PETSc.Vec) -> PETSc.Vec:
         """Assemble F(t) = Σ schedule_k(t) F_k into ``b`` (owned entries, ghosts accumulated)."""
@@ -252,8 +281,15 @@ class Mechanics:
             wv.array[:] = kv.array_r * inv_m**2
             theta = fem.Function(Q, name="theta_bar")
             theta_v = fem.Function(Q, name="theta_bar_rate")
-            self._anp = {"Q": Q, "B": B, "w0": w0, "wv": wv, "inv_m": inv_m, "theta": theta,
-                         "theta_v": theta_v}
+            self._anp = {
+                "Q": Q,
+                "B": B,
+                "w0": w0,
+                "wv": wv,
+                "inv_m": inv_m,
+                "theta": theta,
+                "theta_v": theta_v,
+            }
         return self._anp
 
     def _anp_matrix(self, c0: float, cv: float) -> PETSc.Mat:
@@ -278,8 +314,11 @@ class Mechanics:
             a = a + c_viscous * viscous_form(u, v, f.C_v, self.dim, ufl.dx)
         A = self._assemble(a)
         if f.has_nodal_pressure:
-            A.axpy(1.0, self._anp_matrix(c_elastic, c_viscous if f.has_viscosity else 0.0),
-                   structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+            A.axpy(
+                1.0,
+                self._anp_matrix(c_elastic, c_viscous if f.has_viscosity else 0.0),
+                structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN,
+            )
         del dx
         return A
 
@@ -288,7 +327,9 @@ class Mechanics:
         """Consistent mass matrix."""
         if self._mats.M is None:
             if not self.fields.has_density:
-                raise ValueError("a density (rho) is required for every material in a dynamic analysis")
+                raise ValueError(
+                    "a density (rho) is required for every material in a dynamic analysis"
+                )
             self._mats.M = self._assemble(mass_form(self._u, self._v, self.fields.rho, ufl.dx))
         return self._mats.M
 
@@ -308,7 +349,11 @@ class Mechanics:
             f = self.fields
             A = self._assemble(viscous_form(self._u, self._v, f.C_v, self.dim, ufl.dx))
             if f.has_nodal_pressure:
-                A.axpy(1.0, self._anp_matrix(0.0, 1.0), structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+                A.axpy(
+                    1.0,
+                    self._anp_matrix(0.0, 1.0),
+                    structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN,
+                )
             self._mats.Kv = A
         return self._mats.Kv
 
@@ -326,7 +371,9 @@ class Mechanics:
             dst.x.petsc_vec.array[:] *= d["inv_m"]
             dst.x.scatter_forward()
 
-    def stress_expression(self, u: fem.Function, w: fem.Function | None = None) -> ufl.core.expr.Expr:
+    def stress_expression(
+        self, u: fem.Function, w: fem.Function | None = None
+    ) -> ufl.core.expr.Expr:
         """Kelvin–Voigt stress τ = c⁽⁰⁾e(u) + c⁽¹⁾e(w) as a 3×3 UFL tensor.
 
         In 2D (plane strain) the zz entry is σ_zz.  In nodal-pressure cells the

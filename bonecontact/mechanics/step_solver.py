@@ -11,10 +11,11 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from petsc4py import PETSc
+
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
-from petsc4py import PETSc
 
 __all__ = ["StepResult", "StepSolver"]
 
@@ -35,8 +36,15 @@ class StepSolver(Protocol):
         inertia under ``mass_redistribution``."""
         ...
 
-    def setup(self, A: PETSc.Mat, bc_rows: npt.ArrayLike | None = None, *, force_scale: float = 1.0,
-              linear: str = "direct", rtol: float = 1e-12) -> None:
+    def setup(
+        self,
+        A: PETSc.Mat,
+        bc_rows: npt.ArrayLike | None = None,
+        *,
+        force_scale: float = 1.0,
+        linear: str = "direct",
+        rtol: float = 1e-12,
+    ) -> None:
         """Take the step operator ``A`` (Dirichlet rows and columns eliminated), its owned
         global Dirichlet rows, the factor turning its forces into physical ones, the
         linear solver (``"direct"`` / ``"iterative"``) and its Krylov tolerance."""

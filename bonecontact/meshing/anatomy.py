@@ -12,19 +12,36 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mpi4py import MPI
+
 import gmsh
 import numpy as np
 from dolfinx.io.gmsh import MeshData
-from mpi4py import MPI
 
-from bonecontact.meshing.builder import EPS, MeshingError, PhysicalGroups, check_positive, entities_at, generate, set_size
+from bonecontact.meshing.builder import (
+    EPS,
+    MeshingError,
+    PhysicalGroups,
+    check_positive,
+    entities_at,
+    generate,
+    set_size,
+)
 
-__all__ = ["long_bone_2d", "knee_2d"]
+__all__ = ["knee_2d", "long_bone_2d"]
 
 
-def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: float = 0.2,
-                 width: float = 0.03, cortical_thickness: float = 5e-3, flare: float = 4e-3,
-                 flare_length: float = 0.03, comm: MPI.Comm | None = None) -> MeshData | Path:
+def long_bone_2d(
+    path: str | Path | None = None,
+    h: float = 1.6e-3,
+    *,
+    length: float = 0.2,
+    width: float = 0.03,
+    cortical_thickness: float = 5e-3,
+    flare: float = 4e-3,
+    flare_length: float = 0.03,
+    comm: MPI.Comm | None = None,
+) -> MeshData | Path:
     """Longitudinal section through the diaphysis of a long bone (plane strain).
 
     The bone axis is y, ``0 <= y <= length``, centred on ``x = 0``.  Its outer half-width
@@ -56,12 +73,19 @@ def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: f
         Cell groups ``"cortical"`` and ``"cancellous"``; facet groups ``"distal"``
         (y = 0), ``"proximal"`` (y = length) and ``"periosteum"`` (the outer sides).
     """
-    check_positive(h=h, length=length, width=width, cortical_thickness=cortical_thickness,
-              flare_length=flare_length)
+    check_positive(
+        h=h,
+        length=length,
+        width=width,
+        cortical_thickness=cortical_thickness,
+        flare_length=flare_length,
+    )
     if not (math.isfinite(flare) and flare >= 0):
         raise ValueError(f"flare must be >= 0 (m), got {flare!r}")
     if cortical_thickness >= width / 2:
-        raise ValueError(f"cortical_thickness ({cortical_thickness}) must be below width/2 ({width / 2})")
+        raise ValueError(
+            f"cortical_thickness ({cortical_thickness}) must be below width/2 ({width / 2})"
+        )
     if 2 * flare_length >= length:
         raise ValueError(f"2*flare_length ({2 * flare_length}) must be below length ({length})")
 
@@ -70,7 +94,12 @@ def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: f
         w = width / 2 - offset
         if flare == 0:
             return [(w, 0.0), (w, length)]
-        return [(w + flare, 0.0), (w, flare_length), (w, length - flare_length), (w + flare, length)]
+        return [
+            (w + flare, 0.0),
+            (w, flare_length),
+            (w, length - flare_length),
+            (w + flare, length),
+        ]
 
     def polygon(offset: float) -> int:
         right = half_profile(offset)
@@ -86,10 +115,14 @@ def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: f
         gmsh.model.occ.fragment([(2, outer)], [(2, core)])
         gmsh.model.occ.synchronize()
         surfaces = [t for _, t in gmsh.model.getEntities(2)]
-        cancellous = [s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[0]) < EPS * width]
+        cancellous = [
+            s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[0]) < EPS * width
+        ]
         cortical = [s for s in surfaces if s not in cancellous]
         if len(cancellous) != 1 or len(cortical) != 2:
-            raise MeshingError(f"expected 1 core and 2 cortical strips, got {len(cancellous)} and {len(cortical)}")
+            raise MeshingError(
+                f"expected 1 core and 2 cortical strips, got {len(cancellous)} and {len(cortical)}"
+            )
         set_size([(2, s) for s in surfaces], h)
         groups = PhysicalGroups()
         groups(2, cortical, "cortical")
@@ -105,10 +138,21 @@ def long_bone_2d(path: str | Path | None = None, h: float = 1.6e-3, *, length: f
     return generate("long_bone_2d", 2, build, comm, path)
 
 
-def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, condyle_radius: float = 0.03,
-            shaft_height: float = 0.03, plateau_half_width: float = 0.045, plateau_depth: float = 0.05,
-            cartilage: float = 3e-3, cortical: float = 2e-3, h_contact: float = 4e-4, h_far: float = 4e-3,
-            tibia_ratio: float = 1.6, tumour: tuple[float, float, float] | None = None) -> MeshData | Path:
+def knee_2d(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    condyle_radius: float = 0.03,
+    shaft_height: float = 0.03,
+    plateau_half_width: float = 0.045,
+    plateau_depth: float = 0.05,
+    cartilage: float = 3e-3,
+    cortical: float = 2e-3,
+    h_contact: float = 4e-4,
+    h_far: float = 4e-3,
+    tibia_ratio: float = 1.6,
+    tumour: tuple[float, float, float] | None = None,
+) -> MeshData | Path:
     """A 2D (frontal-plane) knee: a femoral condyle resting on the tibial plateau.
 
     Femur: the lower half of a disc of radius ``condyle_radius`` centred at
@@ -131,10 +175,20 @@ def knee_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, con
         vertical sides of the shaft), ``tibia_bottom``.  With ``tumour = (x, y, r)`` (a
         disc inside the tibial cancellous bone) also the cell group ``tibia_tumour``.
     """
-    check_positive(condyle_radius=condyle_radius, shaft_height=shaft_height, plateau_half_width=plateau_half_width,
-                   plateau_depth=plateau_depth, cartilage=cartilage, cortical=cortical, h_contact=h_contact,
-                   h_far=h_far, tibia_ratio=tibia_ratio)
-    knee = _Knee(condyle_radius, shaft_height, plateau_half_width, plateau_depth, cartilage, cortical, tumour)
+    check_positive(
+        condyle_radius=condyle_radius,
+        shaft_height=shaft_height,
+        plateau_half_width=plateau_half_width,
+        plateau_depth=plateau_depth,
+        cartilage=cartilage,
+        cortical=cortical,
+        h_contact=h_contact,
+        h_far=h_far,
+        tibia_ratio=tibia_ratio,
+    )
+    knee = _Knee(
+        condyle_radius, shaft_height, plateau_half_width, plateau_depth, cartilage, cortical, tumour
+    )
     if cartilage + cortical >= knee.R / 2:
         raise ValueError("cartilage + cortical must be well below the condyle radius")
 
@@ -180,7 +234,11 @@ def _knee_femur(k: _Knee) -> list:
         cut, _ = occ.cut([(2, d)], [(2, occ.addRectangle(-big, R, 0, 2 * big, big))])
         return cut[0][1]
 
-    outer, mid, inner = lower_half(R), lower_half(R - k.cartilage), lower_half(R - k.cartilage - k.cortical)
+    outer, mid, inner = (
+        lower_half(R),
+        lower_half(R - k.cartilage),
+        lower_half(R - k.cartilage - k.cortical),
+    )
     cart, _ = occ.cut([(2, outer)], [(2, mid)], removeTool=False)
     cort, _ = occ.cut([(2, mid)], [(2, inner)], removeTool=False)
     shaft = occ.addRectangle(-R, R, 0, 2 * R, k.shaft_height)
@@ -199,7 +257,12 @@ def _knee_tibia(k: _Knee) -> list:
     t_parts = [(2, t_canc), (2, t_cort), (2, t_cart)]
     if k.tumour is not None:
         tx, ty, tr = k.tumour
-        if not (-w < tx - tr and tx + tr < w and -plateau_depth < ty - tr and ty + tr < -cartilage - cortical):
+        if not (
+            -w < tx - tr
+            and tx + tr < w
+            and -plateau_depth < ty - tr
+            and ty + tr < -cartilage - cortical
+        ):
             raise ValueError(f"tumour disc {k.tumour} must lie inside the tibial cancellous bone")
         t_parts.append((2, occ.addDisk(tx, ty, 0, tr, tr)))
     _, tib_map = occ.fragment(t_parts, [])
@@ -214,9 +277,15 @@ def _knee_classify_surfaces(k: _Knee, fem_map: list, tib_map: list) -> None:
     tb_canc, tb_cort, tb_cart = ([t for _, t in tib_map[i]] for i in range(3))
     tb_tum = [t for _, t in tib_map[3]] if k.tumour is not None else []
     tb_canc = [t for t in tb_canc if t not in tb_tum]
-    k.surfaces = {"femur_cartilage": f_cart, "femur_cortical": f_cort, "femur_cancellous": f_canc,
-                  "tibia_cartilage": tb_cart, "tibia_cortical": tb_cort, "tibia_cancellous": tb_canc,
-                  "tibia_tumour": tb_tum}
+    k.surfaces = {
+        "femur_cartilage": f_cart,
+        "femur_cortical": f_cort,
+        "femur_cancellous": f_canc,
+        "tibia_cartilage": tb_cart,
+        "tibia_cortical": tb_cort,
+        "tibia_cancellous": tb_canc,
+        "tibia_tumour": tb_tum,
+    }
 
 
 def _curves_of(surfs: list[int]) -> set[int]:
@@ -235,17 +304,25 @@ def _knee_find_curves(k: _Knee) -> None:
         return np.asarray(gmsh.model.getValue(1, c, [0.5 * (lo[0] + hi[0])])[:2])
 
     com = gmsh.model.occ.getCenterOfMass
-    fem_contact = [c for c in _curves_of(f_cart)
-                   if abs(np.hypot(*(midpoint(c) - np.array([0.0, R]))) - R) < 1e-6 * R
-                   and midpoint(c)[1] < R - tol]
+    fem_contact = [
+        c
+        for c in _curves_of(f_cart)
+        if abs(np.hypot(*(midpoint(c) - np.array([0.0, R]))) - R) < 1e-6 * R
+        and midpoint(c)[1] < R - tol
+    ]
     fem_top = [c for c in _curves_of(f_canc) if abs(com(1, c)[1] - (R + k.shaft_height)) < tol]
-    fem_sides = [c for c in _curves_of(f_canc)
-                 if abs(abs(com(1, c)[0]) - R) < tol
-                 and com(1, c)[1] > R + tol]
+    fem_sides = [
+        c for c in _curves_of(f_canc) if abs(abs(com(1, c)[0]) - R) < tol and com(1, c)[1] > R + tol
+    ]
     tib_contact = [c for c in _curves_of(tb_cart) if abs(com(1, c)[1]) < tol]
     tib_bottom = [c for c in _curves_of(tb_canc) if abs(com(1, c)[1] + k.plateau_depth) < tol]
-    k.curves = {"femur_contact": fem_contact, "tibia_contact": tib_contact, "femur_top": fem_top,
-                "femur_sides": fem_sides, "tibia_bottom": tib_bottom}
+    k.curves = {
+        "femur_contact": fem_contact,
+        "tibia_contact": tib_contact,
+        "femur_top": fem_top,
+        "femur_sides": fem_sides,
+        "tibia_bottom": tib_bottom,
+    }
 
 
 def _knee_size_fields(k: _Knee, h_contact: float, h_far: float, tibia_ratio: float) -> None:

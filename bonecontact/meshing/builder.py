@@ -14,14 +14,25 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from pathlib import Path
 
+from mpi4py import MPI
+
 import gmsh
 from dolfinx.io.gmsh import MeshData, model_to_mesh
-from mpi4py import MPI
 
 from bonecontact.meshing.session import gmsh_session
 
-__all__ = ["EPS", "MeshingError", "PhysicalGroups", "block_groups", "boundary_tags", "bounding_box",
-           "check_positive", "entities_at", "generate", "set_size"]
+__all__ = [
+    "EPS",
+    "MeshingError",
+    "PhysicalGroups",
+    "block_groups",
+    "boundary_tags",
+    "bounding_box",
+    "check_positive",
+    "entities_at",
+    "generate",
+    "set_size",
+]
 
 #: relative tolerance for picking entities by their centre of mass
 EPS = 1e-9
@@ -32,8 +43,9 @@ class MeshingError(RuntimeError):
 
 
 # ----------------------------------------------------------------------------- plumbing
-def generate(name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | None,
-             path: str | Path | None) -> MeshData | Path:
+def generate(
+    name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | None, path: str | Path | None
+) -> MeshData | Path:
     """Run ``build`` (geometry, sizes, physical groups) on rank 0, mesh, then distribute or write."""
     comm = MPI.COMM_WORLD if comm is None else comm
     with gmsh_session(name) if comm.rank == 0 else nullcontext():
@@ -102,12 +114,26 @@ def check_positive(**values: float) -> None:
             raise ValueError(f"{key} must be a positive number (SI units), got {v!r}")
 
 
-def block_groups(groups: PhysicalGroups, dim: int, tag: int, prefix: str, lo: tuple[float, ...],
-                 hi: tuple[float, ...], scale: float, names: dict[str, str] | None = None) -> None:
+def block_groups(
+    groups: PhysicalGroups,
+    dim: int,
+    tag: int,
+    prefix: str,
+    lo: tuple[float, ...],
+    hi: tuple[float, ...],
+    scale: float,
+    names: dict[str, str] | None = None,
+) -> None:
     """Tag the faces of an axis-aligned block by side: left/right (x), bottom/top (y),
     front/back (z, 3D), named ``prefix + side`` unless ``names`` renames a side."""
     sides = boundary_tags(dim, tag)
     names = names or {}
-    for axis, (low, high) in enumerate((("left", "right"), ("bottom", "top"), ("front", "back"))[:dim]):
+    for axis, (low, high) in enumerate(
+        (("left", "right"), ("bottom", "top"), ("front", "back"))[:dim]
+    ):
         for side, value in ((low, lo[axis]), (high, hi[axis])):
-            groups(dim - 1, entities_at(sides, dim - 1, axis, value, scale), names.get(side, prefix + side))
+            groups(
+                dim - 1,
+                entities_at(sides, dim - 1, axis, value, scale),
+                names.get(side, prefix + side),
+            )

@@ -5,9 +5,10 @@ from __future__ import annotations
 from contextlib import nullcontext
 from pathlib import Path
 
+from mpi4py import MPI
+
 import gmsh
 from dolfinx.io.gmsh import MeshData, model_to_mesh
-from mpi4py import MPI
 
 from bonecontact.meshing.session import gmsh_session
 

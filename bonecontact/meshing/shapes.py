@@ -24,29 +24,39 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import gmsh
-from dolfinx.io.gmsh import MeshData
 from mpi4py import MPI
 
-from bonecontact.meshing.builder import (PhysicalGroups, block_groups, boundary_tags, bounding_box, check_positive,
-                                         entities_at, generate, set_size)
+import gmsh
+from dolfinx.io.gmsh import MeshData
+
+from bonecontact.meshing.builder import (
+    PhysicalGroups,
+    block_groups,
+    boundary_tags,
+    bounding_box,
+    check_positive,
+    entities_at,
+    generate,
+    set_size,
+)
 
 __all__ = [
-    "quarter_tube",
-    "rectangle",
     "box",
     "cantilever",
-    "two_blocks_2d",
-    "two_boxes_3d",
     "hertz_2d",
     "hertz_3d",
+    "quarter_tube",
+    "rectangle",
     "stacked_blocks_2d",
+    "two_blocks_2d",
+    "two_boxes_3d",
 ]
 
 
 # ----------------------------------------------------------------------------- builders
-def quarter_tube(r_in: float, r_out: float, h: float, comm: MPI.Comm | None,
-                 path: str | Path | None = None) -> MeshData | Path:
+def quarter_tube(
+    r_in: float, r_out: float, h: float, comm: MPI.Comm | None, path: str | Path | None = None
+) -> MeshData | Path:
     """Quarter of a thick-walled tube cross-section (plane strain; Lamé problem).
 
     The annulus ``r_in <= r <= r_out`` in the first quadrant ``x, y >= 0``.
@@ -75,8 +85,12 @@ def quarter_tube(r_in: float, r_out: float, h: float, comm: MPI.Comm | None,
     def build() -> None:
         occ = gmsh.model.occ
         c = occ.addPoint(0, 0, 0)
-        p = [occ.addPoint(r_in, 0, 0), occ.addPoint(r_out, 0, 0),
-             occ.addPoint(0, r_out, 0), occ.addPoint(0, r_in, 0)]
+        p = [
+            occ.addPoint(r_in, 0, 0),
+            occ.addPoint(r_out, 0, 0),
+            occ.addPoint(0, r_out, 0),
+            occ.addPoint(0, r_in, 0),
+        ]
         y0 = occ.addLine(p[0], p[1])
         outer = occ.addCircleArc(p[1], c, p[2])
         x0 = occ.addLine(p[2], p[3])
@@ -93,8 +107,15 @@ def quarter_tube(r_in: float, r_out: float, h: float, comm: MPI.Comm | None,
     return generate("quarter_tube", 2, build, comm, path)
 
 
-def rectangle(lx: float, ly: float, nx: int, ny: int, comm: MPI.Comm | None,
-              path: str | Path | None = None, structured: bool = False) -> MeshData | Path:
+def rectangle(
+    lx: float,
+    ly: float,
+    nx: int,
+    ny: int,
+    comm: MPI.Comm | None,
+    path: str | Path | None = None,
+    structured: bool = False,
+) -> MeshData | Path:
     """Rectangle ``[0, lx] x [0, ly]`` with ``nx`` x ``ny`` element edges along its sides.
 
     Parameters
@@ -138,8 +159,9 @@ def rectangle(lx: float, ly: float, nx: int, ny: int, comm: MPI.Comm | None,
     return generate("rectangle", 2, build, comm, path)
 
 
-def box(lx: float, ly: float, lz: float, h: float, comm: MPI.Comm | None,
-        path: str | Path | None = None) -> MeshData | Path:
+def box(
+    lx: float, ly: float, lz: float, h: float, comm: MPI.Comm | None, path: str | Path | None = None
+) -> MeshData | Path:
     """Box ``[0, lx] x [0, ly] x [0, lz]`` meshed with tetrahedra of size about ``h``.
 
     Parameters
@@ -172,8 +194,9 @@ def box(lx: float, ly: float, lz: float, h: float, comm: MPI.Comm | None,
     return generate("box", 3, build, comm, path)
 
 
-def cantilever(L: float, H: float, W: float, h: float, comm: MPI.Comm | None,
-               path: str | Path | None = None) -> MeshData | Path:
+def cantilever(
+    L: float, H: float, W: float, h: float, comm: MPI.Comm | None, path: str | Path | None = None
+) -> MeshData | Path:
     """Slender 3D beam ``[0, L] x [0, H] x [0, W]`` along x (height H along y, width W along z).
 
     Parameters
@@ -207,21 +230,31 @@ def cantilever(L: float, H: float, W: float, h: float, comm: MPI.Comm | None,
         groups(2, entities_at(faces, 2, 0, L, scale), "tip")
         groups(2, entities_at(faces, 2, 1, 0.0, scale), "bottom")
         groups(2, entities_at(faces, 2, 1, H, scale), "top")
-        groups(2, entities_at(faces, 2, 2, 0.0, scale) + entities_at(faces, 2, 2, W, scale), "sides")
+        groups(
+            2, entities_at(faces, 2, 2, 0.0, scale) + entities_at(faces, 2, 2, W, scale), "sides"
+        )
 
     return generate("cantilever", 3, build, comm, path)
 
 
-def _two_blocks(dim: int, size: tuple[float, ...], heights: tuple[float, float],
-                upper_size: tuple[float, ...], upper_offset: tuple[float, ...],
-                h: tuple[float, float], comm: MPI.Comm | None, path: str | Path | None,
-                name: str) -> MeshData | Path:
+def _two_blocks(
+    dim: int,
+    size: tuple[float, ...],
+    heights: tuple[float, float],
+    upper_size: tuple[float, ...],
+    upper_offset: tuple[float, ...],
+    h: tuple[float, float],
+    comm: MPI.Comm | None,
+    path: str | Path | None,
+    name: str,
+) -> MeshData | Path:
     """Two touching, separately meshed blocks: lower at y in [0, h0], upper on top of it."""
     lower_lo = (0.0,) * dim
     lower_hi = (size[0], heights[0]) + tuple(size[1:])
     upper_lo = (upper_offset[0], heights[0]) + tuple(upper_offset[1:])
     upper_hi = (upper_lo[0] + upper_size[0], heights[0] + heights[1]) + tuple(
-        upper_lo[2 + i] + upper_size[1 + i] for i in range(dim - 2))
+        upper_lo[2 + i] + upper_size[1 + i] for i in range(dim - 2)
+    )
     scale = max(max(lower_hi), max(upper_hi))
 
     def block(lo: tuple[float, ...], hi: tuple[float, ...]) -> int:
@@ -241,18 +274,42 @@ def _two_blocks(dim: int, size: tuple[float, ...], heights: tuple[float, float],
         groups = PhysicalGroups()
         groups(dim, [lower], "lower")
         groups(dim, [upper], "upper")
-        block_groups(groups, dim, lower, "lower_", lower_lo, lower_hi, scale,
-                      {"top": "lower_contact", "bottom": "bottom"})
-        block_groups(groups, dim, upper, "upper_", upper_lo, upper_hi, scale,
-                      {"bottom": "upper_contact", "top": "top"})
+        block_groups(
+            groups,
+            dim,
+            lower,
+            "lower_",
+            lower_lo,
+            lower_hi,
+            scale,
+            {"top": "lower_contact", "bottom": "bottom"},
+        )
+        block_groups(
+            groups,
+            dim,
+            upper,
+            "upper_",
+            upper_lo,
+            upper_hi,
+            scale,
+            {"bottom": "upper_contact", "top": "top"},
+        )
 
     return generate(name, dim, build, comm, path)
 
 
-def two_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *,
-                  width: float = 0.02, lower_height: float = 0.01, upper_height: float = 0.01,
-                  upper_width: float | None = None, upper_offset: float = 0.0,
-                  h_lower: float = 0.02 / 7, h_upper: float = 0.02 / 11) -> MeshData | Path:
+def two_blocks_2d(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    width: float = 0.02,
+    lower_height: float = 0.01,
+    upper_height: float = 0.01,
+    upper_width: float | None = None,
+    upper_offset: float = 0.0,
+    h_lower: float = 0.02 / 7,
+    h_upper: float = 0.02 / 11,
+) -> MeshData | Path:
     """Two touching rectangles with non-matching meshes on their interface (contact tests).
 
     Lower block ``[0, width] x [0, lower_height]``; upper block
@@ -281,17 +338,41 @@ def two_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, 
         ``"lower_left"``, ``"lower_right"``, ``"upper_left"``, ``"upper_right"``.
     """
     upper_width = width if upper_width is None else upper_width
-    check_positive(width=width, lower_height=lower_height, upper_height=upper_height,
-              upper_width=upper_width, h_lower=h_lower, h_upper=h_upper)
-    return _two_blocks(2, (width,), (lower_height, upper_height), (upper_width,), (upper_offset,),
-                       (h_lower, h_upper), comm, path, "two_blocks_2d")
+    check_positive(
+        width=width,
+        lower_height=lower_height,
+        upper_height=upper_height,
+        upper_width=upper_width,
+        h_lower=h_lower,
+        h_upper=h_upper,
+    )
+    return _two_blocks(
+        2,
+        (width,),
+        (lower_height, upper_height),
+        (upper_width,),
+        (upper_offset,),
+        (h_lower, h_upper),
+        comm,
+        path,
+        "two_blocks_2d",
+    )
 
 
-def two_boxes_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *,
-                 width: float = 0.02, depth: float = 0.02, lower_height: float = 0.01,
-                 upper_height: float = 0.01, upper_width: float | None = None,
-                 upper_depth: float | None = None, upper_offset: tuple[float, float] = (0.0, 0.0),
-                 h_lower: float = 0.02 / 5, h_upper: float = 0.02 / 7) -> MeshData | Path:
+def two_boxes_3d(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    width: float = 0.02,
+    depth: float = 0.02,
+    lower_height: float = 0.01,
+    upper_height: float = 0.01,
+    upper_width: float | None = None,
+    upper_depth: float | None = None,
+    upper_offset: tuple[float, float] = (0.0, 0.0),
+    h_lower: float = 0.02 / 5,
+    h_upper: float = 0.02 / 7,
+) -> MeshData | Path:
     """Two touching boxes with non-matching meshes on their interface (contact tests).
 
     Lower box ``[0, width] x [0, lower_height] x [0, depth]``; the upper box
@@ -321,15 +402,41 @@ def two_boxes_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *
     """
     upper_width = width if upper_width is None else upper_width
     upper_depth = depth if upper_depth is None else upper_depth
-    check_positive(width=width, depth=depth, lower_height=lower_height, upper_height=upper_height,
-              upper_width=upper_width, upper_depth=upper_depth, h_lower=h_lower, h_upper=h_upper)
-    return _two_blocks(3, (width, depth), (lower_height, upper_height), (upper_width, upper_depth),
-                       tuple(upper_offset), (h_lower, h_upper), comm, path, "two_boxes_3d")
+    check_positive(
+        width=width,
+        depth=depth,
+        lower_height=lower_height,
+        upper_height=upper_height,
+        upper_width=upper_width,
+        upper_depth=upper_depth,
+        h_lower=h_lower,
+        h_upper=h_upper,
+    )
+    return _two_blocks(
+        3,
+        (width, depth),
+        (lower_height, upper_height),
+        (upper_width, upper_depth),
+        tuple(upper_offset),
+        (h_lower, h_upper),
+        comm,
+        path,
+        "two_boxes_3d",
+    )
 
 
-def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, radius: float = 0.01,
-             block_half_width: float = 0.05, block_height: float = 0.05, h_contact: float = 1e-4,
-             h_far: float = 2e-3, zone: float = 2e-3, block_ratio: float = 1.7) -> MeshData | Path:
+def hertz_2d(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    radius: float = 0.01,
+    block_half_width: float = 0.05,
+    block_height: float = 0.05,
+    h_contact: float = 1e-4,
+    h_far: float = 2e-3,
+    zone: float = 2e-3,
+    block_ratio: float = 1.7,
+) -> MeshData | Path:
     """A half cylinder resting on a block (plane strain Hertz contact), non-matching meshes.
 
     The half cylinder (the lower half of a disc of ``radius`` centred at ``(0, radius)``)
@@ -345,8 +452,15 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         slave), ``"block_contact"`` (top of the block: master), ``"cyl_top"`` (the flat
         face y = radius), ``"block_bottom"``, ``"block_sides"``.
     """
-    check_positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
-              h_contact=h_contact, h_far=h_far, zone=zone, block_ratio=block_ratio)
+    check_positive(
+        radius=radius,
+        block_half_width=block_half_width,
+        block_height=block_height,
+        h_contact=h_contact,
+        h_far=h_far,
+        zone=zone,
+        block_ratio=block_ratio,
+    )
     R, w, hb = radius, block_half_width, block_height
 
     def build() -> None:
@@ -356,8 +470,13 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         a1, a2 = occ.addCircleArc(pl, c, p0), occ.addCircleArc(p0, c, pr)
         top = occ.addLine(pr, pl)
         cyl = occ.addPlaneSurface([occ.addCurveLoop([a1, a2, top])])
-        q = [occ.addPoint(-w, -hb, 0), occ.addPoint(w, -hb, 0), occ.addPoint(w, 0, 0), occ.addPoint(0, 0, 0),
-             occ.addPoint(-w, 0, 0)]
+        q = [
+            occ.addPoint(-w, -hb, 0),
+            occ.addPoint(w, -hb, 0),
+            occ.addPoint(w, 0, 0),
+            occ.addPoint(0, 0, 0),
+            occ.addPoint(-w, 0, 0),
+        ]
         bottom, right = occ.addLine(q[0], q[1]), occ.addLine(q[1], q[2])
         t1, t2 = occ.addLine(q[2], q[3]), occ.addLine(q[3], q[4])
         left = occ.addLine(q[4], q[0])
@@ -365,7 +484,10 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         occ.synchronize()
         f = gmsh.model.mesh.field
         fields = []
-        for surf, curves, h in ((cyl, [a1, a2], h_contact), (block, [t1, t2], block_ratio * h_contact)):
+        for surf, curves, h in (
+            (cyl, [a1, a2], h_contact),
+            (block, [t1, t2], block_ratio * h_contact),
+        ):
             dist = f.add("Distance")
             f.setNumbers(dist, "PointsList", [p0, q[3]])
             thr = f.add("Threshold")
@@ -377,7 +499,9 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
             res = f.add("Restrict")
             f.setNumber(res, "InField", thr)
             f.setNumbers(res, "SurfacesList", [surf])
-            f.setNumbers(res, "CurvesList", curves + ([top] if surf == cyl else [bottom, right, left]))
+            f.setNumbers(
+                res, "CurvesList", curves + ([top] if surf == cyl else [bottom, right, left])
+            )
             fields.append(res)
         fmin = f.add("Min")
         f.setNumbers(fmin, "FieldsList", fields)
@@ -397,9 +521,18 @@ def hertz_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
     return generate("hertz_2d", 2, build, comm, path)
 
 
-def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, radius: float = 0.01,
-             block_half_width: float = 0.02, block_height: float = 0.02, h_contact: float = 2e-4,
-             h_far: float = 3e-3, zone: float = 1.5e-3, block_ratio: float = 1.5) -> MeshData | Path:
+def hertz_3d(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    radius: float = 0.01,
+    block_half_width: float = 0.02,
+    block_height: float = 0.02,
+    h_contact: float = 2e-4,
+    h_far: float = 3e-3,
+    zone: float = 1.5e-3,
+    block_ratio: float = 1.5,
+) -> MeshData | Path:
     """A hemisphere resting on a block (3D Hertz contact), non-matching meshes.
 
     The hemisphere (the lower half of a ball of ``radius`` centred at ``(0, radius, 0)``)
@@ -415,8 +548,15 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
         curved surface: slave), ``"block_contact"`` (top of the block: master),
         ``"sphere_top"`` (the flat face y = radius), ``"block_bottom"``.
     """
-    check_positive(radius=radius, block_half_width=block_half_width, block_height=block_height,
-              h_contact=h_contact, h_far=h_far, zone=zone, block_ratio=block_ratio)
+    check_positive(
+        radius=radius,
+        block_half_width=block_half_width,
+        block_height=block_height,
+        h_contact=h_contact,
+        h_far=h_far,
+        zone=zone,
+        block_ratio=block_ratio,
+    )
     R, w, hb = radius, block_half_width, block_height
 
     def build() -> None:
@@ -452,8 +592,18 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
             f.setNumbers(res, "VolumesList", [vol])
             faces = s_faces if vol == sph else b_faces
             f.setNumbers(res, "SurfacesList", faces)
-            f.setNumbers(res, "CurvesList", sorted({abs(c) for _, c in gmsh.model.getBoundary(
-                [(2, t) for t in faces], combined=False, oriented=False)}))
+            f.setNumbers(
+                res,
+                "CurvesList",
+                sorted(
+                    {
+                        abs(c)
+                        for _, c in gmsh.model.getBoundary(
+                            [(2, t) for t in faces], combined=False, oriented=False
+                        )
+                    }
+                ),
+            )
             fields.append(res)
         fmin = f.add("Min")
         f.setNumbers(fmin, "FieldsList", fields)
@@ -472,9 +622,14 @@ def hertz_3d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, ra
     return generate("hertz_3d", 3, build, comm, path)
 
 
-def stacked_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = None, *, width: float = 0.02,
-                      heights: tuple[float, ...] = (0.01, 0.01, 0.01),
-                      sizes: tuple[float, ...] = (0.02 / 5, 0.02 / 13, 0.02 / 8)) -> MeshData | Path:
+def stacked_blocks_2d(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    width: float = 0.02,
+    heights: tuple[float, ...] = (0.01, 0.01, 0.01),
+    sizes: tuple[float, ...] = (0.02 / 5, 0.02 / 13, 0.02 / 8),
+) -> MeshData | Path:
     """Rectangles stacked on top of each other, each meshed on its own (several
     non-matching contact interfaces; multi-pair contact tests).
 
@@ -486,8 +641,11 @@ def stacked_blocks_2d(comm: MPI.Comm | None = None, path: str | Path | None = No
     """
     if len(heights) != len(sizes) or len(heights) < 2:
         raise ValueError("heights and sizes must have the same length (>= 2)")
-    check_positive(width=width, **{f"height{i}": h for i, h in enumerate(heights)},
-              **{f"size{i}": h for i, h in enumerate(sizes)})
+    check_positive(
+        width=width,
+        **{f"height{i}": h for i, h in enumerate(heights)},
+        **{f"size{i}": h for i, h in enumerate(sizes)},
+    )
 
     def build() -> None:
         y0, tags = 0.0, []

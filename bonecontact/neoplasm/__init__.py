@@ -7,7 +7,12 @@
 (:mod:`~bonecontact.neoplasm.growth`) and the host mesh rebuilt around a neoplasm
 (:mod:`~bonecontact.neoplasm.host`)."""
 
-from bonecontact.neoplasm.curvature import polygon_curvature, polygon_normals, surface_curvature, vertex_normals
+from bonecontact.neoplasm.curvature import (
+    polygon_curvature,
+    polygon_normals,
+    surface_curvature,
+    vertex_normals,
+)
 from bonecontact.neoplasm.cyst import (
     CystHistory,
     CystParameterError,
@@ -18,23 +23,6 @@ from bonecontact.neoplasm.cyst import (
     radius_rate,
 )
 from bonecontact.neoplasm.cyst_shape import CystShapeModel, boundary_measures, offset_directions
-from bonecontact.neoplasm.remesh import (
-    Boundary,
-    CoverageError,
-    MeshMotion,
-    RemeshError,
-    gather_boundary,
-    moved_surface_mesh,
-    polygon_mesh,
-    resample_closed_curve,
-    smooth_surface,
-    sphere_mesh,
-    surface_mesh,
-    transfer,
-    vertex_to_geometry,
-)
-from bonecontact.neoplasm.tumour import TumourError, TumourModel, TumourParameterError, TumourParameters
-
 from bonecontact.neoplasm.growth import (
     GROWTH_COLUMNS,
     CystShapeGrowth,
@@ -57,61 +45,82 @@ from bonecontact.neoplasm.host import (
     read_host_geometry,
     wall_name,
 )
+from bonecontact.neoplasm.remesh import (
+    Boundary,
+    CoverageError,
+    MeshMotion,
+    RemeshError,
+    gather_boundary,
+    moved_surface_mesh,
+    polygon_mesh,
+    resample_closed_curve,
+    smooth_surface,
+    sphere_mesh,
+    surface_mesh,
+    transfer,
+    vertex_to_geometry,
+)
+from bonecontact.neoplasm.tumour import (
+    TumourError,
+    TumourModel,
+    TumourParameterError,
+    TumourParameters,
+)
 
 __all__ = [
-    # tumour
-    "TumourError",
-    "TumourModel",
-    "TumourParameterError",
-    "TumourParameters",
+    # growth drivers
+    "GROWTH_COLUMNS",
+    # remesh
+    "Boundary",
+    # host mesh rebuilt around a neoplasm
+    "CouplingError",
+    "CoverageError",
     # cyst
     "CystHistory",
     "CystParameterError",
     "CystParameters",
+    "CystShapeGrowth",
     "CystShapeModel",
-    "boundary_measures",
-    "equilibrium_radius",
-    "grow_sphere",
-    "long_time_rate",
-    "offset_directions",
-    "radius_rate",
-    # curvature
-    "polygon_curvature",
-    "polygon_normals",
-    "surface_curvature",
-    "vertex_normals",
-    # remesh
-    "Boundary",
-    "CoverageError",
+    "CystSphereGrowth",
+    "HostGeometry",
+    "HostMesh",
     "MeshMotion",
     "RemeshError",
+    # tumour
+    "TumourError",
+    "TumourGrowth",
+    "TumourModel",
+    "TumourParameterError",
+    "TumourParameters",
+    "boundary_measures",
+    "build_host_mesh",
+    "cyst_shape_growth",
+    "equilibrium_radius",
+    "equivalent_radius",
     "gather_boundary",
+    "grow_sphere",
+    "long_time_rate",
+    "mesh_measure",
     "moved_surface_mesh",
+    "neoplasm_polygon",
+    "offset_directions",
+    # curvature
+    "polygon_curvature",
     "polygon_mesh",
+    "polygon_normals",
+    "radius_rate",
+    "read_host_geometry",
+    "region_boundary",
+    "region_submesh",
     "resample_closed_curve",
     "smooth_surface",
     "sphere_mesh",
+    "surface_curvature",
     "surface_mesh",
-    "transfer",
-    "vertex_to_geometry",
-    # growth drivers
-    "GROWTH_COLUMNS",
-    "CystShapeGrowth",
-    "CystSphereGrowth",
-    "TumourGrowth",
-    "cyst_shape_growth",
-    "equivalent_radius",
-    "mesh_measure",
-    "region_boundary",
-    "region_submesh",
     "surface_tension_dt_limit",
+    "transfer",
     "tumour_growth",
-    # host mesh rebuilt around a neoplasm
-    "CouplingError",
-    "HostGeometry",
-    "HostMesh",
-    "build_host_mesh",
-    "neoplasm_polygon",
-    "read_host_geometry",
+    "vertex_normals",
+    "vertex_to_geometry",
     "wall_name",
 ]

@@ -25,12 +25,15 @@ __all__ = ["polygon_curvature", "polygon_normals", "surface_curvature", "vertex_
 def polygon_curvature(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Signed curvature at the nodes of a closed polygon (counter-clockwise: convex > 0)."""
     p = np.asarray(points, dtype=np.float64)
-    a = p - np.roll(p, 1, axis=0)          # p_i - p_{i-1}
-    b = np.roll(p, -1, axis=0) - p         # p_{i+1} - p_i
+    a = p - np.roll(p, 1, axis=0)  # p_i - p_{i-1}
+    b = np.roll(p, -1, axis=0) - p  # p_{i+1} - p_i
     c = np.roll(p, -1, axis=0) - np.roll(p, 1, axis=0)
     cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return 2.0 * cross / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1)
-                          * np.linalg.norm(c, axis=1))
+    return (
+        2.0
+        * cross
+        / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) * np.linalg.norm(c, axis=1))
+    )
 
 
 def polygon_normals(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -81,6 +84,6 @@ def surface_curvature(points: npt.ArrayLike, triangles: npt.ArrayLike) -> npt.ND
         vor = (ekj * cot[m] + ekm * cot[j]) / 8.0
         a = np.where(any_obtuse, np.where(obtuse[k], tri_area / 2, tri_area / 4), vor)
         np.add.at(area, t[:, k], a)
-    hn = lap / (2.0 * area[:, None])   # = (kappa_1 + kappa_2) n
+    hn = lap / (2.0 * area[:, None])  # = (kappa_1 + kappa_2) n
     n = vertex_normals(x, t)
     return np.einsum("ij,ij->i", hn, n)

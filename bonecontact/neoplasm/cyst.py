@@ -39,8 +39,15 @@ from scipy.integrate import solve_ivp
 
 from bonecontact.common.constants import R_GAS
 
-__all__ = ["CystParameters", "CystParameterError", "CystHistory", "radius_rate", "grow_sphere", "equilibrium_radius",
-           "long_time_rate"]
+__all__ = [
+    "CystHistory",
+    "CystParameterError",
+    "CystParameters",
+    "equilibrium_radius",
+    "grow_sphere",
+    "long_time_rate",
+    "radius_rate",
+]
 
 
 class CystParameterError(ValueError):
@@ -113,8 +120,11 @@ class CystParameters:
             raise CystParameterError("f0", f"must be a finite number, got {self.f0!r}")
         f_min = -self.alpha * self.C_minus
         if self.f0 <= f_min:
-            raise CystParameterError("f0", f"must be > -R_g T C_minus = {f_min:.6g} Pa "
-                                           f"(the osmolarity inside the cyst must stay positive), got {self.f0!r}")
+            raise CystParameterError(
+                "f0",
+                f"must be > -R_g T C_minus = {f_min:.6g} Pa "
+                f"(the osmolarity inside the cyst must stay positive), got {self.f0!r}",
+            )
 
     @property
     def alpha(self) -> float:
@@ -147,7 +157,9 @@ class CystHistory:
         return 4.0 * np.pi * self.R**2 if self.dim == 3 else 2.0 * np.pi * self.R
 
 
-def radius_rate(p: CystParameters, R0: float, d: int) -> Callable[[float, Sequence[float]], list[float]]:
+def radius_rate(
+    p: CystParameters, R0: float, d: int
+) -> Callable[[float, Sequence[float]], list[float]]:
     """Right-hand side of the closed cyst ODE in (R, f), for :func:`scipy.integrate.solve_ivp`.
 
     Parameters
@@ -176,8 +188,15 @@ def radius_rate(p: CystParameters, R0: float, d: int) -> Callable[[float, Sequen
     return rhs
 
 
-def grow_sphere(p: CystParameters, R0: float, t_end: float, t_eval: np.ndarray | None = None, *,
-                dim: int = 3, rtol: float = 1e-11) -> CystHistory:
+def grow_sphere(
+    p: CystParameters,
+    R0: float,
+    t_end: float,
+    t_eval: np.ndarray | None = None,
+    *,
+    dim: int = 3,
+    rtol: float = 1e-11,
+) -> CystHistory:
     """Integrate the closed cyst model from radius ``R0`` (m) over ``[0, t_end]`` (s).
 
     Parameters
@@ -201,8 +220,15 @@ def grow_sphere(p: CystParameters, R0: float, t_end: float, t_eval: np.ndarray |
         raise ValueError("R0 and t_end must be > 0")
     t_eval = np.linspace(0.0, t_end, 201) if t_eval is None else np.asarray(t_eval, float)
     # f scale for the absolute tolerance: the osmotic pressure scale αC⁻
-    sol = solve_ivp(radius_rate(p, R0, dim), (0.0, t_end), [R0, p.f0], method="Radau", t_eval=t_eval, rtol=rtol,
-                    atol=[1e-14 * R0, 1e-12 * max(p.alpha * p.C_minus, abs(p.f0), 1.0)])
+    sol = solve_ivp(
+        radius_rate(p, R0, dim),
+        (0.0, t_end),
+        [R0, p.f0],
+        method="Radau",
+        t_eval=t_eval,
+        rtol=rtol,
+        atol=[1e-14 * R0, 1e-12 * max(p.alpha * p.C_minus, abs(p.f0), 1.0)],
+    )
     if not sol.success:
         raise RuntimeError(f"cyst ODE integration failed: {sol.message}")
     return CystHistory(sol.t, sol.y[0], sol.y[1], dim)

@@ -65,13 +65,14 @@ from __future__ import annotations
 
 import math
 
+from mpi4py import MPI
+
 import numpy as np
 import numpy.typing as npt
-from mpi4py import MPI
-from scipy.integrate import solve_ivp
-
 import ufl
-from dolfinx import fem, mesh as dmesh
+from dolfinx import fem
+from dolfinx import mesh as dmesh
+from scipy.integrate import solve_ivp
 
 from bonecontact.neoplasm import remesh
 from bonecontact.neoplasm.cyst import CystParameters
@@ -79,7 +80,9 @@ from bonecontact.neoplasm.cyst import CystParameters
 __all__ = ["CystShapeModel", "boundary_measures", "offset_directions"]
 
 
-def _measures(points: npt.NDArray[np.float64], facets: npt.NDArray[np.int64]) -> tuple[float, float]:
+def _measures(
+    points: npt.NDArray[np.float64], facets: npt.NDArray[np.int64]
+) -> tuple[float, float]:
     """Enclosed volume (area) and surface area (perimeter) of a closed outward boundary."""
     if points.shape[1] == 2:
         q = points[facets[:, 1]]
@@ -117,16 +120,18 @@ def offset_directions(b: remesh.Boundary) -> npt.NDArray[np.float64]:
     """
     x = b.points
     if b.gdim == 2:
-        e = np.roll(x, -1, axis=0) - x                 # edge i: x_i -> x_{i+1} (counter-clockwise)
+        e = np.roll(x, -1, axis=0) - x  # edge i: x_i -> x_{i+1} (counter-clockwise)
         nu = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
-        a, c = np.roll(nu, 1, axis=0), nu              # edges before and after vertex i
+        a, c = np.roll(nu, 1, axis=0), nu  # edges before and after vertex i
         den = 1.0 + np.einsum("ij,ij->i", a, c)
         if np.any(den < 0.2):
-            raise remesh.RemeshError(f"cyst wall has a corner sharper than ~100 degrees "
-                                     f"(min 1 + cos = {den.min():.3g}); refine or smooth the wall")
+            raise remesh.RemeshError(
+                f"cyst wall has a corner sharper than ~100 degrees "
+                f"(min 1 + cos = {den.min():.3g}); refine or smooth the wall"
+            )
         return (a + c) / den[:, None]
     t = b.facets
-    fn = 0.5 * np.cross(x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]])   # A_f ν_f
+    fn = 0.5 * np.cross(x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]])  # A_f ν_f
     N = np.zeros_like(x)
     share = np.zeros(len(x))
     fa = np.linalg.norm(fn, axis=1)
@@ -157,8 +162,16 @@ class CystShapeModel:
         the number of cells stays about constant; ``False`` keeps h.
     """
 
-    def __init__(self, comm: MPI.Comm, geometry: dmesh.Mesh | npt.ArrayLike, params: CystParameters,
-                 h: float, *, remesh_every: int = 1, scale_h: bool = True):
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        geometry: dmesh.Mesh | npt.ArrayLike,
+        params: CystParameters,
+        h: float,
+        *,
+        remesh_every: int = 1,
+        scale_h: bool = True,
+    ):
         if not h > 0:
             raise ValueError(f"h must be > 0, got {h}")
         if remesh_every < 0:
@@ -182,20 +195,22 @@ class CystShapeModel:
         if not v > 0:
             raise remesh.RemeshError(f"the cyst mesh encloses a non-positive volume {v}")
         self.R_eq0 = self.equivalent_radius()
-        self.L0 = self.dim * v / S          # reference length of engineering strain (R0 for a sphere)
+        self.L0 = self.dim * v / S  # reference length of engineering strain (R0 for a sphere)
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def disc(cls, comm: MPI.Comm, radius: float, params: CystParameters, h: float,
-             **kwargs) -> "CystShapeModel":
+    def disc(
+        cls, comm: MPI.Comm, radius: float, params: CystParameters, h: float, **kwargs
+    ) -> CystShapeModel:
         """A circular cyst (2D, per unit thickness): a regular polygon with spacing ~h."""
         n = max(8, int(round(2 * math.pi * radius / h)))
         th = 2 * math.pi * np.arange(n) / n
         return cls(comm, radius * np.column_stack([np.cos(th), np.sin(th)]), params, h, **kwargs)
 
     @classmethod
-    def ball(cls, comm: MPI.Comm, radius: float, params: CystParameters, h: float,
-             **kwargs) -> "CystShapeModel":
+    def ball(
+        cls, comm: MPI.Comm, radius: float, params: CystParameters, h: float, **kwargs
+    ) -> CystShapeModel:
         """A spherical cyst (3D): a gmsh ball of size h."""
         return cls(comm, remesh.sphere_mesh(radius, h, comm), params, h, **kwargs)
 
@@ -236,8 +251,10 @@ class CystShapeModel:
 
     def mesh_measures(self) -> tuple[float, float]:
         """``(∫dx, ∫ds)`` assembled over the current mesh (equal to the above to round-off)."""
-        return (self.comm.allreduce(fem.assemble_scalar(self._one), op=MPI.SUM),
-                self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM))
+        return (
+            self.comm.allreduce(fem.assemble_scalar(self._one), op=MPI.SUM),
+            self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM),
+        )
 
     def equivalent_radius(self) -> float:
         """sqrt(A/π) in 2D, (3V/4π)^(1/3) in 3D."""
@@ -258,8 +275,12 @@ class CystShapeModel:
         return self.h0 * (self.equivalent_radius() / self.R_eq0 if self.scale_h else 1.0)
 
     # ------------------------------------------------------------------ one step
-    def _rhs(self, points: npt.NDArray[np.float64], normals: npt.NDArray[np.float64],
-             facets: npt.NDArray[np.int64]):
+    def _rhs(
+        self,
+        points: npt.NDArray[np.float64],
+        normals: npt.NDArray[np.float64],
+        facets: npt.NDArray[np.int64],
+    ):
         """Right-hand side of (δ, f) on the parallel walls x + δ n of the current wall."""
         p = self.params
         d = self.dim
@@ -269,7 +290,7 @@ class CystShapeModel:
         # exact volume polynomial v(δ) (degree d) from d + 1 evaluations
         nodes = L * np.linspace(-0.25, 0.25, d + 1)
         vals = [_measures(points + s * normals, facets)[0] for s in nodes]
-        coef = np.polyfit(nodes / L, vals, d)          # in the scaled variable δ/L
+        coef = np.polyfit(nodes / L, vals, d)  # in the scaled variable δ/L
         dcoef = np.polyder(coef)
 
         def rhs(t: float, y: npt.NDArray[np.float64]) -> list[float]:
@@ -297,8 +318,14 @@ class CystShapeModel:
         normals = offset_directions(b)
         rhs, L = self._rhs(b.points, normals, b.facets)
         p = self.params
-        sol = solve_ivp(rhs, (0.0, dt), [0.0, self.f], method="Radau", rtol=1e-10,
-                        atol=[1e-13 * L, 1e-12 * max(p.alpha * p.C_minus, abs(self.f), 1.0)])
+        sol = solve_ivp(
+            rhs,
+            (0.0, dt),
+            [0.0, self.f],
+            method="Radau",
+            rtol=1e-10,
+            atol=[1e-13 * L, 1e-12 * max(p.alpha * p.C_minus, abs(self.f), 1.0)],
+        )
         if not sol.success:
             raise RuntimeError(f"cyst wall ODE integration failed: {sol.message}")
         delta, f = float(sol.y[0, -1]), float(sol.y[1, -1])

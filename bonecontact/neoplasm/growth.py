@@ -22,11 +22,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from mpi4py import MPI
+
 import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx import mesh as dmesh
-from mpi4py import MPI
 from scipy.integrate import solve_ivp
 
 from bonecontact.neoplasm import remesh
@@ -34,9 +35,19 @@ from bonecontact.neoplasm.cyst import radius_rate
 from bonecontact.neoplasm.cyst_shape import CystShapeModel
 from bonecontact.neoplasm.tumour import TumourModel
 
-__all__ = ["GROWTH_COLUMNS", "CystShapeGrowth", "CystSphereGrowth", "TumourGrowth", "surface_tension_dt_limit",
-           "region_submesh", "mesh_measure", "equivalent_radius", "region_boundary", "tumour_growth",
-           "cyst_shape_growth"]
+__all__ = [
+    "GROWTH_COLUMNS",
+    "CystShapeGrowth",
+    "CystSphereGrowth",
+    "TumourGrowth",
+    "cyst_shape_growth",
+    "equivalent_radius",
+    "mesh_measure",
+    "region_boundary",
+    "region_submesh",
+    "surface_tension_dt_limit",
+    "tumour_growth",
+]
 
 #: Columns of growth.csv (cysts add ``pressure``).
 GROWTH_COLUMNS = ("time", "volume", "surface_area", "equivalent_radius")
@@ -76,12 +87,21 @@ class CystSphereGrowth:
         self.steps = 0
         self.remeshes = 0
         self._rhs = radius_rate(params, self.R0, dim)
-        self._atol = [1e-14 * self.R0, 1e-12 * max(params.alpha * params.C_minus, abs(params.f0), 1.0)]
+        self._atol = [
+            1e-14 * self.R0,
+            1e-12 * max(params.alpha * params.C_minus, abs(params.f0), 1.0),
+        ]
 
     def step(self, dt: float) -> None:
         """Advance by ``dt`` (s) with Radau, rtol 1e-11 (raises RuntimeError on failure)."""
-        sol = solve_ivp(self._rhs, (self.t, self.t + dt), [self.R, self.f], method="Radau", rtol=1e-11,
-                        atol=self._atol)
+        sol = solve_ivp(
+            self._rhs,
+            (self.t, self.t + dt),
+            [self.R, self.f],
+            method="Radau",
+            rtol=1e-11,
+            atol=self._atol,
+        )
         if not sol.success:
             raise RuntimeError(f"cyst ODE integration failed: {sol.message}")
         self.R, self.f = float(sol.y[0, -1]), float(sol.y[1, -1])
@@ -96,9 +116,13 @@ class CystSphereGrowth:
         return [math.pi * R**2, 2.0 * math.pi * R, R, self.f]
 
     def info(self) -> dict[str, Any]:
-        return {"model": "cyst sphere ODE (osmotic/Maxwell)" if self.dim == 3
-                else "cyst cylinder ODE per unit length (osmotic/Maxwell)",
-                "strain": self.params.strain, "final_pressure_Pa": self.f}
+        return {
+            "model": "cyst sphere ODE (osmotic/Maxwell)"
+            if self.dim == 3
+            else "cyst cylinder ODE per unit length (osmotic/Maxwell)",
+            "strain": self.params.strain,
+            "final_pressure_Pa": self.f,
+        }
 
 
 class CystShapeGrowth:
@@ -141,9 +165,14 @@ class CystShapeGrowth:
     def info(self) -> dict[str, Any]:
         m = self.model
         im = m.mesh.topology.index_map(self.dim)
-        return {"model": f"cyst moving wall (osmotic/Maxwell), {self.dim}D, remeshed by gmsh",
-                "strain": m.params.strain, "final_pressure_Pa": m.f, "h_m": m.h0,
-                "final_h_m": m.mesh_size(), "final_cells": int(im.size_global)}
+        return {
+            "model": f"cyst moving wall (osmotic/Maxwell), {self.dim}D, remeshed by gmsh",
+            "strain": m.params.strain,
+            "final_pressure_Pa": m.f,
+            "h_m": m.h0,
+            "final_h_m": m.mesh_size(),
+            "final_cells": int(im.size_global),
+        }
 
 
 class TumourGrowth:
@@ -177,8 +206,11 @@ class TumourGrowth:
 
     def info(self) -> dict[str, Any]:
         im = self.model.mesh.topology.index_map(self.dim)
-        return {"model": f"tumour P_T , {self.dim}D, remeshed by gmsh", "h_m": self.model.h,
-                "final_cells": int(im.size_global)}
+        return {
+            "model": f"tumour P_T , {self.dim}D, remeshed by gmsh",
+            "h_m": self.model.h,
+            "final_cells": int(im.size_global),
+        }
 
 
 # ----------------------------------------------------------------------------- builders
@@ -199,7 +231,11 @@ def mesh_measure(msh: dmesh.Mesh) -> float:
 
 def equivalent_radius(measure: float, dim: int) -> float:
     """Radius of the disc (2D) or ball (3D) of the given area or volume."""
-    return math.sqrt(measure / math.pi) if dim == 2 else (3.0 * measure / (4.0 * math.pi)) ** (1.0 / 3.0)
+    return (
+        math.sqrt(measure / math.pi)
+        if dim == 2
+        else (3.0 * measure / (4.0 * math.pi)) ** (1.0 / 3.0)
+    )
 
 
 def region_boundary(sub: dmesh.Mesh, dim: int) -> tuple[remesh.Boundary, float]:
@@ -211,13 +247,24 @@ def region_boundary(sub: dmesh.Mesh, dim: int) -> tuple[remesh.Boundary, float]:
         The boundary is not one closed curve (2D) / surface (3D).
     """
     b = remesh.gather_boundary(sub)
-    edges = b.points[b.facets[:, 1]] - b.points[b.facets[:, 0]] if dim == 2 else \
-        b.points[b.facets[:, [1, 2, 0]]] - b.points[b.facets]
+    edges = (
+        b.points[b.facets[:, 1]] - b.points[b.facets[:, 0]]
+        if dim == 2
+        else b.points[b.facets[:, [1, 2, 0]]] - b.points[b.facets]
+    )
     return b, float(np.mean(np.linalg.norm(edges.reshape(-1, dim), axis=1)))
 
 
-def tumour_growth(comm: MPI.Comm, params: Any, dim: int, h: float, remesh_every: int, *,
-                  radius: float | None = None, boundary: remesh.Boundary | None = None) -> TumourGrowth:
+def tumour_growth(
+    comm: MPI.Comm,
+    params: Any,
+    dim: int,
+    h: float,
+    remesh_every: int,
+    *,
+    radius: float | None = None,
+    boundary: remesh.Boundary | None = None,
+) -> TumourGrowth:
     """A tumour driver: a disc/ball of ``radius``, or the region bounded by ``boundary`` (collective).
 
     Raises
@@ -227,17 +274,34 @@ def tumour_growth(comm: MPI.Comm, params: Any, dim: int, h: float, remesh_every:
     """
     kwargs = {"remesh_every": remesh_every}
     if boundary is None:
-        model = (TumourModel.disc if dim == 2 else TumourModel.ball)(comm, radius, params, h, **kwargs)
+        model = (TumourModel.disc if dim == 2 else TumourModel.ball)(
+            comm, radius, params, h, **kwargs
+        )
     elif dim == 2:
-        model = TumourModel(comm, remesh.resample_closed_curve(boundary.points, h), params, h, **kwargs)
+        model = TumourModel(
+            comm, remesh.resample_closed_curve(boundary.points, h), params, h, **kwargs
+        )
     else:
-        model = TumourModel(comm, remesh.surface_mesh(boundary.points, boundary.facets, h, comm), params, h,
-                            **kwargs)
+        model = TumourModel(
+            comm,
+            remesh.surface_mesh(boundary.points, boundary.facets, h, comm),
+            params,
+            h,
+            **kwargs,
+        )
     return TumourGrowth(model, remesh_every)
 
 
-def cyst_shape_growth(comm: MPI.Comm, params: Any, dim: int, h: float, remesh_every: int, *,
-                      radius: float | None = None, boundary: remesh.Boundary | None = None) -> CystShapeGrowth:
+def cyst_shape_growth(
+    comm: MPI.Comm,
+    params: Any,
+    dim: int,
+    h: float,
+    remesh_every: int,
+    *,
+    radius: float | None = None,
+    boundary: remesh.Boundary | None = None,
+) -> CystShapeGrowth:
     """A moving-wall cyst driver: a disc/ball of ``radius``, or the region bounded by ``boundary``.
 
     Raises
@@ -247,10 +311,19 @@ def cyst_shape_growth(comm: MPI.Comm, params: Any, dim: int, h: float, remesh_ev
     """
     kwargs = {"remesh_every": remesh_every}
     if boundary is None:
-        model = (CystShapeModel.disc if dim == 2 else CystShapeModel.ball)(comm, radius, params, h, **kwargs)
+        model = (CystShapeModel.disc if dim == 2 else CystShapeModel.ball)(
+            comm, radius, params, h, **kwargs
+        )
     elif dim == 2:
-        model = CystShapeModel(comm, remesh.resample_closed_curve(boundary.points, h), params, h, **kwargs)
+        model = CystShapeModel(
+            comm, remesh.resample_closed_curve(boundary.points, h), params, h, **kwargs
+        )
     else:
-        model = CystShapeModel(comm, remesh.surface_mesh(boundary.points, boundary.facets, h, comm), params, h,
-                               **kwargs)
+        model = CystShapeModel(
+            comm,
+            remesh.surface_mesh(boundary.points, boundary.facets, h, comm),
+            params,
+            h,
+            **kwargs,
+        )
     return CystShapeGrowth(model)

@@ -24,17 +24,25 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mpi4py import MPI
+
 import gmsh
 import numpy as np
 import numpy.typing as npt
-from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from bonecontact.common.geometry import cross2, signed_polygon_area
 from bonecontact.meshing.session import gmsh_session
 
-__all__ = ["CouplingError", "HostGeometry", "HostMesh", "build_host_mesh", "neoplasm_polygon",
-           "read_host_geometry", "wall_name"]
+__all__ = [
+    "CouplingError",
+    "HostGeometry",
+    "HostMesh",
+    "build_host_mesh",
+    "neoplasm_polygon",
+    "read_host_geometry",
+    "wall_name",
+]
 
 
 class CouplingError(RuntimeError):
@@ -114,14 +122,16 @@ def read_host_geometry(path: str | Path) -> HostGeometry:
                 types, _, ntags = gmsh.model.mesh.getElements(dim, int(ent))
                 for t, nt in zip(types, ntags):
                     if t != want:
-                        raise CouplingError(f'physical group "{name}" holds gmsh elements of type {t}; the '
-                                            "coupled host mesh needs linear triangles and 2-node lines")
+                        raise CouplingError(
+                            f'physical group "{name}" holds gmsh elements of type {t}; the '
+                            "coupled host mesh needs linear triangles and 2-node lines"
+                        )
                     conn.append(index[np.asarray(nt, dtype=np.int64)].reshape(-1, nn))
             arr = np.concatenate(conn) if conn else np.zeros((0, nn), dtype=np.int64)
             (cells if dim == 2 else facets)[name] = (int(ptag), arr)
     if not cells:
         raise CouplingError(f"{path}: no 2D cell groups")
-    for name, (tag, t) in cells.items():  # counter-clockwise triangles
+    for _name, (_tag, t) in cells.items():  # counter-clockwise triangles
         p = x[t]
         neg = cross2(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) < 0
         t[neg] = t[neg][:, [0, 2, 1]]
@@ -159,8 +169,9 @@ def _inside(poly: npt.NDArray[np.float64], pts: npt.NDArray[np.float64]) -> npt.
     x, y = pts[:, 0][:, None], pts[:, 1][:, None]
     a, b = poly[None, :, :], np.roll(poly, -1, axis=0)[None, :, :]
     cross = (a[..., 1] > y) != (b[..., 1] > y)
-    xi = a[..., 0] + (y - a[..., 1]) * (b[..., 0] - a[..., 0]) / np.where(b[..., 1] == a[..., 1], 1.0,
-                                                                          b[..., 1] - a[..., 1])
+    xi = a[..., 0] + (y - a[..., 1]) * (b[..., 0] - a[..., 0]) / np.where(
+        b[..., 1] == a[..., 1], 1.0, b[..., 1] - a[..., 1]
+    )
     return (np.count_nonzero(cross & (x < xi), axis=1) % 2) == 1
 
 
@@ -242,7 +253,9 @@ class _HostBuild:
 
     def point(self, i: int) -> int:
         if i not in self.points:
-            self.points[i] = gmsh.model.occ.addPoint(self.geo.x[i, 0], self.geo.x[i, 1], 0.0, float(self.size[i]))
+            self.points[i] = gmsh.model.occ.addPoint(
+                self.geo.x[i, 0], self.geo.x[i, 1], 0.0, float(self.size[i])
+            )
         return self.points[i]
 
     def line(self, a: int, b: int) -> int:
@@ -253,8 +266,15 @@ class _HostBuild:
         return self.lines[key] if a < b else -self.lines[key]
 
 
-def _build_host_serial(geo: HostGeometry, region: str, host: tuple[str, ...], polygon: npt.NDArray[np.float64],
-                       cavity: bool, h_neo: float, path: Path | None) -> HostMesh:
+def _build_host_serial(
+    geo: HostGeometry,
+    region: str,
+    host: tuple[str, ...],
+    polygon: npt.NDArray[np.float64],
+    cavity: bool,
+    h_neo: float,
+    path: Path | None,
+) -> HostMesh:
     if region not in geo.cells:
         raise CouplingError(f'the mesh has no cell group "{region}"')
     # rounded to 0.1 nm: the polygon comes from reductions whose round-off differs with
@@ -280,7 +300,9 @@ def _build_host_serial(geo: HostGeometry, region: str, host: tuple[str, ...], po
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             gmsh.write(str(path))
-        return HostMesh(path, tuple(sorted(hb.groups)), tuple(facet_names), float(neo_area), wname, int(ncells))
+        return HostMesh(
+            path, tuple(sorted(hb.groups)), tuple(facet_names), float(neo_area), wname, int(ncells)
+        )
 
 
 def _add_cell_group_surfaces(hb: _HostBuild) -> None:
@@ -304,7 +326,11 @@ def _add_cell_group_surfaces(hb: _HostBuild) -> None:
         for k in outer:
             wires = []  # gmsh's OCC wants every loop counter-clockwise (it reverses the holes itself)
             for lp in [loops[k]] + [loops[j][::-1] for j in holes[k]]:
-                wires.append(occ.addCurveLoop([hb.line(lp[i], lp[(i + 1) % len(lp)]) for i in range(len(lp))]))
+                wires.append(
+                    occ.addCurveLoop(
+                        [hb.line(lp[i], lp[(i + 1) % len(lp)]) for i in range(len(lp))]
+                    )
+                )
             hb.surf_group[occ.addPlaneSurface(wires)] = name
 
 
@@ -327,7 +353,7 @@ def _fragment_and_classify(hb: _HostBuild, neo: int) -> None:
     _, out_map = occ.fragment(objects, [(2, neo)])
     inside = {t for d, t in out_map[-1] if d == 2}
     origin: dict[int, str] = {}
-    for (d, s), pieces in zip(objects, out_map[:-1]):
+    for (_d, s), pieces in zip(objects, out_map[:-1]):
         for _, p in pieces:
             origin[p] = hb.surf_group[s]
     hb.group_of = {s: g for s, g in hb.surf_group.items() if bodies[g] != body}
@@ -342,14 +368,18 @@ def _fragment_and_classify(hb: _HostBuild, neo: int) -> None:
         else:
             hb.group_of[p] = g
     if not hb.neo_pieces:
-        raise CouplingError(f'the neoplasm does not overlap the region "{region}" or its host groups')
+        raise CouplingError(
+            f'the neoplasm does not overlap the region "{region}" or its host groups'
+        )
 
 
 def _boundary_curves(surfs: list[int]) -> set[int]:
     if not surfs:
         return set()
-    return {abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in surfs], combined=False,
-                                                      oriented=False)}
+    return {
+        abs(t)
+        for _, t in gmsh.model.getBoundary([(2, s) for s in surfs], combined=False, oriented=False)
+    }
 
 
 def _remove_unused_entities(hb: _HostBuild) -> None:
@@ -366,8 +396,12 @@ def _remove_unused_entities(hb: _HostBuild) -> None:
     if stray_c:
         occ.remove(stray_c)
         occ.synchronize()
-    used_p = {abs(t) for _, t in gmsh.model.getBoundary([(1, c) for c in hb.used_c], combined=False,
-                                                        oriented=False)}
+    used_p = {
+        abs(t)
+        for _, t in gmsh.model.getBoundary(
+            [(1, c) for c in hb.used_c], combined=False, oriented=False
+        )
+    }
     stray_p = [(0, p) for _, p in gmsh.model.getEntities(0) if p not in used_p]
     if stray_p:
         occ.remove(stray_p)
@@ -423,7 +457,9 @@ def _add_facet_groups(hb: _HostBuild) -> list[str]:
     for g, (tag, edges) in geo.facets.items():
         if not len(edges):
             continue
-        owner = next((bodies[n] for n, nodes in cell_nodes.items() if int(edges[0, 0]) in nodes), None)
+        owner = next(
+            (bodies[n] for n, nodes in cell_nodes.items() if int(edges[0, 0]) in nodes), None
+        )
         pa, pb = geo.x[edges[:, 0]], geo.x[edges[:, 1]]
         d = pb - pa
         ll = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
@@ -455,9 +491,16 @@ def _add_wall_group(hb: _HostBuild, facet_names: list[str]) -> str | None:
     return wname
 
 
-def build_host_mesh(geo: HostGeometry | None, region: str, host: tuple[str, ...],
-                    polygon: npt.ArrayLike | None, cavity: bool, h_neo: float, path: Path | None,
-                    comm: MPI.Comm = MPI.COMM_WORLD) -> HostMesh:
+def build_host_mesh(
+    geo: HostGeometry | None,
+    region: str,
+    host: tuple[str, ...],
+    polygon: npt.ArrayLike | None,
+    cavity: bool,
+    h_neo: float,
+    path: Path | None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> HostMesh:
     """Rebuild the host mesh with the neoplasm polygon embedded (gmsh on rank 0; collective).
 
     Parameters

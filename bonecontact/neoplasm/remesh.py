@@ -48,14 +48,14 @@ from __future__ import annotations
 from contextlib import nullcontext
 from dataclasses import dataclass
 
+from mpi4py import MPI
+
+import gmsh
 import numpy as np
 import numpy.typing as npt
-import gmsh
-from mpi4py import MPI
-from petsc4py import PETSc
-
 import ufl
-from dolfinx import fem, mesh as dmesh
+from dolfinx import fem
+from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import LinearProblem
 from dolfinx.io.gmsh import model_to_mesh
 
@@ -68,12 +68,12 @@ __all__ = [
     "MeshMotion",
     "RemeshError",
     "gather_boundary",
+    "moved_surface_mesh",
     "polygon_mesh",
     "resample_closed_curve",
+    "smooth_surface",
     "sphere_mesh",
     "surface_mesh",
-    "smooth_surface",
-    "moved_surface_mesh",
     "transfer",
     "vertex_to_geometry",
 ]
@@ -102,8 +102,9 @@ def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
         if error is not None:
             raise RemeshError(f"{name}: {error}")
         partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
-        data = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=dim,
-                             partitioner=partitioner)
+        data = model_to_mesh(
+            gmsh.model if comm.rank == 0 else None, comm, 0, gdim=dim, partitioner=partitioner
+        )
     return data.mesh
 
 
@@ -147,8 +148,9 @@ def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
     return _run_gmsh("polygon", 2, build, comm)
 
 
-def surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
-                 comm: MPI.Comm) -> dmesh.Mesh:
+def surface_mesh(
+    points: npt.ArrayLike, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
+) -> dmesh.Mesh:
     """Tetrahedralise the inside of a closed triangulated surface; the surface is kept.
 
     ``points`` ``(N, 3)`` and ``triangles`` ``(M, 3)`` (indices into ``points``) are read
@@ -172,8 +174,13 @@ def surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
     return _run_gmsh("surface", 3, build, comm)
 
 
-def smooth_surface(points: npt.ArrayLike, triangles: npt.ArrayLike, passes: int = 5,
-                   lam: float = 0.5, mu: float = -0.53) -> npt.NDArray[np.float64]:
+def smooth_surface(
+    points: npt.ArrayLike,
+    triangles: npt.ArrayLike,
+    passes: int = 5,
+    lam: float = 0.5,
+    mu: float = -0.53,
+) -> npt.NDArray[np.float64]:
     """Taubin λ|μ smoothing of a closed triangulated surface (vertex positions only).
 
     Each pass moves every vertex by ``λ`` then by ``μ`` (< −λ) times the offset to the
@@ -202,8 +209,9 @@ def smooth_surface(points: npt.ArrayLike, triangles: npt.ArrayLike, passes: int 
     return x
 
 
-def moved_surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float,
-                       comm: MPI.Comm) -> tuple[dmesh.Mesh, bool]:
+def moved_surface_mesh(
+    points: npt.ArrayLike, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
+) -> tuple[dmesh.Mesh, bool]:
     """Tetrahedralise a moved closed surface, repairing it if gmsh cannot.
 
     The surface is kept as it is when possible (:func:`surface_mesh`).  A surface moved by
@@ -223,8 +231,9 @@ def moved_surface_mesh(points: npt.ArrayLike, triangles: npt.ArrayLike, h: float
         return surface_mesh(pts, triangles, h, comm), True
 
 
-def sphere_mesh(radius: float, h: float, comm: MPI.Comm,
-                centre: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> dmesh.Mesh:
+def sphere_mesh(
+    radius: float, h: float, comm: MPI.Comm, centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
+) -> dmesh.Mesh:
     """A tetrahedral ball of the given radius and mesh size."""
 
     def build() -> None:
@@ -244,8 +253,7 @@ def vertex_to_geometry(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim, 0)
     c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
-    gdm = msh.geometry.dofmaps[0] if hasattr(msh.geometry, "dofmaps") \
-        else msh.geometry.dofmap
+    gdm = msh.geometry.dofmaps[0] if hasattr(msh.geometry, "dofmaps") else msh.geometry.dofmap
     nv = msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts
     out = np.empty(nv, dtype=np.int32)
     out[c2v.ravel()] = np.asarray(gdm)[: c2v.shape[0], : tdim + 1].ravel()
@@ -344,8 +352,9 @@ def gather_boundary(msh: dmesh.Mesh) -> Boundary:
     return Boundary(pts, ukeys[order], np.column_stack([np.arange(n), (np.arange(n) + 1) % n]))
 
 
-def resample_closed_curve(points: npt.ArrayLike, h: float | None = None,
-                          n: int | None = None) -> npt.NDArray[np.float64]:
+def resample_closed_curve(
+    points: npt.ArrayLike, h: float | None = None, n: int | None = None
+) -> npt.NDArray[np.float64]:
     """Redistribute the nodes of a closed 2D curve uniformly in arclength.
 
     A periodic cubic spline is passed through the nodes (parametrised by chord length,
@@ -415,9 +424,17 @@ class MeshMotion:
         L = ufl.inner(zero, v) * ufl.dx
         bc = fem.dirichletbc(self._wb, self.boundary_dofs)
         self._problem = LinearProblem(
-            a, L, bcs=[bc], u=self.w, petsc_options_prefix=f"bc_motion_{id(self)}_",
-            petsc_options={"ksp_type": "preonly", "pc_type": "lu",
-                           "pc_factor_mat_solver_type": "mumps"})
+            a,
+            L,
+            bcs=[bc],
+            u=self.w,
+            petsc_options_prefix=f"bc_motion_{id(self)}_",
+            petsc_options={
+                "ksp_type": "preonly",
+                "pc_type": "lu",
+                "pc_factor_mat_solver_type": "mumps",
+            },
+        )
         # map geometry node -> P1 dof (same local ordering on each cell)
         v2g = vertex_to_geometry(msh)
         tdim = msh.topology.dim
@@ -449,8 +466,9 @@ def _all_cells(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
     return np.arange(im.size_local + im.num_ghosts, dtype=np.int32)
 
 
-def transfer(u_from: fem.Function, V_to: fem.FunctionSpace, extrapolate: float = 0.0,
-             name: str | None = None) -> fem.Function:
+def transfer(
+    u_from: fem.Function, V_to: fem.FunctionSpace, extrapolate: float = 0.0, name: str | None = None
+) -> fem.Function:
     """Interpolate ``u_from`` into ``V_to`` (another mesh) and check coverage.
 
     Parameters
@@ -493,6 +511,7 @@ def transfer(u_from: fem.Function, V_to: fem.FunctionSpace, extrapolate: float =
         where = V_to.mesh.comm.allgather(xyz[:3].tolist())
         raise CoverageError(
             f"transfer of '{u_from.name}': {nmiss} target point(s) lie outside the source mesh "
-            f"(extrapolation band {extrapolate:g}); e.g. {sum(where, [])[:3]}")
+            f"(extrapolation band {extrapolate:g}); e.g. {sum(where, [])[:3]}"
+        )
     out.x.scatter_forward()
     return out

@@ -81,18 +81,18 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
 from mpi4py import MPI
 
+import numpy as np
+import numpy.typing as npt
 import ufl
-from dolfinx import fem, la, mesh as dmesh
+from dolfinx import fem, la
+from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import LinearProblem
 
-from bonecontact.neoplasm import curvature
-from bonecontact.neoplasm import remesh
+from bonecontact.neoplasm import curvature, remesh
 
-__all__ = ["TumourParameters", "TumourModel", "TumourError", "TumourParameterError"]
+__all__ = ["TumourError", "TumourModel", "TumourParameterError", "TumourParameters"]
 
 Rate = float | Callable[[Any], Any]
 
@@ -179,7 +179,9 @@ class TumourParameters:
         return tuple(_scene_key(f.name) for f in dataclasses.fields(cls))
 
     @classmethod
-    def from_dict(cls, table: Mapping[str, Any], where: str = "[neoplasm.tumour]") -> "TumourParameters":
+    def from_dict(
+        cls, table: Mapping[str, Any], where: str = "[neoplasm.tumour]"
+    ) -> TumourParameters:
         """Build from a TOML-like table (key ``lambda`` maps to ``lambda_``)."""
         known = {f.name for f in dataclasses.fields(cls)}
         kwargs = {}
@@ -204,11 +206,15 @@ class TumourParameters:
         for name in self.NUMBERS:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise TumourParameterError(_scene_key(name), f"must be a finite number, got {v!r}", where)
+                raise TumourParameterError(
+                    _scene_key(name), f"must be a finite number, got {v!r}", where
+                )
         for name in self.RATES:
             v = getattr(self, name)
             if not callable(v) and (not isinstance(v, (int, float)) or isinstance(v, bool)):
-                raise TumourParameterError(name, f"must be a number or a callable of u_c, got {v!r}", where)
+                raise TumourParameterError(
+                    name, f"must be a number or a callable of u_c, got {v!r}", where
+                )
         for name in self.NUMBERS:
             v = getattr(self, name)
             if name in self.POSITIVE and v <= 0:
@@ -216,18 +222,31 @@ class TumourParameters:
             if name in self.NONNEGATIVE and v < 0:
                 raise TumourParameterError(name, f"must be >= 0, got {v!r}", where)
         if self.u_p0 > 1.0:
-            raise TumourParameterError("u_p0", f"must satisfy 0 <= u_p0 <= 1, got {self.u_p0!r}", where)
+            raise TumourParameterError(
+                "u_p0", f"must satisfy 0 <= u_p0 <= 1, got {self.u_p0!r}", where
+            )
         if self.u_p0 + self.u_q0 > 1.0 + 1e-14:
-            raise TumourParameterError("u_q0", f"must satisfy u_p0 + u_q0 <= 1 (volume fractions), got "
-                                               f"u_p0 = {self.u_p0!r}, u_q0 = {self.u_q0!r}", where)
+            raise TumourParameterError(
+                "u_q0",
+                f"must satisfy u_p0 + u_q0 <= 1 (volume fractions), got "
+                f"u_p0 = {self.u_p0!r}, u_q0 = {self.u_q0!r}",
+                where,
+            )
 
 
 class TumourModel:
     """Tumour growth on a moving, remeshed mesh (see the module docstring)."""
 
-    def __init__(self, comm: MPI.Comm, geometry: dmesh.Mesh | npt.ArrayLike,
-                 params: TumourParameters, h: float, *, remesh_every: int = 1,
-                 degree: int = 1):
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        geometry: dmesh.Mesh | npt.ArrayLike,
+        params: TumourParameters,
+        h: float,
+        *,
+        remesh_every: int = 1,
+        degree: int = 1,
+    ):
         params.validate()
         self.comm = comm
         self.params = params
@@ -236,7 +255,7 @@ class TumourModel:
         if remesh_every < 0:
             raise TumourError("remesh_every must be >= 0 (0 = never remesh)")
         self.remesh_every = int(remesh_every)
-        self.smoothed_remeshes = 0     # 3D remeshes that needed the moved surface smoothed
+        self.smoothed_remeshes = 0  # 3D remeshes that needed the moved surface smoothed
         self.t = 0.0
         self.steps = 0
         if isinstance(geometry, dmesh.Mesh):
@@ -250,16 +269,18 @@ class TumourModel:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def disc(cls, comm: MPI.Comm, radius: float, params: TumourParameters, h: float,
-             **kwargs) -> "TumourModel":
+    def disc(
+        cls, comm: MPI.Comm, radius: float, params: TumourParameters, h: float, **kwargs
+    ) -> TumourModel:
         """A circular tumour of the given radius (boundary spacing ~h)."""
         n = max(8, int(round(2 * math.pi * radius / h)))
         th = 2 * math.pi * np.arange(n) / n
         return cls(comm, radius * np.column_stack([np.cos(th), np.sin(th)]), params, h, **kwargs)
 
     @classmethod
-    def ball(cls, comm: MPI.Comm, radius: float, params: TumourParameters, h: float,
-             **kwargs) -> "TumourModel":
+    def ball(
+        cls, comm: MPI.Comm, radius: float, params: TumourParameters, h: float, **kwargs
+    ) -> TumourModel:
         """A spherical tumour of the given radius (gmsh ball, size h)."""
         return cls(comm, remesh.sphere_mesh(radius, h, comm), params, h, **kwargs)
 
@@ -284,7 +305,7 @@ class TumourModel:
         self.u_p = fem.Function(self.W, name="u_p")
         self.u_q = fem.Function(self.W, name="u_q")
         self._sigma_bc = fem.Function(self.V)
-        self._w = fem.Function(self.motion.V)          # mesh displacement of the last step
+        self._w = fem.Function(self.motion.V)  # mesh displacement of the last step
         self._dt = fem.Constant(msh, 1.0)
         u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
         dx, ds = ufl.dx, ufl.ds
@@ -298,18 +319,28 @@ class TumourModel:
             a_c += eps0 * (u / self._dt - ufl.dot(self._w / self._dt, ufl.grad(u))) * v * dx
             L_c += eps0 * self.u_c_old / self._dt * v * dx
         opts = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
-        self._nutrient = LinearProblem(a_c, L_c, bcs=[fem.dirichletbc(uc_bc, self.bdofs)],
-                                       u=self.u_c, petsc_options=opts,
-                                       petsc_options_prefix=f"bc_tumour_c_{id(self)}_")
+        self._nutrient = LinearProblem(
+            a_c,
+            L_c,
+            bcs=[fem.dirichletbc(uc_bc, self.bdofs)],
+            u=self.u_c,
+            petsc_options=opts,
+            petsc_options_prefix=f"bc_tumour_c_{id(self)}_",
+        )
         # rates as UFL expressions of u_c
         self.rates = {name: self._rate(getattr(p, name)) for name in p.RATES}
         K_R = fem.Constant(msh, float(p.K_R))
         self.h_expr = (self.rates["K_B"] + K_R) * self.u_p + K_R * self.u_q - K_R
         a_s = ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
         L_s = self.h_expr * v * dx
-        self._pressure = LinearProblem(a_s, L_s, bcs=[fem.dirichletbc(self._sigma_bc, self.bdofs)],
-                                       u=self.sigma, petsc_options=opts,
-                                       petsc_options_prefix=f"bc_tumour_s_{id(self)}_")
+        self._pressure = LinearProblem(
+            a_s,
+            L_s,
+            bcs=[fem.dirichletbc(self._sigma_bc, self.bdofs)],
+            u=self.sigma,
+            petsc_options=opts,
+            petsc_options_prefix=f"bc_tumour_s_{id(self)}_",
+        )
         # flux recovery and boundary normals
         self._residual = fem.form(ufl.inner(ufl.grad(self.sigma), ufl.grad(v)) * dx - L_s)
         self._bmass = fem.form(v * ds)
@@ -323,9 +354,15 @@ class TumourModel:
         self._tr_u = fem.Function(self.W)
         uu = self._tr_u
         self._transport_form = fem.form(
-            (-ufl.min_value(vn, 0) * (uu("-") - uu("+")) * phi("+")
-             + ufl.max_value(vn, 0) * (uu("+") - uu("-")) * phi("-")) * ufl.dS)
-        self._inflow = fem.form((-ufl.min_value(vn, 0) * phi("+") + ufl.max_value(vn, 0) * phi("-")) * ufl.dS)
+            (
+                -ufl.min_value(vn, 0) * (uu("-") - uu("+")) * phi("+")
+                + ufl.max_value(vn, 0) * (uu("+") - uu("-")) * phi("-")
+            )
+            * ufl.dS
+        )
+        self._inflow = fem.form(
+            (-ufl.min_value(vn, 0) * phi("+") + ufl.max_value(vn, 0) * phi("-")) * ufl.dS
+        )
         self._cellvol = fem.form(phi * dx)
         self._rate_exprs = {}
         for name, expr in self.rates.items():
@@ -338,8 +375,10 @@ class TumourModel:
         c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
         keys_of_vertex = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[v2g]
         V1dofs = np.asarray(self.motion.V.dofmap.list)[: c2v.shape[0]]
-        self._key_of_p1dof = np.empty(self.motion.V.dofmap.index_map.size_local
-                                      + self.motion.V.dofmap.index_map.num_ghosts, dtype=np.int64)
+        self._key_of_p1dof = np.empty(
+            self.motion.V.dofmap.index_map.size_local + self.motion.V.dofmap.index_map.num_ghosts,
+            dtype=np.int64,
+        )
         self._key_of_p1dof[V1dofs.ravel()] = keys_of_vertex[c2v.ravel()]
         if self.degree == 1:
             Vdofs = np.asarray(self.V.dofmap.list)[: c2v.shape[0]]
@@ -390,8 +429,9 @@ class TumourModel:
         return self._vn
 
     # ------------------------------------------------------------------ one step
-    def _boundary_values_by_key(self, keys: npt.NDArray[np.int64], values, key_of_dof,
-                                dofs) -> npt.NDArray[np.float64]:
+    def _boundary_values_by_key(
+        self, keys: npt.NDArray[np.int64], values, key_of_dof, dofs
+    ) -> npt.NDArray[np.float64]:
         order = np.argsort(keys)
         pos = np.searchsorted(keys[order], key_of_dof[dofs])
         if np.any(keys[order][np.clip(pos, 0, len(keys) - 1)] != key_of_dof[dofs]):
@@ -411,7 +451,8 @@ class TumourModel:
             b = self.boundary()
             kappa = self.curvature(b)
             self._sigma_bc.x.array[self.bdofs] = p.gamma * self._boundary_values_by_key(
-                b.keys, kappa, self._key_of_dof, self.bdofs)
+                b.keys, kappa, self._key_of_dof, self.bdofs
+            )
         else:
             self._sigma_bc.x.array[:] = 0.0
         self._pressure.solve()
@@ -449,7 +490,7 @@ class TumourModel:
         # on a curved polygon/polyhedron: the unit normal alone under-grows by O((h/R)^2))
         if gdim == 3:
             arr_scale = vn[bd] * mass / np.einsum("ij,ij->i", nn[bd], nn[bd])
-        else:   # 2D: the boundary is re-sampled by arclength after the move, and the scaling
+        else:  # 2D: the boundary is re-sampled by arclength after the move, and the scaling
             # over-grows there (radial benchmark 0.62 % -> 1.08 % at h = 0.4): unit normal
             arr_scale = vn[bd] / np.linalg.norm(nn[bd], axis=1)
         disp = fem.Function(self.motion.V)
@@ -498,8 +539,7 @@ class TumourModel:
 
         def rhs(up, uq):
             h = (KB + KR) * up + KR * uq - KR
-            return ((KB - KQ - KA) * up + KP * uq - h * up,
-                    KQ * up - (KP + KD) * uq - h * uq)
+            return ((KB - KQ - KA) * up + KP * uq - h * up, KQ * up - (KP + KD) * uq - h * uq)
 
         up, uq = self.u_p.x.array.copy(), self.u_q.x.array.copy()
         k1 = rhs(up, uq)

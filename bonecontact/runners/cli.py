@@ -27,10 +27,15 @@ def _parser() -> argparse.ArgumentParser:
         description="Dynamic contact of visco-elastic bones with neoplasms (FEniCSx). Units: SI.",
     )
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a scene file (TOML, format 1)",
-                       description="Run a scene; results go to [output].directory (or --output).")
+    r = sub.add_parser(
+        "run",
+        help="run a scene file (TOML, format 1)",
+        description="Run a scene; results go to [output].directory (or --output).",
+    )
     r.add_argument("scene", type=Path, help="scene file (TOML)")
-    r.add_argument("-o", "--output", type=Path, default=None, help="output directory (overrides the scene)")
+    r.add_argument(
+        "-o", "--output", type=Path, default=None, help="output directory (overrides the scene)"
+    )
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     c = sub.add_parser("check", help="validate a scene file and its mesh without running it")
     c.add_argument("scene", type=Path, help="scene file (TOML)")
@@ -62,15 +67,23 @@ def main(argv: list[str] | None = None) -> int:
             comm.Abort(130)
         return 130
     except Exception:  # an internal error: say so loudly and stop every rank
-        sys.stderr.write(f"[rank {comm.rank}] internal error in bonecontact:\n{traceback.format_exc()}")
+        sys.stderr.write(
+            f"[rank {comm.rank}] internal error in bonecontact:\n{traceback.format_exc()}"
+        )
         sys.stderr.flush()
         if comm.size > 1:
             comm.Abort(1)
         return 1
     if result.status != "converged":
-        _say(f"run failed: {result.summary.get('message', '')} (see {result.output / 'summary.json'})", comm)
+        _say(
+            f"run failed: {result.summary.get('message', '')} (see {result.output / 'summary.json'})",
+            comm,
+        )
         return 1
-    _say(f"{scene.name}: {result.status}, {result.summary['steps']} steps, results in {result.output}", comm)
+    _say(
+        f"{scene.name}: {result.status}, {result.summary['steps']} steps, results in {result.output}",
+        comm,
+    )
     return 0
 
 

@@ -54,20 +54,31 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from mpi4py import MPI
+
 import numpy as np
 import numpy.typing as npt
-from mpi4py import MPI
 from tqdm import tqdm
 
-from bonecontact.neoplasm.host import (CouplingError, HostMesh, build_host_mesh, neoplasm_polygon,
-                                       read_host_geometry)
+from bonecontact.neoplasm.host import (
+    CouplingError,
+    HostMesh,
+    build_host_mesh,
+    neoplasm_polygon,
+    read_host_geometry,
+)
 from bonecontact.runners.growth import build_growth, growth_times
 from bonecontact.runners.mechanics import build_model, run_mechanics
-from bonecontact.runners.results import (SUMMARY_FORMAT, GrowthTable, RunResult, write_points,
-                                     write_summary)
+from bonecontact.runners.results import (
+    SUMMARY_FORMAT,
+    GrowthTable,
+    RunResult,
+    write_points,
+    write_summary,
+)
 from bonecontact.scene import LoadSpec, Scene, SceneError, Schedule
 
-__all__ = ["mechanics_scene", "check_coupled", "run_coupled"]
+__all__ = ["check_coupled", "mechanics_scene", "run_coupled"]
 
 
 # ----------------------------------------------------------------------------- mechanics scene
@@ -80,14 +91,25 @@ def mechanics_scene(scene: Scene, hm: HostMesh, pressure: float | None, output: 
     """
     assert hm.path is not None and scene.analysis is not None
     present = set(hm.cell_groups)
-    materials = tuple(replace(m, regions=tuple(r for r in m.regions if r in present))
-                      for m in scene.materials if any(r in present for r in m.regions))
+    materials = tuple(
+        replace(m, regions=tuple(r for r in m.regions if r in present))
+        for m in scene.materials
+        if any(r in present for r in m.regions)
+    )
     loads = scene.loads
     if pressure is not None and hm.wall is not None:
         sched = Schedule.from_ramp(1.0) if scene.analysis.kind == "static" else Schedule()
-        loads = loads + (LoadSpec(kind="pressure", target=(hm.wall,), value=float(pressure), schedule=sched),)
-    return replace(scene, mesh_path=hm.path, neoplasm=None, materials=materials, loads=loads,
-                   output=replace(scene.output, directory=output))
+        loads = loads + (
+            LoadSpec(kind="pressure", target=(hm.wall,), value=float(pressure), schedule=sched),
+        )
+    return replace(
+        scene,
+        mesh_path=hm.path,
+        neoplasm=None,
+        materials=materials,
+        loads=loads,
+        output=replace(scene.output, directory=output),
+    )
 
 
 # ----------------------------------------------------------------------------- driver
@@ -98,7 +120,7 @@ class _Coupled:
         neo = scene.neoplasm
         assert neo is not None and neo.region is not None
         self.scene, self.comm, self.neo = scene, comm, neo
-        self.driver = build_growth(scene, comm)   # checks the scene against the mesh
+        self.driver = build_growth(scene, comm)  # checks the scene against the mesh
         geo, info, err = None, None, None
         if comm.rank == 0:
             try:
@@ -110,21 +132,29 @@ class _Coupled:
                 err = f"{type(exc).__name__}: {exc}"
         info, err = comm.bcast((info, err), root=0)
         if err is not None:
-            raise SceneError(str(scene.path), "[scene]", "mesh", f"cannot read the host geometry: {err}")
+            raise SceneError(
+                str(scene.path), "[scene]", "mesh", f"cannot read the host geometry: {err}"
+            )
         self.geo = geo
         self.center, self.h_region = info
         self.cavity = neo.kind == "cyst"
 
     def polygon(self) -> tuple[npt.NDArray[np.float64], float]:
         """Current neoplasm boundary (ccw) and the mesh size on it (collective)."""
-        if self.cavity and hasattr(self.driver, "R"):  # cyst ODE: a circle about the region's centroid
+        if self.cavity and hasattr(
+            self.driver, "R"
+        ):  # cyst ODE: a circle about the region's centroid
             R = self.driver.R
             h = min(max(self.h_region, 2 * math.pi * R / 256), 2 * math.pi * R / 32)
             return neoplasm_polygon(self.center, R, h), h
         # tumour (or a moving-wall cyst): the current boundary of the growth mesh
         m = self.driver.model
         b = m.boundary()
-        h = float(m.h) if hasattr(m, "h") else float(np.mean(np.linalg.norm(np.diff(b.points[:, :2], axis=0), axis=1)))
+        h = (
+            float(m.h)
+            if hasattr(m, "h")
+            else float(np.mean(np.linalg.norm(np.diff(b.points[:, :2], axis=0), axis=1)))
+        )
         return np.asarray(b.points[:, :2]), h
 
     def pressure(self) -> float | None:
@@ -135,8 +165,9 @@ class _Coupled:
 
     def host_mesh(self, path: Path | None) -> tuple[HostMesh, npt.NDArray[np.float64]]:
         poly, h = self.polygon()
-        return build_host_mesh(self.geo, self.neo.region, self.neo.host, poly, self.cavity, h, path,
-                               self.comm), poly
+        return build_host_mesh(
+            self.geo, self.neo.region, self.neo.host, poly, self.cavity, h, path, self.comm
+        ), poly
 
 
 def check_coupled(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
@@ -169,8 +200,9 @@ def _check(scene: Scene, comm: MPI.Comm, cp: _Coupled) -> None:
 
 
 # ----------------------------------------------------------------------------- run
-def run_coupled(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None,
-                progress: bool = True) -> RunResult:
+def run_coupled(
+    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None, progress: bool = True
+) -> RunResult:
     """Run a coupled scene: growth, host remeshing and the scene's analysis (collective).
 
     Returns
@@ -182,13 +214,17 @@ def run_coupled(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | No
     """
     t_start = time.perf_counter()
     cp = _Coupled(scene, comm)
-    _check(scene, comm, cp)   # SceneError before anything is written
+    _check(scene, comm, cp)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
     table = GrowthTable(comm, outdir, cp.driver.columns)
     analyses = _Analyses(scene, comm, cp, outdir, len(times) - 1)
-    status, message, first, last, t_done = _grow_and_analyse(scene, comm, cp, table, analyses, times, progress)
-    summary = _coupled_summary(scene, comm, cp, analyses, status, message, (first, last, t_done), t_start)
+    status, message, first, last, t_done = _grow_and_analyse(
+        scene, comm, cp, table, analyses, times, progress
+    )
+    summary = _coupled_summary(
+        scene, comm, cp, analyses, status, message, (first, last, t_done), t_start
+    )
     write_summary(comm, outdir, summary)
     comm.barrier()
     result = analyses.result
@@ -217,10 +253,20 @@ class _Analyses:
         if comm.rank == 0:
             write_points(where / "neoplasm_boundary.csv", ["x", "y"], poly)
         pressure = cp.pressure()
-        res = run_mechanics(mechanics_scene(self.scene, hm, pressure, where), comm, output=where, progress=False)
-        rec = {"growth_step": step, "time": t, "equivalent_radius": row[2], "neoplasm_area_in_bone": hm.neoplasm_area,
-               "cells": hm.cells, "status": res.status, "directory": str(where),
-               "wall_group": hm.wall, "cavity_pressure_Pa": pressure}
+        res = run_mechanics(
+            mechanics_scene(self.scene, hm, pressure, where), comm, output=where, progress=False
+        )
+        rec = {
+            "growth_step": step,
+            "time": t,
+            "equivalent_radius": row[2],
+            "neoplasm_area_in_bone": hm.neoplasm_area,
+            "cells": hm.cells,
+            "status": res.status,
+            "directory": str(where),
+            "wall_group": hm.wall,
+            "cavity_pressure_Pa": pressure,
+        }
         if "message" in res.summary:
             rec["message"] = res.summary["message"]
         self.records.append(rec)
@@ -228,8 +274,15 @@ class _Analyses:
         return res.status == "converged"
 
 
-def _grow_and_analyse(scene: Scene, comm: MPI.Comm, cp: _Coupled, table: GrowthTable, analyses: _Analyses,
-                      times: np.ndarray, progress: bool) -> tuple[str, str | None, list[float], list[float], float]:
+def _grow_and_analyse(
+    scene: Scene,
+    comm: MPI.Comm,
+    cp: _Coupled,
+    table: GrowthTable,
+    analyses: _Analyses,
+    times: np.ndarray,
+    progress: bool,
+) -> tuple[str, str | None, list[float], list[float], float]:
     """Step the growth (one growth.csv row per step), with the analyses when due.
 
     Returns ``(status, message, first row, last row, time of the last row)``.
@@ -244,8 +297,13 @@ def _grow_and_analyse(scene: Scene, comm: MPI.Comm, cp: _Coupled, table: GrowthT
     status, message = "converged", None
     first = record(0.0)
     last, t_done = first, 0.0
-    bar = tqdm(total=nsteps, desc=scene.name, unit="step", disable=(comm.rank != 0) or not progress,
-               dynamic_ncols=True)
+    bar = tqdm(
+        total=nsteps,
+        desc=scene.name,
+        unit="step",
+        disable=(comm.rank != 0) or not progress,
+        dynamic_ncols=True,
+    )
     try:
         for k in range(1, nsteps + 1):
             driver.step(float(times[k] - times[k - 1]))
@@ -254,8 +312,10 @@ def _grow_and_analyse(scene: Scene, comm: MPI.Comm, cp: _Coupled, table: GrowthT
             if analyses.due(k):
                 if not analyses.run(k, t_done, last):
                     status = "failed"
-                    message = (f"analysis after growth step {k} (t = {t_done:.6g} s): "
-                               f"{analyses.records[-1].get('message')}")
+                    message = (
+                        f"analysis after growth step {k} (t = {t_done:.6g} s): "
+                        f"{analyses.records[-1].get('message')}"
+                    )
                     break
     except (RuntimeError, CouplingError) as exc:
         status = "failed"
@@ -266,32 +326,62 @@ def _grow_and_analyse(scene: Scene, comm: MPI.Comm, cp: _Coupled, table: GrowthT
     return status, message, first, last, t_done
 
 
-def _coupled_summary(scene: Scene, comm: MPI.Comm, cp: _Coupled, analyses: _Analyses, status: str,
-                     message: str | None, rows: tuple[list[float], list[float], float],
-                     t_start: float) -> dict[str, Any]:
+def _coupled_summary(
+    scene: Scene,
+    comm: MPI.Comm,
+    cp: _Coupled,
+    analyses: _Analyses,
+    status: str,
+    message: str | None,
+    rows: tuple[list[float], list[float], float],
+    t_start: float,
+) -> dict[str, Any]:
     """The final analysis's summary with ``growth`` and ``coupling`` (and the run's status)."""
     driver, neo = cp.driver, cp.neo
     first, last, t_done = rows
     growth = {
-        "kind": neo.kind, "dimension": driver.dim, "steps": driver.steps, "steps_planned": analyses.nsteps,
-        "remeshes": driver.remeshes, "t_end": neo.t_end, "dt": neo.dt, "final_time": t_done,
-        "initial_radius": first[2], "final_radius": last[2], "initial_volume": first[0], "final_volume": last[0],
-        "final_surface_area": last[1], "geometry": f'cell group "{neo.region}" of {scene.mesh_path.name}',
-        "units": {"time": "s", "radius": "m", "volume": "m^2 (area)", "surface_area": "m (perimeter)",
-                  "pressure": "Pa"},
+        "kind": neo.kind,
+        "dimension": driver.dim,
+        "steps": driver.steps,
+        "steps_planned": analyses.nsteps,
+        "remeshes": driver.remeshes,
+        "t_end": neo.t_end,
+        "dt": neo.dt,
+        "final_time": t_done,
+        "initial_radius": first[2],
+        "final_radius": last[2],
+        "initial_volume": first[0],
+        "final_volume": last[0],
+        "final_surface_area": last[1],
+        "geometry": f'cell group "{neo.region}" of {scene.mesh_path.name}',
+        "units": {
+            "time": "s",
+            "radius": "m",
+            "volume": "m^2 (area)",
+            "surface_area": "m (perimeter)",
+            "pressure": "Pa",
+        },
         **driver.info(),
     }
     result = analyses.result
-    summary: dict[str, Any] = dict(result.summary) if result is not None else {
-        "scene": scene.name, "format": SUMMARY_FORMAT, "ranks": comm.size, "steps": 0}
+    summary: dict[str, Any] = (
+        dict(result.summary)
+        if result is not None
+        else {"scene": scene.name, "format": SUMMARY_FORMAT, "ranks": comm.size, "steps": 0}
+    )
     summary["status"] = status
     summary["growth"] = growth
     summary["coupling"] = {
-        "mechanics_every": neo.mechanics_every, "analyses": analyses.records,
+        "mechanics_every": neo.mechanics_every,
+        "analyses": analyses.records,
         "wall_time_s": time.perf_counter() - t_start,
-        "model": ("cyst: cavity in the rebuilt host mesh, wall pressure = P_h+ - P_h- (osmotic excess)"
-                  if cp.cavity else "tumour: region cells with the region's [[material]] in the rebuilt host mesh"),
-        "one_way": "the growth does not feel the mechanics"}
+        "model": (
+            "cyst: cavity in the rebuilt host mesh, wall pressure = P_h+ - P_h- (osmotic excess)"
+            if cp.cavity
+            else "tumour: region cells with the region's [[material]] in the rebuilt host mesh"
+        ),
+        "one_way": "the growth does not feel the mechanics",
+    }
     if message is not None:
         summary["message"] = message
     return summary

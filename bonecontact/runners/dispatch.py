@@ -33,8 +33,12 @@ def run_kind(scene: Scene) -> str:
     return "mechanics"
 
 
-def run_scene(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: str | Path | None = None,
-              progress: bool = True) -> RunResult:
+def run_scene(
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: str | Path | None = None,
+    progress: bool = True,
+) -> RunResult:
     """Validate, build and run a scene, writing its results incrementally.
 
     Parameters
@@ -75,7 +79,6 @@ def check(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     SceneError
         On every rank.
     """
-    output = None if output is None else Path(output)
     kind = run_kind(scene)
     if kind == "growth":
         build_growth(scene, comm)

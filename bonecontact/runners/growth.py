@@ -48,16 +48,33 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from mpi4py import MPI
+
+import numpy as np
 from tqdm import tqdm
 
-from bonecontact.neoplasm.growth import (CystShapeGrowth, CystSphereGrowth, TumourGrowth, cyst_shape_growth,
-                                         equivalent_radius, mesh_measure, region_boundary, region_submesh,
-                                         surface_tension_dt_limit, tumour_growth)
+from bonecontact.neoplasm.growth import (
+    CystShapeGrowth,
+    CystSphereGrowth,
+    TumourGrowth,
+    cyst_shape_growth,
+    equivalent_radius,
+    mesh_measure,
+    region_boundary,
+    region_submesh,
+    surface_tension_dt_limit,
+    tumour_growth,
+)
 from bonecontact.neoplasm.remesh import Boundary, RemeshError
 from bonecontact.runners.mechanics import read_mesh
-from bonecontact.runners.results import GROWTH_UNITS, GrowthTable, RunResult, run_summary, write_points, write_summary
+from bonecontact.runners.results import (
+    GROWTH_UNITS,
+    GrowthTable,
+    RunResult,
+    run_summary,
+    write_points,
+    write_summary,
+)
 from bonecontact.scene import Scene, SceneError
 
 __all__ = ["build_growth", "growth_times", "run_growth"]
@@ -73,7 +90,9 @@ def _region_mesh(scene: Scene, comm: MPI.Comm):
     assert neo is not None and neo.region is not None
     sub = region_submesh(md, groups[neo.region][1], comm)
     if sub is None:
-        raise SceneError(str(scene.path), "[neoplasm]", "region", f'cell group "{neo.region}" has no cells')
+        raise SceneError(
+            str(scene.path), "[neoplasm]", "region", f'cell group "{neo.region}" has no cells'
+        )
     return sub
 
 
@@ -114,15 +133,21 @@ def build_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> Driver:
         try:
             return tumour_growth(comm, params, dim, h, neo.remesh_every, radius=R)
         except RemeshError as exc:
-            raise SceneError(file, "[neoplasm]", "h", f"gmsh cannot mesh the initial tumour: {exc}") from None
+            raise SceneError(
+                file, "[neoplasm]", "h", f"gmsh cannot mesh the initial tumour: {exc}"
+            ) from None
     b, mean_edge = _region_boundary(scene, comm)
     h = neo.h if neo.h is not None else mean_edge
     _check_dt(scene, params.gamma, h)
     try:
         return tumour_growth(comm, params, dim, h, neo.remesh_every, boundary=b)
     except RemeshError as exc:
-        raise SceneError(file, "[neoplasm]", "region",
-                         f'gmsh cannot mesh the tumour region "{neo.region}": {exc}') from None
+        raise SceneError(
+            file,
+            "[neoplasm]",
+            "region",
+            f'gmsh cannot mesh the tumour region "{neo.region}": {exc}',
+        ) from None
 
 
 def _region_boundary(scene: Scene, comm: MPI.Comm) -> tuple[Boundary, float]:
@@ -134,9 +159,13 @@ def _region_boundary(scene: Scene, comm: MPI.Comm) -> tuple[Boundary, float]:
     try:
         return region_boundary(sub, dim)
     except RemeshError as exc:
-        raise SceneError(str(scene.path), "[neoplasm]", "region",
-                         f'the boundary of "{neo.region}" must be one closed {"curve" if dim == 2 else "surface"} '
-                         f"(a simply connected region): {exc}") from None
+        raise SceneError(
+            str(scene.path),
+            "[neoplasm]",
+            "region",
+            f'the boundary of "{neo.region}" must be one closed {"curve" if dim == 2 else "surface"} '
+            f"(a simply connected region): {exc}",
+        ) from None
 
 
 def _build_cyst_shape(scene: Scene, params: Any, comm: MPI.Comm) -> CystShapeGrowth:
@@ -149,13 +178,16 @@ def _build_cyst_shape(scene: Scene, params: Any, comm: MPI.Comm) -> CystShapeGro
         try:
             return cyst_shape_growth(comm, params, dim, R / 8.0, neo.remesh_every, radius=R)
         except RemeshError as exc:
-            raise SceneError(file, "[neoplasm]", "radius", f"gmsh cannot mesh the initial cyst: {exc}") from None
+            raise SceneError(
+                file, "[neoplasm]", "radius", f"gmsh cannot mesh the initial cyst: {exc}"
+            ) from None
     b, h = _region_boundary(scene, comm)
     try:
         return cyst_shape_growth(comm, params, dim, h, neo.remesh_every, boundary=b)
     except RemeshError as exc:
-        raise SceneError(file, "[neoplasm]", "region",
-                         f'gmsh cannot mesh the cyst region "{neo.region}": {exc}') from None
+        raise SceneError(
+            file, "[neoplasm]", "region", f'gmsh cannot mesh the cyst region "{neo.region}": {exc}'
+        ) from None
 
 
 def _check_dt(scene: Scene, gamma: float, h: float) -> None:
@@ -163,9 +195,13 @@ def _check_dt(scene: Scene, gamma: float, h: float) -> None:
     assert neo is not None
     limit = surface_tension_dt_limit(gamma, h)
     if neo.dt > limit:
-        raise SceneError(str(scene.path), "[neoplasm]", "dt",
-                         f"{neo.dt!r} s exceeds the explicit surface-tension limit 2 h^3 / (gamma pi^3) = "
-                         f"{limit:.4g} s (gamma = {gamma!r}, h = {h:.4g} m); take a smaller dt or a larger h")
+        raise SceneError(
+            str(scene.path),
+            "[neoplasm]",
+            "dt",
+            f"{neo.dt!r} s exceeds the explicit surface-tension limit 2 h^3 / (gamma pi^3) = "
+            f"{limit:.4g} s (gamma = {gamma!r}, h = {h:.4g} m); take a smaller dt or a larger h",
+        )
 
 
 # ----------------------------------------------------------------------------- run
@@ -175,8 +211,9 @@ def growth_times(scene: Scene) -> np.ndarray:
     return np.concatenate([[0.0], scene.neoplasm.times()])
 
 
-def run_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None,
-               progress: bool = True) -> RunResult:
+def run_growth(
+    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None, progress: bool = True
+) -> RunResult:
     """Run a growth-only scene: growth.csv, boundary.csv (tumour, shape cyst) and summary.json.
 
     Returns
@@ -186,15 +223,22 @@ def run_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | Non
         in the summary, the rows of the steps done are in growth.csv).
     """
     t_start = time.perf_counter()
-    driver = build_growth(scene, comm)   # SceneError before anything is written
+    driver = build_growth(scene, comm)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
     table = GrowthTable(comm, outdir, driver.columns)
     status, message, first, last, t_done = _grow(scene, comm, driver, table, times, progress)
     _write_boundary(driver, comm, outdir)
     growth = _growth_entry(scene, driver, status, len(times) - 1, first, last, t_done)
-    summary = run_summary(scene.name, status, comm, time.perf_counter() - t_start, units=GROWTH_UNITS,
-                          steps=driver.steps, growth=growth)
+    summary = run_summary(
+        scene.name,
+        status,
+        comm,
+        time.perf_counter() - t_start,
+        units=GROWTH_UNITS,
+        steps=driver.steps,
+        growth=growth,
+    )
     if message is not None:
         summary["message"] = message
     write_summary(comm, outdir, summary)
@@ -202,8 +246,14 @@ def run_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | Non
     return RunResult(status, summary, None, outdir)
 
 
-def _grow(scene: Scene, comm: MPI.Comm, driver: Driver, table: GrowthTable, times: np.ndarray,
-          progress: bool) -> tuple[str, str | None, list[float], list[float], float]:
+def _grow(
+    scene: Scene,
+    comm: MPI.Comm,
+    driver: Driver,
+    table: GrowthTable,
+    times: np.ndarray,
+    progress: bool,
+) -> tuple[str, str | None, list[float], list[float], float]:
     """Step the driver through ``times``, one growth.csv row per step; a failed step ends the run.
 
     Returns ``(status, message, first row, last row, time of the last row)``.
@@ -217,14 +267,21 @@ def _grow(scene: Scene, comm: MPI.Comm, driver: Driver, table: GrowthTable, time
     status, message = "converged", None
     first = record(0.0)
     last, t_done = first, 0.0
-    bar = tqdm(total=len(times) - 1, desc=scene.name, unit="step", disable=(comm.rank != 0) or not progress,
-               dynamic_ncols=True)
+    bar = tqdm(
+        total=len(times) - 1,
+        desc=scene.name,
+        unit="step",
+        disable=(comm.rank != 0) or not progress,
+        dynamic_ncols=True,
+    )
     try:
         for k in range(1, len(times)):
             driver.step(float(times[k] - times[k - 1]))
             last, t_done = record(float(times[k])), float(times[k])
             bar.update(1)
-    except RuntimeError as exc:  # TumourError, RemeshError, CoverageError, PETSc errors, ODE failure
+    except (
+        RuntimeError
+    ) as exc:  # TumourError, RemeshError, CoverageError, PETSc errors, ODE failure
         status = "failed"
         message = f"growth step {driver.steps + 1} (t = {times[driver.steps + 1]:.6g} s): {exc}"
     finally:
@@ -238,29 +295,53 @@ def _write_boundary(driver: Driver, comm: MPI.Comm, outdir: Path) -> None:
     if not isinstance(driver, (TumourGrowth, CystShapeGrowth)):
         return
     try:
-        b = driver.model.boundary()   # collective; replicated
+        b = driver.model.boundary()  # collective; replicated
     except RuntimeError:  # a failed remesh may leave no usable boundary: skip the file
         b = None
     if b is not None and comm.rank == 0:
-        write_points(outdir / "boundary.csv", list("xyz"[:driver.dim]), b.points)
+        write_points(outdir / "boundary.csv", list("xyz"[: driver.dim]), b.points)
 
 
-def _growth_entry(scene: Scene, driver: Driver, status: str, steps_planned: int, first: list[float],
-                  last: list[float], t_done: float) -> dict[str, Any]:
+def _growth_entry(
+    scene: Scene,
+    driver: Driver,
+    status: str,
+    steps_planned: int,
+    first: list[float],
+    last: list[float],
+    t_done: float,
+) -> dict[str, Any]:
     """The ``growth`` entry of summary.json."""
     neo = scene.neoplasm
     assert neo is not None
     length = "m" if driver.dim == 3 else "m (per unit thickness in 2D)"
     return {
-        "kind": neo.kind, "dimension": driver.dim, "status": status, "steps": driver.steps,
-        "steps_planned": steps_planned, "remeshes": driver.remeshes, "t_end": neo.t_end, "dt": neo.dt,
-        "final_time": t_done, "initial_radius": first[2], "final_radius": last[2],
-        "initial_volume": first[0], "final_volume": last[0], "final_surface_area": last[1],
-        "geometry": (f'cell group "{neo.region}" of {scene.mesh_path.name}' if neo.region is not None
-                     and scene.mesh_path is not None else f"radius = {neo.radius!r} m (meshless)"),
-        "units": {"time": "s", "radius": "m",
-                  "volume": "m^3" if driver.dim == 3 else "m^2 (area)",
-                  "surface_area": "m^2" if driver.dim == 3 else "m (perimeter)", "pressure": "Pa",
-                  "lengths": length},
+        "kind": neo.kind,
+        "dimension": driver.dim,
+        "status": status,
+        "steps": driver.steps,
+        "steps_planned": steps_planned,
+        "remeshes": driver.remeshes,
+        "t_end": neo.t_end,
+        "dt": neo.dt,
+        "final_time": t_done,
+        "initial_radius": first[2],
+        "final_radius": last[2],
+        "initial_volume": first[0],
+        "final_volume": last[0],
+        "final_surface_area": last[1],
+        "geometry": (
+            f'cell group "{neo.region}" of {scene.mesh_path.name}'
+            if neo.region is not None and scene.mesh_path is not None
+            else f"radius = {neo.radius!r} m (meshless)"
+        ),
+        "units": {
+            "time": "s",
+            "radius": "m",
+            "volume": "m^3" if driver.dim == 3 else "m^2 (area)",
+            "surface_area": "m^2" if driver.dim == 3 else "m (perimeter)",
+            "pressure": "Pa",
+            "lengths": length,
+        },
         **driver.info(),
     }

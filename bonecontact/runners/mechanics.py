@@ -16,20 +16,27 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mpi4py import MPI
+
 import numpy as np
 from dolfinx import fem
-from mpi4py import MPI
 from tqdm import tqdm
 
-from bonecontact.contact.interface import ContactInputError, build_interface
 from bonecontact.contact.friction import FrictionLaw
+from bonecontact.contact.interface import ContactInputError, build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
-from bonecontact.runners.results import (ENERGY_COLUMNS, ProbeError, Probes, ResultsWriter, RunResult,
-                                     StressFields)
+from bonecontact.runners.results import (
+    ENERGY_COLUMNS,
+    ProbeError,
+    Probes,
+    ResultsWriter,
+    RunResult,
+    StressFields,
+)
 from bonecontact.scene import Scene, SceneError, check_against_mesh
 
 __all__ = ["SceneModel", "build_model", "read_mesh", "run_mechanics"]
@@ -64,10 +71,16 @@ def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
     try:
         tdim, md = read_gmsh_mesh(path, comm, scene.dimension)
     except ValueError as exc:
-        raise SceneError(file, "[scene]", "mesh", f"cannot read gmsh file {str(path)!r}: {exc}") from None
+        raise SceneError(
+            file, "[scene]", "mesh", f"cannot read gmsh file {str(path)!r}: {exc}"
+        ) from None
     if tdim != scene.dimension:
-        raise SceneError(file, "[scene]", "dimension",
-                         f"is {scene.dimension} but the mesh {path.name} has dimension {tdim}")
+        raise SceneError(
+            file,
+            "[scene]",
+            "dimension",
+            f"is {scene.dimension} but the mesh {path.name} has dimension {tdim}",
+        )
     groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in md.physical_groups.items()}
     check_against_mesh(scene, groups, md.mesh.topology.dim, md.mesh.geometry.dim)
     return md, groups
@@ -143,11 +156,23 @@ def _contact_interfaces(scene: Scene, model: Mechanics, md: Any, tag: dict[str, 
         bc = model.bc_dofs()
         for i, c in enumerate(scene.contacts):
             try:
-                interfaces.append(build_interface(model.V, md.facet_tags, tag[c.slave], tag[c.master],
-                                                  dirichlet_dofs=bc, name=c.name))
+                interfaces.append(
+                    build_interface(
+                        model.V,
+                        md.facet_tags,
+                        tag[c.slave],
+                        tag[c.master],
+                        dirichlet_dofs=bc,
+                        name=c.name,
+                    )
+                )
             except ContactInputError as exc:
-                raise SceneError(str(scene.path), f'[[contact]] #{i + 1} "{c.name}"', "slave",
-                                 str(exc).replace(f"contact {c.name!r}: ", "")) from None
+                raise SceneError(
+                    str(scene.path),
+                    f'[[contact]] #{i + 1} "{c.name}"',
+                    "slave",
+                    str(exc).replace(f"contact {c.name!r}: ", ""),
+                ) from None
     return interfaces
 
 
@@ -166,13 +191,23 @@ def _integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> Integ
     model = sm.model
     contact = None
     if sm.interfaces:
-        options = PDASOptions(max_iterations=scene.solver.max_iterations,
-                              friction=[FrictionLaw(c.friction, c.coefficient, c.bound, c.coulomb_update)
-                                        for c in scene.contacts])
+        options = PDASOptions(
+            max_iterations=scene.solver.max_iterations,
+            friction=[
+                FrictionLaw(c.friction, c.coefficient, c.bound, c.coulomb_update)
+                for c in scene.contacts
+            ],
+        )
         contact = ContactSolver(model.V, sm.interfaces, options)
-    integ = Integrator(model, scene.analysis.kind, dt, linear=scene.solver.linear,
-                       rtol=min(1e-2 * scene.solver.tolerance, 1e-12), contact=contact,
-                       energy_balance=dynamic)
+    integ = Integrator(
+        model,
+        scene.analysis.kind,
+        dt,
+        linear=scene.solver.linear,
+        rtol=min(1e-2 * scene.solver.tolerance, 1e-12),
+        contact=contact,
+        energy_balance=dynamic,
+    )
     return integ
 
 
@@ -180,16 +215,29 @@ def _integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> Integ
 class _Recorder:
     """Writes the tables (history, contact, probes) and fields of a state as the run goes."""
 
-    def __init__(self, scene: Scene, sm: SceneModel, integ: Integrator, comm: MPI.Comm, outdir: Path,
-                 dynamic: bool):
+    def __init__(
+        self,
+        scene: Scene,
+        sm: SceneModel,
+        integ: Integrator,
+        comm: MPI.Comm,
+        outdir: Path,
+        dynamic: bool,
+    ):
         self.sm, self.integ, self.dynamic = sm, integ, dynamic
-        self.stress = StressFields(sm.model.mesh, sm.model.stress_expression(integ.u, integ.velocity))
-        self.writer = ResultsWriter(comm, outdir, scene.name, sm.probes, ENERGY_COLUMNS if dynamic else ())
+        self.stress = StressFields(
+            sm.model.mesh, sm.model.stress_expression(integ.u, integ.velocity)
+        )
+        self.writer = ResultsWriter(
+            comm, outdir, scene.name, sm.probes, ENERGY_COLUMNS if dynamic else ()
+        )
         self.fields_written = -1
 
     def _write_fields(self, t: float) -> None:
         integ, stress = self.integ, self.stress
-        self.writer.fields(t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal])
+        self.writer.fields(
+            t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal]
+        )
 
     def record(self, step: int, t: float, write_fields: bool, tables: bool = True) -> None:
         """Record the current state (collective); ``tables=False`` after a failure: only
@@ -221,10 +269,31 @@ class _Recorder:
                 rows.append([step, t, itf.name, 0.0, 0.0, 0, 0, 0, 0, e.kinetic, e.strain, *works])
                 continue
             # frictionless pairs: active nodes slide freely ("slip"), no tangential traction
-            rows.append([step, t, itf.name, res.normal_force[k], res.tangential_force[k], res.n_active[k],
-                         res.n_stick[k], res.n_slip[k], res.iterations, e.kinetic, e.strain, *works])
-            self.writer.contact_table(itf.name, itf.coords, res.gap[k], res.pressure[k],
-                                      res.traction_t[k], res.slip[k], list(res.status[k]))
+            rows.append(
+                [
+                    step,
+                    t,
+                    itf.name,
+                    res.normal_force[k],
+                    res.tangential_force[k],
+                    res.n_active[k],
+                    res.n_stick[k],
+                    res.n_slip[k],
+                    res.iterations,
+                    e.kinetic,
+                    e.strain,
+                    *works,
+                ]
+            )
+            self.writer.contact_table(
+                itf.name,
+                itf.coords,
+                res.gap[k],
+                res.pressure[k],
+                res.traction_t[k],
+                res.slip[k],
+                list(res.status[k]),
+            )
         return rows
 
 
@@ -237,8 +306,15 @@ class _Counts:
     bound_updates: list[int]
 
 
-def _step_through(scene: Scene, comm: MPI.Comm, integ: Integrator, rec: _Recorder, nsteps: int, dt: float,
-                  progress: bool) -> tuple[str, str | None, _Counts]:
+def _step_through(
+    scene: Scene,
+    comm: MPI.Comm,
+    integ: Integrator,
+    rec: _Recorder,
+    nsteps: int,
+    dt: float,
+    progress: bool,
+) -> tuple[str, str | None, _Counts]:
     """Record the initial state, then step and record; a failed step ends the run.
 
     Returns ``(status, message, counts)``.
@@ -248,8 +324,13 @@ def _step_through(scene: Scene, comm: MPI.Comm, integ: Integrator, rec: _Recorde
     status, message = "converged", None
     try:
         rec.record(0, 0.0, every > 0)
-        bar = tqdm(total=nsteps, desc=scene.name, unit="step", disable=(comm.rank != 0) or not progress,
-                   dynamic_ncols=True)
+        bar = tqdm(
+            total=nsteps,
+            desc=scene.name,
+            unit="step",
+            disable=(comm.rank != 0) or not progress,
+            dynamic_ncols=True,
+        )
         for k in range(1, nsteps + 1):
             si = integ.step()
             counts.linear.append(si.linear_iterations)
@@ -262,36 +343,58 @@ def _step_through(scene: Scene, comm: MPI.Comm, integ: Integrator, rec: _Recorde
         bar.close()
     except RuntimeError as exc:
         status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
-        rec.record(integ.step_count, integ.t, True, tables=False)  # last good state (its rows are written)
+        rec.record(
+            integ.step_count, integ.t, True, tables=False
+        )  # last good state (its rows are written)
     return status, message, counts
 
 
-def _run_info(scene: Scene, sm: SceneModel, integ: Integrator, counts: _Counts, dynamic: bool, e0: float,
-              t_start: float) -> dict[str, Any]:
+def _run_info(
+    scene: Scene,
+    sm: SceneModel,
+    integ: Integrator,
+    counts: _Counts,
+    dynamic: bool,
+    e0: float,
+    t_start: float,
+) -> dict[str, Any]:
     """Steps, iterations, contact and energy entries of the summary."""
     info: dict[str, Any] = {
         "steps": integ.step_count,
-        "linear_iterations": {"total": int(sum(counts.linear)), "max": int(max(counts.linear, default=0))},
-        "wall_time_s": time.perf_counter() - t_start}
+        "linear_iterations": {
+            "total": int(sum(counts.linear)),
+            "max": int(max(counts.linear, default=0)),
+        },
+        "wall_time_s": time.perf_counter() - t_start,
+    }
     if sm.interfaces:
-        info["contact"] = {"pairs": [i.name for i in sm.interfaces],
-                           "pdas_iterations": {"total": int(sum(counts.pdas)),
-                                               "max": int(max(counts.pdas, default=0))},
-                           "friction": [c.friction for c in scene.contacts],
-                           "bound_updates": int(sum(counts.bound_updates)),
-                           "solver": "PDAS (semi-smooth Newton), dual mortar; Tresca/Coulomb friction "
-                                     "(Coulomb fixed_point: outer = bound_updates, inner = pdas_iterations)",
-                           "setup_time_s": integ.contact.setup_time}
+        info["contact"] = {
+            "pairs": [i.name for i in sm.interfaces],
+            "pdas_iterations": {
+                "total": int(sum(counts.pdas)),
+                "max": int(max(counts.pdas, default=0)),
+            },
+            "friction": [c.friction for c in scene.contacts],
+            "bound_updates": int(sum(counts.bound_updates)),
+            "solver": "PDAS (semi-smooth Newton), dual mortar; Tresca/Coulomb friction "
+            "(Coulomb fixed_point: outer = bound_updates, inner = pdas_iterations)",
+            "setup_time_s": integ.contact.setup_time,
+        }
     if dynamic:
         b = integ.balance
-        info["energy"] = {"initial": e0, "final": b.total, **{c: getattr(b, c) for c in ENERGY_COLUMNS},
-                          "defect": b.defect}
+        info["energy"] = {
+            "initial": e0,
+            "final": b.total,
+            **{c: getattr(b, c) for c in ENERGY_COLUMNS},
+            "defect": b.defect,
+        }
     return info
 
 
 # ----------------------------------------------------------------------------- run
-def run_mechanics(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None,
-                  progress: bool = True) -> RunResult:
+def run_mechanics(
+    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None, progress: bool = True
+) -> RunResult:
     """Validate, build and run a mechanics scene, writing its results incrementally.
 
     Returns
@@ -309,8 +412,13 @@ def run_mechanics(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | 
     integ.set_initial(None, sm.v0)
     rec = _Recorder(scene, sm, integ, comm, outdir, dynamic)
     e0 = integ.balance.total
-    info = {"dofs": sm.model.num_dofs, "analysis": scene.analysis.kind, "dt": dt, "setup_time_s": integ.setup_time,
-            "linear_solver": scene.solver.linear}
+    info = {
+        "dofs": sm.model.num_dofs,
+        "analysis": scene.analysis.kind,
+        "dt": dt,
+        "setup_time_s": integ.setup_time,
+        "linear_solver": scene.solver.linear,
+    }
     status, message, counts = _step_through(scene, comm, integ, rec, nsteps, dt, progress)
     info.update(_run_info(scene, sm, integ, counts, dynamic, e0, t_start))
     if message is not None:

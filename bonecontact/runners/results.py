@@ -24,12 +24,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from mpi4py import MPI
+
 import dolfinx
 import numpy as np
 import numpy.typing as npt
 import ufl
 from dolfinx import fem, geometry, io
-from mpi4py import MPI
 
 from bonecontact.common.formatting import format_cell, format_float
 from bonecontact.common.version import __version__
@@ -37,9 +38,22 @@ from bonecontact.common.version import __version__
 if TYPE_CHECKING:
     from bonecontact.mechanics.integrator import Integrator
 
-__all__ = ["StressFields", "Probes", "ResultsWriter", "HISTORY_COLUMNS", "ENERGY_COLUMNS", "ProbeError",
-           "SUMMARY_FORMAT", "MECHANICS_UNITS", "GROWTH_UNITS", "RunResult", "GrowthTable", "run_summary",
-           "write_summary", "write_points"]
+__all__ = [
+    "ENERGY_COLUMNS",
+    "GROWTH_UNITS",
+    "HISTORY_COLUMNS",
+    "MECHANICS_UNITS",
+    "SUMMARY_FORMAT",
+    "GrowthTable",
+    "ProbeError",
+    "Probes",
+    "ResultsWriter",
+    "RunResult",
+    "StressFields",
+    "run_summary",
+    "write_points",
+    "write_summary",
+]
 
 #: Format number of summary.json (every run kind).
 SUMMARY_FORMAT = 1
@@ -48,12 +62,28 @@ MECHANICS_UNITS = "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)"
 #: ``units`` entry of a growth-only run's summary.json
 GROWTH_UNITS = "SI (m, kg, s, Pa, N; 2D: per unit thickness)"
 
-HISTORY_COLUMNS = ["step", "time", "pair", "normal_force", "tangential_force", "n_active", "n_stick",
-                   "n_slip", "pdas_iterations", "kinetic_energy", "strain_energy"]
+HISTORY_COLUMNS = [
+    "step",
+    "time",
+    "pair",
+    "normal_force",
+    "tangential_force",
+    "n_active",
+    "n_stick",
+    "n_slip",
+    "pdas_iterations",
+    "kinetic_energy",
+    "strain_energy",
+]
 #: extra history.csv columns of dynamic runs: running totals of the energy balance
 #: (:class:`bonecontact.mechanics.integrator.EnergyBalance`), J or J/m in 2D
-ENERGY_COLUMNS = ["external_work", "dirichlet_work", "contact_work", "viscous_dissipation",
-                  "numerical_dissipation"]
+ENERGY_COLUMNS = [
+    "external_work",
+    "dirichlet_work",
+    "contact_work",
+    "viscous_dissipation",
+    "numerical_dissipation",
+]
 
 
 class ProbeError(ValueError):
@@ -141,7 +171,9 @@ class Probes:
         self.mine = np.flatnonzero(owner == self.comm.rank)
         self.cells = found[self.mine]
 
-    def evaluate(self, u: fem.Function, v: fem.Function, stress: StressFields) -> npt.NDArray[np.float64] | None:
+    def evaluate(
+        self, u: fem.Function, v: fem.Function, stress: StressFields
+    ) -> npt.NDArray[np.float64] | None:
         """Rows ``[x.., u.., v.., s.., von_mises]`` per probe on rank 0 (``None`` elsewhere)."""
         g = self.gdim
         p = self.points[self.mine]
@@ -155,11 +187,24 @@ class Probes:
             ss = np.zeros((0, 3, 3))
             vm = np.zeros(0)
         if g == 2:
-            sc = np.column_stack([ss[:, 0, 0], ss[:, 1, 1], ss[:, 2, 2], ss[:, 0, 1]]) if ss.size else np.zeros((0, 4))
+            sc = (
+                np.column_stack([ss[:, 0, 0], ss[:, 1, 1], ss[:, 2, 2], ss[:, 0, 1]])
+                if ss.size
+                else np.zeros((0, 4))
+            )
         else:
-            sc = (np.column_stack([ss[:, 0, 0], ss[:, 1, 1], ss[:, 2, 2], ss[:, 0, 1], ss[:, 0, 2], ss[:, 1, 2]])
-                  if ss.size else np.zeros((0, 6)))
-        rows = np.column_stack([p[:, :g], uu.reshape(-1, g), vv.reshape(-1, g), sc, vm]) if self.mine.size else None
+            sc = (
+                np.column_stack(
+                    [ss[:, 0, 0], ss[:, 1, 1], ss[:, 2, 2], ss[:, 0, 1], ss[:, 0, 2], ss[:, 1, 2]]
+                )
+                if ss.size
+                else np.zeros((0, 6))
+            )
+        rows = (
+            np.column_stack([p[:, :g], uu.reshape(-1, g), vv.reshape(-1, g), sc, vm])
+            if self.mine.size
+            else None
+        )
         gathered = self.comm.gather((self.mine, rows), root=0)
         if self.comm.rank != 0:
             return None
@@ -173,9 +218,19 @@ class Probes:
     def header(self) -> list[str]:
         g = self.gdim
         ax = "xyz"[:g]
-        s = ["s_xx", "s_yy", "s_zz", "s_xy"] if g == 2 else ["s_xx", "s_yy", "s_zz", "s_xy", "s_xz", "s_yz"]
-        return (["step", "time", "probe"] + list(ax) + [f"u_{a}" for a in ax] + [f"v_{a}" for a in ax] + s
-                + ["von_mises"])
+        s = (
+            ["s_xx", "s_yy", "s_zz", "s_xy"]
+            if g == 2
+            else ["s_xx", "s_yy", "s_zz", "s_xy", "s_xz", "s_yz"]
+        )
+        return (
+            ["step", "time", "probe"]
+            + list(ax)
+            + [f"u_{a}" for a in ax]
+            + [f"v_{a}" for a in ax]
+            + s
+            + ["von_mises"]
+        )
 
 
 @dataclass
@@ -188,8 +243,16 @@ class RunResult:
     output: Path
 
 
-def run_summary(scene: str, status: str, comm: MPI.Comm, wall_time_s: float, /, *, units: str = MECHANICS_UNITS,
-                **info: Any) -> dict[str, Any]:
+def run_summary(
+    scene: str,
+    status: str,
+    comm: MPI.Comm,
+    wall_time_s: float,
+    /,
+    *,
+    units: str = MECHANICS_UNITS,
+    **info: Any,
+) -> dict[str, Any]:
     """The content of summary.json: the common header, then ``info`` (which may override it).
 
     Parameters
@@ -288,8 +351,14 @@ class ResultsWriter:
         Columns appended to ``HISTORY_COLUMNS`` (dynamic runs: ``ENERGY_COLUMNS``).
     """
 
-    def __init__(self, comm: MPI.Comm, directory: Path, scene: str, probes: Probes | None = None,
-                 extra_history_columns: Sequence[str] = ()):
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        directory: Path,
+        scene: str,
+        probes: Probes | None = None,
+        extra_history_columns: Sequence[str] = (),
+    ):
         self.comm = comm
         self.dir = Path(directory)
         self.scene = scene
@@ -317,18 +386,30 @@ class ResultsWriter:
                 self._hist_w.writerow([format_cell(x) for x in r])
             self._hist.flush()
 
-    def probe_rows(self, step: int, t: float, u: fem.Function, v: fem.Function, stress: StressFields) -> None:
+    def probe_rows(
+        self, step: int, t: float, u: fem.Function, v: fem.Function, stress: StressFields
+    ) -> None:
         """Evaluate the probes (collective) and append their rows."""
         if self.probes is None or not len(self.probes.points):
             return
         vals = self.probes.evaluate(u, v, stress)
         if self.comm.rank == 0:
             for i, r in enumerate(vals):
-                self._probe_w.writerow([str(step), format_cell(t), str(i + 1)] + [format_cell(x) for x in r])
+                self._probe_w.writerow(
+                    [str(step), format_cell(t), str(i + 1)] + [format_cell(x) for x in r]
+                )
             self._probe_file.flush()
 
-    def contact_table(self, name: str, coords: np.ndarray, gap: np.ndarray, pressure: np.ndarray,
-                      traction_t: np.ndarray, slip_t: np.ndarray, status: Sequence[str]) -> None:
+    def contact_table(
+        self,
+        name: str,
+        coords: np.ndarray,
+        gap: np.ndarray,
+        pressure: np.ndarray,
+        traction_t: np.ndarray,
+        slip_t: np.ndarray,
+        status: Sequence[str],
+    ) -> None:
         """(Re)write ``contact_<name>.csv``: one row per slave node, gathered on rank 0
         and sorted by coordinates, so the file does not depend on the partition
         (collective)."""
@@ -341,7 +422,11 @@ class ResultsWriter:
         tt = np.concatenate([q[3] for q in parts]).reshape(-1, gdim - 1)
         st = np.concatenate([q[4] for q in parts]).reshape(-1, gdim - 1)
         stat = sum((q[5] for q in parts), [])
-        key = np.round(x / (1e-9 * max(float(np.abs(x).max()), 1e-30))).astype(np.int64) if x.size else x
+        key = (
+            np.round(x / (1e-9 * max(float(np.abs(x).max()), 1e-30))).astype(np.int64)
+            if x.size
+            else x
+        )
         order = np.lexsort(key.T[::-1]) if x.size else np.zeros(0, dtype=int)
         ax = "xyz"[:gdim]
         t_names = ["traction_t"] if gdim == 2 else ["traction_t", "traction_t2"]
@@ -350,8 +435,13 @@ class ResultsWriter:
             w = csv.writer(f)
             w.writerow(list(ax) + ["gap", "pressure"] + t_names + s_names + ["status"])
             for i in order:
-                w.writerow([format_cell(v) for v in x[i]] + [format_cell(cols[0][i]), format_cell(cols[1][i])]
-                           + [format_cell(v) for v in tt[i]] + [format_cell(v) for v in st[i]] + [stat[i]])
+                w.writerow(
+                    [format_cell(v) for v in x[i]]
+                    + [format_cell(cols[0][i]), format_cell(cols[1][i])]
+                    + [format_cell(v) for v in tt[i]]
+                    + [format_cell(v) for v in st[i]]
+                    + [stat[i]]
+                )
 
     # ------------------------------------------------------------- fields
     def fields(self, t: float, functions: Sequence[fem.Function]) -> None:

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from bonecontact.scene.errors import SceneError, table_label
 from bonecontact.scene.spec import LOAD_KINDS, Scene
 
-__all__ = ["check_against_mesh", "MeshGroups"]
+__all__ = ["MeshGroups", "check_against_mesh"]
 
 
 class MeshGroups:
@@ -44,13 +44,23 @@ class MeshGroups:
         """The tag of group ``name``, which must exist and have dimension ``dim``."""
         kind = "cell" if dim == self.tdim else "facet"
         if name not in self.groups:
-            raise SceneError(self.file, table, key, f'the mesh has no physical group "{name}"; '
-                                                    f"its {kind} groups are: {self.available(dim)}")
+            raise SceneError(
+                self.file,
+                table,
+                key,
+                f'the mesh has no physical group "{name}"; '
+                f"its {kind} groups are: {self.available(dim)}",
+            )
         d, tag = self.groups[name]
         if d != dim:
             other = {self.tdim: "cell", self.fdim: "facet"}.get(d, f"dimension-{d}")
-            raise SceneError(self.file, table, key, f'"{name}" is a {other} group (dim {d}), a {kind} group '
-                                                    f"(dim {dim}) is needed; {kind} groups: {self.available(dim)}")
+            raise SceneError(
+                self.file,
+                table,
+                key,
+                f'"{name}" is a {other} group (dim {d}), a {kind} group '
+                f"(dim {dim}) is needed; {kind} groups: {self.available(dim)}",
+            )
         return tag
 
     def cell(self, name: str, table: str, key: str) -> int:
@@ -62,7 +72,9 @@ class MeshGroups:
         return self.require(name, self.fdim, table, key)
 
 
-def check_against_mesh(scene: Scene, groups: Mapping[str, tuple[int, int]], tdim: int, gdim: int) -> None:
+def check_against_mesh(
+    scene: Scene, groups: Mapping[str, tuple[int, int]], tdim: int, gdim: int
+) -> None:
     """Check the scene's physical-group names against the mesh.
 
     Parameters
@@ -104,9 +116,13 @@ def check_against_mesh(scene: Scene, groups: Mapping[str, tuple[int, int]], tdim
 def check_dimension(scene: Scene, tdim: int, gdim: int) -> None:
     """The mesh's topological and geometric dimensions equal ``[scene].dimension``."""
     if tdim != scene.dimension or gdim != scene.dimension:
-        raise SceneError(str(scene.path), "[scene]", "dimension",
-                         f"is {scene.dimension} but the mesh ({scene.mesh_path.name}) has topological "
-                         f"dimension {tdim} and geometric dimension {gdim}")
+        raise SceneError(
+            str(scene.path),
+            "[scene]",
+            "dimension",
+            f"is {scene.dimension} but the mesh ({scene.mesh_path.name}) has topological "
+            f"dimension {tdim} and geometric dimension {gdim}",
+        )
 
 
 def check_material_regions(scene: Scene, mesh: MeshGroups) -> dict[int, str]:
@@ -123,9 +139,13 @@ def check_material_regions(scene: Scene, mesh: MeshGroups) -> dict[int, str]:
         for r in m.regions:
             tag = mesh.cell(r, label, "regions")
             if tag in owner and owner[tag] != m.name:
-                raise SceneError(mesh.file, label, "regions",
-                                 f'region "{r}" (tag {tag}) has the same cells as a region of material '
-                                 f'"{owner[tag]}"')
+                raise SceneError(
+                    mesh.file,
+                    label,
+                    "regions",
+                    f'region "{r}" (tag {tag}) has the same cells as a region of material '
+                    f'"{owner[tag]}"',
+                )
             owner[tag] = m.name
     return owner
 
@@ -138,8 +158,12 @@ def check_neoplasm_groups(scene: Scene, mesh: MeshGroups) -> None:
     rtag = mesh.cell(neo.region, "[neoplasm]", "region")
     for h in neo.host:
         if mesh.cell(h, "[neoplasm]", "host") == rtag:
-            raise SceneError(mesh.file, "[neoplasm]", "host",
-                             f'"{h}" has the same cells (tag {rtag}) as the neoplasm region "{neo.region}"')
+            raise SceneError(
+                mesh.file,
+                "[neoplasm]",
+                "host",
+                f'"{h}" has the same cells (tag {rtag}) as the neoplasm region "{neo.region}"',
+            )
 
 
 def check_cyst_cavity(scene: Scene, mesh: MeshGroups, owner: Mapping[int, str]) -> str | None:
@@ -153,22 +177,31 @@ def check_cyst_cavity(scene: Scene, mesh: MeshGroups, owner: Mapping[int, str]) 
     neo = scene.neoplasm
     cavity = neo.region if neo is not None and neo.kind == "cyst" else None
     if cavity is not None and not scene.growth_only and mesh.groups[cavity][1] in owner:
-        raise SceneError(mesh.file, "[[material]]", "regions",
-                         f'cell group "{cavity}" is the cyst of [neoplasm]: a pressurised cavity in the '
-                         f'mechanics, it takes no material; remove it from the regions of '
-                         f'"{owner[mesh.groups[cavity][1]]}"')
+        raise SceneError(
+            mesh.file,
+            "[[material]]",
+            "regions",
+            f'cell group "{cavity}" is the cyst of [neoplasm]: a pressurised cavity in the '
+            f"mechanics, it takes no material; remove it from the regions of "
+            f'"{owner[mesh.groups[cavity][1]]}"',
+        )
     return cavity
 
 
-def check_cells_have_material(scene: Scene, mesh: MeshGroups, owner: Mapping[int, str],
-                              cavity: str | None) -> None:
+def check_cells_have_material(
+    scene: Scene, mesh: MeshGroups, owner: Mapping[int, str], cavity: str | None
+) -> None:
     """Every cell group except the cyst cavity has a material (not needed without mechanics)."""
     if scene.growth_only:  # no mechanics: cell groups need no material
         return
     for name, (d, tag) in sorted(mesh.groups.items()):
         if d == mesh.tdim and tag not in owner and name != cavity:
-            raise SceneError(mesh.file, "[[material]]", "regions",
-                             f'cell group "{name}" has no material; list it in the regions of a [[material]]')
+            raise SceneError(
+                mesh.file,
+                "[[material]]",
+                "regions",
+                f'cell group "{name}" has no material; list it in the regions of a [[material]]',
+            )
 
 
 def check_contact_surfaces(scene: Scene, mesh: MeshGroups) -> None:
@@ -177,7 +210,9 @@ def check_contact_surfaces(scene: Scene, mesh: MeshGroups) -> None:
         label = table_label("contact", i, c.name)
         s = mesh.facet(c.slave, label, "slave")
         if mesh.facet(c.master, label, "master") == s:
-            raise SceneError(mesh.file, label, "master", f'"{c.master}" and "{c.slave}" are the same facet group')
+            raise SceneError(
+                mesh.file, label, "master", f'"{c.master}" and "{c.slave}" are the same facet group'
+            )
 
 
 def check_dirichlet_boundaries(scene: Scene, mesh: MeshGroups) -> dict[tuple[int, int], int]:
@@ -195,15 +230,21 @@ def check_dirichlet_boundaries(scene: Scene, mesh: MeshGroups) -> dict[tuple[int
         for comp in bc.components:
             if (tag, comp) in fixed:
                 j = fixed[(tag, comp)]
-                raise SceneError(mesh.file, label, "value",
-                                 f'component {comp + 1} of boundary "{bc.boundary}" is already fixed by '
-                                 f'[[dirichlet]] #{j + 1} (boundary "{scene.dirichlet[j].boundary}"); '
-                                 "each component of a boundary may be fixed once")
+                raise SceneError(
+                    mesh.file,
+                    label,
+                    "value",
+                    f'component {comp + 1} of boundary "{bc.boundary}" is already fixed by '
+                    f'[[dirichlet]] #{j + 1} (boundary "{scene.dirichlet[j].boundary}"); '
+                    "each component of a boundary may be fixed once",
+                )
             fixed[(tag, comp)] = i
     return fixed
 
 
-def check_load_targets(scene: Scene, mesh: MeshGroups, fixed: Mapping[tuple[int, int], int]) -> None:
+def check_load_targets(
+    scene: Scene, mesh: MeshGroups, fixed: Mapping[tuple[int, int], int]
+) -> None:
     """Body forces act on cell groups, tractions and pressures on facet groups; a
     traction loads only the free components of its boundary."""
     counters = {k: 0 for k in LOAD_KINDS}
@@ -219,10 +260,14 @@ def check_load_targets(scene: Scene, mesh: MeshGroups, fixed: Mapping[tuple[int,
             assert isinstance(load.value, tuple)
             for comp, v in enumerate(load.value):
                 if v != 0.0 and (tag, comp) in fixed:
-                    raise SceneError(mesh.file, label, "value",
-                                     f'component {comp + 1} of boundary "{load.target[0]}" is fixed by '
-                                     f"[[dirichlet]] #{fixed[(tag, comp)] + 1}; a boundary carries loads only "
-                                     "in its free components")
+                    raise SceneError(
+                        mesh.file,
+                        label,
+                        "value",
+                        f'component {comp + 1} of boundary "{load.target[0]}" is fixed by '
+                        f"[[dirichlet]] #{fixed[(tag, comp)] + 1}; a boundary carries loads only "
+                        "in its free components",
+                    )
 
 
 def check_initial_velocity_regions(scene: Scene, mesh: MeshGroups) -> None:

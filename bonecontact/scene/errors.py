@@ -12,7 +12,7 @@ from typing import Any
 
 from bonecontact.materials.laws import MaterialError
 
-__all__ = ["SceneError", "format_error", "describe_value", "format_choices", "table_label"]
+__all__ = ["SceneError", "describe_value", "format_choices", "format_error", "table_label"]
 
 
 class SceneError(Exception):
@@ -47,7 +47,9 @@ class SceneError(Exception):
         self.message = message
 
     def __str__(self) -> str:
-        where = ", ".join(p for p in (self.table, None if self.key is None else f'key "{self.key}"') if p)
+        where = ", ".join(
+            p for p in (self.table, None if self.key is None else f'key "{self.key}"') if p
+        )
         text = f"{where}: {self.message}" if where else self.message
         return f"{self.file}: {text}" if self.file else text
 

@@ -25,15 +25,26 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["ExpressionError", "RateExpression", "parse_rate", "ALLOWED_FUNCTIONS", "VARIABLE"]
+__all__ = ["ALLOWED_FUNCTIONS", "VARIABLE", "ExpressionError", "RateExpression", "parse_rate"]
 
 #: The only free variable.
 VARIABLE = "u_c"
 #: Named constants.
 CONSTANTS = {"pi": math.pi, "e": math.e}
 #: Function name -> number of arguments.
-ALLOWED_FUNCTIONS: dict[str, int] = {"exp": 1, "log": 1, "sqrt": 1, "sin": 1, "cos": 1, "tan": 1,
-                                     "tanh": 1, "abs": 1, "pos": 1, "max": 2, "min": 2}
+ALLOWED_FUNCTIONS: dict[str, int] = {
+    "exp": 1,
+    "log": 1,
+    "sqrt": 1,
+    "sin": 1,
+    "cos": 1,
+    "tan": 1,
+    "tanh": 1,
+    "abs": 1,
+    "pos": 1,
+    "max": 2,
+    "min": 2,
+}
 #: Longest accepted expression (characters).
 MAX_LENGTH = 500
 
@@ -57,34 +68,42 @@ def _check(node: ast.AST) -> None:
     elif isinstance(node, ast.BinOp):
         if type(node.op) not in _BINOPS:
             hint = " (write ** for a power)" if isinstance(node.op, ast.BitXor) else ""
-            raise ExpressionError(f"operator {type(node.op).__name__} is not allowed{hint}; {_describe_allowed()}")
+            raise ExpressionError(
+                f"operator {type(node.op).__name__} is not allowed{hint}; {_describe_allowed()}"
+            )
         _check(node.left)
         _check(node.right)
     elif isinstance(node, ast.UnaryOp):
         if type(node.op) not in _UNARY:
-            raise ExpressionError(f"operator {type(node.op).__name__} is not allowed; {_describe_allowed()}")
+            raise ExpressionError(
+                f"operator {type(node.op).__name__} is not allowed; {_describe_allowed()}"
+            )
         _check(node.operand)
     elif isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"constant {node.value!r} is not a number; {_describe_allowed()}")
     elif isinstance(node, ast.Name):
         if node.id != VARIABLE and node.id not in CONSTANTS:
-            raise ExpressionError(f'unknown name "{node.id}"; the only variable is {VARIABLE} '
-                                  f"(constants: pi, e)")
+            raise ExpressionError(
+                f'unknown name "{node.id}"; the only variable is {VARIABLE} (constants: pi, e)'
+            )
     elif isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in ALLOWED_FUNCTIONS:
             name = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)
             raise ExpressionError(f'function "{name}" is not allowed; {_describe_allowed()}')
         if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
-            raise ExpressionError(f'{node.func.id}(): keyword or starred arguments are not allowed')
+            raise ExpressionError(f"{node.func.id}(): keyword or starred arguments are not allowed")
         n = ALLOWED_FUNCTIONS[node.func.id]
         if len(node.args) != n:
-            raise ExpressionError(f"{node.func.id}() takes {n} argument{'s' if n > 1 else ''}, "
-                                  f"got {len(node.args)}")
+            raise ExpressionError(
+                f"{node.func.id}() takes {n} argument{'s' if n > 1 else ''}, got {len(node.args)}"
+            )
         for a in node.args:
             _check(a)
     else:
-        raise ExpressionError(f"{type(node).__name__} is not allowed in a rate expression; {_describe_allowed()}")
+        raise ExpressionError(
+            f"{type(node).__name__} is not allowed in a rate expression; {_describe_allowed()}"
+        )
 
 
 def _is_number(x: Any) -> bool:
@@ -201,4 +220,3 @@ def parse_rate(text: str) -> RateExpression:
         The text is not in the grammar of the module docstring.
     """
     return RateExpression(text, _parse(text))
-

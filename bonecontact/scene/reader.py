@@ -69,8 +69,19 @@ MODEL_KEYS: dict[str, tuple[str, ...]] = {
 MATERIAL_COMMON_KEYS = ("name", "regions", "model", "rho", "tau_v", "formulation")
 
 TOP_LEVEL_KEYS = (
-    "format", "scene", "analysis", "solver", "material", "contact", "dirichlet",
-    "traction", "pressure", "body_force", "initial_velocity", "output", "neoplasm",
+    "format",
+    "scene",
+    "analysis",
+    "solver",
+    "material",
+    "contact",
+    "dirichlet",
+    "traction",
+    "pressure",
+    "body_force",
+    "initial_velocity",
+    "output",
+    "neoplasm",
 )
 SCENE_KEYS = ("name", "mesh", "dimension")
 ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps")
@@ -88,15 +99,36 @@ OUTPUT_KEYS = ("directory", "fields_every", "probes")
 FUTURE_TABLES = ("fracture",)
 
 #: ``[neoplasm]`` keys; ``radius`` and ``h`` are an extension (initial geometry of meshless scenes).
-NEOPLASM_KEYS = ("kind", "region", "host", "t_end", "dt", "remesh_every", "mechanics_every", "radius", "h",
-                 "tumour", "cyst")
+NEOPLASM_KEYS = (
+    "kind",
+    "region",
+    "host",
+    "t_end",
+    "dt",
+    "remesh_every",
+    "mechanics_every",
+    "radius",
+    "h",
+    "tumour",
+    "cyst",
+)
 #: ``[neoplasm.tumour]`` keys: the fields of TumourParameters (``lambda`` for ``lambda_``).
 TUMOUR_KEYS = TumourParameters.keys()
 #: ``[neoplasm.cyst]`` keys: the scene-only ``model``, then the fields of CystParameters.
-CYST_KEYS = ("model", "strain") + tuple(f.name for f in dataclasses.fields(CystParameters) if f.name != "strain")
+CYST_KEYS = ("model", "strain") + tuple(
+    f.name for f in dataclasses.fields(CystParameters) if f.name != "strain"
+)
 #: Tables of a mechanics analysis: not allowed in a growth-only scene.
-MECHANICS_TABLES = ("solver", "material", "contact", "dirichlet", "traction", "pressure", "body_force",
-                    "initial_velocity")
+MECHANICS_TABLES = (
+    "solver",
+    "material",
+    "contact",
+    "dirichlet",
+    "traction",
+    "pressure",
+    "body_force",
+    "initial_velocity",
+)
 
 
 # --------------------------------------------------------------------------------------
@@ -118,7 +150,9 @@ class _Table:
     def check_keys(self, allowed: Sequence[str], what: str = "key") -> None:
         for key in self.data:
             if key in FUTURE_TABLES and self.label is None:
-                raise self.error(key, f"[{key}] is not supported yet by this version of bonecontact")
+                raise self.error(
+                    key, f"[{key}] is not supported yet by this version of bonecontact"
+                )
             if key not in allowed:
                 raise self.error(key, f"unknown {what}; allowed: {', '.join(allowed)}")
 
@@ -141,8 +175,16 @@ class _Table:
             raise self.error(key, f"{what}must be a finite number, got {value!r}")
         return x
 
-    def number(self, key: str, *, required: bool = False, default: float | None = None,
-               positive: bool = False, nonnegative: bool = False, why: str = "") -> float | None:
+    def number(
+        self,
+        key: str,
+        *,
+        required: bool = False,
+        default: float | None = None,
+        positive: bool = False,
+        nonnegative: bool = False,
+        why: str = "",
+    ) -> float | None:
         value = self.raw(key, required, why)
         if value is _MISSING:
             return default
@@ -153,8 +195,15 @@ class _Table:
             raise self.error(key, f"must be >= 0, got {value!r}")
         return x
 
-    def integer(self, key: str, *, required: bool = False, default: int | None = None,
-                minimum: int | None = None, why: str = "") -> int | None:
+    def integer(
+        self,
+        key: str,
+        *,
+        required: bool = False,
+        default: int | None = None,
+        minimum: int | None = None,
+        why: str = "",
+    ) -> int | None:
         value = self.raw(key, required, why)
         if value is _MISSING:
             return default
@@ -164,16 +213,24 @@ class _Table:
             raise self.error(key, f"must be an integer >= {minimum}, got {value}")
         return value
 
-    def string(self, key: str, *, required: bool = False, default: str | None = None,
-               choices: Sequence[str] | None = None) -> str | None:
-        value = self.raw(key, required, f"; allowed values: {format_choices(choices)}" if choices else "")
+    def string(
+        self,
+        key: str,
+        *,
+        required: bool = False,
+        default: str | None = None,
+        choices: Sequence[str] | None = None,
+    ) -> str | None:
+        value = self.raw(
+            key, required, f"; allowed values: {format_choices(choices)}" if choices else ""
+        )
         if value is _MISSING:
             return default
         if not isinstance(value, str):
             allowed = f" (one of {format_choices(choices)})" if choices else ""
             raise self.error(key, f"must be a string{allowed}, got {describe_value(value)}")
         if choices is not None and value not in choices:
-            raise self.error(key, f"must be one of {format_choices(choices)}, got \"{value}\"")
+            raise self.error(key, f'must be one of {format_choices(choices)}, got "{value}"')
         if choices is None and not value.strip():
             raise self.error(key, "must be a non-empty string")
         return value
@@ -185,12 +242,17 @@ class _Table:
             return ()
         if not isinstance(value, list):
             hint = f' (write {key} = ["{value}"])' if isinstance(value, str) else ""
-            raise self.error(key, f"must be an array of physical-group names{hint}, got {describe_value(value)}")
+            raise self.error(
+                key, f"must be an array of physical-group names{hint}, got {describe_value(value)}"
+            )
         if not value:
             raise self.error(key, "must name at least one physical group")
         for v in value:
             if not isinstance(v, str) or not v.strip():
-                raise self.error(key, f"must contain physical-group names (non-empty strings), got {describe_value(v)}")
+                raise self.error(
+                    key,
+                    f"must contain physical-group names (non-empty strings), got {describe_value(v)}",
+                )
         seen: set[str] = set()
         for v in value:
             if v in seen:
@@ -198,15 +260,21 @@ class _Table:
             seen.add(v)
         return tuple(value)
 
-    def vector(self, key: str, dim: int, *, required: bool = True, value: Any = _MISSING,
-               what: str = "") -> tuple[float, ...]:
+    def vector(
+        self, key: str, dim: int, *, required: bool = True, value: Any = _MISSING, what: str = ""
+    ) -> tuple[float, ...]:
         if value is _MISSING:
             value = self.raw(key, required)
         if not isinstance(value, list):
-            raise self.error(key, f"{what}must be an array of {dim} numbers (one per component), "
-                                  f"got {describe_value(value)}")
+            raise self.error(
+                key,
+                f"{what}must be an array of {dim} numbers (one per component), "
+                f"got {describe_value(value)}",
+            )
         if len(value) != dim:
-            raise self.error(key, f"{what}must have {dim} components (dimension = {dim}), got {len(value)}")
+            raise self.error(
+                key, f"{what}must have {dim} components (dimension = {dim}), got {len(value)}"
+            )
         return tuple(self._as_number(key, v, what) for v in value)
 
     def schedule(self) -> Schedule | None:
@@ -220,20 +288,28 @@ class _Table:
             raise self.error("schedule", "give either ramp > 0 or schedule, not both")
         example = "e.g. [[0.0, 0.0], [1.0, 1.0]]"
         if not isinstance(pairs, list) or not pairs:
-            raise self.error("schedule", f"must be a non-empty array of [time, factor] pairs ({example}), "
-                                         f"got {describe_value(pairs)}")
+            raise self.error(
+                "schedule",
+                f"must be a non-empty array of [time, factor] pairs ({example}), "
+                f"got {describe_value(pairs)}",
+            )
         times: list[float] = []
         factors: list[float] = []
         for i, p in enumerate(pairs, start=1):
             if not isinstance(p, list) or len(p) != 2:
-                raise self.error("schedule", f"entry {i} must be a [time, factor] pair ({example}), "
-                                             f"got {describe_value(p)}")
+                raise self.error(
+                    "schedule",
+                    f"entry {i} must be a [time, factor] pair ({example}), got {describe_value(p)}",
+                )
             times.append(self._as_number("schedule", p[0], f"entry {i}: time "))
             factors.append(self._as_number("schedule", p[1], f"entry {i}: factor "))
         for i in range(1, len(times)):
             if times[i] <= times[i - 1]:
-                raise self.error("schedule", f"times must be strictly increasing, but entry {i + 1} "
-                                             f"has time {times[i]!r} after {times[i - 1]!r}")
+                raise self.error(
+                    "schedule",
+                    f"times must be strictly increasing, but entry {i + 1} "
+                    f"has time {times[i]!r} after {times[i - 1]!r}",
+                )
         return Schedule(tuple(times), tuple(factors))
 
 
@@ -254,8 +330,12 @@ def _array_of_tables(doc: Mapping[str, Any], name: str) -> list[dict[str, Any]]:
         return []
     value = doc[name]
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-        raise SceneError(None, None, name,
-                         f"must be an array of tables (write each entry under [[{name}]]), got {describe_value(value)}")
+        raise SceneError(
+            None,
+            None,
+            name,
+            f"must be an array of tables (write each entry under [[{name}]]), got {describe_value(value)}",
+        )
     return value
 
 
@@ -308,20 +388,31 @@ def _read_material(entry: dict[str, Any], i: int, dim: int, dynamic: bool) -> Ma
         elif key == "axes":
             rows = tab.raw(key, True)
             if not isinstance(rows, list) or len(rows) != dim:
-                raise tab.error(key, f"must be {dim} material axes (dimension = {dim}), one row of {dim} "
-                                     f"numbers each, got {describe_value(rows)}")
-            kwargs[key] = tuple(tab.vector(key, dim, value=r, what=f"row {k + 1} ")
-                                for k, r in enumerate(rows))
+                raise tab.error(
+                    key,
+                    f"must be {dim} material axes (dimension = {dim}), one row of {dim} "
+                    f"numbers each, got {describe_value(rows)}",
+                )
+            kwargs[key] = tuple(
+                tab.vector(key, dim, value=r, what=f"row {k + 1} ") for k, r in enumerate(rows)
+            )
         else:
             kwargs[key] = tab.number(key, required=True)
     if model == "transversely_isotropic" and not (-1.0 < kwargs["nu_p"] < 1.0):
         raise tab.error("nu_p", f"must satisfy -1 < nu_p < 1, got {kwargs['nu_p']!r}")
 
-    rho = tab.number("rho", required=dynamic, why=' (density in kg/m³, required when [analysis] kind = "dynamic")')
+    rho = tab.number(
+        "rho",
+        required=dynamic,
+        why=' (density in kg/m³, required when [analysis] kind = "dynamic")',
+    )
     tau_v = tab.number("tau_v", default=0.0)
     formulation = tab.string("formulation", default="displacement", choices=FORMULATIONS)
-    cls = {"isotropic": Isotropic, "transversely_isotropic": TransverselyIsotropic,
-           "orthotropic": Orthotropic}[model]
+    cls = {
+        "isotropic": Isotropic,
+        "transversely_isotropic": TransverselyIsotropic,
+        "orthotropic": Orthotropic,
+    }[model]
     try:
         material = cls(rho=rho, tau_v=tau_v, formulation=formulation, **kwargs)
     except MaterialError as exc:
@@ -343,21 +434,30 @@ def _read_materials(doc: Mapping[str, Any], dim: int, dynamic: bool) -> tuple[Ma
         spec = _read_material(entry, i, dim, dynamic)
         label = table_label("material", i, spec.name)
         if spec.name in names:
-            raise SceneError(None, label, "name",
-                             f'material name "{spec.name}" is already used by [[material]] #{names[spec.name] + 1}')
+            raise SceneError(
+                None,
+                label,
+                "name",
+                f'material name "{spec.name}" is already used by [[material]] #{names[spec.name] + 1}',
+            )
         names[spec.name] = i
         for region in spec.regions:
             if region in owner:
-                raise SceneError(None, label, "regions",
-                                 f'region "{region}" is already claimed by material "{owner[region]}"; '
-                                 "a region has exactly one material")
+                raise SceneError(
+                    None,
+                    label,
+                    "regions",
+                    f'region "{region}" is already claimed by material "{owner[region]}"; '
+                    "a region has exactly one material",
+                )
             owner[region] = spec.name
         specs.append(spec)
     return tuple(specs)
 
 
-def _read_contacts(doc: Mapping[str, Any], allow_contact: bool,
-                   allow_friction: bool = False) -> tuple[ContactSpec, ...]:
+def _read_contacts(
+    doc: Mapping[str, Any], allow_contact: bool, allow_friction: bool = False
+) -> tuple[ContactSpec, ...]:
     entries = _array_of_tables(doc, "contact")
     if entries and not allow_contact:
         raise SceneError(None, "[[contact]]", None, "contact is not supported yet")
@@ -369,38 +469,61 @@ def _read_contacts(doc: Mapping[str, Any], allow_contact: bool,
         name = tab.string("name", required=True)
         assert name is not None
         if not all(c.isalnum() or c in "_-." for c in name):
-            raise tab.error("name", f'must contain only letters, digits, "_", "-" and "." '
-                                    f'(it names output files), got "{name}"')
+            raise tab.error(
+                "name",
+                f'must contain only letters, digits, "_", "-" and "." '
+                f'(it names output files), got "{name}"',
+            )
         if name in names:
-            raise tab.error("name", f'contact name "{name}" is already used by [[contact]] #{names[name] + 1}')
+            raise tab.error(
+                "name", f'contact name "{name}" is already used by [[contact]] #{names[name] + 1}'
+            )
         names[name] = i
         slave = tab.string("slave", required=True)
         master = tab.string("master", required=True)
         if slave == master:
             raise tab.error("master", f'must differ from slave, both are "{slave}"')
         friction = tab.string("friction", default="none", choices=FRICTION_LAWS)
-        specs.append(ContactSpec(
-            name=name, slave=slave, master=master,  # type: ignore[arg-type]
-            friction=friction,  # type: ignore[arg-type]
-            coefficient=tab.number("coefficient", default=0.0, nonnegative=True),  # type: ignore[arg-type]
-            bound=tab.number("bound", default=0.0, nonnegative=True),  # type: ignore[arg-type]
-            coulomb_update=tab.string("coulomb_update", default="previous_step",  # type: ignore[arg-type]
-                                      choices=COULOMB_UPDATES),
-        ))
+        specs.append(
+            ContactSpec(
+                name=name,
+                slave=slave,
+                master=master,  # type: ignore[arg-type]
+                friction=friction,  # type: ignore[arg-type]
+                coefficient=tab.number("coefficient", default=0.0, nonnegative=True),  # type: ignore[arg-type]
+                bound=tab.number("bound", default=0.0, nonnegative=True),  # type: ignore[arg-type]
+                coulomb_update=tab.string(
+                    "coulomb_update",
+                    default="previous_step",  # type: ignore[arg-type]
+                    choices=COULOMB_UPDATES,
+                ),
+            )
+        )
         if friction != "none" and not allow_friction:
-            raise tab.error("friction", f'"{friction}" friction is not supported yet by this version of '
-                                        'bonecontact; allowed for now: "none"')
+            raise tab.error(
+                "friction",
+                f'"{friction}" friction is not supported yet by this version of '
+                'bonecontact; allowed for now: "none"',
+            )
         # a non-default value of another friction law's key is an error, not silently ignored
         spec = specs[-1]
         if spec.coefficient > 0 and friction != "coulomb":
-            raise tab.error("coefficient", f'is the Coulomb coefficient, but this pair has friction = "{friction}" '
-                                           '(use friction = "coulomb", or "bound" for Tresca)')
+            raise tab.error(
+                "coefficient",
+                f'is the Coulomb coefficient, but this pair has friction = "{friction}" '
+                '(use friction = "coulomb", or "bound" for Tresca)',
+            )
         if spec.bound > 0 and friction != "tresca":
-            raise tab.error("bound", f'is the Tresca bound (Pa), but this pair has friction = "{friction}" '
-                                     '(use friction = "tresca", or "coefficient" for Coulomb)')
+            raise tab.error(
+                "bound",
+                f'is the Tresca bound (Pa), but this pair has friction = "{friction}" '
+                '(use friction = "tresca", or "coefficient" for Coulomb)',
+            )
         if spec.coulomb_update != "previous_step" and friction != "coulomb":
-            raise tab.error("coulomb_update", f'applies to Coulomb friction only, but this pair has '
-                                              f'friction = "{friction}"')
+            raise tab.error(
+                "coulomb_update",
+                f'applies to Coulomb friction only, but this pair has friction = "{friction}"',
+            )
     return tuple(specs)
 
 
@@ -419,16 +542,24 @@ def _read_dirichlet(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[Dir
         raw = tab.raw("value", True)
         if not isinstance(raw, list) or len(raw) != dim:
             got = f"{len(raw)} entries" if isinstance(raw, list) else describe_value(raw)
-            raise tab.error("value", f'must be an array of {dim} entries (dimension = {dim}), each a number or '
-                                     f'"free", got {got}')
+            raise tab.error(
+                "value",
+                f"must be an array of {dim} entries (dimension = {dim}), each a number or "
+                f'"free", got {got}',
+            )
         value: list[float | None] = []
         for k, v in enumerate(raw, start=1):
             if isinstance(v, str):
                 if v != "free":
-                    raise tab.error("value", f'component {k}: the only string allowed is "free", got "{v}"')
+                    raise tab.error(
+                        "value", f'component {k}: the only string allowed is "free", got "{v}"'
+                    )
                 value.append(None)
             elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise tab.error("value", f'component {k} must be a finite number or "free", got {describe_value(v)}')
+                raise tab.error(
+                    "value",
+                    f'component {k} must be a finite number or "free", got {describe_value(v)}',
+                )
             else:
                 value.append(float(v))
         if all(v is None for v in value):
@@ -440,8 +571,11 @@ def _read_dirichlet(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[Dir
 
 def _read_loads(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[LoadSpec, ...]:
     specs: list[LoadSpec] = []
-    for kind, keys in (("traction", TRACTION_KEYS), ("pressure", PRESSURE_KEYS),
-                       ("body_force", BODY_FORCE_KEYS)):
+    for kind, keys in (
+        ("traction", TRACTION_KEYS),
+        ("pressure", PRESSURE_KEYS),
+        ("body_force", BODY_FORCE_KEYS),
+    ):
         for i, entry in enumerate(_array_of_tables(doc, kind)):
             tab = _Table(entry, table_label(kind, i))
             tab.check_keys(keys)
@@ -457,7 +591,9 @@ def _read_loads(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[LoadSpe
                 if kind == "pressure":
                     raw = tab.raw("value", True)
                     if isinstance(raw, list):
-                        raise tab.error("value", "must be a single number (normal pressure in Pa), got an array")
+                        raise tab.error(
+                            "value", "must be a single number (normal pressure in Pa), got an array"
+                        )
                     value = tab._as_number("value", raw)
                 else:
                     value = tab.vector("value", dim)
@@ -475,8 +611,11 @@ def _read_initial_velocities(doc: Mapping[str, Any], dim: int) -> tuple[InitialV
         regions = tab.names("regions")
         for r in regions:
             if r in owner:
-                raise tab.error("regions", f'region "{r}" already has an initial velocity '
-                                           f"([[initial_velocity]] #{owner[r] + 1})")
+                raise tab.error(
+                    "regions",
+                    f'region "{r}" already has an initial velocity '
+                    f"([[initial_velocity]] #{owner[r] + 1})",
+                )
             owner[r] = i
         specs.append(InitialVelocitySpec(regions=regions, value=tab.vector("value", dim)))
     return tuple(specs)
@@ -494,8 +633,12 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
     if raw is not _MISSING:
         example = "[[x, y]]" if dim == 2 else "[[x, y, z]]"
         if not isinstance(raw, list) or any(not isinstance(p, list) for p in raw):
-            raise tab.error("probes", f"must be an array of points, e.g. {example}, got {describe_value(raw)}")
-        probes = tuple(tab.vector("probes", dim, value=p, what=f"point {k + 1} ") for k, p in enumerate(raw))
+            raise tab.error(
+                "probes", f"must be an array of points, e.g. {example}, got {describe_value(raw)}"
+            )
+        probes = tuple(
+            tab.vector("probes", dim, value=p, what=f"point {k + 1} ") for k, p in enumerate(raw)
+        )
     return OutputSpec(directory=directory, fields_every=fields_every, probes=probes)  # type: ignore[arg-type]
 
 
@@ -521,14 +664,18 @@ def _read_rate(tab: _Table, key: str, default: float, u_c1: float) -> float | Ra
         except ExpressionError as exc:
             raise tab.error(key, f"invalid expression of u_c: {exc}") from None
         except (ArithmeticError, ValueError) as exc:
-            raise tab.error(key, f'expression "{value}" cannot be evaluated at u_c = u_c1 = {u_c1!r} '
-                                 f"({exc})") from None
+            raise tab.error(
+                key, f'expression "{value}" cannot be evaluated at u_c = u_c1 = {u_c1!r} ({exc})'
+            ) from None
         if not math.isfinite(probe):
             raise tab.error(key, f'expression "{value}" is not finite at u_c = u_c1 = {u_c1!r}')
         return expr
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise tab.error(key, f'must be a number (1/s) or an expression string of u_c such as '
-                             f'"2.0*(u_c - 0.7)", got {describe_value(value)}')
+        raise tab.error(
+            key,
+            f"must be a number (1/s) or an expression string of u_c such as "
+            f'"2.0*(u_c - 0.7)", got {describe_value(value)}',
+        )
     return tab._as_number(key, value)
 
 
@@ -547,8 +694,11 @@ def _read_tumour(tab: _Table) -> TumourParameters:
     tab.check_keys(TUMOUR_KEYS)
     d = TumourParameters()
     fields = (f.name for f in dataclasses.fields(TumourParameters))
-    numbers = {name: tab.number(key, default=getattr(d, name))
-               for name, key in zip(fields, TUMOUR_KEYS) if name in TumourParameters.NUMBERS}
+    numbers = {
+        name: tab.number(key, default=getattr(d, name))
+        for name, key in zip(fields, TUMOUR_KEYS)
+        if name in TumourParameters.NUMBERS
+    }
     _tumour_parameters(tab, numbers)  # ranges first: the rates are probed at u_c1
     rates = {k: _read_rate(tab, k, getattr(d, k), numbers["u_c1"]) for k in TumourParameters.RATES}
     return _tumour_parameters(tab, {**numbers, **rates})
@@ -561,7 +711,10 @@ def _read_cyst(tab: _Table) -> CystSpec:
     strain = tab.string("strain", default="log", choices=CystParameters.STRAINS)
     beta = tab.number("beta", required=True, why=" (osmotic supply rate, mol m-2 s-1)")
     C_minus = tab.number("C_minus", required=True, why=" (outside osmolarity, mol/m3)")
-    others = {k: tab.number(k, default=getattr(CystParameters, k)) for k in ("temperature", "E", "viscosity", "f0")}
+    others = {
+        k: tab.number(k, default=getattr(CystParameters, k))
+        for k in ("temperature", "E", "viscosity", "f0")
+    }
     try:
         params = CystParameters(beta=beta, C_minus=C_minus, strain=strain, **others)  # type: ignore[arg-type]
     except CystParameterError as exc:
@@ -569,7 +722,9 @@ def _read_cyst(tab: _Table) -> CystSpec:
     return CystSpec(model=model, parameters=params)  # type: ignore[arg-type]
 
 
-def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -> NeoplasmSpec | None:
+def _read_neoplasm(
+    doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool
+) -> NeoplasmSpec | None:
     """``[neoplasm]`` and its sub-table (the neoplasm tables of docs/neoplasm_format.md)."""
     tab = _table(doc, "neoplasm", required=False)
     if tab is None:
@@ -580,19 +735,31 @@ def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -
     # initial geometry: a cell group of the mesh, or (extension) radius + h without a mesh
     if has_mesh:
         if not tab.has("region"):
-            raise tab.error("region", "missing required key (the cell group of the mesh holding the "
-                                      "neoplasm at t = 0)")
+            raise tab.error(
+                "region",
+                "missing required key (the cell group of the mesh holding the neoplasm at t = 0)",
+            )
         region = tab.string("region", required=True)
         if tab.has("radius"):
-            raise tab.error("radius", "is only for scenes without a mesh; with a mesh the initial "
-                                      'neoplasm is the cell group named by "region"')
+            raise tab.error(
+                "radius",
+                "is only for scenes without a mesh; with a mesh the initial "
+                'neoplasm is the cell group named by "region"',
+            )
     else:
         if tab.has("region"):
-            raise tab.error("region", "names a cell group of the mesh, but [scene] has no mesh; "
-                                      "give the initial size with radius = ... (m) instead")
+            raise tab.error(
+                "region",
+                "names a cell group of the mesh, but [scene] has no mesh; "
+                "give the initial size with radius = ... (m) instead",
+            )
         region = None
-    radius = tab.number("radius", required=not has_mesh, positive=True,
-                        why=" (initial radius in m of a scene without a mesh: a disc in 2D, a ball in 3D)")
+    radius = tab.number(
+        "radius",
+        required=not has_mesh,
+        positive=True,
+        why=" (initial radius in m of a scene without a mesh: a disc in 2D, a ball in 3D)",
+    )
     h = tab.number("h", positive=True)
     if h is not None and kind == "cyst":
         raise tab.error("h", 'is the tumour mesh size; the cyst model "sphere" has no mesh')
@@ -604,8 +771,11 @@ def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -
         else:
             host = tab.names("host")
         if host and not has_mesh:
-            raise tab.error("host", "names cell groups of the mesh, but [scene] has no mesh; "
-                                    "write host = [] or leave it out")
+            raise tab.error(
+                "host",
+                "names cell groups of the mesh, but [scene] has no mesh; "
+                "write host = [] or leave it out",
+            )
         if region is not None and region in host:
             raise tab.error("host", f'must not contain the neoplasm region "{region}" itself')
     t_end = tab.number("t_end", required=True, positive=True, why=" (growth time, s)")
@@ -617,25 +787,44 @@ def _read_neoplasm(doc: Mapping[str, Any], has_mesh: bool, has_analysis: bool) -
     mechanics_every = tab.integer("mechanics_every", default=0, minimum=0)
     assert mechanics_every is not None
     if mechanics_every > 0 and not has_analysis:
-        raise tab.error("mechanics_every", f"is {mechanics_every} but the scene has no [analysis] to run; "
-                                           "a growth-only scene needs mechanics_every = 0")
+        raise tab.error(
+            "mechanics_every",
+            f"is {mechanics_every} but the scene has no [analysis] to run; "
+            "a growth-only scene needs mechanics_every = 0",
+        )
     tumour_tab, cyst_tab = _sub_table(tab, "tumour"), _sub_table(tab, "cyst")
     other = cyst_tab if kind == "tumour" else tumour_tab
     if other is not None:
-        raise tab.error("tumour" if kind == "cyst" else "cyst",
-                        f'[neoplasm.{"tumour" if kind == "cyst" else "cyst"}] is given but kind = "{kind}"; '
-                        f'write the parameters under [neoplasm.{kind}]')
+        raise tab.error(
+            "tumour" if kind == "cyst" else "cyst",
+            f'[neoplasm.{"tumour" if kind == "cyst" else "cyst"}] is given but kind = "{kind}"; '
+            f"write the parameters under [neoplasm.{kind}]",
+        )
     tumour = cyst = None
     if kind == "tumour":
         tumour = _read_tumour(tumour_tab or _Table({}, "[neoplasm.tumour]"))
     else:
         if cyst_tab is None:
-            raise SceneError(None, "[neoplasm.cyst]", None,
-                             'missing required table (kind = "cyst" needs at least beta and C_minus)')
+            raise SceneError(
+                None,
+                "[neoplasm.cyst]",
+                None,
+                'missing required table (kind = "cyst" needs at least beta and C_minus)',
+            )
         cyst = _read_cyst(cyst_tab)
-    return NeoplasmSpec(kind=kind, t_end=t_end, dt=dt, region=region, host=host,  # type: ignore[arg-type]
-                        remesh_every=remesh_every, mechanics_every=mechanics_every,  # type: ignore[arg-type]
-                        radius=radius, h=h, tumour=tumour, cyst=cyst)
+    return NeoplasmSpec(
+        kind=kind,
+        t_end=t_end,
+        dt=dt,
+        region=region,
+        host=host,  # type: ignore[arg-type]
+        remesh_every=remesh_every,
+        mechanics_every=mechanics_every,  # type: ignore[arg-type]
+        radius=radius,
+        h=h,
+        tumour=tumour,
+        cyst=cyst,
+    )
 
 
 def _reject_mechanics_tables(doc: Mapping[str, Any]) -> None:
@@ -643,23 +832,38 @@ def _reject_mechanics_tables(doc: Mapping[str, Any]) -> None:
     for name in MECHANICS_TABLES:
         if name in doc:
             label = f"[{name}]" if name == "solver" else f"[[{name}]]"
-            raise SceneError(None, label, None,
-                             "belongs to a mechanics analysis, but this growth-only scene ([neoplasm] "
-                             "without [analysis]) has none; remove it")
+            raise SceneError(
+                None,
+                label,
+                None,
+                "belongs to a mechanics analysis, but this growth-only scene ([neoplasm] "
+                "without [analysis]) has none; remove it",
+            )
     out = doc.get("output")
     if isinstance(out, dict) and "probes" in out:
-        raise SceneError(None, "[output]", "probes", "probes sample the mechanics fields; a growth-only "
-                                                     "scene writes growth.csv only, remove probes")
+        raise SceneError(
+            None,
+            "[output]",
+            "probes",
+            "probes sample the mechanics fields; a growth-only "
+            "scene writes growth.csv only, remove probes",
+        )
 
 
-def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_friction: bool = False) -> Scene:
+def _read_document(
+    doc: dict[str, Any], path: Path, allow_contact: bool, allow_friction: bool = False
+) -> Scene:
     # format first: a different version may have different tables
     top = _Table(doc, None)
     fmt = top.raw("format", True, f" (write format = {FORMAT_VERSION} at the top of the file)")
     if isinstance(fmt, bool) or not isinstance(fmt, int):
-        raise top.error("format", f"must be the integer {FORMAT_VERSION}, got {describe_value(fmt)}")
+        raise top.error(
+            "format", f"must be the integer {FORMAT_VERSION}, got {describe_value(fmt)}"
+        )
     if fmt != FORMAT_VERSION:
-        raise top.error("format", f"unsupported scene format {fmt}; this package reads format {FORMAT_VERSION}")
+        raise top.error(
+            "format", f"unsupported scene format {fmt}; this package reads format {FORMAT_VERSION}"
+        )
     top.check_keys(TOP_LEVEL_KEYS, what="top-level key or table")
 
     has_neoplasm = "neoplasm" in doc
@@ -686,12 +890,27 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
         _reject_mechanics_tables(doc)
         neoplasm = _read_neoplasm(doc, mesh_path is not None, has_analysis=False)
         output = _read_output(doc, dim)
-        return Scene(path=path, name=name, mesh_path=mesh_path, dimension=dim, analysis=None,
-                     solver=default_solver_options(), materials=(), contacts=(), dirichlet=(), loads=(),
-                     initial_velocities=(), output=output, raw=doc, neoplasm=neoplasm)
+        return Scene(
+            path=path,
+            name=name,
+            mesh_path=mesh_path,
+            dimension=dim,
+            analysis=None,
+            solver=default_solver_options(),
+            materials=(),
+            contacts=(),
+            dirichlet=(),
+            loads=(),
+            initial_velocities=(),
+            output=output,
+            raw=doc,
+            neoplasm=neoplasm,
+        )
     analysis = _read_analysis(doc)
     if mesh_path is None:
-        raise scene_tab.error("mesh", "missing required key (a scene with an [analysis] needs a mesh)")
+        raise scene_tab.error(
+            "mesh", "missing required key (a scene with an [analysis] needs a mesh)"
+        )
     static = analysis.kind == "static"
     solver = _read_solver(doc)
     materials = _read_materials(doc, dim, analysis.kind == "dynamic")
@@ -703,17 +922,35 @@ def _read_document(doc: dict[str, Any], path: Path, allow_contact: bool, allow_f
     neoplasm = _read_neoplasm(doc, True, has_analysis=True)
     # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md): 2D only for now
     if neoplasm is not None and dim != 2:
-        raise SceneError(None, "[neoplasm]", None,
-                         "growth together with an [analysis] (the neoplasm coupled to the loaded bone) is "
-                         "supported in 2D only by this version of bonecontact; in 3D run the growth alone "
-                         "(a scene with [neoplasm] and without [analysis], [[material]] and loads)")
-    return Scene(path=path, name=name, mesh_path=mesh_path, dimension=dim, analysis=analysis,
-                 solver=solver, materials=materials, contacts=contacts, dirichlet=dirichlet,
-                 loads=loads, initial_velocities=initial_velocities, output=output, raw=doc,
-                 neoplasm=neoplasm)
+        raise SceneError(
+            None,
+            "[neoplasm]",
+            None,
+            "growth together with an [analysis] (the neoplasm coupled to the loaded bone) is "
+            "supported in 2D only by this version of bonecontact; in 3D run the growth alone "
+            "(a scene with [neoplasm] and without [analysis], [[material]] and loads)",
+        )
+    return Scene(
+        path=path,
+        name=name,
+        mesh_path=mesh_path,
+        dimension=dim,
+        analysis=analysis,
+        solver=solver,
+        materials=materials,
+        contacts=contacts,
+        dirichlet=dirichlet,
+        loads=loads,
+        initial_velocities=initial_velocities,
+        output=output,
+        raw=doc,
+        neoplasm=neoplasm,
+    )
 
 
-def load_scene(path: str | Path, *, allow_contact: bool = True, allow_friction: bool = True) -> Scene:
+def load_scene(
+    path: str | Path, *, allow_contact: bool = True, allow_friction: bool = True
+) -> Scene:
     """Read and validate a scene file (everything that does not need the mesh).
 
     Parameters
@@ -747,13 +984,16 @@ def load_scene(path: str | Path, *, allow_contact: bool = True, allow_friction: 
         with open(p, "rb") as fh:
             doc = tomllib.load(fh)
     except OSError as exc:
-        raise SceneError(shown, None, None, f"cannot read the scene file: {exc.strerror or exc}") from None
+        raise SceneError(
+            shown, None, None, f"cannot read the scene file: {exc.strerror or exc}"
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(shown, None, None, f"invalid TOML: {exc}") from None
     except UnicodeDecodeError as exc:
-        raise SceneError(shown, None, None, f"invalid TOML: the file is not UTF-8 ({exc.reason})") from None
+        raise SceneError(
+            shown, None, None, f"invalid TOML: the file is not UTF-8 ({exc.reason})"
+        ) from None
     try:
         return _read_document(doc, p, allow_contact, allow_friction)
     except SceneError as exc:
         raise exc.with_file(shown) from None
-

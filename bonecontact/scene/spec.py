@@ -28,18 +28,18 @@ from bonecontact.neoplasm.cyst import CystParameters
 from bonecontact.neoplasm.tumour import TumourParameters
 
 __all__ = [
-    "Schedule",
     "Analysis",
-    "SolverOptions",
-    "MaterialSpec",
     "ContactSpec",
-    "DirichletSpec",
-    "LoadSpec",
-    "InitialVelocitySpec",
-    "OutputSpec",
     "CystSpec",
+    "DirichletSpec",
+    "InitialVelocitySpec",
+    "LoadSpec",
+    "MaterialSpec",
     "NeoplasmSpec",
+    "OutputSpec",
     "Scene",
+    "Schedule",
+    "SolverOptions",
     "default_solver_options",
 ]
 
@@ -86,7 +86,9 @@ class Schedule:
         t = tuple(float(x) for x in self.times)
         f = tuple(float(x) for x in self.factors)
         if len(t) == 0 or len(t) != len(f):
-            raise ValueError("a schedule needs at least one (time, factor) pair and as many factors as times")
+            raise ValueError(
+                "a schedule needs at least one (time, factor) pair and as many factors as times"
+            )
         if not all(math.isfinite(x) for x in t + f):
             raise ValueError("schedule times and factors must be finite numbers")
         if any(b <= a for a, b in zip(t, t[1:])):

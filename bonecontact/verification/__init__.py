@@ -6,15 +6,52 @@
 sphere on a block).  The formulas are collected in ``docs/theory/verification.md``.
 """
 
-from bonecontact.verification.analytic import (contact_modulus, cylinder_half_width, cylinder_load,
-                                               cylinder_peak_pressure, cylinder_pressure, hertz_2d,
-                                               hertz_3d, sphere_load, sphere_peak_pressure,
-                                               sphere_pressure, sphere_radius)
-from bonecontact.verification.impact import (STRIKER, STRIKER_END, STRUCK, STRUCK_END, BarImpact,
-                                             ImpactResult, run_bar_impact, two_bars_2d)
+from bonecontact.verification.analytic import (
+    contact_modulus,
+    cylinder_half_width,
+    cylinder_load,
+    cylinder_peak_pressure,
+    cylinder_pressure,
+    hertz_2d,
+    hertz_3d,
+    sphere_load,
+    sphere_peak_pressure,
+    sphere_pressure,
+    sphere_radius,
+)
+from bonecontact.verification.impact import (
+    STRIKER,
+    STRIKER_END,
+    STRUCK,
+    STRUCK_END,
+    BarImpact,
+    ImpactResult,
+    run_bar_impact,
+    two_bars_2d,
+)
 from bonecontact.verification.problems import HERTZ_3D_NU, HERTZ_3D_RADIUS, solve_hertz_3d
 
-__all__ = ["HERTZ_3D_NU", "HERTZ_3D_RADIUS", "STRIKER", "STRIKER_END", "STRUCK", "STRUCK_END", "BarImpact",
-           "ImpactResult", "contact_modulus", "cylinder_half_width", "cylinder_load", "cylinder_peak_pressure",
-           "cylinder_pressure", "hertz_2d", "hertz_3d", "run_bar_impact", "solve_hertz_3d", "sphere_load",
-           "sphere_peak_pressure", "sphere_pressure", "sphere_radius", "two_bars_2d"]
+__all__ = [
+    "HERTZ_3D_NU",
+    "HERTZ_3D_RADIUS",
+    "STRIKER",
+    "STRIKER_END",
+    "STRUCK",
+    "STRUCK_END",
+    "BarImpact",
+    "ImpactResult",
+    "contact_modulus",
+    "cylinder_half_width",
+    "cylinder_load",
+    "cylinder_peak_pressure",
+    "cylinder_pressure",
+    "hertz_2d",
+    "hertz_3d",
+    "run_bar_impact",
+    "solve_hertz_3d",
+    "sphere_load",
+    "sphere_peak_pressure",
+    "sphere_pressure",
+    "sphere_radius",
+    "two_bars_2d",
+]

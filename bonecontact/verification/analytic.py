@@ -30,9 +30,19 @@ from types import SimpleNamespace
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["contact_modulus", "hertz_2d", "hertz_3d",
-           "cylinder_half_width", "cylinder_peak_pressure", "cylinder_pressure", "cylinder_load",
-           "sphere_radius", "sphere_peak_pressure", "sphere_pressure", "sphere_load"]
+__all__ = [
+    "contact_modulus",
+    "cylinder_half_width",
+    "cylinder_load",
+    "cylinder_peak_pressure",
+    "cylinder_pressure",
+    "hertz_2d",
+    "hertz_3d",
+    "sphere_load",
+    "sphere_peak_pressure",
+    "sphere_pressure",
+    "sphere_radius",
+]
 
 
 def contact_modulus(E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0) -> float:
@@ -53,8 +63,9 @@ def contact_modulus(E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0)
     return 1.0 / ((1.0 - nu1**2) / E1 + (0.0 if np.isinf(E2) else (1.0 - nu2**2) / E2))
 
 
-def cylinder_half_width(P: float, R: float, E1: float, nu1: float, E2: float = np.inf,
-                        nu2: float = 0.0) -> float:
+def cylinder_half_width(
+    P: float, R: float, E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0
+) -> float:
     """Half-width of the plane-strain Hertz contact strip of a cylinder on a flat.
 
     Parameters
@@ -74,8 +85,9 @@ def cylinder_half_width(P: float, R: float, E1: float, nu1: float, E2: float = n
     return float(np.sqrt(4.0 * P * R / (np.pi * contact_modulus(E1, nu1, E2, nu2))))
 
 
-def cylinder_peak_pressure(P: float, R: float, E1: float, nu1: float, E2: float = np.inf,
-                           nu2: float = 0.0) -> float:
+def cylinder_peak_pressure(
+    P: float, R: float, E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0
+) -> float:
     """Peak pressure of the plane-strain Hertz contact: p₀ = 2P/(πa) [Pa] (Johnson 1985, §4.3).
 
     Arguments as in :func:`cylinder_half_width`.
@@ -83,8 +95,15 @@ def cylinder_peak_pressure(P: float, R: float, E1: float, nu1: float, E2: float 
     return 2.0 * P / (np.pi * cylinder_half_width(P, R, E1, nu1, E2, nu2))
 
 
-def cylinder_pressure(x: npt.ArrayLike, P: float, R: float, E1: float, nu1: float,
-                      E2: float = np.inf, nu2: float = 0.0) -> np.ndarray:
+def cylinder_pressure(
+    x: npt.ArrayLike,
+    P: float,
+    R: float,
+    E1: float,
+    nu1: float,
+    E2: float = np.inf,
+    nu2: float = 0.0,
+) -> np.ndarray:
     """Plane-strain Hertz pressure profile p(x) = p₀ √(1 − x²/a²), zero for |x| ≥ a.
 
     Parameters
@@ -104,8 +123,9 @@ def cylinder_pressure(x: npt.ArrayLike, P: float, R: float, E1: float, nu1: floa
     return p0 * np.sqrt(np.clip(1.0 - np.asarray(x, dtype=float) ** 2 / a**2, 0.0, None))
 
 
-def cylinder_load(a: float, R: float, E1: float, nu1: float, E2: float = np.inf,
-                  nu2: float = 0.0) -> float:
+def cylinder_load(
+    a: float, R: float, E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0
+) -> float:
     """Load per unit thickness that gives the half-width ``a``: P = πa²E*/(4R) [N/m].
 
     Inverse of :func:`cylinder_half_width`.
@@ -113,8 +133,9 @@ def cylinder_load(a: float, R: float, E1: float, nu1: float, E2: float = np.inf,
     return np.pi * a**2 * contact_modulus(E1, nu1, E2, nu2) / (4.0 * R)
 
 
-def sphere_radius(P: float, R: float, E1: float, nu1: float, E2: float = np.inf,
-                  nu2: float = 0.0) -> float:
+def sphere_radius(
+    P: float, R: float, E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0
+) -> float:
     """Radius of the Hertz contact circle of a sphere on a flat.
 
     Parameters
@@ -134,8 +155,9 @@ def sphere_radius(P: float, R: float, E1: float, nu1: float, E2: float = np.inf,
     return float((3.0 * P * R / (4.0 * contact_modulus(E1, nu1, E2, nu2))) ** (1.0 / 3.0))
 
 
-def sphere_peak_pressure(P: float, R: float, E1: float, nu1: float, E2: float = np.inf,
-                         nu2: float = 0.0) -> float:
+def sphere_peak_pressure(
+    P: float, R: float, E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0
+) -> float:
     """Peak pressure of the sphere-on-flat Hertz contact: p₀ = 3P/(2πa²) [Pa] (Johnson 1985, §4.2).
 
     Arguments as in :func:`sphere_radius`.
@@ -143,8 +165,15 @@ def sphere_peak_pressure(P: float, R: float, E1: float, nu1: float, E2: float = 
     return 3.0 * P / (2.0 * np.pi * sphere_radius(P, R, E1, nu1, E2, nu2) ** 2)
 
 
-def sphere_pressure(r: npt.ArrayLike, P: float, R: float, E1: float, nu1: float,
-                    E2: float = np.inf, nu2: float = 0.0) -> np.ndarray:
+def sphere_pressure(
+    r: npt.ArrayLike,
+    P: float,
+    R: float,
+    E1: float,
+    nu1: float,
+    E2: float = np.inf,
+    nu2: float = 0.0,
+) -> np.ndarray:
     """Sphere-on-flat Hertz pressure p(r) = p₀ √(1 − r²/a²), zero for r ≥ a.
 
     Parameters
@@ -164,8 +193,9 @@ def sphere_pressure(r: npt.ArrayLike, P: float, R: float, E1: float, nu1: float,
     return p0 * np.sqrt(np.clip(1.0 - np.asarray(r, dtype=float) ** 2 / a**2, 0.0, None))
 
 
-def sphere_load(a: float, R: float, E1: float, nu1: float, E2: float = np.inf,
-                nu2: float = 0.0) -> float:
+def sphere_load(
+    a: float, R: float, E1: float, nu1: float, E2: float = np.inf, nu2: float = 0.0
+) -> float:
     """Load that gives the contact radius ``a``: P = 4E*a³/(3R) [N].
 
     Inverse of :func:`sphere_radius`.
@@ -174,8 +204,16 @@ def sphere_load(a: float, R: float, E1: float, nu1: float, E2: float = np.inf,
 
 
 #: Plane-strain cylinder contact (load per unit thickness).
-hertz_2d = SimpleNamespace(half_width=cylinder_half_width, peak_pressure=cylinder_peak_pressure,
-                           pressure=cylinder_pressure, load_for_half_width=cylinder_load)
+hertz_2d = SimpleNamespace(
+    half_width=cylinder_half_width,
+    peak_pressure=cylinder_peak_pressure,
+    pressure=cylinder_pressure,
+    load_for_half_width=cylinder_load,
+)
 #: Sphere on a half-space.
-hertz_3d = SimpleNamespace(radius=sphere_radius, peak_pressure=sphere_peak_pressure,
-                           pressure=sphere_pressure, load_for_radius=sphere_load)
+hertz_3d = SimpleNamespace(
+    radius=sphere_radius,
+    peak_pressure=sphere_peak_pressure,
+    pressure=sphere_pressure,
+    load_for_radius=sphere_load,
+)

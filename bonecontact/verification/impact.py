@@ -31,21 +31,30 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from mpi4py import MPI
+
 import basix.ufl
 import numpy as np
 import numpy.typing as npt
 import ufl
 from dolfinx import fem, mesh
-from mpi4py import MPI
 
-from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.pdas import ContactSolver
+from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import EnergyBalance, Integrator
+from bonecontact.mechanics.model import Mechanics
 
-__all__ = ["BarImpact", "ImpactResult", "two_bars_2d", "run_bar_impact", "STRIKER", "STRUCK",
-           "STRIKER_END", "STRUCK_END"]
+__all__ = [
+    "STRIKER",
+    "STRIKER_END",
+    "STRUCK",
+    "STRUCK_END",
+    "BarImpact",
+    "ImpactResult",
+    "run_bar_impact",
+    "two_bars_2d",
+]
 
 #: cell and facet tags of :func:`two_bars_2d`
 STRIKER, STRUCK, STRIKER_END, STRUCK_END = 1, 2, 3, 4
@@ -121,16 +130,22 @@ def two_bars_2d(comm: MPI.Comm, p: BarImpact) -> tuple[mesh.Mesh, mesh.MeshTags,
         xs, cells = [], []
         for b, x0 in enumerate((0.0, p.length + p.gap)):
             base = b * (p.nx + 1) * (p.ny + 1)
-            X, Y = np.meshgrid(x0 + np.linspace(0.0, p.length, p.nx + 1), np.linspace(0.0, p.height, p.ny + 1),
-                               indexing="ij")
+            X, Y = np.meshgrid(
+                x0 + np.linspace(0.0, p.length, p.nx + 1),
+                np.linspace(0.0, p.height, p.ny + 1),
+                indexing="ij",
+            )
             xs.append(np.column_stack([X.ravel(), Y.ravel()]))
             for i in range(p.nx):
                 for j in range(p.ny):
-                    a, bb = base + i * (p.ny + 1) + j, base + (i + 1) * (p.ny + 1) + j   # (i,j), (i+1,j)
-                    c, d = a + 1, bb + 1                                                # (i,j+1), (i+1,j+1)
-                    if j < p.ny // 2:   # diagonal (i,j)–(i+1,j+1)
+                    a, bb = (
+                        base + i * (p.ny + 1) + j,
+                        base + (i + 1) * (p.ny + 1) + j,
+                    )  # (i,j), (i+1,j)
+                    c, d = a + 1, bb + 1  # (i,j+1), (i+1,j+1)
+                    if j < p.ny // 2:  # diagonal (i,j)–(i+1,j+1)
                         cells += [[a, bb, d], [a, d, c]]
-                    else:               # mirrored: (i,j+1)–(i+1,j)
+                    else:  # mirrored: (i,j+1)–(i+1,j)
                         cells += [[a, bb, c], [bb, d, c]]
         x = np.concatenate(xs)
         cells = np.asarray(cells, dtype=np.int64)
@@ -144,13 +159,21 @@ def two_bars_2d(comm: MPI.Comm, p: BarImpact) -> tuple[mesh.Mesh, mesh.MeshTags,
     split = p.length + 0.5 * p.gap
     n_cells = msh.topology.index_map(tdim).size_local + msh.topology.index_map(tdim).num_ghosts
     mid = mesh.compute_midpoints(msh, tdim, np.arange(n_cells, dtype=np.int32))
-    cell_tags = mesh.meshtags(msh, tdim, np.arange(n_cells, dtype=np.int32),
-                              np.where(mid[:, 0] < split, STRIKER, STRUCK).astype(np.int32))
+    cell_tags = mesh.meshtags(
+        msh,
+        tdim,
+        np.arange(n_cells, dtype=np.int32),
+        np.where(mid[:, 0] < split, STRIKER, STRUCK).astype(np.int32),
+    )
     tol = 1e-9 * p.length
     f1 = mesh.locate_entities_boundary(msh, tdim - 1, lambda X: np.abs(X[0] - p.length) < tol)
-    f2 = mesh.locate_entities_boundary(msh, tdim - 1, lambda X: np.abs(X[0] - p.length - p.gap) < tol)
+    f2 = mesh.locate_entities_boundary(
+        msh, tdim - 1, lambda X: np.abs(X[0] - p.length - p.gap) < tol
+    )
     facets = np.concatenate([f1, f2]).astype(np.int32)
-    values = np.concatenate([np.full(f1.size, STRIKER_END), np.full(f2.size, STRUCK_END)]).astype(np.int32)
+    values = np.concatenate([np.full(f1.size, STRIKER_END), np.full(f2.size, STRUCK_END)]).astype(
+        np.int32
+    )
     order = np.argsort(facets)
     facet_tags = mesh.meshtags(msh, tdim - 1, facets[order], values[order])
     return msh, cell_tags, facet_tags
@@ -222,15 +245,24 @@ class ImpactResult:
     def errors(self) -> dict[str, float]:
         """Relative errors against the references of the module docstring."""
         p = self.params
-        return {"start": (self.t_start - p.t_contact) / p.duration,
-                "duration": self.duration / p.duration - 1.0,
-                "mean_force": self.mean_force / p.force - 1.0,
-                "v_striker": self.v_striker[-1] / p.v0,
-                "v_struck": self.v_struck[-1] / p.v0 - 1.0}
+        return {
+            "start": (self.t_start - p.t_contact) / p.duration,
+            "duration": self.duration / p.duration - 1.0,
+            "mean_force": self.mean_force / p.force - 1.0,
+            "v_striker": self.v_striker[-1] / p.v0,
+            "v_struck": self.v_struck[-1] / p.v0 - 1.0,
+        }
 
 
-def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm: MPI.Comm = MPI.COMM_WORLD,
-                   linear: str = "direct", integrator_options: dict | None = None) -> ImpactResult:
+def run_bar_impact(
+    p: BarImpact,
+    dt: float,
+    *,
+    t_end: float | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    linear: str = "direct",
+    integrator_options: dict | None = None,
+) -> ImpactResult:
     """Run the two-bar impact with the dynamic :class:`~bonecontact.mechanics.integrator.Integrator`.
 
     Parameters
@@ -257,8 +289,15 @@ def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm:
     model = Mechanics(msh, {STRIKER: mat, STRUCK: mat}, ct, ft)
     itf = build_interface(model.V, ft, STRUCK_END, STRIKER_END, name="impact")
     t0 = time.perf_counter()
-    integ = Integrator(model, "dynamic", dt, linear=linear, contact=ContactSolver(model.V, [itf]), energy_balance=True,
-                       **(integrator_options or {}))
+    integ = Integrator(
+        model,
+        "dynamic",
+        dt,
+        linear=linear,
+        contact=ContactSolver(model.V, [itf]),
+        energy_balance=True,
+        **(integrator_options or {}),
+    )
     setup = time.perf_counter() - t0
     split = p.length + 0.5 * p.gap
     v0 = fem.Function(model.V)
@@ -267,7 +306,9 @@ def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm:
     ind = []
     for side in (1.0, 0.0):
         e = fem.Function(model.V)
-        e.interpolate(lambda X, s=side: np.vstack([np.where((X[0] < split) == bool(s), 1.0, 0.0), 0.0 * X[1]]))
+        e.interpolate(
+            lambda X, s=side: np.vstack([np.where((X[0] < split) == bool(s), 1.0, 0.0), 0.0 * X[1]])
+        )
         ind.append(e)
     # momentum of a bar = (M e)ᵀ v with e its x-indicator (M: the scheme's mass matrix)
     Me = np.empty((2, model.num_owned))
@@ -276,11 +317,13 @@ def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm:
         integ.M.mult(e.x.petsc_vec, w)
         Me[k] = w.array_r
     w.destroy()
-    mass = comm.allreduce(Me @ np.concatenate([e.x.array[:model.num_owned][None] for e in ind]).T, op=MPI.SUM)
+    mass = comm.allreduce(
+        Me @ np.concatenate([e.x.array[: model.num_owned][None] for e in ind]).T, op=MPI.SUM
+    )
     mass = np.diag(mass)
 
     def mean_velocities() -> npt.NDArray[np.float64]:
-        return comm.allreduce(Me @ integ.velocity.x.array[:model.num_owned], op=MPI.SUM) / mass
+        return comm.allreduce(Me @ integ.velocity.x.array[: model.num_owned], op=MPI.SUM) / mass
 
     t_end = p.t_contact + 1.1 * p.duration if t_end is None else t_end
     nsteps = int(np.ceil(t_end / dt - 1e-9))
@@ -305,9 +348,21 @@ def run_bar_impact(p: BarImpact, dt: float, *, t_end: float | None = None, comm:
     integ.destroy()
     force = np.asarray(forces)
     on = np.asarray(n_act) > 0
-    res = ImpactResult(p, dt, np.asarray(times), force, np.asarray(n_act), np.asarray(vs), np.asarray(vt),
-                       np.asarray(kin), np.asarray(strain), bal, wall_time=wall, setup_time=setup,
-                       pdas_iterations=pdas)
+    res = ImpactResult(
+        p,
+        dt,
+        np.asarray(times),
+        force,
+        np.asarray(n_act),
+        np.asarray(vs),
+        np.asarray(vt),
+        np.asarray(kin),
+        np.asarray(strain),
+        bal,
+        wall_time=wall,
+        setup_time=setup,
+        pdas_iterations=pdas,
+    )
     if on.any():
         res.t_start = float(res.time[np.argmax(on)])
         res.duration = float(on.sum() * dt)

@@ -71,8 +71,15 @@ def demo_runs(tmp_path_factory):
             cmd = [sys.executable, str(demo), str(out)]
             if n > 1:
                 cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-            res = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=ENV,
-                                 cwd=base, stdin=subprocess.DEVNULL)
+            res = subprocess.run(
+                cmd,
+                capture_output=True,
+                text=True,
+                timeout=600,
+                env=ENV,
+                cwd=base,
+                stdin=subprocess.DEVNULL,
+            )
             runs[demo.stem, n] = (res, out)
     return runs
 
@@ -85,7 +92,9 @@ def test_demos_exist():
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_demo_runs(demo_runs, demo, nproc):
     res, out = demo_runs[demo, nproc]
-    assert res.returncode == 0, f"{demo} on {nproc} rank(s): exit {res.returncode}\n{res.stderr[-3000:]}"
+    assert res.returncode == 0, (
+        f"{demo} on {nproc} rank(s): exit {res.returncode}\n{res.stderr[-3000:]}"
+    )
     assert "Traceback" not in res.stderr
     pngs = list(out.glob("*.png"))
     assert pngs and all(p.stat().st_size > 10_000 for p in pngs), pngs
@@ -107,7 +116,9 @@ def test_demo_same_on_two_ranks(demo_runs, demo):
         a, b = _table(o1 / name), _table(o2 / name)
         scale = np.abs(np.nan_to_num(a)).max(axis=0)
         ok = (np.abs(a - b) <= 1e-8 * (np.abs(a) + scale)) | (np.isnan(a) & np.isnan(b))
-        assert ok.all(), f"{demo}/{name}: serial and 2 ranks differ at {np.argwhere(~ok)[:5].tolist()}"
+        assert ok.all(), (
+            f"{demo}/{name}: serial and 2 ranks differ at {np.argwhere(~ok)[:5].tolist()}"
+        )
 
 
 def test_long_bone_matches_kelvin_voigt_creep_of_static_solution(demo_runs, tmp_path):
@@ -121,13 +132,22 @@ def test_long_bone_matches_kelvin_voigt_creep_of_static_solution(demo_runs, tmp_
     taus = {m["tau_v"] for m in doc["material"]}
     assert len(taus) == 1, "the creep reference needs one tau_v for all materials"
     tau = taus.pop()
-    static = (src.replace('kind = "dynamic"', 'kind = "static"\nload_steps = 1')
-              .replace('mesh = "long_bone.msh"', f'mesh = "{ROOT / "data" / "scenes" / "long_bone.msh"}"'))
-    static = "\n".join(line for line in static.splitlines() if not line.startswith(("t_end", "dt =")))
+    static = src.replace('kind = "dynamic"', 'kind = "static"\nload_steps = 1').replace(
+        'mesh = "long_bone.msh"', f'mesh = "{ROOT / "data" / "scenes" / "long_bone.msh"}"'
+    )
+    static = "\n".join(
+        line for line in static.splitlines() if not line.startswith(("t_end", "dt ="))
+    )
     scene = tmp_path / "static.toml"
     scene.write_text(static)
-    r = subprocess.run([str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(tmp_path / "s")],
-                       capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL)
+    r = subprocess.run(
+        [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(tmp_path / "s")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=ENV,
+        stdin=subprocess.DEVNULL,
+    )
     assert r.returncode == 0, r.stderr
     u_static = _table(tmp_path / "s" / "probes.csv")
     u_static = u_static[u_static[:, 0] == 1][:, 5:7]
@@ -152,13 +172,19 @@ def test_long_bone_as_notebook(tmp_path):
     assert sum(c.cell_type == "markdown" for c in nb.cells) >= 3
     os.environ["BONECONTACT_OUTPUT"] = str(tmp_path / "nb")
     try:
-        client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
-                                         resources={"metadata": {"path": str(ROOT / "demos")}})
+        client = nbclient.NotebookClient(
+            nb,
+            timeout=600,
+            kernel_name="python3",
+            resources={"metadata": {"path": str(ROOT / "demos")}},
+        )
         client.execute()
     finally:
         os.environ.pop("BONECONTACT_OUTPUT")
     assert (tmp_path / "nb" / "long_bone.png").stat().st_size > 10_000
-    text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []))
+    text = "".join(
+        o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+    )
     assert "mid-shaft cortex von Mises" in text
 
 
@@ -168,9 +194,13 @@ def test_knee2d_force_balance_and_symmetry(demo_runs):
     the pressure is symmetric about the axis of the symmetric joint."""
     res, out = demo_runs["knee2d", 1]
     assert res.returncode == 0, res.stderr[-2000:]
-    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    hist = np.genfromtxt(
+        out / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     assert float(hist["normal_force"][-1]) == pytest.approx(17500.0, rel=0.01)
-    rows = np.genfromtxt(out / "contact_tibiofemoral.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    rows = np.genfromtxt(
+        out / "contact_tibiofemoral.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     x, p = rows["x"], rows["pressure"]
     on = p > 0
     assert on.sum() >= 10
@@ -191,7 +221,9 @@ def test_knee2d_gait_cycle_with_friction(demo_runs):
     a, b = _table(o1 / "gait" / "history.csv"), _table(o2 / "gait" / "history.csv")
     scale = np.abs(a).max(axis=0)
     assert (np.abs(a - b) <= 1e-8 * (np.abs(a) + scale)).all()
-    h = np.genfromtxt(o1 / "gait" / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    h = np.genfromtxt(
+        o1 / "gait" / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     late = h["time"] >= 0.8
     assert np.allclose(h["normal_force"][late], 0.1 * 2.9167e5 * 0.06, rtol=0.01)
     assert h["n_stick"].max() > 0 and h["n_slip"].max() > 0
@@ -220,14 +252,20 @@ def test_jaw_cyst_growth_and_cavity(demo_runs):
     s = json.loads((out / "summary.json").read_text())
     g = np.genfromtxt(out / "growth.csv", delimiter=",", names=True)
     p = tomllib.loads((ROOT / "data" / "neoplasms.toml").read_text())["cyst"]["keratocyst"]
-    params = CystParameters(**{k: p[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")})
-    ref = grow_sphere(params, float(g["equivalent_radius"][0]), float(g["time"][-1]), g["time"], dim=2)
+    params = CystParameters(
+        **{k: p[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")}
+    )
+    ref = grow_sphere(
+        params, float(g["equivalent_radius"][0]), float(g["time"][-1]), g["time"], dim=2
+    )
     np.testing.assert_allclose(g["equivalent_radius"], ref.R, rtol=1e-8)
     an = s["coupling"]["analyses"]
     assert [round(a["time"] / (365.25 * 86400 / 12)) for a in an] == [9, 18, 27]
     for a in an:
         assert a["status"] == "converged"
-        assert a["neoplasm_area_in_bone"] == pytest.approx(math.pi * a["equivalent_radius"] ** 2, rel=2e-3)
+        assert a["neoplasm_area_in_bone"] == pytest.approx(
+            math.pi * a["equivalent_radius"] ** 2, rel=2e-3
+        )
     assert an[-1]["equivalent_radius"] > 2 * an[0]["equivalent_radius"]
     # the radicular cyst: 36 months in one go, then one analysis; its radius follows the ODE too
     rad = tomllib.loads((ROOT / "data" / "neoplasms.toml").read_text())["cyst"]["radicular"]
@@ -235,13 +273,17 @@ def test_jaw_cyst_growth_and_cavity(demo_runs):
     assert g2["time"][0] == 0.0
     assert g2["time"][-1] == pytest.approx(36 * 365.25 * 86400 / 12, rel=1e-12)
     assert np.all(np.diff(g2["equivalent_radius"]) > 0)
-    p2 = CystParameters(**{k: rad[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")})
-    ref2 = grow_sphere(p2, float(g2["equivalent_radius"][0]), float(g2["time"][-1]), g2["time"], dim=2)
+    p2 = CystParameters(
+        **{k: rad[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")}
+    )
+    ref2 = grow_sphere(
+        p2, float(g2["equivalent_radius"][0]), float(g2["time"][-1]), g2["time"], dim=2
+    )
     np.testing.assert_allclose(g2["equivalent_radius"], ref2.R, rtol=1e-8)
     s2 = json.loads((out / "radicular" / "summary.json").read_text())
     assert s2["status"] == "converged" and len(s2["coupling"]["analyses"]) == 1
     # the pictures: PNGs of the size the demo asks for, not blank
-    _check_png(out / "jaw_cyst_growth.png", (1320, 480))   # figsize (11, 4) at 120 dpi
+    _check_png(out / "jaw_cyst_growth.png", (1320, 480))  # figsize (11, 4) at 120 dpi
     _check_png(out / "jaw_cyst_von_mises.png", (1100, 900))  # pyvista window_size
 
 
@@ -261,7 +303,9 @@ def test_knee_tumour_growth_and_loaded_bone(demo_runs):
     vm = []
     for a in analyses:
         d = Path(a["directory"])
-        hist = np.genfromtxt(d / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+        hist = np.genfromtxt(
+            d / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+        )
         assert float(hist["normal_force"][-1]) == pytest.approx(17500.0, rel=0.01)
         area = np.interp(a["time"], gr["time"], gr["volume"])
         assert a["neoplasm_area_in_bone"] == pytest.approx(area, rel=0.005)
@@ -286,4 +330,6 @@ def test_contact_api_reproduces_hertz(demo_runs):
     assert r["pdas_iterations"] <= 8, r
     for key in ("load_N_per_m", "a_error", "p0_error"):
         assert results[2][key] == pytest.approx(r[key], rel=1e-6, abs=1e-9), key
-    _check_png(demo_runs["contact_api", 1][1] / "contact_pressure.png", (600, 350))  # (6, 3.5) at 100 dpi
+    _check_png(
+        demo_runs["contact_api", 1][1] / "contact_pressure.png", (600, 350)
+    )  # (6, 3.5) at 100 dpi

@@ -18,8 +18,18 @@ def test_version_comes_from_the_package_metadata():
 
 
 def test_every_exported_name_exists_and_is_what_it_says():
-    assert set(bonecontact.__all__) >= {"load_scene", "run", "check", "Scene", "SceneError", "Mechanics",
-                                        "Integrator", "ContactSolver", "PDASOptions", "build_interface"}
+    assert set(bonecontact.__all__) >= {
+        "load_scene",
+        "run",
+        "check",
+        "Scene",
+        "SceneError",
+        "Mechanics",
+        "Integrator",
+        "ContactSolver",
+        "PDASOptions",
+        "build_interface",
+    }
     for name in bonecontact.__all__:
         assert hasattr(bonecontact, name), name
     from bonecontact.contact.pdas import ContactSolver

@@ -24,8 +24,18 @@ PACKAGE = ROOT / "bonecontact"
 FORMS = ROOT / "forms"
 
 #: Subpackages from the bottom up: a module may import its own layer or a lower one.
-LAYERS = ["forms", "common", "materials", "mechanics", "contact", "meshing", "neoplasm", "scene",
-          "verification", "runners"]
+LAYERS = [
+    "forms",
+    "common",
+    "materials",
+    "mechanics",
+    "contact",
+    "meshing",
+    "neoplasm",
+    "scene",
+    "verification",
+    "runners",
+]
 
 
 def _module_name(path: Path) -> str:
@@ -62,13 +72,16 @@ def _resolve(module: str, name: str | None, current: str, level: int, is_pkg: bo
 def _is_type_checking(node: ast.If) -> bool:
     t = node.test
     return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
-        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING"
+    )
 
 
 def _imports(path: Path) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
     """Every runtime import statement of a file, with whether it sits inside a function."""
 
-    def visit(node: ast.AST, in_function: bool) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+    def visit(
+        node: ast.AST, in_function: bool
+    ) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.If) and _is_type_checking(child):
                 for other in child.orelse:
@@ -76,8 +89,11 @@ def _imports(path: Path) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
                 continue
             if isinstance(child, ast.Import | ast.ImportFrom):
                 yield child, in_function
-            yield from visit(child, in_function or isinstance(
-                child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda))
+            yield from visit(
+                child,
+                in_function
+                or isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda),
+            )
 
     yield from visit(ast.parse(path.read_text(), filename=str(path)), False)
 
@@ -90,8 +106,11 @@ def _edges() -> dict[str, set[str]]:
             if isinstance(node, ast.Import):
                 targets = [t for a in node.names for t in _resolve(a.name, None, mod, 0, is_pkg)]
             else:
-                targets = [t for a in node.names
-                           for t in _resolve(node.module or "", a.name, mod, node.level, is_pkg)]
+                targets = [
+                    t
+                    for a in node.names
+                    for t in _resolve(node.module or "", a.name, mod, node.level, is_pkg)
+                ]
             graph[mod].update(t for t in targets if t != "bonecontact")
     return graph
 
@@ -183,8 +202,11 @@ def test_imports_run_down_the_layers():
 @pytest.mark.parametrize("module", sorted(MODULES))
 def test_no_package_import_inside_a_function(module):
     path = MODULES[module]
-    inner = [f"{path.relative_to(ROOT)}:{node.lineno}" for node, in_function in _imports(path)
-             if in_function and _is_internal(node)]
+    inner = [
+        f"{path.relative_to(ROOT)}:{node.lineno}"
+        for node, in_function in _imports(path)
+        if in_function and _is_internal(node)
+    ]
     assert not inner, f"bonecontact imported inside a function (move it to the top): {inner}"
 
 
@@ -199,8 +221,11 @@ def test_no_private_name_imported_from_another_module():
     for mod, path in MODULES.items():
         for node, _ in _imports(path):
             if isinstance(node, ast.ImportFrom) and _is_internal(node):
-                private += [f"{mod}: {node.module}.{a.name}" for a in node.names
-                            if a.name.startswith("_") and a.name != "__version__"]
+                private += [
+                    f"{mod}: {node.module}.{a.name}"
+                    for a in node.names
+                    if a.name.startswith("_") and a.name != "__version__"
+                ]
     assert not private, f"private names used across modules: {private}"
 
 
@@ -211,8 +236,11 @@ def _private_uses(path: Path) -> list[str]:
     found = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            aliases |= {a.asname or a.name.split(".")[0] for a in node.names
-                        if a.name.startswith("bonecontact")}
+            aliases |= {
+                a.asname or a.name.split(".")[0]
+                for a in node.names
+                if a.name.startswith("bonecontact")
+            }
         elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("bonecontact"):
             for a in node.names:
                 if a.name.startswith("_") and not a.name.startswith("__"):
@@ -220,16 +248,24 @@ def _private_uses(path: Path) -> list[str]:
                 if f"{node.module}.{a.name}" in MODULES:
                     aliases.add(a.asname or a.name)
     for node in ast.walk(tree):
-        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
-                and node.value.id in aliases and node.attr.startswith("_")
-                and not node.attr.startswith("__")):
+        if (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in aliases
+            and node.attr.startswith("_")
+            and not node.attr.startswith("__")
+        ):
             found.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.value.id}.{node.attr}")
     return found
 
 
 def test_tests_benchmarks_and_demos_use_the_public_api():
-    scripts = [p for d in ("tests", "benchmarks", "demos") for p in sorted((ROOT / d).rglob("*.py"))
-               if "__pycache__" not in p.parts]
+    scripts = [
+        p
+        for d in ("tests", "benchmarks", "demos")
+        for p in sorted((ROOT / d).rglob("*.py"))
+        if "__pycache__" not in p.parts
+    ]
     assert len(scripts) > 20
     private = [use for p in scripts for use in _private_uses(p)]
     assert not private, f"private bonecontact names used outside the package: {private}"

@@ -13,22 +13,25 @@ pencil, independently of the integrator.
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
+from mpi4py import MPI
+from petsc4py import PETSc
+
 import numpy as np
 import pytest
 from dolfinx import fem, mesh
-from mpi4py import MPI
-from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from bonecontact.common.linalg import owned_global_rows
 from bonecontact.materials.laws import Isotropic, Orthotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
 
 COMM = MPI.COMM_WORLD
 
 
-def _eps(K: PETSc.Mat, M: PETSc.Mat, which, target: float | None, tol: float) -> tuple[float, PETSc.Vec]:
+def _eps(
+    K: PETSc.Mat, M: PETSc.Mat, which, target: float | None, tol: float
+) -> tuple[float, PETSc.Vec]:
     """One eigenpair of the pencil (K, M) (GHEP), LU by MUMPS in the spectral transform."""
     eps = SLEPc.EPS().create(COMM)
     eps.setOperators(K, M)
@@ -132,9 +135,21 @@ def _smooth_random(rng: np.random.Generator, scale: float, length: float):
     amp = rng.uniform(-1.0, 1.0, size=3)
 
     def f(X):
-        return scale * X[0] / length * np.array([amp[i] * np.sin(k[i, 0] * X[0] + ph[i, 0])
-                                                 * np.cos(k[i, 1] * X[1] + ph[i, 1])
-                                                 * np.cos(k[i, 2] * X[2] + ph[i, 2]) for i in range(3)])
+        return (
+            scale
+            * X[0]
+            / length
+            * np.array(
+                [
+                    amp[i]
+                    * np.sin(k[i, 0] * X[0] + ph[i, 0])
+                    * np.cos(k[i, 1] * X[1] + ph[i, 1])
+                    * np.cos(k[i, 2] * X[2] + ph[i, 2])
+                    for i in range(3)
+                ]
+            )
+        )
+
     return f
 
 
@@ -150,9 +165,20 @@ def test_energy_never_increases(tau_v):
     dissipates strictly, at least Δt |vⁿ⁺¹|²_Kv > 0, and the 40 steps lose more energy
     than without viscosity.
     """
-    mat = Orthotropic(E1=12.0e9, E2=13.4e9, E3=20.0e9, nu12=0.376, nu13=0.222, nu23=0.235,
-                      G12=4.53e9, G13=5.61e9, G23=6.23e9, rho=1900.0, tau_v=tau_v,
-                      axes=((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0)))
+    mat = Orthotropic(
+        E1=12.0e9,
+        E2=13.4e9,
+        E3=20.0e9,
+        nu12=0.376,
+        nu13=0.222,
+        nu23=0.235,
+        G12=4.53e9,
+        G13=5.61e9,
+        G23=6.23e9,
+        rho=1900.0,
+        tau_v=tau_v,
+        axes=((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0)),
+    )
     length, n = 10.0, (40, 4, 4)
     msh = mesh.create_box(COMM, [[0.0, 0.0, 0.0], [length, 1.0, 1.0]], n, mesh.CellType.tetrahedron)
     h = 0.25

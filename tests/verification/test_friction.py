@@ -18,19 +18,20 @@ from __future__ import annotations
 
 import dolfinx_solver  # noqa: F401
 
-import numpy as np
-import pytest
 from mpi4py import MPI
 
-from bonecontact.meshing import shapes as meshing
-from bonecontact.verification.analytic import contact_modulus, hertz_2d
-from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.model import Mechanics
-from bonecontact.contact.interface import build_interface
+import numpy as np
+import pytest
+
 from bonecontact.contact.friction import FrictionLaw
+from bonecontact.contact.interface import build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
+from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing import shapes as meshing
+from bonecontact.verification.analytic import contact_modulus, hertz_2d
 
 COMM = MPI.COMM_WORLD
 W, H = 0.02, 0.01
@@ -46,10 +47,16 @@ def _blocks(p_normal: float, shear, tangential: str = "traction"):
     tangential load from step 2 on (a traction or a prescribed top displacement).  With
     a shear traction τ on the top, the interface shear vanishes at the free corners and
     peaks inside (≈ 1.5 τ)."""
-    md = meshing.two_blocks_2d(COMM, h_lower=W / 13, h_upper=W / 30, width=W, lower_height=H, upper_height=H)
+    md = meshing.two_blocks_2d(
+        COMM, h_lower=W / 13, h_upper=W / 30, width=W, lower_height=H, upper_height=H
+    )
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["lower"]: Isotropic(E=20.0e6, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)},
-                  md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh,
+        {pg["lower"]: Isotropic(E=20.0e6, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)},
+        md.cell_tags,
+        md.facet_tags,
+    )
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
     m.add_traction(pg["top"], [0.0, -p_normal])
@@ -58,7 +65,9 @@ def _blocks(p_normal: float, shear, tangential: str = "traction"):
         m.add_traction(pg["top"], [shear, 0.0], schedule=ramp)
     else:
         m.add_dirichlet(m.facets(pg["top"]), 0, shear, schedule=ramp)
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
     return m, itf
 
 
@@ -67,14 +76,21 @@ def test_tresca_block_stick_below_the_bound(strategy):
     p, g = 1.0e5, 5.0e4
     tau = 0.3 * g
     m, itf = _blocks(p, tau)
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)))
-    integ.step()                                   # normal load only
-    integ.step()                                   # + tangential traction
+    integ = Integrator(
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(
+            m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)
+        ),
+    )
+    integ.step()  # normal load only
+    integ.step()  # + tangential traction
     r = integ.last_contact
     status, trac, slip = _g(r.status[0]), _g(r.traction_t[0][:, 0]), _g(r.slip[0][:, 0])
     assert set(status) == {"stick"}
-    assert np.abs(slip).max() < 1e-12 * H          # no slip in the step (fixed rows)
-    assert np.abs(trac).max() < g                  # below the bound everywhere
+    assert np.abs(slip).max() < 1e-12 * H  # no slip in the step (fixed rows)
+    assert np.abs(trac).max() < g  # below the bound everywhere
     # equilibrium: the tangential resultant carries the applied shear τ·W
     assert r.tangential_force[0] == pytest.approx(tau * W, rel=1e-8)
     assert r.normal_force[0] == pytest.approx(p * W, rel=1e-8)
@@ -87,7 +103,14 @@ def test_tresca_block_slips_with_the_bound(strategy):
     active node carries exactly g against the slip, and the resultant is g·W."""
     p, g = 1.0e5, 2.0e4
     m, itf = _blocks(p, 2e-4, tangential="displacement")
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)))
+    integ = Integrator(
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(
+            m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)
+        ),
+    )
     integ.step()
     integ.step()
     r = integ.last_contact
@@ -109,7 +132,14 @@ def test_tresca_block_partial_slip_complementarity(strategy):
     p, g = 1.0e5, 5.0e4
     tau = 0.8 * g
     m, itf = _blocks(p, tau)
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)))
+    integ = Integrator(
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(
+            m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)
+        ),
+    )
     integ.step()
     integ.step()
     r = integ.last_contact
@@ -129,27 +159,56 @@ def test_tresca_block_partial_slip_complementarity(strategy):
 R, A_REF, E, NU, MU = 0.01, 5.0e-4, 2.0e9, 0.3, 0.3
 
 
-def _mindlin(update: str, increments: int, drag: float = 1.2e-5, mu: float = MU, h: float = A_REF / 20):
+def _mindlin(
+    update: str, increments: int, drag: float = 1.2e-5, mu: float = MU, h: float = A_REF / 20
+):
     """Half cylinder on a block of the same material: approach δ (step 1), then the
     cylinder top dragged sideways by ``drag`` in ``increments`` equal steps."""
-    delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E, NU, E, NU) / contact_modulus(E, NU, E, NU)
+    delta = (
+        2.5 * hertz_2d.load_for_half_width(A_REF, R, E, NU, E, NU) / contact_modulus(E, NU, E, NU)
+    )
     md = meshing.hertz_2d(COMM, h_contact=h, zone=1.5 * A_REF, h_far=2e-3)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["cylinder"]: Isotropic(E=E, nu=NU), pg["block"]: Isotropic(E=E, nu=NU)},
-                  md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh,
+        {pg["cylinder"]: Isotropic(E=E, nu=NU), pg["block"]: Isotropic(E=E, nu=NU)},
+        md.cell_tags,
+        md.facet_tags,
+    )
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
     m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta)
-    m.add_dirichlet(m.facets(pg["cyl_top"]), 0, drag, schedule=lambda t: min(max(t - 1.0, 0.0) / increments, 1.0))
-    itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("coulomb", coefficient=mu, update=update))))
+    m.add_dirichlet(
+        m.facets(pg["cyl_top"]),
+        0,
+        drag,
+        schedule=lambda t: min(max(t - 1.0, 0.0) / increments, 1.0),
+    )
+    itf = build_interface(
+        m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs()
+    )
+    integ = Integrator(
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(
+            m.V, [itf], PDASOptions(friction=FrictionLaw("coulomb", coefficient=mu, update=update))
+        ),
+    )
     for _ in range(increments + 1):
         integ.step()
     r = integ.last_contact
     x = _g(itf.coords[:, 0])
     o = np.argsort(x)
-    out = {"x": x[o], "p": _g(r.pressure[0])[o], "q": np.abs(_g(r.traction_t[0][:, 0])[o]),
-           "status": _g(r.status[0])[o], "P": r.normal_force[0], "Q": r.tangential_force[0], "result": r}
+    out = {
+        "x": x[o],
+        "p": _g(r.pressure[0])[o],
+        "q": np.abs(_g(r.traction_t[0][:, 0])[o]),
+        "status": _g(r.status[0])[o],
+        "P": r.normal_force[0],
+        "Q": r.tangential_force[0],
+        "result": r,
+    }
     integ.destroy()
     return out
 
@@ -166,8 +225,8 @@ def test_cattaneo_mindlin_2d_partial_slip():
     p0 = hertz_2d.peak_pressure(s["P"], R, E, NU, E, NU)
     stick, slip = s["status"] == "stick", s["status"] == "slip"
     d = MU * s["p"][stick] - s["q"][stick]
-    assert d.min() >= -1e-9 * MU * p0                          # |q| ≤ μp in the stick zone
-    A, B = np.linalg.lstsq(np.c_[np.ones(stick.sum()), s["x"][stick] ** 2], d ** 2, rcond=None)[0]
+    assert d.min() >= -1e-9 * MU * p0  # |q| ≤ μp in the stick zone
+    A, B = np.linalg.lstsq(np.c_[np.ones(stick.sum()), s["x"][stick] ** 2], d**2, rcond=None)[0]
     c_fit, c_ref = np.sqrt(-A / B), a * np.sqrt(1.0 - ratio)
     assert abs(c_fit / c_ref - 1.0) < 0.05
     # the stick zone is the centred interval: every node inside |x| < c sticks
@@ -209,7 +268,7 @@ def test_large_coefficient_converges():
     d = mu * s["p"][stick] - s["q"][stick]
     assert d.min() >= -1e-9 * mu * p0
     a = hertz_2d.half_width(s["P"], R, E, NU, E, NU)
-    A, B = np.linalg.lstsq(np.c_[np.ones(stick.sum()), s["x"][stick] ** 2], d ** 2, rcond=None)[0]
+    A, B = np.linalg.lstsq(np.c_[np.ones(stick.sum()), s["x"][stick] ** 2], d**2, rcond=None)[0]
     c_fit, c_ref = np.sqrt(-A / B), a * np.sqrt(1.0 - ratio)
     assert abs(c_fit / c_ref - 1.0) < 0.05
     assert np.all(stick[np.abs(s["x"]) < 0.9 * c_ref])
@@ -220,7 +279,12 @@ def test_tangential_load_beyond_the_bound_stops_with_a_diagnostic():
     block would slide away); the solver must stop with a clear error, not return."""
     p, g = 1.0e5, 1.0e4
     m, itf = _blocks(p, 1.5 * g)
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g))))
+    integ = Integrator(
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g))),
+    )
     integ.step()
     with pytest.raises(ContactConvergenceError) as info:
         integ.step()
@@ -233,9 +297,14 @@ def test_tangential_load_beyond_the_bound_stops_with_a_diagnostic():
 # (Tresca is left out: its bound does not vanish with the pressure, and in this impact a
 # node at the edge of the contact zone toggles open/slip — the PDAS stops with a cycling
 # diagnostic at Δt = 2e-5 s instead of converging; see the module docstring.)
-@pytest.mark.parametrize("law", [FrictionLaw("coulomb", coefficient=0.5),
-                                 FrictionLaw("coulomb", coefficient=0.5, update="fixed_point")],
-                         ids=["coulomb-previous", "coulomb-fixed-point"])
+@pytest.mark.parametrize(
+    "law",
+    [
+        FrictionLaw("coulomb", coefficient=0.5),
+        FrictionLaw("coulomb", coefficient=0.5, update="fixed_point"),
+    ],
+    ids=["coulomb-previous", "coulomb-fixed-point"],
+)
 @pytest.mark.parametrize("dt", [2e-5, 2e-4])
 def test_energy_never_increases_with_friction(law, dt):
     """No loads, fixed bottom: the upper block hits the lower one obliquely (v = (2, −1)
@@ -244,14 +313,27 @@ def test_energy_never_increases_with_friction(law, dt):
     really acts (some node sticks or carries a tangential traction)."""
     from dolfinx import fem
 
-    md = meshing.two_blocks_2d(COMM, h_lower=W / 7, h_upper=W / 12, width=W, lower_height=H, upper_height=H)
+    md = meshing.two_blocks_2d(
+        COMM, h_lower=W / 7, h_upper=W / 12, width=W, lower_height=H, upper_height=H
+    )
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    mats = {pg["lower"]: Isotropic(E=20.0e6, nu=0.3, rho=1100.0), pg["upper"]: Isotropic(E=20.0e6, nu=0.3, rho=1100.0)}
+    mats = {
+        pg["lower"]: Isotropic(E=20.0e6, nu=0.3, rho=1100.0),
+        pg["upper"]: Isotropic(E=20.0e6, nu=0.3, rho=1100.0),
+    }
     m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "dynamic", dt, contact=ContactSolver(m.V, [itf], PDASOptions(friction=law)), energy_balance=True)
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
+    integ = Integrator(
+        m,
+        "dynamic",
+        dt,
+        contact=ContactSolver(m.V, [itf], PDASOptions(friction=law)),
+        energy_balance=True,
+    )
     v0 = fem.Function(m.V)
     upper = md.cell_tags.find(pg["upper"])
     dofs = fem.locate_dofs_topological(m.V, md.mesh.topology.dim, upper)
@@ -265,8 +347,13 @@ def test_energy_never_increases_with_friction(law, dt):
         e = integ.energy().total
         assert e <= e_prev * (1 + 1e-12), f"energy grew: {e_prev} -> {e}"
         e_prev = e
-        traction = max(traction, COMM.allreduce(float(np.abs(integ.last_contact.traction_t[0]).max())
-                                                if itf.num_owned else 0.0, op=MPI.MAX))
+        traction = max(
+            traction,
+            COMM.allreduce(
+                float(np.abs(integ.last_contact.traction_t[0]).max()) if itf.num_owned else 0.0,
+                op=MPI.MAX,
+            ),
+        )
     assert traction > 0.0
     assert e_prev < e0
     # the balance closes with the friction work booked in contact_work (≤ 0)
@@ -282,14 +369,25 @@ def _sphere_on_block(h: float, drag: float, increments: int):
     a_t = 1.0e-3
     md = meshing.hertz_3d(COMM, h_contact=h, zone=1.5 * a_t)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["sphere"]: Isotropic(E=E, nu=NU), pg["block"]: Isotropic(E=E, nu=NU)},
-                  md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh,
+        {pg["sphere"]: Isotropic(E=E, nu=NU), pg["block"]: Isotropic(E=E, nu=NU)},
+        md.cell_tags,
+        md.facet_tags,
+    )
     for c in range(3):
         m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
-    m.add_dirichlet(m.facets(pg["sphere_top"]), 1, -a_t ** 2 / R)
+    m.add_dirichlet(m.facets(pg["sphere_top"]), 1, -(a_t**2) / R)
     m.add_dirichlet(m.facets(pg["sphere_top"]), 2, 0.0)
-    m.add_dirichlet(m.facets(pg["sphere_top"]), 0, drag, schedule=lambda t: min(max(t - 1.0, 0.0) / increments, 1.0))
-    itf = build_interface(m.V, md.facet_tags, pg["sphere_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
+    m.add_dirichlet(
+        m.facets(pg["sphere_top"]),
+        0,
+        drag,
+        schedule=lambda t: min(max(t - 1.0, 0.0) / increments, 1.0),
+    )
+    itf = build_interface(
+        m.V, md.facet_tags, pg["sphere_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs()
+    )
     return m, itf
 
 
@@ -304,7 +402,16 @@ def test_cattaneo_mindlin_3d_partial_slip():
 
     increments = 4
     m, itf = _sphere_on_block(2.2e-4, 1.5e-5, increments)
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(friction=FrictionLaw("coulomb", coefficient=MU), max_iterations=60)))
+    integ = Integrator(
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(
+            m.V,
+            [itf],
+            PDASOptions(friction=FrictionLaw("coulomb", coefficient=MU), max_iterations=60),
+        ),
+    )
     its = []
     for _ in range(increments + 1):
         integ.step()
@@ -322,7 +429,7 @@ def test_cattaneo_mindlin_3d_partial_slip():
     p0 = hertz_3d.peak_pressure(P, R, E, NU, E, NU)
     stick, slip = status == "stick", status == "slip"
     d = MU * p[stick] - q[stick]
-    A, B = np.linalg.lstsq(np.c_[np.ones(stick.sum()), rr[stick] ** 2], d ** 2, rcond=None)[0]
+    A, B = np.linalg.lstsq(np.c_[np.ones(stick.sum()), rr[stick] ** 2], d**2, rcond=None)[0]
     c_fit, c_ref = np.sqrt(-A / B), a * (1.0 - ratio) ** (1.0 / 3.0)
     assert abs(c_fit / c_ref - 1.0) < 0.08
     assert np.abs(q[slip] - MU * p[slip]).max() < 0.03 * MU * p0
@@ -332,13 +439,23 @@ def test_cattaneo_mindlin_3d_partial_slip():
 def _sphere_drag(slip_3d: str, strategy: str, tol: float):
     """Coarse 3D Cattaneo–Mindlin (h = 0.6 mm): approach, then one drag increment."""
     m, itf = _sphere_on_block(6e-4, 1.2e-5, 1)
-    opts = {"friction": FrictionLaw("coulomb", coefficient=MU), "max_iterations": 60, "strategy": strategy,
-            "slip_3d": slip_3d, "direction_tol": tol}
+    opts = {
+        "friction": FrictionLaw("coulomb", coefficient=MU),
+        "max_iterations": 60,
+        "strategy": strategy,
+        "slip_3d": slip_3d,
+        "direction_tol": tol,
+    }
     integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(**opts)))
     integ.step()
     integ.step()
     r = integ.last_contact
-    out = {"q": _g(r.traction_t[0]), "p": _g(r.pressure[0]), "status": _g(r.status[0]), "its": r.iterations}
+    out = {
+        "q": _g(r.traction_t[0]),
+        "p": _g(r.pressure[0]),
+        "status": _g(r.status[0]),
+        "its": r.iterations,
+    }
     integ.destroy()
     return out
 

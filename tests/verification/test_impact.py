@@ -30,9 +30,10 @@ from __future__ import annotations
 
 import dolfinx_solver  # noqa: F401
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.pdas import ContactSolver
@@ -52,8 +53,10 @@ from bonecontact.verification.impact import (
 
 P = BarImpact(nx=40, ny=2, gap=1.02e-5)
 # serial figures (errors() at N = 400 and 100), asserted on every rank count
-SERIAL = {400: {"duration": -0.0025, "mean_force": -0.03755738, "v_striker": 0.03996348},
-          100: {"duration": 0.0, "mean_force": -0.07975003, "v_striker": 0.07975003}}
+SERIAL = {
+    400: {"duration": -0.0025, "mean_force": -0.03755738, "v_striker": 0.03996348},
+    100: {"duration": 0.0, "mean_force": -0.07975003, "v_striker": 0.07975003},
+}
 _RUNS: dict[int, object] = {}
 
 
@@ -128,16 +131,23 @@ def test_mass_redistribution_option():
     assert w.sum() == pytest.approx(2 * 2 * P.mass, rel=1e-12)  # 2 bars × 2 components
     assert MPI.COMM_WORLD.allreduce(itf.num_owned) == P.ny + 1
     rows = (2 * itf.blocks[:, None] + np.arange(2)[None, :]).ravel()
-    dense_rows = np.abs(w.array[rows]).max(initial=0.0)   # M_r 1 vanishes at contact dofs
+    dense_rows = np.abs(w.array[rows]).max(initial=0.0)  # M_r 1 vanishes at contact dofs
     assert MPI.COMM_WORLD.allreduce(dense_rows, op=MPI.MAX) < 1e-14 * P.mass
     diag = Mr.getDiagonal()
-    assert MPI.COMM_WORLD.allreduce(np.abs(diag.array[rows]).max(initial=0.0), op=MPI.MAX) < 1e-14 * P.mass
+    assert (
+        MPI.COMM_WORLD.allreduce(np.abs(diag.array[rows]).max(initial=0.0), op=MPI.MAX)
+        < 1e-14 * P.mass
+    )
     for obj in (Mr, one, w, diag):
         obj.destroy()
 
     n = 200
-    r = run_bar_impact(P, P.duration / n, t_end=P.t_contact + 1.1 * P.duration,
-                       integrator_options={"mass_redistribution": True})
+    r = run_bar_impact(
+        P,
+        P.duration / n,
+        t_end=P.t_contact + 1.1 * P.duration,
+        integrator_options={"mass_redistribution": True},
+    )
     err = r.errors()
     assert P.t_contact <= r.t_start < P.t_contact + r.dt and r.episodes == 1
     assert abs(err["duration"]) < 0.03 and abs(err["mean_force"]) < 0.06, err
@@ -159,15 +169,19 @@ def test_energy_balance_loads_viscosity_supports(kind):
     overall; the running totals reproduce the final energy."""
     md = meshing.two_blocks_2d(MPI.COMM_WORLD, h_lower=0.02 / 5, h_upper=0.02 / 7)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    mats = {pg["lower"]: Isotropic(E=1e8, nu=0.3, rho=1900.0, tau_v=5e-4),
-            pg["upper"]: Isotropic(E=1e7, nu=0.3, rho=1100.0, tau_v=5e-4)}
+    mats = {
+        pg["lower"]: Isotropic(E=1e8, nu=0.3, rho=1900.0, tau_v=5e-4),
+        pg["upper"]: Isotropic(E=1e7, nu=0.3, rho=1100.0, tau_v=5e-4),
+    }
     m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
     ramp = lambda t: min(t / 1e-3, 1.0)  # noqa: E731
     m.add_dirichlet(m.facets(pg["bottom"]), 1, 1e-5, ramp)
     for side in ("lower_left", "upper_left"):
         m.add_dirichlet(m.facets(pg[side]), 0, 0.0)
     m.add_traction(pg["top"], [0.0, -2e5], schedule=ramp)
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
     integ = Integrator(m, kind, 1e-4, contact=ContactSolver(m.V, [itf]), energy_balance=True)
     integ.set_initial()
     steps = []
@@ -187,9 +201,15 @@ def test_energy_balance_loads_viscosity_supports(kind):
     assert tot.numerical_dissipation > 0.0
     e = integ.energy()
     assert tot.total == pytest.approx(e.total, rel=1e-12)
-    assert e.total == pytest.approx(tot.external_work + tot.dirichlet_work + tot.contact_work
-                                    - tot.viscous_dissipation - tot.numerical_dissipation + tot.defect,
-                                    rel=1e-10)
+    assert e.total == pytest.approx(
+        tot.external_work
+        + tot.dirichlet_work
+        + tot.contact_work
+        - tot.viscous_dissipation
+        - tot.numerical_dissipation
+        + tot.defect,
+        rel=1e-10,
+    )
     integ.destroy()
 
 
@@ -256,7 +276,9 @@ def test_dynamic_contact_scene_energy_columns(tmp_path):
 
     from bonecontact.meshing import shapes as meshing
 
-    mesh = meshing.two_blocks_2d(None, path=tmp_path / "blocks.msh", h_lower=0.02 / 7, h_upper=0.02 / 11)
+    mesh = meshing.two_blocks_2d(
+        None, path=tmp_path / "blocks.msh", h_lower=0.02 / 7, h_upper=0.02 / 11
+    )
     scene = tmp_path / "dyn.toml"
     scene.write_text(SCENE.format(mesh=mesh))
     bin_ = Path(sys.executable).parent
@@ -267,7 +289,9 @@ def test_dynamic_contact_scene_energy_columns(tmp_path):
         cmd = [str(bin_ / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
         if n > 1:
             cmd = [str(bin_ / "mpiexec"), "-n", str(n), *cmd]
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env, stdin=subprocess.DEVNULL)
+        res = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=600, env=env, stdin=subprocess.DEVNULL
+        )
         assert res.returncode == 0, res.stderr
         rows = list(csv.reader(open(out / "history.csv")))
         header = rows[0]
@@ -276,8 +300,13 @@ def test_dynamic_contact_scene_energy_columns(tmp_path):
     h = tables[1]
     c = {name: h[:, cols.index(name)] for name in cols}
     energy = c["kinetic_energy"] + c["strain_energy"]
-    works = (c["external_work"] + c["dirichlet_work"] + c["contact_work"] - c["viscous_dissipation"]
-             - c["numerical_dissipation"])
+    works = (
+        c["external_work"]
+        + c["dirichlet_work"]
+        + c["contact_work"]
+        - c["viscous_dissipation"]
+        - c["numerical_dissipation"]
+    )
     assert np.abs(energy - works).max() < 1e-9 * energy.max()
     assert np.all(c["contact_work"] == 0.0) and np.all(c["dirichlet_work"] == 0.0)
     assert c["external_work"][-1] > 0.0 and c["viscous_dissipation"][-1] > 0.0

@@ -15,16 +15,16 @@ rank 0, so the same mesh on every number of ranks).
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
-import numpy as np
+from mpi4py import MPI
+
 import pytest
 import ufl
 from dolfinx import fem
-from mpi4py import MPI
 
 from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.shapes import cantilever, quarter_tube
-from bonecontact.mechanics.integrator import Integrator
 
 COMM = MPI.COMM_WORLD
 R_IN, R_OUT = 0.01, 0.02  # m
@@ -37,7 +37,14 @@ def total(form) -> float:
 
 
 def lame_ur(nu: float, r: float) -> float:
-    return (1 + nu) / E_TUBE * P_IN * R_IN**2 / (R_OUT**2 - R_IN**2) * ((1 - 2 * nu) * r + R_OUT**2 / r)
+    return (
+        (1 + nu)
+        / E_TUBE
+        * P_IN
+        * R_IN**2
+        / (R_OUT**2 - R_IN**2)
+        * ((1 - 2 * nu) * r + R_OUT**2 / r)
+    )
 
 
 def _tube_meshes(hs):
@@ -47,7 +54,9 @@ def _tube_meshes(hs):
 def tube_inner_error(md, nu: float, formulation: str) -> float:
     """Relative error of the mean inner radial displacement against Lamé."""
     pg = md.physical_groups
-    m = Mechanics(md.mesh, Isotropic(E=E_TUBE, nu=nu, formulation=formulation), md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh, Isotropic(E=E_TUBE, nu=nu, formulation=formulation), md.cell_tags, md.facet_tags
+    )
     m.add_dirichlet(m.facets(pg["x0"].tag), 0, 0.0)
     m.add_dirichlet(m.facets(pg["y0"].tag), 1, 0.0)
     m.add_pressure(pg["inner"].tag, P_IN)
@@ -72,7 +81,9 @@ def test_lame_tube_compressible(tubes):
     shrinks by at least 2.5× (measured −0.58 % and −0.15 %: second order, partly the
     polygonal inner arc).
     """
-    coarse, fine = (tube_inner_error(tubes[h], 0.3, "displacement") for h in sorted(tubes, reverse=True))
+    coarse, fine = (
+        tube_inner_error(tubes[h], 0.3, "displacement") for h in sorted(tubes, reverse=True)
+    )
     assert abs(coarse) < 1e-2
     assert abs(fine) < 3e-3
     assert abs(fine) < abs(coarse) / 2.5
@@ -140,7 +151,10 @@ def test_cantilever_timoshenko():
     ref = timoshenko_tip()
     hs = (H_BEAM / 2, H_BEAM / 4, H_BEAM / 8)
     meshes = {h: cantilever(L_BEAM, H_BEAM, H_BEAM, h, COMM) for h in hs}
-    d = {hs[0]: cantilever_tip(meshes[hs[0]], "direct"), hs[1]: cantilever_tip(meshes[hs[1]], "direct")}
+    d = {
+        hs[0]: cantilever_tip(meshes[hs[0]], "direct"),
+        hs[1]: cantilever_tip(meshes[hs[1]], "direct"),
+    }
     assert cantilever_tip(meshes[hs[1]], "iterative") == pytest.approx(d[hs[1]], rel=1e-8)
     d[hs[2]] = cantilever_tip(meshes[hs[2]], "iterative")
     err = [(d[h] - ref) / ref for h in hs]

@@ -18,15 +18,16 @@ package's Voigt/plane-strain reduction in the forms.
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import ufl
 from dolfinx import fem, mesh
-from mpi4py import MPI
 
 from bonecontact.materials.laws import Isotropic, Orthotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
 
 COMM = MPI.COMM_WORLD
 QDEG = {"quadrature_degree": 6}
@@ -57,15 +58,31 @@ def tensor_from_6x6(C6: np.ndarray) -> np.ndarray:
 def stress_ufl(C4: np.ndarray, u, dim: int):
     """σ_ij = C_ijkl e_kl(u) for i, j < dim (plane strain: e_zz = e_xz = e_yz = 0)."""
     e = ufl.sym(ufl.grad(u))
-    return ufl.as_matrix([[sum(float(C4[i, j, k, l]) * e[k, l] for k in range(dim) for l in range(dim))
-                           for j in range(dim)] for i in range(dim)])
+    return ufl.as_matrix(
+        [
+            [
+                sum(float(C4[i, j, k, l]) * e[k, l] for k in range(dim) for l in range(dim))
+                for j in range(dim)
+            ]
+            for i in range(dim)
+        ]
+    )
 
 
 def ashman_rotated(theta_deg: float) -> Orthotropic:
     c, s = np.cos(np.deg2rad(theta_deg)), np.sin(np.deg2rad(theta_deg))
-    return Orthotropic(E1=12.0e9, E2=13.4e9, E3=20.0e9, nu12=0.376, nu13=0.222, nu23=0.235,
-                       G12=4.53e9, G13=5.61e9, G23=6.23e9,
-                       axes=((c, s, 0.0), (-s, c, 0.0), (0.0, 0.0, 1.0)))
+    return Orthotropic(
+        E1=12.0e9,
+        E2=13.4e9,
+        E3=20.0e9,
+        nu12=0.376,
+        nu13=0.222,
+        nu23=0.235,
+        G12=4.53e9,
+        G13=5.61e9,
+        G23=6.23e9,
+        axes=((c, s, 0.0), (-s, c, 0.0), (0.0, 0.0, 1.0)),
+    )
 
 
 def test_mms_2d_orthotropic_rotated():
@@ -79,15 +96,23 @@ def test_mms_2d_orthotropic_rotated():
     a = 1.0e-3  # displacement scale (m)
 
     def exact_np(X):
-        return a * np.array([np.sin(np.pi * X[0]) * np.cos(1.3 * X[1]) + X[0] ** 2,
-                             np.exp(X[0] * X[1]) * np.sin(2.0 * X[1])])
+        return a * np.array(
+            [
+                np.sin(np.pi * X[0]) * np.cos(1.3 * X[1]) + X[0] ** 2,
+                np.exp(X[0] * X[1]) * np.sin(2.0 * X[1]),
+            ]
+        )
 
     hs, eL2, eH1 = [], [], []
     for N in (8, 16, 32, 64):
         msh = mesh.create_unit_square(COMM, N, N)
         x = ufl.SpatialCoordinate(msh)
-        ue = a * ufl.as_vector([ufl.sin(np.pi * x[0]) * ufl.cos(1.3 * x[1]) + x[0] ** 2,
-                                ufl.exp(x[0] * x[1]) * ufl.sin(2.0 * x[1])])
+        ue = a * ufl.as_vector(
+            [
+                ufl.sin(np.pi * x[0]) * ufl.cos(1.3 * x[1]) + x[0] ** 2,
+                ufl.exp(x[0] * x[1]) * ufl.sin(2.0 * x[1]),
+            ]
+        )
         m = Mechanics(msh, mat)
         m.add_body_force(-ufl.div(stress_ufl(C4, ue, 2)))
         msh.topology.create_connectivity(1, 2)
@@ -99,8 +124,12 @@ def test_mms_2d_orthotropic_rotated():
         u = integ.u
         dx = ufl.dx(domain=msh, metadata=QDEG)
         eL2.append(np.sqrt(total(ufl.inner(u - ue, u - ue) * dx) / total(ufl.inner(ue, ue) * dx)))
-        eH1.append(np.sqrt(total(ufl.inner(ufl.grad(u - ue), ufl.grad(u - ue)) * dx)
-                           / total(ufl.inner(ufl.grad(ue), ufl.grad(ue)) * dx)))
+        eH1.append(
+            np.sqrt(
+                total(ufl.inner(ufl.grad(u - ue), ufl.grad(u - ue)) * dx)
+                / total(ufl.inner(ufl.grad(ue), ufl.grad(ue)) * dx)
+            )
+        )
         hs.append(1.0 / N)
         integ.destroy()
     assert rate(hs, eL2) == pytest.approx(2.0, abs=0.2), eL2
@@ -124,8 +153,9 @@ def test_mms_3d_two_materials_contrast():
     C4 = tensor_from_6x6(Isotropic(E=1.0, nu=nu).voigt())
 
     def a_np(X):
-        return (X[0] - 0.5) * np.array([np.sin(2 * X[1]) + X[2] * X[0], np.cos(X[0] + X[2]) * X[1],
-                                        np.exp(X[1] * X[2])])
+        return (X[0] - 0.5) * np.array(
+            [np.sin(2 * X[1]) + X[2] * X[0], np.cos(X[0] + X[2]) * X[1], np.exp(X[1] * X[2])]
+        )
 
     def exact_np(X):
         return a_np(X) / np.where(X[0] < 0.5, E1, E2)
@@ -141,8 +171,9 @@ def test_mms_3d_two_materials_contrast():
         ct = mesh.meshtags(msh, 3, np.arange(ncells, dtype=np.int32), tags)
         m = Mechanics(msh, {1: soft, 2: stiff}, ct)
         x = ufl.SpatialCoordinate(msh)
-        a = (x[0] - 0.5) * ufl.as_vector([ufl.sin(2 * x[1]) + x[2] * x[0], ufl.cos(x[0] + x[2]) * x[1],
-                                          ufl.exp(x[1] * x[2])])
+        a = (x[0] - 0.5) * ufl.as_vector(
+            [ufl.sin(2 * x[1]) + x[2] * x[0], ufl.cos(x[0] + x[2]) * x[1], ufl.exp(x[1] * x[2])]
+        )
         m.add_body_force(-ufl.div(stress_ufl(C4, a, 3)))
         msh.topology.create_connectivity(2, 3)
         bf = mesh.exterior_facet_indices(msh.topology)
@@ -155,11 +186,23 @@ def test_mms_3d_two_materials_contrast():
         u1, u2 = a / E1, a / E2
         d1, d2 = u - u1, u - u2
         ref_L2 = total(ufl.inner(u1, u1) * dx(1) + ufl.inner(u2, u2) * dx(2))
-        ref_H1 = total(ufl.inner(ufl.grad(u1), ufl.grad(u1)) * dx(1) + ufl.inner(ufl.grad(u2), ufl.grad(u2)) * dx(2))
+        ref_H1 = total(
+            ufl.inner(ufl.grad(u1), ufl.grad(u1)) * dx(1)
+            + ufl.inner(ufl.grad(u2), ufl.grad(u2)) * dx(2)
+        )
         eL2.append(np.sqrt(total(ufl.inner(d1, d1) * dx(1) + ufl.inner(d2, d2) * dx(2)) / ref_L2))
-        eH1.append(np.sqrt(total(ufl.inner(ufl.grad(d1), ufl.grad(d1)) * dx(1)
-                                 + ufl.inner(ufl.grad(d2), ufl.grad(d2)) * dx(2)) / ref_H1))
-        eL2_stiff.append(np.sqrt(total(ufl.inner(d2, d2) * dx(2)) / total(ufl.inner(u2, u2) * dx(2))))
+        eH1.append(
+            np.sqrt(
+                total(
+                    ufl.inner(ufl.grad(d1), ufl.grad(d1)) * dx(1)
+                    + ufl.inner(ufl.grad(d2), ufl.grad(d2)) * dx(2)
+                )
+                / ref_H1
+            )
+        )
+        eL2_stiff.append(
+            np.sqrt(total(ufl.inner(d2, d2) * dx(2)) / total(ufl.inner(u2, u2) * dx(2)))
+        )
         hs.append(1.0 / N)
         integ.destroy()
     assert rate(hs, eL2) == pytest.approx(2.0, abs=0.2), eL2

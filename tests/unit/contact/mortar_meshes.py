@@ -11,7 +11,12 @@ from bonecontact.contact.mortar_assembly import MortarContributions
 
 
 def square_grid(
-    n: int, lo: float, hi: float, rng: np.random.Generator, perturb: float = 0.25, flip: bool = False
+    n: int,
+    lo: float,
+    hi: float,
+    rng: np.random.Generator,
+    perturb: float = 0.25,
+    flip: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Triangulated square [lo, hi]^2 with randomly perturbed interior nodes."""
     t = np.linspace(lo, hi, n + 1)

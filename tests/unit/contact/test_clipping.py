@@ -25,9 +25,13 @@ def test_clipped_areas_random_triangle_pairs():
     rng = np.random.default_rng(8)
     n = 400
     a = rng.uniform(0, 1, (n, 3, 2))
-    b = rng.uniform(0, 1, (n, 3, 2)) * rng.uniform(0.2, 1.0, (n, 1, 1)) + rng.uniform(0, 0.5, (n, 1, 2))
+    b = rng.uniform(0, 1, (n, 3, 2)) * rng.uniform(0.2, 1.0, (n, 1, 1)) + rng.uniform(
+        0, 0.5, (n, 1, 2)
+    )
     b[:20] = a[:20] * 0.3 + 0.7 * a[:20].mean(axis=1, keepdims=True)  # b inside a
-    b[20:40] = 3.0 * (a[20:40] - a[20:40].mean(axis=1, keepdims=True)) + a[20:40].mean(axis=1, keepdims=True)
+    b[20:40] = 3.0 * (a[20:40] - a[20:40].mean(axis=1, keepdims=True)) + a[20:40].mean(
+        axis=1, keepdims=True
+    )
     b[40:60] = a[40:60] + [5.0, 0.0]  # disjoint
     poly, count = clip_polygons_by_triangles(b, np.full(n, 3), a)
     area = polygon_areas(poly, count)

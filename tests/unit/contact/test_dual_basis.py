@@ -61,7 +61,9 @@ def test_biorthogonality_reference_triangle():
     phi, psi = shape_triangle(xi), dual_triangle(xi)
     gram = 0.5 * np.einsum("q,qj,qk->jk", w, psi, phi)
     np.testing.assert_allclose(gram, np.eye(3) / 6.0, atol=1e-15)
-    np.testing.assert_allclose(dual_triangle([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), 4 * np.eye(3) - 1)
+    np.testing.assert_allclose(
+        dual_triangle([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), 4 * np.eye(3) - 1
+    )
 
 
 def test_biorthogonality_random_affine_triangle():
@@ -92,7 +94,9 @@ def test_general_constructor_matches_closed_form():
     # element mass matrix against the closed form |T|/12 (1 + delta)
     area = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
     np.testing.assert_allclose(
-        element_mass_matrices(tris), area[:, None, None] / 12.0 * (np.ones((3, 3)) + np.eye(3)), rtol=1e-13
+        element_mass_matrices(tris),
+        area[:, None, None] / 12.0 * (np.ones((3, 3)) + np.eye(3)),
+        rtol=1e-13,
     )
 
 

@@ -43,7 +43,9 @@ def test_nodal_normals_area_weighted_3d():
     np.testing.assert_allclose(fn[1], [-1, 0, 1] / np.sqrt(2), atol=1e-15)
     np.testing.assert_allclose(area, [np.sqrt(2) / 2, 3 * np.sqrt(2) / 2], rtol=1e-14)
     nrm = nodal_normals(pts, tris, interior)
-    expected = (area[0] * fn[0] + area[1] * fn[1]) / np.linalg.norm(area[0] * fn[0] + area[1] * fn[1])
+    expected = (area[0] * fn[0] + area[1] * fn[1]) / np.linalg.norm(
+        area[0] * fn[0] + area[1] * fn[1]
+    )
     np.testing.assert_allclose(nrm[0], expected, atol=1e-15)
     np.testing.assert_allclose(nrm[2], fn[0], atol=1e-15)
     np.testing.assert_allclose(nrm[3], fn[1], atol=1e-15)
@@ -61,6 +63,8 @@ def test_nodal_normals_sphere_and_tangent_frames():
     assert frame.shape == (len(pts), 2, 3)
     full = np.concatenate([nrm[:, None, :], frame], axis=1)
     np.testing.assert_allclose(
-        np.einsum("nig,njg->nij", full, full), np.broadcast_to(np.eye(3), (len(pts), 3, 3)), atol=1e-14
+        np.einsum("nig,njg->nij", full, full),
+        np.broadcast_to(np.eye(3), (len(pts), 3, 3)),
+        atol=1e-14,
     )
     np.testing.assert_allclose(np.cross(frame[:, 0], frame[:, 1]), nrm, atol=1e-14)

@@ -11,14 +11,15 @@ from __future__ import annotations
 
 import dolfinx_solver  # noqa: F401
 
+from mpi4py import MPI
+
 import basix.ufl
 import numpy as np
 import pytest
 from dolfinx import fem
-from mpi4py import MPI
 
-from bonecontact.meshing import shapes as meshing
 from bonecontact.contact.interface import basis_transform, build_interface
+from bonecontact.meshing import shapes as meshing
 
 COMM = MPI.COMM_WORLD
 
@@ -34,10 +35,17 @@ def _interface(comm, dim, h_lower, h_upper):
     return V, build_interface(V, md.facet_tags, pg["upper_contact"], pg["lower_contact"])
 
 
-CASES = [(2, 0.02 / 7, 0.02 / 23), (2, 0.02 / 23, 0.02 / 7), (3, 0.02 / 3, 0.02 / 9), (3, 0.02 / 9, 0.02 / 3)]
+CASES = [
+    (2, 0.02 / 7, 0.02 / 23),
+    (2, 0.02 / 23, 0.02 / 7),
+    (3, 0.02 / 3, 0.02 / 9),
+    (3, 0.02 / 9, 0.02 / 3),
+]
 
 
-@pytest.mark.parametrize("case", CASES, ids=["2d_fine_slave", "2d_coarse_slave", "3d_fine_slave", "3d_coarse_slave"])
+@pytest.mark.parametrize(
+    "case", CASES, ids=["2d_fine_slave", "2d_coarse_slave", "3d_fine_slave", "3d_coarse_slave"]
+)
 def test_row_sums_and_areas(case):
     dim, hl, hu = case
     V, itf = _interface(COMM, dim, hl, hu)
@@ -49,7 +57,7 @@ def test_row_sums_and_areas(case):
     Qt = basis_transform(V, [itf])
     one, y = Qt.createVecRight(), Qt.createVecLeft()
     one.set(1.0)
-    Qt.mult(one, y)                       # slave rows: 1 + Σ_q M̂_pq
+    Qt.mult(one, y)  # slave rows: 1 + Σ_q M̂_pq
     rows = (dim * itf.blocks[:, None] + np.arange(dim)).ravel()
     err = COMM.allreduce(float(np.abs(y.array[rows] - 2.0).max()) if rows.size else 0.0, op=MPI.MAX)
     assert err < 1e-12
@@ -83,17 +91,33 @@ def test_degenerate_slave_facet_is_an_input_error():
 
     from bonecontact.contact.interface import ContactInputError
 
-    x = np.array([[0, 0], [1, 0], [1, 1], [0, 1],                                # lower square
-                  [0, 1], [0.5, 1], [0.5, 1], [1, 1], [1, 2], [0, 2]], float)   # upper, sliver at x = 0.5
+    x = np.array(
+        [
+            [0, 0],
+            [1, 0],
+            [1, 1],
+            [0, 1],  # lower square
+            [0, 1],
+            [0.5, 1],
+            [0.5, 1],
+            [1, 1],
+            [1, 2],
+            [0, 2],
+        ],
+        float,
+    )  # upper, sliver at x = 0.5
     cells = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 9], [5, 6, 9], [6, 7, 8], [6, 8, 9]], np.int64)
     el = ufl.Mesh(basix.ufl.element("Lagrange", "triangle", 1, shape=(2,)))
     root = COMM.rank == 0
-    msh = mesh.create_mesh(COMM, cells if root else np.zeros((0, 3), np.int64), el,
-                           x if root else np.zeros((0, 2)))
+    msh = mesh.create_mesh(
+        COMM, cells if root else np.zeros((0, 3), np.int64), el, x if root else np.zeros((0, 2))
+    )
     msh.topology.create_connectivity(1, 2)
     facets = mesh.locate_entities_boundary(msh, 1, lambda X: np.isclose(X[1], 1.0))
     f2c = msh.topology.connectivity(1, 2)
-    cy = np.array([msh.geometry.x[msh.geometry.dofmaps[0][f2c.links(f)[0]], 1].mean() for f in facets])
+    cy = np.array(
+        [msh.geometry.x[msh.geometry.dofmaps[0][f2c.links(f)[0]], 1].mean() for f in facets]
+    )
     tags = np.where(cy > 1.0, 2, 1).astype(np.int32)
     order = np.argsort(facets)
     ft = mesh.meshtags(msh, 1, facets[order], tags[order])

@@ -11,19 +11,20 @@ from __future__ import annotations
 
 import dolfinx_solver  # noqa: F401
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import ufl
-from mpi4py import MPI
 
-from bonecontact.meshing import shapes as meshing
-from bonecontact.verification.analytic import contact_modulus, hertz_2d
-from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
+from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing import shapes as meshing
+from bonecontact.verification.analytic import contact_modulus, hertz_2d
 
 COMM = MPI.COMM_WORLD
 R, A_REF, E1, E2, NU = 0.01, 5.0e-4, 2.0e9, 17.0e9, 0.3
@@ -34,16 +35,26 @@ def _gather(x: np.ndarray) -> np.ndarray:
 
 
 def _hertz():
-    delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
+    delta = (
+        2.5
+        * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU)
+        / contact_modulus(E1, NU, E2, NU)
+    )
     md = meshing.hertz_2d(COMM, h_contact=A_REF / 10, zone=1.5 * A_REF, h_far=2e-3)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["cylinder"]: Isotropic(E=E1, nu=NU), pg["block"]: Isotropic(E=E2, nu=NU)},
-                  md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh,
+        {pg["cylinder"]: Isotropic(E=E1, nu=NU), pg["block"]: Isotropic(E=E2, nu=NU)},
+        md.cell_tags,
+        md.facet_tags,
+    )
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
     m.add_dirichlet(m.facets(pg["cyl_top"]), 0, 0.0)
     m.add_dirichlet(m.facets(pg["cyl_top"]), 1, -delta)
-    itf = build_interface(m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs())
+    itf = build_interface(
+        m.V, md.facet_tags, pg["cyl_contact"], pg["block_contact"], dirichlet_dofs=m.bc_dofs()
+    )
     return m, itf
 
 
@@ -53,9 +64,17 @@ def _run(m, itf, kind="static", steps=1, **options):
     for _ in range(steps):
         integ.step()
         r = integ.last_contact
-        out.append({"u": integ.u.x.petsc_vec.copy(), "p": _gather(r.pressure[0]), "active": _gather(r.active[0]),
-                    "its": r.iterations, "fact": r.factorizations, "cols": r.columns,
-                    "sets": [h["active"] for h in r.history]})
+        out.append(
+            {
+                "u": integ.u.x.petsc_vec.copy(),
+                "p": _gather(r.pressure[0]),
+                "active": _gather(r.active[0]),
+                "its": r.iterations,
+                "fact": r.factorizations,
+                "cols": r.columns,
+                "sets": [h["active"] for h in r.history],
+            }
+        )
     integ.destroy()
     return out
 
@@ -73,8 +92,11 @@ def test_lowrank_equals_refactor_on_hertz():
     # undamped cold start: the PDAS overshoots, then releases nodes for several iterations
     ref = _run(m, itf, strategy="refactor", cold_start_fraction=0.0)[0]
     assert ref["fact"] == ref["its"] >= 4
-    cases = {"default": {}, "never_rebase": {"rebase_ratio": 1e12},
-             "small_cache": {"max_columns": 5}}
+    cases = {
+        "default": {},
+        "never_rebase": {"rebase_ratio": 1e12},
+        "small_cache": {"max_columns": 5},
+    }
     for name, opts in cases.items():
         got = _run(m, itf, cold_start_fraction=0.0, **opts)[0]
         assert got["its"] == ref["its"] and got["sets"] == ref["sets"], name
@@ -89,7 +111,7 @@ def test_lowrank_equals_refactor_on_hertz():
             # only "never more often than the refactorising strategy" is deterministic
             assert got["fact"] <= ref["fact"]
         else:
-            assert got["fact"] > 2                    # the cache limit forces rebases
+            assert got["fact"] > 2  # the cache limit forces rebases
     for r in [ref]:
         r["u"].destroy()
 
@@ -102,7 +124,7 @@ def test_damped_cold_start_changes_only_the_path():
     undamped = _run(m, itf, cold_start_fraction=0.0)[0]
     damped = _run(m, itf)[0]
     assert damped["its"] < undamped["its"]
-    assert damped["sets"][1] < undamped["sets"][1]          # no overshoot of the first update
+    assert damped["sets"][1] < undamped["sets"][1]  # no overshoot of the first update
     assert np.array_equal(damped["active"], undamped["active"])
     assert _rel(damped["u"], undamped["u"]) < 1e-10
     assert np.abs(damped["p"] - undamped["p"]).max() < 1e-10 * undamped["p"].max()
@@ -110,18 +132,28 @@ def test_damped_cold_start_changes_only_the_path():
 
 def _tilting_blocks():
     W, H, P0 = 0.02, 0.01, 1.0e5
-    md = meshing.two_blocks_2d(COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H)
+    md = meshing.two_blocks_2d(
+        COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H
+    )
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)},
-                  md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh,
+        {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)},
+        md.cell_tags,
+        md.facet_tags,
+    )
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
     m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
     x = ufl.SpatialCoordinate(md.mesh)
     m.add_traction(pg["top"], ufl.as_vector([0.0, -P0]))
     # a growing moment opens the right end more and more, step by step
-    m.add_traction(pg["top"], ufl.as_vector([0.0, P0 * (2.0 * x[0] / W - 1.0)]), schedule=lambda t: 0.5 * t)
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
+    m.add_traction(
+        pg["top"], ufl.as_vector([0.0, P0 * (2.0 * x[0] / W - 1.0)]), schedule=lambda t: 0.5 * t
+    )
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
     return m, itf
 
 
@@ -131,9 +163,9 @@ def test_lowrank_reuses_the_factorisation_across_steps():
     refactorising one at every step."""
     m, itf = _tilting_blocks()
     ref = _run(m, itf, kind="static", steps=4, strategy="refactor")
-    got = _run(m, itf, kind="static", steps=4, rebase_ratio=1e12)   # no timing-based rebase
+    got = _run(m, itf, kind="static", steps=4, rebase_ratio=1e12)  # no timing-based rebase
     sets = [int(r["active"].sum()) for r in ref]
-    assert sets[0] > sets[1] > sets[2] > sets[3] > 0         # the set really changes
+    assert sets[0] > sets[1] > sets[2] > sets[3] > 0  # the set really changes
     for g, r in zip(got, ref):
         assert np.array_equal(g["active"], r["active"])
         assert _rel(g["u"], r["u"]) < 1e-10
@@ -148,16 +180,26 @@ def test_singular_active_set_is_reported(strategy):
     iteration no node stays active and the block floats — the solver must stop with a
     ContactConvergenceError naming the singular system, not return a state."""
     W, H = 0.02, 0.01
-    md = meshing.two_blocks_2d(COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H)
+    md = meshing.two_blocks_2d(
+        COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H
+    )
     pg = {k: v.tag for k, v in md.physical_groups.items()}
-    m = Mechanics(md.mesh, {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)},
-                  md.cell_tags, md.facet_tags)
+    m = Mechanics(
+        md.mesh,
+        {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)},
+        md.cell_tags,
+        md.facet_tags,
+    )
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
     m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
     m.add_traction(pg["top"], [0.0, 1.0e5])
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy)))
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
+    integ = Integrator(
+        m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy))
+    )
     with pytest.raises(ContactConvergenceError) as info:
         integ.step()
     assert "singular" in str(info.value)

@@ -69,9 +69,9 @@ def test_triangle_pair_tilted_master_affine_exactness():
         n_m = np.cross(xm[1] - xm[0], xm[2] - xm[0])
         t = ((xm[0] - xs) @ n_m) / (n_s @ n_m)
         proj = xs + t[:, None] * n_s
-        B = np.linalg.lstsq(np.column_stack([xm[1] - xm[0], xm[2] - xm[0]]), (proj - xm[0]).T, rcond=None)[
-            0
-        ].T
+        B = np.linalg.lstsq(
+            np.column_stack([xm[1] - xm[0], xm[2] - xm[0]]), (proj - xm[0]).T, rcond=None
+        )[0].T
         lam = np.column_stack([1 - B.sum(axis=1), B])
         if np.any(lam < 0):  # projected master must contain the slave for the identity
             continue
@@ -92,7 +92,9 @@ def test_triangle_pair_clipped_area_in_slave_plane():
     n = 300
     xs = rng.normal(size=(n, 3, 3))
     xm = xs + 0.5 * rng.normal(size=(n, 3, 3))
-    ns = np.repeat(normalise(np.cross(xs[:, 1] - xs[:, 0], xs[:, 2] - xs[:, 0]))[:, None], 3, axis=1)
+    ns = np.repeat(
+        normalise(np.cross(xs[:, 1] - xs[:, 0], xs[:, 2] - xs[:, 0]))[:, None], 3, axis=1
+    )
     res = integrate_triangle_pairs(xs, ns, xm)
     ref = np.empty(n)
     for i in range(n):
@@ -170,7 +172,10 @@ def test_boundary_mask_2d():
     # interior node of each end segment: psi~ = 1, so D = int phi_p, extra coupling to the end node
     np.testing.assert_allclose(res.d[~mask], lumped(xs, fs)[~mask], rtol=1e-13)
     L0 = np.linalg.norm(xs[1] - xs[0])
-    assert set(zip(res.d_off_rows.tolist(), res.d_off_cols.tolist())) == {(1, 0), (len(xs) - 2, len(xs) - 1)}
+    assert set(zip(res.d_off_rows.tolist(), res.d_off_cols.tolist())) == {
+        (1, 0),
+        (len(xs) - 2, len(xs) - 1),
+    }
     np.testing.assert_allclose(res.d_off_vals[res.d_off_rows == 1], L0 / 2, rtol=1e-13)
     off = np.bincount(res.d_off_rows, weights=res.d_off_vals, minlength=len(xs))
     np.testing.assert_allclose(row_sums(res, len(xs)), res.d + off, atol=1e-12)
@@ -248,7 +253,8 @@ def test_boundary_mask_and_partial_cover_3d():
     np.testing.assert_allclose(rs, res.d + off, atol=1e-12)  # every row, covered or not
     np.testing.assert_allclose(res.gap, 0.01 * (res.d + off), atol=1e-12)
     untouched = full & (
-        np.bincount(fs[np.isin(fs, np.flatnonzero(mask)).any(axis=1)].ravel(), minlength=len(xs)) == 0
+        np.bincount(fs[np.isin(fs, np.flatnonzero(mask)).any(axis=1)].ravel(), minlength=len(xs))
+        == 0
     )
     assert untouched.sum() > 0
     np.testing.assert_allclose(rs[untouched], res.d[untouched], atol=1e-12)

@@ -16,19 +16,20 @@ from __future__ import annotations
 
 import dolfinx_solver  # noqa: F401
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import ufl
-from mpi4py import MPI
 
-from bonecontact.meshing import shapes as meshing
-from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.contact.interface import RigidPlane, build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
 from bonecontact.contact.snes_vi import snes_vi_solve
+from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing import shapes as meshing
 
 COMM = MPI.COMM_WORLD
 W, H = 0.02, 0.01
@@ -36,13 +37,15 @@ P0 = 1.0e5
 
 
 def _model():
-    md = meshing.two_blocks_2d(COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H)
+    md = meshing.two_blocks_2d(
+        COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H
+    )
     pg = {k: v.tag for k, v in md.physical_groups.items()}
     mats = {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)}
     m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
     m.add_dirichlet(m.facets(pg["bottom"]), 1, 0.0)
     m.add_dirichlet(m.facets(pg["bottom"]), 0, 0.0)
-    m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)      # holds the upper block sideways
+    m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)  # holds the upper block sideways
     x = ufl.SpatialCoordinate(md.mesh)
     # compression on the left, tension on the right: resultant 0.4 P0 W (per unit
     # thickness) acting at x = W/4
@@ -59,17 +62,21 @@ def _gathered(values, coords):
 
 def test_partial_liftoff_complementarity_and_force_balance():
     md, pg, m = _model()
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"],
-                          dirichlet_dofs=m.bc_dofs())
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
     integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf]))
     integ.step()
     r = integ.last_contact
     lam, gap = r.pressure[0], r.gap[0]
     scale_g = COMM.allreduce(float(np.abs(gap).max()) if gap.size else 0.0, op=MPI.MAX)
-    assert scale_g > 1e-9                                  # something did open
+    assert scale_g > 1e-9  # something did open
     assert COMM.allreduce(int((lam < -1e-8 * P0).sum())) == 0
     assert COMM.allreduce(int((gap < -1e-9 * scale_g).sum())) == 0
-    assert COMM.allreduce(float(np.abs(lam * gap).max()) if lam.size else 0.0, op=MPI.MAX) < 1e-10 * P0 * scale_g
+    assert (
+        COMM.allreduce(float(np.abs(lam * gap).max()) if lam.size else 0.0, op=MPI.MAX)
+        < 1e-10 * P0 * scale_g
+    )
     n_open = r.n_active[0]
     total = COMM.allreduce(itf.num_owned)
     assert 0 < n_open < total
@@ -81,21 +88,26 @@ def test_partial_liftoff_complementarity_and_force_balance():
 
 def test_iteration_limit_raises_with_history():
     md, pg, m = _model()
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"],
-                          dirichlet_dofs=m.bc_dofs())
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(max_iterations=1)))
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
+    integ = Integrator(
+        m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(max_iterations=1))
+    )
     with pytest.raises(ContactConvergenceError) as info:
         integ.step()
     assert len(info.value.history) == 1 and info.value.history[0]["changed"] > 0
     assert "no convergence in 1 PDAS iterations" in str(info.value)
-    assert integ.step_count == 0                            # no step was accepted
+    assert integ.step_count == 0  # no step was accepted
     integ.destroy()
 
 
 def test_pdas_equals_snes_vi_on_rigid_plane():
     md, pg, m = _model()
     plane = RigidPlane(point=(0.0, H), normal=(0.0, -1.0))
-    itf = build_interface(m.V, md.facet_tags, pg["upper_contact"], plane, dirichlet_dofs=m.bc_dofs())
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], plane, dirichlet_dofs=m.bc_dofs()
+    )
     integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf]))
     integ.step()
     u_pdas = integ.u.x.petsc_vec.copy()

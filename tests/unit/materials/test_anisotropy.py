@@ -9,22 +9,32 @@ Reilly & Burstein 1975 (transversely isotropic), docs/theory/mechanics.md#materi
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import ufl
 from dolfinx import fem, mesh
-from mpi4py import MPI
 
 from bonecontact.materials.laws import Isotropic, MaterialError, Orthotropic, TransverselyIsotropic
-from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
 
 COMM = MPI.COMM_WORLD
 GPa = 1.0e9
 SIGMA = 1.0e6  # applied stress (Pa)
 LX, LY, LZ = 2.0, 1.5, 1.0  # box edges (m), deliberately unequal
-ASHMAN = dict(E1=12.0 * GPa, E2=13.4 * GPa, E3=20.0 * GPa, nu12=0.376, nu13=0.222, nu23=0.235,
-              G12=4.53 * GPa, G13=5.61 * GPa, G23=6.23 * GPa)
+ASHMAN = dict(
+    E1=12.0 * GPa,
+    E2=13.4 * GPa,
+    E3=20.0 * GPa,
+    nu12=0.376,
+    nu13=0.222,
+    nu23=0.235,
+    G12=4.53 * GPa,
+    G13=5.61 * GPa,
+    G23=6.23 * GPa,
+)
 # Reilly–Burstein: E1 = E2 = 11.5, E3 = 17.0 GPa, ν12 = 0.58, ν31 = 0.46, G13 = G23 = 3.3 GPa
 RB = dict(E_p=11.5 * GPa, E_a=17.0 * GPa, nu_p=0.58, nu_ap=0.46, G_pa=3.3 * GPa)
 
@@ -73,12 +83,16 @@ def total(form) -> float:
 
 
 def _box():
-    msh = mesh.create_box(COMM, [[0.0, 0.0, 0.0], [LX, LY, LZ]], [3, 2, 2], mesh.CellType.tetrahedron)
+    msh = mesh.create_box(
+        COMM, [[0.0, 0.0, 0.0], [LX, LY, LZ]], [3, 2, 2], mesh.CellType.tetrahedron
+    )
     lengths = (LX, LY, LZ)
     facets, values = [], []
     for axis in range(3):
         for side, value in ((0, 0.0), (1, lengths[axis])):
-            f = mesh.locate_entities_boundary(msh, 2, lambda X, a=axis, v=value: np.isclose(X[a], v))
+            f = mesh.locate_entities_boundary(
+                msh, 2, lambda X, a=axis, v=value: np.isclose(X[a], v)
+            )
             facets.append(f)
             values.append(np.full(f.size, 10 * axis + side + 1, dtype=np.int32))
     facets, values = np.concatenate(facets), np.concatenate(values)
@@ -94,7 +108,9 @@ def _mean_strain(msh, u) -> tuple[np.ndarray, float]:
     """Volume average of e(u) and the relative L² deviation from it (homogeneity)."""
     vol = LX * LY * LZ
     e = ufl.sym(ufl.grad(u))
-    mean = np.array([[total(e[i, j] * ufl.dx(domain=msh)) / vol for j in range(3)] for i in range(3)])
+    mean = np.array(
+        [[total(e[i, j] * ufl.dx(domain=msh)) / vol for j in range(3)] for i in range(3)]
+    )
     dev = e - fem.Constant(msh, mean)  # a Constant: no new form (JIT) per value
     inhom = np.sqrt(total(ufl.inner(dev, dev) * ufl.dx(domain=msh)) / vol) / np.linalg.norm(mean)
     return mean, inhom
@@ -160,7 +176,9 @@ def test_orthotropic_engineering_constants(axis):
     for j in range(3):
         if j == axis:
             continue
-        ref = nu[(axis, j)] if (axis, j) in nu else nu[(j, axis)] * E[axis] / E[j]  # ν_ji = ν_ij E_j/E_i
+        ref = (
+            nu[(axis, j)] if (axis, j) in nu else nu[(j, axis)] * E[axis] / E[j]
+        )  # ν_ji = ν_ij E_j/E_i
         assert -eps[j, j] / eps[axis, axis] == pytest.approx(ref, rel=1e-8)
     off = eps - np.diag(np.diag(eps))
     assert np.abs(off).max() < 1e-12 * abs(eps[axis, axis])
@@ -214,8 +232,14 @@ def test_transversely_isotropic_reilly_burstein(axis):
     nu_pa = RB["nu_ap"] * RB["E_p"] / RB["E_a"]  # ν_pa / E_p = ν_ap / E_a
     direction = np.zeros(3)
     direction[axis] = 1.0
-    mat = TransverselyIsotropic(E_p=RB["E_p"], E_a=RB["E_a"], nu_p=RB["nu_p"], nu_pa=nu_pa, G_pa=RB["G_pa"],
-                                axis=tuple(direction))
+    mat = TransverselyIsotropic(
+        E_p=RB["E_p"],
+        E_a=RB["E_a"],
+        nu_p=RB["nu_p"],
+        nu_pa=nu_pa,
+        G_pa=RB["G_pa"],
+        axis=tuple(direction),
+    )
     p1, p2 = [i for i in range(3) if i != axis]
 
     eps = uniaxial_rollers(mat, axis)
@@ -262,15 +286,23 @@ def _is_positive_definite_compliance(**c) -> bool:
     # 6×6 Voigt compliance with engineering shears (symmetric)
     pairs = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
     f = [1.0 if i == j else 2.0 for i, j in pairs]
-    S6 = np.array([[f[a] * f[b] * S[i, j, k, l] for b, (k, l) in enumerate(pairs)] for a, (i, j) in enumerate(pairs)])
+    S6 = np.array(
+        [
+            [f[a] * f[b] * S[i, j, k, l] for b, (k, l) in enumerate(pairs)]
+            for a, (i, j) in enumerate(pairs)
+        ]
+    )
     return bool(np.linalg.eigvalsh(S6).min() > 0)
 
 
-@pytest.mark.parametrize("bad", [
-    dict(nu12=1.1),                        # |ν12| ≥ √(E1/E2)
-    dict(nu12=0.7, nu13=0.7, nu23=0.7),    # 1 − ν12ν21 − ν23ν32 − ν13ν31 − 2ν21ν32ν13 < 0
-    dict(nu23=-1.4),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(nu12=1.1),  # |ν12| ≥ √(E1/E2)
+        dict(nu12=0.7, nu13=0.7, nu23=0.7),  # 1 − ν12ν21 − ν23ν32 − ν13ν31 − 2ν21ν32ν13 < 0
+        dict(nu23=-1.4),
+    ],
+)
 def test_not_positive_definite_orthotropic_raises(bad):
     """Engineering constants whose compliance (checked independently here) is not positive
     definite raise MaterialError; the Ashman constants themselves are accepted."""

@@ -2,20 +2,36 @@
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx / petsc4py)
 
-import pytest
 from mpi4py import MPI
 
-from bonecontact.materials.library import METADATA_KEYS, load_material_library, load_reference_values
-from bonecontact.materials.laws import Isotropic, Orthotropic, TransverselyIsotropic
+import pytest
 
-MODELS = {"isotropic": Isotropic, "transversely_isotropic": TransverselyIsotropic, "orthotropic": Orthotropic}
+from bonecontact.materials.laws import Isotropic, Orthotropic, TransverselyIsotropic
+from bonecontact.materials.library import (
+    METADATA_KEYS,
+    load_material_library,
+    load_reference_values,
+)
+
+MODELS = {
+    "isotropic": Isotropic,
+    "transversely_isotropic": TransverselyIsotropic,
+    "orthotropic": Orthotropic,
+}
 
 
 def test_every_entry_has_a_source():
     materials = load_material_library()
     references = load_reference_values()
-    assert {"cortical_bone", "cortical_bone_transverse", "cortical_bone_orthotropic",
-            "cancellous_bone", "cartilage", "enamel", "dentin"} <= set(materials)
+    assert {
+        "cortical_bone",
+        "cortical_bone_transverse",
+        "cortical_bone_orthotropic",
+        "cancellous_bone",
+        "cartilage",
+        "enamel",
+        "dentin",
+    } <= set(materials)
     assert {"cortical_strength", "friction_bone_bone"} <= set(references)
     for entry in list(materials.values()) + list(references.values()):
         assert isinstance(entry["source"], str) and len(entry["source"]) > 10

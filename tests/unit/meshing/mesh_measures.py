@@ -2,12 +2,17 @@
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
-import numpy as np
-import ufl
 from mpi4py import MPI
 
+import numpy as np
+import ufl
 from dolfinx import default_scalar_type, fem
-from dolfinx.mesh import compute_incident_entities, entities_to_geometry, exterior_facet_indices, meshtags
+from dolfinx.mesh import (
+    compute_incident_entities,
+    entities_to_geometry,
+    exterior_facet_indices,
+    meshtags,
+)
 
 
 def measure(md, name=None):
@@ -27,7 +32,9 @@ def measure(md, name=None):
         tags = md.cell_tags if dim == tdim else md.facet_tags
         entities = tags.find(md.physical_groups[name].tag)
     assert dim in (tdim, tdim - 1)
-    marker = meshtags(msh, dim, np.sort(entities).astype(np.int32), np.ones(len(entities), np.int32))
+    marker = meshtags(
+        msh, dim, np.sort(entities).astype(np.int32), np.ones(len(entities), np.int32)
+    )
     kind = "dx" if dim == tdim else "ds"
     one = fem.Constant(msh, default_scalar_type(1.0))
     form = fem.form(one * ufl.Measure(kind, domain=msh, subdomain_data=marker)(1))

@@ -10,14 +10,14 @@ import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 import math
 from pathlib import Path
 
-import numpy as np
-import pytest
 from mpi4py import MPI
 
+import numpy as np
+import pytest
 from dolfinx.io.gmsh import read_from_msh
+from mesh_measures import group_vertices, measure
 
 from bonecontact.meshing import anatomy
-from mesh_measures import group_vertices, measure
 
 COMM = MPI.COMM_WORLD
 REPO = Path(__file__).resolve().parents[3]

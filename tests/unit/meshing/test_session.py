@@ -6,9 +6,10 @@ every rank passes through the same collective teardown.
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
+from mpi4py import MPI
+
 import gmsh
 import pytest
-from mpi4py import MPI
 
 from bonecontact.meshing.session import gmsh_session
 

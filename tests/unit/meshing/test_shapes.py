@@ -8,15 +8,15 @@ import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
 import math
 
+from mpi4py import MPI
+
 import gmsh
 import numpy as np
 import pytest
-from mpi4py import MPI
-
 from dolfinx.io.gmsh import read_from_msh
+from mesh_measures import count_owned, group_vertices, measure
 
 from bonecontact.meshing import shapes as meshing
-from mesh_measures import count_owned, group_vertices, measure
 
 COMM = MPI.COMM_WORLD
 
@@ -44,7 +44,12 @@ def test_rectangle(structured):
     md = meshing.rectangle(lx, ly, nx, ny, COMM, structured=structured)
     assert set(md.physical_groups) == {"body", "left", "right", "bottom", "top"}
     assert measure(md, "body") == pytest.approx(lx * ly, rel=1e-12)
-    for name, length, n in (("left", ly, ny), ("right", ly, ny), ("bottom", lx, nx), ("top", lx, nx)):
+    for name, length, n in (
+        ("left", ly, ny),
+        ("right", ly, ny),
+        ("bottom", lx, nx),
+        ("top", lx, nx),
+    ):
         assert measure(md, name) == pytest.approx(length, rel=1e-12)
         assert count_owned(md, name) == n
     if structured:
@@ -55,8 +60,14 @@ def test_box():
     lx, ly, lz, h = 0.02, 0.01, 0.015, 2.5e-3
     md = meshing.box(lx, ly, lz, h, COMM)
     assert measure(md, "body") == pytest.approx(lx * ly * lz, rel=1e-12)
-    faces = {"left": ly * lz, "right": ly * lz, "bottom": lx * lz, "top": lx * lz,
-             "front": lx * ly, "back": lx * ly}
+    faces = {
+        "left": ly * lz,
+        "right": ly * lz,
+        "bottom": lx * lz,
+        "top": lx * lz,
+        "front": lx * ly,
+        "back": lx * ly,
+    }
     assert set(md.physical_groups) == {"body", *faces}
     for name, area in faces.items():
         assert measure(md, name) == pytest.approx(area, rel=1e-12)
@@ -72,8 +83,13 @@ def test_cantilever():
     md = meshing.cantilever(L, H, W, h, COMM)
     assert set(md.physical_groups) == {"beam", "clamped", "tip", "top", "bottom", "sides"}
     assert measure(md, "beam") == pytest.approx(L * H * W, rel=1e-12)
-    for name, area in (("clamped", H * W), ("tip", H * W), ("top", L * W), ("bottom", L * W),
-                       ("sides", 2 * L * H)):
+    for name, area in (
+        ("clamped", H * W),
+        ("tip", H * W),
+        ("top", L * W),
+        ("bottom", L * W),
+        ("sides", 2 * L * H),
+    ):
         assert measure(md, name) == pytest.approx(area, rel=1e-12)
     _, x = group_vertices(md, "tip")
     assert np.allclose(x[:, 0], L)
@@ -96,14 +112,29 @@ def _check_non_matching(md, dim):
 def test_two_blocks_2d():
     w, h0, h1 = 0.02, 0.01, 0.012
     md = meshing.two_blocks_2d(COMM, upper_height=h1)
-    names = {"lower", "upper", "bottom", "top", "lower_contact", "upper_contact",
-             "lower_left", "lower_right", "upper_left", "upper_right"}
+    names = {
+        "lower",
+        "upper",
+        "bottom",
+        "top",
+        "lower_contact",
+        "upper_contact",
+        "lower_left",
+        "lower_right",
+        "upper_left",
+        "upper_right",
+    }
     assert set(md.physical_groups) == names
     assert measure(md, "lower") == pytest.approx(w * h0, rel=1e-12)
     assert measure(md, "upper") == pytest.approx(w * h1, rel=1e-12)
     for name in ("bottom", "top", "lower_contact", "upper_contact"):
         assert measure(md, name) == pytest.approx(w, rel=1e-12)
-    for name, length in (("lower_left", h0), ("lower_right", h0), ("upper_left", h1), ("upper_right", h1)):
+    for name, length in (
+        ("lower_left", h0),
+        ("lower_right", h0),
+        ("upper_left", h1),
+        ("upper_right", h1),
+    ):
         assert measure(md, name) == pytest.approx(length, rel=1e-12)
     _check_non_matching(md, 2)
 
@@ -121,7 +152,15 @@ def test_two_boxes_3d():
     md = meshing.two_boxes_3d(COMM)
     # a list, not a set: every rank must run the collective measures in the same order
     sides = [f"{b}_{s}" for b in ("lower", "upper") for s in ("left", "right", "front", "back")]
-    assert set(md.physical_groups) == {"lower", "upper", "bottom", "top", "lower_contact", "upper_contact", *sides}
+    assert set(md.physical_groups) == {
+        "lower",
+        "upper",
+        "bottom",
+        "top",
+        "lower_contact",
+        "upper_contact",
+        *sides,
+    }
     assert measure(md, "lower") == pytest.approx(w * d * h0, rel=1e-12)
     assert measure(md, "upper") == pytest.approx(w * d * h1, rel=1e-12)
     for name in ("bottom", "top", "lower_contact", "upper_contact"):
@@ -156,12 +195,15 @@ def test_keeps_an_existing_gmsh_session():
             gmsh.finalize()
 
 
-@pytest.mark.parametrize("call", [
-    lambda: meshing.quarter_tube(0.02, 0.01, 1e-3, COMM),
-    lambda: meshing.rectangle(1.0, 1.0, 0, 2, COMM),
-    lambda: meshing.box(1.0, -1.0, 1.0, 0.1, COMM),
-    lambda: meshing.two_blocks_2d(COMM, h_upper=0.0),
-])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: meshing.quarter_tube(0.02, 0.01, 1e-3, COMM),
+        lambda: meshing.rectangle(1.0, 1.0, 0, 2, COMM),
+        lambda: meshing.box(1.0, -1.0, 1.0, 0.1, COMM),
+        lambda: meshing.two_blocks_2d(COMM, h_upper=0.0),
+    ],
+)
 def test_invalid_geometry_is_rejected(call):
     with pytest.raises(ValueError):
         call()

@@ -7,7 +7,12 @@ import numpy as np
 import pytest
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
-from bonecontact.neoplasm.cyst import CystParameters, equilibrium_radius, grow_sphere, long_time_rate
+from bonecontact.neoplasm.cyst import (
+    CystParameters,
+    equilibrium_radius,
+    grow_sphere,
+    long_time_rate,
+)
 
 YEAR = SECONDS_PER_YEAR
 # radicular-cyst-like: β/C⁻ = 3.2e-11 m/s ≈ 1 mm of radius per year
@@ -50,7 +55,7 @@ def test_radicular_rate_after_200_years(dim):
     rate = (h.R[-1] - h.R[-2]) / YEAR
     lag = 1.0 - rate / long_time_rate(p, 1e-3, dim)
     assert 0.0 < lag < 1e-4
-    assert rate * 1e3 * YEAR == pytest.approx(1.01, abs=0.01)   # ≈ 1 mm per year
+    assert rate * 1e3 * YEAR == pytest.approx(1.01, abs=0.01)  # ≈ 1 mm per year
 
 
 def test_long_time_rate_engineering_strain():
@@ -85,12 +90,18 @@ def test_parameter_sets_in_data():
     import tomllib
     from pathlib import Path
 
-    sets = tomllib.loads((Path(__file__).resolve().parents[3] / "data" / "neoplasms.toml").read_text())["cyst"]
+    sets = tomllib.loads(
+        (Path(__file__).resolve().parents[3] / "data" / "neoplasms.toml").read_text()
+    )["cyst"]
     rates = {}
     for name, d in sets.items():
         assert d["source"]
-        p = CystParameters(**{k: d[k] for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0",
-                                                "strain")})
+        p = CystParameters(
+            **{
+                k: d[k]
+                for k in ("beta", "C_minus", "temperature", "E", "viscosity", "f0", "strain")
+            }
+        )
         h = grow_sphere(p, 2e-3, 20 * YEAR, np.array([0.0, 19 * YEAR, 20 * YEAR]))
         rates[name] = (h.R[-1] - h.R[-2]) * 1e3  # mm per year
     assert rates["radicular"] == pytest.approx(1.0, rel=0.05)

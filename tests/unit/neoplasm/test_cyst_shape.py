@@ -10,23 +10,25 @@ All tests are collective: the MPI sessions run them on 2 and 3 ranks.
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
+
+from mpi4py import MPI
 
 import numpy as np
 import pytest
-from mpi4py import MPI
 
-from bonecontact.runners.cli import main
 from bonecontact.common.constants import SECONDS_PER_YEAR as YEAR
 from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
 from bonecontact.neoplasm.cyst_shape import CystShapeModel
+from bonecontact.runners.cli import main
 
 RADICULAR = dict(beta=3.2e-11, C_minus=1.0, temperature=310.0, E=1.0e6, viscosity=1.0e9)
 R0 = 2.0e-3
 
 
-def _grow(model: CystShapeModel, dt: float, t_end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _grow(
+    model: CystShapeModel, dt: float, t_end: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ts, rs, fs = [0.0], [model.equivalent_radius()], [model.f]
     while model.t < t_end * (1 - 1e-12):
         model.step(dt)
@@ -48,14 +50,16 @@ def test_disc_reproduces_cylinder_ode(strain, f0):
     ode = grow_sphere(p, rs[0], ts[-1], ts, dim=2)
     err = np.max(np.abs(rs / ode.R - 1))
     assert err < 0.01, err
-    assert rs[-1] > 5 * rs[0]                                   # ≈ 1 mm/year from 2 mm
+    assert rs[-1] > 5 * rs[0]  # ≈ 1 mm/year from 2 mm
     np.testing.assert_allclose(fs[1:], ode.f[1:], rtol=0.01)
     assert m.steps == 120 and m.remeshes == 120
     # the wall stays a circle, and the mesh measures agree with the wall's
     x = m.boundary().points
     assert np.ptp(np.linalg.norm(x, axis=1)) < 1e-3 * rs[-1]
     v, S = m.mesh_measures()
-    assert v == pytest.approx(m.volume(), rel=1e-12) and S == pytest.approx(m.surface_area(), rel=1e-12)
+    assert v == pytest.approx(m.volume(), rel=1e-12) and S == pytest.approx(
+        m.surface_area(), rel=1e-12
+    )
 
 
 def test_ball_reproduces_sphere_ode():
@@ -73,7 +77,9 @@ def test_ball_reproduces_sphere_ode():
     r = np.linalg.norm(m.boundary().points, axis=1)
     assert np.ptp(r) < 0.02 * rs[-1]
     v, S = m.mesh_measures()
-    assert v == pytest.approx(m.volume(), rel=1e-12) and S == pytest.approx(m.surface_area(), rel=1e-12)
+    assert v == pytest.approx(m.volume(), rel=1e-12) and S == pytest.approx(
+        m.surface_area(), rel=1e-12
+    )
     assert m.remeshes == 10
 
 
@@ -195,8 +201,17 @@ def test_scene_shape_cyst_from_region(shared):
         finally:
             gmsh.finalize()
     comm.barrier()
-    g, s, _ = _run(shared, "region", dim=2, mesh=f'mesh = "{shared / "jaw.msh"}"',
-                   where='region = "cyst"\nhost = ["bone"]', model="shape", t_end=2 * YEAR, dt=YEAR / 12, every=2)
+    g, s, _ = _run(
+        shared,
+        "region",
+        dim=2,
+        mesh=f'mesh = "{shared / "jaw.msh"}"',
+        where='region = "cyst"\nhost = ["bone"]',
+        model="shape",
+        t_end=2 * YEAR,
+        dt=YEAR / 12,
+        every=2,
+    )
     assert g[0, 3] == pytest.approx(R0, rel=0.01)
     ode = grow_sphere(CystParameters(**RADICULAR), g[0, 3], g[-1, 0], g[:, 0], dim=2)
     np.testing.assert_allclose(g[:, 3], ode.R, rtol=0.01)

@@ -2,15 +2,15 @@
 
 import dolfinx_solver  # noqa: F401
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
-from mpi4py import MPI
 
 from bonecontact.common.geometry import signed_polygon_area
-from bonecontact.neoplasm import curvature
-from bonecontact.neoplasm import remesh
+from bonecontact.neoplasm import curvature, remesh
 
 
 def _ellipse(n, a=1.0, b=0.6):
@@ -19,7 +19,9 @@ def _ellipse(n, a=1.0, b=0.6):
 
 
 def _area(msh):
-    return msh.comm.allreduce(fem.assemble_scalar(fem.form(fem.Constant(msh, 1.0) * ufl.dx)), op=MPI.SUM)
+    return msh.comm.allreduce(
+        fem.assemble_scalar(fem.form(fem.Constant(msh, 1.0) * ufl.dx)), op=MPI.SUM
+    )
 
 
 def test_fixed_boundary_remesh_keeps_area_and_l2_norm():
@@ -45,7 +47,7 @@ def test_fixed_boundary_remesh_keeps_area_and_l2_norm():
 def test_point_outside_is_reported_not_zeroed():
     comm = MPI.COMM_WORLD
     m0 = remesh.polygon_mesh(_ellipse(40), 0.15, comm)
-    m1 = remesh.polygon_mesh(1.2 * _ellipse(40), 0.15, comm)   # sticks out by up to 0.2
+    m1 = remesh.polygon_mesh(1.2 * _ellipse(40), 0.15, comm)  # sticks out by up to 0.2
     u0 = fem.Function(fem.functionspace(m0, ("Lagrange", 1)), name="u")
     u0.x.array[:] = 1.0
     V1 = fem.functionspace(m1, ("Lagrange", 1))
@@ -62,8 +64,12 @@ def test_curvature_circle_ellipse_sphere():
     assert np.allclose(curvature.polygon_curvature(pts), 0.5, rtol=1e-12)
     a, b = 1.0, 0.6
     e = _ellipse(400, a, b)
-    exact = a * b / (a**2 * np.sin(th := 2 * np.pi * np.arange(400) / 400) ** 2
-                     + b**2 * np.cos(th) ** 2) ** 1.5
+    exact = (
+        a
+        * b
+        / (a**2 * np.sin(th := 2 * np.pi * np.arange(400) / 400) ** 2 + b**2 * np.cos(th) ** 2)
+        ** 1.5
+    )
     assert np.max(np.abs(curvature.polygon_curvature(e) / exact - 1)) < 1e-3
     # clockwise polygon: negative (convention: counter-clockwise boundary, convex > 0)
     assert np.all(curvature.polygon_curvature(pts[::-1]) < 0)
@@ -75,6 +81,6 @@ def test_mesh_motion_moves_boundary_exactly():
     A0 = _area(msh)
     mm = remesh.MeshMotion(msh)
     d = fem.Function(mm.V)
-    d.interpolate(lambda x: 0.1 * x[:2])      # uniform dilation by 1.1
+    d.interpolate(lambda x: 0.1 * x[:2])  # uniform dilation by 1.1
     mm.move(d)
     assert abs(_area(msh) / A0 - 1.21) < 1e-10

@@ -4,9 +4,10 @@ import dolfinx_solver  # noqa: F401
 
 import math
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
-from mpi4py import MPI
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
@@ -28,13 +29,20 @@ def test_radial_quasi_steady_2d():
     p = TumourParameters(K_B=lambda c: mu * (c - ut), u_p0=1.0)
     m = TumourModel.disc(MPI.COMM_WORLD, 1.0, p, h=0.25)
     ts, rs = _run(m, 0.2, 12.0)
-    ode = solve_ivp(lambda t, R: mu * (iv(1, R) / iv(0, R) - ut * R / 2), (0, ts[-1]), [rs[0]],
-                    t_eval=ts, rtol=1e-11, atol=1e-12)
+    ode = solve_ivp(
+        lambda t, R: mu * (iv(1, R) / iv(0, R) - ut * R / 2),
+        (0, ts[-1]),
+        [rs[0]],
+        t_eval=ts,
+        rtol=1e-11,
+        atol=1e-12,
+    )
     err = np.max(np.abs(rs / ode.y[0] - 1))
     assert rs[-1] > 2 * rs[0]
     assert err < 0.01, err
     # approaches the stationary radius (root of I1/I0 = u~ R/2)
     from scipy.optimize import brentq
+
     Rs = brentq(lambda R: iv(1, R) / iv(0, R) - ut * R / 2, 1.0, 10.0)
     assert abs(rs[-1] - Rs) < 0.5 * abs(rs[-2 * len(rs) // 3] - Rs)
     assert abs(rs[-1] / Rs - 1) < 0.15
@@ -55,7 +63,9 @@ def test_uniform_densities_with_surface_tension():
         h = (KB + KR) * up + KR * uq - KR
         return [(KB - KQ - KA) * up + KP * uq - h * up, KQ * up - (KP + KD) * uq - h * uq, h / 2]
 
-    ode = solve_ivp(rhs, (0, ts[-1]), [0.6, 0.2, math.log(rs[0])], t_eval=ts, rtol=1e-11, atol=1e-12)
+    ode = solve_ivp(
+        rhs, (0, ts[-1]), [0.6, 0.2, math.log(rs[0])], t_eval=ts, rtol=1e-11, atol=1e-12
+    )
     assert np.max(np.abs(rs / np.exp(ode.y[2]) - 1)) < 0.01
     assert rs[-1] > 1.1 * rs[0]
     up, uq = m.u_p.x.array, m.u_q.x.array
@@ -78,13 +88,19 @@ def test_radial_quasi_steady_3d():
     p = TumourParameters(K_B=lambda c: mu * (c - ut), u_p0=1.0)
     m = TumourModel.ball(MPI.COMM_WORLD, 1.0, p, h=0.3, remesh_every=2)
     ts, rs = _run(m, 0.1, 2.4)
-    ode = solve_ivp(lambda t, R: mu * R * ((R / np.tanh(R) - 1) / R**2 - ut / 3), (0, ts[-1]), [rs[0]],
-                    t_eval=ts, rtol=1e-11, atol=1e-12)
+    ode = solve_ivp(
+        lambda t, R: mu * R * ((R / np.tanh(R) - 1) / R**2 - ut / 3),
+        (0, ts[-1]),
+        [rs[0]],
+        t_eval=ts,
+        rtol=1e-11,
+        atol=1e-12,
+    )
     err = np.max(np.abs(rs / ode.y[0] - 1))
     assert rs[-1] > 2 * rs[0]
     assert err < 0.01, err
     r = np.linalg.norm(m.boundary().points, axis=1)
-    assert np.ptp(r) < 0.05 * rs[-1]                       # still a sphere
+    assert np.ptp(r) < 0.05 * rs[-1]  # still a sphere
     assert np.allclose(m.u_p.x.array, 1.0, atol=1e-12)
 
 
@@ -108,7 +124,9 @@ def test_uniform_densities_3d_with_surface_tension():
         h = (KB + KR) * up + KR * uq - KR
         return [(KB - KQ - KA) * up + KP * uq - h * up, KQ * up - (KP + KD) * uq - h * uq, h / 3]
 
-    ode = solve_ivp(rhs, (0, ts[-1]), [0.6, 0.2, math.log(rs[0])], t_eval=ts, rtol=1e-11, atol=1e-12)
+    ode = solve_ivp(
+        rhs, (0, ts[-1]), [0.6, 0.2, math.log(rs[0])], t_eval=ts, rtol=1e-11, atol=1e-12
+    )
     err = np.max(np.abs(rs / np.exp(ode.y[2]) - 1))
     print(f"3D uniform: R error {err:.2e}")
     assert err < 0.01
@@ -136,7 +154,9 @@ def test_taubin_smoothing_removes_noise_without_shrinking():
     rn, rs = np.linalg.norm(noisy, axis=1), np.linalg.norm(smooth, axis=1)
     assert np.std(rs) < 0.5 * np.std(rn)
     assert abs(rs.mean() - 1.0) < 0.01
-    msh, smoothed = remesh.moved_surface_mesh(smooth if comm.rank == 0 else None, b.facets, 0.2, comm)
+    msh, smoothed = remesh.moved_surface_mesh(
+        smooth if comm.rank == 0 else None, b.facets, 0.2, comm
+    )
     assert not smoothed
     nv = comm.allreduce(msh.topology.index_map(0).size_local, op=MPI.SUM)
     assert nv >= len(rs)
@@ -180,10 +200,17 @@ def test_parallel_growth_matches_serial(venv_bin, tmp_path, nproc):
 
     script = tmp_path / "grow.py"
     script.write_text(_SCRIPT)
-    serial = json.loads(subprocess.run([sys.executable, str(script)], capture_output=True,
-                                       text=True, check=True, timeout=300).stdout)
-    par = subprocess.run([str(venv_bin / "mpiexec"), "-n", str(nproc), sys.executable, str(script)],
-                         capture_output=True, text=True, timeout=600)
+    serial = json.loads(
+        subprocess.run(
+            [sys.executable, str(script)], capture_output=True, text=True, check=True, timeout=300
+        ).stdout
+    )
+    par = subprocess.run(
+        [str(venv_bin / "mpiexec"), "-n", str(nproc), sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert par.returncode == 0, par.stderr[-2000:]
     np.testing.assert_allclose(json.loads(par.stdout), serial, rtol=1e-9)
 
@@ -191,13 +218,18 @@ def test_parallel_growth_matches_serial(venv_bin, tmp_path, nproc):
 def _mode2_rate(mu, gamma, h, dt, t_end, remesh_every):
     """Growth rate of the mode-2 amplitude of a perturbed stationary disc (R = 2)."""
     R = 2.0
-    ut = 2 * iv(1, R) / (R * iv(0, R))             # makes R = 2 stationary
+    ut = 2 * iv(1, R) / (R * iv(0, R))  # makes R = 2 stationary
     p = TumourParameters(K_B=lambda c: mu * (c - ut), gamma=gamma)
     n = int(round(2 * np.pi * R / h))
     th = 2 * np.pi * np.arange(n) / n
     r = R + 0.04 * np.cos(2 * th)
-    m = TumourModel(MPI.COMM_WORLD, np.column_stack([r * np.cos(th), r * np.sin(th)]), p, h,
-                    remesh_every=remesh_every)
+    m = TumourModel(
+        MPI.COMM_WORLD,
+        np.column_stack([r * np.cos(th), r * np.sin(th)]),
+        p,
+        h,
+        remesh_every=remesh_every,
+    )
 
     def amplitude():
         x = m.boundary().points
@@ -206,23 +238,29 @@ def _mode2_rate(mu, gamma, h, dt, t_end, remesh_every):
         a = np.concatenate([ang[o], [ang[o][0] + 2 * np.pi]])
         f = np.linalg.norm(x, axis=1)[o]
         f = np.concatenate([f, f[:1]])
-        return np.hypot(np.trapezoid(f * np.cos(2 * a), a), np.trapezoid(f * np.sin(2 * a), a)) / np.pi
+        return (
+            np.hypot(np.trapezoid(f * np.cos(2 * a), a), np.trapezoid(f * np.sin(2 * a), a)) / np.pi
+        )
 
     ts, amps = [0.0], [amplitude()]
     while m.t < t_end - 1e-12:
         m.step(dt)
         ts.append(m.t)
         amps.append(amplitude())
-    exact = (mu * iv(1, R) / iv(0, R) * (iv(2, R) / iv(1, R) - iv(3, R) / iv(2, R))
-             - gamma * 6 / R**3)
+    exact = (
+        mu * iv(1, R) / iv(0, R) * (iv(2, R) / iv(1, R) - iv(3, R) / iv(2, R)) - gamma * 6 / R**3
+    )
     return np.polyfit(ts, np.log(amps), 1)[0], exact
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("mu, gamma, h, dt, t_end, every", [
-    (1.0, 0.0, 0.3, 0.2, 4.0, 1),     # unstable: lambda_2 = +0.0868
-    (1.0, 0.2, 0.5, 0.03, 3.0, 5),    # stable (surface tension): lambda_2 = -0.0632
-])
+@pytest.mark.parametrize(
+    "mu, gamma, h, dt, t_end, every",
+    [
+        (1.0, 0.0, 0.3, 0.2, 4.0, 1),  # unstable: lambda_2 = +0.0868
+        (1.0, 0.2, 0.5, 0.03, 3.0, 5),  # stable (surface tension): lambda_2 = -0.0632
+    ],
+)
 def test_mode2_linear_stability(mu, gamma, h, dt, t_end, every):
     """A mode-2 perturbation grows/decays at the linear-theory rate of docs/theory/growth.md#tumour-model (within 10%)."""
     rate, exact = _mode2_rate(mu, gamma, h, dt, t_end, every)

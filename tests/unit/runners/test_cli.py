@@ -73,7 +73,9 @@ probes = [[0.01, 0.005]]
 """
 
 
-def _scene(tmp_path: Path, meshes: Path, edit=None, text: str | None = None, dim: int = 2) -> tuple[Path, Path]:
+def _scene(
+    tmp_path: Path, meshes: Path, edit=None, text: str | None = None, dim: int = 2
+) -> tuple[Path, Path]:
     out = tmp_path / "results"
     mesh = meshes / ("rect.msh" if dim == 2 else "box.msh")
     src = BASE.format(mesh=mesh, dim=dim, out=out) if text is None else text
@@ -86,14 +88,16 @@ def _scene(tmp_path: Path, meshes: Path, edit=None, text: str | None = None, dim
 
 def _run(args: list[str], nproc: int = 1, timeout: float = 180) -> subprocess.CompletedProcess:
     cmd = [CLI, *args] if nproc == 1 else [MPIEXEC, "-n", str(nproc), CLI, *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV,
-                          stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        cmd, capture_output=True, text=True, timeout=timeout, env=ENV, stdin=subprocess.DEVNULL
+    )
 
 
 def _sub(old: str, new: str):
     def edit(src: str) -> str:
         assert old in src, f"test set-up: {old!r} not in the base scene"
         return src.replace(old, new, 1)
+
     return edit
 
 
@@ -112,38 +116,67 @@ CASES = [
     ("E_not_positive", _sub("E = 17.0e9", "E = -1.0"), ["E"]),
     ("nu_too_large", _sub("nu = 0.3", "nu = 0.5"), ["nu"]),
     ("nu_too_small", _sub("nu = 0.3", "nu = -1.0"), ["nu"]),
-    ("not_positive_definite", _sub(
-        'model = "isotropic"\nE = 17.0e9\nnu = 0.3',
-        'model = "orthotropic"\nE1 = 1e9\nE2 = 1e9\nE3 = 1e9\nnu12 = 0.9\nnu13 = 0.9\nnu23 = 0.9\n'
-        'G12 = 1e8\nG13 = 1e8\nG23 = 1e8\naxes = [[1.0, 0.0], [0.0, 1.0]]'),
-     ["positive"]),
+    (
+        "not_positive_definite",
+        _sub(
+            'model = "isotropic"\nE = 17.0e9\nnu = 0.3',
+            'model = "orthotropic"\nE1 = 1e9\nE2 = 1e9\nE3 = 1e9\nnu12 = 0.9\nnu13 = 0.9\nnu23 = 0.9\n'
+            "G12 = 1e8\nG13 = 1e8\nG23 = 1e8\naxes = [[1.0, 0.0], [0.0, 1.0]]",
+        ),
+        ["positive"],
+    ),
     ("missing_rho_dynamic", _sub("rho = 1900.0\n", ""), ["rho"]),
     ("dt_not_positive", _sub("dt = 0.001", "dt = 0.0"), ["dt"]),
     ("t_end_not_positive", _sub("t_end = 0.002", "t_end = -1.0"), ["t_end"]),
-    ("load_steps_below_one", _sub('kind = "dynamic"\nt_end = 0.002\ndt = 0.001',
-                                  'kind = "static"\nload_steps = 0'), ["load_steps"]),
-    ("unknown_analysis_kind", _sub('kind = "dynamic"', 'kind = "explicit"'),
-     ["kind", "static", "quasistatic", "dynamic"]),
-    ("unknown_linear_solver", _sub("[[material]]", '[solver]\nlinear = "cholesky"\n\n[[material]]'),
-     ["linear", "direct", "iterative"]),
-    ("unknown_material_model", _sub('model = "isotropic"', 'model = "hyperelastic"'),
-     ["model", "isotropic", "orthotropic"]),
-    ("wrong_component_count", _sub("value = [0.0, -1.0e6]", "value = [0.0, -1.0e6, 0.0]"), ["value"]),
-    ("ramp_and_schedule", _sub("ramp = 0.001", "ramp = 0.001\nschedule = [[0.0, 0.0], [1.0, 1.0]]"),
-     ["ramp", "schedule"]),
+    (
+        "load_steps_below_one",
+        _sub('kind = "dynamic"\nt_end = 0.002\ndt = 0.001', 'kind = "static"\nload_steps = 0'),
+        ["load_steps"],
+    ),
+    (
+        "unknown_analysis_kind",
+        _sub('kind = "dynamic"', 'kind = "explicit"'),
+        ["kind", "static", "quasistatic", "dynamic"],
+    ),
+    (
+        "unknown_linear_solver",
+        _sub("[[material]]", '[solver]\nlinear = "cholesky"\n\n[[material]]'),
+        ["linear", "direct", "iterative"],
+    ),
+    (
+        "unknown_material_model",
+        _sub('model = "isotropic"', 'model = "hyperelastic"'),
+        ["model", "isotropic", "orthotropic"],
+    ),
+    (
+        "wrong_component_count",
+        _sub("value = [0.0, -1.0e6]", "value = [0.0, -1.0e6, 0.0]"),
+        ["value"],
+    ),
+    (
+        "ramp_and_schedule",
+        _sub("ramp = 0.001", "ramp = 0.001\nschedule = [[0.0, 0.0], [1.0, 1.0]]"),
+        ["ramp", "schedule"],
+    ),
     ("probe_outside_mesh", _sub("probes = [[0.01, 0.005]]", "probes = [[0.5, 0.5]]"), ["probes"]),
     ("format_not_1", _sub("format = 1", "format = 2"), ["format"]),
 ]
 
 # A friction key of another law (a Coulomb coefficient on a Tresca pair) is an input error.
-CONTACT_NOT_YET = ("friction_key_of_another_law", _sub(
-    "[[dirichlet]]",
-    '[[contact]]\nname = "joint"\nslave = "top"\nmaster = "bottom"\nfriction = "tresca"\n'
-    'coefficient = 0.3\n\n[[dirichlet]]'),
-    ["coefficient", "coulomb", "tresca"])
+CONTACT_NOT_YET = (
+    "friction_key_of_another_law",
+    _sub(
+        "[[dirichlet]]",
+        '[[contact]]\nname = "joint"\nslave = "top"\nmaster = "bottom"\nfriction = "tresca"\n'
+        "coefficient = 0.3\n\n[[dirichlet]]",
+    ),
+    ["coefficient", "coulomb", "tresca"],
+)
 
 
-def _check_input_error(res: subprocess.CompletedProcess, words: list[str], out: Path, nproc: int) -> None:
+def _check_input_error(
+    res: subprocess.CompletedProcess, words: list[str], out: Path, nproc: int
+) -> None:
     text = res.stdout + res.stderr
     assert res.returncode == 2, f"exit {res.returncode}, expected 2:\n{text}"
     assert "Traceback" not in text, text
@@ -163,8 +196,14 @@ def test_invalid_input_exit_2(case, tmp_path, meshes):
     _check_input_error(_run(["run", str(scene), "-q"]), words, out, 1)
 
 
-MPI_SUBSET = {"malformed_toml", "unknown_cell_group", "nu_too_large", "probe_outside_mesh",
-              "missing_rho_dynamic", "dimension_mismatch"}
+MPI_SUBSET = {
+    "malformed_toml",
+    "unknown_cell_group",
+    "nu_too_large",
+    "probe_outside_mesh",
+    "missing_rho_dynamic",
+    "dimension_mismatch",
+}
 
 
 @pytest.mark.parametrize("case", [c for c in CASES if c[0] in MPI_SUBSET], ids=lambda c: c[0])
@@ -184,25 +223,41 @@ def test_valid_scene_runs_and_energy_is_plausible(tmp_path, meshes):
     assert summary["status"] == "converged"
     assert summary["steps"] == 2
     header = (out / "history.csv").read_text().splitlines()[0]
-    assert header == ("step,time,pair,normal_force,tangential_force,n_active,n_stick,n_slip,"
-                      "pdas_iterations,kinetic_energy,strain_energy,external_work,dirichlet_work,"
-                      "contact_work,viscous_dissipation,numerical_dissipation")
+    assert header == (
+        "step,time,pair,normal_force,tangential_force,n_active,n_stick,n_slip,"
+        "pdas_iterations,kinetic_energy,strain_energy,external_work,dirichlet_work,"
+        "contact_work,viscous_dissipation,numerical_dissipation"
+    )
     # dynamic run: the energy balance closes (E = W_ext + W_dir + W_c - D_visc - D_num from rest)
     last = [float(x) for x in (out / "history.csv").read_text().splitlines()[-1].split(",")[3:]]
     e, works = last[6] + last[7], last[8] + last[9] + last[10] - last[11] - last[12]
     assert e > 0.0 and works == pytest.approx(e, rel=1e-9)
     assert summary["energy"]["final"] == pytest.approx(e, rel=1e-12)
-    assert (out / "probes.csv").read_text().splitlines()[0].startswith("step,time,probe,x,y,u_x,u_y")
+    assert (
+        (out / "probes.csv").read_text().splitlines()[0].startswith("step,time,probe,x,y,u_x,u_y")
+    )
 
 
 def test_solver_failure_exit_1_last_state_written(tmp_path, meshes):
     """A linear solver that cannot converge: exit 1, status "failed" with a message, and
     the last good state (step 0) written."""
-    scene, out = _scene(tmp_path, meshes, _sub(
-        "[[material]]", '[solver]\nlinear = "iterative"\nmax_iterations = 1\ntolerance = 1e-14\n\n[[material]]'))
+    scene, out = _scene(
+        tmp_path,
+        meshes,
+        _sub(
+            "[[material]]",
+            '[solver]\nlinear = "iterative"\nmax_iterations = 1\ntolerance = 1e-14\n\n[[material]]',
+        ),
+    )
     env_opts = {**ENV, "PETSC_OPTIONS": "-bc_ksp_max_it 1 -bc_ksp_error_if_not_converged 1"}
-    res = subprocess.run([CLI, "run", str(scene), "-q"], capture_output=True, text=True, timeout=180,
-                         env=env_opts, stdin=subprocess.DEVNULL)
+    res = subprocess.run(
+        [CLI, "run", str(scene), "-q"],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env=env_opts,
+        stdin=subprocess.DEVNULL,
+    )
     assert res.returncode == 1, res.stdout + res.stderr
     assert "Traceback" not in res.stderr
     summary = json.loads((out / "summary.json").read_text())

@@ -142,8 +142,9 @@ def _run_all(scene: Path, tmp: Path) -> dict[int, Path]:
         cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
         if n > 1:
             cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=ENV,
-                             stdin=subprocess.DEVNULL)
+        res = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
+        )
         assert res.returncode == 0, f"{n} ranks: exit {res.returncode}\n{res.stderr}"
         outs[n] = out
     return outs
@@ -160,8 +161,10 @@ def _compare(outs: dict[int, Path]) -> None:
             # rtol 1e-8 with an absolute floor 1e-8 x the column's magnitude (values ~ 0)
             tol = 1e-8 * np.abs(a1) + 1e-8 * scale
             bad = ~(np.abs(an - a1) <= tol) & ~(np.isnan(a1) & np.isnan(an))
-            assert not bad.any(), (f"{name}: {n} ranks differ from serial at rows/cols "
-                                   f"{np.argwhere(bad)[:5].tolist()}: {an[bad][:5]} vs {a1[bad][:5]}")
+            assert not bad.any(), (
+                f"{name}: {n} ranks differ from serial at rows/cols "
+                f"{np.argwhere(bad)[:5].tolist()}: {an[bad][:5]} vs {a1[bad][:5]}"
+            )
     s = [json.loads((outs[n] / "summary.json").read_text()) for n in (1, 2, 3)]
     assert [x["ranks"] for x in s] == [1, 2, 3]
     for key in ("status", "steps", "dofs"):
@@ -170,7 +173,9 @@ def _compare(outs: dict[int, Path]) -> None:
 
 def test_history_probes_identical_2d_dynamic(tmp_path):
     scene = tmp_path / "bone2d.toml"
-    scene.write_text(SCENE_2D.format(mesh=ROOT / "data" / "scenes" / "long_bone.msh", out=tmp_path / "x"))
+    scene.write_text(
+        SCENE_2D.format(mesh=ROOT / "data" / "scenes" / "long_bone.msh", out=tmp_path / "x")
+    )
     outs = _run_all(scene, tmp_path)
     _compare(outs)
     # the run is not trivial: the bone moves and stores energy

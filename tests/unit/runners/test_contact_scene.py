@@ -36,7 +36,9 @@ def _run(scene: Path, out: Path, n: int = 1) -> subprocess.CompletedProcess:
     cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
     if n > 1:
         cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=ENV, stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        cmd, capture_output=True, text=True, timeout=600, env=ENV, stdin=subprocess.DEVNULL
+    )
 
 
 def _csv(path: Path) -> tuple[list[str], list[list[str]]]:
@@ -89,7 +91,9 @@ fields_every = 0
 def test_patch_scene(tmp_path):
     from bonecontact.meshing import shapes as meshing
 
-    mesh = meshing.two_blocks_2d(None, path=tmp_path / "blocks.msh", h_lower=0.02 / 7, h_upper=0.02 / 23)
+    mesh = meshing.two_blocks_2d(
+        None, path=tmp_path / "blocks.msh", h_lower=0.02 / 7, h_upper=0.02 / 23
+    )
     scene = tmp_path / "patch.toml"
     scene.write_text(PATCH.format(mesh=mesh, mp=-P))
     res = _run(scene, tmp_path / "out")
@@ -123,7 +127,9 @@ def _assert_same_on_ranks(tables: dict) -> None:
             if name.startswith("contact"):
                 assert [r[-1] for r in rn] == [r[-1] for r in r1]
             an = np.array([[float(v) if v not in words else 0.0 for v in r] for r in rn])
-            assert (np.abs(an - a1) <= 1e-8 * (np.abs(a1) + scale)).all(), f"{name}: {n} ranks differ"
+            assert (np.abs(an - a1) <= 1e-8 * (np.abs(a1) + scale)).all(), (
+                f"{name}: {n} ranks differ"
+            )
 
 
 HERTZ = """format = 1
@@ -172,15 +178,23 @@ probes = [[0.0, 0.005]]
 def test_hertz_scene_same_on_1_2_3_ranks(tmp_path, linear):
     from bonecontact.meshing import shapes as meshing
 
-    mesh = meshing.hertz_2d(None, path=tmp_path / "hertz.msh", h_contact=A_REF / 8, zone=1.5 * A_REF, h_far=2e-3)
-    delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
+    mesh = meshing.hertz_2d(
+        None, path=tmp_path / "hertz.msh", h_contact=A_REF / 8, zone=1.5 * A_REF, h_far=2e-3
+    )
+    delta = (
+        2.5
+        * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU)
+        / contact_modulus(E1, NU, E2, NU)
+    )
     scene = tmp_path / "hertz.toml"
     scene.write_text(HERTZ.format(mesh=mesh, E1=E1, E2=E2, nu=NU, uy=-delta, linear=linear))
     tables = {}
     for n in (1, 2, 3):
         res = _run(scene, tmp_path / f"out{n}", n)
         assert res.returncode == 0, f"{n} ranks:\n{res.stderr}"
-        tables[n] = {name: _csv(tmp_path / f"out{n}" / name) for name in ("contact_hertz.csv", "history.csv")}
+        tables[n] = {
+            name: _csv(tmp_path / f"out{n}" / name) for name in ("contact_hertz.csv", "history.csv")
+        }
     _assert_same_on_ranks(tables)
     # the pressure is Hertz's for the measured load (same tolerances as tests/test_hertz.py)
     hh, hist = tables[1]["history.csv"]
@@ -231,7 +245,9 @@ def _overlapping_blocks(path: Path, overlap: float) -> Path:
 @pytest.mark.parametrize("case", ["interpenetration", "uncovered"])
 def test_contact_input_errors_exit_2(tmp_path, case):
     mesh = _overlapping_blocks(tmp_path / "m.msh", 1e-4 if case == "interpenetration" else 0.0)
-    text = PATCH.format(mesh=mesh, mp=-P).replace('[[dirichlet]]\nboundary = "lower_left"\nvalue = [0.0, "free"]\n', "")
+    text = PATCH.format(mesh=mesh, mp=-P).replace(
+        '[[dirichlet]]\nboundary = "lower_left"\nvalue = [0.0, "free"]\n', ""
+    )
     text = text.replace('[[dirichlet]]\nboundary = "upper_left"\nvalue = [0.0, "free"]\n', "")
     if case == "uncovered":
         text = text.replace('slave = "upper_contact"', 'slave = "top"')
@@ -255,18 +271,24 @@ def test_body_starting_apart_is_supported_from_the_first_solve(tmp_path):
         mesh = _overlapping_blocks(tmp_path / f"{case}.msh", overlap)
         text = PATCH.format(mesh=mesh, mp=-P)
         text = text.replace('[[dirichlet]]\nboundary = "lower_left"\nvalue = [0.0, "free"]\n', "")
-        text = text.replace('[[dirichlet]]\nboundary = "upper_left"\nvalue = [0.0, "free"]\n',
-                            '[[dirichlet]]\nboundary = "top"\nvalue = [0.0, "free"]\n')
-        text = text.replace('boundary = "bottom"\nvalue = ["free", 0.0]', 'boundary = "bottom"\nvalue = [0.0, 0.0]')
+        text = text.replace(
+            '[[dirichlet]]\nboundary = "upper_left"\nvalue = [0.0, "free"]\n',
+            '[[dirichlet]]\nboundary = "top"\nvalue = [0.0, "free"]\n',
+        )
+        text = text.replace(
+            'boundary = "bottom"\nvalue = ["free", 0.0]', 'boundary = "bottom"\nvalue = [0.0, 0.0]'
+        )
         scene = tmp_path / f"{case}.toml"
         scene.write_text(text)
         res = _run(scene, tmp_path / case)
         assert res.returncode == 0, res.stderr
         header, rows = _csv(tmp_path / case / "contact_joint.csv")
         lams.append(np.array([float(r[3]) for r in rows]))
-        assert np.abs(np.array([float(r[2]) for r in rows])).max() < 1e-12   # gap closed
+        assert np.abs(np.array([float(r[2]) for r in rows])).max() < 1e-12  # gap closed
         h_header, hist = _csv(tmp_path / case / "history.csv")
-        assert float(dict(zip(h_header, hist[-1]))["normal_force"]) == pytest.approx(P * 0.02, rel=1e-9)
+        assert float(dict(zip(h_header, hist[-1]))["normal_force"]) == pytest.approx(
+            P * 0.02, rel=1e-9
+        )
     np.testing.assert_allclose(lams[0], lams[1], rtol=1e-8)
 
 
@@ -277,21 +299,30 @@ def test_coulomb_friction_scene_same_on_1_2_3_ranks(tmp_path):
     (stick and slip nodes, |q| ≤ μp) and the summary names the law."""
     from bonecontact.meshing import shapes as meshing
 
-    mesh = meshing.hertz_2d(None, path=tmp_path / "hertz.msh", h_contact=A_REF / 8, zone=1.5 * A_REF, h_far=2e-3)
-    delta = 2.5 * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU) / contact_modulus(E1, NU, E2, NU)
+    mesh = meshing.hertz_2d(
+        None, path=tmp_path / "hertz.msh", h_contact=A_REF / 8, zone=1.5 * A_REF, h_far=2e-3
+    )
+    delta = (
+        2.5
+        * hertz_2d.load_for_half_width(A_REF, R, E1, NU, E2, NU)
+        / contact_modulus(E1, NU, E2, NU)
+    )
     text = HERTZ.format(mesh=mesh, E1=E1, E2=E2, nu=NU, uy=-delta, linear="direct")
     text = text.replace('friction = "none"', 'friction = "coulomb"\ncoefficient = 0.3')
-    text = text.replace(f"""[[dirichlet]]
+    text = text.replace(
+        f"""[[dirichlet]]
 boundary = "cyl_top"
 value = [0.0, {-delta}]
-schedule = [[0.0, 0.0], [0.75, 1.0], [1.0, 1.0]]""", f"""[[dirichlet]]
+schedule = [[0.0, 0.0], [0.75, 1.0], [1.0, 1.0]]""",
+        f"""[[dirichlet]]
 boundary = "cyl_top"
 value = ["free", {-delta}]
 schedule = [[0.0, 0.0], [0.5, 1.0], [1.0, 1.0]]
 [[dirichlet]]
 boundary = "cyl_top"
 value = [6.0e-6, "free"]
-schedule = [[0.0, 0.0], [0.5, 0.0], [1.0, 1.0]]""")
+schedule = [[0.0, 0.0], [0.5, 0.0], [1.0, 1.0]]""",
+    )
     assert 'value = ["free"' in text
     scene = tmp_path / "hertz.toml"
     scene.write_text(text)
@@ -299,7 +330,9 @@ schedule = [[0.0, 0.0], [0.5, 0.0], [1.0, 1.0]]""")
     for n in (1, 2, 3):
         res = _run(scene, tmp_path / f"out{n}", n)
         assert res.returncode == 0, f"{n} ranks:\n{res.stderr}"
-        tables[n] = {name: _csv(tmp_path / f"out{n}" / name) for name in ("contact_hertz.csv", "history.csv")}
+        tables[n] = {
+            name: _csv(tmp_path / f"out{n}" / name) for name in ("contact_hertz.csv", "history.csv")
+        }
     _assert_same_on_ranks(tables)
     header, rows = tables[1]["contact_hertz.csv"]
     col = {k: i for i, k in enumerate(header)}

@@ -16,9 +16,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
-from mpi4py import MPI
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
@@ -141,7 +142,9 @@ def shared_dir():
     import tempfile
 
     comm = MPI.COMM_WORLD
-    path = Path(comm.bcast(tempfile.mkdtemp(prefix="bc-growth-") if comm.rank == 0 else None, root=0))
+    path = Path(
+        comm.bcast(tempfile.mkdtemp(prefix="bc-growth-") if comm.rank == 0 else None, root=0)
+    )
     if comm.rank == 0:
         _disc_in_square(path / "disc.msh")
     comm.barrier()
@@ -170,6 +173,7 @@ def _sub(old: str, new: str):
     def edit(src: str) -> str:
         assert old in src, f"test set-up: {old!r} not in the scene"
         return src.replace(old, new, 1)
+
     return edit
 
 
@@ -182,14 +186,37 @@ INVALID = [
     # [neoplasm]
     ("kind-value", T, _sub('kind = "tumour"', 'kind = "sarcoma"'), "kind", ['"tumour", "cyst"']),
     ("kind-missing", T, _sub('kind = "tumour"\n', ""), "kind", ["missing"]),
-    ("unknown-key", T, _sub("dt = 0.2", "dt = 0.2\nspeed = 2.0"), "speed", ["allowed: kind, region"]),
+    (
+        "unknown-key",
+        T,
+        _sub("dt = 0.2", "dt = 0.2\nspeed = 2.0"),
+        "speed",
+        ["allowed: kind, region"],
+    ),
     ("t_end-positive", T, _sub("t_end = 3.0", "t_end = 0.0"), "t_end", ["> 0"]),
     ("dt-le-t_end", T, _sub("dt = 0.2", "dt = 5.0"), "dt", ["<= t_end"]),
     ("dt-string", T, _sub("dt = 0.2", 'dt = "0.2 s"'), "dt", ["number"]),
-    ("remesh_every-float", T, _sub("dt = 0.2", "dt = 0.2\nremesh_every = 1.0"), "remesh_every", ["integer"]),
-    ("remesh_every-negative", T, _sub("dt = 0.2", "dt = 0.2\nremesh_every = -1"), "remesh_every", [">= 0"]),
-    ("mechanics_every-no-analysis", T, _sub("dt = 0.2", "dt = 0.2\nmechanics_every = 2"), "mechanics_every",
-     ["[analysis]"]),
+    (
+        "remesh_every-float",
+        T,
+        _sub("dt = 0.2", "dt = 0.2\nremesh_every = 1.0"),
+        "remesh_every",
+        ["integer"],
+    ),
+    (
+        "remesh_every-negative",
+        T,
+        _sub("dt = 0.2", "dt = 0.2\nremesh_every = -1"),
+        "remesh_every",
+        [">= 0"],
+    ),
+    (
+        "mechanics_every-no-analysis",
+        T,
+        _sub("dt = 0.2", "dt = 0.2\nmechanics_every = 2"),
+        "mechanics_every",
+        ["[analysis]"],
+    ),
     ("radius-missing", T, _sub("radius = 1.0\n", ""), "radius", ["missing", "without a mesh"]),
     ("radius-negative", T, _sub("radius = 1.0", "radius = -1.0"), "radius", ["> 0"]),
     ("h-negative", T, _sub("h = 0.25", "h = 0.0"), "h", ["> 0"]),
@@ -197,8 +224,13 @@ INVALID = [
     ("host-without-mesh", T, _sub("h = 0.25", 'h = 0.25\nhost = ["bone"]'), "host", ["no mesh"]),
     ("host-not-array", T, _sub("h = 0.25", 'h = 0.25\nhost = "bone"'), "host", ['host = ["bone"]']),
     ("h-for-cyst", C, _sub("radius = 2.0e-3", "radius = 2.0e-3\nh = 1e-4"), "h", ["cyst"]),
-    ("wrong-subtable", T, _sub("[output]", "[neoplasm.cyst]\nbeta = 1e-11\nC_minus = 1.0\n\n[output]"), "cyst",
-     ['kind = "tumour"']),
+    (
+        "wrong-subtable",
+        T,
+        _sub("[output]", "[neoplasm.cyst]\nbeta = 1e-11\nC_minus = 1.0\n\n[output]"),
+        "cyst",
+        ['kind = "tumour"'],
+    ),
     ("gamma-dt-limit", T, _sub("gamma = 0.0", "gamma = 0.1"), "dt", ["surface-tension limit"]),
     # [neoplasm.tumour]
     ("tumour-unknown-key", T, _sub("K_Q = 0.0", "K_X = 0.0"), "K_X", ["allowed: D_c, lambda"]),
@@ -208,42 +240,124 @@ INVALID = [
     ("tumour-fractions", T, _sub("u_q0 = 0.0", "u_q0 = 0.5"), "u_q0", ["u_p0 + u_q0 <= 1"]),
     ("tumour-K_R-expression", T, _sub("K_R = 0.0", 'K_R = "u_c"'), "K_R", ["number"]),
     ("tumour-rate-bool", T, _sub("K_Q = 0.0", "K_Q = false"), "K_Q", ["expression string of u_c"]),
-    ("rate-injection", T, _sub('K_B = "1.0*(u_c - 0.5)"', "K_B = \"__import__('os').system('true')\""), "K_B",
-     ["__import__", "not allowed"]),
-    ("rate-attribute", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "u_c.__class__"'), "K_B", ["not allowed"]),
+    (
+        "rate-injection",
+        T,
+        _sub('K_B = "1.0*(u_c - 0.5)"', "K_B = \"__import__('os').system('true')\""),
+        "K_B",
+        ["__import__", "not allowed"],
+    ),
+    (
+        "rate-attribute",
+        T,
+        _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "u_c.__class__"'),
+        "K_B",
+        ["not allowed"],
+    ),
     ("rate-caret", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "u_c^2"'), "K_B", ["**"]),
     ("rate-unknown-name", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "2*c"'), "K_B", ['"c"', "u_c"]),
     ("rate-syntax", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "2*(u_c"'), "K_B", ["cannot parse"]),
     ("rate-arity", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "max(u_c)"'), "K_B", ["2 arguments"]),
     ("rate-domain", T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "log(u_c - 1)"'), "K_B", ["u_c1"]),
     # [neoplasm.cyst]
-    ("cyst-model-value", C, _sub('model = "sphere"', 'model = "ellipsoid"'), "model", ['"sphere", "shape"']),
-    ("cyst-strain-value", C, _sub('strain = "log"', 'strain = "green"'), "strain", ['"log", "engineering"']),
+    (
+        "cyst-model-value",
+        C,
+        _sub('model = "sphere"', 'model = "ellipsoid"'),
+        "model",
+        ['"sphere", "shape"'],
+    ),
+    (
+        "cyst-strain-value",
+        C,
+        _sub('strain = "log"', 'strain = "green"'),
+        "strain",
+        ['"log", "engineering"'],
+    ),
     ("cyst-beta-negative", C, _sub("beta = {beta}", "beta = -1e-11"), "beta", [">= 0"]),
     ("cyst-beta-missing", C, _sub("beta = {beta}\n", ""), "beta", ["missing"]),
     ("cyst-C_minus-zero", C, _sub("C_minus = 1.0", "C_minus = 0.0"), "C_minus", ["> 0"]),
-    ("cyst-viscosity-string", C, _sub("viscosity = {viscosity}", 'viscosity = "high"'), "viscosity", ["number"]),
+    (
+        "cyst-viscosity-string",
+        C,
+        _sub("viscosity = {viscosity}", 'viscosity = "high"'),
+        "viscosity",
+        ["number"],
+    ),
     ("cyst-f0-too-negative", C, _sub("f0 = {f0}", "f0 = -1.0e4"), "f0", ["osmolarity"]),
-    ("cyst-unknown-key", C, _sub("f0 = {f0}", "f0 = {f0}\nalpha = 3.0"), "alpha", ["allowed: model, strain"]),
+    (
+        "cyst-unknown-key",
+        C,
+        _sub("f0 = {f0}", "f0 = {f0}\nalpha = 3.0"),
+        "alpha",
+        ["allowed: model, strain"],
+    ),
     # growth-only scenes have no mechanics
-    ("growth-only-material", T, _sub("[output]", '[[material]]\nname = "m"\nregions = ["b"]\nmodel = "isotropic"\n'
-                                                 "E = 1e9\nnu = 0.3\n\n[output]"), None,
-     ["[[material]]", "growth-only"]),
-    ("growth-only-probes", T, _sub('directory = "{out}"', 'directory = "{out}"\nprobes = [[0.0, 0.0]]'), "probes",
-     ["growth.csv"]),
+    (
+        "growth-only-material",
+        T,
+        _sub(
+            "[output]",
+            '[[material]]\nname = "m"\nregions = ["b"]\nmodel = "isotropic"\n'
+            "E = 1e9\nnu = 0.3\n\n[output]",
+        ),
+        None,
+        ["[[material]]", "growth-only"],
+    ),
+    (
+        "growth-only-probes",
+        T,
+        _sub('directory = "{out}"', 'directory = "{out}"\nprobes = [[0.0, 0.0]]'),
+        "probes",
+        ["growth.csv"],
+    ),
     # coupled scenes (bonecontact.runners.coupled): the tumour region needs its (near-fluid) material
-    ("coupled-tumour-no-material", M, _sub("[neoplasm]", '[analysis]\nkind = "static"\n\n[[material]]\nname = "m"\n'
-                                                         'regions = ["bone"]\nmodel = "isotropic"\nE = 1e9\nnu = 0.3\n'
-                                                         "\n[neoplasm]"), "regions", ['"tumour"', "no material"]),
+    (
+        "coupled-tumour-no-material",
+        M,
+        _sub(
+            "[neoplasm]",
+            '[analysis]\nkind = "static"\n\n[[material]]\nname = "m"\n'
+            'regions = ["bone"]\nmodel = "isotropic"\nE = 1e9\nnu = 0.3\n'
+            "\n[neoplasm]",
+        ),
+        "regions",
+        ['"tumour"', "no material"],
+    ),
     # checks against the mesh
-    ("region-unknown", M, _sub('region = "tumour"', 'region = "marrow"'), "region", ['"marrow"', '"tumour"']),
-    ("region-facet-group", M, _sub('region = "tumour"', 'region = "rim"'), "region", ["facet group"]),
-    ("host-is-region", M, _sub('host = ["bone"]', 'host = ["bone", "tumour"]'), "host", ["neoplasm region"]),
+    (
+        "region-unknown",
+        M,
+        _sub('region = "tumour"', 'region = "marrow"'),
+        "region",
+        ['"marrow"', '"tumour"'],
+    ),
+    (
+        "region-facet-group",
+        M,
+        _sub('region = "tumour"', 'region = "rim"'),
+        "region",
+        ["facet group"],
+    ),
+    (
+        "host-is-region",
+        M,
+        _sub('host = ["bone"]', 'host = ["bone", "tumour"]'),
+        "host",
+        ["neoplasm region"],
+    ),
     ("radius-with-mesh", M, _sub("dt = 0.25", "dt = 0.25\nradius = 1.0"), "radius", ['"region"']),
 ]
 
 BASES = {T: TUMOUR, C: CYST, M: REGION}
-CYST_DEFAULTS = {"dim": 3, "t_end": YEAR, "dt": YEAR / 12, "beta": 3.2e-11, "f0": 0.0, "viscosity": 1.0e9}
+CYST_DEFAULTS = {
+    "dim": 3,
+    "t_end": YEAR,
+    "dt": YEAR / 12,
+    "beta": 3.2e-11,
+    "f0": 0.0,
+    "viscosity": 1.0e9,
+}
 
 
 def _scene_text(base: str, edit, out: Path, mesh: Path) -> str:
@@ -280,15 +394,19 @@ def test_example_scenes_check(capsys):
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_invalid_input_real_command(tmp_path, nproc):
     """The installed command (also under mpiexec -n 2): exit 2 on a bad cyst strain and a bad rate."""
-    for base, edit, words in [(C, _sub('strain = "log"', 'strain = "green"'), ['key "strain"', '"engineering"']),
-                              (T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "exp(u_c"'), ['key "K_B"'])]:
+    for base, edit, words in [
+        (C, _sub('strain = "log"', 'strain = "green"'), ['key "strain"', '"engineering"']),
+        (T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "exp(u_c"'), ['key "K_B"']),
+    ]:
         out = tmp_path / "out"
         scene = tmp_path / "scene.toml"
         scene.write_text(_scene_text(base, edit, out, tmp_path / "none.msh"))
         cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q"]
         if nproc > 1:
             cmd = [str(BIN / "mpiexec"), "-n", str(nproc), *cmd]
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=ENV, stdin=subprocess.DEVNULL)
+        res = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=120, env=ENV, stdin=subprocess.DEVNULL
+        )
         assert res.returncode == 2, res.stdout + res.stderr
         assert res.stderr.count("error:") == 1 and "[neoplasm." in res.stderr, res.stderr
         for w in words:
@@ -303,11 +421,21 @@ def test_rate_expressions_numbers():
     assert parse_rate("2.0*(u_c - 0.7)")(1.0) == pytest.approx(0.6, rel=1e-15)
     assert parse_rate("0.5*pos(0.4 - u_c)")(0.2) == pytest.approx(0.1, rel=1e-15)
     assert parse_rate("0.5*pos(0.4 - u_c)")(0.6) == 0.0
-    assert parse_rate("exp(-u_c**2) + max(u_c, 0.3) - min(u_c, 0.3) + abs(-u_c)")(0.5) == pytest.approx(
-        math.exp(-0.25) + 0.5 - 0.3 + 0.5, rel=1e-15)
+    assert parse_rate("exp(-u_c**2) + max(u_c, 0.3) - min(u_c, 0.3) + abs(-u_c)")(
+        0.5
+    ) == pytest.approx(math.exp(-0.25) + 0.5 - 0.3 + 0.5, rel=1e-15)
     assert parse_rate("sqrt(u_c)*log(e) + 0*pi")(0.25) == pytest.approx(0.5, rel=1e-15)
     assert not parse_rate("3").depends_on_u_c
-    for bad in ["u_c if u_c else 1", "open('x')", "[u_c]", "u_c < 1", "'1'", "True", "lambda: 1", "u_c; 1"]:
+    for bad in [
+        "u_c if u_c else 1",
+        "open('x')",
+        "[u_c]",
+        "u_c < 1",
+        "'1'",
+        "True",
+        "lambda: 1",
+        "u_c; 1",
+    ]:
         with pytest.raises(ExpressionError):
             parse_rate(bad)
 
@@ -327,13 +455,15 @@ def _run_cyst(directory: Path, name: str, **kw) -> tuple[list[str], np.ndarray, 
 def test_cyst_beta_zero_limit(shared_dir):
     """β = 0: the osmotic excess is spent, R → R0 (1 + f0/(R_g T C⁻))^(1/3), to 1e-6."""
     f0, R0, T_ = 500.0, 2.0e-3, 310.0
-    header, g, summary = _run_cyst(shared_dir, "beta0", beta=0.0, f0=f0, t_end=200 * YEAR, dt=10 * YEAR)
+    header, g, summary = _run_cyst(
+        shared_dir, "beta0", beta=0.0, f0=f0, t_end=200 * YEAR, dt=10 * YEAR
+    )
     assert header == ["time", "volume", "surface_area", "equivalent_radius", "pressure"]
     assert len(g) == 21 and g[0, 0] == 0.0 and g[-1, 0] == pytest.approx(200 * YEAR, rel=1e-15)
     R_inf = R0 * (1.0 + f0 / (R_GAS * T_ * 1.0)) ** (1.0 / 3.0)
     assert g[-1, 3] == pytest.approx(R_inf, rel=1e-6, abs=0)
     assert abs(g[-1, 4]) < 1e-6 * f0 and g[0, 4] == f0
-    assert g[-1, 3] > 1.05 * R0                                   # it did grow
+    assert g[-1, 3] > 1.05 * R0  # it did grow
     np.testing.assert_allclose(g[:, 1], 4 / 3 * np.pi * g[:, 3] ** 3, rtol=1e-14)
     np.testing.assert_allclose(g[:, 2], 4 * np.pi * g[:, 3] ** 2, rtol=1e-14)
     gr = summary["growth"]
@@ -350,7 +480,9 @@ def test_cyst_long_time_rate(shared_dir, dim):
     (ν = 1e5 Pa s) is used to reach 1e-6 within 20 years.
     """
     beta = 3.2e-11
-    _, g, _ = _run_cyst(shared_dir, f"rate{dim}", dim=dim, beta=beta, viscosity=1.0e5, t_end=20 * YEAR, dt=YEAR)
+    _, g, _ = _run_cyst(
+        shared_dir, f"rate{dim}", dim=dim, beta=beta, viscosity=1.0e5, t_end=20 * YEAR, dt=YEAR
+    )
     rate = (g[-1, 3] - g[-2, 3]) / (g[-1, 0] - g[-2, 0])
     assert rate == pytest.approx(beta / 1.0, rel=1e-6, abs=0)
     if dim == 2:
@@ -369,7 +501,7 @@ def test_cyst_radicular_approach(shared_dir):
     rate = (g[-1, 3] - g[-2, 3]) / (g[-1, 0] - g[-2, 0])
     deficit = 1.0 - rate / (beta / C)
     assert 0.0 < deficit < 2.0 * f / (R_GAS * 310.0 * C)
-    assert rate * 1e3 * YEAR == pytest.approx(1.01, abs=0.01)     # mm per year
+    assert rate * 1e3 * YEAR == pytest.approx(1.01, abs=0.01)  # mm per year
 
 
 # --------------------------------------------------------------------------------------
@@ -387,13 +519,19 @@ def test_tumour_growth_matches_radius_ode(shared_dir):
     t, R = g[:, 0], g[:, 3]
     assert len(t) == 16 and t[-1] == pytest.approx(3.0, rel=1e-14)
     mu, ut = 1.0, 0.5
-    ode = solve_ivp(lambda _, r: mu * (iv(1, r) / iv(0, r) - ut * r / 2), (0, t[-1]), [R[0]], t_eval=t,
-                    rtol=1e-11, atol=1e-12)
+    ode = solve_ivp(
+        lambda _, r: mu * (iv(1, r) / iv(0, r) - ut * r / 2),
+        (0, t[-1]),
+        [R[0]],
+        t_eval=t,
+        rtol=1e-11,
+        atol=1e-12,
+    )
     err = np.max(np.abs(R / ode.y[0] - 1))
     assert err < 0.01, err
     assert R[-1] > 1.4 * R[0]
     np.testing.assert_allclose(R, np.sqrt(g[:, 1] / np.pi), rtol=1e-14)
-    np.testing.assert_allclose(g[:, 2], 2 * np.pi * R, rtol=0.01)     # still a circle (perimeter)
+    np.testing.assert_allclose(g[:, 2], 2 * np.pi * R, rtol=0.01)  # still a circle (perimeter)
     s = json.loads((out / "summary.json").read_text())
     assert s["growth"]["steps"] == 15 and s["growth"]["remeshes"] == 15
     assert s["growth"]["final_radius"] == R[-1]
@@ -414,7 +552,9 @@ def test_growth_csv_same_on_1_and_2_ranks(tmp_path):
         cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q"]
         if n > 1:
             cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL)
+        res = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
+        )
         assert res.returncode == 0, res.stderr
         outs[n] = _read_growth(out / "growth.csv")
     (h1, g1), (h2, g2) = outs[1], outs[2]

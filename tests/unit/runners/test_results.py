@@ -11,19 +11,37 @@ import json
 import math
 from pathlib import Path
 
-import dolfinx
-import numpy as np
 from mpi4py import MPI
 
+import dolfinx
+import numpy as np
+
 from bonecontact.common.version import __version__
-from bonecontact.runners.results import (ENERGY_COLUMNS, GROWTH_UNITS, HISTORY_COLUMNS, MECHANICS_UNITS,
-                                     SUMMARY_FORMAT, GrowthTable, ResultsWriter, run_summary, write_points,
-                                     write_summary)
+from bonecontact.runners.results import (
+    ENERGY_COLUMNS,
+    GROWTH_UNITS,
+    HISTORY_COLUMNS,
+    MECHANICS_UNITS,
+    SUMMARY_FORMAT,
+    GrowthTable,
+    ResultsWriter,
+    run_summary,
+    write_points,
+    write_summary,
+)
 
 COMM = MPI.COMM_WORLD
 
-HEADER_KEYS = ["scene", "format", "status", "ranks", "wall_time_s", "units", "bonecontact_version",
-               "dolfinx_version"]
+HEADER_KEYS = [
+    "scene",
+    "format",
+    "status",
+    "ranks",
+    "wall_time_s",
+    "units",
+    "bonecontact_version",
+    "dolfinx_version",
+]
 
 
 def _rows(path: Path) -> list[list[str]]:
@@ -40,7 +58,9 @@ def test_run_summary_header_then_info_in_order():
     assert list(s) == HEADER_KEYS + ["steps", "extra"]
     assert s["scene"] == "demo" and s["format"] == 1 and s["status"] == "converged"
     assert s["ranks"] == COMM.size and s["wall_time_s"] == 1.5
-    assert s["units"] == MECHANICS_UNITS == "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)"
+    assert (
+        s["units"] == MECHANICS_UNITS == "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)"
+    )
     assert s["bonecontact_version"] == __version__ and s["dolfinx_version"] == dolfinx.__version__
     g = run_summary("g", "failed", COMM, 0.0, units=GROWTH_UNITS, wall_time_s=9.0)
     assert g["units"] == "SI (m, kg, s, Pa, N; 2D: per unit thickness)"
@@ -48,8 +68,16 @@ def test_run_summary_header_then_info_in_order():
 
 
 def test_write_summary_json_round_trip(tmp_shared_path):
-    s = run_summary("demo", "converged", COMM, 0.25, steps=np.int64(4), force=np.float64(17500.0),
-                    mesh=tmp_shared_path / "m.msh", nested={"max": np.int32(2)})
+    s = run_summary(
+        "demo",
+        "converged",
+        COMM,
+        0.25,
+        steps=np.int64(4),
+        force=np.float64(17500.0),
+        mesh=tmp_shared_path / "m.msh",
+        nested={"max": np.int32(2)},
+    )
     write_summary(COMM, tmp_shared_path, s)
     COMM.barrier()
     back = json.loads((tmp_shared_path / "summary.json").read_text())
@@ -64,17 +92,46 @@ def test_write_summary_json_round_trip(tmp_shared_path):
 def test_writer_history_and_summary(tmp_shared_path):
     out = tmp_shared_path / "run"
     w = ResultsWriter(COMM, out, "scene-a", None, ENERGY_COLUMNS)
-    rows = [[0, 0.0, "", 0.0, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-            [1, 0.1, "tibiofemoral", 17500.0, -12.5, np.int64(7), 3, 4, 5, 1 / 3, 2e-9, 1.0, -0.0, 0.5, 0.25,
-             1e-300]]
+    rows = [
+        [0, 0.0, "", 0.0, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [
+            1,
+            0.1,
+            "tibiofemoral",
+            17500.0,
+            -12.5,
+            np.int64(7),
+            3,
+            4,
+            5,
+            1 / 3,
+            2e-9,
+            1.0,
+            -0.0,
+            0.5,
+            0.25,
+            1e-300,
+        ],
+    ]
     w.history(rows)
     s = w.summary("converged", steps=1, wall_time_s=2.0)
     w.close()
     COMM.barrier()
     table = _rows(out / "history.csv")
     assert table[0] == HISTORY_COLUMNS + ENERGY_COLUMNS
-    assert table[0][:11] == ["step", "time", "pair", "normal_force", "tangential_force", "n_active", "n_stick",
-                             "n_slip", "pdas_iterations", "kinetic_energy", "strain_energy"]
+    assert table[0][:11] == [
+        "step",
+        "time",
+        "pair",
+        "normal_force",
+        "tangential_force",
+        "n_active",
+        "n_stick",
+        "n_slip",
+        "pdas_iterations",
+        "kinetic_energy",
+        "strain_energy",
+    ]
     assert table[1][:3] == ["0", "0.0", ""]
     assert table[2][:9] == ["1", "0.1", "tibiofemoral", "17500.0", "-12.5", "7", "3", "4", "5"]
     # floats are written exactly (repr): the values read back bit for bit

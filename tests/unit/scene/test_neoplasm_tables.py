@@ -90,7 +90,9 @@ def test_tumour_values(tmp_path):
     assert isinstance(p, TumourParameters)
     assert (p.D_c, p.lambda_, p.eps0, p.u_c1) == (2.0, 3.0, 0.5, 0.8)
     assert isinstance(p.lambda_, float)  # integers are read as floats
-    assert p.K_B == RateExpression("1.0*(u_c - 0.5)") and p.K_B(0.8) == pytest.approx(0.3, rel=1e-15)
+    assert p.K_B == RateExpression("1.0*(u_c - 0.5)") and p.K_B(0.8) == pytest.approx(
+        0.3, rel=1e-15
+    )
     assert (p.K_Q, p.K_A, p.K_P, p.K_D, p.K_R) == (0.25, 0.0, 0.0, 0.0, -0.125)
     assert (p.gamma, p.u_p0, p.u_q0) == (0.01, 0.75, 0.25)
 
@@ -105,9 +107,25 @@ def test_tumour_defaults(tmp_path):
 def test_cyst_values(tmp_path):
     _, scene = _load(tmp_path, CYST)
     neo = scene.neoplasm
-    assert (neo.kind, neo.radius, neo.t_end, neo.dt, neo.tumour) == ("cyst", 2.0e-3, 3.15576e7, 2.6298e6, None)
-    assert neo.cyst == CystSpec(model="shape", parameters=CystParameters(
-        beta=3.2e-11, C_minus=1.5, temperature=300.0, E=2.0e6, viscosity=5.0e8, f0=100.0, strain="engineering"))
+    assert (neo.kind, neo.radius, neo.t_end, neo.dt, neo.tumour) == (
+        "cyst",
+        2.0e-3,
+        3.15576e7,
+        2.6298e6,
+        None,
+    )
+    assert neo.cyst == CystSpec(
+        model="shape",
+        parameters=CystParameters(
+            beta=3.2e-11,
+            C_minus=1.5,
+            temperature=300.0,
+            E=2.0e6,
+            viscosity=5.0e8,
+            f0=100.0,
+            strain="engineering",
+        ),
+    )
     assert neo.cyst.parameters.alpha == R_GAS * 300.0
 
 
@@ -119,31 +137,51 @@ def test_cyst_defaults(tmp_path):
     assert (p.temperature, p.E, p.viscosity, p.f0, p.strain) == (310.0, 1.0e6, 1.0e9, 0.0, "log")
 
 
-@pytest.mark.parametrize("old, new, key, message", [
-    ("D_c = 2.0", "D_c = 0.0", "D_c", "must be > 0, got 0.0"),
-    ("lambda = 3", "lambda = -1.0", "lambda", "must be > 0, got -1.0"),
-    ("eps0 = 0.5", "eps0 = -0.5", "eps0", "must be >= 0, got -0.5"),
-    ("u_c1 = 0.8", "u_c1 = -0.8", "u_c1", "must be >= 0, got -0.8"),
-    ("gamma = 0.01", "gamma = -0.1", "gamma", "must be >= 0, got -0.1"),
-    ("u_p0 = 0.75", "u_p0 = 1.5", "u_p0", "must satisfy 0 <= u_p0 <= 1, got 1.5"),
-    ("u_q0 = 0.25", "u_q0 = 0.5", "u_q0",
-     "must satisfy u_p0 + u_q0 <= 1 (volume fractions), got u_p0 = 0.75, u_q0 = 0.5"),
-])
+@pytest.mark.parametrize(
+    "old, new, key, message",
+    [
+        ("D_c = 2.0", "D_c = 0.0", "D_c", "must be > 0, got 0.0"),
+        ("lambda = 3", "lambda = -1.0", "lambda", "must be > 0, got -1.0"),
+        ("eps0 = 0.5", "eps0 = -0.5", "eps0", "must be >= 0, got -0.5"),
+        ("u_c1 = 0.8", "u_c1 = -0.8", "u_c1", "must be >= 0, got -0.8"),
+        ("gamma = 0.01", "gamma = -0.1", "gamma", "must be >= 0, got -0.1"),
+        ("u_p0 = 0.75", "u_p0 = 1.5", "u_p0", "must satisfy 0 <= u_p0 <= 1, got 1.5"),
+        (
+            "u_q0 = 0.25",
+            "u_q0 = 0.5",
+            "u_q0",
+            "must satisfy u_p0 + u_q0 <= 1 (volume fractions), got u_p0 = 0.75, u_q0 = 0.5",
+        ),
+    ],
+)
 def test_tumour_range_errors(tmp_path, old, new, key, message):
     exc = _error(tmp_path, TUMOUR.replace(old, new))
     assert (exc.table, exc.key, exc.message) == ("[neoplasm.tumour]", key, message)
 
 
-@pytest.mark.parametrize("old, new, key, message", [
-    ("beta = 3.2e-11", "beta = -1e-11", "beta", "must be >= 0, got -1e-11"),
-    ("C_minus = 1.5", "C_minus = 0.0", "C_minus", "must be > 0, got 0.0"),
-    ("temperature = 300.0", "temperature = -1.0", "temperature", "must be > 0, got -1.0"),
-    ("E = 2.0e6", "E = 0.0", "E", "must be > 0, got 0.0"),
-    ("viscosity = 5.0e8", "viscosity = -5.0", "viscosity", "must be > 0, got -5.0"),
-    ("f0 = 100.0", "f0 = -1.0e4", "f0", f"must be > -R_g T C_minus = {-R_GAS * 300.0 * 1.5:.6g} Pa (the osmolarity "
-                                          "inside the cyst must stay positive), got -10000.0"),
-    ('strain = "engineering"', 'strain = "green"', "strain", 'must be one of "log", "engineering", got "green"'),
-])
+@pytest.mark.parametrize(
+    "old, new, key, message",
+    [
+        ("beta = 3.2e-11", "beta = -1e-11", "beta", "must be >= 0, got -1e-11"),
+        ("C_minus = 1.5", "C_minus = 0.0", "C_minus", "must be > 0, got 0.0"),
+        ("temperature = 300.0", "temperature = -1.0", "temperature", "must be > 0, got -1.0"),
+        ("E = 2.0e6", "E = 0.0", "E", "must be > 0, got 0.0"),
+        ("viscosity = 5.0e8", "viscosity = -5.0", "viscosity", "must be > 0, got -5.0"),
+        (
+            "f0 = 100.0",
+            "f0 = -1.0e4",
+            "f0",
+            f"must be > -R_g T C_minus = {-R_GAS * 300.0 * 1.5:.6g} Pa (the osmolarity "
+            "inside the cyst must stay positive), got -10000.0",
+        ),
+        (
+            'strain = "engineering"',
+            'strain = "green"',
+            "strain",
+            'must be one of "log", "engineering", got "green"',
+        ),
+    ],
+)
 def test_cyst_range_errors(tmp_path, old, new, key, message):
     exc = _error(tmp_path, CYST.replace(old, new))
     assert (exc.table, exc.key, exc.message) == ("[neoplasm.cyst]", key, message)
