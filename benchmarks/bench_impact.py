@@ -100,9 +100,11 @@ def main() -> None:
         for r in rows:
             print(
                 f"{r['mass']:13s} nx={r['nx']:3d} N={r['N']:5d} C={r['courant']:.2f} "
-                f"dur={r['duration_err']:+.4f} F={r['mean_force_err']:+.4f} v_s={r['v_striker']:.4f} "
-                f"(pred {r['predicted']:.4f}) loss={r['energy_loss']:.4f} inc={r['max_increase']:.1e} "
-                f"peak={r['force_peak']:.3f} rms={r['force_rms']:.1e} pdas={r['pdas_per_step']:.2f} "
+                f"dur={r['duration_err']:+.4f} F={r['mean_force_err']:+.4f} "
+                f"v_s={r['v_striker']:.4f} (pred {r['predicted']:.4f}) "
+                f"loss={r['energy_loss']:.4f} inc={r['max_increase']:.1e} "
+                f"peak={r['force_peak']:.3f} rms={r['force_rms']:.1e} "
+                f"pdas={r['pdas_per_step']:.2f} "
                 f"wall={r['wall_s']:.2f}s"
             )
 

@@ -1,4 +1,5 @@
-"""Tumour growth: R(t) error against wall time for the radial quasi-steady case (docs/theory/growth.md#tumour-model).
+"""Tumour growth: R(t) error against wall time for the radial quasi-steady case
+(docs/theory/growth.md#tumour-model).
 
 2D Byrne-Chaplain reduction (u_p = 1, K_B = mu (u_c - u~), mu = 1, u~ = 0.5, R0 = 1,
 t in [0, 6]): the equivalent radius sqrt(A/pi) of the free-boundary solution against the

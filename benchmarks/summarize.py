@@ -21,9 +21,10 @@ def timestep_table(path: Path) -> str:
     ]
     key = lambda r: (int(r["dim"]), r["linear"], int(r["ranks"]), int(r["dofs"]))  # noqa: E731
     for r in sorted(rows, key=key):
+        solver = "MUMPS LU" if r["linear"] == "direct" else "CG+GAMG"
         out.append(
-            f"| {r['dim']}D | {'MUMPS LU' if r['linear'] == 'direct' else 'CG+GAMG'} | {r['ranks']} | "
-            f"{r['dofs']} | {float(r['setup_s']):.3f} | {float(r['step_s']):.4f} | {r['its_per_step']} | "
+            f"| {r['dim']}D | {solver} | {r['ranks']} | {r['dofs']} | "
+            f"{float(r['setup_s']):.3f} | {float(r['step_s']):.4f} | {r['its_per_step']} | "
             f"{float(r['rel_L2_error']):.2e} |"
         )
     return "\n".join(out) + "\n"

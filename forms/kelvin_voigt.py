@@ -1,4 +1,5 @@
-"""Time-discrete Kelvin–Voigt operator of the semi-implicit scheme (docs/theory/mechanics.md#time-discretisation).
+"""Time-discrete Kelvin–Voigt operator of the semi-implicit scheme
+(docs/theory/mechanics.md#time-discretisation).
 
 With u'' ≈ (u^{i+1} − 2u^i + u^{i−1})/Δt² and u' ≈ (u^{i+1} − u^i)/Δt, each level
 solves A(u, v) = ℓ(v) for u = u^{i+1}:

@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.common.geometry import cross2
 from bonecontact.contact.dual_basis import TRIANGLE_RULE
-from bonecontact.contact.geometry import FloatArray, IntArray, cross2
+from bonecontact.contact.geometry import FloatArray, IntArray
 
 __all__ = [
     "clip_polygons_by_triangles",

@@ -105,7 +105,8 @@ def slip_set(
     g: npt.NDArray[np.float64],
     eps: float,
 ) -> npt.NDArray[np.bool_]:
-    """Active friction nodes with ``|λ_t + c_t Δu_t|`` (``zn``) above the bound (docs/theory/pdas.md#active-set-rule).
+    """Active friction nodes with ``|λ_t + c_t Δu_t|`` (``zn``) above the bound
+    (docs/theory/pdas.md#active-set-rule).
 
     A node with a zero bound (Coulomb with no pressure yet) slips: it carries no
     tangential traction (a "stick" decided on round-off of ξ ≈ 0 could only toggle).
@@ -157,7 +158,8 @@ def slip_newton_rows(
     with ``λ̃ = ĝ λ^k / max(ĝ, |λ^k|)`` (the traction projected on the friction disc) and
     ``θ = β = 1/(1 − αδ)`` where ``λ^k`` points away from ``ξ^k``
     (``α = λ^kᵀn/|λ^k| < 0``, ``δ = min(|λ^k|/ĝ, 1)``), else θ = 1: the damping of
-    Hüeber–Stadler–Wohlmuth (docs/theory/pdas.md#slip-rows-in-three-dimensions).  θ = 1 with ``|λ^k| ≤ ĝ`` is the exact
+    Hüeber–Stadler–Wohlmuth (docs/theory/pdas.md#slip-rows-in-three-dimensions).  θ = 1 with ``|λ^k|
+    ≤ ĝ`` is the exact
     Newton step; every θ keeps the solution (at ``ξ = ξ^k`` the row reads
     ``λ_t = ĝ n``).  With ``λ_t = w_t / D``, ``Δu_t = x_t − x_t^{old}`` the rows read
     ``G w_t + H x_t = h``.
@@ -181,7 +183,8 @@ def slip_newton_rows(
     zn = np.linalg.norm(zk, axis=1)
     n = zk / zn[:, None]
     lt = lk * (gk / np.maximum(np.maximum(gk, np.linalg.norm(lk, axis=1)), 1e-300))[:, None]
-    # HSW damping (docs/theory/pdas.md#slip-rows-in-three-dimensions): where λ^k points away from ξ^k (α < 0) the term is
+    # HSW damping (docs/theory/pdas.md#slip-rows-in-three-dimensions): where λ^k points away from
+    # ξ^k (α < 0) the term is
     # scaled by β = 1/(1 − αδ) ∈ [1/2, 1), δ = min(|λ^k|/ĝ, 1)
     lnorm = np.linalg.norm(lk, axis=1)
     alpha = (lk * n).sum(axis=1) / np.maximum(lnorm, 1e-300)

@@ -14,7 +14,6 @@ __all__ = [
     "BoolArray",
     "FloatArray",
     "IntArray",
-    "cross2",
     "facet_normals",
     "nodal_normals",
     "nodal_tangents",
@@ -42,11 +41,6 @@ def simplex_measure(vertices: FloatArray) -> FloatArray:
     gram = np.einsum("nig,njg->nij", jac, jac)
     fact = 1.0 if jac.shape[1] == 1 else 0.5
     return fact * np.sqrt(np.maximum(np.linalg.det(gram), 0.0))
-
-
-def cross2(a: FloatArray, b: FloatArray) -> FloatArray:
-    """z-component of the cross product of 2D vectors (broadcasting)."""
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def normalise(v: FloatArray) -> FloatArray:

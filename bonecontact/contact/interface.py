@@ -1,4 +1,5 @@
-"""Dual-mortar contact interfaces as distributed PETSc operators (docs/theory/mortar.md#dual-mortar-discretisation).
+"""Dual-mortar contact interfaces as distributed PETSc operators
+(docs/theory/mortar.md#dual-mortar-discretisation).
 
 A :class:`ContactInterface` is built from two facet groups of one mesh — the slave
 surface (it carries the multiplier) and the master surface — on bodies whose
@@ -10,7 +11,8 @@ the slave nodes that this rank owns and that carry a multiplier (``D_pp > 0``):
   and the nodal gap ``d_p / D_pp``,
 
 and the triplets of ``M̂ = D⁻¹M`` in global dof numbering.  :func:`basis_transform`
-turns those into the PETSc matrix ``Qᵀ`` of docs/theory/mortar.md#condensation-of-the-multipliers (``U = Qᵀ Û``), so that
+turns those into the PETSc matrix ``Qᵀ`` of docs/theory/mortar.md#condensation-of-the-multipliers
+(``U = Qᵀ Û``), so that
 ``Â = Q A Qᵀ = A.PtAP(Qᵀ)`` and ``F̂ = Q F``.
 
 Parallel design: a contact surface is small compared with the mesh, so its nodes and
@@ -488,7 +490,8 @@ def build_interface(
         Tag of the master facets, or a :class:`RigidPlane`.
     dirichlet_dofs
         Local dof indices (unrolled) with Dirichlet conditions: slave nodes with any
-        of them carry no multiplier (the dual basis is modified there, docs/theory/mortar.md#dual-basis).
+        of them carry no multiplier (the dual basis is modified there,
+        docs/theory/mortar.md#dual-basis).
     name
         Pair name.
     search_radius

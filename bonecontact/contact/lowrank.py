@@ -81,7 +81,8 @@ class LowRankActiveSetSolver:
     Parameters
     ----------
     A
-        The operator in the nodal frames (``T Â Tᵀ`` of :class:`bonecontact.contact.pdas.ContactSolver`).
+        The operator in the nodal frames (``T Â Tᵀ`` of
+        :class:`bonecontact.contact.pdas.ContactSolver`).
     bc_rows
         Owned global rows with Dirichlet conditions (always eliminated).
     rows
@@ -176,7 +177,8 @@ class LowRankActiveSetSolver:
 
     # ------------------------------------------------------------------ factorisation
     def factorize(self, mask: npt.NDArray[np.bool_]) -> None:
-        """Make ``mask`` (replicated, length ``ns``) the base set: assemble and factorise ``B_C``."""
+        """Make ``mask`` (replicated, length ``ns``) the base set: assemble and factorise
+        ``B_C``."""
         t0 = time.perf_counter()
         self.A.copy(self.B0, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         rows = (self._fixed_local(mask).astype(np.int64) + self.start).astype(PETSc.IntType)
@@ -338,7 +340,8 @@ class LowRankActiveSetSolver:
         -------
         (x_N, w_N, info)
             Replicated normal unknowns and residual ``r0 − A x`` at the normal rows, and
-            ``{"columns": new columns, "refactorized": bool, "size": unknowns of the small system}``.
+            ``{"columns": new columns, "refactorized": bool, "size": unknowns of the small
+            system}``.
         """
         refactorized = False
         if self._set_given(wgiven):
@@ -384,7 +387,8 @@ class LowRankActiveSetSolver:
             G = np.column_stack([self.cache[q][0] for q in cols])
             KG = np.column_stack([self.cache[q][1] for q in cols])
             base = self.base[cols]
-            # unknowns: value shifts s (base-fixed rows) and forces mu = scale * mu~ (base-free rows)
+            # unknowns: value shifts s (base-fixed rows) and forces mu = scale * mu~ (base-free
+            # rows)
             csc = np.where(base, 1.0, scale[cols])
             M = np.empty((len(cols), len(cols)))
             rhs = np.empty(len(cols))

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.common.geometry import cross2
 from bonecontact.contact.clipping import (
     clip_polygons_by_triangles,
     fan_quadrature,
@@ -33,14 +34,7 @@ from bonecontact.contact.dual_basis import (
     shape_segment,
     shape_triangle,
 )
-from bonecontact.contact.geometry import (
-    BoolArray,
-    FloatArray,
-    IntArray,
-    cross2,
-    normalise,
-    simplex_measure,
-)
+from bonecontact.contact.geometry import BoolArray, FloatArray, IntArray, normalise, simplex_measure
 from bonecontact.contact.search import facet_bounding_boxes, find_candidate_pairs
 
 __all__ = [

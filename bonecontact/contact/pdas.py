@@ -1,6 +1,7 @@
 """Primal–dual active set (semi-smooth Newton) solver for mortar contact with friction.
 
-Algorithm (docs/theory/pdas.md#primal-dual-active-set-solver), on the condensed system of docs/theory/mortar.md#condensation-of-the-multipliers
+Algorithm (docs/theory/pdas.md#primal-dual-active-set-solver), on the condensed system of
+docs/theory/mortar.md#condensation-of-the-multipliers
 ----------------------------------------------------------
 With ``Qᵀ`` from :func:`bonecontact.contact.interface.basis_transform`, the unknowns are
 ``Û = Q⁻ᵀ U`` (relative displacements at slave nodes), ``Â = Q A Qᵀ`` and
@@ -9,10 +10,12 @@ conditions are nodal.  The rows of every slave node are rotated into its frame
 ``[n_p; t_p(; t2_p)]`` (matrix ``T``): one normal row and ``gdim − 1`` tangential rows,
 whose unknowns are the normal approach ``u_n,p`` and the relative tangential
 displacement ``u_t,p``.  The contact force on the rows is ``−w`` with
-``w = T(F̂ − ÂÛ)`` and the multipliers are ``λ = w / D_pp`` (docs/theory/mortar.md#condensation-of-the-multipliers); ``λ_n > 0`` is
+``w = T(F̂ − ÂÛ)`` and the multipliers are ``λ = w / D_pp``
+(docs/theory/mortar.md#condensation-of-the-multipliers); ``λ_n > 0`` is
 a pressure.  The slip of a step is ``Δu_t = u_t − u_t^{old}``.
 
-Sets at iteration k (docs/theory/pdas.md#active-set-rule) and what each does to the rows (docs/theory/pdas.md#linear-system-of-one-iteration):
+Sets at iteration k (docs/theory/pdas.md#active-set-rule) and what each does to the rows
+(docs/theory/pdas.md#linear-system-of-one-iteration):
 
 * open (``p ∉ A_n``): all rows stay (λ = 0);
 * ``p ∈ A_n``: the normal row is replaced by ``u_n,p = g_p`` (gap ``d_p / D_pp``);
@@ -21,7 +24,8 @@ Sets at iteration k (docs/theory/pdas.md#active-set-rule) and what each does to 
   ``u_t,p = u_t^{old}`` (no slip in the step);
 * slip (``|λ_t + c_t Δu_t| > ĝ_p``): in 2D the tangential rows carry the traction
   ``λ_t = ĝ_p s_p`` with ``s_p = sign(λ_t + c_t Δu_t)`` of the previous iterate —
-  exactly the semi-smooth Newton step of C_t (docs/theory/pdas.md#complementarity-functions).  In 3D (default
+  exactly the semi-smooth Newton step of C_t (docs/theory/pdas.md#complementarity-functions).  In 3D
+  (default
   ``slip_3d="newton"``) the rows are replaced by the damped semi-smooth Newton
   linearisation of ``|ξ| λ_t − ĝ ξ = 0``, ``ξ = λ_t + c_t Δu_t``
   (Hüeber–Stadler–Wohlmuth 2008; see :func:`bonecontact.contact.friction.slip_newton_rows`): a
@@ -112,7 +116,8 @@ class ContactConvergenceError(RuntimeError):
         lines = [message, "  it  active  stick  slip  changed  |dU|/|U|    bound_change"]
         for h in history:
             lines.append(
-                f"  {h['iteration']:2d}  {h['active']:6d}  {h.get('stick', 0):5d}  {h.get('slip', 0):4d}  "
+                f"  {h['iteration']:2d}  {h['active']:6d}  {h.get('stick', 0):5d}  "
+                f"{h.get('slip', 0):4d}  "
                 f"{h['changed']:7d}  {h['update']:.3e}  {h.get('bound_change', 0.0):.3e}"
             )
         super().__init__("\n".join(lines))
@@ -589,7 +594,8 @@ class ContactSolver:
     def _solve_linear_system(
         self, st: _PDASState, k: int
     ) -> tuple[np.ndarray, np.ndarray, int, dict]:
-        """Step 3: solve with the rows of the current sets replaced (docs/theory/pdas.md#linear-system-of-one-iteration).
+        """Step 3: solve with the rows of the current sets replaced
+        (docs/theory/pdas.md#linear-system-of-one-iteration).
 
         Active normal rows and stick rows are prescribed (``values``); 2D slip rows (and
         3D fixed-point slip rows) carry the prescribed force ``ĝ D s``; 3D Newton slip
@@ -654,7 +660,8 @@ class ContactSolver:
         )
 
     def _update_active_set(self, st: _PDASState, it: _Iterate, k: int) -> None:
-        """Step 5: ``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0`` (docs/theory/pdas.md#active-set-rule).
+        """Step 5: ``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0``
+        (docs/theory/pdas.md#active-set-rule).
 
         Damped first activation (cold start only): of the newly penetrating nodes keep
         those within ``cold_start_fraction`` of the deepest penetration.

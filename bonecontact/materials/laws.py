@@ -4,7 +4,8 @@ Every material delivers its elastic stiffness as a 6×6 matrix in Voigt notation
 in the *global* axes, ordering ``[xx, yy, zz, yz, xz, xy]`` with engineering shear
 strains (γ = 2ε).  Plane strain (2D) uses the sub-block ``[xx, yy, xy]``; the
 out-of-plane stress ``σ_zz`` follows from row ``zz``.  The viscous tensor of
-docs/theory/mechanics.md#kelvin-voigt-model is ``c⁽¹⁾ = τ_v c⁽⁰⁾`` (Kelvin–Voigt relaxation time ``tau_v``).
+docs/theory/mechanics.md#kelvin-voigt-model is ``c⁽¹⁾ = τ_v c⁽⁰⁾`` (Kelvin–Voigt relaxation time
+``tau_v``).
 
 Units are SI: moduli in Pa, density in kg/m³, ``tau_v`` in s.
 """

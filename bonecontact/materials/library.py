@@ -1,6 +1,7 @@
 """Reference data shipped in the repository's ``data/`` directory.
 
-``data/materials.toml`` holds starting material constants (docs/theory/mechanics.md#material-data), each with the
+``data/materials.toml`` holds starting material constants (docs/theory/mechanics.md#material-data),
+each with the
 published ``source`` it comes from.  The package is installed editable, so the data are
 read from the source tree.
 """

@@ -1,4 +1,5 @@
-"""Static, quasi-static and dynamic (semi-implicit, docs/theory/mechanics.md#time-discretisation) integrators.
+"""Static, quasi-static and dynamic (semi-implicit, docs/theory/mechanics.md#time-discretisation)
+integrators.
 
 Each integrator assembles and factorises (or sets up the preconditioner of) its
 time-independent operator once; a step costs one right-hand side (a few
@@ -231,7 +232,8 @@ class Integrator:
 
             itf = build_interface(model.V, facet_tags, slave=3, master=4)
             integ = Integrator(model, "static", 1.0,
-                               contact=ContactSolver(model.V, [itf], PDASOptions(max_iterations=30)))
+                               contact=ContactSolver(model.V, [itf],
+                               PDASOptions(max_iterations=30)))
 
         (``ContactSolver``, ``PDASOptions`` and ``build_interface`` from
         :mod:`bonecontact.contact`).  The integrator destroys the solver in
@@ -373,7 +375,8 @@ class Integrator:
         if reason < 0:
             raise RuntimeError(
                 f"linear solver failed (PETSc reason {reason}, "
-                f"{self.ksp.getIterationNumber()} iterations, residual {self.ksp.getResidualNorm():.3e})"
+                f"{self.ksp.getIterationNumber()} iterations, "
+                f"residual {self.ksp.getResidualNorm():.3e})"
             )
         x.x.scatter_forward()
         return self.ksp.getIterationNumber()
@@ -429,7 +432,8 @@ class Integrator:
         """
         if self.contact is None or not self.energy_balance:
             raise RuntimeError(
-                "contact_gaps needs Integrator(..., contact=ContactSolver(...), energy_balance=True)"
+                "contact_gaps needs "
+                "Integrator(..., contact=ContactSolver(...), energy_balance=True)"
             )
         return self.contact.contact_gaps(self.u_n if u is None else u)
 

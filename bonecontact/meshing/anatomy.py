@@ -225,7 +225,8 @@ class _Knee:
 
 
 def _knee_femur(k: _Knee) -> list:
-    """Condyle (cartilage, cortical shell, cancellous core) and shaft, fragmented: the fragment map."""
+    """Condyle (cartilage, cortical shell, cancellous core) and shaft, fragmented: the fragment
+    map."""
     occ = gmsh.model.occ
     R, big = k.R, k.big
 
@@ -248,7 +249,8 @@ def _knee_femur(k: _Knee) -> list:
 
 
 def _knee_tibia(k: _Knee) -> list:
-    """Plateau layers (cancellous, cortical, cartilage) and the tumour disc, fragmented: the fragment map."""
+    """Plateau layers (cancellous, cortical, cartilage) and the tumour disc, fragmented: the
+    fragment map."""
     occ = gmsh.model.occ
     w, plateau_depth, cartilage, cortical = k.w, k.plateau_depth, k.cartilage, k.cortical
     t_canc = occ.addRectangle(-w, -plateau_depth, 0, 2 * w, plateau_depth - cartilage - cortical)

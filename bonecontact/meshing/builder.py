@@ -2,7 +2,8 @@
 :mod:`bonecontact.meshing.anatomy`.
 
 A builder describes its geometry, sizes and physical groups in a ``build`` callback;
-:func:`generate` runs it on rank 0 of ``comm`` inside a :func:`~bonecontact.meshing.session.gmsh_session`,
+:func:`generate` runs it on rank 0 of ``comm`` inside a
+:func:`~bonecontact.meshing.session.gmsh_session`,
 meshes, and either distributes the mesh (:class:`dolfinx.io.gmsh.MeshData`) or writes a
 gmsh ``.msh`` file.  A gmsh error on rank 0 is raised as :class:`MeshingError` on every rank.
 """
@@ -46,7 +47,8 @@ class MeshingError(RuntimeError):
 def generate(
     name: str, dim: int, build: Callable[[], None], comm: MPI.Comm | None, path: str | Path | None
 ) -> MeshData | Path:
-    """Run ``build`` (geometry, sizes, physical groups) on rank 0, mesh, then distribute or write."""
+    """Run ``build`` (geometry, sizes, physical groups) on rank 0, mesh, then distribute or
+    write."""
     comm = MPI.COMM_WORLD if comm is None else comm
     with gmsh_session(name) if comm.rank == 0 else nullcontext():
         error = None

@@ -1,4 +1,5 @@
-"""Osmotic growth of an odontogenic cyst in a Maxwell visco-elastic surrounding (docs/theory/growth.md#cyst-model).
+"""Osmotic growth of an odontogenic cyst in a Maxwell visco-elastic surrounding
+(docs/theory/growth.md#cyst-model).
 
 After Ward et al. (2004), as used by Nedoma (2015), Section 2: osmotic material is
 supplied through the cyst lining, the osmotic excess pressure pushes the wall out, and

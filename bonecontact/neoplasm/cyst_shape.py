@@ -1,4 +1,5 @@
-"""The general-shape (moving-wall) odontogenic cyst of docs/theory/growth.md#cyst-model on a remeshed cyst mesh.
+"""The general-shape (moving-wall) odontogenic cyst of docs/theory/growth.md#cyst-model on a
+remeshed cyst mesh.
 
 The closed sphere/cylinder ODE of :mod:`bonecontact.neoplasm.cyst` assumes v_c = 4πR³/3 and
 S_c = 4πR².  Here the cyst is a mesh (2D: a polygon-bounded disc mesh, per unit
@@ -26,7 +27,8 @@ run (log strain) V_n → β/C⁻ for any shape.
 
 Discretisation (one step t → t + Δt)
 ------------------------------------
-1. The boundary of the current mesh is gathered on every rank (:func:`bonecontact.neoplasm.remesh.gather_boundary`,
+1. The boundary of the current mesh is gathered on every rank
+(:func:`bonecontact.neoplasm.remesh.gather_boundary`,
    keyed by gmsh node, partition independent), and the vertex offset directions m_i
    (:func:`offset_directions`): 2D the miter vectors, so that every edge moves parallel to
    itself by δ (the discrete parallel curve, dv/dδ = S_c exactly); 3D the area-weighted

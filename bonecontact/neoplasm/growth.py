@@ -265,7 +265,8 @@ def tumour_growth(
     radius: float | None = None,
     boundary: remesh.Boundary | None = None,
 ) -> TumourGrowth:
-    """A tumour driver: a disc/ball of ``radius``, or the region bounded by ``boundary`` (collective).
+    """A tumour driver: a disc/ball of ``radius``, or the region bounded by ``boundary``
+    (collective).
 
     Raises
     ------

@@ -324,7 +324,8 @@ def _add_cell_group_surfaces(hb: _HostBuild) -> None:
                 raise CouplingError(f'cell group "{name}": a hole outside every outer boundary')
             holes[min(inside, key=lambda j: areas[j])].append(k)
         for k in outer:
-            wires = []  # gmsh's OCC wants every loop counter-clockwise (it reverses the holes itself)
+            # gmsh's OCC wants every loop counter-clockwise (it reverses the holes itself)
+            wires = []
             for lp in [loops[k]] + [loops[j][::-1] for j in holes[k]]:
                 wires.append(
                     occ.addCurveLoop(
@@ -344,7 +345,8 @@ def _add_neoplasm_surface(hb: _HostBuild) -> int:
 
 
 def _fragment_and_classify(hb: _HostBuild, neo: int) -> None:
-    """Fragment the region's body by the neoplasm; sort the pieces into neoplasm, outside, groups."""
+    """Fragment the region's body by the neoplasm; sort the pieces into neoplasm, outside,
+    groups."""
     occ = gmsh.model.occ
     bodies, region, host = hb.bodies, hb.region, hb.host
     grow = {region, *host}
@@ -479,7 +481,8 @@ def _add_facet_groups(hb: _HostBuild) -> list[str]:
 
 
 def _add_wall_group(hb: _HostBuild, facet_names: list[str]) -> str | None:
-    """The neoplasm boundary inside the bone as ``"<region>_wall"`` with a new tag (``None``: no wall)."""
+    """The neoplasm boundary inside the bone as ``"<region>_wall"`` with a new tag (``None``: no
+    wall)."""
     geo = hb.geo
     wall = [c for c in hb.wall if c in hb.used_c]
     if not wall:

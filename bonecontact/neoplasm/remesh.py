@@ -444,14 +444,16 @@ class MeshMotion:
         self._dofs = np.asarray(dofs).ravel()
 
     def extend(self, displacement: fem.Function) -> fem.Function:
-        """Harmonic extension of the boundary values of ``displacement`` (a function in ``self.V``)."""
+        """Harmonic extension of the boundary values of ``displacement`` (a function in
+        ``self.V``)."""
         self._wb.x.array[:] = displacement.x.array
         self._problem.solve()
         self.w.x.scatter_forward()
         return self.w
 
     def move(self, displacement: fem.Function) -> fem.Function:
-        """Extend ``displacement`` from the boundary and move the mesh by it; return the extension."""
+        """Extend ``displacement`` from the boundary and move the mesh by it; return the
+        extension."""
         w = self.extend(displacement)
         gdim = self.mesh.geometry.dim
         bs = gdim

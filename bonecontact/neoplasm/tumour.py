@@ -1,4 +1,5 @@
-"""Avascular tumour growth, Problem P_T of docs/theory/growth.md#tumour-model, on a moving and remeshed domain.
+"""Avascular tumour growth, Problem P_T of docs/theory/growth.md#tumour-model, on a moving and
+remeshed domain.
 
 Public API (for the growth-scene driver)
 ----------------------------------------
@@ -51,7 +52,8 @@ Discretisation (one step t -> t + dt)
 7. Every ``remesh_every`` steps: the boundary is gathered, re-sampled by arclength to the
    target spacing h (2D, periodic spline), the tumour is re-meshed by gmsh and u_p, u_q
    (and u_c when eps0 > 0) are transferred with a coverage check
-   (:func:`bonecontact.neoplasm.remesh.transfer`, extrapolation band h).  3D: the volume is re-meshed
+   (:func:`bonecontact.neoplasm.remesh.transfer`, extrapolation band h).  3D: the volume is
+   re-meshed
    inside the moved surface triangulation, which is not re-sampled (good for near-spherical
    growth; a strongly distorted surface would need surface re-meshing - not done).
 
@@ -127,7 +129,8 @@ def _scene_key(name: str) -> str:
 
 @dataclass
 class TumourParameters:
-    """Parameters of Problem P_T (docs/theory/growth.md#tumour-model), mirroring ``[neoplasm.tumour]``, SI units.
+    """Parameters of Problem P_T (docs/theory/growth.md#tumour-model), mirroring
+    ``[neoplasm.tumour]``, SI units.
 
     Attributes
     ----------

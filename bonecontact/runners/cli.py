@@ -76,12 +76,14 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     if result.status != "converged":
         _say(
-            f"run failed: {result.summary.get('message', '')} (see {result.output / 'summary.json'})",
+            f"run failed: {result.summary.get('message', '')} "
+            f"(see {result.output / 'summary.json'})",
             comm,
         )
         return 1
     _say(
-        f"{scene.name}: {result.status}, {result.summary['steps']} steps, results in {result.output}",
+        f"{scene.name}: {result.status}, {result.summary['steps']} steps, "
+        f"results in {result.output}",
         comm,
     )
     return 0

@@ -8,7 +8,8 @@ A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]`` (``docs/neoplasm_for
    step by step and writes ``growth.csv`` as a growth-only run does;
 2. every ``mechanics_every`` growth steps (``0``: once, after the growth) the **host
    mechanics mesh is rebuilt by gmsh** with the current neoplasm boundary embedded
-   (:func:`bonecontact.neoplasm.host.build_host_mesh`): the geometry of the scene's mesh is recovered from its
+   (:func:`bonecontact.neoplasm.host.build_host_mesh`): the geometry of the scene's mesh is
+   recovered from its
    cell groups (their boundary edges become OCC lines, so every original boundary and
    interface is kept exactly), the neoplasm polygon is fragmented into the body that
    holds the ``region``, and the pieces are classified
@@ -24,7 +25,8 @@ A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]`` (``docs/neoplasm_for
    the neoplasm boundary inside the bone becomes the facet group ``"<region>_wall"``;
    every facet group of the scene keeps its name and tag (split where the neoplasm
    crosses it; removed where a cyst has eaten it);
-3. the scene's ``[analysis]`` runs on that mesh (:func:`bonecontact.runners.mechanics.run_mechanics`,
+3. the scene's ``[analysis]`` runs on that mesh
+(:func:`bonecontact.runners.mechanics.run_mechanics`,
    all loads, supports, contacts and probes of the scene).  A cyst adds the load
    ``[[pressure]] boundary = "<region>_wall"`` with value f = P_h⁺ − P_h⁻, the osmotic
    excess pressure of the lumen at that time (the hydrostatic pressure P_h⁻ of the
@@ -245,7 +247,8 @@ class _Analyses:
         return step == self.nsteps or (every > 0 and step % every == 0)
 
     def run(self, step: int, t: float, row: list[float]) -> bool:
-        """Rebuild the host mesh and run the analysis after growth step ``step``; ``True`` if it converged."""
+        """Rebuild the host mesh and run the analysis after growth step ``step``; ``True`` if it
+        converged."""
         comm, cp = self.comm, self.cp
         final = step == self.nsteps
         where = self.outdir if final else self.outdir / f"mechanics_{step:05d}"
@@ -319,7 +322,8 @@ def _grow_and_analyse(
                     break
     except (RuntimeError, CouplingError) as exc:
         status = "failed"
-        message = f"growth step {driver.steps + 1} (t = {times[min(driver.steps + 1, nsteps)]:.6g} s): {exc}"
+        t_fail = times[min(driver.steps + 1, nsteps)]
+        message = f"growth step {driver.steps + 1} (t = {t_fail:.6g} s): {exc}"
     finally:
         bar.close()
         table.close()

@@ -25,7 +25,8 @@ __all__ = ["check", "run", "run_kind", "run_scene"]
 
 
 def run_kind(scene: Scene) -> str:
-    """``"growth"`` (``[neoplasm]`` only), ``"coupled"`` (``[neoplasm]`` and ``[analysis]``) or ``"mechanics"``."""
+    """``"growth"`` (``[neoplasm]`` only), ``"coupled"`` (``[neoplasm]`` and ``[analysis]``) or
+    ``"mechanics"``."""
     if scene.growth_only:
         return "growth"
     if scene.neoplasm is not None:

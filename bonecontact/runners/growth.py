@@ -6,7 +6,8 @@ A scene with ``[neoplasm]`` and no ``[analysis]`` (``Scene.growth_only``) runs h
 this module builds them from a scene (:func:`build_growth`) and writes the results
 (:mod:`bonecontact.runners.results`).
 
-* ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of docs/theory/growth.md#tumour-model
+* ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of
+docs/theory/growth.md#tumour-model
   on a moving, gmsh-remeshed tumour mesh).  The initial tumour is the cell group
   ``region`` of the scene's mesh (its boundary is extracted and re-sampled at the mesh
   size ``h``), or, in a meshless scene, a disc (2D) / ball (3D) of ``radius`` (extension).
@@ -163,7 +164,8 @@ def _region_boundary(scene: Scene, comm: MPI.Comm) -> tuple[Boundary, float]:
             str(scene.path),
             "[neoplasm]",
             "region",
-            f'the boundary of "{neo.region}" must be one closed {"curve" if dim == 2 else "surface"} '
+            f'the boundary of "{neo.region}" must be one closed '
+            f"{'curve' if dim == 2 else 'surface'} "
             f"(a simply connected region): {exc}",
         ) from None
 

@@ -251,7 +251,8 @@ class _Table:
             if not isinstance(v, str) or not v.strip():
                 raise self.error(
                     key,
-                    f"must contain physical-group names (non-empty strings), got {describe_value(v)}",
+                    "must contain physical-group names (non-empty strings), "
+                    f"got {describe_value(v)}",
                 )
         seen: set[str] = set()
         for v in value:
@@ -334,7 +335,8 @@ def _array_of_tables(doc: Mapping[str, Any], name: str) -> list[dict[str, Any]]:
             None,
             None,
             name,
-            f"must be an array of tables (write each entry under [[{name}]]), got {describe_value(value)}",
+            f"must be an array of tables (write each entry under [[{name}]]), "
+            f"got {describe_value(value)}",
         )
     return value
 
@@ -438,7 +440,8 @@ def _read_materials(doc: Mapping[str, Any], dim: int, dynamic: bool) -> tuple[Ma
                 None,
                 label,
                 "name",
-                f'material name "{spec.name}" is already used by [[material]] #{names[spec.name] + 1}',
+                f'material name "{spec.name}" is already used by '
+                f"[[material]] #{names[spec.name] + 1}",
             )
         names[spec.name] = i
         for region in spec.regions:
@@ -920,7 +923,8 @@ def _read_document(
     initial_velocities = _read_initial_velocities(doc, dim)
     output = _read_output(doc, dim)
     neoplasm = _read_neoplasm(doc, True, has_analysis=True)
-    # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md): 2D only for now
+    # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md): 2D
+    # only for now
     if neoplasm is not None and dim != 2:
         raise SceneError(
             None,
@@ -968,7 +972,8 @@ def load_scene(
     -------
     Scene
         The validated scene.  In a static analysis an entry without ``ramp`` (or
-        with ``ramp = 0``) and without ``schedule`` gets the schedule ``ramp = 1`` (the load grows linearly over
+        with ``ramp = 0``) and without ``schedule`` gets the schedule ``ramp = 1`` (the load grows
+        linearly over
         the load steps, whose pseudo-time runs from 0 to 1); otherwise the
         default schedule is the constant 1.
 

@@ -103,7 +103,8 @@ class Schedule:
 
     @classmethod
     def from_ramp(cls, ramp: float) -> Schedule:
-        """``min(t / ramp, 1)`` for ``ramp > 0`` (0 before ``t = 0``); constant 1 for ``ramp == 0``."""
+        """``min(t / ramp, 1)`` for ``ramp > 0`` (0 before ``t = 0``); constant 1 for ``ramp ==
+        0``."""
         if not math.isfinite(ramp) or ramp < 0.0:
             raise ValueError(f"ramp must be >= 0, got {ramp!r}")
         if ramp == 0.0:

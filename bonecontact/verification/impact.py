@@ -1,4 +1,5 @@
-"""Longitudinal impact of two identical elastic bars (docs/theory/verification.md#two-bar-impact): set-up and run.
+"""Longitudinal impact of two identical elastic bars (docs/theory/verification.md#two-bar-impact):
+set-up and run.
 
 A bar (the *striker*, ``0 ≤ x ≤ L``) moving at ``v₀`` hits an identical bar at rest
 (the *struck* bar, ``L + gap ≤ x ≤ 2L + gap``) across a small gap; frictionless dual
@@ -20,7 +21,8 @@ the diagonals mirrored about the mid-line ``y = H/2`` so that the discrete probl
 symmetric and the bars do not rotate.  Both end faces have the same nodes (the
 meshes match across the gap, but the mortar treats them as non-matching surfaces).
 
-The semi-implicit scheme of docs/theory/mechanics.md#time-discretisation damps a mode of frequency ω by the factor
+The semi-implicit scheme of docs/theory/mechanics.md#time-discretisation damps a mode of frequency ω
+by the factor
 ``(1 + ω²Δt²)^(−1/2)`` per step: the wave fronts are smeared over ~``√(2L Δt / c)``
 in time, which sets the accuracy of the exchanged velocities and of the contact
 duration (see :func:`run_bar_impact` and ``benchmarks/bench_impact.py``).
@@ -263,7 +265,8 @@ def run_bar_impact(
     linear: str = "direct",
     integrator_options: dict | None = None,
 ) -> ImpactResult:
-    """Run the two-bar impact with the dynamic :class:`~bonecontact.mechanics.integrator.Integrator`.
+    """Run the two-bar impact with the dynamic
+    :class:`~bonecontact.mechanics.integrator.Integrator`.
 
     Parameters
     ----------

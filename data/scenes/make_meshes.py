@@ -4,7 +4,8 @@
 
 Writes ``long_bone.msh``: a 2D longitudinal section of a long-bone diaphysis
 (0.2 m long, 0.03 m wide, 5 mm cortex, 4 mm metaphyseal flare, element size 1.6 mm,
-about 3200 nodes, < 300 kB; cell groups "cortical", "cancellous"; facet groups "distal", "proximal", "periosteum").
+about 3200 nodes, < 300 kB; cell groups "cortical", "cancellous"; facet groups "distal", "proximal",
+"periosteum").
 See :func:`bonecontact.meshing.anatomy.long_bone_2d`.
 
 Writes ``knee2d.msh``: a 2D frontal section of the knee — femoral condyle (radius

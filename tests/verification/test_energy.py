@@ -1,4 +1,5 @@
-"""Discrete energy of the semi-implicit scheme (docs/theory/mechanics.md#time-discretisation, docs/theory/verification.md#verification-references).
+"""Discrete energy of the semi-implicit scheme (docs/theory/mechanics.md#time-discretisation,
+docs/theory/verification.md#verification-references).
 
 For M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt² + K uⁿ⁺¹ + Kv (uⁿ⁺¹ − uⁿ)/Δt = 0 and
 Eⁿ = ½ vⁿᵀ M vⁿ + ½ uⁿᵀ K uⁿ, vⁿ = (uⁿ − uⁿ⁻¹)/Δt, testing with uⁿ⁺¹ − uⁿ gives

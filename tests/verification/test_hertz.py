@@ -1,6 +1,7 @@
 """Plane-strain Hertz contact: a half cylinder pressed onto a block, non-matching meshes.
 
-Reference (docs/theory/verification.md#verification-references, Johnson, *Contact Mechanics*, 1985, §4.3): for a load P per unit
+Reference (docs/theory/verification.md#verification-references, Johnson, *Contact Mechanics*, 1985,
+§4.3): for a load P per unit
 thickness, half-width a = √(4PR/(πE*)), peak pressure p₀ = 2P/(πa), profile
 p(x) = p₀ √(1 − x²/a²), with 1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂.  The load is chosen so
 that a/R = 0.05 (Hertz's half-space assumption; the finite-a/R correction is

@@ -212,7 +212,8 @@ def test_mms_3d_two_materials_contrast():
 
 
 def test_mms_dynamic_kelvin_voigt_temporal_rate():
-    """Temporal rate of the semi-implicit scheme (docs/theory/mechanics.md#time-discretisation) with Kelvin–Voigt viscosity.
+    """Temporal rate of the semi-implicit scheme (docs/theory/mechanics.md#time-discretisation) with
+    Kelvin–Voigt viscosity.
 
     u(x, t) = sin(ωt) g(x) with g affine on the unit square (8×8 triangles): P1 holds
     it exactly, so the error is purely temporal.  ρü − div τ = −ρω² sin(ωt) g (the

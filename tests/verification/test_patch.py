@@ -1,4 +1,5 @@
-"""Contact patch tests on non-matching interface meshes (docs/theory/verification.md#verification-references), 2D and 3D, any rank count.
+"""Contact patch tests on non-matching interface meshes
+(docs/theory/verification.md#verification-references), 2D and 3D, any rank count.
 
 Two separately meshed blocks (the interface nodes do not match) are pressed together by
 a uniform pressure p on the top; the bottom is on rollers and one side of each block

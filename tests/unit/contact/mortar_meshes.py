@@ -6,7 +6,7 @@ import itertools
 
 import numpy as np
 
-from bonecontact.contact.geometry import cross2
+from bonecontact.common.geometry import cross2
 from bonecontact.contact.mortar_assembly import MortarContributions
 
 

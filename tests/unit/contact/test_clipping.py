@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from mortar_meshes import reference_intersection_area, square_grid
 
+from bonecontact.common.geometry import cross2
 from bonecontact.contact.clipping import (
     clip_polygons_by_triangles,
     fan_quadrature,
@@ -16,7 +17,7 @@ from bonecontact.contact.clipping import (
     project_points_to_lines_along_directions,
     project_points_to_segments_interpolated_normal,
 )
-from bonecontact.contact.geometry import cross2, nodal_normals, normalise
+from bonecontact.contact.geometry import nodal_normals, normalise
 from bonecontact.contact.mortar_assembly import assemble_mortar
 from bonecontact.contact.search import facet_bounding_boxes, find_candidate_pairs
 

@@ -1,4 +1,5 @@
-"""Tests of the P1 dual basis of the mortar (docs/theory/mortar.md#dual-basis, docs/theory/verification.md#verification-references "dual basis").
+"""Tests of the P1 dual basis of the mortar (docs/theory/mortar.md#dual-basis,
+docs/theory/verification.md#verification-references "dual basis").
 
 Pure NumPy: safe to run redundantly on every rank under
 ``mpiexec -n 2 python -m mpi4py -m pytest``.

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 from mortar_meshes import sphere_cap
 
-from bonecontact.contact.geometry import cross2, facet_normals, nodal_normals, nodal_tangents
+from bonecontact.common.geometry import cross2
+from bonecontact.contact.geometry import facet_normals, nodal_normals, nodal_tangents
 
 
 def test_nodal_normals_circle_outward_any_ordering():

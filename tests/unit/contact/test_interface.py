@@ -1,4 +1,5 @@
-"""Distributed mortar operators (docs/theory/mortar.md#dual-mortar-discretisation): row sums, areas, and independence of the partition.
+"""Distributed mortar operators (docs/theory/mortar.md#dual-mortar-discretisation): row sums, areas,
+and independence of the partition.
 
 * Σ_q M̂[p, q] = 1 on every slave row (Σ_q M = D on fully covered rows) to 1e-12, in 2D
   and 3D, with slave/master element-size ratios ≥ 3 in both directions.

@@ -104,7 +104,8 @@ def test_lowrank_equals_refactor_on_hertz():
         assert _rel(got["u"], ref["u"]) < 1e-10, name
         assert np.abs(got["p"] - ref["p"]).max() < 1e-10 * ref["p"].max(), name
         if name == "never_rebase":
-            # one factorisation; a column for every node whose status ever differed from the cold start
+            # one factorisation; a column for every node whose status ever differed from the cold
+            # start
             assert got["fact"] == 1 and got["cols"] >= int(ref["active"].sum()) - 1
         elif name == "default":
             # how often it refactorises depends on measured times (its cost model), so

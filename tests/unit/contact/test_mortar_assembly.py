@@ -1,4 +1,5 @@
-"""Tests of the mortar integrals and the assembled D, M and weighted gap (docs/theory/mortar.md#mortar-matrices, docs/theory/verification.md#verification-references "D, M").
+"""Tests of the mortar integrals and the assembled D, M and weighted gap
+(docs/theory/mortar.md#mortar-matrices, docs/theory/verification.md#verification-references "D, M").
 
 Pure NumPy: safe to run redundantly on every rank under
 ``mpiexec -n 2 python -m mpi4py -m pytest``.

@@ -1,7 +1,8 @@
 """The pure-UFL forms compile ahead of time with ``ffcx`` into valid C.
 
 ``forms/kelvin_voigt.py`` ends with a concrete instance (``a``, ``L``: the time-discrete
-Kelvin–Voigt operator and right-hand side of docs/theory/mechanics.md#time-discretisation on P1 triangles).  Compiling it
+Kelvin–Voigt operator and right-hand side of docs/theory/mechanics.md#time-discretisation on P1
+triangles).  Compiling it
 with the ``ffcx`` command must give one bilinear form with the coefficients ρ, C, C_v and
 one linear form with ρ, C_v, uⁿ, uⁿ⁻¹, f, both depending on the constant Δt — and the C
 must compile.

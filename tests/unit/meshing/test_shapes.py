@@ -1,4 +1,5 @@
-"""Parametric geometry builders (bonecontact.meshing.shapes): measures of every named group against the exact geometry.
+"""Parametric geometry builders (bonecontact.meshing.shapes): measures of every named group against
+the exact geometry.
 
 Runs serially and under ``mpiexec -n 2/3`` (all measures are assembled and summed over
 the ranks).

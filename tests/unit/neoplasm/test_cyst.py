@@ -1,4 +1,5 @@
-"""Odontogenic cyst growth (docs/theory/growth.md#cyst-model): the closed sphere / cylinder model against its
+"""Odontogenic cyst growth (docs/theory/growth.md#cyst-model): the closed sphere / cylinder model
+against its
 closed-form limits (β = 0 limit and long-time rate β/C⁻ to 1e-6)."""
 
 from __future__ import annotations

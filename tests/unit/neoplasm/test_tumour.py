@@ -75,7 +75,8 @@ def test_uniform_densities_with_surface_tension():
 
 
 def test_radial_quasi_steady_3d():
-    """3D Byrne-Chaplain reduction (docs/theory/growth.md#tumour-model): R(t) follows dR/dt = mu R [P(R) - u~/3],
+    """3D Byrne-Chaplain reduction (docs/theory/growth.md#tumour-model): R(t) follows dR/dt = mu R
+    [P(R) - u~/3],
     P(R) = (R coth R - 1)/R^2, within 1 % while the ball doubles its radius.
 
     Gmsh ball R0 = 1, h = 0.3 (about 900 tetrahedra), mu = 1, u~ = 0 (no stationary radius,
@@ -262,7 +263,8 @@ def _mode2_rate(mu, gamma, h, dt, t_end, remesh_every):
     ],
 )
 def test_mode2_linear_stability(mu, gamma, h, dt, t_end, every):
-    """A mode-2 perturbation grows/decays at the linear-theory rate of docs/theory/growth.md#tumour-model (within 10%)."""
+    """A mode-2 perturbation grows/decays at the linear-theory rate of
+    docs/theory/growth.md#tumour-model (within 10%)."""
     rate, exact = _mode2_rate(mu, gamma, h, dt, t_end, every)
     assert np.sign(rate) == np.sign(exact)
     assert abs(rate / exact - 1) < 0.10, (rate, exact)

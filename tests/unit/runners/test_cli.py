@@ -120,7 +120,8 @@ CASES = [
         "not_positive_definite",
         _sub(
             'model = "isotropic"\nE = 17.0e9\nnu = 0.3',
-            'model = "orthotropic"\nE1 = 1e9\nE2 = 1e9\nE3 = 1e9\nnu12 = 0.9\nnu13 = 0.9\nnu23 = 0.9\n'
+            'model = "orthotropic"\nE1 = 1e9\nE2 = 1e9\nE3 = 1e9\n'
+            "nu12 = 0.9\nnu13 = 0.9\nnu23 = 0.9\n"
             "G12 = 1e8\nG13 = 1e8\nG23 = 1e8\naxes = [[1.0, 0.0], [0.0, 1.0]]",
         ),
         ["positive"],

@@ -311,7 +311,8 @@ INVALID = [
         "probes",
         ["growth.csv"],
     ),
-    # coupled scenes (bonecontact.runners.coupled): the tumour region needs its (near-fluid) material
+    # coupled scenes (bonecontact.runners.coupled): the tumour region needs its (near-fluid)
+    # material
     (
         "coupled-tumour-no-material",
         M,
@@ -393,7 +394,8 @@ def test_example_scenes_check(capsys):
 @pytest.mark.serial
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_invalid_input_real_command(tmp_path, nproc):
-    """The installed command (also under mpiexec -n 2): exit 2 on a bad cyst strain and a bad rate."""
+    """The installed command (also under mpiexec -n 2): exit 2 on a bad cyst strain and a bad
+    rate."""
     for base, edit, words in [
         (C, _sub('strain = "log"', 'strain = "green"'), ['key "strain"', '"engineering"']),
         (T, _sub('K_B = "1.0*(u_c - 0.5)"', 'K_B = "exp(u_c"'), ['key "K_B"']),

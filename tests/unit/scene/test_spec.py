@@ -1137,7 +1137,8 @@ value = [0.0, 0.0]           # one entry per component; the string "free" leaves
 [[traction]]
 boundary = "top"
 value = [0.0, -1.0e6]        # Pa
-ramp = 0.0                   # > 0: ramps linearly from 0 over [0, ramp] seconds (dynamic/quasistatic)
+ramp = 0.0                   # > 0: ramps linearly from 0 over [0, ramp] seconds
+(dynamic/quasistatic)
 # schedule = [[0.0, 0.0], [1.0, 1.0], [2.0, 1.0]]
 
 [[pressure]]
