@@ -13,7 +13,7 @@
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
 #   make clean        remove caches, test logs and docs/api;  make distclean  also removes .venv
 #
-# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=900
+# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=1800
 # PYTEST_ARGS="-k hertz" (added to every pytest call).
 
 SHELL := /bin/bash
@@ -28,7 +28,7 @@ STAMP        := $(VENV)/.install.stamp
 LOG_DIR      := $(VENV)/test-logs
 DOCS_DIR     := docs/api
 MPI_SIZES    ?= 2 3
-TEST_TIMEOUT ?= 900
+TEST_TIMEOUT ?= 1800
 PYTEST_ARGS  ?=
 
 # Keep MPI ranks from each starting a full set of BLAS/OpenMP threads.

@@ -2,8 +2,9 @@
 
 ``linalg``: PETSc linear solvers (MUMPS, CG/GMRES + GAMG), rigid-body near-nullspaces and
 body labels; ``constants``: physical constants and time units (SI); ``formatting``: the
-text of numbers in result tables; ``geometry``: small 2D geometry helpers; ``version``:
-the package version from its metadata.
+text of numbers in result tables; ``geometry``: small 2D geometry helpers; ``profiling``:
+wall time per phase and peak memory (summary.json); ``version``: the package version from
+its metadata.
 """
 
 from bonecontact.common.constants import R_GAS, SECONDS_PER_DAY, SECONDS_PER_YEAR
@@ -17,6 +18,7 @@ from bonecontact.common.linalg import (
     owned_global_rows,
     rigid_body_modes,
 )
+from bonecontact.common.profiling import PhaseTimer, peak_memory_mb
 from bonecontact.common.version import __version__
 
 __all__ = [
@@ -24,6 +26,7 @@ __all__ = [
     "SECONDS_PER_DAY",
     "SECONDS_PER_YEAR",
     "LinearSolverInfo",
+    "PhaseTimer",
     "__version__",
     "body_labels",
     "configure_ksp",
@@ -32,6 +35,7 @@ __all__ = [
     "format_cell",
     "format_float",
     "owned_global_rows",
+    "peak_memory_mb",
     "polygon_area",
     "rigid_body_modes",
     "signed_polygon_area",

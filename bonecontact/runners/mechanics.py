@@ -22,6 +22,7 @@ import numpy as np
 from dolfinx import fem
 from tqdm import tqdm
 
+from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.friction import FrictionLaw
 from bonecontact.contact.interface import ContactInputError, build_interface
 from bonecontact.contact.options import PDASOptions
@@ -86,25 +87,34 @@ def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
     return md, groups
 
 
-def build_model(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
+def build_model(
+    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, timer: PhaseTimer | None = None
+) -> SceneModel:
     """Build the mechanics model of a scene (no output written).
+
+    ``timer`` (optional) records the phases ``mesh_read``, ``model`` (spaces, materials,
+    boundary conditions, loads, probes) and ``mortar_geometry`` (the contact interfaces).
 
     Raises
     ------
     SceneError
         For every input problem that needs the mesh (collective).
     """
-    md, groups = read_mesh(scene, comm)
+    timer = timer if timer is not None else PhaseTimer()
+    with timer.phase("mesh_read"):
+        md, groups = read_mesh(scene, comm)
     tag = {name: t for name, (d, t) in groups.items()}
-    model = _mechanics(scene, md, tag)
-    _add_dirichlet(scene, model, tag)
-    _add_loads(scene, model, tag)
-    v0 = _initial_velocity(scene, model, tag)
-    try:
-        probes = Probes(md.mesh, scene.output.probes)
-    except ProbeError as exc:
-        raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
-    interfaces = _contact_interfaces(scene, model, md, tag)
+    with timer.phase("model"):
+        model = _mechanics(scene, md, tag)
+        _add_dirichlet(scene, model, tag)
+        _add_loads(scene, model, tag)
+        v0 = _initial_velocity(scene, model, tag)
+        try:
+            probes = Probes(md.mesh, scene.output.probes)
+        except ProbeError as exc:
+            raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
+    with timer.phase("mortar_geometry"):
+        interfaces = _contact_interfaces(scene, model, md, tag)
     return SceneModel(scene, md, groups, model, v0, probes, interfaces)
 
 
@@ -314,8 +324,12 @@ def _step_through(
     nsteps: int,
     dt: float,
     progress: bool,
+    timer: PhaseTimer,
 ) -> tuple[str, str | None, _Counts]:
     """Record the initial state, then step and record; a failed step ends the run.
+
+    ``timer`` gets the phases ``time_stepping`` (the steps' solves, contact included),
+    ``contact_solve`` (the part of it in the PDAS) and ``output`` (tables and fields).
 
     Returns ``(status, message, counts)``.
     """
@@ -323,7 +337,8 @@ def _step_through(
     counts = _Counts([], [], [])
     status, message = "converged", None
     try:
-        rec.record(0, 0.0, every > 0)
+        with timer.phase("output"):
+            rec.record(0, 0.0, every > 0)
         bar = tqdm(
             total=nsteps,
             desc=scene.name,
@@ -332,20 +347,22 @@ def _step_through(
             dynamic_ncols=True,
         )
         for k in range(1, nsteps + 1):
-            si = integ.step()
+            with timer.phase("time_stepping"):
+                si = integ.step()
             counts.linear.append(si.linear_iterations)
             if integ.last_contact is not None:
                 counts.pdas.append(integ.last_contact.iterations)
                 counts.bound_updates.append(integ.last_contact.bound_updates)
+                timer.add("contact_solve", integ.last_contact.wall_time)
             last = k == nsteps
-            rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
+            with timer.phase("output"):
+                rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
             bar.update(1)
         bar.close()
     except RuntimeError as exc:
         status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
-        rec.record(
-            integ.step_count, integ.t, True, tables=False
-        )  # last good state (its rows are written)
+        with timer.phase("output"):  # the last good state (its rows are written)
+            rec.record(integ.step_count, integ.t, True, tables=False)
     return status, message, counts
 
 
@@ -404,13 +421,16 @@ def run_mechanics(
         says why; the last good state is in the output files).
     """
     t_start = time.perf_counter()
-    sm = build_model(scene, comm)
+    timer = PhaseTimer()
+    sm = build_model(scene, comm, timer)
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = _steps(scene)
     dynamic = scene.analysis.kind == "dynamic"  # dynamic runs book the energy balance
-    integ = _integrator(scene, sm, dt, dynamic)
-    integ.set_initial(None, sm.v0)
-    rec = _Recorder(scene, sm, integ, comm, outdir, dynamic)
+    with timer.phase("solver_setup"):  # assembly, factorisation or preconditioner
+        integ = _integrator(scene, sm, dt, dynamic)
+        integ.set_initial(None, sm.v0)
+    with timer.phase("output"):
+        rec = _Recorder(scene, sm, integ, comm, outdir, dynamic)
     e0 = integ.balance.total
     info = {
         "dofs": sm.model.num_dofs,
@@ -419,8 +439,9 @@ def run_mechanics(
         "setup_time_s": integ.setup_time,
         "linear_solver": scene.solver.linear,
     }
-    status, message, counts = _step_through(scene, comm, integ, rec, nsteps, dt, progress)
+    status, message, counts = _step_through(scene, comm, integ, rec, nsteps, dt, progress, timer)
     info.update(_run_info(scene, sm, integ, counts, dynamic, e0, t_start))
+    info["phases_s"] = timer.summary(comm)
     if message is not None:
         info["message"] = message
     summary = rec.writer.summary(status, **info)

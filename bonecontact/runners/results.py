@@ -33,6 +33,7 @@ import ufl
 from dolfinx import fem, geometry, io
 
 from bonecontact.common.formatting import format_cell, format_float
+from bonecontact.common.profiling import peak_memory_mb
 from bonecontact.common.version import __version__
 
 if TYPE_CHECKING:
@@ -255,6 +256,8 @@ def run_summary(
 ) -> dict[str, Any]:
     """The content of summary.json: the common header, then ``info`` (which may override it).
 
+    Collective (the header holds the peak memory of every rank, :func:`peak_memory_mb`).
+
     Parameters
     ----------
     scene
@@ -276,6 +279,7 @@ def run_summary(
         "status": status,
         "ranks": comm.size,
         "wall_time_s": wall_time_s,
+        "peak_memory_mb": peak_memory_mb(comm),
         "units": units,
         "bonecontact_version": __version__,
         "dolfinx_version": dolfinx.__version__,

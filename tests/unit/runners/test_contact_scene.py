@@ -109,6 +109,16 @@ def test_patch_scene(tmp_path):
     assert float(last["normal_force"]) == pytest.approx(P * 0.02, rel=1e-10)
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["status"] == "converged" and summary["contact"]["pairs"] == ["joint"]
+    # where the run spent its time: every phase ran, and the phases (timed one after
+    # the other; the contact solve is part of the time stepping) fit in the wall time
+    phases = summary["phases_s"]
+    expected = {"mesh_read", "model", "mortar_geometry", "solver_setup", "time_stepping"}
+    assert expected | {"contact_solve", "output"} == set(phases)
+    assert all(v > 0.0 for v in phases.values())
+    assert phases["contact_solve"] <= phases["time_stepping"]
+    assert sum(phases[k] for k in expected | {"output"}) <= summary["wall_time_s"]
+    memory = summary["peak_memory_mb"]
+    assert 50.0 < memory["max_rank"] <= memory["total"] < 24 * 1024
 
 
 def _assert_same_on_ranks(tables: dict) -> None:
