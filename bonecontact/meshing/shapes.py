@@ -436,6 +436,7 @@ def hertz_2d(
     h_far: float = 2e-3,
     zone: float = 2e-3,
     block_ratio: float = 1.7,
+    lateral_support: bool = False,
 ) -> MeshData | Path:
     """A half cylinder resting on a block (plane strain Hertz contact), non-matching meshes.
 
@@ -445,12 +446,19 @@ def hertz_2d(
     ``h_contact`` (cylinder) and ``block_ratio * h_contact`` (block) within ``zone`` of
     the contact point, growing to ``h_far`` away from it.
 
+    With ``lateral_support``, a segment of the symmetry axis inside the cylinder
+    (``x = 0``, ``0.4 radius <= y <= 0.9 radius``) is embedded in its mesh as the facet
+    group ``"cyl_support"``: fixing ``u_x`` there removes the two rigid modes that a
+    frictionless contact cannot (the horizontal translation and the rotation about the
+    centre of the circle) without carrying vertical load, and the symmetric solution
+    has ``u_x = 0`` there anyway.
+
     Returns
     -------
     dolfinx.io.gmsh.MeshData or pathlib.Path
         Cell groups ``"cylinder"``, ``"block"``; facet groups ``"cyl_contact"`` (the arc:
         slave), ``"block_contact"`` (top of the block: master), ``"cyl_top"`` (the flat
-        face y = radius), ``"block_bottom"``, ``"block_sides"``.
+        face y = radius), ``"block_bottom"``, ``"block_sides"`` (and ``"cyl_support"``).
     """
     check_positive(
         radius=radius,
@@ -481,11 +489,16 @@ def hertz_2d(
         t1, t2 = occ.addLine(q[2], q[3]), occ.addLine(q[3], q[4])
         left = occ.addLine(q[4], q[0])
         block = occ.addPlaneSurface([occ.addCurveLoop([bottom, right, t1, t2, left])])
+        support = []
+        if lateral_support:
+            support = [occ.addLine(occ.addPoint(0, 0.4 * R, 0), occ.addPoint(0, 0.9 * R, 0))]
         occ.synchronize()
+        if support:
+            gmsh.model.mesh.embed(1, support, 2, cyl)
         f = gmsh.model.mesh.field
         fields = []
         for surf, curves, h in (
-            (cyl, [a1, a2], h_contact),
+            (cyl, [a1, a2] + support, h_contact),
             (block, [t1, t2], block_ratio * h_contact),
         ):
             dist = f.add("Distance")
@@ -517,6 +530,8 @@ def hertz_2d(
         groups(1, [top], "cyl_top")
         groups(1, [bottom], "block_bottom")
         groups(1, [left, right], "block_sides")
+        if support:
+            groups(1, support, "cyl_support")
 
     return generate("hertz_2d", 2, build, comm, path)
 
@@ -532,21 +547,33 @@ def hertz_3d(
     h_far: float = 3e-3,
     zone: float = 1.5e-3,
     block_ratio: float = 1.5,
+    lateral_support: bool = False,
+    dist_max_factor: float = 8.0,
 ) -> MeshData | Path:
     """A hemisphere resting on a block (3D Hertz contact), non-matching meshes.
 
     The hemisphere (the lower half of a ball of ``radius`` centred at ``(0, radius, 0)``)
     touches the block ``[-w, w] x [-block_height, 0] x [-w, w]`` at the origin; the bodies
     are separate gmsh volumes.  Element size ``h_contact`` (hemisphere) and
-    ``block_ratio * h_contact`` (block) within ``zone`` of the contact point, ``h_far``
-    away from it.
+    ``block_ratio * h_contact`` (block) within ``zone`` of the contact point, growing
+    linearly to ``h_far`` at the distance ``zone + dist_max_factor * h_far``.
+
+    With ``lateral_support``, two rectangles inside the hemisphere, away from its
+    surface, are embedded in its mesh: ``"sphere_support_x"`` in the plane ``x = 0``
+    (``0.1 R <= z <= 0.35 R``) and ``"sphere_support_z"`` in the plane ``z = 0``
+    (``0.1 R <= x <= 0.35 R``), both over ``0.4 R <= y <= 0.9 R``.  Fixing ``u_x`` on the
+    first and ``u_z`` on the second removes the five rigid modes that a frictionless
+    contact cannot (the horizontal translations and the three rotations about the
+    centre of the sphere) without carrying vertical load; the axisymmetric solution
+    has ``u_x = 0`` and ``u_z = 0`` on these planes anyway.
 
     Returns
     -------
     dolfinx.io.gmsh.MeshData or pathlib.Path
         Cell groups ``"sphere"``, ``"block"``; facet groups ``"sphere_contact"`` (the
         curved surface: slave), ``"block_contact"`` (top of the block: master),
-        ``"sphere_top"`` (the flat face y = radius), ``"block_bottom"``.
+        ``"sphere_top"`` (the flat face y = radius), ``"block_bottom"`` (and
+        ``"sphere_support_x"``, ``"sphere_support_z"``).
     """
     check_positive(
         radius=radius,
@@ -556,6 +583,7 @@ def hertz_3d(
         h_far=h_far,
         zone=zone,
         block_ratio=block_ratio,
+        dist_max_factor=dist_max_factor,
     )
     R, w, hb = radius, block_half_width, block_height
 
@@ -574,6 +602,7 @@ def hertz_3d(
         s_contact = [t for t in s_faces if t not in s_top]
         b_top = [t for t in b_faces if abs(com[t][1]) < tol]
         b_bottom = [t for t in b_faces if abs(com[t][1] + hb) < tol]
+        supports = _sphere_supports(R, sph) if lateral_support else []
         f = gmsh.model.mesh.field
         fields = []
         origin = occ.addPoint(0, 0, 0)
@@ -586,11 +615,11 @@ def hertz_3d(
             f.setNumber(thr, "SizeMin", h)
             f.setNumber(thr, "SizeMax", h_far)
             f.setNumber(thr, "DistMin", zone)
-            f.setNumber(thr, "DistMax", zone + 8 * h_far)
+            f.setNumber(thr, "DistMax", zone + dist_max_factor * h_far)
             res = f.add("Restrict")
             f.setNumber(res, "InField", thr)
             f.setNumbers(res, "VolumesList", [vol])
-            faces = s_faces if vol == sph else b_faces
+            faces = s_faces + supports if vol == sph else b_faces
             f.setNumbers(res, "SurfacesList", faces)
             f.setNumbers(
                 res,
@@ -618,8 +647,30 @@ def hertz_3d(
         groups(2, b_top, "block_contact")
         groups(2, s_top, "sphere_top")
         groups(2, b_bottom, "block_bottom")
+        if supports:
+            groups(2, supports[:1], "sphere_support_x")
+            groups(2, supports[1:], "sphere_support_z")
 
     return generate("hertz_3d", 3, build, comm, path)
+
+
+def _sphere_supports(R: float, sphere: int) -> list[int]:
+    """Two rectangles inside the hemisphere of :func:`hertz_3d` (planes x = 0 and z = 0,
+    not intersecting), embedded in its mesh; returns their surface tags (x = 0 first)."""
+    occ = gmsh.model.occ
+    y0, y1, s0, s1 = 0.4 * R, 0.9 * R, 0.1 * R, 0.35 * R
+    corners = (
+        [(0, y0, s0), (0, y1, s0), (0, y1, s1), (0, y0, s1)],  # plane x = 0
+        [(s0, y0, 0), (s1, y0, 0), (s1, y1, 0), (s0, y1, 0)],  # plane z = 0
+    )
+    surfaces = []
+    for quad in corners:
+        pts = [occ.addPoint(*c) for c in quad]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % 4]) for i in range(4)]
+        surfaces.append(occ.addPlaneSurface([occ.addCurveLoop(lines)]))
+    occ.synchronize()
+    gmsh.model.mesh.embed(2, surfaces, 3, sphere)
+    return surfaces
 
 
 def stacked_blocks_2d(

@@ -1,0 +1,407 @@
+"""Load-driven Hertz problems: a body held in the load direction only by the contact.
+
+:func:`sphere_on_block_3d` — a hemisphere (radius R = 10 mm, E = 2 GPa, ν = 0.3) on a
+block a thousand times stiffer; :func:`half_disc_on_block_2d` — its plane-strain twin
+(a half disc on a block).  The flat face of the curved body is loaded by a uniform
+traction whose resultant P gives a Hertz contact radius (half-width) a = ``a_over_R`` R
+(default a/R = 0.1).  Nothing holds the curved body in the load direction but the
+contact: it starts touching the block at (or, in 3D, next to) one node and must find
+its contact zone from there, as a bone under body weight does.
+
+What is fixed
+-------------
+* the bottom face of the block, every component;
+* of the curved body, only the rigid modes that a frictionless contact cannot remove
+  (the sliding translations and the rotations about the centre of the circle/sphere,
+  which leave the gap unchanged), by Dirichlet conditions *normal to the load*:
+
+  - 3D: ``u_x = 0`` on a rectangle of the plane x = 0 and ``u_z = 0`` on a rectangle
+    of the plane z = 0 inside the hemisphere (``0.4 R <= y <= 0.9 R``, facet groups
+    ``sphere_support_x`` / ``sphere_support_z`` of
+    :func:`bonecontact.meshing.shapes.hertz_3d` with ``lateral_support=True``) —
+    x- and z-translation, and the rotations about x, y and z;
+  - 2D: ``u_x = 0`` on a segment of the axis x = 0 inside the half disc
+    (``cyl_support``) — the x-translation and the rotation.
+
+  The axisymmetric (symmetric) solution has exactly these displacements there, so
+  the conditions carry no load in the exact solution, and none of them acts in the
+  load direction: the vertical contact resultant equals the applied load (checked
+  by :func:`hertz_errors`).
+
+The mesh is refined within ``zone`` of the touching point (element size
+``h_contact`` on the curved body, ``block_ratio * h_contact`` on the block) and grows
+to ``h_far``.  The builders return a :class:`LoadDrivenHertz` with the pieces
+(mesh data, :class:`~bonecontact.mechanics.model.Mechanics` model, contact interface,
+:class:`~bonecontact.mechanics.integrator.Integrator`) and the wall time of each
+set-up phase, so that benchmarks can time mesh, assembly, mortar geometry and solver
+set-up separately; :meth:`LoadDrivenHertz.solve` runs the contact solve and
+:func:`hertz_errors` compares the result with Hertz's solution
+(docs/theory/verification.md#hertz-contact).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+from dolfinx import fem
+from dolfinx.io.gmsh import MeshData, read_from_msh
+
+from bonecontact.contact.interface import ContactInterface, build_interface
+from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.pdas import ContactSolver, PDASResult
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing import shapes
+from bonecontact.verification.analytic import hertz_2d, hertz_3d
+
+__all__ = [
+    "LOAD_DRIVEN_E",
+    "LOAD_DRIVEN_NU",
+    "LOAD_DRIVEN_RADIUS",
+    "LOAD_DRIVEN_STIFFNESS_RATIO",
+    "LoadDrivenHertz",
+    "half_disc_on_block_2d",
+    "hertz_errors",
+    "sphere_on_block_3d",
+]
+
+#: Radius (m), Young's modulus (Pa) and Poisson ratio of the curved body, and the
+#: block's stiffness relative to it.
+LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU = 0.01, 2.0e9, 0.3
+LOAD_DRIVEN_STIFFNESS_RATIO = 1000.0
+
+
+@dataclass
+class LoadDrivenHertz:
+    """A built load-driven Hertz problem (see the module docstring).
+
+    Attributes
+    ----------
+    mesh_data
+        The mesh with its cell and facet tags and ``physical_groups``.
+    model
+        Materials, the traction load and the Dirichlet conditions.
+    interface
+        The contact pair (slave: the curved surface; master: the block's top).
+    integrator
+        A static integrator (one step, pseudo-time 0 → 1) with the
+        :class:`~bonecontact.contact.pdas.ContactSolver` of the pair.
+    load
+        The applied load P as assembled (N in 3D, N/m in 2D): minus the sum of the
+        load-direction (y) entries of the load vector.
+    radius, E1, E2, nu
+        Geometry and materials (curved body E1, block E2, both ν).
+    a_target
+        The Hertz contact radius (half-width) P was chosen for (m).
+    timings
+        Wall times (s, max over ranks) of the set-up phases: ``mesh`` (generation or
+        read, distribution), ``assembly`` (model, operator, Dirichlet elimination,
+        load vector), ``mortar`` (:func:`build_interface`), ``setup`` (the contact
+        solver's set-up: transformation, rotation, factorisation or preconditioner
+        objects); :meth:`solve` adds ``contact_solve``.
+    """
+
+    mesh_data: MeshData
+    model: Mechanics
+    interface: ContactInterface
+    integrator: Integrator
+    load: float
+    radius: float
+    E1: float
+    E2: float
+    nu: float
+    a_target: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def dim(self) -> int:
+        """Geometric dimension (2 or 3)."""
+        return self.model.dim
+
+    @property
+    def comm(self) -> MPI.Comm:
+        return self.model.mesh.comm
+
+    def solve(self) -> PDASResult:
+        """One static step: the contact solve (collective).  Its wall time goes into
+        ``timings["contact_solve"]``; raises
+        :class:`~bonecontact.contact.pdas.ContactConvergenceError` if the PDAS fails."""
+        with _timed(self.comm, self.timings, "contact_solve"):
+            self.integrator.step()
+        return self.integrator.last_contact
+
+    def destroy(self) -> None:
+        """Free the PETSc objects of the integrator and its contact solver."""
+        self.integrator.destroy()
+
+
+class _timed:
+    """Context manager: wall time of a collective phase (barriers around it) into
+    ``timings[name]``."""
+
+    def __init__(self, comm: MPI.Comm, timings: dict[str, float], name: str):
+        self.comm, self.timings, self.name = comm, timings, name
+
+    def __enter__(self) -> None:
+        self.comm.barrier()
+        self.t0 = time.perf_counter()
+
+    def __exit__(self, *exc) -> None:
+        if exc[0] is None:
+            self.comm.barrier()
+        self.timings[self.name] = time.perf_counter() - self.t0
+
+
+# ----------------------------------------------------------------------------- builders
+def sphere_on_block_3d(
+    comm: MPI.Comm,
+    h_contact: float,
+    *,
+    h_far: float = 3.0e-3,
+    zone: float = 1.5e-3,
+    dist_max_factor: float = 4.0,
+    a_over_R: float = 0.1,
+    linear: str = "direct",
+    rtol: float = 1e-12,
+    options: PDASOptions | None = None,
+    mesh_file: str | Path | None = None,
+) -> LoadDrivenHertz:
+    """The 3D load-driven Hertz problem: a hemisphere on a block, held only by contact.
+
+    Hemisphere: the lower half of the ball of radius R = 10 mm centred at (0, R, 0),
+    E = 2 GPa, ν = 0.3; block ``[-20, 20] x [-20, 0] x [-20, 20]`` mm, E = 2 TPa,
+    ν = 0.3, fixed at its bottom.  The flat face y = R carries the uniform traction
+    ``(0, -P/(πR²), 0)`` with ``P = hertz_3d.load_for_radius(a_over_R R, ...)``; the
+    hemisphere's lateral rigid modes are fixed as the module docstring says.
+
+    Parameters
+    ----------
+    comm
+        Communicator.
+    h_contact
+        Element size of the hemisphere within ``zone`` of the contact point (m); the
+        block's is 1.5 times larger.
+    h_far
+        Element size far from the contact (m).
+    zone
+        Radius of the refined zone (m).
+    dist_max_factor
+        The size reaches ``h_far`` at the distance ``zone + dist_max_factor * h_far``.
+    a_over_R
+        Target Hertz contact radius over R (sets P).
+    linear
+        ``"direct"`` (MUMPS; low-rank PDAS) or ``"iterative"`` (CG + GAMG).
+    rtol
+        Krylov tolerance (iterative).
+    options
+        PDAS options (default: all defaults).
+    mesh_file
+        If given: a gmsh ``.msh`` file that is written there (rank 0) when it does not
+        exist yet and then read, as a scene's mesh is; the ``mesh`` timing is then the
+        read (``mesh_generate`` the writing, when it happened).  Default: generate the
+        mesh in memory.
+
+    Returns
+    -------
+    LoadDrivenHertz
+    """
+    timings: dict[str, float] = {}
+
+    def build(path: Path | None):
+        return shapes.hertz_3d(
+            comm,
+            path,
+            radius=LOAD_DRIVEN_RADIUS,
+            h_contact=h_contact,
+            h_far=h_far,
+            zone=zone,
+            dist_max_factor=dist_max_factor,
+            lateral_support=True,
+        )
+
+    md = _mesh(comm, build, mesh_file, 3, timings)
+    R, E1, nu = LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
+    E2 = LOAD_DRIVEN_STIFFNESS_RATIO * E1
+    a_t = a_over_R * R
+    P = hertz_3d.load_for_radius(a_t, R, E1, nu, E2, nu)
+    supports = (("sphere_support_x", 0), ("sphere_support_z", 2))
+    traction = (0.0, -P / (np.pi * R**2), 0.0)
+    return _assemble_problem(
+        md,
+        ("sphere", "block", "sphere_top", "sphere_contact", "block_contact"),
+        supports,
+        traction,
+        (R, E1, E2, nu, a_t),
+        linear,
+        rtol,
+        options,
+        timings,
+    )
+
+
+def half_disc_on_block_2d(
+    comm: MPI.Comm,
+    h_contact: float,
+    *,
+    h_far: float = 2.0e-3,
+    zone: float | None = None,
+    a_over_R: float = 0.1,
+    linear: str = "direct",
+    rtol: float = 1e-12,
+    options: PDASOptions | None = None,
+    mesh_file: str | Path | None = None,
+) -> LoadDrivenHertz:
+    """The plane-strain twin of :func:`sphere_on_block_3d`: a half disc on a block.
+
+    Half disc: the lower half of the disc of radius R = 10 mm centred at (0, R), on
+    the block ``[-50, 50] x [-50, 0]`` mm (materials as in 3D).  The flat face y = R
+    carries ``(0, -P/(2R))`` with ``P = hertz_2d.load_for_half_width(a_over_R R, ...)``
+    (N/m); ``u_x = 0`` on the axis segment ``cyl_support``.  The disc touches the block
+    at exactly one node (the origin).  Parameters as in :func:`sphere_on_block_3d`
+    (``zone`` defaults to 1.5 a).
+    """
+    timings: dict[str, float] = {}
+    R, E1, nu = LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
+    E2 = LOAD_DRIVEN_STIFFNESS_RATIO * E1
+    a_t = a_over_R * R
+    zone = 1.5 * a_t if zone is None else zone
+
+    def build(path: Path | None):
+        return shapes.hertz_2d(
+            comm,
+            path,
+            radius=R,
+            h_contact=h_contact,
+            h_far=h_far,
+            zone=zone,
+            lateral_support=True,
+        )
+
+    md = _mesh(comm, build, mesh_file, 2, timings)
+    P = hertz_2d.load_for_half_width(a_t, R, E1, nu, E2, nu)
+    return _assemble_problem(
+        md,
+        ("cylinder", "block", "cyl_top", "cyl_contact", "block_contact"),
+        (("cyl_support", 0),),
+        (0.0, -P / (2.0 * R)),
+        (R, E1, E2, nu, a_t),
+        linear,
+        rtol,
+        options,
+        timings,
+    )
+
+
+def _mesh(
+    comm: MPI.Comm,
+    build: Callable[[Path | None], MeshData | Path],
+    mesh_file: str | Path | None,
+    gdim: int,
+    timings: dict[str, float],
+) -> MeshData:
+    """Generate the mesh in memory, or write it to ``mesh_file`` (if missing) and read it."""
+    if mesh_file is None:
+        with _timed(comm, timings, "mesh"):
+            md = build(None)
+        return md
+    mesh_file = Path(mesh_file)
+    if not comm.allreduce(mesh_file.exists() if comm.rank == 0 else True, op=MPI.LAND):
+        with _timed(comm, timings, "mesh_generate"):
+            build(mesh_file)
+    with _timed(comm, timings, "mesh"):
+        md = read_from_msh(str(mesh_file), comm, 0, gdim=gdim)
+    return md
+
+
+def _assemble_problem(
+    md: MeshData,
+    names: tuple[str, str, str, str, str],
+    supports: tuple[tuple[str, int], ...],
+    traction: tuple[float, ...],
+    params: tuple[float, float, float, float, float],
+    linear: str,
+    rtol: float,
+    options: PDASOptions | None,
+    timings: dict[str, float],
+) -> LoadDrivenHertz:
+    """Model, interface and integrator of a load-driven problem, timed phase by phase."""
+    body, block, top, slave, master = names
+    R, E1, E2, nu, a_t = params
+    comm = md.mesh.comm
+    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    with _timed(comm, timings, "assembly"):
+        m = Mechanics(
+            md.mesh,
+            {pg[body]: Isotropic(E=E1, nu=nu), pg[block]: Isotropic(E=E2, nu=nu)},
+            md.cell_tags,
+            md.facet_tags,
+        )
+        for c in range(m.dim):
+            m.add_dirichlet(m.facets(pg["block_bottom"]), c, 0.0)
+        for name, component in supports:
+            m.add_dirichlet(m.facets(pg[name]), component, 0.0)
+        m.add_traction(pg[top], traction)
+        f = fem.Function(m.V)  # (kept alive: its PETSc vector wraps its array)
+        F = m.load_vector(1.0, f.x.petsc_vec)
+        P = -comm.allreduce(float(F.array_r[1 :: m.dim].sum()), op=MPI.SUM)
+    with _timed(comm, timings, "mortar"):
+        itf = build_interface(m.V, md.facet_tags, pg[slave], pg[master], dirichlet_dofs=m.bc_dofs())
+    comm.barrier()
+    t0 = time.perf_counter()
+    solver = ContactSolver(m.V, [itf], options)
+    integ = Integrator(m, "static", 1.0, linear=linear, rtol=rtol, contact=solver)
+    comm.barrier()
+    t_total = time.perf_counter() - t0
+    t_setup = comm.allreduce(solver.setup_time, op=MPI.MAX)
+    timings["assembly"] += t_total - t_setup  # the operator and its Dirichlet elimination
+    timings["setup"] = t_setup
+    return LoadDrivenHertz(md, m, itf, integ, P, R, E1, E2, nu, a_t, timings)
+
+
+# ----------------------------------------------------------------------------- errors
+def hertz_errors(problem: LoadDrivenHertz, result: PDASResult | None = None) -> dict:
+    """Compare the solved problem with Hertz's solution (collective).
+
+    The contact resultant ``P = Σ_p w_p λ_p (−n_p,y)`` (``w_p = ∫ψ_p``) gives the Hertz
+    references a(P), p₀(P); a and p₀ are fitted as λ² = p₀²(1 − r²/a²) over the nodes
+    with r < 0.8 a(P) (r = |x| in 2D, √(x² + z²) in 3D), as in
+    :func:`bonecontact.verification.problems.solve_hertz_3d`.
+
+    Returns
+    -------
+    dict
+        ``a``, ``p0`` (relative errors of the fitted values), ``P_contact`` (the
+        resultant), ``P_applied`` (``problem.load``), ``equilibrium``
+        (``|P_contact − P_applied| / P_applied``), ``a_over_R`` (Hertz, from the
+        resultant), ``active`` (nodes in contact) and the PDAS ``iterations``.
+    """
+    r = problem.integrator.last_contact if result is None else result
+    itf, comm, dim = problem.interface, problem.comm, problem.dim
+    R, E1, E2, nu = problem.radius, problem.E1, problem.E2, problem.nu
+    lam_local = r.pressure[0]
+    P = comm.allreduce(float(-(itf.weight * lam_local * itf.normals[:, 1]).sum()), op=MPI.SUM)
+    X = np.concatenate(comm.allgather(itf.coords))
+    lam = np.concatenate(comm.allgather(lam_local))
+    law = hertz_3d if dim == 3 else hertz_2d
+    a_ref = law.radius(P, R, E1, nu, E2, nu) if dim == 3 else law.half_width(P, R, E1, nu, E2, nu)
+    p0_ref = law.peak_pressure(P, R, E1, nu, E2, nu)
+    rr = np.hypot(X[:, 0], X[:, 2]) if dim == 3 else np.abs(X[:, 0])
+    sel = rr < 0.8 * a_ref
+    c0, c1 = np.linalg.lstsq(np.c_[np.ones(sel.sum()), rr[sel] ** 2], lam[sel] ** 2, rcond=None)[0]
+    return {
+        "a": float(np.sqrt(-c0 / c1) / a_ref - 1.0),
+        "p0": float(np.sqrt(c0) / p0_ref - 1.0),
+        "P_contact": P,
+        "P_applied": problem.load,
+        "equilibrium": abs(P - problem.load) / problem.load,
+        "a_over_R": a_ref / R,
+        "active": int(sum(r.n_active)),
+        "iterations": r.iterations,
+    }
