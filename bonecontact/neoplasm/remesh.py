@@ -28,10 +28,12 @@ Boundary geometry (replicated on every rank, only the boundary is gathered):
 Motion and transfer:
 
 ``MeshMotion(mesh)``
-    ``.boundary_vertices`` and ``.move(displacement_on_boundary)``: harmonic extension of
-    a boundary displacement into the mesh (vector P1 Laplace, MUMPS LU) and update of
-    ``mesh.geometry.x``.
+    ``.extend(displacement_on_boundary)``: harmonic extension of a boundary displacement
+    into the mesh (vector P1 Laplace, MUMPS LU); ``.apply(w)``: move ``mesh.geometry.x`` by
+    an extension; ``.move(displacement_on_boundary)``: both.
 ``transfer(u_from, V_to, extrapolate=0.0) -> fem.Function``
+    (``transfer_fields(sources, V_to, extrapolate)``: several fields of one source mesh
+    with one point search)
     Non-matching interpolation ``fem.create_interpolation_data`` +
     ``Function.interpolate_nonmatching`` WITH a coverage check: every target point must be
     inside the source mesh, or within ``extrapolate`` of it (then the nearest source cell's
@@ -45,6 +47,7 @@ kappa_1 + kappa_2 = div n in 3D).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass
 
@@ -75,6 +78,7 @@ __all__ = [
     "sphere_mesh",
     "surface_mesh",
     "transfer",
+    "transfer_fields",
     "vertex_to_geometry",
 ]
 
@@ -455,11 +459,15 @@ class MeshMotion:
         """Extend ``displacement`` from the boundary and move the mesh by it; return the
         extension."""
         w = self.extend(displacement)
-        gdim = self.mesh.geometry.dim
-        bs = gdim
-        arr = w.x.array.reshape(-1, bs)
-        self.mesh.geometry.x[self._geom, :gdim] += arr[self._dofs]
+        self.apply(w)
         return w
+
+    def apply(self, w: fem.Function) -> None:
+        """Move the mesh vertices by ``w`` (a function in ``self.V``, e.g. the result of
+        :meth:`extend`), without solving again."""
+        gdim = self.mesh.geometry.dim
+        arr = w.x.array.reshape(-1, gdim)
+        self.mesh.geometry.x[self._geom, :gdim] += arr[self._dofs]
 
 
 # ----------------------------------------------------------------------------- transfer
@@ -483,6 +491,8 @@ def transfer(
         Width of the band outside the source mesh in which target points are accepted:
         they take the value of the nearest source cell's polynomial (explicit
         extrapolation).  ``0`` accepts only points inside the source mesh (to round-off).
+    name
+        Name of the result (default: the name of ``u_from``).
 
     Raises
     ------
@@ -490,30 +500,98 @@ def transfer(
         If any target interpolation point lies outside the source mesh by more than
         ``extrapolate`` (on any rank: raised collectively).
     """
-    V_from = u_from.function_space
-    cells = _all_cells(V_to.mesh)
-    padding = max(float(extrapolate), 1e-10)
-    data = fem.create_interpolation_data(V_to, V_from, cells, padding=padding)
-    out = fem.Function(V_to, name=name or u_from.name)
-    out.interpolate_nonmatching(u_from, cells, data)
-    # coverage: interpolate ones from a scalar DG0 space on the source mesh
-    W_from = fem.functionspace(V_from.mesh, ("DG", 0))
-    one = fem.Function(W_from)
-    one.x.array[:] = 1.0
-    W_to = V_to.sub(0).collapse()[0] if V_to.dofmap.index_map_bs > 1 else V_to
-    count = fem.Function(W_to)
-    data1 = fem.create_interpolation_data(W_to, W_from, cells, padding=padding)
-    count.interpolate_nonmatching(one, cells, data1)
-    count.x.scatter_forward()
-    nown = W_to.dofmap.index_map.size_local
-    missing = np.flatnonzero(np.abs(count.x.array[:nown] - 1.0) > 1e-8)
-    nmiss = V_to.mesh.comm.allreduce(len(missing), op=MPI.SUM)
-    if nmiss:
-        xyz = W_to.tabulate_dof_coordinates()[missing]
-        where = V_to.mesh.comm.allgather(xyz[:3].tolist())
-        raise CoverageError(
-            f"transfer of '{u_from.name}': {nmiss} target point(s) lie outside the source mesh "
-            f"(extrapolation band {extrapolate:g}); e.g. {sum(where, [])[:3]}"
-        )
-    out.x.scatter_forward()
+    out = transfer_fields([u_from], V_to, extrapolate)[0]
+    out.name = name or u_from.name
     return out
+
+
+def transfer_fields(
+    sources: Sequence[fem.Function], V_to: fem.FunctionSpace, extrapolate: float = 0.0
+) -> list[fem.Function]:
+    """Interpolate several fields of one source mesh into ``V_to``, with one point search.
+
+    Same as :func:`transfer` for each field, but the target points are located once.  They
+    are first searched inside the source cells (padding ``1e-10``, as a bounding-box test
+    with a large padding makes every point a candidate of many cells); only the points not
+    found there are searched again with the extrapolation band ``extrapolate``.
+
+    Raises
+    ------
+    CoverageError
+        As :func:`transfer`.
+    """
+    if not sources:
+        return []
+    V_from = sources[0].function_space
+    outs = [fem.Function(V_to, name=u.name) for u in sources]
+    ones = _ones(V_from.mesh, outs[0].ufl_shape)
+    cells = _all_cells(V_to.mesh)
+    data = fem.create_interpolation_data(V_to, V_from, cells, padding=_INSIDE)
+    count = fem.Function(V_to)
+    for u, out in zip((ones, *sources), (count, *outs)):
+        out.interpolate_nonmatching(u, cells, data)
+    bs = V_to.dofmap.index_map_bs
+    missing = np.flatnonzero(np.abs(count.x.array.reshape(-1, bs)[:, 0] - 1.0) > 1e-8)
+    if V_to.mesh.comm.allreduce(len(missing), op=MPI.SUM) and extrapolate > _INSIDE:
+        missing = _extrapolate(sources, ones, outs, count, missing, extrapolate)
+    _check_coverage(sources[0].name, V_to, missing, extrapolate)
+    for out in outs:
+        out.x.scatter_forward()
+    return outs
+
+
+#: Padding of the inside search of a transfer: round-off only.
+_INSIDE = 1e-10
+
+
+def _ones(msh: dmesh.Mesh, shape: tuple[int, ...]) -> fem.Function:
+    """A DG0 function equal to one (every component) on ``msh``: the coverage probe."""
+    W = fem.functionspace(msh, ("DG", 0, shape) if shape else ("DG", 0))
+    one = fem.Function(W)
+    one.x.array[:] = 1.0
+    return one
+
+
+def _extrapolate(
+    sources: Sequence[fem.Function],
+    ones: fem.Function,
+    outs: list[fem.Function],
+    count: fem.Function,
+    missing: npt.NDArray[np.int64],
+    band: float,
+) -> npt.NDArray[np.int64]:
+    """Search the ``missing`` target dofs (blocks) again within ``band`` of the source mesh
+    and fill those found; returns the dofs still missing (collective)."""
+    V_to = count.function_space
+    dofs = np.asarray(V_to.dofmap.list)
+    cells = _all_cells(V_to.mesh)
+    flag = np.zeros(dofs.max(initial=-1) + 1, dtype=bool)
+    flag[missing] = True
+    cells = cells[flag[dofs[cells]].any(axis=1)] if len(missing) else cells[:0]
+    data = fem.create_interpolation_data(V_to, sources[0].function_space, cells, padding=band)
+    tmp = [fem.Function(V_to) for _ in range(len(sources) + 1)]
+    for u, t in zip((ones, *sources), tmp):
+        t.interpolate_nonmatching(u, cells, data)
+    bs = V_to.dofmap.index_map_bs
+    found = missing[np.abs(tmp[0].x.array.reshape(-1, bs)[missing, 0] - 1.0) <= 1e-8]
+    for t, out in zip(tmp, (count, *outs)):
+        t2, o2 = t.x.array.reshape(-1, bs), out.x.array.reshape(-1, bs)
+        o2[found] = t2[found]
+    return np.setdiff1d(missing, found)
+
+
+def _check_coverage(
+    name: str, V_to: fem.FunctionSpace, missing: npt.NDArray[np.int64], band: float
+) -> None:
+    """Raise :class:`CoverageError` on every rank if any owned target dof is not covered."""
+    nown = V_to.dofmap.index_map.size_local
+    owned = missing[missing < nown]
+    comm = V_to.mesh.comm
+    nmiss = comm.allreduce(len(owned), op=MPI.SUM)
+    if nmiss:
+        xyz = V_to.tabulate_dof_coordinates()[owned]
+        where = comm.allgather(xyz[:3].tolist())
+        raise CoverageError(
+            f"transfer of '{name}': {nmiss} target point(s) lie outside the source mesh "
+            f"(extrapolation band {band:g}); e.g. {sum(where, [])[:3]}"
+        )

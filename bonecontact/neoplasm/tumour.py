@@ -92,6 +92,7 @@ from dolfinx import fem, la
 from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import LinearProblem
 
+from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm import curvature, remesh
 
 __all__ = ["TumourError", "TumourModel", "TumourParameterError", "TumourParameters"]
@@ -261,6 +262,7 @@ class TumourModel:
         self.smoothed_remeshes = 0  # 3D remeshes that needed the moved surface smoothed
         self.t = 0.0
         self.steps = 0
+        self.timer = PhaseTimer()  # wall time of each phase of the steps, accumulated
         if isinstance(geometry, dmesh.Mesh):
             msh = geometry
         else:
@@ -446,20 +448,23 @@ class TumourModel:
         p = self.params
         if dt is not None:
             self._dt.value = dt
-        self._nutrient.solve()
-        self.u_c.x.scatter_forward()
-        if p.gamma > 0:
-            if self.degree != 1:
-                raise TumourError("surface tension needs degree = 1")
-            b = self.boundary()
-            kappa = self.curvature(b)
-            self._sigma_bc.x.array[self.bdofs] = p.gamma * self._boundary_values_by_key(
-                b.keys, kappa, self._key_of_dof, self.bdofs
-            )
-        else:
-            self._sigma_bc.x.array[:] = 0.0
-        self._pressure.solve()
-        self.sigma.x.scatter_forward()
+        with self.timer.phase("nutrient"):
+            self._nutrient.solve()
+            self.u_c.x.scatter_forward()
+        with self.timer.phase("curvature"):
+            if p.gamma > 0:
+                if self.degree != 1:
+                    raise TumourError("surface tension needs degree = 1")
+                b = self.boundary()
+                kappa = self.curvature(b)
+                self._sigma_bc.x.array[self.bdofs] = p.gamma * self._boundary_values_by_key(
+                    b.keys, kappa, self._key_of_dof, self.bdofs
+                )
+            else:
+                self._sigma_bc.x.array[:] = 0.0
+        with self.timer.phase("pressure"):
+            self._pressure.solve()
+            self.sigma.x.scatter_forward()
 
     def _boundary_velocity(self) -> fem.Function:
         """Nodal V_n n at the boundary (P1 vector function, zero inside)."""
@@ -558,15 +563,20 @@ class TumourModel:
             raise TumourError(f"dt must be > 0, got {dt}")
         self.u_c_old.x.array[:] = self.u_c.x.array
         self.solve_fields(dt)
-        disp = self._boundary_velocity()
-        for arr in (disp.x.array,):
-            arr *= dt
-        disp.x.scatter_forward()
-        w = self.motion.extend(disp)
-        self._w.x.array[:] = w.x.array
-        self._transport(dt)
-        self.motion.move(disp)
-        self._react(dt)
+        with self.timer.phase("velocity"):
+            disp = self._boundary_velocity()
+            for arr in (disp.x.array,):
+                arr *= dt
+            disp.x.scatter_forward()
+        with self.timer.phase("extension"):
+            w = self.motion.extend(disp)
+            self._w.x.array[:] = w.x.array
+        with self.timer.phase("transport"):
+            self._transport(dt)
+        with self.timer.phase("move"):
+            self.motion.apply(w)  # the extension of disp, solved above
+        with self.timer.phase("reaction"):
+            self._react(dt)
         self.t += dt
         self.steps += 1
         if self.remesh_every and self.steps % self.remesh_every == 0:
@@ -575,19 +585,24 @@ class TumourModel:
     # ------------------------------------------------------------------ remeshing
     def remesh(self) -> None:
         """Rebuild the mesh from the current boundary and transfer the fields (collective)."""
-        b = self.boundary()
-        if self.dim == 2:
-            pts = remesh.resample_closed_curve(b.points, self.h)
-            msh = remesh.polygon_mesh(pts, self.h, self.comm)
-        else:
-            msh, smoothed = remesh.moved_surface_mesh(b.points, b.facets, self.h, self.comm)
-            self.smoothed_remeshes += int(smoothed)
+        with self.timer.phase("gmsh"):
+            b = self.boundary()
+            if self.dim == 2:
+                pts = remesh.resample_closed_curve(b.points, self.h)
+                msh = remesh.polygon_mesh(pts, self.h, self.comm)
+            else:
+                msh, smoothed = remesh.moved_surface_mesh(b.points, b.facets, self.h, self.comm)
+                self.smoothed_remeshes += int(smoothed)
         old = self.fields
         old_w = self._w
-        self._setup(msh)
-        band = self.h
-        self.u_p.x.array[:] = remesh.transfer(old["u_p"], self.W, band).x.array
-        self.u_q.x.array[:] = remesh.transfer(old["u_q"], self.W, band).x.array
-        if self.params.eps0 > 0:
-            self.u_c.x.array[:] = remesh.transfer(old["u_c"], self.V, band).x.array
-            self._w.x.array[:] = remesh.transfer(old_w, self.motion.V, band).x.array
+        with self.timer.phase("setup"):
+            self._setup(msh)
+        with self.timer.phase("transfer"):
+            band = self.h
+            up, uq = remesh.transfer_fields([old["u_p"], old["u_q"]], self.W, band)
+            self.u_p.x.array[:] = up.x.array
+            self.u_q.x.array[:] = uq.x.array
+            if self.params.eps0 > 0:
+                self.u_c.x.array[:] = remesh.transfer_fields([old["u_c"]], self.V, band)[0].x.array
+                w = remesh.transfer_fields([old_w], self.motion.V, band)[0]
+                self._w.x.array[:] = w.x.array
