@@ -30,6 +30,48 @@ def timestep_table(path: Path) -> str:
     return "\n".join(out) + "\n"
 
 
+def contact3d_table(path: Path) -> str:
+    """The 3D load-driven contact study (bench_contact3d.py): one row per case, phases in
+    seconds, memory in MiB per rank (max over ranks); failed cases with their message."""
+    rows = list(csv.DictReader(open(path)))
+    if not rows:
+        return ""
+    out = [
+        f"Machine: {rows[-1]['machine']}; date: {rows[-1]['date']}.",
+        "",
+        "| dofs | ranks | solver | status | a/h | PDAS its | Krylov its | err a | err p₀ "
+        "| mesh gen (s) | mesh read (s) | assembly (s) | mortar (s) | set-up (s) "
+        "| contact solve (s) | output (s) | linear solve (s) [its] | ratio "
+        "| peak mem (MiB) | mem contact / linear (MiB) |",
+        "|" + "---|" * 20,
+    ]
+
+    def pct(v: str) -> str:
+        return f"{100 * float(v):+.1f} %" if v else ""
+
+    def key(r: dict) -> tuple:
+        return (int(r["dofs"]), int(r["ranks"]), r["linear"])
+
+    failed = []
+    for r in sorted(rows, key=key):
+        solver = "MUMPS" if r["linear"] == "direct" else "Krylov+GAMG"
+        its = r["linear_its"] if r["linear"] == "iterative" else ""
+        out.append(
+            f"| {r['dofs']} | {r['ranks']} | {solver} | {r['status']} | {r['a_over_h']} "
+            f"| {r['pdas_iterations']} | {r['krylov_iterations']} | {pct(r['err_a'])} "
+            f"| {pct(r['err_p0'])} | {r['t_mesh_generate_s']} | {r['t_mesh_read_s']} "
+            f"| {r['t_assembly_s']} | {r['t_mortar_s']} | {r['t_setup_s']} "
+            f"| {r['t_contact_s']} | {r['t_output_s']} | {r['t_linear_s']}"
+            f"{f' [{its}]' if its else ''} | {r['ratio']} | {r['peak_mem_mb']} "
+            f"| {r['mem_contact_solve_mb']} / {r['mem_linear_solve_mb']} |"
+        )
+        if r["status"] != "converged":
+            failed.append(f"* {r['dofs']} dofs, {r['ranks']} rank(s), {solver}: {r['message']}")
+    if failed:
+        out += ["", "Failed cases:", ""] + failed
+    return "\n".join(out) + "\n"
+
+
 def generic_table(path: Path) -> str:
     rows = list(csv.DictReader(open(path)))
     if not rows:
@@ -45,6 +87,7 @@ if __name__ == "__main__":
         src = RESULTS / f"{name}.csv"
         if not src.exists():
             continue
-        text = timestep_table(src) if name == "timestep" else generic_table(src)
+        tables = {"timestep": timestep_table, "contact3d": contact3d_table}
+        text = tables.get(name, generic_table)(src)
         (RESULTS / f"{name}.md").write_text(text)
         print(f"## {name}\n{text}")
