@@ -50,7 +50,7 @@ from mpi4py import MPI
 
 import numpy as np
 from dolfinx import fem
-from dolfinx.io.gmsh import MeshData, read_from_msh
+from dolfinx.io.gmsh import MeshData
 
 from bonecontact.contact.interface import ContactInterface, build_interface
 from bonecontact.contact.options import PDASOptions
@@ -59,6 +59,7 @@ from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing import shapes
+from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.verification.analytic import hertz_2d, hertz_3d
 
 __all__ = [
@@ -204,7 +205,8 @@ def sphere_on_block_3d(
         PDAS options (default: all defaults).
     mesh_file
         If given: a gmsh ``.msh`` file that is written there (rank 0) when it does not
-        exist yet and then read, as a scene's mesh is; the ``mesh`` timing is then the
+        exist yet and then read, as a scene's mesh is
+        (:func:`bonecontact.meshing.io.read_gmsh_mesh`); the ``mesh`` timing is then the
         read (``mesh_generate`` the writing, when it happened).  Default: generate the
         mesh in memory.
 
@@ -316,7 +318,7 @@ def _mesh(
         with _timed(comm, timings, "mesh_generate"):
             build(mesh_file)
     with _timed(comm, timings, "mesh"):
-        md = read_from_msh(str(mesh_file), comm, 0, gdim=gdim)
+        _, md = read_gmsh_mesh(mesh_file, comm, gdim)
     return md
 
 
