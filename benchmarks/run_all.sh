@@ -34,6 +34,12 @@ $PY benchmarks/bench_friction3d.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_friction3d.py --quick
 $PY benchmarks/summarize.py friction3d
 
+echo "== 3D load-driven contact at scale: phases, iterations, memory (default sizes 25k, 65k dofs; 1 and 2 ranks)"
+rm -f benchmarks/results/contact3d.csv
+$PY benchmarks/bench_contact3d.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_contact3d.py $quick
+$PY benchmarks/summarize.py contact3d
+
 echo "== dynamic contact: two-bar impact error and energy drift against dt"
 $PY benchmarks/bench_impact.py $quick
 
