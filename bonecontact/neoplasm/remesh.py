@@ -27,9 +27,13 @@ Boundary geometry (replicated on every rank, only the boundary is gathered):
 
 Motion and transfer:
 
-``MeshMotion(mesh)``
+``DirichletLaplacian(V, boundary_dofs)``
+    ``-Δu = f``, ``u = g`` on the exterior boundary, one MUMPS factorisation per mesh
+    position reused for every right-hand side.
+``MeshMotion(mesh, laplacian=None)``
     ``.extend(displacement_on_boundary)``: harmonic extension of a boundary displacement
-    into the mesh (vector P1 Laplace, MUMPS LU); ``.apply(w)``: move ``mesh.geometry.x`` by
+    into the mesh (vector P1 Laplace, solved per component with one factorisation of the
+    scalar Laplacian); ``.apply(w)``: move ``mesh.geometry.x`` by
     an extension; ``.move(displacement_on_boundary)``: both.
 ``transfer(u_from, V_to, extrapolate=0.0) -> fem.Function``
     (``transfer_fields(sources, V_to, extrapolate)``: several fields of one source mesh
@@ -52,6 +56,7 @@ from contextlib import nullcontext
 from dataclasses import dataclass
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import gmsh
 import numpy as np
@@ -59,7 +64,7 @@ import numpy.typing as npt
 import ufl
 from dolfinx import fem
 from dolfinx import mesh as dmesh
-from dolfinx.fem.petsc import LinearProblem
+from dolfinx.fem import petsc as fem_petsc
 from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.common.geometry import signed_polygon_area
@@ -68,6 +73,7 @@ from bonecontact.meshing.session import gmsh_session
 __all__ = [
     "Boundary",
     "CoverageError",
+    "DirichletLaplacian",
     "MeshMotion",
     "RemeshError",
     "gather_boundary",
@@ -402,57 +408,132 @@ def resample_closed_curve(
 
 
 # ----------------------------------------------------------------------------- motion
+class DirichletLaplacian:
+    """``-Δu = f`` in the mesh, ``u = g`` on the exterior boundary, for a scalar Lagrange space,
+    with one MUMPS LU factorisation reused for every right-hand side.
+
+    The matrix (``∫ ∇u·∇v dx``, identity rows at the boundary dofs) depends only on the mesh,
+    so the tumour's pressure and every component of a harmonic extension share it.  It is
+    assembled and factorised at the first solve after construction or :meth:`invalidate`
+    (call it after moving the mesh: :meth:`MeshMotion.apply` does).
+
+    Parameters
+    ----------
+    V
+        Scalar Lagrange space.
+    boundary_dofs
+        Its dofs on the exterior boundary (the Dirichlet dofs).
+    """
+
+    def __init__(self, V: fem.FunctionSpace, boundary_dofs: npt.NDArray[np.int32]):
+        self.V = V
+        self.boundary_dofs = boundary_dofs
+        self.g = fem.Function(V)  # the boundary values of the next solve
+        self.bc = fem.dirichletbc(self.g, boundary_dofs)
+        u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        self.a = fem.form(ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx)
+        self.A = fem_petsc.create_matrix(self.a)
+        self.b = fem_petsc.create_vector(V)
+        self.x = fem_petsc.create_vector(V)
+        self.ksp = PETSc.KSP().create(V.mesh.comm)
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("lu")
+        self.ksp.getPC().setFactorSolverType("mumps")
+        self.factorisations = 0
+        self._current = False
+
+    def invalidate(self) -> None:
+        """The mesh has moved: assemble and factorise again at the next solve."""
+        self._current = False
+
+    def _factorise(self) -> None:
+        self.A.zeroEntries()
+        fem_petsc.assemble_matrix(self.A, self.a, bcs=[self.bc])
+        self.A.assemble()
+        self.ksp.setOperators(self.A)
+        self.ksp.setUp()
+        self.factorisations += 1
+        self._current = True
+
+    def solve(self, u: fem.Function, L: fem.Form | None = None) -> fem.Function:
+        """Solve with the boundary values in :attr:`g` and the right-hand side ``L`` (a
+        compiled linear form on ``V``; ``None``: f = 0) into ``u`` (ghosts updated)."""
+        if not self._current:
+            self._factorise()
+        with self.b.localForm() as b_local:
+            b_local.set(0.0)
+        if L is not None:
+            fem_petsc.assemble_vector(self.b, L)
+        fem_petsc.apply_lifting(self.b, [self.a], bcs=[[self.bc]])
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.bc.set(self.b.array_w)
+        self.ksp.solve(self.b, self.x)
+        if self.ksp.getConvergedReason() < 0:
+            raise RuntimeError(f"Laplace solve failed (reason {self.ksp.getConvergedReason()})")
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        fem_petsc.assign(self.x, u)
+        return u
+
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        for obj in (self.ksp, self.A, self.b, self.x):
+            obj.destroy()
+
+
 class MeshMotion:
     """Harmonic extension of a boundary displacement, applied to ``mesh.geometry.x``.
+
+    The vector Laplace problem decouples into one scalar problem per component with the
+    same matrix: each component is solved with one factorisation of the scalar Laplacian
+    (:class:`DirichletLaplacian`).
 
     Parameters
     ----------
     msh
         Mesh with affine (P1) geometry; it is moved in place, so forms built on it stay
         valid (DOLFINx reads the geometry at assembly).
+    laplacian
+        A :class:`DirichletLaplacian` of a scalar P1 space of ``msh`` to share (e.g. the
+        tumour's pressure solver); by default one of its own.
     """
 
-    def __init__(self, msh: dmesh.Mesh):
+    def __init__(self, msh: dmesh.Mesh, laplacian: DirichletLaplacian | None = None):
         self.mesh = msh
         gdim = msh.geometry.dim
-        self.V = fem.functionspace(msh, ("Lagrange", 1, (gdim,)))
-        fdim = msh.topology.dim - 1
-        msh.topology.create_connectivity(fdim, msh.topology.dim)
-        facets = dmesh.exterior_facet_indices(msh.topology)
-        self.boundary_dofs = fem.locate_dofs_topological(self.V, fdim, facets)
-        self.w = fem.Function(self.V, name="mesh_displacement")
-        self._wb = fem.Function(self.V)
-        u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
-        a = ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx
-        zero = fem.Constant(msh, np.zeros(gdim))
-        L = ufl.inner(zero, v) * ufl.dx
-        bc = fem.dirichletbc(self._wb, self.boundary_dofs)
-        self._problem = LinearProblem(
-            a,
-            L,
-            bcs=[bc],
-            u=self.w,
-            petsc_options_prefix=f"bc_motion_{id(self)}_",
-            petsc_options={
-                "ksp_type": "preonly",
-                "pc_type": "lu",
-                "pc_factor_mat_solver_type": "mumps",
-            },
-        )
-        # map geometry node -> P1 dof (same local ordering on each cell)
-        v2g = vertex_to_geometry(msh)
         tdim = msh.topology.dim
+        self.V = fem.functionspace(msh, ("Lagrange", 1, (gdim,)))
+        msh.topology.create_connectivity(tdim - 1, tdim)
+        facets = dmesh.exterior_facet_indices(msh.topology)
+        self.boundary_dofs = fem.locate_dofs_topological(self.V, tdim - 1, facets)
+        if laplacian is None:
+            Vs = fem.functionspace(msh, ("Lagrange", 1))
+            laplacian = DirichletLaplacian(Vs, fem.locate_dofs_topological(Vs, tdim - 1, facets))
+        self.laplacian = laplacian
+        self.w = fem.Function(self.V, name="mesh_displacement")
+        self._wk = fem.Function(laplacian.V)  # one component of the extension
+        # scalar dof of each vector block (both P1 on the same cells, same local order)
+        v2g = vertex_to_geometry(msh)
+        msh.topology.create_connectivity(tdim, 0)
         c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
-        dofs = self.V.dofmap.list[: c2v.shape[0]]
+        dofs = np.asarray(self.V.dofmap.list)[: c2v.shape[0]]
+        sdofs = np.asarray(laplacian.V.dofmap.list)[: c2v.shape[0]]
+        self._scalar_of_block = np.empty(len(self.w.x.array) // gdim, dtype=np.int32)
+        self._scalar_of_block[dofs.ravel()] = sdofs.ravel()
+        # map geometry node -> P1 dof (same local ordering on each cell)
         self._geom = v2g[c2v.ravel()]
-        self._dofs = np.asarray(dofs).ravel()
+        self._dofs = dofs.ravel()
 
     def extend(self, displacement: fem.Function) -> fem.Function:
         """Harmonic extension of the boundary values of ``displacement`` (a function in
         ``self.V``)."""
-        self._wb.x.array[:] = displacement.x.array
-        self._problem.solve()
-        self.w.x.scatter_forward()
+        gdim = self.mesh.geometry.dim
+        d = displacement.x.array.reshape(-1, gdim)
+        w = self.w.x.array.reshape(-1, gdim)
+        g = self.laplacian.g.x.array
+        for k in range(gdim):
+            g[self._scalar_of_block] = d[:, k]
+            self.laplacian.solve(self._wk)
+            w[:, k] = self._wk.x.array[self._scalar_of_block]
         return self.w
 
     def move(self, displacement: fem.Function) -> fem.Function:
@@ -468,6 +549,7 @@ class MeshMotion:
         gdim = self.mesh.geometry.dim
         arr = w.x.array.reshape(-1, gdim)
         self.mesh.geometry.x[self._geom, :gdim] += arr[self._dofs]
+        self.laplacian.invalidate()
 
 
 # ----------------------------------------------------------------------------- transfer

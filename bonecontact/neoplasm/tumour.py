@@ -30,7 +30,8 @@ Discretisation (one step t -> t + dt)
    else backward Euler in the moving (ALE) frame; ``u_c = u_c1`` on ∂ω.
 2. Pressure σ (same space): ``-Δσ = h(u_c, u_p, u_q)``, ``σ = γκ`` on ∂ω, κ the mean
    curvature of the boundary (:mod:`bonecontact.neoplasm.curvature`: κ = div n, 1/R for a circle,
-   2/R for a sphere).  Both solved with MUMPS LU.
+   2/R for a sphere).  Both solved with MUMPS LU; the pressure's factorised Laplacian also
+   serves the harmonic extension of step 4 (same matrix, one solve per component).
 3. Normal velocity V_n = -∂σ/∂n at the boundary vertices by variationally consistent flux
    recovery: the residual ``r_i = a(σ, φ_i) - (h, φ_i)`` of boundary test functions is
    ``∫ ∂σ/∂n φ_i ds``, divided by the lumped boundary mass ``∫ φ_i ds``.  The nodal normal
@@ -301,15 +302,18 @@ class TumourModel:
         msh.topology.create_connectivity(fdim, 0)
         self.V = fem.functionspace(msh, ("Lagrange", self.degree))
         self.W = fem.functionspace(msh, ("DG", 0))
-        self.motion = remesh.MeshMotion(msh)
         facets = dmesh.exterior_facet_indices(msh.topology)
         self.bdofs = fem.locate_dofs_topological(self.V, fdim, facets)
+        # pressure: -Δσ = h, σ = γκ on ∂ω; with P1 the same factorised Laplacian extends the
+        # boundary motion into the mesh (one factorisation per step for both)
+        self._laplacian = remesh.DirichletLaplacian(self.V, self.bdofs)
+        self.motion = remesh.MeshMotion(msh, self._laplacian if self.degree == 1 else None)
         self.u_c = fem.Function(self.V, name="u_c")
         self.u_c_old = fem.Function(self.V, name="u_c_old")
         self.sigma = fem.Function(self.V, name="sigma")
         self.u_p = fem.Function(self.W, name="u_p")
         self.u_q = fem.Function(self.W, name="u_q")
-        self._sigma_bc = fem.Function(self.V)
+        self._sigma_bc = self._laplacian.g  # boundary values of the pressure solve
         self._w = fem.Function(self.motion.V)  # mesh displacement of the last step
         self._dt = fem.Constant(msh, 1.0)
         u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
@@ -336,16 +340,8 @@ class TumourModel:
         self.rates = {name: self._rate(getattr(p, name)) for name in p.RATES}
         K_R = fem.Constant(msh, float(p.K_R))
         self.h_expr = (self.rates["K_B"] + K_R) * self.u_p + K_R * self.u_q - K_R
-        a_s = ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
         L_s = self.h_expr * v * dx
-        self._pressure = LinearProblem(
-            a_s,
-            L_s,
-            bcs=[fem.dirichletbc(self._sigma_bc, self.bdofs)],
-            u=self.sigma,
-            petsc_options=opts,
-            petsc_options_prefix=f"bc_tumour_s_{id(self)}_",
-        )
+        self._pressure_rhs = fem.form(L_s)
         # flux recovery and boundary normals
         self._residual = fem.form(ufl.inner(ufl.grad(self.sigma), ufl.grad(v)) * dx - L_s)
         self._bmass = fem.form(v * ds)
@@ -452,19 +448,18 @@ class TumourModel:
             self._nutrient.solve()
             self.u_c.x.scatter_forward()
         with self.timer.phase("curvature"):
+            sigma_bc = np.zeros(len(self.bdofs))
             if p.gamma > 0:
                 if self.degree != 1:
                     raise TumourError("surface tension needs degree = 1")
                 b = self.boundary()
                 kappa = self.curvature(b)
-                self._sigma_bc.x.array[self.bdofs] = p.gamma * self._boundary_values_by_key(
+                sigma_bc = p.gamma * self._boundary_values_by_key(
                     b.keys, kappa, self._key_of_dof, self.bdofs
                 )
-            else:
-                self._sigma_bc.x.array[:] = 0.0
         with self.timer.phase("pressure"):
-            self._pressure.solve()
-            self.sigma.x.scatter_forward()
+            self._sigma_bc.x.array[self.bdofs] = sigma_bc
+            self._laplacian.solve(self.sigma, self._pressure_rhs)
 
     def _boundary_velocity(self) -> fem.Function:
         """Nodal V_n n at the boundary (P1 vector function, zero inside)."""
