@@ -15,19 +15,21 @@ turns those into the PETSc matrix ``Qᵀ`` of docs/theory/mortar.md#condensation
 (``U = Qᵀ Û``), so that
 ``Â = Q A Qᵀ = A.PtAP(Qᵀ)`` and ``F̂ = Q F``.
 
-Parallel design: a contact surface is small compared with the mesh, so its nodes and
-facets (not the system) are gathered on every rank; every rank integrates the slave
-facets it owns against all master facets (vectorised, :mod:`bonecontact.contact.mortar_assembly`),
-``D`` and the weighted gap are summed over ranks, and each row of ``M̂`` is sent to the
-rank owning it.  Normals are computed from the gathered surface, so a node shared by
-several ranks has the same normal everywhere and results do not depend on the
-partition.
+Parallel design: a contact surface is small compared with the mesh, so the slave
+surface's nodes and facets (not the system) are gathered on every rank; every rank
+integrates the slave facets it owns (vectorised, :mod:`bonecontact.contact.mortar_assembly`)
+against the master facets that lie within the bounding box of their search region (each
+rank sends the others only those of its master facets), ``D`` and the weighted gap are
+summed over ranks, and each row of ``M̂`` is sent to the rank owning it.  Normals are
+computed from the gathered surface, so a node shared by several ranks has the same normal
+everywhere and results do not depend on the partition.
 
 Units: coordinates in m; ``D`` in m (2D, per unit thickness) or m²; gaps in m.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -44,6 +46,7 @@ from bonecontact.contact.dual_basis import (
 )
 from bonecontact.contact.geometry import facet_normals, nodal_normals, nodal_tangents
 from bonecontact.contact.mortar_assembly import assemble_mortar
+from bonecontact.contact.search import swept_facet_boxes
 
 __all__ = [
     "ContactInputError",
@@ -96,6 +99,15 @@ class ContactInterface:
         that this rank owns — the off-identity part of ``Qᵀ``.
     slave_area, covered_area
         Measure of the whole slave surface and of its part covered by the master.
+    rigid
+        Whether the master is a :class:`RigidPlane`.
+    build_stats
+        What :func:`build_interface` did on this rank: wall times (s) of its phases,
+        ``t_gather`` (surfaces, normals, nearby master facets), ``t_search`` (candidate
+        pairs), ``t_integrate`` (projection, clipping, quadrature), ``t_assemble``
+        (local D, M, gap), ``t_distribute`` (sums over ranks, rows of M̂ to their
+        owners, checks) and ``t_total``; and counts ``n_slave_facets`` (owned),
+        ``n_master_facets`` (received), ``n_candidates`` and ``n_pairs`` (integrated).
     """
 
     name: str
@@ -114,6 +126,7 @@ class ContactInterface:
     slave_area: float = 0.0
     covered_area: float = 0.0
     rigid: bool = False
+    build_stats: dict[str, float] = field(default_factory=dict, repr=False)
 
     @property
     def gap(self) -> npt.NDArray[np.float64]:
@@ -312,6 +325,47 @@ def _rigid_plane_mortar(
     )
 
 
+def _slave_search_radius(surf: _SlaveSurface, search_radius: float | None) -> np.ndarray:
+    """Search distance of every owned slave facet: ``search_radius``, or by default three
+    times the facet's size (its length in 2D, ``sqrt(2 |facet|)`` in 3D)."""
+    measure = surf.measure[surf.own]
+    if search_radius is not None:
+        return np.full(measure.shape, float(search_radius))
+    gdim = surf.x.shape[1]
+    return 3.0 * (measure if gdim == 2 else np.sqrt(2.0 * measure))
+
+
+def _master_near_slave(
+    comm: MPI.Comm,
+    local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
+    box: tuple[np.ndarray, np.ndarray],
+):
+    """The master facets (of all ranks) whose bounding box meets each rank's search box.
+
+    ``box`` is the bounding box of the sweeps of this rank's slave facets (``lower >
+    upper`` when it has none); every rank sends each other rank its owned master facets
+    inside that rank's box, so no rank holds the whole master surface.
+
+    Returns (node_gids, node_coords, facets (compact)) of the master facets received.
+    """
+    gblocks, coords, _ = local_master
+    gdim = box[0].shape[0]
+    boxes = comm.allgather(box)
+    lo_f, hi_f = coords.min(axis=1), coords.max(axis=1)
+    send = []
+    for lo, hi in boxes:
+        near = np.all((lo_f <= hi) & (hi_f >= lo), axis=1)
+        send.append((gblocks[near], coords[near]))
+    recv = comm.alltoall(send)
+    gb = np.concatenate([r[0] for r in recv]).reshape(-1, gdim).astype(np.int64)
+    xc = np.concatenate([r[1] for r in recv]).reshape(-1, gdim, gdim)
+    gids, inv = np.unique(gb.ravel(), return_inverse=True)
+    facets = inv.reshape(gb.shape)
+    node_x = np.zeros((gids.size, gdim))
+    node_x[facets.ravel()] = xc.reshape(-1, gdim)
+    return gids, node_x, facets
+
+
 def _master_surface_mortar(
     V: fem.FunctionSpace,
     facet_tags,
@@ -321,36 +375,54 @@ def _master_surface_mortar(
     mask: npt.NDArray[np.bool_],
     search_radius: float | None,
     name: str,
+    stats: dict[str, float],
 ) -> _MortarData:
-    """Gather the master group on every rank and integrate the owned slave facets against it."""
+    """Gather the master facets near each rank's slave facets and integrate the owned slave
+    facets against them; phase times and counts are added to ``stats``."""
     comm, gdim = V.mesh.comm, V.mesh.geometry.dim
-    m_gids, m_x, m_f, _, _ = _gather_surface(comm, *_local_surface(V, facet_tags, master))
-    if m_f.shape[0] == 0:
+    t0 = time.perf_counter()
+    local_master = _local_surface(V, facet_tags, master)
+    if comm.allreduce(local_master[0].shape[0], op=MPI.SUM) == 0:
         raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
-    if np.isin(m_gids, surf.gids).any():
+    if comm.allreduce(bool(np.isin(local_master[0], surf.gids).any()), op=MPI.LOR):
         raise ContactInputError(
             f"contact {name!r}: slave and master surfaces share nodes; the bodies "
             "must be meshed separately (no shared interface nodes)"
         )
-    measure = surf.measure
-    h_s = float(measure.max()) if gdim == 2 else float(np.sqrt(2.0 * measure.max()))
-    radius = search_radius if search_radius is not None else 3.0 * h_s
+    own_f = surf.facets[surf.own]
+    radius = _slave_search_radius(surf, search_radius)
+    normals = surf.normals if gdim == 2 else None
+    lower, upper = swept_facet_boxes(surf.x, own_f, radius, normals)
+    box = (
+        (lower.min(axis=0), upper.max(axis=0))
+        if own_f.size
+        else (np.full(gdim, np.inf), np.full(gdim, -np.inf))
+    )
+    m_gids, m_x, m_f = _master_near_slave(comm, local_master, box)
+    stats["t_gather"] = stats.get("t_gather", 0.0) + time.perf_counter() - t0
     contrib = assemble_mortar(
         surf.x,
-        surf.facets[surf.own],
+        own_f,
         surf.normals,
         m_x,
         m_f,
         search_radius=radius,
         slave_node_mask=mask if mask.any() else None,
     )
+    for key, value in contrib.pairs.timings.items():
+        stats[f"t_{key}"] = value
+    stats["n_slave_facets"] = own_f.shape[0]
+    stats["n_master_facets"] = m_f.shape[0]
+    stats["n_candidates"] = contrib.pairs.candidates
+    stats["n_pairs"] = contrib.pairs.slave_facet.size
     d = _allreduce(comm, contrib.d, MPI.SUM)
     wgap = _allreduce(comm, contrib.gap, MPI.SUM)
     covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
     if covered <= 0.0:
+        r_max = comm.allreduce(float(radius.max(initial=0.0)), op=MPI.MAX)
         raise ContactInputError(
             f"contact {name!r}: no master facet (group {master}) lies opposite the "
-            f"slave surface (group {slave}) within {radius:.3g} m"
+            f"slave surface (group {slave}) within {r_max:.3g} m"
         )
     return _MortarData(
         d=d,
@@ -495,7 +567,8 @@ def build_interface(
     name
         Pair name.
     search_radius
-        Normal search distance for master facets (default: a few slave element sizes).
+        Search distance for master facets along the slave normals (m); default three
+        times the size of each slave facet (docs/theory/mortar.md#candidate-search).
     max_penetration
         Initial interpenetration (negative nodal gap) beyond which the input is
         rejected; default 1e-6 × the size of the slave surface.
@@ -509,18 +582,21 @@ def build_interface(
     comm = V.mesh.comm
     gdim = V.mesh.geometry.dim
     bs = V.dofmap.index_map_bs
+    t_start = time.perf_counter()
+    stats: dict[str, float] = {}
     # slave surface on every rank, its normals
     surf = _gather_slave_surface(V, facet_tags, slave, name)
     # slave nodes with Dirichlet dofs carry no multiplier
     ranges = _owner_ranges(comm, V)
     lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
     mask = _dirichlet_node_mask(V, surf.gids, dirichlet_dofs)
+    stats["t_gather"] = time.perf_counter() - t_start
     # mortar integrals: D, weighted gap, M
     if isinstance(master, RigidPlane):
         mortar = _rigid_plane_mortar(comm, surf, master, mask)
     else:
         mortar = _master_surface_mortar(
-            V, facet_tags, master, slave, surf, mask, search_radius, name
+            V, facet_tags, master, slave, surf, mask, search_radius, name, stats
         )
     # nodes carrying a multiplier, initial interpenetration
     carries = _multiplier_nodes(surf, mortar.d)
@@ -531,6 +607,10 @@ def build_interface(
     # owned slave nodes
     idx = np.flatnonzero((surf.gids >= lo) & (surf.gids < hi) & carries)
     n = mortar.normals[idx]
+    stats["t_total"] = time.perf_counter() - t_start
+    stats["t_distribute"] = stats["t_total"] - sum(
+        stats.get(k, 0.0) for k in ("t_gather", "t_search", "t_integrate", "t_assemble")
+    )
     return ContactInterface(
         name=name,
         gdim=gdim,
@@ -548,6 +628,7 @@ def build_interface(
         slave_area=float(surf.measure.sum()),
         covered_area=float(mortar.covered),
         rigid=isinstance(master, RigidPlane),
+        build_stats=stats,
     )
 
 

@@ -14,7 +14,8 @@ the slave nodal normals (``g >= 0`` means separated, docs/theory/mortar.md#conta
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -35,7 +36,11 @@ from bonecontact.contact.dual_basis import (
     shape_triangle,
 )
 from bonecontact.contact.geometry import BoolArray, FloatArray, IntArray, normalise, simplex_measure
-from bonecontact.contact.search import facet_bounding_boxes, find_candidate_pairs
+from bonecontact.contact.search import (
+    facet_bounding_boxes,
+    find_candidate_pairs,
+    swept_facet_boxes,
+)
 
 __all__ = [
     "MortarContributions",
@@ -310,11 +315,18 @@ class MortarPairs:
         Facet indices into the slave / master facet arrays.
     integrals : PairIntegrals
         Local ``D_e``, ``M_e``, weighted gap and overlap measure.
+    timings : dict
+        Wall time (s) of the phases: ``search`` (candidate pairs), ``integrate``
+        (projection, clipping, quadrature) and, once assembled, ``assemble``.
+    candidates : int
+        Number of candidate pairs the search returned.
     """
 
     slave_facet: IntArray
     master_facet: IntArray
     integrals: PairIntegrals
+    timings: dict[str, float] = field(default_factory=dict)
+    candidates: int = 0
 
 
 def _default_search_radius(coords: FloatArray, facets: IntArray) -> float:
@@ -333,7 +345,7 @@ def compute_mortar_pairs(
     master_coords: npt.ArrayLike,
     master_facets: npt.ArrayLike,
     *,
-    search_radius: float | None = None,
+    search_radius: float | npt.ArrayLike | None = None,
     dual_coeffs: npt.ArrayLike | None = None,
     chunk_size: int = 50_000,
 ) -> MortarPairs:
@@ -347,12 +359,14 @@ def compute_mortar_pairs(
         Averaged outward nodal normals of the slave surface.
     master_coords : array_like, shape (n_m, gdim)
     master_facets : array_like of int, shape (f_m, gdim)
-    search_radius : float, optional
-        Slave facet boxes are enlarged by this distance before intersecting them
-        with master facet boxes (must exceed the largest gap of interest); default
-        the mean slave facet diameter.  Every candidate whose projection
-        overlaps is integrated: choose the radius so that no facet of the far
-        side of a thin body is within reach.
+    search_radius : float or array_like, shape (f_s,), optional
+        Search distance along the slave normals, one for all slave facets or one per
+        facet (must exceed the largest gap of interest); default the mean slave facet
+        diameter.  A master facet is a candidate when its bounding box meets the box of
+        the slave facet swept along its normal over ``[-r, r]``
+        (:func:`~bonecontact.contact.search.swept_facet_boxes`).  Every candidate whose
+        projection overlaps is integrated: choose the radius so that no facet of the
+        far side of a thin body is within reach.
     dual_coeffs : array_like, shape (f_s, nv, nv), optional
         Per-slave-facet dual coefficients (default: closed form).
     chunk_size : int
@@ -380,9 +394,12 @@ def compute_mortar_pairs(
         else np.broadcast_to(np.asarray(dual_coeffs, float), (len(fs), nv, nv))
     )
 
+    t0 = time.perf_counter()
     ia, ib = find_candidate_pairs(
-        *facet_bounding_boxes(xs, fs, search_radius), *facet_bounding_boxes(xm, fm)
+        *swept_facet_boxes(xs, fs, search_radius, ns if gdim == 2 else None),
+        *facet_bounding_boxes(xm, fm),
     )
+    t1 = time.perf_counter()
     integrate = integrate_segment_pairs if gdim == 2 else integrate_triangle_pairs
     parts: list[tuple[IntArray, IntArray, PairIntegrals]] = []
     for start in range(0, len(ia), chunk_size):
@@ -396,6 +413,7 @@ def compute_mortar_pairs(
                 PairIntegrals(res.area[keep], res.d[keep], res.m[keep], res.gap[keep]),
             )
         )
+    timings = {"search": t1 - t0, "integrate": time.perf_counter() - t1}
     if not parts:
         z = np.zeros(0, dtype=np.int64)
         return MortarPairs(
@@ -404,6 +422,8 @@ def compute_mortar_pairs(
             PairIntegrals(
                 np.zeros(0), np.zeros((0, nv, nv)), np.zeros((0, nv, nv)), np.zeros((0, nv))
             ),
+            timings,
+            len(ia),
         )
     return MortarPairs(
         np.concatenate([p[0] for p in parts]),
@@ -411,6 +431,8 @@ def compute_mortar_pairs(
         PairIntegrals(
             *(np.concatenate([getattr(p[2], f) for p in parts]) for f in ("area", "d", "m", "gap"))
         ),
+        timings,
+        len(ia),
     )
 
 
@@ -488,7 +510,7 @@ def assemble_mortar(
     master_coords: npt.ArrayLike,
     master_facets: npt.ArrayLike,
     *,
-    search_radius: float | None = None,
+    search_radius: float | npt.ArrayLike | None = None,
     slave_node_mask: npt.ArrayLike | None = None,
     dual_coeffs: npt.ArrayLike | None = None,
     coverage_rtol: float = 1e-10,
@@ -538,6 +560,7 @@ def assemble_mortar(
     pairs = compute_mortar_pairs(
         xs, fs, slave_normals, master_coords, fm, search_radius=search_radius, dual_coeffs=coeffs
     )
+    t0 = time.perf_counter()
     integ = pairs.integrals
     sf, mf = pairs.slave_facet, pairs.master_facet
     srows = fs[sf]  # (P, nv)
@@ -561,6 +584,7 @@ def assemble_mortar(
     d_off_rows, d_off_cols, d_off_vals = _sum_duplicates(
         fs[f_idx, j_idx], fs[f_idx, k_idx], d_facet[f_idx, j_idx, k_idx], n_s
     )
+    pairs.timings["assemble"] = time.perf_counter() - t0
     return MortarContributions(
         m_rows=m_rows,
         m_cols=m_cols,
