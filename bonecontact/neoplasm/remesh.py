@@ -62,7 +62,7 @@ import gmsh
 import numpy as np
 import numpy.typing as npt
 import ufl
-from dolfinx import fem
+from dolfinx import fem, geometry
 from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
 from dolfinx.io.gmsh import model_to_mesh
@@ -607,11 +607,14 @@ def transfer_fields(
     V_from = sources[0].function_space
     outs = [fem.Function(V_to, name=u.name) for u in sources]
     ones = _ones(V_from.mesh, outs[0].ufl_shape)
-    cells = _all_cells(V_to.mesh)
-    data = fem.create_interpolation_data(V_to, V_from, cells, padding=_INSIDE)
     count = fem.Function(V_to)
-    for u, out in zip((ones, *sources), (count, *outs)):
-        out.interpolate_nonmatching(u, cells, data)
+    if _point_evaluation(V_to, V_from.mesh):
+        _interpolate_inside(V_to, (ones, *sources), (count, *outs))
+    else:
+        cells = _all_cells(V_to.mesh)
+        data = fem.create_interpolation_data(V_to, V_from, cells, padding=_INSIDE)
+        for u, out in zip((ones, *sources), (count, *outs)):
+            out.interpolate_nonmatching(u, cells, data)
     bs = V_to.dofmap.index_map_bs
     missing = np.flatnonzero(np.abs(count.x.array.reshape(-1, bs)[:, 0] - 1.0) > 1e-8)
     if V_to.mesh.comm.allreduce(len(missing), op=MPI.SUM) and extrapolate > _INSIDE:
@@ -624,6 +627,160 @@ def transfer_fields(
 
 #: Padding of the inside search of a transfer: round-off only.
 _INSIDE = 1e-10
+
+
+#: A point is inside a source cell when its smallest barycentric coordinate is >= -this.
+_BARYCENTRIC_TOL = 1e-12
+
+
+def _point_evaluation(V_to: fem.FunctionSpace, msh_from: dmesh.Mesh) -> bool:
+    """Whether the fast inside search applies: the target's degrees of freedom are point
+    values (Lagrange, DG) and the source mesh is an affine simplex mesh."""
+    simplex = msh_from.topology.cell_type in (dmesh.CellType.triangle, dmesh.CellType.tetrahedron)
+    affine = msh_from.geometry.cmaps[0].degree == 1
+    flat = msh_from.geometry.dim == msh_from.topology.dim
+    return bool(V_to.element.interpolation_ident) and simplex and affine and flat
+
+
+def _interpolate_inside(
+    V_to: fem.FunctionSpace, sources: Sequence[fem.Function], outs: Sequence[fem.Function]
+) -> None:
+    """Evaluate ``sources`` (one source mesh) at the dof points of ``V_to`` that lie inside
+    a source cell, into ``outs``; other points are left zero (collective).
+
+    Each target point is sent to the ranks whose source bounding box holds it; there the
+    candidate cells come from a bounding-box tree and the containing one is picked by its
+    barycentric coordinates, vectorised (the point search of
+    ``fem.create_interpolation_data`` computes a GJK distance to every candidate, the
+    dominant cost of a transfer).  Of several ranks that hold the point the one where it is
+    deepest inside wins (ties: the lowest rank).
+    """
+    msh = sources[0].function_space.mesh
+    comm = msh.comm
+    gdim = msh.geometry.dim
+    X = V_to.tabulate_dof_coordinates()[:, :gdim]
+    dest, order, sendcounts = _candidate_ranks(msh, X)
+    recv = _exchange(comm, np.ascontiguousarray(X[order]), sendcounts, gdim)
+    score, values = _evaluate_local(msh, recv, sources)
+    recvcounts = np.empty_like(sendcounts)
+    comm.Alltoall(sendcounts, recvcounts)
+    back = _exchange(comm, np.column_stack([score, values]), recvcounts, 1 + values.shape[1])
+    # best answer per target point (the rank order of `order` breaks ties)
+    best = np.full(len(X), -np.inf)
+    chosen = np.full(len(X), -1, dtype=np.int64)
+    pts = order
+    sc = back[:, 0]
+    srt = np.lexsort((dest, -sc, pts))  # per point: highest score first, then lowest rank
+    first = np.ones(len(srt), dtype=bool)
+    first[1:] = pts[srt][1:] != pts[srt][:-1]
+    win = srt[first]
+    best[pts[win]] = sc[win]
+    chosen[pts[win]] = win
+    inside = np.flatnonzero(best >= -_BARYCENTRIC_TOL)
+    vals = back[chosen[inside], 1:]
+    offset = 0
+    for out in outs:
+        bs = out.function_space.dofmap.index_map_bs
+        out.x.array.reshape(-1, bs)[inside] = vals[:, offset : offset + bs]
+        offset += bs
+
+
+def _candidate_ranks(
+    msh: dmesh.Mesh, X: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """For every (target point, rank whose padded source box holds it) pair: the rank, the
+    point, sorted by rank; and the number of points per rank (collective)."""
+    comm = msh.comm
+    gdim = msh.geometry.dim
+    x = msh.geometry.x[:, :gdim]
+    pad = 1e-8 * max(float(np.ptp(x, axis=0).max(initial=0.0)), 1.0)
+    box = np.concatenate([x.min(axis=0, initial=np.inf), x.max(axis=0, initial=-np.inf)])
+    boxes = np.array(comm.allgather(box)).reshape(comm.size, 2, gdim)
+    lo, hi = boxes[:, None, 0, :] - pad, boxes[:, None, 1, :] + pad
+    inside = np.all((X[None, :, :] >= lo) & (X[None, :, :] <= hi), axis=2)  # (ranks, points)
+    dest, point = np.nonzero(inside)
+    sendcounts = np.bincount(dest, minlength=comm.size).astype(np.int64)
+    return dest.astype(np.int64), point.astype(np.int64), sendcounts
+
+
+def _exchange(
+    comm: MPI.Comm, data: npt.NDArray[np.float64], sendcounts: npt.NDArray[np.int64], width: int
+) -> npt.NDArray[np.float64]:
+    """All-to-all of rows of ``width`` floats, ``sendcounts[r]`` rows to rank ``r``."""
+    recvcounts = np.empty_like(sendcounts)
+    comm.Alltoall(sendcounts, recvcounts)
+    out = np.empty((int(recvcounts.sum()), width), dtype=np.float64)
+    send = np.ascontiguousarray(data, dtype=np.float64).reshape(-1, width)
+    comm.Alltoallv(
+        [send, (sendcounts * width, _displs(sendcounts) * width), MPI.DOUBLE],
+        [out, (recvcounts * width, _displs(recvcounts) * width), MPI.DOUBLE],
+    )
+    return out
+
+
+def _displs(counts: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    return np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+
+
+def _evaluate_local(
+    msh: dmesh.Mesh, points: npt.NDArray[np.float64], sources: Sequence[fem.Function]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Score (smallest barycentric coordinate in the best owned cell, ``-inf`` if none) and
+    the values of ``sources`` there (stacked columns) at each of ``points``."""
+    tdim = msh.topology.dim
+    gdim = msh.geometry.dim
+    width = sum(int(np.prod(u.ufl_shape)) for u in sources)
+    score = np.full(len(points), -np.inf)
+    values = np.zeros((len(points), width))
+    nown = msh.topology.index_map(tdim).size_local
+    if len(points) == 0 or nown == 0:
+        return score, values
+    p3 = np.zeros((len(points), 3))
+    p3[:, :gdim] = points
+    tree = geometry.bb_tree(msh, tdim, entities=np.arange(nown, dtype=np.int32), padding=1e-10)
+    cand = geometry.compute_collisions_points(tree, p3)
+    cells = cand.array
+    if len(cells) == 0:
+        return score, values
+    counts = np.diff(cand.offsets)
+    pts = np.repeat(np.arange(len(points)), counts)  # pairs grouped by point
+    nodes = msh.geometry.x[np.asarray(msh.geometry.dofmaps[0])[cells, : tdim + 1], :gdim]
+    s = _smallest_barycentric(nodes, points[pts])
+    has = np.flatnonzero(counts)
+    score[has] = np.maximum.reduceat(s, cand.offsets[:-1][has])
+    best = np.flatnonzero(s == score[pts])  # the first best pair of each point wins
+    first = np.ones(len(best), dtype=bool)
+    first[1:] = pts[best][1:] != pts[best][:-1]
+    win = best[first]
+    win = win[s[win] >= -_BARYCENTRIC_TOL]
+    ok, ok_cells = pts[win], cells[win].astype(np.int32)
+    col = 0
+    for u in sources:
+        n = int(np.prod(u.ufl_shape))
+        if len(ok):
+            values[ok, col : col + n] = u.eval(p3[ok], ok_cells).reshape(len(ok), n)
+        col += n
+    return score, values
+
+
+def _smallest_barycentric(
+    nodes: npt.NDArray[np.float64], x: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
+    """The smallest barycentric coordinate of each point ``x[k]`` in the simplex
+    ``nodes[k]`` (``(n, d + 1, d)``, d = 2 or 3): >= 0 inside, negative outside."""
+    e = nodes[:, 1:, :] - nodes[:, :1, :]
+    r = x - nodes[:, 0, :]
+    if nodes.shape[2] == 2:
+        det = e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0]
+        l1 = (r[:, 0] * e[:, 1, 1] - r[:, 1] * e[:, 1, 0]) / det
+        l2 = (e[:, 0, 0] * r[:, 1] - e[:, 0, 1] * r[:, 0]) / det
+        lam = (l1, l2)
+    else:
+        a, b, c = e[:, 0, :], e[:, 1, :], e[:, 2, :]
+        bc, ca, ab = np.cross(b, c), np.cross(c, a), np.cross(a, b)
+        det = np.einsum("ij,ij->i", a, bc)
+        lam = tuple(np.einsum("ij,ij->i", r, n) / det for n in (bc, ca, ab))
+    return np.minimum.reduce((*lam, 1.0 - sum(lam)))
 
 
 def _ones(msh: dmesh.Mesh, shape: tuple[int, ...]) -> fem.Function:
