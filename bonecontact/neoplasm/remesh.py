@@ -99,7 +99,10 @@ class CoverageError(RuntimeError):
 
 # ----------------------------------------------------------------------------- gmsh
 def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
-    """Build and mesh a gmsh model on rank 0, then distribute it over ``comm``."""
+    """Build and mesh a gmsh model on rank 0, then distribute it over ``comm``.
+
+    Only the cells are a physical group: the boundary is found from the topology, and
+    facet tags would cost a distributed tag construction per remesh."""
     error = None
     with gmsh_session(name) if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
@@ -150,7 +153,6 @@ def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
         for line in lines:
             gmsh.model.mesh.setTransfiniteCurve(line, 2)
         gmsh.model.addPhysicalGroup(2, [surf], 1, name="tumour")
-        gmsh.model.addPhysicalGroup(1, lines, 1, name="boundary")
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
         gmsh.option.setNumber("Mesh.Algorithm", 6)
@@ -177,7 +179,6 @@ def surface_mesh(
         vol = gmsh.model.geo.addVolume([sl])
         gmsh.model.geo.synchronize()
         gmsh.model.addPhysicalGroup(3, [vol], 1, name="tumour")
-        gmsh.model.addPhysicalGroup(2, [s], 1, name="boundary")
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
 
