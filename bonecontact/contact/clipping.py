@@ -1,7 +1,8 @@
 """Mortar segments: 3D polygon clipping and the projections of 2D segments, pure NumPy.
 
 Sutherland-Hodgman clipping of (projected) master triangles by slave triangles on padded
-arrays, polygon areas and fan quadrature of the clipped polygons; projection of points
+arrays, polygon areas, exact moments up to order 2 and fan quadrature of the clipped
+polygons; projection of points
 onto master segments along the interpolated slave normal and onto lines along given
 directions.
 """
@@ -18,7 +19,9 @@ from bonecontact.contact.geometry import FloatArray, IntArray
 __all__ = [
     "clip_polygons_by_triangles",
     "fan_quadrature",
+    "fan_triangle_quadrature",
     "polygon_areas",
+    "polygon_moments",
     "project_points_to_lines_along_directions",
     "project_points_to_segments_interpolated_normal",
 ]
@@ -139,6 +142,75 @@ def fan_quadrature(poly: FloatArray, count: IntArray) -> tuple[FloatArray, Float
     )
     weights = area[:, :, None] * w[None, None, :]
     return points.reshape(n_poly, -1, 2), weights.reshape(n_poly, -1)
+
+
+def polygon_moments(poly: npt.ArrayLike, count: npt.ArrayLike) -> FloatArray:
+    """Exact moments up to order 2 of padded simple polygons (Green's theorem).
+
+    Parameters
+    ----------
+    poly : array_like, shape (P, K, 2)
+        Vertices ``(x, y)`` in either orientation, valid for ``k < count``.
+    count : array_like of int, shape (P,)
+
+    Returns
+    -------
+    ndarray, shape (P, 3, 3)
+        ``S[p] = int_polygon b b^T`` with ``b = (1, x, y)``: the area, the first
+        moments ``int x``, ``int y`` and the second moments ``int x^2``, ``int x y``,
+        ``int y^2``.
+    """
+    poly = np.asarray(poly, dtype=float)
+    cnt = np.asarray(count, dtype=np.int64)
+    idx = np.arange(poly.shape[1])
+    nxt = np.where(idx[None, :] + 1 < cnt[:, None], idx[None, :] + 1, 0)
+    x0, y0 = poly[..., 0], poly[..., 1]
+    x1 = np.take_along_axis(x0, nxt, axis=1)
+    y1 = np.take_along_axis(y0, nxt, axis=1)
+    c = np.where(idx[None, :] < cnt[:, None], x0 * y1 - x1 * y0, 0.0)  # (P, K)
+    area = 0.5 * c.sum(axis=1)
+    sign = np.where(area < 0.0, -1.0, 1.0)
+    m = np.empty((len(cnt), 3, 3))
+    m[:, 0, 0] = sign * area
+    m[:, 0, 1] = m[:, 1, 0] = sign * np.sum((x0 + x1) * c, axis=1) / 6.0
+    m[:, 0, 2] = m[:, 2, 0] = sign * np.sum((y0 + y1) * c, axis=1) / 6.0
+    m[:, 1, 1] = sign * np.sum((x0 * x0 + x0 * x1 + x1 * x1) * c, axis=1) / 12.0
+    m[:, 2, 2] = sign * np.sum((y0 * y0 + y0 * y1 + y1 * y1) * c, axis=1) / 12.0
+    m[:, 1, 2] = m[:, 2, 1] = (
+        sign * np.sum((x0 * y1 + 2.0 * (x0 * y0 + x1 * y1) + x1 * y0) * c, axis=1) / 24.0
+    )
+    return m
+
+
+def fan_triangle_quadrature(
+    poly: FloatArray, count: IntArray
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    """The centroid-fan 7-point rule of :func:`fan_quadrature`, without padding.
+
+    The polygons' fan triangles (from the vertex centroid to each edge) are listed one
+    after the other, polygon by polygon.
+
+    Returns
+    -------
+    owner : (T,) polygon of each fan triangle (non-decreasing).
+    points : (T, 7, 2) quadrature points.
+    weights : (T, 7) weights (summing to each fan triangle's area).
+    """
+    n_poly, k_max, _ = poly.shape
+    idx = np.arange(k_max)
+    valid = idx[None, :] < count[:, None]
+    centre = np.where(valid[:, :, None], poly, 0.0).sum(axis=1) / np.maximum(count, 1)[:, None]
+    owner, k = np.nonzero(valid)
+    nxt = np.where(k + 1 < count[owner], k + 1, 0)
+    a, b, c = centre[owner], poly[owner, k], poly[owner, nxt]
+    area = 0.5 * np.abs(cross2(b - a, c - a))
+    bary, w = TRIANGLE_RULE
+    points = (
+        bary[None, :, 0, None] * a[:, None, :]
+        + bary[None, :, 1, None] * b[:, None, :]
+        + bary[None, :, 2, None] * c[:, None, :]
+    )
+    return owner, points, area[:, None] * w[None, :]
 
 
 # ----------------------------------------------------------------------------------

@@ -5,8 +5,8 @@ candidate pairs and quadrature points; there is no DOLFINx or MPI dependency, so
 parallel run every rank calls :func:`assemble_mortar` on its own (local) slave facets
 and on whatever master facets it can see, and inserts the returned COO triplets into
 distributed PETSc matrices.  2D: overlap of projected segments; 3D: the master
-triangle projected into the slave triangle's plane, clipped, fan-triangulated and
-integrated with the 7-point rule.
+triangle projected into the slave triangle's plane and clipped; exact polygon moments
+for D and M, the 7-point rule on a fan of the polygon for the gap.
 
 The gap is ``g = (x_master - x_slave) . n`` with ``n`` the normalised interpolation of
 the slave nodal normals (``g >= 0`` means separated, docs/theory/mortar.md#contact-conditions).
@@ -23,8 +23,9 @@ import numpy.typing as npt
 from bonecontact.common.geometry import cross2
 from bonecontact.contact.clipping import (
     clip_polygons_by_triangles,
-    fan_quadrature,
+    fan_triangle_quadrature,
     polygon_areas,
+    polygon_moments,
     project_points_to_lines_along_directions,
     project_points_to_segments_interpolated_normal,
 )
@@ -33,7 +34,6 @@ from bonecontact.contact.dual_basis import (
     modify_dual_coefficients,
     reference_dual_coefficients,
     shape_segment,
-    shape_triangle,
 )
 from bonecontact.contact.geometry import BoolArray, FloatArray, IntArray, normalise, simplex_measure
 from bonecontact.contact.search import (
@@ -184,12 +184,15 @@ def integrate_triangle_pairs(
 
     The master triangle is projected into the slave triangle's plane along the
     slave facet normal and expressed in the slave's reference coordinates; it is
-    clipped against the reference triangle (Sutherland-Hodgman), the polygon
-    (at most 6 vertices) is fan-triangulated from its vertex centroid and
-    integrated with the 7-point degree-5 rule.  Master barycentric coordinates of
-    the quadrature points are those w.r.t. the projected master triangle (the
-    projection is affine), the gap is measured along the normalised interpolated
-    slave nodal normal.
+    clipped against the reference triangle (Sutherland-Hodgman), giving a convex
+    polygon of at most 6 vertices.  The master shape functions composed with the
+    projection are affine in the slave reference coordinates (barycentric
+    coordinates in the projected master triangle), so ``D`` and ``M`` (quadratic
+    integrands) follow exactly from the polygon's moments up to order 2.  The gap,
+    measured along the normalised interpolated slave nodal normal, is not a
+    polynomial: it is integrated on the fan of triangles from the polygon's vertex
+    centroid with the 7-point degree-5 rule, from two quadratics (``(y - x) . n``
+    and ``|n|^2``) formed once per pair.  Vectorised over all pairs.
 
     Parameters
     ----------
@@ -253,24 +256,100 @@ def integrate_triangle_pairs(
     live, poly, count = live[keep], poly[keep], count[keep]
     mref_l, e1, e2, det_m = mref_l[keep], e1[keep], e2[keep], det_m[keep]
 
-    qp, wref = fan_quadrature(poly, count)
-    weights = wref * np.sqrt(det_s[live])[:, None]  # 2 |T_s| = sqrt(det G)
-    phi_s = shape_triangle(qp)  # (L, Q, 3)
-    rel = qp - mref_l[:, None, 0]
-    l1 = cross2(rel, e2[:, None]) / det_m[:, None]
-    l2 = cross2(e1[:, None], rel) / det_m[:, None]
-    phi_m = np.stack([1.0 - l1 - l2, l1, l2], axis=-1)
-
-    x = x0[live, None] + qp[..., 0:1] * a1[live, None] + qp[..., 1:2] * a2[live, None]
-    y = np.matmul(phi_m, xm[live])
-    n = normalise(np.matmul(phi_s, ns[live]))
-    gap = np.sum((y - x) * n, axis=-1)
-    part = _integrals(weights, phi_s, phi_m, gap, all_coeffs[live])
-    result.area[live] = part.area
-    result.d[live] = part.d
-    result.m[live] = part.m
-    result.gap[live] = part.gap
+    jac = np.sqrt(det_s[live])  # 2 |T_s| = sqrt(det G): reference area -> area
+    # phi^m o Pi is affine in the slave reference coordinates: phi^m = B (1, xi, eta)
+    b_m = _master_shape_coefficients(mref_l[:, 0], e1, e2, det_m)  # (L, 3, 3)
+    # psi phi and psi phi^m are quadratic: exact polygon moments S = int b b^T
+    moments = polygon_moments(poly, count) * jac[:, None, None]
+    coeffs_l = all_coeffs[live]
+    psi_b = np.matmul(coeffs_l, _SHAPE_COEFFS)  # psi = psi_b (1, xi, eta)
+    psi_s = np.matmul(psi_b, moments)  # (L, 3, 3): int psi_j b_l
+    gap_moments = _gap_moments(poly, count, x0[live], a1[live], a2[live], xm[live], ns[live], b_m)
+    result.area[live] = moments[:, 0, 0]
+    result.d[live] = np.matmul(psi_s, _SHAPE_COEFFS.T)
+    result.m[live] = np.matmul(psi_s, np.swapaxes(b_m, 1, 2))
+    result.gap[live] = np.matmul(psi_b, (gap_moments * jac[:, None])[:, :, None])[:, :, 0]
     return result
+
+
+#: P1 shape functions on the reference triangle as ``phi = _SHAPE_COEFFS (1, xi, eta)``.
+_SHAPE_COEFFS: FloatArray = np.array([[1.0, -1.0, -1.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _master_shape_coefficients(
+    m0: FloatArray, e1: FloatArray, e2: FloatArray, det_m: FloatArray
+) -> FloatArray:
+    """Barycentric coordinates of the projected master triangle (vertex ``m0``, edges
+    ``e1``, ``e2``, ``det_m = e1 x e2``) as affine functions ``B (1, xi, eta)``.
+
+    Returns
+    -------
+    (P, 3, 3) the rows of ``B`` for the master vertices 0, 1, 2.
+    """
+    inv = 1.0 / det_m
+    l1 = np.stack([m0[:, 1] * e2[:, 0] - m0[:, 0] * e2[:, 1], e2[:, 1], -e2[:, 0]], axis=1)
+    l2 = np.stack([m0[:, 0] * e1[:, 1] - m0[:, 1] * e1[:, 0], -e1[:, 1], e1[:, 0]], axis=1)
+    l1, l2 = l1 * inv[:, None], l2 * inv[:, None]
+    l0 = np.array([1.0, 0.0, 0.0])[None, :] - l1 - l2
+    return np.stack([l0, l1, l2], axis=1)
+
+
+def _gap_moments(
+    poly: FloatArray,
+    count: IntArray,
+    x0: FloatArray,
+    a1: FloatArray,
+    a2: FloatArray,
+    xm: FloatArray,
+    ns: FloatArray,
+    b_m: FloatArray,
+) -> FloatArray:
+    """``int (1, xi, eta) g`` over each clipped polygon (reference measure).
+
+    ``y - x`` (master point opposite minus slave point) and the interpolated nodal
+    normal ``n`` are affine in the slave reference coordinates, so ``(y - x) . n`` and
+    ``|n|^2`` are quadratics whose coefficients are formed once per pair; the gap
+    ``g = (y - x) . n / |n|`` (zero where ``n = 0``) is integrated with the centroid-fan
+    7-point rule.
+
+    Returns
+    -------
+    (L, 3)
+    """
+    # y - x = c0 + xi c1 + eta c2;  n = n0 + xi n1 + eta n2
+    y_coef = np.matmul(np.swapaxes(b_m, 1, 2), xm)  # (L, 3 (1, xi, eta), 3 (xyz))
+    c = y_coef - np.stack([x0, a1, a2], axis=1)
+    n = np.stack([ns[:, 0], ns[:, 1] - ns[:, 0], ns[:, 2] - ns[:, 0]], axis=1)
+    # quadratic coefficients (1, xi, eta, xi^2, xi eta, eta^2) of (y - x).n and |n|^2
+    num = _product_quadratic(c, n)
+    den = _product_quadratic(n, n)
+    owner, qp, w = fan_triangle_quadrature(poly, count)  # (T, 7, 2), (T, 7)
+    xi, eta = qp[..., 0], qp[..., 1]
+    basis = np.stack([np.ones_like(xi), xi, eta, xi * xi, xi * eta, eta * eta], axis=-1)
+    p = np.einsum("tqk,tk->tq", basis, num[owner])
+    q = np.einsum("tqk,tk->tq", basis, den[owner])
+    g = np.divide(p, np.sqrt(np.maximum(q, 0.0)), out=np.zeros_like(p), where=q > 0.0)
+    wg = w * g
+    per_triangle = np.stack([wg.sum(axis=1), (wg * xi).sum(axis=1), (wg * eta).sum(axis=1)], 1)
+    starts = np.concatenate([[0], np.cumsum(count)[:-1]])
+    return np.add.reduceat(per_triangle, starts, axis=0)
+
+
+def _product_quadratic(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Coefficients ``(1, xi, eta, xi^2, xi eta, eta^2)`` of ``u . v`` for affine vector
+    fields ``u = u0 + xi u1 + eta u2`` and ``v`` likewise, given as (P, 3, gdim)."""
+    dot = np.einsum("pig,pjg->pij", u, v)
+    return np.stack(
+        [
+            dot[:, 0, 0],
+            dot[:, 0, 1] + dot[:, 1, 0],
+            dot[:, 0, 2] + dot[:, 2, 0],
+            dot[:, 1, 1],
+            dot[:, 1, 2] + dot[:, 2, 1],
+            dot[:, 2, 2],
+        ],
+        axis=1,
+    )
 
 
 _REF_TRIANGLE: FloatArray = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])

@@ -13,7 +13,9 @@ from bonecontact.common.geometry import cross2
 from bonecontact.contact.clipping import (
     clip_polygons_by_triangles,
     fan_quadrature,
+    fan_triangle_quadrature,
     polygon_areas,
+    polygon_moments,
     project_points_to_lines_along_directions,
     project_points_to_segments_interpolated_normal,
 )
@@ -50,6 +52,36 @@ def test_clipped_areas_random_triangle_pairs():
     # fan-quadrature weights of the clipped polygons integrate 1 to the same area
     _, wq = fan_quadrature(poly, count)
     np.testing.assert_allclose(wq.sum(axis=1), area, atol=1e-13)
+
+
+def test_polygon_moments_against_fan_quadrature():
+    """Moments of order <= 2 of clipped polygons (3 to 6 vertices, either orientation)
+    by Green's theorem equal the degree-5 fan rule (exact for quadratics); the unpadded
+    fan rule equals the padded one."""
+    rng = np.random.default_rng(10)
+    n = 300
+    a = rng.uniform(0, 1, (n, 3, 2))
+    b = rng.uniform(0, 1, (n, 3, 2)) + rng.uniform(-0.3, 0.3, (n, 1, 2))
+    poly, count = clip_polygons_by_triangles(b, np.full(n, 3), a)
+    idx = np.arange(poly.shape[1])
+    rev = np.where(idx < count[:, None], count[:, None] - 1 - idx, idx)
+    poly[::2] = np.take_along_axis(poly, rev[:, :, None], axis=1)[::2]  # clockwise
+    keep = count >= 3
+    poly, count = poly[keep], count[keep]
+    assert set(np.unique(count)) >= {3, 4, 5, 6}
+    mom = polygon_moments(poly, count)
+    qp, w = fan_quadrature(poly, count)
+    b_q = np.stack([np.ones(qp.shape[:2]), qp[..., 0], qp[..., 1]], axis=-1)
+    ref = np.einsum("pq,pqi,pqj->pij", w, b_q, b_q)
+    np.testing.assert_allclose(mom, ref, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(mom[:, 0, 0], polygon_areas(poly, count), atol=1e-15)
+    owner, qp_flat, w_flat = fan_triangle_quadrature(poly, count)
+    assert np.all(np.diff(owner) >= 0) and len(owner) == count.sum()
+    np.testing.assert_allclose(np.bincount(owner, w_flat.sum(axis=1)), w.sum(axis=1), atol=1e-15)
+    f = lambda p: np.sin(3 * p[..., 0]) * np.exp(p[..., 1])  # noqa: E731
+    np.testing.assert_allclose(
+        np.bincount(owner, (w_flat * f(qp_flat)).sum(axis=1)), (w * f(qp)).sum(axis=1), atol=1e-14
+    )
 
 
 def test_clipped_areas_monte_carlo():
