@@ -56,9 +56,10 @@ def contact3d_table(path: Path) -> str:
     for r in sorted(rows, key=key):
         solver = "MUMPS" if r["linear"] == "direct" else "Krylov+GAMG"
         its = r["linear_its"] if r["linear"] == "iterative" else ""
+        krylov = r["krylov_iterations"] if r["linear"] == "iterative" else "—"
         out.append(
             f"| {r['dofs']} | {r['ranks']} | {solver} | {r['status']} | {r['a_over_h']} "
-            f"| {r['pdas_iterations']} | {r['krylov_iterations']} | {pct(r['err_a'])} "
+            f"| {r['pdas_iterations']} | {krylov} | {pct(r['err_a'])} "
             f"| {pct(r['err_p0'])} | {r['t_mesh_generate_s']} | {r['t_mesh_read_s']} "
             f"| {r['t_assembly_s']} | {r['t_mortar_s']} | {r['t_setup_s']} "
             f"| {r['t_contact_s']} | {r['t_output_s']} | {r['t_linear_s']}"
