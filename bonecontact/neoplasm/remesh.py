@@ -160,14 +160,26 @@ def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
     return _run_gmsh("polygon", 2, build, comm)
 
 
+#: gmsh's 3D algorithms by name (Mesh.Algorithm3D).
+_ALGORITHM_3D = {"delaunay": 1, "hxt": 10}
+
+
 def surface_mesh(
-    points: npt.ArrayLike, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
+    points: npt.ArrayLike,
+    triangles: npt.ArrayLike,
+    h: float,
+    comm: MPI.Comm,
+    algorithm: str = "delaunay",
 ) -> dmesh.Mesh:
     """Tetrahedralise the inside of a closed triangulated surface; the surface is kept.
 
     ``points`` ``(N, 3)`` and ``triangles`` ``(M, 3)`` (indices into ``points``) are read
-    on rank 0.  The boundary vertices of the result are exactly ``points``.
+    on rank 0.  The boundary vertices of the result are exactly ``points``.  ``algorithm``:
+    gmsh's ``"delaunay"`` (default) or ``"hxt"`` (about twice as fast for 10⁴ cells and
+    more, used for remeshing).
     """
+    if algorithm not in _ALGORITHM_3D:
+        raise ValueError(f"algorithm must be one of {sorted(_ALGORITHM_3D)}, got {algorithm!r}")
     pts = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
     tri = np.asarray(triangles, dtype=np.int64) if comm.rank == 0 else None
 
@@ -181,6 +193,7 @@ def surface_mesh(
         gmsh.model.addPhysicalGroup(3, [vol], 1, name="tumour")
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+        gmsh.option.setNumber("Mesh.Algorithm3D", _ALGORITHM_3D[algorithm])
 
     return _run_gmsh("surface", 3, build, comm)
 
@@ -225,10 +238,11 @@ def moved_surface_mesh(
 ) -> tuple[dmesh.Mesh, bool]:
     """Tetrahedralise a moved closed surface, repairing it if gmsh cannot.
 
-    The surface is kept as it is when possible (:func:`surface_mesh`).  A surface moved by
-    a noisy nodal velocity can intersect itself at the scale of its edges ("PLC Error: a
-    segment and a facet intersect"); it is then Taubin-smoothed
-    (:func:`smooth_surface`, rank 0) and tetrahedralised again.
+    The surface is kept as it is when possible (:func:`surface_mesh` with gmsh's HXT
+    algorithm, then with its Delaunay algorithm if HXT fails).  A surface moved by a noisy
+    nodal velocity can intersect itself at the scale of its edges ("PLC Error: a segment
+    and a facet intersect"); it is then Taubin-smoothed (:func:`smooth_surface`, rank 0)
+    and tetrahedralised again.
 
     Returns
     -------
@@ -236,10 +250,20 @@ def moved_surface_mesh(
         The distributed mesh and whether the surface had to be smoothed.
     """
     try:
-        return surface_mesh(points, triangles, h, comm), False
+        return _tetrahedralise(points, triangles, h, comm), False
     except RemeshError:
         pts = smooth_surface(points, triangles) if comm.rank == 0 else None
-        return surface_mesh(pts, triangles, h, comm), True
+        return _tetrahedralise(pts, triangles, h, comm), True
+
+
+def _tetrahedralise(
+    points: npt.ArrayLike | None, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
+) -> dmesh.Mesh:
+    """:func:`surface_mesh` by HXT, or by Delaunay when HXT fails (collective)."""
+    try:
+        return surface_mesh(points, triangles, h, comm, algorithm="hxt")
+    except RemeshError:
+        return surface_mesh(points, triangles, h, comm, algorithm="delaunay")
 
 
 def sphere_mesh(
@@ -320,7 +344,7 @@ def gather_boundary(msh: dmesh.Mesh) -> Boundary:
     # outward orientation: compare with the opposite vertex of the (unique) cell
     f2c = msh.topology.connectivity(fdim, tdim)
     c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
-    cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int32)
+    cells = f2c.array[f2c.offsets[facets]]  # the first (only) cell of each facet
     centroid = msh.geometry.x[v2g[c2v[cells]], :gdim].mean(axis=1)
     if tdim == 2:
         t = xyz[:, 1] - xyz[:, 0]

@@ -34,7 +34,10 @@ Results (rank 0 writes, one row per growth step, flushed as the run goes):
     The final tumour / cyst wall vertices ``x,y[,z]`` (m); 2D in counter-clockwise order.
 ``summary.json``
     The usual run summary plus a ``growth`` entry (steps, remeshes, initial and final
-    radius, status, units).
+    radius, status, units) and ``phases_s`` (the wall time of each phase, slowest rank:
+    ``model``, ``output``, ``growth_steps`` and, for a tumour, the split of the steps:
+    nutrient, curvature, pressure, velocity, extension, transport, move, reaction, gmsh,
+    setup, transfer).
 
 Every input problem - including the ones found only with the mesh (``region`` not a
 cell group, a region whose boundary is not one closed curve) - is a
@@ -54,6 +57,7 @@ from mpi4py import MPI
 import numpy as np
 from tqdm import tqdm
 
+from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm.growth import (
     CystShapeGrowth,
     CystSphereGrowth,
@@ -225,12 +229,16 @@ def run_growth(
         in the summary, the rows of the steps done are in growth.csv).
     """
     t_start = time.perf_counter()
-    driver = build_growth(scene, comm)  # SceneError before anything is written
+    timer = PhaseTimer()
+    with timer.phase("model"):
+        driver = build_growth(scene, comm)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
-    table = GrowthTable(comm, outdir, driver.columns)
-    status, message, first, last, t_done = _grow(scene, comm, driver, table, times, progress)
-    _write_boundary(driver, comm, outdir)
+    with timer.phase("output"):
+        table = GrowthTable(comm, outdir, driver.columns)
+    status, message, first, last, t_done = _grow(scene, comm, driver, table, times, progress, timer)
+    with timer.phase("output"):
+        _write_boundary(driver, comm, outdir)
     growth = _growth_entry(scene, driver, status, len(times) - 1, first, last, t_done)
     summary = run_summary(
         scene.name,
@@ -240,12 +248,22 @@ def run_growth(
         units=GROWTH_UNITS,
         steps=driver.steps,
         growth=growth,
+        phases_s=_phases(driver, timer, comm),
     )
     if message is not None:
         summary["message"] = message
     write_summary(comm, outdir, summary)
     comm.barrier()
     return RunResult(status, summary, None, outdir)
+
+
+def _phases(driver: Driver, timer: PhaseTimer, comm: MPI.Comm) -> dict[str, float]:
+    """``phases_s`` of summary.json: the run's phases, then (tumour) the split of
+    ``growth_steps`` into the phases of the tumour's steps (collective)."""
+    if isinstance(driver, TumourGrowth):
+        for name, seconds in driver.model.timer.times.items():
+            timer.add(name, seconds)
+    return timer.summary(comm)
 
 
 def _grow(
@@ -255,15 +273,18 @@ def _grow(
     table: GrowthTable,
     times: np.ndarray,
     progress: bool,
+    timer: PhaseTimer,
 ) -> tuple[str, str | None, list[float], list[float], float]:
     """Step the driver through ``times``, one growth.csv row per step; a failed step ends the run.
 
+    ``timer`` gets the phases ``growth_steps`` (the steps) and ``output`` (the rows).
     Returns ``(status, message, first row, last row, time of the last row)``.
     """
 
     def record(t: float) -> list[float]:
-        vals = driver.row()  # collective (tumour, shape cyst)
-        table.row(t, vals)
+        with timer.phase("output"):
+            vals = driver.row()  # collective (tumour, shape cyst)
+            table.row(t, vals)
         return vals
 
     status, message = "converged", None
@@ -278,7 +299,8 @@ def _grow(
     )
     try:
         for k in range(1, len(times)):
-            driver.step(float(times[k] - times[k - 1]))
+            with timer.phase("growth_steps"):
+                driver.step(float(times[k] - times[k - 1]))
             last, t_done = record(float(times[k])), float(times[k])
             bar.update(1)
     except (

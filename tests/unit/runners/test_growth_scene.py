@@ -509,6 +509,22 @@ def test_cyst_radicular_approach(shared_dir):
 # --------------------------------------------------------------------------------------
 # tumour: R(t) of growth.csv against the radius ODE (docs/theory/growth.md#tumour-model)
 # --------------------------------------------------------------------------------------
+#: The phases of a tumour growth step in summary.json (TumourModel.timer).
+TUMOUR_STEP_PHASES = (
+    "nutrient",
+    "curvature",
+    "pressure",
+    "velocity",
+    "extension",
+    "transport",
+    "move",
+    "reaction",
+    "gmsh",
+    "setup",
+    "transfer",
+)
+
+
 def test_tumour_growth_matches_radius_ode(shared_dir):
     """Quasi-steady, u_p = 1, K_B = μ(u_c − ũ): dR/dt = μ[I1(R)/I0(R) − ũR/2] within 1 %."""
     import json
@@ -539,6 +555,13 @@ def test_tumour_growth_matches_radius_ode(shared_dir):
     assert s["growth"]["final_radius"] == R[-1]
     b = np.loadtxt(out / "boundary.csv", delimiter=",", skiprows=1)
     assert np.max(np.abs(np.linalg.norm(b, axis=1) / R[-1] - 1)) < 0.01
+    # where the run spent its time: the run's phases (timed one after the other) fit in
+    # the wall time, and the tumour's step phases (15 steps, each remeshed) split the steps
+    phases = s["phases_s"]
+    run, steps = {"model", "growth_steps", "output"}, set(TUMOUR_STEP_PHASES)
+    assert set(phases) == run | steps and all(phases[k] > 0.0 for k in run)
+    assert sum(phases[k] for k in run) <= s["wall_time_s"]
+    assert sum(phases[k] for k in steps) <= phases["growth_steps"]
 
 
 @pytest.mark.serial
