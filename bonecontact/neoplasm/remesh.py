@@ -65,7 +65,7 @@ import ufl
 from dolfinx import fem, geometry
 from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
-from dolfinx.io.gmsh import model_to_mesh
+from dolfinx.io import gmsh as gmsh_io
 
 from bonecontact.common.geometry import signed_polygon_area
 from bonecontact.meshing.session import gmsh_session
@@ -101,8 +101,9 @@ class CoverageError(RuntimeError):
 def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
     """Build and mesh a gmsh model on rank 0, then distribute it over ``comm``.
 
-    Only the cells are a physical group: the boundary is found from the topology, and
-    facet tags would cost a distributed tag construction per remesh."""
+    Only the cells are a physical group and the mesh is made without tags (the boundary
+    is found from the topology): tags would cost a distributed tag construction per
+    remesh."""
     error = None
     with gmsh_session(name) if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
@@ -114,11 +115,31 @@ def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
         error = comm.bcast(error, root=0)
         if error is not None:
             raise RemeshError(f"{name}: {error}")
-        partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
-        data = model_to_mesh(
-            gmsh.model if comm.rank == 0 else None, comm, 0, gdim=dim, partitioner=partitioner
-        )
-    return data.mesh
+        return _distribute_cells(comm, dim)
+
+
+def _distribute_cells(comm: MPI.Comm, dim: int) -> dmesh.Mesh:
+    """The cells of dimension ``dim`` of the physical groups of rank 0's gmsh model as a
+    distributed mesh, without tags (the cells, nodes and partitioner of
+    :func:`dolfinx.io.gmsh.model_to_mesh`, so the same mesh)."""
+    types, cells, x = None, None, np.empty((0, dim))
+    if comm.rank == 0:
+        x = gmsh_io.extract_geometry(gmsh.model)[:, :dim]
+        topologies, _ = gmsh_io.extract_topology_and_markers(gmsh.model)
+        types = [t for t in topologies if gmsh.model.mesh.getElementProperties(t)[1] == dim]
+        if len(types) == 1:
+            cells = np.asarray(topologies[types[0]]["topology"], dtype=np.int64)
+    types = comm.bcast([int(t) for t in types] if types is not None else None, root=0)
+    if len(types) != 1:  # collectively
+        raise RemeshError(f"expected one cell type of dimension {dim}, got {types}")
+    etype = types[0]
+    domain = gmsh_io.ufl_mesh(etype, dim, dtype=np.float64)
+    nodes = domain.ufl_coordinate_element().basix_element.dim
+    if cells is None:
+        cells = np.empty((0, nodes), dtype=np.int64)
+    perm = gmsh_io.cell_perm_array(dmesh.to_type(str(domain.ufl_cell())), nodes)
+    partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
+    return dmesh.create_mesh(comm, cells[:, perm].copy(), domain, x, partitioner)
 
 
 def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
@@ -160,26 +181,17 @@ def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
     return _run_gmsh("polygon", 2, build, comm)
 
 
-#: gmsh's 3D algorithms by name (Mesh.Algorithm3D).
-_ALGORITHM_3D = {"delaunay": 1, "hxt": 10}
-
-
 def surface_mesh(
-    points: npt.ArrayLike,
-    triangles: npt.ArrayLike,
-    h: float,
-    comm: MPI.Comm,
-    algorithm: str = "delaunay",
+    points: npt.ArrayLike, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
 ) -> dmesh.Mesh:
     """Tetrahedralise the inside of a closed triangulated surface; the surface is kept.
 
     ``points`` ``(N, 3)`` and ``triangles`` ``(M, 3)`` (indices into ``points``) are read
-    on rank 0.  The boundary vertices of the result are exactly ``points``.  ``algorithm``:
-    gmsh's ``"delaunay"`` (default) or ``"hxt"`` (about twice as fast for 10⁴ cells and
-    more, used for remeshing).
+    on rank 0.  The boundary vertices of the result are exactly ``points``.  gmsh's
+    Delaunay algorithm: its HXT algorithm is about twice as fast from 10⁴ cells on, but
+    its mesh changes with round-off differences of the surface, so a growing tumour would
+    no longer be the same on any number of ranks (radius 2e-7 apart after two remeshes).
     """
-    if algorithm not in _ALGORITHM_3D:
-        raise ValueError(f"algorithm must be one of {sorted(_ALGORITHM_3D)}, got {algorithm!r}")
     pts = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
     tri = np.asarray(triangles, dtype=np.int64) if comm.rank == 0 else None
 
@@ -193,7 +205,6 @@ def surface_mesh(
         gmsh.model.addPhysicalGroup(3, [vol], 1, name="tumour")
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
-        gmsh.option.setNumber("Mesh.Algorithm3D", _ALGORITHM_3D[algorithm])
 
     return _run_gmsh("surface", 3, build, comm)
 
@@ -238,11 +249,10 @@ def moved_surface_mesh(
 ) -> tuple[dmesh.Mesh, bool]:
     """Tetrahedralise a moved closed surface, repairing it if gmsh cannot.
 
-    The surface is kept as it is when possible (:func:`surface_mesh` with gmsh's HXT
-    algorithm, then with its Delaunay algorithm if HXT fails).  A surface moved by a noisy
-    nodal velocity can intersect itself at the scale of its edges ("PLC Error: a segment
-    and a facet intersect"); it is then Taubin-smoothed (:func:`smooth_surface`, rank 0)
-    and tetrahedralised again.
+    The surface is kept as it is when possible (:func:`surface_mesh`).  A surface moved by
+    a noisy nodal velocity can intersect itself at the scale of its edges ("PLC Error: a
+    segment and a facet intersect"); it is then Taubin-smoothed
+    (:func:`smooth_surface`, rank 0) and tetrahedralised again.
 
     Returns
     -------
@@ -250,20 +260,10 @@ def moved_surface_mesh(
         The distributed mesh and whether the surface had to be smoothed.
     """
     try:
-        return _tetrahedralise(points, triangles, h, comm), False
+        return surface_mesh(points, triangles, h, comm), False
     except RemeshError:
         pts = smooth_surface(points, triangles) if comm.rank == 0 else None
-        return _tetrahedralise(pts, triangles, h, comm), True
-
-
-def _tetrahedralise(
-    points: npt.ArrayLike | None, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
-) -> dmesh.Mesh:
-    """:func:`surface_mesh` by HXT, or by Delaunay when HXT fails (collective)."""
-    try:
-        return surface_mesh(points, triangles, h, comm, algorithm="hxt")
-    except RemeshError:
-        return surface_mesh(points, triangles, h, comm, algorithm="delaunay")
+        return surface_mesh(pts, triangles, h, comm), True
 
 
 def sphere_mesh(

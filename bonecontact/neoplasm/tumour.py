@@ -66,12 +66,11 @@ Limitations
 * 3D (tests/test_tumour.py): radial growth within 0.6 % of the ODE while a ball of h = 0.3R
   doubles (dt = 0.1, remeshed every 2 steps), uniform densities with γ = 0.02 within 4e-4
   (mesh moved, not remeshed).  The nodal V_n scatters by about ±20 % on such a coarse
-  ball, which roughens the kept surface until gmsh may no longer tetrahedralise it ("PLC
-  Error: A segment and a facet intersect": gmsh's Delaunay algorithm from the third remesh
-  of that test on; the HXT algorithm used first did not fail there).  Such a surface is
-  Taubin-smoothed (no shrinkage) and tetrahedralised again
+  ball, which roughens the kept surface until gmsh can no longer tetrahedralise it ("PLC
+  Error: A segment and a facet intersect", from the third remesh of that test on).  Such
+  a surface is Taubin-smoothed (no shrinkage) and tetrahedralised again
   (:func:`bonecontact.neoplasm.remesh.moved_surface_mesh`; counted in ``smoothed_remeshes``): the
-  uniform-density test stays within 0.07 % of the ODE while remeshing every 2 steps.
+  uniform-density test then stays within 0.4 % of the ODE while remeshing every 2 steps.
   Surface re-sampling (new surface vertices) in 3D is not done.
 * degree > 1 is accepted for the nutrient/pressure solves but boundary motion and surface
   tension need degree = 1.

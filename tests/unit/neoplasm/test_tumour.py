@@ -107,14 +107,13 @@ def test_radial_quasi_steady_3d():
 
 def test_uniform_densities_3d_with_surface_tension():
     """3D, constant rates, uniform data, gamma = 0.02, remeshed every 2 steps: u_p, u_q
-    obey their ODEs and R = R0 exp(int h dt / 3) within 1 % (measured 6.8e-4 with the HXT
-    remeshing, 4.0e-3 with gmsh's Delaunay; R x 1.11 in 12 steps, a few s).
+    obey their ODEs and R = R0 exp(int h dt / 3) within 1 % (measured 4.0e-3, R x 1.11
+    in 12 steps, a few s).
 
     The nodal V_n on this coarse ball scatters by +-20 % about its mean and roughens the
-    moved surface; with gmsh's Delaunay algorithm the surface could no longer be
-    tetrahedralised as it was ("PLC Error: A segment and a facet intersect", serially from
-    the third remesh) and went through the Taubin-smoothed surface
-    (remesh.moved_surface_mesh), which HXT does not need here."""
+    moved surface until gmsh cannot tetrahedralise it as it is ("PLC Error: A segment and
+    a facet intersect", serially from the third remesh): such remeshes go through the
+    Taubin-smoothed surface (remesh.moved_surface_mesh)."""
     rates = dict(K_B=1.0, K_Q=0.5, K_A=0.1, K_P=0.2, K_D=0.1, K_R=0.3)
     p = TumourParameters(**rates, gamma=0.02, u_p0=0.6, u_q0=0.2)
     m = TumourModel.ball(MPI.COMM_WORLD, 1.0, p, h=0.3, remesh_every=2)
