@@ -782,7 +782,10 @@ def _evaluate_local(
     col = 0
     for u in sources:
         n = int(np.prod(u.ufl_shape))
-        if len(ok):
+        if len(ok) and u.function_space.element.space_dimension == n:  # DG0: the cell value
+            dofs = np.asarray(u.function_space.dofmap.list)[ok_cells, 0]
+            values[ok, col : col + n] = u.x.array.reshape(-1, n)[dofs]
+        elif len(ok):
             values[ok, col : col + n] = u.eval(p3[ok], ok_cells).reshape(len(ok), n)
         col += n
     return score, values
@@ -802,10 +805,21 @@ def _smallest_barycentric(
         lam = (l1, l2)
     else:
         a, b, c = e[:, 0, :], e[:, 1, :], e[:, 2, :]
-        bc, ca, ab = np.cross(b, c), np.cross(c, a), np.cross(a, b)
+        bc, ca, ab = _cross(b, c), _cross(c, a), _cross(a, b)
         det = np.einsum("ij,ij->i", a, bc)
         lam = tuple(np.einsum("ij,ij->i", r, n) / det for n in (bc, ca, ab))
     return np.minimum.reduce((*lam, 1.0 - sum(lam)))
+
+
+def _cross(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Row-wise cross product of ``(n, 3)`` arrays (``np.cross`` is slow for short rows)."""
+    return np.column_stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ]
+    )
 
 
 def _ones(msh: dmesh.Mesh, shape: tuple[int, ...]) -> fem.Function:

@@ -557,11 +557,12 @@ def test_tumour_growth_matches_radius_ode(shared_dir):
     assert np.max(np.abs(np.linalg.norm(b, axis=1) / R[-1] - 1)) < 0.01
     # where the run spent its time: the run's phases (timed one after the other) fit in
     # the wall time, and the tumour's step phases (15 steps, each remeshed) split the steps
+    # (1 % for the slowest rank of each phase: the ranks' sums need not be the largest)
     phases = s["phases_s"]
     run, steps = {"model", "growth_steps", "output"}, set(TUMOUR_STEP_PHASES)
     assert set(phases) == run | steps and all(phases[k] > 0.0 for k in run)
-    assert sum(phases[k] for k in run) <= s["wall_time_s"]
-    assert sum(phases[k] for k in steps) <= phases["growth_steps"]
+    assert sum(phases[k] for k in run) <= 1.01 * s["wall_time_s"]
+    assert sum(phases[k] for k in steps) <= 1.01 * phases["growth_steps"]
 
 
 @pytest.mark.serial
