@@ -339,7 +339,7 @@ def _master_near_slave(
     comm: MPI.Comm,
     local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
     box: tuple[np.ndarray, np.ndarray],
-):
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """The master facets (of all ranks) whose bounding box meets each rank's search box.
 
     ``box`` is the bounding box of the sweeps of this rank's slave facets (``lower >
