@@ -38,6 +38,7 @@ HEADER_KEYS = [
     "status",
     "ranks",
     "wall_time_s",
+    "peak_memory_mb",
     "units",
     "bonecontact_version",
     "dolfinx_version",
@@ -58,6 +59,8 @@ def test_run_summary_header_then_info_in_order():
     assert list(s) == HEADER_KEYS + ["steps", "extra"]
     assert s["scene"] == "demo" and s["format"] == 1 and s["status"] == "converged"
     assert s["ranks"] == COMM.size and s["wall_time_s"] == 1.5
+    mem = s["peak_memory_mb"]  # this pytest process holds DOLFINx and PETSc: > 50 MiB a rank
+    assert 50.0 * COMM.size <= mem["total"] and 50.0 <= mem["max_rank"] <= mem["total"]
     assert (
         s["units"] == MECHANICS_UNITS == "SI (m, kg, s, Pa, N; 2D plane strain: per unit thickness)"
     )
