@@ -25,8 +25,9 @@ For every case (one row of ``results/contact3d.csv``):
   of the high-water mark over the resident set during the contact solve and during the
   linear solve.
 
-A case whose PDAS fails (``ContactConvergenceError``) is written with status ``failed``
-and the first line of the error message; the study goes on.
+A case whose PDAS fails (``ContactConvergenceError``, or ``SingularActiveSetError`` from
+the first factorisation of the low-rank start) is written with status ``failed`` and the
+first line of the error message; the study goes on.
 
 Usage (also under ``mpiexec -n K``)::
 
@@ -60,6 +61,7 @@ from common import write_rows  # (benchmarks/ is the script directory)
 
 from bonecontact.common.linalg import create_solver, owned_global_rows, rigid_body_modes
 from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.lowrank import SingularActiveSetError
 from bonecontact.contact.pdas import ContactConvergenceError
 from bonecontact.runners.results import ResultsWriter, StressFields
 from bonecontact.verification.load_driven import (
@@ -203,8 +205,11 @@ def run_case(
     status, message, res, failed_its = "converged", "", None, ""
     try:
         res = pb.solve()
-    except ContactConvergenceError as exc:  # (timings["contact_solve"]: time to failure)
-        status, message, failed_its = "failed", str(exc).splitlines()[0], len(exc.history)
+    except (ContactConvergenceError, SingularActiveSetError) as exc:  # (collective)
+        # timings["contact_solve"] is the time to the failure; a singular first
+        # factorisation (low-rank start) raises SingularActiveSetError, before any history
+        status, message = "failed", str(exc).splitlines()[0]
+        failed_its = len(getattr(exc, "history", []))
     mem_contact = mem.mark() - rss0
     t_output = float("nan")
     if res is not None:
