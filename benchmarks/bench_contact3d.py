@@ -60,8 +60,8 @@ import numpy as np
 from common import write_rows  # (benchmarks/ is the script directory)
 
 from bonecontact.common.linalg import create_solver, owned_global_rows, rigid_body_modes
-from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.lowrank import SingularActiveSetError
+from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError
 from bonecontact.runners.results import ResultsWriter, StressFields
 from bonecontact.verification.load_driven import (
