@@ -17,10 +17,11 @@ turns those into the PETSc matrix ``Qᵀ`` of docs/theory/mortar.md#condensation
 
 Parallel design: a contact surface is small compared with the mesh, so the slave
 surface's nodes and facets (not the system) are gathered on every rank; every rank
-integrates the slave facets it owns (vectorised, :mod:`bonecontact.contact.mortar_assembly`)
-against the master facets that lie within the bounding box of their search region (each
-rank sends the others only those of its master facets), ``D`` and the weighted gap are
-summed over ranks, and each row of ``M̂`` is sent to the rank owning it.  Normals are
+integrates an equal, spatially compact share of the slave facets (vectorised,
+:mod:`bonecontact.contact.mortar_assembly`) against the master facets that lie within the
+bounding box of their search region (each rank sends the others only those of its master
+facets), ``D`` and the weighted gap are summed over ranks, and each row of ``M̂`` is sent
+to the rank owning it.  Normals are
 computed from the gathered surface, so a node shared by several ranks has the same normal
 everywhere and results do not depend on the partition.
 
@@ -46,7 +47,7 @@ from bonecontact.contact.dual_basis import (
 )
 from bonecontact.contact.geometry import facet_normals, nodal_normals, nodal_tangents
 from bonecontact.contact.mortar_assembly import assemble_mortar
-from bonecontact.contact.search import swept_facet_boxes
+from bonecontact.contact.search import morton_order, swept_facet_boxes
 
 __all__ = [
     "ContactInputError",
@@ -106,7 +107,7 @@ class ContactInterface:
         ``t_gather`` (surfaces, normals, nearby master facets), ``t_search`` (candidate
         pairs), ``t_integrate`` (projection, clipping, quadrature), ``t_assemble``
         (local D, M, gap), ``t_distribute`` (sums over ranks, rows of M̂ to their
-        owners, checks) and ``t_total``; and counts ``n_slave_facets`` (owned),
+        owners, checks) and ``t_total``; and counts ``n_slave_facets`` (integrated here),
         ``n_master_facets`` (received), ``n_candidates`` and ``n_pairs`` (integrated).
     """
 
@@ -181,11 +182,9 @@ def _local_surface(V: fem.FunctionSpace, facet_tags, tag: int):
 def _gather_surface(comm: MPI.Comm, gblocks, coords, interior):
     """Gather a surface on every rank; compact node numbering.
 
-    Returns (node_gids, node_coords, facets (compact), interior, own facet slice).
+    Returns (node_gids, node_coords, facets (compact), interior), the same on every rank.
     """
     parts = comm.allgather((gblocks, coords, interior))
-    counts = [p[0].shape[0] for p in parts]
-    start = int(sum(counts[: comm.rank]))
     gdim = coords.shape[-1] if coords.size else parts[0][1].shape[-1]
     gb = np.concatenate([p[0] for p in parts]).reshape(-1, gdim)
     xc = np.concatenate([p[1] for p in parts]).reshape(-1, gdim, gdim)
@@ -194,7 +193,7 @@ def _gather_surface(comm: MPI.Comm, gblocks, coords, interior):
     facets = inv.reshape(gb.shape)
     node_x = np.zeros((gids.size, gdim))
     node_x[facets.ravel()] = xc.reshape(-1, gdim)
-    return gids, node_x, facets, inner, slice(start, start + counts[comm.rank])
+    return gids, node_x, facets, inner
 
 
 def _allreduce(comm: MPI.Comm, a: np.ndarray, op, dtype=np.float64) -> np.ndarray:
@@ -219,7 +218,7 @@ class _SlaveSurface:
     x: npt.NDArray[np.float64]  # node coordinates
     facets: npt.NDArray[np.int64]  # facets (compact node numbers)
     interior: npt.NDArray[np.float64]  # a point inside the cell of every facet
-    own: slice  # the facets this rank owns
+    mine: npt.NDArray[np.int64]  # the facets this rank integrates (its share of the work)
     measure: npt.NDArray[np.float64]  # facet measures
     normals: npt.NDArray[np.float64]  # averaged unit nodal normals
     size: float  # largest extent of the surface (m)
@@ -250,7 +249,7 @@ class _MortarData:
 def _gather_slave_surface(V: fem.FunctionSpace, facet_tags, slave: int, name: str) -> _SlaveSurface:
     """Gather the slave group on every rank, check it, and compute its nodal normals."""
     comm, gdim = V.mesh.comm, V.mesh.geometry.dim
-    s_gids, s_x, s_f, s_in, own = _gather_surface(comm, *_local_surface(V, facet_tags, slave))
+    s_gids, s_x, s_f, s_in = _gather_surface(comm, *_local_surface(V, facet_tags, slave))
     if s_f.shape[0] == 0:
         raise ContactInputError(f"contact {name!r}: the slave facet group {slave} is empty")
     _, measure = facet_normals(s_x, s_f, s_in)
@@ -260,7 +259,20 @@ def _gather_slave_surface(V: fem.FunctionSpace, facet_tags, slave: int, name: st
             f"contact {name!r}: degenerate (zero-measure) facets in slave group {slave}"
         )
     normals = nodal_normals(s_x, s_f, s_in)
-    return _SlaveSurface(s_gids, s_x, s_f, s_in, own, measure, normals, size)
+    mine = _share_of_facets(comm, s_x[s_f].mean(axis=1))
+    return _SlaveSurface(s_gids, s_x, s_f, s_in, mine, measure, normals, size)
+
+
+def _share_of_facets(comm: MPI.Comm, centres: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]:
+    """The slave facets this rank integrates: the ``rank``-th of ``size`` equal, contiguous
+    pieces of the facets' Morton order (every facet once, spatially compact pieces).
+
+    The mesh partition may put a whole contact zone on one rank; the gathered slave
+    surface is the same on every rank, so the work is shared out evenly instead.
+    """
+    order = morton_order(centres) if len(centres) else np.zeros(0, dtype=np.int64)
+    bounds = np.linspace(0, len(order), comm.size + 1).round().astype(np.int64)
+    return np.sort(order[bounds[comm.rank] : bounds[comm.rank + 1]])
 
 
 def _dirichlet_node_mask(
@@ -283,7 +295,7 @@ def _rigid_plane_mortar(
     """``D`` and the weighted gap against a rigid plane (no master nodes, ``M = 0``)."""
     s_x, n_nodes = surf.x, surf.gids.size
     gdim = s_x.shape[1]
-    own_f = surf.facets[surf.own]
+    own_f = surf.facets[surf.mine]
     nu = np.asarray(plane.normal, dtype=float)[:gdim]
     nu = nu / np.linalg.norm(nu)
     x0 = np.asarray(plane.point, dtype=float)[:gdim]
@@ -326,9 +338,9 @@ def _rigid_plane_mortar(
 
 
 def _slave_search_radius(surf: _SlaveSurface, search_radius: float | None) -> np.ndarray:
-    """Search distance of every owned slave facet: ``search_radius``, or by default three
-    times the facet's size (its length in 2D, ``sqrt(2 |facet|)`` in 3D)."""
-    measure = surf.measure[surf.own]
+    """Search distance of every slave facet this rank integrates: ``search_radius``, or by
+    default three times the facet's size (its length in 2D, ``sqrt(2 |facet|)`` in 3D)."""
+    measure = surf.measure[surf.mine]
     if search_radius is not None:
         return np.full(measure.shape, float(search_radius))
     gdim = surf.x.shape[1]
@@ -389,7 +401,7 @@ def _master_surface_mortar(
             f"contact {name!r}: slave and master surfaces share nodes; the bodies "
             "must be meshed separately (no shared interface nodes)"
         )
-    own_f = surf.facets[surf.own]
+    own_f = surf.facets[surf.mine]
     radius = _slave_search_radius(surf, search_radius)
     normals = surf.normals if gdim == 2 else None
     lower, upper = swept_facet_boxes(surf.x, own_f, radius, normals)

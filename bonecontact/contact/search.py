@@ -13,7 +13,12 @@ import numpy.typing as npt
 
 from bonecontact.contact.geometry import FloatArray, IntArray, facet_normals
 
-__all__ = ["facet_bounding_boxes", "find_candidate_pairs", "swept_facet_boxes"]
+__all__ = [
+    "facet_bounding_boxes",
+    "find_candidate_pairs",
+    "morton_order",
+    "swept_facet_boxes",
+]
 
 # ----------------------------------------------------------------------------------
 # Candidate search
@@ -92,8 +97,19 @@ def _spread_bits(v: IntArray, dim: int) -> IntArray:
     return v
 
 
-def _morton_order(points: FloatArray) -> IntArray:
-    """Permutation sorting points along the Z-order (Morton) curve of their bounding box."""
+def morton_order(points: npt.ArrayLike) -> IntArray:
+    """Permutation sorting points along the Z-order (Morton) curve of their bounding box.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, gdim), gdim 2 or 3
+
+    Returns
+    -------
+    ndarray of int64, shape (n,)
+        Consecutive points of the order are close in space (stable for equal codes).
+    """
+    points = np.asarray(points, dtype=float)
     dim = points.shape[1]
     bits = 21 if dim == 3 else 31
     lo = points.min(axis=0)
@@ -115,7 +131,7 @@ def _box_tree(lower: FloatArray, upper: FloatArray) -> tuple[IntArray, list]:
     ``2i + 1``); the last level is the leaves, padded with empty boxes.
     """
     n, dim = lower.shape
-    order = _morton_order(0.5 * (lower + upper))
+    order = morton_order(0.5 * (lower + upper))
     depth = int(np.ceil(np.log2(n))) if n > 1 else 0
     lo = np.full((dim, 2**depth), np.inf)
     hi = np.full((dim, 2**depth), -np.inf)

@@ -4,8 +4,9 @@ and independence of the partition.
 * Σ_q M̂[p, q] = 1 on every slave row (Σ_q M = D on fully covered rows) to 1e-12, in 2D
   and 3D, with slave/master element-size ratios ≥ 3 in both directions.
 * Σ_p D_pp (and Σ_p ∫ψ_p) equals the slave contact area; the covered area too.
-* D, the nodal gaps and the normals at every slave node are the same whether the mesh
-  is distributed over all ranks or held whole by each rank (COMM_SELF).
+* D, the nodal gaps, the normals and M̂ (Qᵀ applied to a nonlinear field) at every
+  slave node are the same whether the mesh is distributed over all ranks or held whole
+  by each rank (COMM_SELF).
 """
 
 from __future__ import annotations
@@ -67,8 +68,29 @@ def test_row_sums_and_areas(case):
         obj.destroy()
 
 
-def _per_node(comm, itf):
-    vals = np.column_stack([itf.coords, itf.D, itf.gap, itf.normals])
+def _qt_applied(V, itf):
+    """(Qᵀ u) at the slave nodes, u a nonlinear field: u_p + Σ_q M̂_pq u_q per component."""
+    dim = V.mesh.geometry.dim
+
+    def field(x):
+        return np.stack([np.sin(90 * x[0]) + x[1], 1e3 * x[0] * x[1], np.cos(70 * x[2])][:dim])
+
+    u = fem.Function(V)
+    u.interpolate(field)
+    u.x.scatter_forward()
+    Qt = basis_transform(V, [itf])
+    y = Qt.createVecLeft()
+    Qt.mult(u.x.petsc_vec, y)
+    rows = itf.gdim * itf.blocks[:, None] + np.arange(itf.gdim)
+    out = y.array[rows].copy()
+    Qt.destroy()
+    y.destroy()
+    return out
+
+
+def _per_node(comm, itf, V=None):
+    extra = [] if V is None else [_qt_applied(V, itf)]
+    vals = np.column_stack([itf.coords, itf.D, itf.gap, itf.normals, *extra])
     allv = np.concatenate(comm.allgather(vals))
     key = np.round(allv[:, : itf.gdim] / 1e-9).astype(np.int64)  # robust to round-off in x
     return allv[np.lexsort(key.T[::-1])]
@@ -77,9 +99,9 @@ def _per_node(comm, itf):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_same_on_any_partition(dim):
     hl, hu = (0.02 / 7, 0.02 / 23) if dim == 2 else (0.02 / 3, 0.02 / 7)
-    _, dist = _interface(COMM, dim, hl, hu)
-    _, whole = _interface(MPI.COMM_SELF, dim, hl, hu)
-    a, b = _per_node(COMM, dist), _per_node(MPI.COMM_SELF, whole)
+    V_dist, dist = _interface(COMM, dim, hl, hu)
+    V_whole, whole = _interface(MPI.COMM_SELF, dim, hl, hu)
+    a, b = _per_node(COMM, dist, V_dist), _per_node(MPI.COMM_SELF, whole, V_whole)
     assert a.shape == b.shape
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13)  # round-off in values that are ~0
 
