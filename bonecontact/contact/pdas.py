@@ -53,9 +53,10 @@ identity after the transformation, so ``U = Qᵀ Û`` meets every Dirichlet cond
 
 Non-singular first systems: without a warm start the active set begins with every
 node whose gap is within ``gap_tol`` of the smallest gap of its pair (the closed-gap
-nodes when the bodies touch, the closest ones when they start apart), sticking if the
-pair has friction.  A body held only by contact therefore starts supported wherever
-it touches.  (Rigid modes that the contact cannot remove — sliding along a
+nodes when the bodies touch, the closest ones when they start apart) and the support
+patch around them (:func:`support_patch`), sticking if the pair has friction.  A body
+held only by contact therefore starts supported against its rotations too, also when
+it touches at a single node.  (Rigid modes that the contact cannot remove — sliding along a
 frictionless contact plane — must be fixed by the scene.)  Held at those few nodes,
 the first solve overestimates the contact zone (≈ √2 in radius for a Hertzian
 contact), so the first set update of a cold start is damped: of the newly
@@ -91,6 +92,7 @@ from petsc4py import PETSc
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
+from scipy.spatial import cKDTree
 
 from bonecontact.common.linalg import configure_ksp
 from bonecontact.contact.friction import (
@@ -106,7 +108,51 @@ from bonecontact.contact.interface import ContactInterface, basis_transform, rot
 from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
 from bonecontact.contact.options import PDASOptions
 
-__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult"]
+__all__ = ["ContactConvergenceError", "ContactSolver", "PDASResult", "support_patch"]
+
+#: Radius of the cold-start support patch in local slave mesh sizes (``D_pp`` in 2D,
+#: ``√D_pp`` in 3D): the closest nodes' immediate neighbours on every side.
+SUPPORT_RADIUS = 1.6
+
+
+def support_patch(
+    coords: npt.NDArray[np.float64],
+    D: npt.NDArray[np.float64],
+    closest: npt.NDArray[np.bool_],
+    gdim: int,
+    radius: float = SUPPORT_RADIUS,
+) -> npt.NDArray[np.bool_]:
+    """The closest slave nodes and every slave node within ``radius`` local mesh sizes of
+    one of them (docs/theory/pdas.md#cold-start).
+
+    A single touching node cannot hold a body against its rotations (two in 3D, one in
+    2D) about that node; its neighbours on the surface, in every direction, can.  The
+    local mesh size of node ``p`` is ``D_pp`` (2D; the length it carries) or
+    ``√(D_pp)`` (3D; ``D_pp ≈ 0.87 h²`` on equilateral triangles).
+
+    Parameters
+    ----------
+    coords, D
+        Reference coordinates ``(n, gdim)`` and ``D_pp`` of the slave nodes of a pair
+        (replicated: identical on every rank).
+    closest
+        Mask of the closest nodes.
+    gdim
+        Geometric dimension.
+    radius
+        Patch radius in local mesh sizes.
+
+    Returns
+    -------
+    numpy.ndarray
+        Mask of the patch (``closest`` included).
+    """
+    if not closest.any():
+        return closest.copy()
+    h = np.abs(D[closest]) ** (1.0 / max(gdim - 1, 1))
+    tree = cKDTree(coords[closest])
+    dist, j = tree.query(coords, k=1)
+    return closest | (dist <= radius * h[j])
 
 
 class ContactConvergenceError(RuntimeError):
@@ -406,16 +452,19 @@ class ContactSolver:
         return np.split(rep[self._node_off : self._node_off + self._m], self._split)
 
     def _cold_start(self) -> npt.NDArray[np.bool_]:
-        """Initial active set: the nodes of each pair whose gap is within ``gap_tol`` of
-        the smallest gap of that pair (the closed-gap nodes when the bodies touch; the
-        closest nodes when they start apart, so a body held only by contact is
-        supported from the first solve)."""
+        """Initial active set (docs/theory/pdas.md#cold-start): per pair, the nodes whose
+        gap is within ``gap_tol`` of the smallest gap of that pair (the closed-gap nodes
+        when the bodies touch, the closest ones when they start apart), and the support
+        patch around them (:func:`support_patch`), so that a body held only by contact
+        is supported against its rigid modes from the first solve even when it touches
+        at a single node."""
         out = []
         for itf in self.interfaces:
-            gmin = self.comm.allreduce(
-                float(itf.gap.min()) if itf.num_owned else np.inf, op=MPI.MIN
-            )
-            out.append(itf.gap <= max(gmin, 0.0) + self.gap_tol)
+            gap = self._gn(itf.gap)
+            closest = gap <= max(float(gap.min()) if gap.size else 0.0, 0.0) + self.gap_tol
+            patch = support_patch(self._gn(itf.coords), self._gn(itf.D), closest, itf.gdim)
+            lo = sum(self.comm.allgather(itf.num_owned)[: self.comm.rank])
+            out.append(patch[lo : lo + itf.num_owned])
         return self._gn(np.concatenate(out + [np.zeros(0, bool)]))
 
     @property
@@ -588,7 +637,14 @@ class ContactSolver:
         lr = self.lowrank
         if lr is not None:
             st.f0, st.c0 = lr.factorizations, lr.columns
-            lr.begin(self._r0, b.array[self.bc_local], values, self._fixed_rows(st.an, st.stick))
+            try:
+                lr.begin(
+                    self._r0, b.array[self.bc_local], values, self._fixed_rows(st.an, st.stick)
+                )
+            except SingularActiveSetError as exc:
+                raise ContactConvergenceError(
+                    f"contact: {exc} (first PDAS iteration)", st.history
+                ) from None
         return st
 
     def _solve_linear_system(
@@ -658,6 +714,20 @@ class ContactSolver:
             z=z,
             zn=np.linalg.norm(z, axis=1),
         )
+
+    def _multipliers_of_field(self, st: _PDASState) -> _Iterate:
+        """The multipliers of the full solution ``Ũ`` (low-rank strategy): ``w = T F̂ − At Ũ``
+        at the contact rows.
+
+        The small system of the low-rank solver gives ``w`` as a sum of column responses
+        that cancel where a set differs much from the factorised one (round-off of
+        1e-9 of the load measured on a 2D body held at three nodes); recomputed from the
+        field, the contact resultant balances the load to the accuracy of the solve.
+        """
+        self.At.mult(self.Uh, self._w)
+        self._w.aypx(-1.0, self._r0)
+        x, w = self._gn(self.Uh.array[self._L]), self._gn(self._w.array[self._L])
+        return self._update_multipliers(st, x, w)
 
     def _update_active_set(self, st: _PDASState, it: _Iterate, k: int) -> None:
         """Step 5: ``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0``
@@ -779,6 +849,7 @@ class ContactSolver:
         if lr is not None:
             lr.finish(self.Uh)
             n_fact, n_cols = lr.factorizations - st.f0, lr.columns - st.c0
+            it = self._multipliers_of_field(st)
         else:
             n_fact, n_cols = (len(st.history) if self.linear == "direct" else 0), 0
         an = st.an
