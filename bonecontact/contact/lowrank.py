@@ -53,7 +53,13 @@ from scipy.linalg import lapack
 
 from bonecontact.common.linalg import configure_ksp
 
-__all__ = ["LowRankActiveSetSolver", "SingularActiveSetError", "null_pivots"]
+__all__ = [
+    "DENSE_BLOCKS",
+    "MIN_BLOCK",
+    "LowRankActiveSetSolver",
+    "SingularActiveSetError",
+    "null_pivots",
+]
 
 
 class SingularActiveSetError(RuntimeError):
@@ -66,6 +72,13 @@ def null_pivots(ksp: PETSc.KSP) -> int:
     if pc.getType() != "lu" or pc.getFactorSolverType() != "mumps":
         return 0
     return int(pc.getFactorMatrix().getMumpsInfog(28))
+
+
+#: Dense ``n_local × k`` arrays alive while a block of ``k`` columns is computed (right-hand
+#: sides, solutions, A times them, a copy for the rows, MUMPS's work space).
+DENSE_BLOCKS = 5
+#: Smallest chunk of columns and smallest cache (columns), whatever the memory.
+MIN_BLOCK = 16
 
 
 def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
@@ -97,6 +110,10 @@ class LowRankActiveSetSolver:
     rebase_ratio
         Refactorise when the columns an iteration needs are estimated to cost more than
         ``rebase_ratio`` factorisations.
+    memory_ratio
+        Memory of the column blocks, and of the column cache, each at most this
+        fraction of the memory of the LU factors (blocks are computed in chunks; the
+        cache limit is the smaller of this and ``max_columns``).
     """
 
     def __init__(
@@ -108,6 +125,7 @@ class LowRankActiveSetSolver:
         prefix: str = "bc_contact_lr_",
         max_columns: int = 2000,
         rebase_ratio: float = 1.0,
+        memory_ratio: float = 0.5,
     ):
         self.A = A
         self.comm: MPI.Comm = A.getComm().tompi4py()
@@ -122,6 +140,8 @@ class LowRankActiveSetSolver:
         self.diag_value = float(diag_value)
         self.max_columns = int(max_columns)
         self.rebase_ratio = float(rebase_ratio)
+        self.memory_ratio = float(memory_ratio)
+        self.block_limit = self.column_limit = self.max_columns
         # the contact rows of A (A·X is only ever needed there)
         lo_c, hi_c = A.getOwnershipRangeColumn()
         isrow = PETSc.IS().createGeneral(
@@ -198,12 +218,42 @@ class LowRankActiveSetSolver:
             )
         self.base = mask.copy()
         self.cache.clear()
+        self._set_memory_limits()
         dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
         # the first factorisation includes the symbolic analysis, which later ones reuse:
         # count half of it as the cost of a refactorisation until one is measured
         # (numeric / first = 0.37-0.50 measured on 2D Hertz meshes, 1 and 2 ranks)
         self.t_factor = 0.5 * dt if self.factorizations == 0 else dt
         self.factorizations += 1
+
+    def _set_memory_limits(self) -> None:
+        """Column limits from the memory of the factorisation (the memory part of the cost
+        model; docs/theory/pdas.md#cost-model-and-rebase).
+
+        A block of ``k`` columns holds about ``DENSE_BLOCKS`` dense ``n_local × k`` arrays
+        at once (right-hand sides, solutions, ``A·X``, MUMPS's work space); the cache
+        keeps two replicated numbers per contact row and column, and a set update
+        stacks the columns it uses once more.  Both are limited to ``memory_ratio``
+        times the factors' memory on the largest rank (MUMPS INFOG(21)), so a contact
+        solve stays within about ``1 + memory_ratio`` linear solves of memory: blocks are
+        computed in chunks, and a cache that would outgrow its share rebases instead.
+        """
+        budget = self.memory_ratio * self._factor_bytes()
+        if not np.isfinite(budget):
+            self.block_limit = self.column_limit = self.max_columns
+            return
+        per_column = DENSE_BLOCKS * 8.0 * max(self.nloc, 1)
+        chunk = self.comm.allreduce(int(budget // per_column), op=MPI.MIN)
+        self.block_limit = max(chunk, MIN_BLOCK)
+        cached = int(budget // (4 * 8.0 * max(self.ns, 1)))
+        self.column_limit = min(self.max_columns, max(cached, MIN_BLOCK))
+
+    def _factor_bytes(self) -> float:
+        """Memory of the LU factors on the largest rank (bytes; MUMPS INFOG(21), MB)."""
+        pc = self.ksp.getPC()
+        if pc.getFactorSolverType() != "mumps":
+            return float("inf")
+        return 1.0e6 * float(pc.getFactorMatrix().getMumpsInfog(21))
 
     # ------------------------------------------------------------------ one contact solve
     def begin(
@@ -267,6 +317,12 @@ class LowRankActiveSetSolver:
             self.t_block = 1.3 * self.t_solve
 
     def _compute_columns(self, qs: list[int]) -> None:
+        """Columns for the replicated positions ``qs``, in chunks of at most
+        ``block_limit`` (memory)."""
+        for i in range(0, len(qs), self.block_limit):
+            self._compute_block(qs[i : i + self.block_limit])
+
+    def _compute_block(self, qs: list[int]) -> None:
         """Columns for the replicated positions ``qs`` (X-type if in the base, W-type if not)."""
         t0 = time.perf_counter()
         k = len(qs)
@@ -359,7 +415,7 @@ class LowRankActiveSetSolver:
 
         diff = needed()
         missing = [int(q) for q in diff if int(q) not in self.cache]
-        too_many = len(self.cache) + len(missing) > self.max_columns
+        too_many = len(self.cache) + len(missing) > self.column_limit
         cost_columns = self.t_block + len(missing) * self.t_column
         cost_rebase = self.rebase_ratio * self.t_factor + self.t_solve
         if missing and (too_many or cost_columns > cost_rebase):
@@ -374,7 +430,7 @@ class LowRankActiveSetSolver:
             same = active & self.base
             order = np.argsort(margin, kind="stable")
             extra = [int(q) for q in order if same[q] and int(q) not in self.cache][: len(missing)]
-            room = self.max_columns - len(self.cache) - len(missing)
+            room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
         new_cols = len(missing)
         if missing:

@@ -43,6 +43,11 @@ class PDASOptions:
     #: Low-rank strategy: the cost ratio (columns against one factorisation) beyond
     #: which the current set is refactorised instead.
     rebase_ratio: float = 1.0
+    #: Low-rank strategy: the memory of a block of columns, and of the column cache, each
+    #: at most this fraction of the memory of the LU factors (blocks are computed in
+    #: chunks; a cache that would outgrow it rebases), so a contact solve needs at most
+    #: about ``1 + memory_ratio`` linear solves of memory.
+    memory_ratio: float = 0.5
     #: Coulomb ``fixed_point``: update the bounds every ``fp_every`` iterations (and
     #: whenever the sets have settled); values below 1 count as 1.
     fp_every: int = 1
@@ -74,6 +79,8 @@ class PDASOptions:
             raise ValueError(
                 f"contact strategy must be 'auto', 'lowrank' or 'refactor', got {self.strategy!r}"
             )
+        if not self.memory_ratio > 0.0:
+            raise ValueError(f"memory_ratio must be positive, got {self.memory_ratio}")
         if int(self.max_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
 

@@ -424,6 +424,7 @@ class ContactSolver:
                 prefix=prefix,
                 max_columns=max_columns,
                 rebase_ratio=rebase_ratio,
+                memory_ratio=opts.memory_ratio,
             )
         else:
             self.B = self.At.duplicate(copy=True)

@@ -96,6 +96,8 @@ def test_lowrank_equals_refactor_on_hertz():
         "default": {},
         "never_rebase": {"rebase_ratio": 1e12},
         "small_cache": {"max_columns": 5},
+        # a memory share far below one column: chunks and cache at their minimum (16)
+        "memory_cap": {"memory_ratio": 1e-9},
     }
     for name, opts in cases.items():
         got = _run(m, itf, cold_start_fraction=0.0, **opts)[0]
@@ -111,6 +113,8 @@ def test_lowrank_equals_refactor_on_hertz():
             # how often it refactorises depends on measured times (its cost model), so
             # only "never more often than the refactorising strategy" is deterministic
             assert got["fact"] <= ref["fact"]
+        elif name == "memory_cap":
+            assert got["fact"] > 1  # the memory share of the cache forces rebases
         else:
             assert got["fact"] > 2  # the cache limit forces rebases
     for r in [ref]:
