@@ -34,6 +34,11 @@ $PY benchmarks/bench_friction3d.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_friction3d.py --quick
 $PY benchmarks/summarize.py friction3d
 
+echo "== mortar geometry: 3D interface build against one linear solve (1 and 2 ranks)"
+rm -f benchmarks/results/mortar.csv
+$PY benchmarks/bench_mortar.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_mortar.py $quick
+
 echo "== 3D load-driven contact at scale: phases, iterations, memory (default sizes 25k, 65k dofs; 1 and 2 ranks)"
 rm -f benchmarks/results/contact3d.csv
 $PY benchmarks/bench_contact3d.py $quick
@@ -47,4 +52,6 @@ $PY benchmarks/bench_impact.py $quick
 for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
   if [ -f "$extra" ]; then echo "== $extra"; $PY "$extra" $quick; fi
 done
+echo "== 3D tumour growth: cost per step against cells, by phase"
+$PY benchmarks/bench_tumour.py --study3d $quick
 echo "== results in benchmarks/results/"
