@@ -174,6 +174,7 @@ def _contact_interfaces(scene: Scene, model: Mechanics, md: Any, tag: dict[str, 
                         tag[c.master],
                         dirichlet_dofs=bc,
                         name=c.name,
+                        search_radius=c.search_distance,
                     )
                 )
             except ContactInputError as exc:

@@ -86,7 +86,16 @@ TOP_LEVEL_KEYS = (
 SCENE_KEYS = ("name", "mesh", "dimension")
 ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps")
 SOLVER_KEYS = ("linear", "tolerance", "max_iterations")
-CONTACT_KEYS = ("name", "slave", "master", "friction", "coefficient", "bound", "coulomb_update")
+CONTACT_KEYS = (
+    "name",
+    "slave",
+    "master",
+    "friction",
+    "coefficient",
+    "bound",
+    "coulomb_update",
+    "search_distance",
+)
 SCHEDULE_KEYS = ("ramp", "schedule")
 DIRICHLET_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 TRACTION_KEYS = ("boundary", "value") + SCHEDULE_KEYS
@@ -500,6 +509,7 @@ def _read_contacts(
                     default="previous_step",  # type: ignore[arg-type]
                     choices=COULOMB_UPDATES,
                 ),
+                search_distance=tab.number("search_distance", default=None, positive=True),
             )
         )
         if friction != "none" and not allow_friction:

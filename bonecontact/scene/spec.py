@@ -246,6 +246,9 @@ class ContactSpec:
     coulomb_update
         ``"previous_step"`` (semi-implicit: bound from the previous step's normal
         pressure) or ``"fixed_point"`` (iterated within the step).
+    search_distance
+        How far (m) along its normal each slave facet looks for master facets; ``None``:
+        three times the slave facet's own size.
     """
 
     name: str
@@ -255,6 +258,7 @@ class ContactSpec:
     coefficient: float = 0.0
     bound: float = 0.0
     coulomb_update: Literal["previous_step", "fixed_point"] = "previous_step"
+    search_distance: float | None = None
 
 
 @dataclass(frozen=True)

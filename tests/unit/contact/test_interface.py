@@ -147,3 +147,28 @@ def test_degenerate_slave_facet_is_an_input_error():
     V = fem.functionspace(msh, basix.ufl.element("Lagrange", "triangle", 1, shape=(2,)))
     with pytest.raises(ContactInputError, match="degenerate"):
         build_interface(V, ft, 2, 1, name="sliver")
+
+
+def test_bodies_apart_need_a_search_distance():
+    """The upper block lifted by 5 of its slave element sizes: the default search (three
+    facet sizes along the normal) finds no master and says so; with a search distance above
+    the gap every slave node is covered and its nodal gap is the lift."""
+    from bonecontact.contact.interface import ContactInputError
+
+    h_upper = 0.02 / 11
+    lift = 5.0 * h_upper
+    md = meshing.two_blocks_2d(COMM, h_lower=0.02 / 7, h_upper=h_upper)
+    msh = md.mesh
+    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    upper = md.cell_tags.find(pg["upper"])
+    nodes = np.unique(msh.geometry.dofmaps[0][upper])
+    msh.geometry.x[nodes, 1] += lift
+    V = fem.functionspace(msh, basix.ufl.element("Lagrange", msh.basix_cell(), 1, shape=(2,)))
+    with pytest.raises(ContactInputError, match="no master facet"):
+        build_interface(V, md.facet_tags, pg["upper_contact"], pg["lower_contact"])
+    itf = build_interface(
+        V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], search_radius=1.5 * lift
+    )
+    assert COMM.allreduce(float(itf.D.sum())) == pytest.approx(0.02, rel=1e-12)
+    assert itf.covered_area == pytest.approx(0.02, rel=1e-10)
+    np.testing.assert_allclose(itf.gap, lift, rtol=1e-10)

@@ -122,6 +122,7 @@ BASE: dict[str, Any] = {
             "friction": "coulomb",
             "coefficient": 0.3,
             "coulomb_update": "fixed_point",
+            "search_distance": 2e-3,
         }
     ],
     "dirichlet": [
@@ -693,6 +694,13 @@ CASES: list[tuple[str, list[tuple], str | None, str | None, str]] = [
         ">= 0",
     ),
     (
+        "contact-search_distance-zero",
+        [("set", ("contact", 0, "search_distance"), 0.0)],
+        "search_distance",
+        "[[contact]] #1",
+        "> 0",
+    ),
+    (
         "contact-coulomb_update-value",
         [("set", ("contact", 0, "coulomb_update"), "implicit")],
         "coulomb_update",
@@ -1002,7 +1010,9 @@ def test_base_document_is_valid(tmp_path):
         plate.rho,
     ) == (10e9, 12e9, 8e9, 0.3, 0.25, 0.2, 4e9, 3e9, 3.5e9, 2000.0)
     assert scene.contacts == (
-        ContactSpec("joint", "upper_contact", "lower_contact", "coulomb", 0.3, 0.0, "fixed_point"),
+        ContactSpec(
+            "joint", "upper_contact", "lower_contact", "coulomb", 0.3, 0.0, "fixed_point", 2e-3
+        ),
     )
     assert [(d.boundary, d.value) for d in scene.dirichlet] == [
         ("bottom", (0.0, 0.0)),
@@ -1137,8 +1147,7 @@ value = [0.0, 0.0]           # one entry per component; the string "free" leaves
 [[traction]]
 boundary = "top"
 value = [0.0, -1.0e6]        # Pa
-ramp = 0.0                   # > 0: ramps linearly from 0 over [0, ramp] seconds
-(dynamic/quasistatic)
+ramp = 0.0                   # > 0: ramps linearly from 0 over [0, ramp] s (dynamic/quasistatic)
 # schedule = [[0.0, 0.0], [1.0, 1.0], [2.0, 1.0]]
 
 [[pressure]]
@@ -1230,11 +1239,12 @@ def test_base_document_values(tmp_path):
     assert cort.tau_v == 1e-3
     assert [s.index for s in scene.materials] == [0, 1, 2]
     c = scene.contacts[0]
-    assert (c.friction, c.coefficient, c.bound, c.coulomb_update) == (
+    assert (c.friction, c.coefficient, c.bound, c.coulomb_update, c.search_distance) == (
         "coulomb",
         0.3,
         0.0,
         "fixed_point",
+        2e-3,
     )
     d0, d1 = scene.dirichlet
     assert d0.schedule == Schedule() and d0.components == (0, 1)
