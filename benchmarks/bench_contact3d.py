@@ -47,7 +47,6 @@ import dolfinx_solver  # noqa: F401
 import argparse
 import gc
 import os
-import platform
 import resource
 import shutil
 import tempfile
@@ -57,7 +56,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import numpy as np
-from common import write_rows  # (benchmarks/ is the script directory)
+from common import machine, write_rows  # (benchmarks/ is the script directory)
 
 from bonecontact.common.linalg import create_solver, owned_global_rows, rigid_body_modes
 from bonecontact.contact.lowrank import SingularActiveSetError
@@ -277,18 +276,6 @@ def warm_up(mesh_dir: Path) -> None:
     if COMM.rank == 0:
         shutil.rmtree(tmp, ignore_errors=True)
     pb.destroy()
-
-
-def machine() -> str:
-    model = platform.processor() or "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores"
 
 
 def main() -> None:

@@ -32,9 +32,8 @@ from mpi4py import MPI
 
 import numpy as np
 import ufl
-from common import write_rows  # (benchmarks/ is the script directory)
+from common import time_one_direct_solve, write_rows  # (benchmarks/ is the script directory)
 
-from bonecontact.common.linalg import create_solver
 from bonecontact.contact.interface import RigidPlane, build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver
@@ -89,23 +88,6 @@ def _hertz_model(h: float, schedule=None):
     return m, itf
 
 
-def _time_linear_solve(integ: Integrator) -> float:
-    """Wall time of ONE linear solve of the step operator without contact (fresh KSP:
-    symbolic + numeric factorisation + solve)."""
-    b = integ.rhs(1.0)
-    integ.apply_dirichlet(1.0, b)
-    COMM.barrier()
-    t0 = time.perf_counter()
-    ksp = create_solver(integ.A_bc, "direct", prefix="bench_lin_")
-    x = b.duplicate()
-    ksp.solve(b, x)
-    COMM.barrier()
-    t = time.perf_counter() - t0
-    for o in (ksp, x, b):
-        o.destroy()
-    return t
-
-
 def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
     m, itf = _hertz_model(h)
     integ = Integrator(
@@ -117,7 +99,7 @@ def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
     COMM.barrier()
     t_contact = time.perf_counter() - t0
     r = integ.last_contact
-    t_linear = _time_linear_solve(integ)
+    t_linear = time_one_direct_solve(integ)
     x_all = np.concatenate(COMM.allgather(itf.coords[:, 0]))
     lam = np.concatenate(COMM.allgather(r.pressure[0]))
     o = np.argsort(x_all)
@@ -165,7 +147,7 @@ def stepped_case(h: float, strategy: str, steps: int = 8) -> dict:
         times.append(time.perf_counter() - t0)
         its.append(integ.last_contact.iterations)
         facts.append(integ.last_contact.factorizations)
-    t_linear = _time_linear_solve(integ)
+    t_linear = time_one_direct_solve(integ)
     row = {
         "a_over_h": round(A_REF / h, 1),
         "dofs": m.num_dofs,

@@ -21,15 +21,13 @@ from __future__ import annotations
 import dolfinx_solver  # noqa: F401
 
 import argparse
-import time
 from pathlib import Path
 
 from mpi4py import MPI
 
-from common import write_rows  # (benchmarks/ is the script directory)
+from common import time_one_direct_solve, write_rows  # (benchmarks/ is the script directory)
 from summarize import generic_table
 
-from bonecontact.common.linalg import create_solver
 from bonecontact.contact.interface import build_interface
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
@@ -71,28 +69,12 @@ def _build(m: Mechanics, facet_tags, pg: dict) -> dict:
     return out
 
 
-def _linear_solve(integ: Integrator) -> float:
-    """Wall time of one MUMPS solve of the operator (fresh KSP: factorisation + solve)."""
-    b = integ.rhs(1.0)
-    integ.apply_dirichlet(1.0, b)
-    COMM.barrier()
-    t0 = time.perf_counter()
-    ksp = create_solver(integ.A_bc, "direct", prefix="bench_mortar_lin_")
-    x = b.duplicate()
-    ksp.solve(b, x)
-    COMM.barrier()
-    t = time.perf_counter() - t0
-    for o in (ksp, x, b):
-        o.destroy()
-    return t
-
-
 def mortar_case(h: float, repeat: int = 2) -> dict:
     m, facet_tags, pg = _model(h)
     builds = [_build(m, facet_tags, pg) for _ in range(repeat)]
     best = {k: min(b[k] for b in builds) for k in PHASES}
     integ = Integrator(m, "static", 1.0, linear="direct")
-    t_lin = min(_linear_solve(integ) for _ in range(repeat))
+    t_lin = min(time_one_direct_solve(integ, "bench_mortar_lin_") for _ in range(repeat))
     integ.destroy()
     counts = builds[0]
     row = {

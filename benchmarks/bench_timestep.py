@@ -23,8 +23,6 @@ import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
 import argparse
 import csv
-import os
-import platform
 import time
 from pathlib import Path
 
@@ -32,6 +30,7 @@ from mpi4py import MPI
 
 import numpy as np
 import ufl
+from common import machine  # (benchmarks/ is the script directory)
 from dolfinx import mesh
 
 from bonecontact.materials.laws import Isotropic
@@ -151,18 +150,6 @@ def run_case(dim: int, N: int, linear: str) -> dict:
         "its_per_step": round(its / STEPS, 1),
         "rel_L2_error": float(f"{np.sqrt(num / den):.3e}"),
     }
-
-
-def machine() -> str:
-    model = platform.processor() or "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores"
 
 
 def main() -> None:

@@ -3,12 +3,50 @@
 from __future__ import annotations
 
 import csv
+import os
+import platform
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 
-__all__ = ["write_rows"]
+from bonecontact.common.linalg import create_solver
+
+if TYPE_CHECKING:
+    from bonecontact.mechanics.integrator import Integrator
+
+__all__ = ["machine", "time_one_direct_solve", "write_rows"]
+
+
+def machine() -> str:
+    """CPU model and core count of this machine (for the results tables)."""
+    model = platform.processor() or "unknown CPU"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{model}, {os.cpu_count()} cores"
+
+
+def time_one_direct_solve(integ: Integrator, prefix: str = "bench_lin_") -> float:
+    """Wall time of ONE linear solve of the step operator without contact (fresh MUMPS
+    KSP: symbolic + numeric factorisation + solve; collective)."""
+    b = integ.rhs(1.0)
+    integ.apply_dirichlet(1.0, b)
+    integ.A_bc.getComm().tompi4py().barrier()
+    t0 = time.perf_counter()
+    ksp = create_solver(integ.A_bc, "direct", prefix=prefix)
+    x = b.duplicate()
+    ksp.solve(b, x)
+    integ.A_bc.getComm().tompi4py().barrier()
+    t = time.perf_counter() - t0
+    for o in (ksp, x, b):
+        o.destroy()
+    return t
 
 
 def write_rows(
