@@ -359,5 +359,7 @@ class CystShapeModel:
             msh = remesh.polygon_mesh(remesh.resample_closed_curve(b.points, h), h, self.comm)
         else:
             msh, _ = remesh.moved_surface_mesh(b.points, b.facets, h, self.comm)
+        old_motion = self.motion
         self._setup(msh)
+        remesh.release_replaced_meshes(old_motion)
         self.remeshes += 1

@@ -51,6 +51,7 @@ kappa_1 + kappa_2 = div n in 3D).
 
 from __future__ import annotations
 
+import gc
 from collections.abc import Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -79,6 +80,7 @@ __all__ = [
     "gather_boundary",
     "moved_surface_mesh",
     "polygon_mesh",
+    "release_replaced_meshes",
     "resample_closed_curve",
     "smooth_surface",
     "sphere_mesh",
@@ -87,6 +89,24 @@ __all__ = [
     "transfer_fields",
     "vertex_to_geometry",
 ]
+
+
+def release_replaced_meshes(*holders: DirichletLaplacian | MeshMotion | None) -> None:
+    """Free what a remesh has replaced: ``destroy()`` the PETSc objects of ``holders`` (the
+    old mesh's Laplacian and mesh motion), then collect the old mesh's Python objects.
+    Collective: call it on every rank at the same point, after the new mesh is set up.
+
+    In parallel, petsc4py does not destroy a PETSc object that Python's garbage collector
+    frees: it parks it until a collective clean-up on its communicator, which for a
+    replaced mesh never comes.  Each parked solver keeps the old mesh's duplicated MPI
+    communicators alive, so a growth run that remeshes every step exhausted MPICH's 2048
+    communicators per process ("Too many communicators") after about 200 remeshes on 2
+    ranks.  Hence the explicit ``destroy()``.
+    """
+    for holder in holders:
+        if holder is not None:
+            holder.destroy()
+    gc.collect()
 
 
 class RemeshError(RuntimeError):
@@ -530,6 +550,7 @@ class MeshMotion:
         msh.topology.create_connectivity(tdim - 1, tdim)
         facets = dmesh.exterior_facet_indices(msh.topology)
         self.boundary_dofs = fem.locate_dofs_topological(self.V, tdim - 1, facets)
+        self._owns_laplacian = laplacian is None
         if laplacian is None:
             Vs = fem.functionspace(msh, ("Lagrange", 1))
             laplacian = DirichletLaplacian(Vs, fem.locate_dofs_topological(Vs, tdim - 1, facets))
@@ -575,6 +596,12 @@ class MeshMotion:
         arr = w.x.array.reshape(-1, gdim)
         self.mesh.geometry.x[self._geom, :gdim] += arr[self._dofs]
         self.laplacian.invalidate()
+
+    def destroy(self) -> None:
+        """Free the PETSc objects of the Laplacian this motion created (collective; a shared
+        Laplacian is its owner's to destroy)."""
+        if self._owns_laplacian:
+            self.laplacian.destroy()
 
 
 # ----------------------------------------------------------------------------- transfer

@@ -590,6 +590,7 @@ class TumourModel:
                 self.smoothed_remeshes += int(smoothed)
         old = self.fields
         old_w = self._w
+        old_solvers = (self.motion, self._laplacian)
         with self.timer.phase("setup"):
             self._setup(msh)
         with self.timer.phase("transfer"):
@@ -601,3 +602,5 @@ class TumourModel:
                 self.u_c.x.array[:] = remesh.transfer_fields([old["u_c"]], self.V, band)[0].x.array
                 w = remesh.transfer_fields([old_w], self.motion.V, band)[0]
                 self._w.x.array[:] = w.x.array
+        del old, old_w
+        remesh.release_replaced_meshes(*old_solvers)

@@ -556,13 +556,18 @@ def test_tumour_growth_matches_radius_ode(shared_dir):
     b = np.loadtxt(out / "boundary.csv", delimiter=",", skiprows=1)
     assert np.max(np.abs(np.linalg.norm(b, axis=1) / R[-1] - 1)) < 0.01
     # where the run spent its time: the run's phases (timed one after the other) fit in
-    # the wall time, and the tumour's step phases (15 steps, each remeshed) split the steps
-    # (1 % for the slowest rank of each phase: the ranks' sums need not be the largest)
+    # the wall time, and the tumour's step phases (15 steps, each remeshed) split the steps.
+    # Each entry is the slowest rank's: one phase never exceeds the whole it is part of; the
+    # sums are exact on one rank only (on several, rank 1 waits in "setup" while rank 0
+    # runs gmsh, so the waiting counts in two phases' maxima)
     phases = s["phases_s"]
     run, steps = {"model", "growth_steps", "output"}, set(TUMOUR_STEP_PHASES)
     assert set(phases) == run | steps and all(phases[k] > 0.0 for k in run)
-    assert sum(phases[k] for k in run) <= 1.01 * s["wall_time_s"]
-    assert sum(phases[k] for k in steps) <= 1.01 * phases["growth_steps"]
+    assert all(phases[k] <= s["wall_time_s"] for k in run)
+    assert all(phases[k] <= phases["growth_steps"] for k in steps)
+    if MPI.COMM_WORLD.size == 1:
+        assert sum(phases[k] for k in run) <= s["wall_time_s"]
+        assert sum(phases[k] for k in steps) <= phases["growth_steps"]
 
 
 @pytest.mark.serial
