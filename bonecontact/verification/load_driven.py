@@ -173,6 +173,7 @@ def sphere_on_block_3d(
     rtol: float = 1e-12,
     options: PDASOptions | None = None,
     mesh_file: str | Path | None = None,
+    algorithm_3d: str = "delaunay",
 ) -> LoadDrivenHertz:
     """The 3D load-driven Hertz problem: a hemisphere on a block, held only by contact.
 
@@ -209,6 +210,9 @@ def sphere_on_block_3d(
         (:func:`bonecontact.meshing.io.read_gmsh_mesh`); the ``mesh`` timing is then the
         read (``mesh_generate`` the writing, when it happened).  Default: generate the
         mesh in memory.
+    algorithm_3d
+        gmsh's volume mesher, ``"delaunay"`` or ``"hxt"`` (fast; large meshes), see
+        :func:`bonecontact.meshing.shapes.hertz_3d`.
 
     Returns
     -------
@@ -226,6 +230,7 @@ def sphere_on_block_3d(
             zone=zone,
             dist_max_factor=dist_max_factor,
             lateral_support=True,
+            algorithm_3d=algorithm_3d,
         )
 
     md = _mesh(comm, build, mesh_file, 3, timings)

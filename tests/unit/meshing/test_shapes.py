@@ -208,3 +208,24 @@ def test_keeps_an_existing_gmsh_session():
 def test_invalid_geometry_is_rejected(call):
     with pytest.raises(ValueError):
         call()
+
+
+def test_hertz_3d_volume_meshers_fill_the_same_surface():
+    """gmsh's Delaunay and HXT volume meshers fill the same surface mesh: every group's
+    measure agrees to round-off between them, and the hemisphere's volume and curved
+    area lie within the chordal error of the exact (2/3)πR³ and 2πR²."""
+    R, w, hb, h = 0.01, 0.02, 0.02, 2.5e-3
+    kw = dict(radius=R, block_half_width=w, block_height=hb, h_contact=h, h_far=4e-3)
+    md = {m: meshing.hertz_3d(COMM, algorithm_3d=m, **kw) for m in ("delaunay", "hxt")}
+    for name in ("sphere", "block", "sphere_contact", "block_contact", "sphere_top"):
+        assert measure(md["hxt"], name) == pytest.approx(measure(md["delaunay"], name), rel=1e-10)
+    assert measure(md["hxt"], "block") == pytest.approx(4 * w * w * hb, rel=1e-12)
+    # inscribed: the chordal defect of a facet of size h on a sphere is ~ h²/(8R) in depth
+    vol, area = 2 * math.pi * R**3 / 3, 2 * math.pi * R**2
+    assert 0 < vol - measure(md["hxt"], "sphere") < area * h**2 / (4 * R)
+    assert 0 < area - measure(md["hxt"], "sphere_contact") < area * h**2 / (2 * R**2)
+
+
+def test_hertz_3d_unknown_volume_mesher_is_rejected():
+    with pytest.raises(ValueError, match="algorithm_3d must be one of"):
+        meshing.hertz_3d(COMM, algorithm_3d="frontal")
