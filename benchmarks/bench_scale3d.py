@@ -1,0 +1,231 @@
+"""3D load-driven contact at scale, run as a user runs it: a scene file, ``bonecontact run``.
+
+The problem is the one of ``bench_contact3d.py`` (a hemisphere of E = 2 GPa held only by
+contact on a block a thousand times stiffer, loaded by a uniform traction on its flat
+face, target a/R = 0.1), written as a scene that reads a gmsh mesh file, and run by the
+command line under ``mpiexec -n N``.  Measured from the outside: the wall time from the
+scene file to the written results (mesh read, assembly, mortar geometry, contact solve,
+output); from ``summary.json``: the phases, the PDAS and Krylov iterations and the peak
+memory (largest rank and all ranks); from ``contact_sphere_block.csv``: the Hertz errors
+of a and p₀ (fitted as λ² = p₀²(1 − r²/a²) over r < 0.8 a, as ``hertz_errors`` does).
+
+Usage::
+
+    python benchmarks/bench_scale3d.py --sizes 200k --ranks 1,2 --linear iterative
+    python benchmarks/bench_scale3d.py --sizes 1M --ranks 2
+
+Writes ``benchmarks/results/scale3d.csv`` (one row per size, rank count and solver,
+appended).  Meshes are made once by gmsh's HXT mesher into ``--mesh-dir``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+from bench_contact3d import SIZES  # noqa: E402
+from common import machine  # noqa: E402
+
+from bonecontact.verification.analytic import hertz_3d  # noqa: E402
+from bonecontact.verification.load_driven import (  # noqa: E402
+    LOAD_DRIVEN_E,
+    LOAD_DRIVEN_NU,
+    LOAD_DRIVEN_RADIUS,
+    LOAD_DRIVEN_STIFFNESS_RATIO,
+)
+
+OUT = HERE / "results"
+A_OVER_R = 0.1
+
+SCENE = """\
+# 3D load-driven Hertz contact (benchmark scene; SI units)
+format = 1
+
+[scene]
+name = "scale3d_{label}"
+mesh = "{mesh}"
+dimension = 3
+
+[analysis]
+kind = "static"
+load_steps = 1
+
+[solver]
+linear = "{linear}"
+max_iterations = 40
+
+[[material]]
+name = "sphere"
+regions = ["sphere"]
+model = "isotropic"
+E = {E1!r}
+nu = {nu!r}
+
+[[material]]
+name = "block"
+regions = ["block"]
+model = "isotropic"
+E = {E2!r}
+nu = {nu!r}
+
+[[contact]]
+name = "sphere_block"
+slave = "sphere_contact"
+master = "block_contact"
+
+[[dirichlet]]
+boundary = "block_bottom"
+value = [0.0, 0.0, 0.0]
+
+[[dirichlet]]
+boundary = "sphere_support_x"
+value = [0.0, "free", "free"]
+
+[[dirichlet]]
+boundary = "sphere_support_z"
+value = ["free", "free", 0.0]
+
+[[traction]]
+boundary = "sphere_top"
+value = [0.0, {traction!r}, 0.0]
+
+[output]
+directory = "{results}"
+fields_every = 1
+"""
+
+
+def load() -> float:
+    """The resultant P that gives a = A_OVER_R · R by Hertz's formula (N)."""
+    R, E1, nu = LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
+    E2 = LOAD_DRIVEN_STIFFNESS_RATIO * E1
+    return hertz_3d.load_for_radius(A_OVER_R * R, R, E1, nu, E2, nu)
+
+
+def make_mesh(label: str, mesh_dir: Path) -> Path:
+    """The gmsh file of ``label`` (made once, serially, by the benchmark's mesher)."""
+    h, h_far, mesher = SIZES[label]
+    path = mesh_dir / f"contact3d_{label}_{mesher}.msh"
+    if not path.exists():
+        code = (
+            "import dolfinx_solver\n"
+            "from mpi4py import MPI\n"
+            "from bonecontact.meshing.shapes import hertz_3d\n"
+            f"hertz_3d(MPI.COMM_SELF, {str(path)!r}, radius={LOAD_DRIVEN_RADIUS!r},"
+            f" h_contact={h!r}, h_far={h_far!r}, zone=1.5e-3, dist_max_factor=4.0,"
+            f" lateral_support=True, algorithm_3d={mesher!r})\n"
+        )
+        mesh_dir.mkdir(parents=True, exist_ok=True)
+        subprocess.run([sys.executable, "-c", code], check=True)
+    return path
+
+
+def hertz_from_table(table: Path) -> dict[str, float]:
+    """Relative errors of a and p₀ fitted from the contact table against Hertz for the
+    applied load."""
+    R, E1, nu = LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
+    E2 = LOAD_DRIVEN_STIFFNESS_RATIO * E1
+    P = load()
+    with open(table) as f:
+        rows = [r for r in csv.DictReader(f)]
+    x = np.array([float(r["x"]) for r in rows])
+    z = np.array([float(r["z"]) for r in rows])
+    lam = np.array([float(r["pressure"]) for r in rows])
+    a_ref = hertz_3d.radius(P, R, E1, nu, E2, nu)
+    p0_ref = hertz_3d.peak_pressure(P, R, E1, nu, E2, nu)
+    rr = np.hypot(x, z)
+    sel = rr < 0.8 * a_ref
+    c0, c1 = np.linalg.lstsq(np.c_[np.ones(sel.sum()), rr[sel] ** 2], lam[sel] ** 2, rcond=None)[0]
+    return {
+        "err_a": float(np.sqrt(-c0 / c1) / a_ref - 1.0),
+        "err_p0": float(np.sqrt(c0) / p0_ref - 1.0),
+    }
+
+
+def run_case(label: str, ranks: int, linear: str, mesh: Path, keep: Path | None) -> dict:
+    """Write the scene, run ``bonecontact run`` on ``ranks`` ranks, collect the figures."""
+    work = Path(tempfile.mkdtemp(prefix=f"scale3d-{label}-")) if keep is None else keep
+    results = work / "results"
+    R = LOAD_DRIVEN_RADIUS
+    text = SCENE.format(
+        label=label,
+        mesh=mesh,
+        linear=linear,
+        E1=LOAD_DRIVEN_E,
+        E2=LOAD_DRIVEN_STIFFNESS_RATIO * LOAD_DRIVEN_E,
+        nu=LOAD_DRIVEN_NU,
+        traction=-load() / (np.pi * R**2),
+        results=results,
+    )
+    scene = work / "scene.toml"
+    scene.write_text(text)
+    venv = Path(sys.executable).parent
+    cmd = [str(venv / "mpiexec"), "-n", str(ranks), str(venv / "bonecontact"), "run", str(scene)]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    row: dict = {"label": label, "ranks": ranks, "linear": linear, "wall_s": round(wall, 2)}
+    if proc.returncode != 0:
+        row["status"] = f"failed (exit {proc.returncode}): " + proc.stderr.strip()[-300:]
+        return row
+    summary = json.loads((results / "summary.json").read_text())
+    row["status"] = "converged"
+    row.update(_summary_figures(summary))
+    row.update(hertz_from_table(results / "contact_sphere_block.csv"))
+    return row
+
+
+def _summary_figures(summary: dict) -> dict:
+    """The figures of ``summary.json`` this study reports."""
+    out: dict = {"dofs": summary.get("dofs")}
+    mem = summary.get("peak_memory_mb", {})
+    out["mem_max_rank_mb"] = mem.get("max_rank")
+    out["mem_total_mb"] = mem.get("total")
+    out["pdas_iterations"] = summary.get("contact", {}).get("pdas_iterations", {}).get("total")
+    out["linear_iterations"] = summary.get("linear_iterations", {}).get("total")
+    for name, value in summary.get("phases_s", {}).items():
+        out[f"t_{name}"] = round(float(value), 2)
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--sizes", default="200k", help="labels of bench_contact3d.SIZES, e.g. 200k,1M")
+    p.add_argument("--ranks", default="1,2", help="comma-separated rank counts")
+    p.add_argument("--linear", default="iterative", help="iterative and/or direct")
+    p.add_argument("--mesh-dir", type=Path, default=Path("/tmp/bonecontact-bench-meshes"))
+    p.add_argument("--out", type=Path, default=OUT)
+    p.add_argument("--keep", type=Path, default=None, help="keep the scene and results here")
+    args = p.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    target = args.out / "scale3d.csv"
+    info = machine()
+    for label in args.sizes.split(","):
+        mesh = make_mesh(label, args.mesh_dir)
+        for linear in args.linear.split(","):
+            for n in map(int, args.ranks.split(",")):
+                row = run_case(label, n, linear, mesh, args.keep)
+                row["machine"] = info
+                print(json.dumps(row), flush=True)
+                new = not target.exists()
+                with open(target, "a", newline="") as f:
+                    w = csv.DictWriter(f, fieldnames=list(row), extrasaction="ignore")
+                    if new:
+                        w.writeheader()
+                    w.writerow(row)
+
+
+if __name__ == "__main__":
+    main()
