@@ -32,6 +32,7 @@ LAYERS = [
     "contact",
     "meshing",
     "neoplasm",
+    "fracture",
     "scene",
     "verification",
     "runners",

@@ -1,0 +1,65 @@
+"""Fracture of the weakened bone (docs/theory/fracture.md): crack geometry
+(:mod:`~bonecontact.fracture.crack`), meshing a body with a crack whose faces are separate
+boundaries graded towards the tips (:mod:`~bonecontact.fracture.meshing`), Williams'
+near-tip fields (:mod:`~bonecontact.fracture.williams`), stress intensity factors by the
+domain interaction integral and displacement correlation (:mod:`~bonecontact.fracture.sif`),
+and the cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
+
+from bonecontact.fracture.crack import (
+    Crack2D,
+    FractureError,
+    point_in_polygon,
+    point_segment_distance,
+    segments_intersect,
+)
+from bonecontact.fracture.meshing import CrackedMesh, Hole, TipMesh, mesh_cracked_body
+from bonecontact.fracture.plates import (
+    PlateSolution,
+    centre_crack,
+    edge_crack,
+    mesh_plate,
+    rectangle_outline,
+    solve_tension,
+)
+from bonecontact.fracture.sif import (
+    SIFResult,
+    displacement_correlation,
+    energy_release_rate,
+    interaction_integral,
+    plane_stress_equivalent,
+)
+from bonecontact.fracture.williams import (
+    PlaneState,
+    elastic_constants,
+    williams_displacement,
+    williams_displacement_ufl,
+    williams_stress,
+)
+
+__all__ = [
+    "Crack2D",
+    "CrackedMesh",
+    "FractureError",
+    "Hole",
+    "PlaneState",
+    "PlateSolution",
+    "SIFResult",
+    "TipMesh",
+    "centre_crack",
+    "displacement_correlation",
+    "edge_crack",
+    "elastic_constants",
+    "energy_release_rate",
+    "interaction_integral",
+    "mesh_cracked_body",
+    "mesh_plate",
+    "plane_stress_equivalent",
+    "point_in_polygon",
+    "point_segment_distance",
+    "rectangle_outline",
+    "segments_intersect",
+    "solve_tension",
+    "williams_displacement",
+    "williams_displacement_ufl",
+    "williams_stress",
+]
