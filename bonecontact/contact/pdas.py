@@ -481,6 +481,38 @@ class ContactSolver:
         self._lam_n_prev = np.zeros(self.NS)
         self.Uh.set(0.0)
 
+    def state(self) -> dict:
+        """The warm start carried from one step to the next (for a checkpoint).
+
+        Per pair, on this rank's owned slave nodes (the order of ``interface.blocks``):
+        ``active`` (bool), ``directions`` (slip directions, (n, gdim − 1)), ``lam_n_prev``
+        (previous normal multipliers, operator units) and ``work_gaps`` (gaps before the
+        next step, for the contact work); ``Uh`` the last solution in the nodal frames
+        (owned rows, a copy) and ``cold`` whether no step has been solved yet.
+        """
+        return {
+            "active": [a.copy() for a in self._own(self._an)],
+            "directions": [a.copy() for a in self._own(self._dir)],
+            "lam_n_prev": [a.copy() for a in self._own(self._lam_n_prev)],
+            "work_gaps": [g.copy() for g in self._work_gaps],
+            "Uh": self.Uh.array.copy(),
+            "cold": bool(self._cold),
+        }
+
+    def restore_state(self, state: dict) -> None:
+        """Take the warm start of :meth:`state` (same layout; collective)."""
+
+        def rep(key: str, dtype: type) -> npt.NDArray:
+            parts = [np.asarray(a, dtype=dtype) for a in state[key]]
+            return self._gn(np.concatenate(parts) if parts else np.zeros(0, dtype))
+
+        self._an = rep("active", bool)
+        self._dir = rep("directions", float).reshape(self.NS, self.bs - 1)
+        self._lam_n_prev = rep("lam_n_prev", float)
+        self._work_gaps = [np.asarray(g, dtype=float).copy() for g in state["work_gaps"]]
+        self.Uh.array[:] = state["Uh"]
+        self._cold = bool(state["cold"])
+
     def _fixed_rows(self, an: npt.NDArray, stick: npt.NDArray) -> npt.NDArray[np.bool_]:
         fixed = np.zeros(self.bs * self.NS, dtype=bool)
         fixed[self._ridx[0][an]] = True

@@ -334,6 +334,36 @@ class Integrator:
         if self.energy_balance:
             self._reset_balance()
 
+    def state(self) -> dict:
+        """What the next step needs (for a checkpoint): ``t``, ``step_count``, the owned
+        values of ``u_n``, ``u_nm1`` and ``velocity`` (copies), the running energy
+        balance (``balance``, a dict) and the contact solver's warm start (``contact``,
+        :meth:`ContactSolver.state <bonecontact.contact.pdas.ContactSolver.state>`)."""
+        n = self.model.num_owned
+        return {
+            "t": self.t,
+            "step_count": self.step_count,
+            "u_n": self.u_n.x.array[:n].copy(),
+            "u_nm1": self.u_nm1.x.array[:n].copy(),
+            "velocity": self.velocity.x.array[:n].copy(),
+            "balance": {f.name: getattr(self.balance, f.name) for f in fields(self.balance)},
+            "contact": self.contact.state() if self.contact is not None else None,
+        }
+
+    def restore_state(self, state: dict) -> None:
+        """Continue from :meth:`state` (same layout; collective)."""
+        n = self.model.num_owned
+        for name in ("u_n", "u_nm1", "velocity"):
+            f = getattr(self, name)
+            f.x.array[:n] = state[name]
+            f.x.scatter_forward()
+        self.u.x.array[:] = self.u_n.x.array
+        self.t, self.step_count = float(state["t"]), int(state["step_count"])
+        self.balance = EnergyBalance(**state["balance"])
+        self.last_balance = None
+        if self.contact is not None and state.get("contact") is not None:
+            self.contact.restore_state(state["contact"])
+
     # ---------------------------------------------------------------- steps
     def rhs(self, t: float) -> PETSc.Vec:
         """Right-hand side at time ``t`` (before Dirichlet lifting)."""
@@ -392,11 +422,20 @@ class Integrator:
             its = self.last_contact.linear_iterations
         else:
             its = self.solve_linear(b, self.u)
+        self._check_finite(t)
         if self.energy_balance:
             self.last_balance = self._balance_step()
             self.balance.accumulate(self.last_balance)
         self._advance(t)
         return StepInfo(self.step_count, t, its, _time.perf_counter() - t0)
+
+    def _check_finite(self, t: float) -> None:
+        """Raise (on every rank) if the step's solution holds a NaN or an infinity."""
+        ok = bool(np.isfinite(self.u.x.array).all())
+        if not self.model.mesh.comm.allreduce(ok, op=MPI.LAND):
+            raise RuntimeError(
+                f"the solver returned a non-finite displacement (NaN or inf) at t = {t:.6g} s"
+            )
 
     def _advance(self, t: float) -> None:
         """Shift the history after ``self.u`` has been solved for time ``t``."""

@@ -9,12 +9,14 @@ rank (collective checks) and an unexpected error on one rank aborts all ranks.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import traceback
 from pathlib import Path
 
 from mpi4py import MPI
 
+from bonecontact.runners.checkpoint import CheckpointError
 from bonecontact.runners.dispatch import check, run_scene
 from bonecontact.scene import SceneError, format_error, load_scene
 
@@ -37,6 +39,15 @@ def _parser() -> argparse.ArgumentParser:
         "-o", "--output", type=Path, default=None, help="output directory (overrides the scene)"
     )
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    r.add_argument(
+        "--restart",
+        nargs="?",
+        const=True,
+        default=None,
+        metavar="CHECKPOINT",
+        help="continue from the newest checkpoint of the output directory, or from the "
+        "named checkpoint directory (docs/checkpoint.md)",
+    )
     c = sub.add_parser("check", help="validate a scene file and its mesh without running it")
     c.add_argument("scene", type=Path, help="scene file (TOML)")
     return p
@@ -45,6 +56,11 @@ def _parser() -> argparse.ArgumentParser:
 def _say(msg: str, comm: MPI.Comm) -> None:
     if comm.rank == 0:
         print(msg, file=sys.stderr, flush=True)
+
+
+def _signal_number(name: str) -> int:
+    """15 for ``"SIGTERM"`` (2 for an unknown name)."""
+    return int(getattr(signal.Signals, name, signal.SIGINT))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -57,9 +73,14 @@ def main(argv: list[str] | None = None) -> int:
             check(scene, comm)
             _say(f"{args.scene}: ok", comm)
             return 0
-        result = run_scene(scene, comm, output=args.output, progress=not args.quiet)
+        result = run_scene(
+            scene, comm, output=args.output, progress=not args.quiet, restart=args.restart
+        )
     except SceneError as exc:
         _say(format_error(exc), comm)
+        return 2
+    except CheckpointError as exc:  # raised on every rank
+        _say(f"restart: {exc}", comm)
         return 2
     except KeyboardInterrupt:
         _say("interrupted", comm)
@@ -74,6 +95,13 @@ def main(argv: list[str] | None = None) -> int:
         if comm.size > 1:
             comm.Abort(1)
         return 1
+    if result.status == "interrupted":
+        _say(
+            f"{scene.name}: {result.summary.get('message', 'interrupted')}; checkpoint "
+            f"{result.summary['checkpoints']['last']} (continue with --restart)",
+            comm,
+        )
+        return 128 + _signal_number(result.summary.get("signal", "SIGINT"))
     if result.status != "converged":
         _say(
             f"run failed: {result.summary.get('message', '')} "

@@ -19,7 +19,7 @@ from bonecontact.runners.coupled import check_coupled, run_coupled
 from bonecontact.runners.growth import build_growth, run_growth
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import RunResult
-from bonecontact.scene import Scene
+from bonecontact.scene import Scene, SceneError
 
 __all__ = ["check", "run", "run_kind", "run_scene"]
 
@@ -39,6 +39,7 @@ def run_scene(
     comm: MPI.Comm = MPI.COMM_WORLD,
     output: str | Path | None = None,
     progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Validate, build and run a scene, writing its results incrementally.
 
@@ -52,6 +53,9 @@ def run_scene(
         The results directory; ``None``: the scene's ``[output] directory``.
     progress
         Show a progress bar (rank 0 only).
+    restart
+        Continue from the newest checkpoint (``True``) or the named one (mechanics
+        runs only; docs/checkpoint.md).
 
     Returns
     -------
@@ -61,11 +65,18 @@ def run_scene(
     """
     output = None if output is None else Path(output)
     kind = run_kind(scene)
+    if kind != "mechanics" and (restart or scene.output.checkpoint_every):
+        raise SceneError(
+            scene.path,
+            "[output]",
+            "checkpoint_every",
+            f"checkpoints and restarts are implemented for mechanics runs only, not {kind} runs",
+        )
     if kind == "growth":  # [neoplasm] without [analysis]: growth.csv
         return run_growth(scene, comm, output, progress)
     if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
         return run_coupled(scene, comm, output, progress)
-    return run_mechanics(scene, comm, output, progress)
+    return run_mechanics(scene, comm, output, progress, restart)
 
 
 #: :func:`run_scene` under its short name

@@ -30,6 +30,7 @@ from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
+from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
 from bonecontact.runners.results import (
     ENERGY_COLUMNS,
     ProbeError,
@@ -234,13 +235,20 @@ class _Recorder:
         comm: MPI.Comm,
         outdir: Path,
         dynamic: bool,
+        ckpt: Checkpointer | None = None,
     ):
         self.sm, self.integ, self.dynamic = sm, integ, dynamic
         self.stress = StressFields(
             sm.model.mesh, sm.model.stress_expression(integ.u, integ.velocity)
         )
         self.writer = ResultsWriter(
-            comm, outdir, scene.name, sm.probes, ENERGY_COLUMNS if dynamic else ()
+            comm,
+            outdir,
+            scene.name,
+            sm.probes,
+            ENERGY_COLUMNS if dynamic else (),
+            append=ckpt is not None and ckpt.restarted_from is not None,
+            fields_stem=ckpt.fields_stem if ckpt is not None else "fields",
         )
         self.fields_written = -1
 
@@ -308,15 +316,6 @@ class _Recorder:
         return rows
 
 
-@dataclass
-class _Counts:
-    """Solver iteration counts over the run."""
-
-    linear: list[int]
-    pdas: list[int]
-    bound_updates: list[int]
-
-
 def _step_through(
     scene: Scene,
     comm: MPI.Comm,
@@ -326,52 +325,65 @@ def _step_through(
     dt: float,
     progress: bool,
     timer: PhaseTimer,
-) -> tuple[str, str | None, _Counts]:
+    ckpt: Checkpointer,
+) -> tuple[str, str | None]:
     """Record the initial state, then step and record; a failed step ends the run.
 
     ``timer`` gets the phases ``time_stepping`` (the steps' solves, contact included),
-    ``contact_solve`` (the part of it in the PDAS) and ``output`` (tables and fields).
+    ``contact_solve`` (the part of it in the PDAS), ``output`` (tables and fields) and
+    ``checkpoint``.  A restarted run starts after the checkpoint's step; a signal
+    (``ckpt.stop``) ends the run after a step with a checkpoint (``"interrupted"``).
 
-    Returns ``(status, message, counts)``.
+    Returns ``(status, message)``.
     """
     every = scene.output.fields_every
-    counts = _Counts([], [], [])
     status, message = "converged", None
+    first = integ.step_count + 1
     try:
-        with timer.phase("output"):
-            rec.record(0, 0.0, every > 0)
+        if first == 1:
+            with timer.phase("output"):
+                rec.record(0, 0.0, every > 0)
         bar = tqdm(
             total=nsteps,
+            initial=first - 1,
             desc=scene.name,
             unit="step",
             disable=(comm.rank != 0) or not progress,
             dynamic_ncols=True,
         )
-        for k in range(1, nsteps + 1):
+        for k in range(first, nsteps + 1):
             with timer.phase("time_stepping"):
                 si = integ.step()
-            counts.linear.append(si.linear_iterations)
-            if integ.last_contact is not None:
-                counts.pdas.append(integ.last_contact.iterations)
-                counts.bound_updates.append(integ.last_contact.bound_updates)
-                timer.add("contact_solve", integ.last_contact.wall_time)
+            res = integ.last_contact
+            ckpt.count(
+                si.linear_iterations, *(() if res is None else (res.iterations, res.bound_updates))
+            )
+            if res is not None:
+                timer.add("contact_solve", res.wall_time)
             last = k == nsteps
             with timer.phase("output"):
                 rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
             bar.update(1)
+            if ckpt.after_step() and not last:  # a signal: checkpoint written, fields too
+                status, message = "interrupted", f"stopped after step {k} by a signal"
+                with timer.phase("output"):
+                    rec.record(k, integ.t, True, tables=False)
+                break
         bar.close()
+    except CheckpointError as exc:
+        status, message = "failed", str(exc)
     except RuntimeError as exc:
         status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
         with timer.phase("output"):  # the last good state (its rows are written)
             rec.record(integ.step_count, integ.t, True, tables=False)
-    return status, message, counts
+    return status, message
 
 
 def _run_info(
     scene: Scene,
     sm: SceneModel,
     integ: Integrator,
-    counts: _Counts,
+    counts: RunCounters,
     dynamic: bool,
     e0: float,
     t_start: float,
@@ -409,17 +421,35 @@ def _run_info(
     return info
 
 
+def _checkpoint_info(scene: Scene, sm: SceneModel, dt: float) -> dict[str, Any]:
+    """What a checkpoint and the run continuing it must agree on."""
+    return {"scene": scene.name, "analysis": scene.analysis.kind, "dt": dt}
+
+
 # ----------------------------------------------------------------------------- run
 def run_mechanics(
-    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None, progress: bool = True
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Validate, build and run a mechanics scene, writing its results incrementally.
+
+    ``restart``: continue from the newest checkpoint in the output directory (``True``)
+    or from the named one (a path); docs/checkpoint.md.
 
     Returns
     -------
     RunResult
-        ``status`` is ``"converged"`` or ``"failed"`` (then ``summary["message"]``
-        says why; the last good state is in the output files).
+        ``status`` is ``"converged"``, ``"failed"`` (then ``summary["message"]``
+        says why; the last good state is in the output files) or ``"interrupted"``
+        (a signal; a checkpoint of the last step was written).
+
+    Raises
+    ------
+    CheckpointError
+        The checkpoint to restart from is missing, damaged or from another scene.
     """
     t_start = time.perf_counter()
     timer = PhaseTimer()
@@ -430,9 +460,15 @@ def run_mechanics(
     with timer.phase("solver_setup"):  # assembly, factorisation or preconditioner
         integ = _integrator(scene, sm, dt, dynamic)
         integ.set_initial(None, sm.v0)
+    ckpt = Checkpointer(
+        outdir, integ, scene.output.checkpoint_every, _checkpoint_info(scene, sm, dt)
+    )
+    if restart:
+        with timer.phase("checkpoint"):
+            ckpt.resume(None if restart is True else restart)
     with timer.phase("output"):
-        rec = _Recorder(scene, sm, integ, comm, outdir, dynamic)
-    e0 = integ.balance.total
+        rec = _Recorder(scene, sm, integ, comm, outdir, dynamic, ckpt)
+    e0 = ckpt.counters.e0
     info = {
         "dofs": sm.model.num_dofs,
         "analysis": scene.analysis.kind,
@@ -440,8 +476,12 @@ def run_mechanics(
         "setup_time_s": integ.setup_time,
         "linear_solver": scene.solver.linear,
     }
-    status, message, counts = _step_through(scene, comm, integ, rec, nsteps, dt, progress, timer)
-    info.update(_run_info(scene, sm, integ, counts, dynamic, e0, t_start))
+    with ckpt.stop:
+        status, message = _step_through(scene, comm, integ, rec, nsteps, dt, progress, timer, ckpt)
+    info.update(_run_info(scene, sm, integ, ckpt.counters, dynamic, e0, t_start))
+    info.update(ckpt.summary())
+    if ckpt.time_s:
+        timer.add("checkpoint", ckpt.time_s)
     info["phases_s"] = timer.summary(comm)
     if message is not None:
         info["message"] = message

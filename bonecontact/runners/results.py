@@ -353,6 +353,10 @@ class ResultsWriter:
         Probe points (``probes.csv``), if any.
     extra_history_columns
         Columns appended to ``HISTORY_COLUMNS`` (dynamic runs: ``ENERGY_COLUMNS``).
+    append
+        Continue existing history.csv and probes.csv (a restart) instead of starting them.
+    fields_stem
+        Name of the field files (``<stem>.xdmf``, ``<stem>.pvd``).
     """
 
     def __init__(
@@ -362,8 +366,11 @@ class ResultsWriter:
         scene: str,
         probes: Probes | None = None,
         extra_history_columns: Sequence[str] = (),
+        append: bool = False,
+        fields_stem: str = "fields",
     ):
         self.comm = comm
+        self.fields_stem = fields_stem
         self.dir = Path(directory)
         self.scene = scene
         self.probes = probes
@@ -373,13 +380,16 @@ class ResultsWriter:
         self._hist = self._probe_file = None
         if comm.rank == 0:
             self.dir.mkdir(parents=True, exist_ok=True)
-            self._hist = open(self.dir / "history.csv", "w", newline="")
+            mode = "a" if append else "w"
+            self._hist = open(self.dir / "history.csv", mode, newline="")
             self._hist_w = csv.writer(self._hist)
-            self._hist_w.writerow(HISTORY_COLUMNS + list(extra_history_columns))
+            if not append:
+                self._hist_w.writerow(HISTORY_COLUMNS + list(extra_history_columns))
             if probes is not None and len(probes.points):
-                self._probe_file = open(self.dir / "probes.csv", "w", newline="")
+                self._probe_file = open(self.dir / "probes.csv", mode, newline="")
                 self._probe_w = csv.writer(self._probe_file)
-                self._probe_w.writerow(probes.header())
+                if not append:
+                    self._probe_w.writerow(probes.header())
         comm.barrier()
 
     # ------------------------------------------------------------- tables
@@ -452,9 +462,10 @@ class ResultsWriter:
         """Write fields at time ``t`` to fields.xdmf and fields.pvd (collective)."""
         msh = functions[0].function_space.mesh
         if self._xdmf is None:
-            self._xdmf = io.XDMFFile(self.comm, str(self.dir / "fields.xdmf"), "w")
+            stem = self.dir / self.fields_stem
+            self._xdmf = io.XDMFFile(self.comm, str(stem.with_suffix(".xdmf")), "w")
             self._xdmf.write_mesh(msh)
-            self._vtk = io.VTKFile(self.comm, str(self.dir / "fields.pvd"), "w")
+            self._vtk = io.VTKFile(self.comm, str(stem.with_suffix(".pvd")), "w")
         for f in functions:
             self._xdmf.write_function(f, t)
         self._vtk.write_function(list(functions), t)

@@ -102,7 +102,7 @@ TRACTION_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 PRESSURE_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 BODY_FORCE_KEYS = ("regions", "value") + SCHEDULE_KEYS
 INITIAL_VELOCITY_KEYS = ("regions", "value")
-OUTPUT_KEYS = ("directory", "fields_every", "probes")
+OUTPUT_KEYS = ("directory", "fields_every", "probes", "checkpoint_every")
 
 #: Tables that later capabilities will add (rejected with a clearer message until then).
 FUTURE_TABLES = ("fracture",)
@@ -641,6 +641,7 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
     if not directory.is_absolute():
         directory = Path.cwd() / directory
     fields_every = tab.integer("fields_every", default=1, minimum=0)
+    checkpoint_every = tab.integer("checkpoint_every", default=0, minimum=0)
     raw = tab.raw("probes", False)
     probes: tuple[tuple[float, ...], ...] = ()
     if raw is not _MISSING:
@@ -652,7 +653,12 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
         probes = tuple(
             tab.vector("probes", dim, value=p, what=f"point {k + 1} ") for k, p in enumerate(raw)
         )
-    return OutputSpec(directory=directory, fields_every=fields_every, probes=probes)  # type: ignore[arg-type]
+    return OutputSpec(
+        directory=directory,
+        fields_every=fields_every,
+        probes=probes,  # type: ignore[arg-type]
+        checkpoint_every=checkpoint_every,  # type: ignore[arg-type]
+    )
 
 
 def _sub_table(tab: _Table, key: str) -> _Table | None:

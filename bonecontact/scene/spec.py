@@ -338,11 +338,15 @@ class OutputSpec:
         Write fields every this many steps; 0 writes the last step only.
     probes
         Points (reference configuration) sampled every step.
+    checkpoint_every
+        Write a restart checkpoint every this many steps (docs/checkpoint.md); 0: none
+        (an interrupted run still writes one).
     """
 
     directory: Path = field(default_factory=lambda: Path.cwd() / "results")
     fields_every: int = 1
     probes: tuple[tuple[float, ...], ...] = ()
+    checkpoint_every: int = 0
 
 
 @dataclass(frozen=True)
