@@ -3,7 +3,8 @@
 boundaries graded towards the tips (:mod:`~bonecontact.fracture.meshing`), Williams'
 near-tip fields (:mod:`~bonecontact.fracture.williams`), stress intensity factors by the
 domain interaction integral and displacement correlation (:mod:`~bonecontact.fracture.sif`),
-and the cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
+the initiation risk and the direction criteria (:mod:`~bonecontact.fracture.criteria`), and
+the cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
 
 from bonecontact.fracture.crack import (
     Crack2D,
@@ -12,6 +13,16 @@ from bonecontact.fracture.crack import (
     point_segment_distance,
     segments_intersect,
 )
+from bonecontact.fracture.criteria import (
+    RISK_CRITERIA,
+    CellStresses,
+    RiskMaximum,
+    cell_stresses,
+    mts_angle,
+    mts_equivalent_k,
+    principal_direction_average,
+    risk_field,
+)
 from bonecontact.fracture.meshing import CrackedMesh, Hole, TipMesh, mesh_cracked_body
 from bonecontact.fracture.plates import (
     PlateSolution,
@@ -19,6 +30,8 @@ from bonecontact.fracture.plates import (
     edge_crack,
     mesh_plate,
     rectangle_outline,
+    solve_plate,
+    solve_shear,
     solve_tension,
 )
 from bonecontact.fracture.sif import (
@@ -37,14 +50,18 @@ from bonecontact.fracture.williams import (
 )
 
 __all__ = [
+    "RISK_CRITERIA",
+    "CellStresses",
     "Crack2D",
     "CrackedMesh",
     "FractureError",
     "Hole",
     "PlaneState",
     "PlateSolution",
+    "RiskMaximum",
     "SIFResult",
     "TipMesh",
+    "cell_stresses",
     "centre_crack",
     "displacement_correlation",
     "edge_crack",
@@ -53,11 +70,17 @@ __all__ = [
     "interaction_integral",
     "mesh_cracked_body",
     "mesh_plate",
+    "mts_angle",
+    "mts_equivalent_k",
     "plane_stress_equivalent",
     "point_in_polygon",
     "point_segment_distance",
+    "principal_direction_average",
     "rectangle_outline",
+    "risk_field",
     "segments_intersect",
+    "solve_plate",
+    "solve_shear",
     "solve_tension",
     "williams_displacement",
     "williams_displacement_ufl",

@@ -13,6 +13,7 @@ Plane stress is solved as plane strain with the equivalent material of
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -35,6 +36,8 @@ __all__ = [
     "edge_crack",
     "mesh_plate",
     "rectangle_outline",
+    "solve_plate",
+    "solve_shear",
     "solve_tension",
 ]
 
@@ -88,22 +91,22 @@ def _corner_facets(cm: CrackedMesh, corner: np.ndarray) -> np.ndarray:
     return facets
 
 
-def solve_tension(
+def solve_plate(
     cm: CrackedMesh,
     material: Isotropic,
-    sigma: float,
+    tractions: Mapping[str, tuple[float, float]],
     plane: PlaneState = "strain",
 ) -> PlateSolution:
-    """Solve the rectangle ``cm`` (outline of :func:`rectangle_outline`) under traction σ.
+    """Solve the rectangle ``cm`` (outline of :func:`rectangle_outline`) under edge tractions.
 
     Parameters
     ----------
     cm
-        Mesh of a rectangle with groups ``edge0`` (bottom) and ``edge2`` (top).
+        Mesh of a rectangle with groups ``edge0`` … ``edge3`` (bottom, right, top, left).
     material
         The real material (plane stress: solved with its plane-strain equivalent).
-    sigma
-        Remote normal stress σ_yy (Pa).
+    tractions
+        Edge group name → traction vector (Pa); they must be in equilibrium.
     plane
         ``"strain"`` or ``"stress"``.
 
@@ -119,18 +122,43 @@ def solve_tension(
     vertical = np.abs(mid[:, 0]) < np.abs(mid[:, 1])
     m.add_dirichlet(facets[vertical], 0, 0.0)  # u_x = 0 along the left edge
     m.add_dirichlet(facets[~vertical], 1, 0.0)  # u_y = 0 along the bottom edge
-    top, bottom = cm.groups["edge2"], cm.groups["edge0"]
-    m.add_traction(top, (0.0, sigma))
-    m.add_traction(bottom, (0.0, -sigma))
+    for name, t in tractions.items():
+        m.add_traction(cm.groups[name], tuple(float(v) for v in t))
     integ = Integrator(m, "static", 1.0)
     integ.step()
     u = fem.Function(m.V, name="displacement")
     u.x.array[:] = integ.u.x.array
     integ.destroy()
-    ts = fem.Constant(cm.mesh, np.array([0.0, sigma]))
-    work = fem.assemble_scalar(fem.form(ufl.dot(ts, u) * m.ds(top) - ufl.dot(ts, u) * m.ds(bottom)))
+    work = sum(
+        fem.assemble_scalar(
+            fem.form(
+                ufl.dot(fem.Constant(cm.mesh, np.asarray(t, dtype=float)), u) * m.ds(cm.groups[n])
+            )
+        )
+        for n, t in tractions.items()
+    )
     work = cm.mesh.comm.allreduce(work, op=MPI.SUM)
     return PlateSolution(cm, m, u, -0.5 * work)
+
+
+def solve_tension(
+    cm: CrackedMesh, material: Isotropic, sigma: float, plane: PlaneState = "strain"
+) -> PlateSolution:
+    """The plate under remote normal stress σ_yy = σ: traction (0, σ) on the top edge and
+    (0, −σ) on the bottom edge (:func:`solve_plate`)."""
+    return solve_plate(cm, material, {"edge2": (0.0, sigma), "edge0": (0.0, -sigma)}, plane)
+
+
+def solve_shear(
+    cm: CrackedMesh, material: Isotropic, tau: float, plane: PlaneState = "strain"
+) -> PlateSolution:
+    """The plate under remote pure shear σ_xy = τ on all four edges (:func:`solve_plate`)."""
+    return solve_plate(
+        cm,
+        material,
+        {"edge2": (tau, 0.0), "edge0": (-tau, 0.0), "edge1": (0.0, tau), "edge3": (0.0, -tau)},
+        plane,
+    )
 
 
 def mesh_plate(
