@@ -16,8 +16,11 @@ __all__ = [
     "DATA_DIR",
     "MATERIALS_FILE",
     "METADATA_KEYS",
+    "STRENGTH_KEYS",
     "load_material_library",
     "load_reference_values",
+    "load_strengths",
+    "material_strength",
 ]
 
 DATA_DIR = Path(__file__).resolve().parents[2] / "data"
@@ -25,6 +28,9 @@ MATERIALS_FILE = DATA_DIR / "materials.toml"
 
 #: Keys of a library entry that are documentation, not scene-file material keys.
 METADATA_KEYS = ("source", "notes")
+
+#: Strength and toughness keys of a ``[strength.<material>]`` table (Pa, Pa·√m).
+STRENGTH_KEYS = ("sigma_t", "sigma_c", "K_Ic")
 
 
 def _load(path: str | Path | None, section: str) -> dict[str, dict[str, Any]]:
@@ -85,3 +91,45 @@ def load_reference_values(path: str | Path | None = None) -> dict[str, dict[str,
         ``{name: {quantity: value, ..., "source": ..., "notes": ...}}``, SI units.
     """
     return _load(path, "reference")
+
+
+def load_strengths(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """Strength and toughness tables of the library, by material name.
+
+    Returns
+    -------
+    dict
+        ``{material: {"sigma_t": ..., "sigma_c": ..., "K_Ic": ..., "source": ...}}`` (Pa,
+        Pa·√m); a table may lack keys.
+    """
+    return _load(path, "strength")
+
+
+def material_strength(
+    name: str, keys: tuple[str, ...] = STRENGTH_KEYS, path: str | Path | None = None
+) -> dict[str, float]:
+    """The strengths of material ``name`` that a fracture check needs.
+
+    Parameters
+    ----------
+    name
+        Material name (a ``[strength.<name>]`` table).
+    keys
+        The keys the check needs (a subset of :data:`STRENGTH_KEYS`).
+    path
+        TOML file to read (default ``data/materials.toml``).
+
+    Raises
+    ------
+    KeyError
+        Naming the material and the first missing key, when the table or a needed
+        value is missing or not a positive number.
+    """
+    table = load_strengths(path).get(name, {})
+    out = {}
+    for key in keys:
+        v = table.get(key)
+        if not isinstance(v, (int, float)) or not v > 0:
+            raise KeyError(f"strength.{name}.{key}: missing (a positive number is needed)")
+        out[key] = float(v)
+    return out
