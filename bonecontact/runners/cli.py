@@ -1,5 +1,10 @@
 """Command line: ``bonecontact run SCENE.toml`` (also under ``mpiexec -n K``).
 
+``bonecontact check SCENE.toml`` validates a scene and its mesh without running it and prints
+a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, dofs) to
+stdout.  Implausible values (likely unit slips, :mod:`bonecontact.runners.plausibility`) are
+printed as warnings before anything is solved; ``--strict`` makes them errors (exit status 2).
+
 Exit status: 0 converged; 1 the run failed (solver did not converge — see
 ``summary.json``) or an internal error; 2 invalid input (message names the file,
 table and key; nothing is written).  Under MPI an input error is detected on every
@@ -12,13 +17,18 @@ import argparse
 import signal
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 from mpi4py import MPI
 
+from bonecontact.common.version import __version__
 from bonecontact.runners.checkpoint import CheckpointError
-from bonecontact.runners.dispatch import check, run_scene
-from bonecontact.scene import SceneError, format_error, load_scene
+from bonecontact.runners.dispatch import check, run_kind, run_scene
+from bonecontact.runners.mechanics import SceneModel, build_model
+from bonecontact.runners.plausibility import count_bodies, mesh_extent
+from bonecontact.scene import Scene, SceneError, format_error, load_scene
+from bonecontact.scene.checks import PlausibilityWarning
 
 __all__ = ["main"]
 
@@ -28,6 +38,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="bonecontact",
         description="Dynamic contact of visco-elastic bones with neoplasms (FEniCSx). Units: SI.",
     )
+    p.add_argument("--version", action="version", version=f"bonecontact {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser(
         "run",
@@ -40,6 +51,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     r.add_argument(
+        "--strict",
+        action="store_true",
+        help="treat implausible values (likely unit slips) as errors (exit status 2)",
+    )
+    r.add_argument(
         "--restart",
         nargs="?",
         const=True,
@@ -50,12 +66,95 @@ def _parser() -> argparse.ArgumentParser:
     )
     c = sub.add_parser("check", help="validate a scene file and its mesh without running it")
     c.add_argument("scene", type=Path, help="scene file (TOML)")
+    c.add_argument(
+        "--strict",
+        action="store_true",
+        help="treat implausible values (likely unit slips) as errors (exit status 2)",
+    )
     return p
 
 
 def _say(msg: str, comm: MPI.Comm) -> None:
     if comm.rank == 0:
         print(msg, file=sys.stderr, flush=True)
+
+
+def _warning_printer(comm: MPI.Comm):
+    """``warnings.showwarning`` of the command: ``warning: <message>`` on rank 0's stderr."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        _say(f"warning: {message}", comm)
+
+    return show
+
+
+def _pascals(v: float) -> str:
+    """A stress or modulus with its SI prefix (``17 GPa``)."""
+    for factor, unit in ((1e9, "GPa"), (1e6, "MPa"), (1e3, "kPa")):
+        if abs(v) >= factor:
+            return f"{v / factor:.4g} {unit}"
+    return f"{v:.4g} Pa"
+
+
+def _fmt_modulus(material: object) -> str:
+    keys = [k for k in ("E", "E_p", "E_a", "E1", "E2", "E3") if hasattr(material, k)]
+    return ", ".join(f"{k} = {_pascals(getattr(material, k))}" for k in keys)
+
+
+def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[tuple[str, str]]:
+    """(label, text) rows of ``bonecontact check``'s summary (collective: counts bodies)."""
+    rows = []
+    a = scene.analysis
+    steps = "" if a is None else f", {a.n_steps} {'load ' if a.kind == 'static' else ''}steps"
+    kind = "growth only" if a is None else f"{a.kind}{steps}"
+    plane = "2D plane strain" if scene.dimension == 2 else "3D"
+    rows.append(("analysis", f"{kind}; {plane}; {run_kind(scene)} run; {scene.solver.linear}"))
+    if sm is not None:
+        mesh = sm.mesh_data.mesh
+        cells = mesh.topology.index_map(mesh.topology.dim).size_global
+        bodies = count_bodies(mesh, comm)
+        size = " × ".join(f"{e:.4g}" for e in mesh_extent(mesh, comm))
+        rows.append(("mesh", f"{scene.mesh_path.name}: {size} m, {cells} cells, {bodies} bodies"))
+    elif scene.mesh_path is not None:
+        rows.append(("mesh", scene.mesh_path.name))
+    for m in scene.materials:
+        law = type(m.material).__name__
+        regions = ", ".join(m.regions)
+        rows.append(("materials", f"{m.name} ({law}, {_fmt_modulus(m.material)}) on {regions}"))
+    facets = sorted(
+        {d.boundary for d in scene.dirichlet}
+        | {ld.target[0] for ld in scene.loads if ld.kind != "body_force"}
+        | {s for c in scene.contacts for s in (c.slave, c.master)}
+    )
+    rows.append(("groups used", f"cells: {', '.join(scene.cell_regions) or '-'}"))
+    rows.append(("", f"facets: {', '.join(facets) or '-'}"))
+    for c in scene.contacts:
+        fr = "frictionless" if c.friction == "none" else c.friction
+        rows.append(("contact", f"{c.name}: {c.slave} (slave) on {c.master} (master), {fr}"))
+    if not scene.contacts:
+        rows.append(("contact", "none"))
+    if sm is not None:
+        rows.append(("dofs", f"{sm.model.num_dofs} (P1 displacement)"))
+        rows.append(("warnings", str(len(sm.issues)) if sm.issues else "none"))
+    else:
+        rows.append(("dofs", "set by the mesh rebuilt during the run"))
+    return rows
+
+
+def _check(scene: Scene, shown: Path, comm: MPI.Comm) -> int:
+    """``bonecontact check``: every check, then the summary on stdout (rank 0)."""
+    sm = build_model(scene, comm) if run_kind(scene) == "mechanics" else None
+    if sm is None:
+        check(scene, comm)
+    rows = _summary_lines(scene, sm, comm)
+    if comm.rank == 0:
+        print(f"{scene.name}: ok ({shown})")
+        previous = None
+        for label, text in rows:
+            print(f"  {'' if label == previous else label:<12}{text}")
+            previous = label
+        sys.stdout.flush()
+    return 0
 
 
 def _signal_number(name: str) -> int:
@@ -67,17 +166,26 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     comm = MPI.COMM_WORLD
     args = _parser().parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error" if args.strict else "always", PlausibilityWarning)
+        warnings.showwarning = _warning_printer(comm)
+        return _command(args, comm)
+
+
+def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    """Run the parsed command; returns the exit status."""
     try:
         scene = load_scene(args.scene)
         if args.command == "check":
-            check(scene, comm)
-            _say(f"{args.scene}: ok", comm)
-            return 0
+            return _check(scene, args.scene, comm)
         result = run_scene(
             scene, comm, output=args.output, progress=not args.quiet, restart=args.restart
         )
     except SceneError as exc:
         _say(format_error(exc), comm)
+        return 2
+    except PlausibilityWarning as exc:  # --strict: raised on every rank
+        _say(f"error (--strict): {exc}", comm)
         return 2
     except CheckpointError as exc:  # raised on every rank
         _say(f"restart: {exc}", comm)

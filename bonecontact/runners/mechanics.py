@@ -12,6 +12,7 @@ checks are collective), so a CLI can exit with status 2 on all ranks at once.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,12 @@ from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
+from bonecontact.runners.plausibility import (
+    SMALL_STRAIN_LIMIT,
+    StrainMonitor,
+    emit,
+    scene_issues,
+)
 from bonecontact.runners.results import (
     ENERGY_COLUMNS,
     ProbeError,
@@ -40,6 +47,7 @@ from bonecontact.runners.results import (
     StressFields,
 )
 from bonecontact.scene import Scene, SceneError, check_against_mesh
+from bonecontact.scene.checks import PlausibilityWarning
 
 __all__ = ["SceneModel", "build_model", "read_mesh", "run_mechanics"]
 
@@ -55,6 +63,7 @@ class SceneModel:
     v0: fem.Function | None
     probes: Probes
     interfaces: list = None  # mortar.ContactInterface per [[contact]] pair
+    issues: list = None  # PlausibilityIssue per implausible value (emitted as warnings)
 
 
 # ----------------------------------------------------------------------------- set-up
@@ -95,6 +104,9 @@ def build_model(
 
     ``timer`` (optional) records the phases ``mesh_read``, ``model`` (spaces, materials,
     boundary conditions, loads, probes) and ``mortar_geometry`` (the contact interfaces).
+    Implausible values (unit slips, :func:`bonecontact.runners.plausibility.scene_issues`)
+    are emitted as one :class:`~bonecontact.scene.checks.PlausibilityWarning` on every rank
+    and kept in ``SceneModel.issues``.
 
     Raises
     ------
@@ -104,6 +116,8 @@ def build_model(
     timer = timer if timer is not None else PhaseTimer()
     with timer.phase("mesh_read"):
         md, groups = read_mesh(scene, comm)
+        issues = scene_issues(scene, md, groups, comm)
+    emit(issues)
     tag = {name: t for name, (d, t) in groups.items()}
     with timer.phase("model"):
         model = _mechanics(scene, md, tag)
@@ -116,7 +130,7 @@ def build_model(
             raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
     with timer.phase("mortar_geometry"):
         interfaces = _contact_interfaces(scene, model, md, tag)
-    return SceneModel(scene, md, groups, model, v0, probes, interfaces)
+    return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues)
 
 
 def _mechanics(scene: Scene, md: Any, tag: dict[str, int]) -> Mechanics:
@@ -251,6 +265,7 @@ class _Recorder:
             fields_stem=ckpt.fields_stem if ckpt is not None else "fields",
         )
         self.fields_written = -1
+        self.strain = StrainMonitor(integ.u)
 
     def _write_fields(self, t: float) -> None:
         integ, stress = self.integ, self.stress
@@ -268,6 +283,7 @@ class _Recorder:
             if self.fields_written != step:
                 self._write_fields(t)
             return
+        self.strain.update()
         self.writer.history(self._history_rows(step, t))
         self.writer.probe_rows(step, t, integ.u, integ.velocity, self.stress)
         if write_fields:
@@ -364,7 +380,7 @@ def _step_through(
             with timer.phase("output"):
                 rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
             bar.update(1)
-            if ckpt.after_step() and not last:  # a signal: checkpoint written, fields too
+            if ckpt.after_step(last) and not last:  # a signal: checkpoint written, fields too
                 status, message = "interrupted", f"stopped after step {k} by a signal"
                 with timer.phase("output"):
                     rec.record(k, integ.t, True, tables=False)
@@ -374,6 +390,7 @@ def _step_through(
         status, message = "failed", str(exc)
     except RuntimeError as exc:
         status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
+        integ.u.x.array[:] = integ.u_n.x.array  # the failed step may have left NaN there
         with timer.phase("output"):  # the last good state (its rows are written)
             rec.record(integ.step_count, integ.t, True, tables=False)
     return status, message
@@ -482,9 +499,26 @@ def run_mechanics(
     info.update(ckpt.summary())
     if ckpt.time_s:
         timer.add("checkpoint", ckpt.time_s)
+    info.update(rec.strain.summary())
+    info["warnings"] = [str(i) for i in sm.issues]
     info["phases_s"] = timer.summary(comm)
     if message is not None:
         info["message"] = message
     summary = rec.writer.summary(status, **info)
     rec.writer.close()
+    _warn_large_strain(scene, rec.strain.max_strain)
     return RunResult(status, summary, integ, outdir)
+
+
+def _warn_large_strain(scene: Scene, max_strain: float) -> None:
+    """A computed strain beyond the small-strain model's validity (after the results are
+    written; summary.json says ``"small_strain_valid": false``)."""
+    if max_strain > SMALL_STRAIN_LIMIT:
+        warnings.warn(
+            f"{scene.name}: the computed strain reaches {max_strain:.3g} (> "
+            f"{SMALL_STRAIN_LIMIT:.0%}): the result is outside the validity of the small-strain "
+            "model (summary.json: small_strain_valid = false); check the units of the loads, "
+            "the moduli and the mesh",
+            PlausibilityWarning,
+            stacklevel=3,
+        )

@@ -1,19 +1,49 @@
-"""Checks of a scene against its mesh (physical-group names, dimensions, overlaps).
+"""Checks of a scene against its mesh (physical-group names, dimensions, overlaps) and
+plausibility checks of its numbers (unit slips).
 
 :func:`check_against_mesh` runs, once the mesh has been read, every check that needs the
 mesh's physical groups; each problem is a :class:`~bonecontact.scene.errors.SceneError`
 naming the file, the table and the key, and listing the available names of the right
 dimension.
+
+:func:`check_plausibility` compares the numbers of a valid scene with what a bone model can
+mean: each material's moduli, density and strengths against the ranges of biological and
+implant materials (``data/plausibility.toml``, with their sources), the mesh's size against
+the size of a bone, and an elastic estimate of the strain each load causes.  Each finding is a
+:class:`PlausibilityIssue` naming the table, the key, the value and the likely unit slip ("E =
+17 Pa: did you mean 17 GPa?"); the runners emit them as :class:`PlausibilityWarning`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 
+from bonecontact.materials.laws import Isotropic, Material, Orthotropic, TransverselyIsotropic
+from bonecontact.materials.library import DATA_DIR
 from bonecontact.scene.errors import SceneError, table_label
-from bonecontact.scene.spec import LOAD_KINDS, Scene
+from bonecontact.scene.spec import LOAD_KINDS, MaterialSpec, Scene
 
-__all__ = ["MeshGroups", "check_against_mesh"]
+__all__ = [
+    "LOAD_STRAIN_LIMIT",
+    "MESH_SIZE_RANGE",
+    "PLAUSIBILITY_FILE",
+    "MeshGroups",
+    "PlausibilityIssue",
+    "PlausibilityWarning",
+    "RangeClass",
+    "check_against_mesh",
+    "check_load_strains",
+    "check_material_ranges",
+    "check_mesh_scale",
+    "check_plausibility",
+    "load_plausibility_ranges",
+    "material_class",
+    "unit_slip_hint",
+]
 
 
 class MeshGroups:
@@ -276,3 +306,347 @@ def check_initial_velocity_regions(scene: Scene, mesh: MeshGroups) -> None:
         label = table_label("initial_velocity", i)
         for r in iv.regions:
             mesh.cell(r, label, "regions")
+
+
+# ======================================================================================
+# plausibility (unit slips): warnings, not errors
+# ======================================================================================
+#: The table of plausible material ranges, with their sources.
+PLAUSIBILITY_FILE = DATA_DIR / "plausibility.toml"
+#: Smallest and largest extent (m) of a mesh that can be a bone or a piece of one.
+MESH_SIZE_RANGE = (1.0e-4, 2.0)
+#: An elastic strain estimate above this warns before solving (the model is small-strain).
+LOAD_STRAIN_LIMIT = 0.10
+
+_PREFIXES = {1e3: "k", 1e6: "M", 1e9: "G"}
+
+
+class PlausibilityWarning(UserWarning):
+    """A scene value is valid but implausible for a bone model (a likely unit slip)."""
+
+
+@dataclass(frozen=True)
+class PlausibilityIssue:
+    """One implausible value of a scene.
+
+    Parameters
+    ----------
+    table
+        The table it is in (``[[material]] #1 "bone"``, ``[scene]``, ``[[traction]] #1``).
+    key
+        The key, or ``None``.
+    message
+        What is implausible and the likely slip.
+    """
+
+    table: str
+    key: str | None
+    message: str
+
+    def __str__(self) -> str:
+        where = self.table if self.key is None else f"{self.table} {self.key}"
+        return f"{where}: {self.message}"
+
+
+@dataclass(frozen=True)
+class RangeClass:
+    """Plausible ranges of one class of materials (a table of ``data/plausibility.toml``).
+
+    Parameters
+    ----------
+    name
+        Class name (``cortical_bone``, ``titanium``...; ``any`` for the envelope).
+    keywords
+        Lower-case words that put a material into the class by its name or regions.
+    modulus, rho, strength
+        ``(low, high)`` in Pa, kg/m³ and Pa.
+    source
+        Where the ranges come from.
+    """
+
+    name: str
+    keywords: tuple[str, ...]
+    modulus: tuple[float, float]
+    rho: tuple[float, float]
+    strength: tuple[float, float]
+    source: str
+
+    @classmethod
+    def from_table(cls, name: str, table: Mapping) -> RangeClass:
+        """From a TOML table with ``keywords``, ``modulus``, ``rho``, ``strength``, ``source``."""
+        pair = lambda k: (float(table[k][0]), float(table[k][1]))  # noqa: E731
+        words = tuple(str(w).lower() for w in table.get("keywords", ()))
+        return cls(name, words, pair("modulus"), pair("rho"), pair("strength"), table["source"])
+
+
+def load_plausibility_ranges(
+    path: str | Path | None = None,
+) -> tuple[tuple[RangeClass, ...], RangeClass]:
+    """The material classes of ``data/plausibility.toml`` (file order) and the envelope."""
+    with open(PLAUSIBILITY_FILE if path is None else path, "rb") as f:
+        doc = tomllib.load(f)
+    classes = tuple(RangeClass.from_table(n, t) for n, t in doc["class"].items())
+    return classes, RangeClass.from_table("any", doc["any"])
+
+
+def material_class(
+    spec: MaterialSpec, classes: Sequence[RangeClass], default: RangeClass
+) -> RangeClass:
+    """The class of a material: the first whose keyword is in its name, else in a region."""
+    for names in ((spec.name,), spec.regions):
+        for c in classes:
+            if any(w in n.lower() for n in names for w in c.keywords):
+                return c
+    return default
+
+
+def _moduli(material: Material) -> dict[str, float]:
+    """The Young's and shear moduli of a material law, by scene key."""
+    if isinstance(material, Isotropic):
+        keys: tuple[str, ...] = ("E",)
+    elif isinstance(material, TransverselyIsotropic):
+        keys = ("E_p", "E_a", "G_pa")
+    elif isinstance(material, Orthotropic):
+        keys = ("E1", "E2", "E3", "G12", "G13", "G23")
+    else:  # pragma: no cover - every law of the scene format is listed above
+        keys = ()
+    return {k: float(getattr(material, k)) for k in keys}
+
+
+def young_modulus(material: Material) -> float:
+    """The smallest Young's modulus of a material law (Pa): the softest direction."""
+    return min(v for k, v in _moduli(material).items() if not k.startswith("G"))
+
+
+def _strengths(scene: Scene, spec: MaterialSpec) -> dict[str, float]:
+    """Keys of the material's table whose name contains "strength" and whose value is a number."""
+    entries = scene.raw.get("material", [])
+    entry = entries[spec.index] if spec.index < len(entries) else {}
+    return {
+        k: float(v)
+        for k, v in entry.items()
+        if "strength" in k and isinstance(v, (int, float)) and not isinstance(v, bool)
+    }
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.4g}"
+
+
+def unit_slip_hint(value: float, low: float, high: float, unit: str) -> str:
+    """The likely unit slip of ``value`` (``unit`` is SI) given its plausible range.
+
+    Too small: the SI prefixes (k, M, G) that would bring it into the range, or for a density
+    the g/cm³ reading.  Too large: the powers of 10³ that would bring it back.
+    """
+    if unit == "kg/m³":
+        if value < low and low <= value * 1e3 <= high:
+            return f"did you mean {_fmt(value)} g/cm³ ({_fmt(value * 1e3)} kg/m³)?"
+        if value > high and low <= value * 1e-3 <= high:
+            return f"did you mean {_fmt(value * 1e-3)} kg/m³ (the value looks like g/m³)?"
+        return ""
+    if value < low:
+        fits = [p for f, p in _PREFIXES.items() if low <= value * f <= high]
+        if fits:
+            return "did you mean " + " or ".join(f"{_fmt(value)} {p}{unit}" for p in fits) + "?"
+        return ""
+    fits = [f for f in _PREFIXES if low <= value / f <= high]
+    if fits:
+        alts = " or ".join(f"{_fmt(value / f)} {unit}" for f in fits)
+        return f"did you mean {alts} (the value looks {_PREFIXES[fits[0]]}-times too large)?"
+    return ""
+
+
+def _range_issue(
+    label: str, key: str, value: float, bounds: tuple[float, float], unit: str, cls: RangeClass
+) -> PlausibilityIssue | None:
+    low, high = bounds
+    if low <= value <= high:
+        return None
+    kind = "materials" if cls.name == "any" else cls.name.replace("_", " ")
+    hint = unit_slip_hint(value, low, high, unit)
+    msg = (
+        f"{key} = {_fmt(value)} {unit}{': ' + hint if hint else ' is implausible'} "
+        f"(plausible for {kind}: "
+        f"{_fmt(low)}-{_fmt(high)} {unit}; data/plausibility.toml [{cls.name}], "
+        f"{cls.source.split(';')[0]})"
+    )
+    return PlausibilityIssue(label, key, msg)
+
+
+def check_material_ranges(
+    scene: Scene, ranges: tuple[Sequence[RangeClass], RangeClass] | None = None
+) -> list[PlausibilityIssue]:
+    """Each material's moduli, density and strengths against the range of its class.
+
+    Parameters
+    ----------
+    scene
+        A scene from :func:`~bonecontact.scene.reader.load_scene`.
+    ranges
+        Classes and envelope (default :func:`load_plausibility_ranges`).
+
+    Returns
+    -------
+    list of PlausibilityIssue
+        One per value outside its class's range, with the likely unit slip.
+    """
+    classes, default = load_plausibility_ranges() if ranges is None else ranges
+    issues: list[PlausibilityIssue] = []
+    for spec in scene.materials:
+        cls = material_class(spec, classes, default)
+        label = table_label("material", spec.index, spec.name)
+        values = [(k, v, cls.modulus, "Pa") for k, v in _moduli(spec.material).items()]
+        if spec.material.rho is not None:
+            values.append(("rho", float(spec.material.rho), cls.rho, "kg/m³"))
+        values += [(k, v, cls.strength, "Pa") for k, v in _strengths(scene, spec).items()]
+        for key, value, bounds, unit in values:
+            issue = _range_issue(label, key, value, bounds, unit, cls)
+            if issue is not None:
+                issues.append(issue)
+    return issues
+
+
+def check_mesh_scale(scene: Scene, extent: Sequence[float]) -> list[PlausibilityIssue]:
+    """The mesh's bounding box against the size of a bone (:data:`MESH_SIZE_RANGE`).
+
+    Parameters
+    ----------
+    scene
+        The scene (for the mesh name).
+    extent
+        Size of the mesh's bounding box along each axis (m).
+    """
+    size = max(extent)
+    low, high = MESH_SIZE_RANGE
+    name = scene.mesh_path.name if scene.mesh_path is not None else "mesh"
+    if size > high:
+        msg = (
+            f"the mesh {name} is {_fmt(size)} m across (a bone is smaller than {_fmt(high)} m): "
+            f"is the mesh in millimetres? The scene is in SI units (metres); scale the mesh "
+            f"coordinates by 1e-3 (it would be {_fmt(size * 1e-3)} m)"
+        )
+    elif size < low:
+        msg = (
+            f"the mesh {name} is {_fmt(size)} m across (less than {_fmt(low * 1e3)} mm): "
+            f"is the mesh in the unit you meant? The scene is in SI units (metres)"
+        )
+    else:
+        return []
+    return [PlausibilityIssue("[scene]", "mesh", msg)]
+
+
+def _soft(scene: Scene, names: Sequence[str]) -> tuple[float, str]:
+    """The smallest Young's modulus among materials ``names`` (all when empty) and its name."""
+    specs = [m for m in scene.materials if m.name in names] or list(scene.materials)
+    m = min(specs, key=lambda s: young_modulus(s.material))
+    return young_modulus(m.material), m.name
+
+
+def _peak(schedule_factors: Sequence[float]) -> float:
+    return max(abs(f) for f in schedule_factors)
+
+
+def _load_strains(
+    scene: Scene, size: float, adjacent: Mapping[str, Sequence[str]]
+) -> list[tuple[str, str, float, str]]:
+    """(table, key, strain estimate, how) of each load, prescribed displacement and velocity."""
+    out = []
+    counters = {k: 0 for k in LOAD_KINDS}
+    for load in scene.loads:
+        label = table_label(load.kind, counters[load.kind])
+        counters[load.kind] += 1
+        peak = _peak(load.schedule.factors)
+        if load.kind == "body_force":
+            regions = [r for r in load.target if r in scene.cell_regions]
+            E, name = _soft(scene, [scene.material_of(r).name for r in regions])
+            mag = math.hypot(*load.value) * peak * size
+            how = f"|b| L = {_fmt(mag)} Pa over a body {_fmt(size)} m long"
+        else:
+            E, name = _soft(scene, adjacent.get(load.target[0], ()))
+            vec = load.value if isinstance(load.value, tuple) else (load.value,)
+            mag = math.hypot(*vec) * peak
+            how = f"|{'t' if load.kind == 'traction' else 'p'}| = {_fmt(mag)} Pa"
+        out.append((label, "value", mag / E, f'{how} on E = {_fmt(E)} Pa of "{name}"'))
+    for i, bc in enumerate(scene.dirichlet):
+        u = math.hypot(*(v for v in bc.value if v is not None)) * _peak(bc.schedule.factors)
+        how = f"|u| = {_fmt(u)} m over a mesh {_fmt(size)} m across"
+        out.append((table_label("dirichlet", i), "value", u / size, how))
+    for i, iv in enumerate(scene.initial_velocities):
+        for s in {
+            scene.material_of(r).name: scene.material_of(r)
+            for r in iv.regions
+            if r in scene.cell_regions
+        }.values():
+            if s.material.rho:
+                c = math.sqrt(young_modulus(s.material) / s.material.rho)
+                v = math.hypot(*iv.value)
+                how = f'v/c with |v| = {_fmt(v)} m/s, wave speed c = {_fmt(c)} m/s in "{s.name}"'
+                out.append((table_label("initial_velocity", i), "value", v / c, how))
+    return out
+
+
+def check_load_strains(
+    scene: Scene,
+    extent: Sequence[float],
+    adjacent: Mapping[str, Sequence[str]],
+    limit: float = LOAD_STRAIN_LIMIT,
+) -> list[PlausibilityIssue]:
+    """An elastic estimate of the strain of each load against the small-strain limit.
+
+    The estimates: traction or pressure / the softest Young's modulus next to the loaded
+    boundary; body force × mesh size / the softest modulus of its regions; prescribed
+    displacement / mesh size; initial velocity / elastic wave speed.  Each at the peak of its
+    schedule.
+
+    Parameters
+    ----------
+    scene
+        The scene.
+    extent
+        Size of the mesh's bounding box along each axis (m).
+    adjacent
+        Facet group → names of the materials of the cells next to it.
+    limit
+        Strain above which an estimate is reported.
+    """
+    size = max(extent)
+    issues = []
+    for label, key, strain, how in _load_strains(scene, size, adjacent):
+        if strain > limit:
+            msg = (
+                f"an elastic estimate of the strain is {_fmt(strain)} ({how}), more than "
+                f"{limit:.0%}: the model is small-strain; check the units of the load, the "
+                f"moduli and the mesh"
+            )
+            issues.append(PlausibilityIssue(label, key, msg))
+    return issues
+
+
+def check_plausibility(
+    scene: Scene,
+    extent: Sequence[float] | None = None,
+    adjacent: Mapping[str, Sequence[str]] | None = None,
+) -> list[PlausibilityIssue]:
+    """All plausibility checks of a scene (materials; with ``extent``, mesh size and loads).
+
+    Parameters
+    ----------
+    scene
+        A scene from :func:`~bonecontact.scene.reader.load_scene`.
+    extent
+        Size of the mesh's bounding box along each axis (m); ``None`` skips the checks that
+        need the mesh.
+    adjacent
+        Facet group → names of the materials next to it (default: every material).
+
+    Returns
+    -------
+    list of PlausibilityIssue
+        Empty for a plausible scene.
+    """
+    issues = check_material_ranges(scene)
+    if extent is not None and scene.materials:
+        issues += check_mesh_scale(scene, extent)
+        issues += check_load_strains(scene, extent, adjacent or {})
+    return issues

@@ -1,0 +1,158 @@
+"""``bonecontact check`` / ``run``: plausibility warnings, ``--strict``, the check summary,
+``--version`` and the small-strain flag of summary.json.
+
+References: a bar under uniaxial traction with ν = 0 (plane strain) has the uniform strain
+σ/E, which P1 elements reproduce exactly; the dofs of a P1 vector field are 2 × the mesh
+nodes; the version is the installed package's metadata.
+
+These tests spawn their own processes, so they run only in the serial session.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from importlib.metadata import version
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.serial
+
+ROOT = Path(__file__).resolve().parents[3]
+BIN = Path(sys.executable).parent
+CLI = str(BIN / "bonecontact")
+MPIEXEC = str(BIN / "mpiexec")
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+BAR = """format = 1
+
+[scene]
+name = "bar"
+mesh = "{mesh}"
+dimension = 2
+
+[analysis]
+kind = "static"
+load_steps = 1
+
+[[material]]
+name = "{name}"
+regions = ["body"]
+model = "isotropic"
+E = {E}
+nu = 0.0
+
+[[dirichlet]]
+boundary = "left"
+value = [0.0, "free"]
+
+[[dirichlet]]
+boundary = "bottom"
+value = ["free", 0.0]
+
+[[traction]]
+boundary = "right"
+value = [{t}, 0.0]
+
+[output]
+directory = "{out}"
+fields_every = 0
+"""
+
+
+@pytest.fixture(scope="module")
+def meshes(tmp_path_factory):
+    """A 20 mm × 10 mm rectangle in metres and the same numbers taken as metres (a mesh
+    written in millimetres)."""
+    from bonecontact.meshing import shapes
+
+    d = tmp_path_factory.mktemp("plausibility-meshes")
+    shapes.rectangle(0.02, 0.01, 8, 4, None, path=d / "rect_m.msh")
+    shapes.rectangle(20.0, 10.0, 8, 4, None, path=d / "rect_mm.msh")
+    return d
+
+
+def _scene(tmp_path, meshes, E="17.0e9", t="1.0e6", mesh="rect_m.msh", name="cortical"):
+    out = tmp_path / "results"
+    path = tmp_path / "bar.toml"
+    path.write_text(BAR.format(mesh=meshes / mesh, name=name, E=E, t=t, out=out))
+    return path, out
+
+
+def _run(args, nproc=1):
+    cmd = [CLI, *args] if nproc == 1 else [MPIEXEC, "-n", str(nproc), CLI, *args]
+    return subprocess.run(
+        cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
+    )
+
+
+def test_version():
+    r = _run(["--version"])
+    assert r.returncode == 0
+    assert r.stdout.strip() == f"bonecontact {version('bonecontact')}"
+
+
+def test_check_summary_of_the_knee():
+    import meshio
+
+    r = _run(["check", str(ROOT / "data" / "scenes" / "knee2d.toml")])
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == ""  # a correct scene: no warning
+    out = r.stdout
+    m = meshio.read(ROOT / "data" / "scenes" / "knee2d.msh")
+    nodes = {int(i) for c in m.cells if c.type == "triangle" for i in c.data.ravel()}
+    assert f"dofs        {2 * len(nodes)} (P1 displacement)" in out
+    assert "2 bodies" in out  # femur and tibia, apart
+    assert "tibiofemoral: femur_contact (slave) on tibia_contact (master), frictionless" in out
+    assert "static, 4 load steps" in out
+    assert "cortical (Isotropic, E = 17 GPa) on femur_cortical, tibia_cortical" in out
+    assert "warnings    none" in out
+
+
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_gpa_slip_warns_and_strict_exits_2(tmp_path, meshes, nproc):
+    path, out = _scene(tmp_path, meshes, E="17.0")
+    r = _run(["check", str(path)], nproc)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.count("E = 17 Pa: did you mean 17 GPa?") == 1  # rank 0 only
+    strict = _run(["check", "--strict", str(path)], nproc)
+    assert strict.returncode == 2
+    assert "error (--strict)" in strict.stderr and "did you mean 17 GPa?" in strict.stderr
+    run = _run(["run", "-q", "--strict", str(path)], nproc)
+    assert run.returncode == 2
+    assert not out.exists()  # nothing solved, nothing written
+
+
+def test_mesh_in_millimetres_warns(tmp_path, meshes):
+    path, _ = _scene(tmp_path, meshes, mesh="rect_mm.msh")
+    r = _run(["check", str(path)])
+    assert r.returncode == 0
+    assert "is the mesh in millimetres?" in r.stderr
+    assert "20 m across" in r.stderr
+
+
+def test_correct_bar_gives_no_warning(tmp_path, meshes):
+    path, _ = _scene(tmp_path, meshes)
+    r = _run(["check", "--strict", str(path)])
+    assert r.returncode == 0, r.stderr
+    assert "warning" not in r.stderr
+
+
+@pytest.mark.parametrize("strain", [0.2, 0.6])
+def test_computed_strain_flag(tmp_path, meshes, strain):
+    """σ = strain × E on a ν = 0 bar: the computed strain is σ/E exactly; above 50 % the
+    summary flags the result and the console says so."""
+    E = 1.0e9
+    path, out = _scene(tmp_path, meshes, E=repr(E), t=repr(strain * E), name="cancellous")
+    r = _run(["run", "-q", str(path)])
+    assert r.returncode == 0, r.stderr
+    assert "an elastic estimate of the strain is" in r.stderr  # > 10 %, before solving
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["max_strain"] == pytest.approx(strain, rel=1e-8)
+    assert summary["small_strain_valid"] is (strain <= 0.5)
+    assert len(summary["warnings"]) == 1
+    flagged = "outside the validity of the small-strain model" in r.stderr
+    assert flagged is (strain > 0.5)
