@@ -319,6 +319,8 @@ MESH_SIZE_RANGE = (1.0e-4, 2.0)
 LOAD_STRAIN_LIMIT = 0.10
 
 _PREFIXES = {1e3: "k", 1e6: "M", 1e9: "G"}
+#: Strength keys of a material table (Pa), as in data/materials.toml [strength.*].
+STRENGTH_KEYS = ("sigma_t", "sigma_c")
 
 
 class PlausibilityWarning(UserWarning):
@@ -419,13 +421,16 @@ def young_modulus(material: Material) -> float:
 
 
 def _strengths(scene: Scene, spec: MaterialSpec) -> dict[str, float]:
-    """Keys of the material's table whose name contains "strength" and whose value is a number."""
+    """Strengths of the material's table (``sigma_t``, ``sigma_c`` and any key whose name
+    contains "strength") that are numbers."""
     entries = scene.raw.get("material", [])
     entry = entries[spec.index] if spec.index < len(entries) else {}
     return {
         k: float(v)
         for k, v in entry.items()
-        if "strength" in k and isinstance(v, (int, float)) and not isinstance(v, bool)
+        if (k in STRENGTH_KEYS or "strength" in k)
+        and isinstance(v, (int, float))
+        and not isinstance(v, bool)
     }
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from bonecontact.materials.library import load_material_library
+from bonecontact.materials.library import load_material_library, load_strengths
 from bonecontact.scene import load_scene
 from bonecontact.scene.checks import (
     LOAD_STRAIN_LIMIT,
@@ -75,6 +75,24 @@ def test_library_materials_lie_in_their_class():
                 assert cls.rho[0] <= value <= cls.rho[1], (name, key, value)
                 found += 1
     assert found >= 20
+
+
+def test_library_strengths_lie_in_their_class():
+    classes, default = load_plausibility_ranges()
+    found = 0
+    for name, entry in load_strengths().items():
+        cls = next((c for c in classes if any(w in name for w in c.keywords)), default)
+        for key in ("sigma_t", "sigma_c"):
+            if key in entry:
+                assert cls.strength[0] <= entry[key] <= cls.strength[1], (name, key)
+                found += 1
+    assert found >= 4
+
+
+def test_strength_in_mpa_written_as_pa():
+    classes, _ = load_plausibility_ranges()
+    cortical = next(c for c in classes if c.name == "cortical_bone")
+    assert unit_slip_hint(133.0, *cortical.strength, "Pa") == "did you mean 133 MPa?"
 
 
 def test_modulus_in_gpa_written_as_pa(tmp_path):
