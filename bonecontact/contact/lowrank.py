@@ -488,6 +488,30 @@ class LowRankActiveSetSolver:
             self._y = (cols, y)
         return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
 
+    def respond(
+        self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64], dvals: npt.NDArray
+    ) -> tuple[npt.NDArray, npt.NDArray]:
+        """The solution of the set ``active`` with the values of the fixed rows shifted by
+        ``dvals`` (replicated), e.g. a push of the cold start's support patch; the state of
+        the current contact solve is kept (one extra base solve).
+
+        Returns
+        -------
+        (x_N, w_N)
+            As :meth:`solve_set`.
+        """
+        saved = (self._vals, self._xbN, self._AxbN, self._y, self.t_solve)
+        xb = self._xb.copy()
+        self._vals = self._vals + np.asarray(dvals, dtype=np.float64)
+        try:
+            self._base_solve()
+            xN, wN, _ = self.solve_set(active, scale)
+        finally:
+            self._vals, self._xbN, self._AxbN, self._y, self.t_solve = saved
+            xb.copy(self._xb)
+            xb.destroy()
+        return xN, wN
+
     def finish(self, out: PETSc.Vec) -> None:
         """Write the full solution of the last :meth:`solve_set` into ``out`` (one solve)."""
         cols, y = self._y

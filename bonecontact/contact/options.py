@@ -67,6 +67,11 @@ class PDASOptions:
     #: after the first solve, only those whose penetration exceeds this fraction of the
     #: deepest (0 = all), in [0, 1).  Only the path changes, not the solution.
     cold_start_fraction: float = 0.7
+    #: Cold start in 3D: ``"compliance"`` — the first set update takes the contact zone
+    #: predicted from the force, approach and stiffness of the support patch's first
+    #: solve (one extra solve; docs/theory/pdas.md#cold-start); ``"damped"`` — the 2D
+    #: rule (``cold_start_fraction``).  Only the path changes, not the solution.
+    cold_start_3d: str = "compliance"
 
     def __post_init__(self) -> None:
         if self.slip_3d not in ("newton", "fixed_point"):
@@ -74,6 +79,10 @@ class PDASOptions:
         if not 0.0 <= self.cold_start_fraction < 1.0:
             raise ValueError(
                 f"cold_start_fraction must be in [0, 1), got {self.cold_start_fraction}"
+            )
+        if self.cold_start_3d not in ("compliance", "damped"):
+            raise ValueError(
+                f"cold_start_3d must be 'compliance' or 'damped', got {self.cold_start_3d!r}"
             )
         if self.strategy not in ("auto", "lowrank", "refactor"):
             raise ValueError(

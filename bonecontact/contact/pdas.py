@@ -59,10 +59,13 @@ held only by contact therefore starts supported against its rotations too, also 
 it touches at a single node.  (Rigid modes that the contact cannot remove — sliding along a
 frictionless contact plane — must be fixed by the scene.)  Held at those few nodes,
 the first solve overestimates the contact zone (≈ √2 in radius for a Hertzian
-contact), so the first set update of a cold start is damped: of the newly
-penetrating nodes only those deeper than ``cold_start_fraction`` (0.7) of the deepest
-are activated.  The PDAS then approaches the final set from near it (Hertz 2D: 2–5
-iterations instead of 4–7 for a/h = 5–40, no overshoot); the solution is the same.
+contact; in 3D, where the patch acts as a small punch, every node within 1.5 contact
+radii), so the first set update of a cold start is not the plain one: in 3D it takes
+the zone predicted from the force, approach and stiffness of the patch
+(:mod:`bonecontact.contact.cold_start`; 3 iterations on the 3D load-driven Hertz
+benchmark at every size tried), in 2D only the newly penetrating nodes deeper than
+``cold_start_fraction`` (0.7) of the deepest (Hertz 2D: 2–5 iterations instead of 4–7
+for a/h = 5–40, no overshoot).  The solution is the same.
 
 Linear solvers: ``"direct"`` — MUMPS LU.  By default (``strategy="lowrank"``) one
 set is factorised and the systems of the other sets are solved exactly by low-rank
@@ -95,6 +98,7 @@ from dolfinx import fem
 from scipy.spatial import cKDTree
 
 from bonecontact.common.linalg import configure_ksp
+from bonecontact.contact import cold_start
 from bonecontact.contact.friction import (
     FRICTION_KIND,
     aitken_directions,
@@ -766,12 +770,16 @@ class ContactSolver:
         """Step 5: ``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0``
         (docs/theory/pdas.md#active-set-rule).
 
-        Damped first activation (cold start only): of the newly penetrating nodes keep
-        those within ``cold_start_fraction`` of the deepest penetration.
+        First update of a cold start: in 3D the set predicted from the compliance of the
+        support patch (:func:`bonecontact.contact.cold_start.predicted_set`); in 2D (or
+        with ``cold_start_3d="damped"``) of the newly penetrating nodes those within
+        ``cold_start_fraction`` of the deepest penetration.
         """
         an = st.an
         new_an = it.ind_n > it.eps
-        if k == 1 and self._cold and self.cold_start_fraction > 0 and (new_an & ~an).any():
+        if k == 1 and self._cold and self.bs == 3 and self.options.cold_start_3d == "compliance":
+            new_an = cold_start.predicted_set(self, st, it)
+        elif k == 1 and self._cold and self.cold_start_fraction > 0 and (new_an & ~an).any():
             pen = it.un - self._gap
             new_an &= an | (pen > self.cold_start_fraction * float(pen[new_an & ~an].max()))
         it.new_an = new_an

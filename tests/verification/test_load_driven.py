@@ -36,12 +36,14 @@ from dolfinx.cpp.mesh import GhostMode, create_cell_partitioner
 from dolfinx.io.gmsh import extract_topology_and_markers, read_from_msh
 
 from bonecontact.contact.interface import build_interface
+from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing import shapes
 from bonecontact.verification.analytic import hertz_2d, hertz_3d
+from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
 COMM = MPI.COMM_WORLD
 R, NU, E_SOFT, E_STIFF = 0.01, 0.3, 2.0e9, 17.0e9
@@ -187,3 +189,50 @@ def test_block_held_by_contact_2d(partition):
 @pytest.mark.parametrize("partition", ["default", "boundary"])
 def test_block_held_by_contact_3d(partition):
     _check(3, A_3D / 2.5, partition, 0.25)
+
+
+def _sphere_on_block(h: float, cold_start_3d: str) -> dict:
+    """The load-driven 3D Hertz problem of the benchmarks (a hemisphere loaded on its flat
+    face, held in the load direction only by the contact): a cold solve, then a warm
+    solve with the load raised by 10 %."""
+    pb = sphere_on_block_3d(COMM, h, h_far=3e-3, options=PDASOptions(cold_start_3d=cold_start_3d))
+    cold = pb.solve()
+    err = hertz_errors(pb)
+    b = pb.integrator.rhs(1.0).copy()
+    pb.integrator.apply_dirichlet(1.0, b)
+    b.scale(1.1)  # (the Dirichlet values are zero)
+    warm = pb.integrator.contact.solve(b, pb.integrator.u)
+    err_warm = hertz_errors(pb, warm)
+    p = np.concatenate(COMM.allgather(cold.pressure[0]))
+    X = np.concatenate(COMM.allgather(pb.interface.coords))
+    pb.destroy()
+    return {"cold": cold, "warm": warm, "err": err, "err_warm": err_warm, "p": p[np.lexsort(X.T)]}
+
+
+@pytest.mark.parametrize("h, p0_tol, a_tol", [(4.0e-4, 0.15, 0.07), (2.8e-4, 0.07, 0.02)])
+def test_cold_start_3d_hertz_iterations(h, p0_tol, a_tol):
+    """The cold start predicted from the support patch's compliance
+    (docs/theory/pdas.md#cold-start): at two refinements (a/h = 2.5, 3.6) a cold solve
+    takes at most 6 PDAS iterations and a warm step (+10 % load) at most 2, with the
+    same pressures as the damped 2D rule (a second path to the same discrete solution),
+    the resultant equal to the load, and Hertz's p0 and a to the discretisation error of
+    these meshes."""
+    got = _sphere_on_block(h, "compliance")
+    ref = _sphere_on_block(h, "damped")
+    assert got["cold"].iterations <= 6
+    assert got["cold"].iterations <= ref["cold"].iterations
+    assert got["warm"].iterations <= 2
+    assert np.abs(got["p"] - ref["p"]).max() <= 1e-8 * ref["p"].max()
+    assert got["err"]["equilibrium"] < 1e-10
+    assert got["err_warm"]["P_contact"] == pytest.approx(1.1 * got["err"]["P_applied"], rel=1e-10)
+    assert abs(got["err"]["p0"]) < p0_tol
+    assert abs(got["err"]["a"]) < a_tol
+
+
+def test_cold_start_3d_block_on_hemisphere_iterations():
+    """The block pushed onto the fixed hemisphere (the load-driven body is the master side
+    here, and bends on the few patch nodes): a cold solve in at most 6 PDAS iterations,
+    the resultant equal to the load."""
+    got = _solve(COMM, 3, A_3D / 4)
+    assert got["iterations"] <= 6
+    assert got["force"] == pytest.approx(got["load"], rel=1e-8)
