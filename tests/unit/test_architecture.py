@@ -35,6 +35,7 @@ LAYERS = [
     "fracture",
     "scene",
     "verification",
+    "plot",
     "runners",
 ]
 
