@@ -1,0 +1,127 @@
+"""bonecontact.plot: colour ranges, the display projection, pictures written off-screen.
+
+References: percentiles and area fractions counted by hand; the lumped L² projection of
+a piecewise-constant field on two triangles computed by hand (and exact for a constant);
+the PNG's pixel size equals the requested window.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bonecontact.plot as bp
+
+pv = pytest.importorskip("pyvista")
+
+
+def _two_triangles(a: float = 1.0) -> pv.UnstructuredGrid:
+    """Triangles (0,0)-(1,0)-(1,1) (area 1/2) and (0,0)-(1,1)-(-a,1) (area (1+a)/2)."""
+    pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [-a, 1, 0]], dtype=float)
+    cells = np.array([3, 0, 1, 2, 3, 0, 2, 3])
+    types = np.array([pv.CellType.TRIANGLE] * 2, dtype=np.uint8)
+    return pv.UnstructuredGrid(cells, types, pts)
+
+
+def test_color_range_percentile_and_clipping():
+    v = np.arange(1.0, 101.0)
+    cr = bp.color_range(v, upper=99.0)
+    assert (cr.vmin, cr.vmax, cr.data_max) == (1.0, 99.0, 100.0)
+    assert cr.clipped_fraction == pytest.approx(0.01)
+    assert cr.clipped
+    assert "clipped at 99 MPa (max 100 MPa, 1 % of the area above)" in cr.note("MPa")
+    assert bp.color_range(v, upper=100.0).note("MPa") == ""
+    assert bp.color_range(v, lower=None).vmin == 0.0
+
+
+def test_color_range_area_weighted():
+    """A thin layer (many small cells) of high values: by area it is 2 % of the picture."""
+    v = np.r_[np.full(98, 10.0), np.full(200, 1000.0)]
+    w = np.r_[np.full(98, 1.0), np.full(200, 0.01)]  # 98 + 2 area units
+    cr = bp.color_range(v, upper=95.0, weights=w)
+    assert cr.vmax == 10.0
+    assert cr.clipped_fraction == pytest.approx(2.0 / 100.0)
+    assert bp.color_range(v, upper=95.0).vmax == 1000.0  # unweighted: the layer dominates
+
+
+@pytest.mark.parametrize("a", [1.0, 3.0])
+def test_smooth_cell_data_is_the_lumped_projection(a):
+    g = _two_triangles(a)
+    g.cell_data["s"] = np.array([1.0, 3.0])
+    p = bp.smooth_cell_data(g, "s")
+    w1, w2 = 0.5, 0.5 * (1.0 + a)
+    shared = (w1 * 1.0 + w2 * 3.0) / (w1 + w2)
+    np.testing.assert_allclose(p, [shared, 1.0, shared, 3.0], rtol=1e-14)
+    g.cell_data["c"] = np.array([[2.0, -1.0], [2.0, -1.0]])
+    np.testing.assert_allclose(bp.smooth_cell_data(g, "c"), np.tile([2.0, -1.0], (4, 1)))
+
+
+def test_output_dir(tmp_path, monkeypatch):
+    monkeypatch.delenv("BONECONTACT_OUTPUT", raising=False)
+    assert bp.output_dir("knee2d", tmp_path) == tmp_path / "results" / "knee2d"
+    monkeypatch.setenv("BONECONTACT_OUTPUT", str(tmp_path / "env"))
+    assert bp.output_dir("knee2d", tmp_path) == tmp_path / "env" / "knee2d"
+    assert bp.output_dir("knee2d", tmp_path, ["-q", str(tmp_path / "a")]) == tmp_path / "a"
+
+
+def test_show_saves_a_matplotlib_figure(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 2])
+    bp.line_axes(ax, ("x along the plateau", "mm"), ("contact pressure", "MPa"))
+    assert ax.get_xlabel() == "x along the plateau (mm)"
+    assert ax.get_ylabel() == "contact pressure (MPa)"
+    bp.caption(fig, "a caption")
+    out = bp.show(fig, tmp_path / "sub" / "line.png")
+    assert out.is_file() and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not plt.get_fignums()  # closed
+    assert not bp.in_notebook()
+
+
+SCRIPT = """
+import numpy as np, pyvista as pv, bonecontact.plot as bp
+g = pv.Plane(i_size=0.02, j_size=0.01, i_resolution=20, j_resolution=10).triangulate()
+g = pv.UnstructuredGrid(g)
+x = g.cell_centers().points[:, 0]
+g.cell_data["von_mises"] = 1e6 * (1 + 100 * (x > 0.009))
+n = g.n_points
+g.point_data["displacement"] = np.c_[np.zeros(n), -1e-5 * np.ones(n), np.zeros(n)]
+bp.field_view(g, "von_mises", r"{out}", quantity="von Mises stress", unit="MPa",
+              displacement="displacement", warp=10.0, contact_points=[[0.0, 0.005]],
+              outline=[[0, 0], [0.005, 0], [0.005, 0.002]], outline_label="tumour",
+              window_size=(640, 480), title="test")
+"""
+
+
+def test_field_view_writes_png_without_x_server(tmp_path):
+    out = tmp_path / "view.png"
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    r = subprocess.run(
+        [sys.executable, "-c", SCRIPT.format(out=out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert r.returncode == 0, r.stderr
+    assert "X server" not in r.stderr and "DISPLAY" not in r.stderr
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(out)
+    assert img.shape[:2] == (480, 640)
+    assert img[..., :3].std() > 0.05  # not a blank picture
+
+
+def test_plot_has_no_bonecontact_imports():
+    """bonecontact.plot stands alone (any layer may use it; it reads files, not models)."""
+    src = Path(bp.__file__).read_text()
+    assert "from bonecontact" not in src and "import bonecontact" not in src
