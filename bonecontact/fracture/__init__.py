@@ -3,8 +3,9 @@
 boundaries graded towards the tips (:mod:`~bonecontact.fracture.meshing`), Williams'
 near-tip fields (:mod:`~bonecontact.fracture.williams`), stress intensity factors by the
 domain interaction integral and displacement correlation (:mod:`~bonecontact.fracture.sif`),
-the initiation risk and the direction criteria (:mod:`~bonecontact.fracture.criteria`), and
-the cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
+the initiation risk and the direction criteria (:mod:`~bonecontact.fracture.criteria`),
+quasi-static propagation by remeshing (:mod:`~bonecontact.fracture.propagation`) and the
+cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
 
 from bonecontact.fracture.crack import (
     Crack2D,
@@ -34,6 +35,13 @@ from bonecontact.fracture.plates import (
     solve_shear,
     solve_tension,
 )
+from bonecontact.fracture.propagation import (
+    FRACTURE_COLUMNS,
+    IncrementRecord,
+    PropagationOptions,
+    PropagationResult,
+    propagate,
+)
 from bonecontact.fracture.sif import (
     SIFResult,
     displacement_correlation,
@@ -50,14 +58,18 @@ from bonecontact.fracture.williams import (
 )
 
 __all__ = [
+    "FRACTURE_COLUMNS",
     "RISK_CRITERIA",
     "CellStresses",
     "Crack2D",
     "CrackedMesh",
     "FractureError",
     "Hole",
+    "IncrementRecord",
     "PlaneState",
     "PlateSolution",
+    "PropagationOptions",
+    "PropagationResult",
     "RiskMaximum",
     "SIFResult",
     "TipMesh",
@@ -76,6 +88,7 @@ __all__ = [
     "point_in_polygon",
     "point_segment_distance",
     "principal_direction_average",
+    "propagate",
     "rectangle_outline",
     "risk_field",
     "segments_intersect",

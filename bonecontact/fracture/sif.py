@@ -25,7 +25,7 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 import ufl
-from dolfinx import fem, mesh
+from dolfinx import default_scalar_type, fem, mesh
 
 from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.meshing import CrackedMesh
@@ -195,8 +195,8 @@ def _domain(
     return _Domain(q, dx(1), mat)
 
 
-def _total(form: ufl.Form, comm: MPI.Comm) -> float:
-    return comm.allreduce(fem.assemble_scalar(fem.form(form)), op=MPI.SUM)
+def _total_compiled(form: fem.Form, comm: MPI.Comm) -> float:
+    return comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
 
 def interaction_integral(
@@ -248,26 +248,44 @@ def interaction_integral(
     c = elastic_constants(d.material.E, d.material.nu, plane)
     crack, msh = cm.crack, cm.mesh
     tip, e1 = crack.tip(end), crack.direction(end)
-    e1c = ufl.as_vector([float(e1[0]), float(e1[1])])
+    # constants, not numbers: one compiled form for every tip, mesh size and material
+    const = {
+        k: fem.Constant(msh, np.asarray(v, dtype=default_scalar_type))
+        for k, v in (
+            ("tip", tip),
+            ("e1", e1),
+            ("lmbda", c["lmbda"]),
+            ("mu", c["mu"]),
+            ("kappa", c["kappa"]),
+            ("k1", 1.0),
+            ("k2", 0.0),
+        )
+    }
+    e1c = const["e1"]
 
     def sigma(v):
         eps = ufl.sym(ufl.grad(v))
-        return c["lmbda"] * ufl.tr(eps) * ufl.Identity(2) + 2 * c["mu"] * eps
+        return const["lmbda"] * ufl.tr(eps) * ufl.Identity(2) + 2 * const["mu"] * eps
 
     x = ufl.SpatialCoordinate(msh)
     grad_q = ufl.grad(d.q)
     s, eps_u = sigma(u), ufl.sym(ufl.grad(u))
     du1 = ufl.dot(ufl.grad(u), e1c)
+    ua = williams_displacement_ufl(
+        x, const["tip"], e1c, const["mu"], const["kappa"], const["k1"], const["k2"]
+    )
+    sa = sigma(ua)
+    dua1 = ufl.dot(ufl.grad(ua), e1c)
+    integrand = ufl.dot(ufl.dot(s, dua1) + ufl.dot(sa, du1) - ufl.inner(sa, eps_u) * e1c, grad_q)
+    form = fem.form(integrand * d.dx)
     values = {}
     for mode, (k1, k2) in (("I", (1.0, 0.0)), ("II", (0.0, 1.0))):
-        ua = williams_displacement_ufl(x, tip, e1, c["mu"], c["kappa"], k1, k2)
-        sa = sigma(ua)
-        dua1 = ufl.dot(ufl.grad(ua), e1c)
-        integrand = ufl.dot(
-            ufl.dot(s, dua1) + ufl.dot(sa, du1) - ufl.inner(sa, eps_u) * e1c, grad_q
-        )
-        values[mode] = 0.5 * c["E_prime"] * _total(integrand * d.dx, msh.comm)
-    J = _total(ufl.dot(ufl.dot(s, du1) - 0.5 * ufl.inner(s, eps_u) * e1c, grad_q) * d.dx, msh.comm)
+        const["k1"].value, const["k2"].value = k1, k2
+        values[mode] = 0.5 * c["E_prime"] * _total_compiled(form, msh.comm)
+    J = _total_compiled(
+        fem.form(ufl.dot(ufl.dot(s, du1) - 0.5 * ufl.inner(s, eps_u) * e1c, grad_q) * d.dx),
+        msh.comm,
+    )
     K_I, K_II = values["I"], values["II"]
     return SIFResult(
         K_I,

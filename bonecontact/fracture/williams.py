@@ -122,19 +122,27 @@ def williams_stress(
 
 def williams_displacement_ufl(
     x: ufl.SpatialCoordinate,
-    tip: npt.ArrayLike,
-    direction: npt.ArrayLike,
-    mu: float,
-    kappa: float,
-    K_I: float,
-    K_II: float,
+    tip: npt.ArrayLike | ufl.core.expr.Expr,
+    direction: npt.ArrayLike | ufl.core.expr.Expr,
+    mu: float | ufl.core.expr.Expr,
+    kappa: float | ufl.core.expr.Expr,
+    K_I: float | ufl.core.expr.Expr,
+    K_II: float | ufl.core.expr.Expr,
 ) -> ufl.core.expr.Expr:
-    """The near-tip displacement as a UFL vector of the spatial coordinate ``x`` (2D)."""
-    e1, e2 = _frame(direction)
-    t = np.asarray(tip, dtype=float)[:2]
-    d0, d1 = x[0] - t[0], x[1] - t[1]
-    x1 = e1[0] * d0 + e1[1] * d1
-    x2 = e2[0] * d0 + e2[1] * d1
+    """The near-tip displacement as a UFL vector of the spatial coordinate ``x`` (2D).
+
+    ``tip`` and ``direction`` (a unit vector) may be numbers or UFL expressions such as
+    ``dolfinx.fem.Constant``; with constants one compiled form serves every tip.
+    """
+    if not isinstance(tip, ufl.core.expr.Expr):
+        tip = ufl.as_vector([float(v) for v in np.asarray(tip, dtype=float)[:2]])
+    if not isinstance(direction, ufl.core.expr.Expr):
+        e1n, _ = _frame(direction)
+        direction = ufl.as_vector([float(e1n[0]), float(e1n[1])])
+    e1 = direction
+    e2 = ufl.as_vector([-e1[1], e1[0]])
+    d = ufl.as_vector([x[0] - tip[0], x[1] - tip[1]])
+    x1, x2 = ufl.dot(d, e1), ufl.dot(d, e2)
     r = ufl.sqrt(x1**2 + x2**2)
     u1, u2 = _local_displacement(r, ufl.atan2(x2, x1), mu, kappa, K_I, K_II, ufl)
-    return ufl.as_vector([e1[0] * u1 + e2[0] * u2, e1[1] * u1 + e2[1] * u2])
+    return u1 * e1 + u2 * e2
