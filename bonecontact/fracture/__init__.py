@@ -4,6 +4,7 @@ boundaries graded towards the tips (:mod:`~bonecontact.fracture.meshing`), Willi
 near-tip fields (:mod:`~bonecontact.fracture.williams`), stress intensity factors by the
 domain interaction integral and displacement correlation (:mod:`~bonecontact.fracture.sif`),
 the initiation risk and the direction criteria (:mod:`~bonecontact.fracture.criteria`),
+the crack faces as a dual-mortar contact pair (:mod:`~bonecontact.fracture.faces`),
 quasi-static propagation by remeshing (:mod:`~bonecontact.fracture.propagation`) and the
 cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
 
@@ -23,6 +24,12 @@ from bonecontact.fracture.criteria import (
     mts_equivalent_k,
     principal_direction_average,
     risk_field,
+)
+from bonecontact.fracture.faces import (
+    contact_tags,
+    crack_face_solver,
+    face_interface,
+    face_traction,
 )
 from bonecontact.fracture.meshing import CrackedMesh, Hole, TipMesh, mesh_cracked_body
 from bonecontact.fracture.plates import (
@@ -75,10 +82,14 @@ __all__ = [
     "TipMesh",
     "cell_stresses",
     "centre_crack",
+    "contact_tags",
+    "crack_face_solver",
     "displacement_correlation",
     "edge_crack",
     "elastic_constants",
     "energy_release_rate",
+    "face_interface",
+    "face_traction",
     "interaction_integral",
     "mesh_cracked_body",
     "mesh_plate",

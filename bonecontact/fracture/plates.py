@@ -22,7 +22,9 @@ import numpy as np
 import ufl
 from dolfinx import fem, mesh
 
+from bonecontact.contact.pdas import PDASResult
 from bonecontact.fracture.crack import Crack2D
+from bonecontact.fracture.faces import crack_face_solver, face_traction
 from bonecontact.fracture.meshing import CrackedMesh, Hole, TipMesh, mesh_cracked_body
 from bonecontact.fracture.sif import plane_stress_equivalent
 from bonecontact.fracture.williams import PlaneState
@@ -71,6 +73,10 @@ class PlateSolution:
     model: Mechanics
     u: fem.Function
     potential: float
+    #: P1 traction on the crack faces (contact multipliers or the face pressure), or None
+    face_traction: fem.Function | ufl.core.expr.Expr | None = None
+    #: the PDAS result of a run with crack-face contact
+    contact: PDASResult | None = None
 
 
 def _corner_facets(cm: CrackedMesh, corner: np.ndarray) -> np.ndarray:
@@ -96,6 +102,9 @@ def solve_plate(
     material: Isotropic,
     tractions: Mapping[str, tuple[float, float]],
     plane: PlaneState = "strain",
+    face_pressure: float = 0.0,
+    face_contact: bool = False,
+    friction: float | None = None,
 ) -> PlateSolution:
     """Solve the rectangle ``cm`` (outline of :func:`rectangle_outline`) under edge tractions.
 
@@ -109,11 +118,17 @@ def solve_plate(
         Edge group name → traction vector (Pa); they must be in equilibrium.
     plane
         ``"strain"`` or ``"stress"``.
+    face_pressure
+        Pressure on both crack faces (Pa, positive opening the crack).
+    face_contact, friction
+        Solve with the crack faces as a contact pair (:mod:`bonecontact.fracture.faces`),
+        frictionless or with Coulomb coefficient ``friction``.
 
     Returns
     -------
     PlateSolution
-        With the potential energy Π = ½ uᵀKu − Fᵀu = −½ Fᵀu (J/m) at equilibrium.
+        With the potential energy Π = ½ uᵀKu − Fᵀu = −½ Fᵀu (J/m) at equilibrium (edge
+        tractions only) and the face traction for the interaction integral.
     """
     mat = plane_stress_equivalent(material) if plane == "stress" else material
     m = Mechanics(cm.mesh, mat, cm.cell_tags, cm.facet_tags)
@@ -124,8 +139,16 @@ def solve_plate(
     m.add_dirichlet(facets[~vertical], 1, 0.0)  # u_y = 0 along the bottom edge
     for name, t in tractions.items():
         m.add_traction(cm.groups[name], tuple(float(v) for v in t))
-    integ = Integrator(m, "static", 1.0)
+    face = None
+    if face_pressure:
+        m.add_pressure(list(cm.face_tags), face_pressure)
+        face = -face_pressure * ufl.FacetNormal(cm.mesh)
+    solver = crack_face_solver(m, cm, friction) if face_contact else None
+    integ = Integrator(m, "static", 1.0, contact=solver)
     integ.step()
+    result = integ.last_contact
+    if solver is not None:
+        face = face_traction(m.V, solver.interfaces[0], result)
     u = fem.Function(m.V, name="displacement")
     u.x.array[:] = integ.u.x.array
     integ.destroy()
@@ -138,7 +161,7 @@ def solve_plate(
         for n, t in tractions.items()
     )
     work = cm.mesh.comm.allreduce(work, op=MPI.SUM)
-    return PlateSolution(cm, m, u, -0.5 * work)
+    return PlateSolution(cm, m, u, -0.5 * work, face, result)
 
 
 def solve_tension(
