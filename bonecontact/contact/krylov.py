@@ -1,0 +1,235 @@
+"""The iterative linear-solver path of the PDAS contact solver
+(docs/theory/pdas.md#iterative-linear-solver).
+
+Every PDAS iteration solves the condensed system ``B Ũ = r`` in the nodal frames of the
+slave nodes: the operator ``At = T Q A Qᵀ Tᵀ`` with the Dirichlet rows, the fixed
+contact rows (active normal rows, stick rows) eliminated and, with 3D Newton slip rows,
+a few rows replaced by their linearisation.  It is solved by CG (GMRES with the
+nonsymmetric slip rows) preconditioned by GAMG (smoothed aggregation).  This module
+provides the three pieces the solver needs:
+
+* :func:`condensed_near_nullspace` — the rigid-body modes of every body, mapped into the
+  solved unknowns ``Ũ = T Q⁻ᵀ U``.  Without them GAMG sees only the constant vectors
+  and needs 5–7 times as many iterations; the modes of the untransformed unknowns are
+  wrong at the slave nodes, whose unknowns are displacements *relative* to the master
+  surface.
+* :func:`configure_condensed_ksp` — the Krylov method and the GAMG options of the
+  condensed system.
+* :class:`PreconditionerReuse` — when to keep the preconditioner of an earlier set
+  (from an earlier PDAS iteration or time step) and when to rebuild it.
+
+Units: none (linear algebra).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem
+
+from bonecontact.common.linalg import configure_ksp, rigid_body_modes
+
+__all__ = [
+    "PreconditionerReuse",
+    "apply_inverse_transpose",
+    "condensed_near_nullspace",
+    "configure_condensed_ksp",
+]
+
+#: GAMG options of the condensed system (under the solver's prefix; the command line
+#: overrides them): plain (unsmoothed) aggregation, W-cycles.  The condensation couples
+#: every master interface node with the master nodes of all slave nodes around it (rows
+#: of up to ~400 entries against ~50 in elasticity), and a smoothed prolongator spreads
+#: these rows through the whole hierarchy: coarse operators 3–5 times denser than those
+#: of the same mesh without contact, a set-up 5–15 times slower.  Plain aggregation
+#: keeps the coarse operators sparse; the W-cycle (the small coarse levels visited
+#: more often) keeps the iterations nearly independent of the mesh (load-driven 3D
+#: Hertz, rtol 1e-12: 35 and 40 iterations at 25k and 65k dofs; V-cycles 48 and 71).
+GAMG_OPTIONS: dict[str, object] = {"pc_gamg_agg_nsmooths": 0, "pc_mg_cycle_type": "w"}
+
+
+def apply_inverse_transpose(
+    Qt: PETSc.Mat, z: PETSc.Vec, out: PETSc.Vec, max_terms: int = 8
+) -> None:
+    """``out = Q⁻ᵀ z`` for the basis transformation ``Qᵀ = I + N`` with nilpotent ``N``.
+
+    ``N`` holds ``M̂`` in slave rows and master columns, so ``N² = 0`` for one pair (a
+    body that is the slave of one pair and the master of another makes a longer chain).
+    The Neumann series ``Q⁻ᵀ z = Σ_k (−N)^k z`` is then finite: iterate
+    ``y ← z − N y`` until ``y`` no longer changes, without a global inverse.
+
+    Raises
+    ------
+    RuntimeError
+        If the series has not terminated after ``max_terms`` terms (``N`` not nilpotent).
+    """
+    N = Qt.duplicate(copy=True)
+    N.shift(-1.0)  # (exact zeros on the diagonal: N y is exact where y is)
+    ny, nxt = z.duplicate(), z.duplicate()
+    z.copy(out)
+    scale = z.norm(PETSc.NormType.INFINITY)
+    try:
+        for _ in range(max_terms):
+            N.mult(out, ny)
+            z.copy(nxt)
+            nxt.axpy(-1.0, ny)  # z − N y
+            nxt.axpy(-1.0, out)  # its change
+            out.axpy(1.0, nxt)
+            if nxt.norm(PETSc.NormType.INFINITY) <= 1e-14 * scale:
+                return
+    finally:
+        for obj in (N, ny, nxt):
+            obj.destroy()
+    raise RuntimeError(
+        f"contact: Qᵀ − I is not nilpotent of index ≤ {max_terms} (a cycle of contact pairs?)"
+    )
+
+
+def condensed_near_nullspace(V: fem.FunctionSpace, Qt: PETSc.Mat, T: PETSc.Mat) -> PETSc.NullSpace:
+    """The rigid-body modes of every body in the unknowns of the condensed system.
+
+    With ``U = Qᵀ Tᵀ Ũ`` a displacement ``z`` is ``Ũ = T Q⁻ᵀ z`` there: at a slave node
+    the relative displacement ``z_p − Σ_q M̂_pq z_q`` in the node's frame.  A rigid mode
+    ``z`` of one body (``A z = 0`` for a body without supports) is then a null vector of
+    ``At = T Q A Qᵀ Tᵀ``: ``At Ũ = T Q A z = 0``.  The modes of the master body are not
+    zero at the slave nodes, and those of the slave body not zero in their relative
+    unknowns, so each body keeps its own six (three in 2D) modes: aggregates that
+    contain slave and master nodes need both sets.
+
+    Parameters
+    ----------
+    V
+        The vector P1 space.
+    Qt, T
+        The basis transformation ``Qᵀ`` and the rotation ``T`` of the contact solver.
+
+    Returns
+    -------
+    PETSc.NullSpace
+        Orthonormalised vectors (6 or 3 per body), layout of ``At``.
+    """
+    modes = rigid_body_modes(V, per_body=True)
+    vecs = []
+    uhat = T.createVecRight()
+    for z in modes.getVecs():
+        apply_inverse_transpose(Qt, z, uhat)
+        v = T.createVecLeft()
+        T.mult(uhat, v)
+        vecs.append(v)
+    uhat.destroy()
+    modes.destroy()
+    basis = []
+    for v in vecs:  # modified Gram–Schmidt (twice is enough)
+        for _ in range(2):
+            for w in basis:
+                v.axpy(-v.dot(w), w)
+        nrm = v.norm()
+        if nrm > 1e-10 * np.sqrt(v.getSize()):
+            v.scale(1.0 / nrm)
+            basis.append(v)
+        else:
+            v.destroy()
+    return PETSc.NullSpace().create(vectors=basis, comm=V.mesh.comm)
+
+
+def configure_condensed_ksp(
+    ksp: PETSc.KSP,
+    B: PETSc.Mat,
+    V: fem.FunctionSpace,
+    Qt: PETSc.Mat,
+    T: PETSc.Mat,
+    *,
+    prefix: str,
+    rtol: float,
+    nonsymmetric: bool,
+    max_it: int = 3000,
+) -> None:
+    """CG (GMRES if ``nonsymmetric``) + GAMG on the condensed matrix ``B``.
+
+    Sets the block size of ``B`` (the transformations lose it; GAMG aggregates nodes,
+    not single rows, only with it), the near-nullspace of
+    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` (unless given on the command
+    line) and a nonzero initial guess (the previous PDAS iterate).
+    """
+    bs = V.dofmap.index_map_bs
+    B.setBlockSize(bs)
+    nns = condensed_near_nullspace(V, Qt, T)
+    B.setNearNullSpace(nns)
+    nns.destroy()
+    B.setOption(PETSc.Mat.Option.SPD, not nonsymmetric)
+    configure_ksp(ksp, "iterative", rtol=rtol, prefix=prefix, max_it=max_it)
+    opts = PETSc.Options()
+    for key, value in GAMG_OPTIONS.items():
+        if not opts.hasName(f"{prefix}{key}"):
+            opts[f"{prefix}{key}"] = value
+    if nonsymmetric:
+        ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
+    ksp.setInitialGuessNonzero(True)
+
+
+@dataclass
+class PreconditionerReuse:
+    """When to keep the GAMG preconditioner of an earlier set
+    (docs/theory/pdas.md#preconditioner-reuse).
+
+    The preconditioner of the condensed matrix ``B_C`` of a set ``C`` is kept for the
+    matrix ``B_A`` of a later set ``A`` (a later PDAS iteration, or a later time step
+    with the same operator) while
+
+    * ``A`` and ``C`` differ in at most ``max(1, rows · n_C)`` contact rows (fixed or
+      replaced in one and not in the other), ``n_C`` the contact rows fixed or
+      replaced in ``C``, and
+    * the last solve with it needed at most ``growth`` times the Krylov iterations of
+      the first solve after it was built;
+
+    otherwise it is rebuilt from ``B_A``.  A kept preconditioner of a symmetric
+    positive definite matrix is still one for ``B_A``: CG converges to the same
+    tolerance, in more iterations the more the sets differ.  ``rows = 0`` rebuilds
+    every time.
+
+    Attributes
+    ----------
+    builds, reuses
+        How many solves built a new preconditioner / kept the last one.
+    """
+
+    rows: float = 0.25
+    growth: float = 1.5
+    builds: int = 0
+    reuses: int = 0
+    _mask: npt.NDArray[np.bool_] | None = None
+    _first_its: int = 0
+    _last_its: int = 0
+    _fresh: bool = False
+
+    def decide(self, ksp: PETSc.KSP, replaced: npt.NDArray[np.bool_]) -> bool:
+        """Before a solve: keep the preconditioner (``True``) or rebuild it, and tell
+        ``ksp``.  ``replaced`` marks the contact rows (replicated, identical on every
+        rank) that are fixed or replaced in the set of the solve."""
+        keep = self._mask is not None and self.rows > 0.0
+        if keep:
+            changed = int((replaced != self._mask).sum())
+            keep = changed <= max(1, int(self.rows * int(self._mask.sum())))
+            keep = keep and self._last_its <= self.growth * max(self._first_its, 1)
+        ksp.getPC().setReusePreconditioner(keep)
+        if keep:
+            self.reuses += 1
+        else:
+            self.builds += 1
+            self._mask = replaced.copy()
+        self._fresh = not keep
+        return keep
+
+    def record(self, its: int) -> None:
+        """After the solve: its Krylov iterations."""
+        if self._fresh:
+            self._first_its = its
+        self._last_its = its
+
+    def forget(self) -> None:
+        """Rebuild at the next solve (a new operator, or a failed solve)."""
+        self._mask = None
