@@ -2,16 +2,23 @@
 #
 #   make install      create .venv (Python >= 3.12, found automatically) and install the
 #                     package editable with its test extras; cheap when already done
-#   make demo         install if needed, then run demos/knee2d.py (DEMO=demos/long_bone.py for the other)
+#   make demo         install if needed, then run demos/knee2d.py; DEMO=demos/<name>.py runs
+#                     another of the five demos (knee2d, long_bone, knee_tumour, jaw_cyst,
+#                     contact_api); results in demos/results/<name>/
+#   make notebooks    install if needed, then convert every demo to a notebook (build/notebooks/)
+#                     and execute it headless with its figures inline (NOTEBOOKS="demos/x.py"
+#                     for some); results in build/notebooks/results/<name>/
 #   make test         install if needed, then lint, docs, the serial suite and the MPI suite on
-#                     2 and 3 ranks (what CI runs);  make test-serial / make test-parallel  run
-#                     one suite only, without lint and docs
+#                     2 and 3 ranks, without the tests marked slow (what CI runs);
+#                     make test-serial / make test-parallel  run one suite only, without lint
+#                     and docs
+#   make test-all     make test with the slow verification cases too
 #   make lint         ruff check and ruff format --check over the repository (changes no file;
 #                     `.venv/bin/ruff check --fix . && .venv/bin/ruff format .` applies the fixes)
 #   make docs         API reference generated from the docstrings (pdoc) into docs/api/;
 #                     fails on any import error or warning
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
-#   make clean        remove caches, test logs and docs/api;  make distclean  also removes .venv
+#   make clean        remove caches, test logs, docs/api, build/ and demos/results;  make distclean  also removes .venv
 #
 # Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=1800
 # PYTEST_ARGS="-k hertz" (added to every pytest call).
@@ -88,7 +95,8 @@ export RUN_PYTEST
 RANK_LOG := bash -c 'r=$${PMI_RANK:-$${OMPI_COMM_WORLD_RANK:-0}}; \
   if [ "$$r" != 0 ]; then exec >"$$0.rank$$r.log" 2>&1; fi; exec "$$@"'
 
-.PHONY: help install demo lint docs test test-serial test-parallel benchmarks clean distclean
+.PHONY: help install demo notebooks lint docs test test-all test-serial test-parallel benchmarks \
+	clean distclean
 
 help:
 	@sed -n 's/^#   //p' $(firstword $(MAKEFILE_LIST))
@@ -115,10 +123,31 @@ demo: install
 	@test -f $(DEMO) || { echo "error: $(DEMO) does not exist" >&2; exit 1; }
 	$(PY) $(DEMO)
 
-# Serial suite: everything, including tests marked `serial` that spawn their own mpiexec.
+# Tests marked `slow` (long verification cases) run only in make test-all.
+SELECT ?= not slow
+
+# Every demo as a notebook: jupytext converts, nbconvert executes in a python3 kernel
+# started in build/notebooks/ (the demos find the repository from there).
+NOTEBOOKS ?= $(sort $(wildcard demos/*.py))
+NB_DIR    := build/notebooks
+
+notebooks: install
+	@mkdir -p "$(NB_DIR)"
+	@for d in $(NOTEBOOKS); do \
+	  nb="$(NB_DIR)/$$(basename "$$d" .py).ipynb"; \
+	  echo "+ jupytext --to ipynb $$d -o $$nb && jupyter nbconvert --execute --inplace $$nb"; \
+	  $(VENV)/bin/jupytext --quiet --to ipynb "$$d" -o "$$nb"; \
+	  BONECONTACT_OUTPUT="$(CURDIR)/$(NB_DIR)/results" $(VENV)/bin/jupyter nbconvert --to notebook \
+	    --execute --inplace --ExecutePreprocessor.timeout=1800 "$$nb"; \
+	done
+	@echo "== notebooks: $(NB_DIR)/*.ipynb (open with jupyter lab), results in $(NB_DIR)/results/"
+
+# Serial suite: every selected test, including tests marked `serial` that spawn their own mpiexec.
 define run_serial
-@bash -c "$$RUN_PYTEST" run-pytest serial $(PY) -m pytest -x -q $(PYTEST_ARGS)
+@bash -c "$$RUN_PYTEST" run-pytest serial $(PY) -m pytest -x -q -m "$(SELECT)" $(PYTEST_ARGS)
 endef
+
+MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 
 # MPI suites: each size runs under `timeout`; `python -m mpi4py` turns an exception or a
 # non-zero pytest exit on any rank into MPI_Abort, so one rank's failure stops all ranks
@@ -127,12 +156,12 @@ define run_parallel
 @mkdir -p "$(LOG_DIR)"
 @for n in $(MPI_SIZES); do \
   rm -f "$(LOG_DIR)/mpi-$$n".rank*.log; \
-  SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q -m 'not serial' \
+  SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q -m '$(MPI_SELECT)' \
     -p no:cacheprovider $(PYTEST_ARGS)   # ranks > 0 write to $(LOG_DIR)/mpi-$$n.rank<r>.log" \
   bash -c "$$RUN_PYTEST" run-pytest "mpi-$$n" \
     timeout --kill-after=30 $(TEST_TIMEOUT) $(MPIEXEC) -n $$n \
     $(RANK_LOG) "$(LOG_DIR)/mpi-$$n" \
-    $(PY) -m mpi4py -m pytest -x -q -m "not serial" -p no:cacheprovider $(PYTEST_ARGS); \
+    $(PY) -m mpi4py -m pytest -x -q -m "$(MPI_SELECT)" -p no:cacheprovider $(PYTEST_ARGS); \
 done
 endef
 
@@ -159,6 +188,9 @@ test: install lint docs
 	$(run_serial)
 	$(run_parallel)
 
+test-all: SELECT :=
+test-all: test
+
 test-serial: install
 	$(run_serial)
 
@@ -170,7 +202,7 @@ benchmarks: install
 	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" bash benchmarks/run_all.sh
 
 clean:
-	rm -rf .pytest_cache "$(LOG_DIR)" build *.egg-info "$(DOCS_DIR)"
+	rm -rf .pytest_cache "$(LOG_DIR)" build *.egg-info "$(DOCS_DIR)" demos/results
 	find . -path ./$(VENV) -prune -o -type d -name __pycache__ -print0 | xargs -0 rm -rf
 
 distclean: clean
