@@ -48,6 +48,7 @@ from bonecontact.fracture.propagation import (
     PropagationOptions,
     PropagationResult,
     propagate,
+    write_fracture_table,
 )
 from bonecontact.fracture.sif import (
     SIFResult,
@@ -109,4 +110,5 @@ __all__ = [
     "williams_displacement",
     "williams_displacement_ufl",
     "williams_stress",
+    "write_fracture_table",
 ]

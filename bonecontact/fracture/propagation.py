@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
 from mpi4py import MPI
@@ -28,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
+from bonecontact.common.formatting import format_cell
 from bonecontact.fracture.crack import Crack2D, FractureError, point_segment_distance
 from bonecontact.fracture.criteria import (
     cell_stresses,
@@ -47,6 +49,7 @@ __all__ = [
     "PropagationOptions",
     "PropagationResult",
     "propagate",
+    "write_fracture_table",
 ]
 
 #: Columns of a fracture table, one row per tip and increment.
@@ -64,7 +67,9 @@ FRACTURE_COLUMNS = (
     "status",
 )
 
-Solver = Callable[[CrackedMesh], tuple[Mechanics, fem.Function]]
+#: ``solve(cracked_mesh)`` returns ``(model, u)`` or ``(model, u, face_traction)`` (the
+#: traction on loaded or contacting crack faces, for the interaction integral).
+Solver = Callable[[CrackedMesh], tuple]
 
 
 @dataclass(frozen=True)
@@ -224,11 +229,14 @@ def propagate(
     result = PropagationResult(crack)
     for step in range(options.max_increments):
         cm = mesh_cracked_body(poly, crack, options.tip_mesh, comm, holes)
-        model, u = solve(cm)
+        model, u, *face = solve(cm)
+        face_t = face[0] if face else None
         grown, status = crack, "arrested"
         for end in crack.tip_ends:
             r_out = _domain_radius(crack, end, poly, holes, options)
-            k = interaction_integral(u, cm, end, material, r_out, plane=options.plane)
+            k = interaction_integral(
+                u, cm, end, material, r_out, plane=options.plane, face_traction=face_t
+            )
             theta = _kink(options, model, u, crack, end, k.K_I, k.K_II, comm)
             k_eq = mts_equivalent_k(k.K_I, k.K_II, theta)
             load = options.K_Ic / k_eq if (options.K_Ic and k_eq > 0) else math.nan
@@ -264,3 +272,16 @@ def propagate(
             break
     result.paths.append(crack.points.copy())
     return result
+
+
+def write_fracture_table(
+    records: Sequence[IncrementRecord], path: str | Path, comm: MPI.Comm | None = None
+) -> None:
+    """Write the records as a CSV table with :data:`FRACTURE_COLUMNS` (rank 0 writes;
+    numbers round-trip exactly, see :mod:`bonecontact.common.formatting`)."""
+    comm = MPI.COMM_WORLD if comm is None else comm
+    if comm.rank == 0:
+        lines = [",".join(FRACTURE_COLUMNS)]
+        lines += [",".join(format_cell(v) for v in r.row()) for r in records]
+        Path(path).write_text("\n".join(lines) + "\n")
+    comm.barrier()

@@ -4,6 +4,8 @@ fixed-increment run grows each tip by exactly Δa per increment."""
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
+import csv
+
 from mpi4py import MPI
 
 import numpy as np
@@ -16,6 +18,7 @@ from bonecontact.fracture.propagation import (
     FRACTURE_COLUMNS,
     PropagationOptions,
     propagate,
+    write_fracture_table,
 )
 from bonecontact.materials.laws import Isotropic
 
@@ -64,3 +67,17 @@ def test_fixed_increments_grow_both_tips(direction):
     np.testing.assert_allclose(res.paths[0], centre_crack(0.05).points)
     # mode I: the crack stays close to its line (mesh asymmetry only)
     assert np.max(np.abs(res.crack.points[:, 1])) < 0.1 * da
+
+
+def test_fracture_table_round_trips(tmp_shared_path):
+    da = 0.02
+    opts = PropagationOptions(da, TipMesh(da / 8, 0.2, 0.1), max_increments=1)
+    res = propagate(PLATE, centre_crack(0.05), solve, MAT, opts, COMM)
+    path = tmp_shared_path / "fracture.csv"
+    write_fracture_table(res.records, path, COMM)
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0]) == list(FRACTURE_COLUMNS) and len(rows) == len(res.records)
+    for row, rec in zip(rows, res.records, strict=True):
+        assert float(row["K_I"]) == rec.K_I and float(row["angle_deg"]) == rec.angle_deg
+        assert int(row["tip"]) == rec.tip and row["status"] == rec.status
