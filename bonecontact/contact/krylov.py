@@ -9,10 +9,9 @@ nonsymmetric slip rows) preconditioned by GAMG (smoothed aggregation).  This mod
 provides the three pieces the solver needs:
 
 * :func:`condensed_near_nullspace` — the rigid-body modes of every body, mapped into the
-  solved unknowns ``Ũ = T Q⁻ᵀ U``.  Without them GAMG sees only the constant vectors
-  and needs 5–7 times as many iterations; the modes of the untransformed unknowns are
-  wrong at the slave nodes, whose unknowns are displacements *relative* to the master
-  surface.
+  solved unknowns ``Ũ = T Q⁻ᵀ U`` (null vectors of the condensed operator of floating
+  bodies).  Without a near-nullspace GAMG sees only the constant vectors and CG needs
+  4–5 times as many iterations; with one set of modes for the whole mesh 4 times.
 * :func:`configure_condensed_ksp` — the Krylov method and the GAMG options of the
   condensed system.
 * :class:`PreconditionerReuse` — when to keep the preconditioner of an earlier set

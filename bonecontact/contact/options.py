@@ -73,6 +73,15 @@ class PDASOptions:
     #: rule (``cold_start_fraction``).  Only the path changes, not the solution.
     cold_start_3d: str = "compliance"
 
+    #: Iterative solver: the GAMG preconditioner of an earlier set is kept (across PDAS
+    #: iterations and time steps) while the current set differs from it in at most this
+    #: fraction of the contact rows fixed or replaced in it (at least one row) ...
+    #: (docs/theory/pdas.md#preconditioner-reuse); 0 rebuilds it at every solve.
+    pc_reuse_rows: float = 0.25
+    #: ... and the last solve with it took at most this many times the Krylov iterations
+    #: of the first solve after it was built; otherwise it is rebuilt.
+    pc_reuse_growth: float = 1.5
+
     def __post_init__(self) -> None:
         if self.slip_3d not in ("newton", "fixed_point"):
             raise ValueError(f"slip_3d must be 'newton' or 'fixed_point', got {self.slip_3d!r}")
@@ -90,6 +99,11 @@ class PDASOptions:
             )
         if not self.memory_ratio > 0.0:
             raise ValueError(f"memory_ratio must be positive, got {self.memory_ratio}")
+        if self.pc_reuse_rows < 0.0 or not self.pc_reuse_growth >= 1.0:
+            raise ValueError(
+                f"pc_reuse_rows must be >= 0 and pc_reuse_growth >= 1, got "
+                f"{self.pc_reuse_rows} and {self.pc_reuse_growth}"
+            )
         if int(self.max_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
 

@@ -73,8 +73,10 @@ updates of it (:mod:`bonecontact.contact.lowrank`): a contact solve costs about 
 factorisation plus a few multi-right-hand-side solves, and later steps of a run reuse
 the factorisation.  ``strategy="refactor"`` re-factorises (numerically; the symbolic
 analysis is reused) in every iteration — the reference the tests compare against.
-``"iterative"`` — CG preconditioned by GAMG (smoothed aggregation) on the eliminated
-matrix of every iteration (``strategy="refactor"`` only).
+``"iterative"`` — CG (GMRES with 3D Newton slip rows) preconditioned by GAMG with the
+rigid-body modes of every body in the nodal frames, on the eliminated matrix of every
+iteration (``strategy="refactor"`` only); the preconditioner is kept across iterations
+and steps while the set changes little (:mod:`bonecontact.contact.krylov`).
 
 All set decisions are taken on arrays gathered over the slave nodes of every rank
 (``n_slave × gdim`` numbers), identically on every rank; the linear algebra stays
@@ -109,6 +111,7 @@ from bonecontact.contact.friction import (
     step_bounds,
 )
 from bonecontact.contact.interface import ContactInterface, basis_transform, rotation_matrix
+from bonecontact.contact.krylov import PreconditionerReuse, configure_condensed_ksp
 from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
 from bonecontact.contact.options import PDASOptions
 
@@ -440,11 +443,13 @@ class ContactSolver:
                 PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = (
                     1  # detect null pivots (singular sets)
                 )
-            if linear == "iterative":
-                self.ksp.setInitialGuessNonzero(True)
-                if self._newton_3d:
-                    self.ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
+            if linear == "iterative":  # (docs/theory/pdas.md#iterative-linear-solver)
+                configure_condensed_ksp(
+                    self.ksp, self.B, V, self.Qt, self.T, prefix=prefix, rtol=rtol,
+                    nonsymmetric=self._newton_3d,
+                )  # fmt: skip
             self.ksp.setFromOptions()
+        self.pc_reuse = PreconditionerReuse(opts.pc_reuse_rows, opts.pc_reuse_growth)
         self.setup_time = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ layout helpers
@@ -549,12 +554,24 @@ class ContactSolver:
         if coupled is not None:
             self._replace_rows(coupled, lo)
         self.ksp.setOperators(self.B)
+        iterative = self.linear == "iterative"
+        if iterative:
+            replaced = fixed.copy()
+            if coupled is not None:
+                replaced[np.asarray(coupled[0]).ravel()] = True
+            kept = self.pc_reuse.decide(self.ksp, replaced)
         try:
             self.ksp.solve(self._rhs, self.Uh)
+            if iterative and kept and self.ksp.getConvergedReason() < 0:
+                self.pc_reuse.forget()  # a kept preconditioner failed: rebuild, solve again
+                self.pc_reuse.decide(self.ksp, replaced)
+                self.ksp.solve(self._rhs, self.Uh)
         except PETSc.Error as exc:
             raise SingularActiveSetError(
                 f"linear solve failed (singular system? PETSc error {exc.ierr})"
             ) from None
+        if iterative:
+            self.pc_reuse.record(self.ksp.getIterationNumber())
         if null_pivots(self.ksp):
             raise SingularActiveSetError(
                 f"the system of the active set is singular ({null_pivots(self.ksp)} "
