@@ -20,6 +20,7 @@ unset).  Units SI in, display units (mm, MPa) out, always stated on the picture.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +48,8 @@ __all__ = [
 #: Display units: (name, factor applied to SI values).
 LENGTH_UNITS = {"m": 1.0, "mm": 1e3, "µm": 1e6}
 STRESS_UNITS = {"Pa": 1.0, "kPa": 1e-3, "MPa": 1e-6, "GPa": 1e-9}
+#: Factor from SI to each display unit of a field (stresses from Pa, lengths from m).
+UNIT_FACTORS = {**STRESS_UNITS, **LENGTH_UNITS}
 
 
 # ----------------------------------------------------------------------------- environment
@@ -225,9 +228,19 @@ def smooth_cell_data(grid: Any, name: str) -> npt.NDArray[np.float64]:
 
 
 # ----------------------------------------------------------------------------- pyvista
+def _pyvista() -> Any:
+    """pyvista, imported without the ipywidgets warning its import chain (pooch → tqdm.auto)
+    prints in a Jupyter kernel that has no ipywidgets."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="IProgress not found")
+        import pyvista
+
+    return pyvista
+
+
 def read_fields(path: str | Path, time_index: int = -1) -> Any:
     """The grid of one saved time of a run's ``fields.pvd`` (default: the last)."""
-    import pyvista as pv
+    pv = _pyvista()
 
     reader = pv.get_reader(str(path))
     n = len(reader.time_values)
@@ -285,8 +298,8 @@ def field_view(
     path
         The PNG to write.
     quantity, unit
-        Colour-bar title ``"<quantity> (<unit>)"``; ``unit`` from :data:`STRESS_UNITS` (the
-        field is in Pa) or any other (the field is shown as it is).
+        Colour-bar title ``"<quantity> (<unit>)"``; a ``unit`` of :data:`UNIT_FACTORS` converts
+        the SI field (Pa, m), any other shows the field as it is.
     length_unit
         Unit of the axes (``"mm"``, ``"m"``, ``"µm"``).
     upper_percentile
@@ -317,10 +330,9 @@ def field_view(
     Path
         ``path``.
     """
-    import pyvista as pv
-
+    pv = _pyvista()
     scale = LENGTH_UNITS[length_unit]
-    factor = STRESS_UNITS.get(unit, 1.0)
+    factor = UNIT_FACTORS.get(unit, 1.0)
     g = grid.copy()
     values = _field_values(g, name, smooth)
     if displacement is not None and warp:
@@ -334,7 +346,8 @@ def field_view(
     else:
         g.cell_data[key] = values * factor
     cell_vals = _field_values(grid, name, False) * factor
-    measure = _cell_measures(grid)
+    is_cell = len(cell_vals) == grid.n_cells
+    measure = _cell_measures(grid) if is_cell else np.ones(len(cell_vals))  # points: by count
     cr = color_range(cell_vals, upper_percentile, None, measure)
     if clim is None:
         clim = (cr.vmin, cr.vmax)
@@ -355,7 +368,7 @@ def field_view(
         legend.append([outline_label or "outline", "cyan"])
     if legend:
         pl.add_legend(
-            legend, bcolor="white", border=True, loc="upper left", size=(0.3, 0.05 * len(legend))
+            legend, bcolor="white", border=True, loc="upper left", size=(0.28, 0.04 * len(legend))
         )
     _axes(pl, g, length_unit, up)
     notes = [title] if title else []
@@ -447,5 +460,6 @@ def caption(fig: Any, text: str, width: int = 100) -> None:
     curves are and why a reference differs."""
     import textwrap
 
+    fig.tight_layout()  # the axes' labels inside the figure, the caption below them
     wrapped = "\n".join(textwrap.wrap(text, width))
-    fig.text(0.01, -0.01, wrapped, ha="left", va="top", fontsize=9, wrap=True)
+    fig.text(0.01, -0.01, wrapped, ha="left", va="top", fontsize=9)
