@@ -72,6 +72,12 @@ class PDASOptions:
     #: solve (one extra solve; docs/theory/pdas.md#cold-start); ``"damped"`` — the 2D
     #: rule (``cold_start_fraction``).  Only the path changes, not the solution.
     cold_start_3d: str = "compliance"
+    #: Low-rank strategy: factorise the operator with only the cold start's support patch
+    #: in the contact basis and reach every other set by force columns
+    #: (:class:`bonecontact.contact.lowrank.SplitBasis`; the full contact basis couples
+    #: every slave node in reach of the master side and roughly doubles the LU factors
+    #: in 3D).  The base is then never refactorised.
+    split_basis: bool = True
 
     #: Iterative solver: the GAMG preconditioner of an earlier set is kept (across PDAS
     #: iterations and time steps) while the current set differs from it in at most this

@@ -432,6 +432,7 @@ class ContactSolver:
                 max_columns=max_columns,
                 rebase_ratio=rebase_ratio,
                 memory_ratio=opts.memory_ratio,
+                split=self._split_basis(A) if opts.split_basis else None,
             )
         else:
             self.B = self.At.duplicate(copy=True)
@@ -451,6 +452,15 @@ class ContactSolver:
             self.ksp.setFromOptions()
         self.pc_reuse = PreconditionerReuse(opts.pc_reuse_rows, opts.pc_reuse_growth)
         self.setup_time = time.perf_counter() - t0
+
+    def _split_basis(self, A: PETSc.Mat) -> tuple:
+        """Arguments of the low-rank solver's split basis: the operator in the original
+        basis, the rows (all components) of the cold-start support patch and the rows
+        fixed in its first system (the base)."""
+        allowed = np.zeros(self.bs * self.NS, dtype=bool)
+        for j in range(self.bs):
+            allowed[self._ridx[j][self._an]] = True
+        return (A, self.Qt, self.T, self.Tt, allowed, self._fixed_rows(self._an, self._an))
 
     # ------------------------------------------------------------------ layout helpers
     def _gn(self, local: npt.NDArray) -> npt.NDArray:

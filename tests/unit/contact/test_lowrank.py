@@ -92,12 +92,16 @@ def test_lowrank_equals_refactor_on_hertz():
     # undamped cold start: the PDAS overshoots, then releases nodes for several iterations
     ref = _run(m, itf, strategy="refactor", cold_start_fraction=0.0)[0]
     assert ref["fact"] == ref["its"] >= 4
+    full = {"split_basis": False}  # the base in the full contact basis: rebases allowed
     cases = {
-        "default": {},
-        "never_rebase": {"rebase_ratio": 1e12},
-        "small_cache": {"max_columns": 5},
+        "default": full,
+        "never_rebase": {"rebase_ratio": 1e12, **full},
+        "small_cache": {"max_columns": 5, **full},
         # a memory share far below one column: chunks and cache at their minimum (16)
-        "memory_cap": {"memory_ratio": 1e-9},
+        "memory_cap": {"memory_ratio": 1e-9, **full},
+        # only the support patch in the contact basis: one factorisation, force columns
+        "split": {},
+        "split_small_cache": {"max_columns": 5},
     }
     for name, opts in cases.items():
         got = _run(m, itf, cold_start_fraction=0.0, **opts)[0]
@@ -105,7 +109,9 @@ def test_lowrank_equals_refactor_on_hertz():
         assert np.array_equal(got["active"], ref["active"]), name
         assert _rel(got["u"], ref["u"]) < 1e-10, name
         assert np.abs(got["p"] - ref["p"]).max() < 1e-10 * ref["p"].max(), name
-        if name == "never_rebase":
+        if name.startswith("split"):
+            assert got["fact"] == 1  # the split base is never refactorised
+        elif name == "never_rebase":
             # one factorisation; a column for every node whose status ever differed from the cold
             # start
             assert got["fact"] == 1 and got["cols"] >= int(ref["active"].sum()) - 1
