@@ -102,6 +102,7 @@ bp.field_view(g, "von_mises", r"{out}", quantity="von Mises stress", unit="MPa",
 """
 
 
+@pytest.mark.serial  # spawns its own process
 def test_field_view_writes_png_without_x_server(tmp_path):
     out = tmp_path / "view.png"
     env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
