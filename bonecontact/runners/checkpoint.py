@@ -653,13 +653,14 @@ class Checkpointer:
             self.counters.pdas.append(int(pdas))
             self.counters.bound_updates.append(int(bound_updates or 0))
 
-    def after_step(self) -> int:
-        """Between steps (collective): write a checkpoint when one is due or a signal came.
+    def after_step(self, last: bool = False) -> int:
+        """Between steps (collective): write a checkpoint when one is due (every
+        ``every`` steps and after the ``last`` one) or a signal came.
 
         Returns the signal number (0: go on)."""
         self.signum = self.stop.agreed(self.comm)
         step = self.integ.step_count
-        if self.signum or (self.every > 0 and step % self.every == 0):
+        if self.signum or (self.every > 0 and (step % self.every == 0 or last)):
             self.write()
         return self.signum
 
