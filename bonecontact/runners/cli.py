@@ -5,10 +5,15 @@ a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, 
 stdout.  Implausible values (likely unit slips, :mod:`bonecontact.runners.plausibility`) are
 printed as warnings before anything is solved; ``--strict`` makes them errors (exit status 2).
 
+``bonecontact run SCENE.toml --restart [CHECKPOINT]`` continues a mechanics run from its
+newest (or the named) checkpoint (docs/checkpoint.md).
+
 Exit status: 0 converged; 1 the run failed (solver did not converge — see
 ``summary.json``) or an internal error; 2 invalid input (message names the file,
-table and key; nothing is written).  Under MPI an input error is detected on every
-rank (collective checks) and an unexpected error on one rank aborts all ranks.
+table and key; nothing is written) or no usable checkpoint to restart from; 128 + signal
+(130 Ctrl-C, 143 SIGTERM) stopped by a signal after writing a checkpoint.  Under MPI an
+input error is detected on every rank (collective checks) and an unexpected error on one
+rank aborts all ranks.
 """
 
 from __future__ import annotations
