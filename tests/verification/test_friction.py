@@ -391,6 +391,7 @@ def _sphere_on_block(h: float, drag: float, increments: int):
     return m, itf
 
 
+@pytest.mark.slow  # ~120 s serially on a busy 2-core machine; make test-all
 def test_cattaneo_mindlin_3d_partial_slip():
     """3D: hemisphere (R = 10 mm) on a block of the same material, approach a²/R with
     a ≈ 1 mm, then dragged sideways in 4 increments to Q/(μP) ≈ 0.48 (μ = 0.3,
@@ -460,6 +461,7 @@ def _sphere_drag(slip_3d: str, strategy: str, tol: float):
     return out
 
 
+@pytest.mark.slow  # ~140 s serially on a busy 2-core machine; make test-all
 def test_3d_slip_newton_rows_converge_to_the_fixed_point_solution():
     """The semi-smooth Newton slip rows (nonsymmetric, low-rank and refactorised) and
     the slip-direction fixed point solve the same discrete problem: tractions agree to

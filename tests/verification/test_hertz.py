@@ -125,6 +125,7 @@ def test_hertz_3d_sphere_on_block():
     assert res["iterations"] <= 8, res
 
 
+@pytest.mark.slow  # ~110 s on a busy 2-core machine; make test-all
 @pytest.mark.serial
 def test_hertz_3d_error_shrinks_under_refinement():
     """Fitted p₀ error at h = 0.45, 0.33, 0.22 mm: measured 13 %, 7.6 %, 3.4 %."""
