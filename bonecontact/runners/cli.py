@@ -141,8 +141,10 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
     if sm is not None:
         rows.append(("dofs", f"{sm.model.num_dofs} (P1 displacement)"))
         rows.append(("warnings", str(len(sm.issues)) if sm.issues else "none"))
+    elif scene.growth_only:
+        rows.append(("dofs", "no mechanics (growth only)"))
     else:
-        rows.append(("dofs", "set by the mesh rebuilt during the run"))
+        rows.append(("dofs", "set by the host mesh rebuilt around the neoplasm during the run"))
     return rows
 
 
