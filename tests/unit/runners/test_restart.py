@@ -5,8 +5,8 @@ The scene: a dynamic 2D contact with Coulomb friction (μ = 0.3; a cylinder pres
 a block and dragged sideways by its top, then held; stick and slip nodes, the active set
 grows during the run), 20 steps, checkpoints every 4 steps.
 
-* Stopped run: the same scene with ``t_end`` at step 10 (its last checkpoint is step 8,
-  so the rows of steps 9 and 10 must be cut), continued with ``--restart`` to step 20:
+* Stopped run: the same scene with ``t_end`` at step 10, continued with
+  ``--restart <checkpoint of step 8>`` to step 20 (the rows of steps 9 and 10 are cut):
   history.csv, probes.csv and contact_<pair>.csv equal those of the uninterrupted run to
   1e-10 of each value plus the column's magnitude (the restarted run refactorises: the
   low-rank updates of the direct solver differ by round-off); every step appears once;
@@ -15,6 +15,8 @@ grows during the run), 20 steps, checkpoints every 4 steps.
 * SIGTERM (1 and 2 ranks): exit 143, status "interrupted", a checkpoint of the last
   recorded step; the restart completes the run with the uninterrupted run's rows.
 * Refused restarts exit 2 with a message: no checkpoint, another time step.
+* One of 2 ranks killed (SIGKILL) mid-run: mpiexec ends within 60 s (no hang), and the
+  restart from the last intact checkpoint completes the run with the uninterrupted rows.
 """
 
 from __future__ import annotations
@@ -144,10 +146,10 @@ def test_restart_equals_uninterrupted(case, tmp_path, first, then):
     res = _run(case["short"], out, first)
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
-        "step_00000004",
         "step_00000008",
+        "step_00000010",  # the last step's
     ]
-    res = _run(case["full"], out, then, "--restart")
+    res = _run(case["full"], out, then, "--restart", str(out / "checkpoints" / "step_00000008"))
     assert res.returncode == 0, res.stderr
     ref = case["refs"][then if then in case["refs"] else 1]
     worst = _assert_same_tables(ref, out)
@@ -229,3 +231,58 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert "Traceback" not in res.stderr
     _, hist, _ = _table(out / "history.csv")
     assert hist[:, 0].tolist() == list(range(11))  # nothing changed
+
+
+def _rank_pids(out: Path) -> list[int]:
+    """Process ids of the ``bonecontact`` ranks writing to ``out`` (not mpiexec/hydra)."""
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            cmd = (proc / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        text = [c.decode(errors="replace") for c in cmd]
+        if str(out) in text and not any("mpiexec" in c or "hydra" in c for c in text):
+            pids.append(int(proc.name))
+    return sorted(pids)
+
+
+def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
+    """SIGKILL to one of 2 ranks after step 5 (checkpoints every step): mpiexec ends
+    within 60 s with a failure status, no checkpoint is damaged (a half-written one
+    keeps its temporary name), and the restart completes the run with the
+    uninterrupted rows."""
+    scene = tmp_path / "every.toml"
+    scene.write_text(
+        case["full"].read_text().replace("checkpoint_every = 4", "checkpoint_every = 1")
+    )
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        _command(scene, out, 2),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+        stdin=subprocess.DEVNULL,
+    )
+    hist = out / "history.csv"
+    t0 = time.monotonic()
+    while not (hist.is_file() and len(hist.read_text().splitlines()) >= 7):
+        assert proc.poll() is None and time.monotonic() - t0 < 300, "the run ended early"
+        time.sleep(0.02)
+    pids = _rank_pids(out)
+    assert len(pids) == 2, pids
+    os.kill(pids[1], signal.SIGKILL)
+    try:
+        proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail("the surviving rank hangs after one rank was killed")
+    assert proc.returncode != 0
+    assert not (out / "summary.json").exists()
+    res = _run(scene, out, 2, "--restart")
+    assert res.returncode == 0, res.stderr
+    _, hist_rows, _ = _table(out / "history.csv")
+    assert hist_rows[:, 0].tolist() == list(range(21))
+    _assert_same_tables(case["refs"][2], out)

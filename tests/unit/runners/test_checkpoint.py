@@ -1,0 +1,293 @@
+"""Checkpoints in-process (any number of ranks): order, round trip, damage, faults.
+
+* The input order: on a unit square of n×n cells, node i of the input has the analytic
+  coordinates ((i mod (n+1))/n, (i div (n+1))/n); the coordinates scattered into input
+  order equal them on every rank, and scattering back returns the owned values.
+* Round trip: the state of a dynamic Coulomb contact run after its last step, written
+  and read back into the integrator (after overwriting it), is bit for bit the same
+  (fields, time derivatives, energy balance, contact sets, slip directions, previous
+  multipliers, nodal-frame solution).
+* A damaged newest checkpoint (truncated state.h5) is skipped with a warning and the
+  previous one used; a half-written one (temporary name) is ignored and removed by the
+  next write; another format number is refused with a clear message.
+* history.csv is cut after the checkpoint's step; a table ending before it is refused.
+* A checkpoint write that fails (no space left) stops the run with status "failed" on
+  every rank; the earlier checkpoint is intact.
+* A step whose solution is not finite (NaN injected into the contact solution at step 6)
+  ends the run with status "failed" and a message naming the step; the checkpoint of
+  step 4 stays intact, the state the fields are written from is step 5's (finite), and a restart
+  from the checkpoint reproduces the uninterrupted rows.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import warnings
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+from dolfinx import fem, mesh
+
+from bonecontact.contact.pdas import ContactSolver
+from bonecontact.runners.checkpoint import (
+    FORMAT_VERSION,
+    CheckpointError,
+    InputOrder,
+    RunCounters,
+    find_checkpoint,
+    read_checkpoint,
+    trim_tables,
+    write_checkpoint,
+)
+from bonecontact.runners.mechanics import run_mechanics
+from bonecontact.scene import load_scene
+
+A_REF = 5.0e-4
+
+SCENE = """format = 1
+[scene]
+name = "impact"
+mesh = "{mesh}"
+dimension = 2
+[analysis]
+kind = "dynamic"
+t_end = {t_end}
+dt = 1.0e-4
+[[material]]
+name = "cylinder"
+regions = ["cylinder"]
+model = "isotropic"
+E = 2.0e9
+nu = 0.3
+rho = 1200.0
+tau_v = 1.0e-5
+[[material]]
+name = "block"
+regions = ["block"]
+model = "isotropic"
+E = 17.0e9
+nu = 0.3
+rho = 1900.0
+[[contact]]
+name = "hertz"
+slave = "cyl_contact"
+master = "block_contact"
+friction = "coulomb"
+coefficient = 0.3
+[[dirichlet]]
+boundary = "block_bottom"
+value = [0.0, 0.0]
+[[dirichlet]]
+boundary = "cyl_top"
+value = [4.0e-6, -3.0e-6]
+schedule = [[0.0, 0.0], [1.0e-3, 1.0], [2.0e-3, 1.0]]
+[output]
+directory = "results"
+fields_every = 0
+checkpoint_every = 4
+"""
+
+
+def _scene(path: Path, t_end: float):
+    """The dynamic contact scene (mesh written collectively), loaded on every rank."""
+    from bonecontact.meshing import shapes as meshing
+
+    comm = MPI.COMM_WORLD
+    msh = path / "hertz.msh"
+    if not comm.bcast(msh.exists() if comm.rank == 0 else None, root=0):
+        meshing.hertz_2d(comm, path=msh, h_contact=A_REF / 4, zone=1.5 * A_REF, h_far=3e-3)
+    comm.barrier()
+    toml = path / f"scene_{t_end:g}.toml"
+    if comm.rank == 0:
+        toml.write_text(SCENE.format(mesh=msh, t_end=t_end))
+    comm.barrier()
+    return load_scene(toml)
+
+
+def test_input_order_is_the_mesh_input_numbering():
+    comm = MPI.COMM_WORLD
+    n = 6
+    msh = mesh.create_unit_square(comm, n, n)
+    V = fem.functionspace(msh, ("Lagrange", 1, (2,)))
+    order = InputOrder(V)
+    assert order.num_nodes == (n + 1) ** 2
+    x = np.zeros((V.dofmap.index_map.size_local, 2))
+    owned = V.dofmap.list.ravel() < V.dofmap.index_map.size_local
+    x[V.dofmap.list.ravel()[owned]] = msh.geometry.x[msh.geometry.dofmaps[0].ravel()[owned], :2]
+    vec = order.to_input(x, 2, "x")
+    lo, hi = vec.getOwnershipRange()
+    i = np.arange(lo, hi) // 2
+    expect = np.where(np.arange(lo, hi) % 2 == 0, (i % (n + 1)) / n, (i // (n + 1)) / n)
+    assert np.abs(vec.array - expect).max() < 1e-15
+    assert comm.allreduce(hi - lo) == 2 * (n + 1) ** 2
+    assert np.array_equal(order.from_input(vec, 2), x)
+    vec.destroy()
+    order.destroy()
+
+
+def _arrays(st: dict) -> dict[str, np.ndarray]:
+    out = {k: np.asarray(st[k]) for k in ("u_n", "u_nm1", "velocity")}
+    c = st["contact"]
+    out["Uh"] = c["Uh"]
+    for key in ("active", "directions", "lam_n_prev", "work_gaps"):
+        out[key] = np.concatenate([np.asarray(a, dtype=float).ravel() for a in c[key]] + [[]])
+    return out
+
+
+def test_state_round_trip_is_exact(tmp_shared_path):
+    scene = _scene(tmp_shared_path, 1.0e-3)
+    res = run_mechanics(scene, output=tmp_shared_path / "out", progress=False)
+    assert res.status == "converged"
+    integ = res.integrator
+    assert isinstance(integ.contact, ContactSolver)
+    before = integ.state()
+    ref = _arrays(before)
+    comm = MPI.COMM_WORLD
+    in_contact = comm.allreduce(float(np.abs(ref["lam_n_prev"]).sum()), op=MPI.SUM)
+    assert comm.allreduce(int(ref["active"].sum()), op=MPI.SUM) > 0 and in_contact > 0
+    path, meta = find_checkpoint(tmp_shared_path / "out", MPI.COMM_WORLD)
+    assert path.name == "step_00000010" and meta["step"] == 10
+    # overwrite the state, then read it back
+    junk = integ.state()
+    for k in ("u_n", "u_nm1", "velocity"):
+        junk[k] = np.full_like(junk[k], np.pi)
+    junk["t"], junk["step_count"] = 0.0, 0
+    c = junk["contact"]
+    c["active"] = [~a for a in c["active"]]
+    c["lam_n_prev"] = [a + 1.0 for a in c["lam_n_prev"]]
+    c["Uh"] = c["Uh"] * 0.0
+    integ.restore_state(junk)
+    counters = read_checkpoint(path, meta, integ)
+    after = integ.state()
+    for key, value in _arrays(after).items():
+        assert np.array_equal(value, ref[key]), key
+    assert after["t"] == before["t"] == pytest.approx(1.0e-3, rel=1e-15)
+    assert after["step_count"] == 10
+    assert after["balance"] == before["balance"]
+    assert after["contact"]["cold"] is False
+    assert len(counters.linear) == 10 and counters.segment == 0
+
+
+def test_damaged_and_half_written_checkpoints(tmp_shared_path):
+    comm = MPI.COMM_WORLD
+    scene = _scene(tmp_shared_path, 1.0e-3)
+    out = tmp_shared_path / "out"
+    res = run_mechanics(scene, output=out, progress=False)
+    root = out / "checkpoints"
+    assert sorted(p.name for p in root.iterdir()) == ["step_00000008", "step_00000010"]
+    # a newest checkpoint cut short (a crash while copying, a full disk)
+    if comm.rank == 0:
+        h5 = root / "step_00000010" / "state.h5"
+        h5.write_bytes(h5.read_bytes()[: h5.stat().st_size // 2])
+        (root / ".step_00000012.tmp").mkdir()
+        (root / ".step_00000012.tmp" / "state.h5").write_bytes(b"\0" * 100)
+    comm.barrier()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        path, meta = find_checkpoint(out, comm)
+    assert path.name == "step_00000008" and meta["step"] == 8
+    if comm.rank == 0:
+        assert any("damaged" in str(w.message) for w in caught)
+    # the named damaged one is refused
+    with pytest.raises(CheckpointError, match="damaged"):
+        find_checkpoint(out, comm, root / "step_00000010")
+    # the next write replaces the damaged one and removes the temporary
+    integ = res.integrator
+    write_checkpoint(out, integ, RunCounters(), {"scene": "impact"})
+    assert sorted(p.name for p in root.iterdir()) == ["step_00000008", "step_00000010"]
+    assert find_checkpoint(out, comm)[0].name == "step_00000010"
+    # another format number
+    comm.barrier()
+    if comm.rank == 0:
+        meta_file = root / "step_00000010" / "meta.json"
+        m = json.loads(meta_file.read_text())
+        m["format"] = FORMAT_VERSION + 1
+        meta_file.write_text(json.dumps(m))
+    comm.barrier()
+    with pytest.raises(CheckpointError, match=f"has format {FORMAT_VERSION + 1}, but"):
+        find_checkpoint(out, comm)
+
+
+def test_tables_cut_after_the_checkpoint_step(tmp_shared_path):
+    comm = MPI.COMM_WORLD
+    hist = tmp_shared_path / "history.csv"
+    if comm.rank == 0:
+        with open(hist, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["step", "time", "pair"])
+            for k in range(6):
+                for pair in ("a", "b"):
+                    w.writerow([k, 0.1 * k, pair])
+    comm.barrier()
+    trim_tables(tmp_shared_path, 3, comm)
+    rows = list(csv.reader(open(hist)))
+    assert [r[0] for r in rows[1:]] == ["0", "0", "1", "1", "2", "2", "3", "3"]
+    with pytest.raises(CheckpointError, match="no rows of step 7"):
+        trim_tables(tmp_shared_path, 7, comm)
+
+
+def test_nan_solution_fails_cleanly_and_the_checkpoint_survives(tmp_shared_path, monkeypatch):
+    """NaN in the contact solution of step 6: status failed, checkpoint 4 intact."""
+    scene = _scene(tmp_shared_path, 1.0e-3)
+    ref = run_mechanics(scene, output=tmp_shared_path / "ref", progress=False)
+    assert ref.status == "converged"
+    solve = ContactSolver.solve
+    calls = {"n": 0}
+
+    def poisoned(self, b, u):
+        result = solve(self, b, u)
+        calls["n"] += 1
+        if calls["n"] == 6:
+            u.x.array[:] = np.nan
+        return result
+
+    monkeypatch.setattr(ContactSolver, "solve", poisoned)
+    out = tmp_shared_path / "out"
+    res = run_mechanics(scene, output=out, progress=False)
+    assert res.status == "failed" and res.summary["steps"] == 5
+    assert "step 6" in res.summary["message"] and "non-finite" in res.summary["message"]
+    assert np.array_equal(res.integrator.u.x.array, res.integrator.u_n.x.array)
+    assert np.isfinite(res.integrator.u.x.array).all()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and summary["checkpoints"]["last"].endswith("4")
+    monkeypatch.setattr(ContactSolver, "solve", solve)
+    path, meta = find_checkpoint(out, MPI.COMM_WORLD)
+    assert meta["step"] == 4
+    again = run_mechanics(scene, output=out, progress=False, restart=True)
+    assert again.status == "converged" and again.summary["steps"] == 10
+    a = np.array([r[3:] for r in csv.reader(open(out / "history.csv"))][1:], dtype=float)
+    b = np.array([r[3:] for r in csv.reader(open(tmp_shared_path / "ref" / "history.csv"))][1:])
+    b = b.astype(float)
+    scale = np.maximum(np.abs(b).max(axis=0), 1e-3 * A_REF)
+    assert a.shape == b.shape and (np.abs(a - b) <= 1e-10 * (np.abs(b) + scale)).all()
+
+
+def test_failed_checkpoint_write_stops_the_run_cleanly(tmp_shared_path, monkeypatch):
+    """The disk fills while checkpoint 8 is written (ENOSPC at its fsync): every rank
+    stops with status "failed" and a message naming the checkpoint; the temporary
+    directory is gone and checkpoint 4 is intact."""
+    import errno
+
+    from bonecontact.runners import checkpoint as ck
+
+    fsync = ck._fsync
+
+    def full(path):
+        if "step_00000008" in str(path):
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        fsync(path)
+
+    monkeypatch.setattr(ck, "_fsync", full)
+    scene = _scene(tmp_shared_path, 1.0e-3)
+    out = tmp_shared_path / "out"
+    res = run_mechanics(scene, output=out, progress=False)
+    assert res.status == "failed" and res.summary["steps"] == 8
+    assert "step_00000008" in res.summary["message"]
+    assert "No space left" in res.summary["message"]
+    assert [p.name for p in (out / "checkpoints").iterdir()] == ["step_00000004"]
+    monkeypatch.setattr(ck, "_fsync", fsync)
+    assert find_checkpoint(out, MPI.COMM_WORLD)[1]["step"] == 4
