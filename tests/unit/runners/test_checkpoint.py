@@ -271,17 +271,16 @@ def test_failed_checkpoint_write_stops_the_run_cleanly(tmp_shared_path, monkeypa
     stops with status "failed" and a message naming the checkpoint; the temporary
     directory is gone and checkpoint 4 is intact."""
     import errno
+    import os
 
-    from bonecontact.runners import checkpoint as ck
+    fsync = os.fsync
 
-    fsync = ck._fsync
+    def full(fd: int) -> None:  # (Linux: the file of a descriptor from /proc)
+        if "step_00000008" in os.readlink(f"/proc/self/fd/{fd}"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        fsync(fd)
 
-    def full(path):
-        if "step_00000008" in str(path):
-            raise OSError(errno.ENOSPC, "No space left on device", str(path))
-        fsync(path)
-
-    monkeypatch.setattr(ck, "_fsync", full)
+    monkeypatch.setattr(os, "fsync", full)
     scene = _scene(tmp_shared_path, 1.0e-3)
     out = tmp_shared_path / "out"
     res = run_mechanics(scene, output=out, progress=False)
@@ -289,5 +288,5 @@ def test_failed_checkpoint_write_stops_the_run_cleanly(tmp_shared_path, monkeypa
     assert "step_00000008" in res.summary["message"]
     assert "No space left" in res.summary["message"]
     assert [p.name for p in (out / "checkpoints").iterdir()] == ["step_00000004"]
-    monkeypatch.setattr(ck, "_fsync", fsync)
+    monkeypatch.setattr(os, "fsync", fsync)
     assert find_checkpoint(out, MPI.COMM_WORLD)[1]["step"] == 4
