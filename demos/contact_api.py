@@ -57,7 +57,6 @@
 #    \frac1{E^*} = \frac{1-\nu_1^2}{E_1} + \frac{1-\nu_2^2}{E_2}. $$
 
 # %%
-import os
 import sys
 from pathlib import Path
 
@@ -65,6 +64,7 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
+import bonecontact.plot as bp
 from bonecontact import (
     ContactSolver,
     Integrator,
@@ -78,8 +78,10 @@ from bonecontact.verification import contact_modulus
 from bonecontact.verification import hertz_2d as hertz
 
 comm = MPI.COMM_WORLD
+here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
-output = Path(args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/contact_api"))
+# results: the first argument, else $BONECONTACT_OUTPUT/contact_api, else demos/results/contact_api
+output = bp.output_dir("contact_api", here, args)
 
 # %% [markdown]
 # ## 1. The mesh
@@ -196,10 +198,11 @@ if comm.rank == 0:
     ax.plot(xs * 1e3, hertz.pressure(xs, P, R, E1, NU, E2, NU) / 1e6, "k-", label="Hertz")
     ax.plot(x * 1e3, pressure / 1e6, "o", ms=3, label="dual mortar + PDAS")
     ax.set_xlim(-1.5 * a_ref * 1e3, 1.5 * a_ref * 1e3)
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("contact pressure (MPa)")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(output / "contact_pressure.png", dpi=100)
+    bp.line_axes(ax, ("x", "mm"), ("contact pressure", "MPa"), "half cylinder on a block")
+    ax.legend(fontsize=8)
+    bp.caption(
+        fig, "Hertz: cylinder on a half-space (Johnson 1985, §4.3), same load per unit thickness."
+    )
+    bp.show(fig, output / "contact_pressure.png", dpi=100)
     print(f"results in {output}/")
 integrator.destroy()

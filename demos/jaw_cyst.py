@@ -88,17 +88,17 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
+import bonecontact.plot as bp
 from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-root = here.parent if (here.parent / "data" / "scenes").is_dir() else here
+root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir())  # the repository
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
-output = Path(
-    args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/jaw_cyst")
-).resolve()
+# results: the first argument, else $BONECONTACT_OUTPUT/jaw_cyst, else demos/results/jaw_cyst
+output = bp.output_dir("jaw_cyst", here, args)
 quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
 
 MM, MONTH = 1e-3, SECONDS_PER_YEAR / 12
@@ -275,11 +275,7 @@ for kind, (out, months, every) in runs.items():
 
 # %%
 def bone_near_cyst(directory: Path, R: float) -> tuple[float, float]:
-    import pyvista as pv
-
-    reader = pv.get_reader(str(directory / "fields.pvd"))
-    reader.set_active_time_point(len(reader.time_values) - 1)
-    grid = reader.read().combine()
+    grid = bp.read_fields(directory / "fields.pvd")
     vm = np.asarray(grid.cell_data[next(n for n in grid.cell_data if "von" in n.lower())])
     c = np.asarray(grid.cell_centers().points)[:, :2]
     near = np.hypot(c[:, 0] - XC, c[:, 1] - YC) < R + 2 * MM
@@ -322,44 +318,34 @@ if comm.rank == 0:
         rk = [r for r in rows if r[0] == kind]
         ax2.plot([r[3] / MM for r in rk], [r[4] / 1e6 for r in rk], "o-", label=kind)
     ax1.axhline((H - T - YC) / MM, color="grey", ls=":", label="cyst reaches the cortex (above it)")
-    ax1.set_xlabel("time (years)")
-    ax1.set_ylabel("cyst radius (mm)")
-    ax1.set_title("cyst growth (osmotic/Maxwell ODE)")
-    ax1.grid(alpha=0.3)
-    ax1.legend()
-    ax2.set_xlabel("thinnest bone between cyst and surface (mm)")
-    ax2.set_ylabel("von Mises near the cyst, 99.5 % (MPa)")
-    ax2.set_title("bite of 3 MPa on the occlusal patch")
+    bp.line_axes(ax1, ("time", "years"), ("cyst radius", "mm"), "cyst growth (osmotic/Maxwell ODE)")
+    ax1.legend(fontsize=8)
+    bp.line_axes(
+        ax2,
+        ("thinnest bone between cyst and surface", "mm"),
+        ("von Mises near the cyst, 99.5 %", "MPa"),
+        "bite of 3 MPa on the occlusal patch",
+    )
     ax2.invert_xaxis()
-    ax2.grid(alpha=0.3)
-    ax2.legend()
+    ax2.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(output / "jaw_cyst_growth.png", dpi=120)
-    plt.close(fig)
+    bp.show(fig, output / "jaw_cyst_growth.png", dpi=120)
 
-    import pyvista as pv
-
-    pv.OFF_SCREEN = True
-    plotter = pv.Plotter(shape=(2, 1), window_size=(1100, 900), off_screen=True)
-    for i, (kind, out) in enumerate([("keratocyst", output), ("radicular", output / "radicular")]):
-        reader = pv.get_reader(str(out / "fields.pvd"))
-        reader.set_active_time_point(len(reader.time_values) - 1)
-        grid = reader.read().combine()
-        vm = next(n for n in grid.cell_data if "von" in n.lower())
-        grid.cell_data["von Mises (MPa)"] = grid.cell_data[vm] / 1e6
-        plotter.subplot(i, 0)
-        plotter.add_text(f"{kind}, after {runs[kind][1]} months", font_size=10)
-        plotter.add_mesh(
-            grid.copy(),
-            scalars="von Mises (MPa)",
+    # one picture per cyst; each colour range to the 99th percentile of the area, with the
+    # clipped maximum (the peak at the thin bone next to the cyst) stated under it
+    views = [("keratocyst", output, "jaw_cyst_von_mises.png"),
+             ("radicular", output / "radicular", "jaw_cyst_radicular_von_mises.png")]  # fmt: skip
+    for kind, out, name in views:
+        png = bp.field_view(
+            bp.read_fields(out / "fields.pvd"),
+            "von_mises",
+            output / name,
+            quantity="von Mises stress",
+            unit="MPa",
+            title=f"{kind} after {runs[kind][1]} months, bite of 3 MPa",
             cmap="inferno",
-            clim=(0, 15),
-            show_edges=False,
-            scalar_bar_args={"title": f"von Mises (MPa) {kind}", "fmt": "%.0f", "n_labels": 4},
+            window_size=(1200, 700),
         )
-        plotter.view_xy()
-        plotter.camera.zoom(1.7)
-    plotter.screenshot(str(output / "jaw_cyst_von_mises.png"))
-    plotter.close()
-    print(f"pictures: {output / 'jaw_cyst_growth.png'}, {output / 'jaw_cyst_von_mises.png'}")
+        bp.show(png, png)
+    print(f"pictures: {output / 'jaw_cyst_growth.png'}, {', '.join(v[2] for v in views)}")
 comm.barrier()

@@ -60,7 +60,6 @@
 # More in [the mechanics notes](../docs/theory/mechanics.md).
 
 # %%
-import os
 import sys
 from pathlib import Path
 
@@ -68,14 +67,16 @@ from mpi4py import MPI  # before dolfinx
 
 import numpy as np
 
+import bonecontact.plot as bp
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-root = here.parent if (here.parent / "data" / "scenes").is_dir() else here
+root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir())  # the repository
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
-output = Path(args[0] if args else os.environ.get("BONECONTACT_OUTPUT", "results/long_bone"))
+# results: the first argument, else $BONECONTACT_OUTPUT/long_bone, else demos/results/long_bone
+output = bp.output_dir("long_bone", here, args)
 
 # %% [markdown]
 # ## The scene
@@ -139,47 +140,31 @@ if comm.rank == 0:
 # %% [markdown]
 # ## Pictures
 # pyvista reads the `.pvd` series (the VTK in the PyPI wheels cannot read DOLFINx's
-# XDMF).  Left: the displacement magnitude on the deformed shape (magnified); right:
-# the von Mises stress.
+# XDMF).  The displacement magnitude and the von Mises stress (smoothed to the vertices for
+# display) on the deformed shape, magnified by the stated factor, y up, lengths in mm.
 
 # %%
 png = output / "long_bone.png"
 if comm.rank == 0:
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    import pyvista as pv
-
-    pv.OFF_SCREEN = True
-    reader = pv.get_reader(str(output / "fields.pvd"))
-    reader.set_active_time_point(len(reader.time_values) - 1)
-    grid = reader.read().combine()
-    disp_name = next(n for n in grid.point_data if n.startswith("displacement"))
-    u = grid.point_data[disp_name]
-    grid.point_data["|u| (mm)"] = 1e3 * np.linalg.norm(u, axis=1)
-    vm_name = next(n for n in grid.cell_data if "von" in n.lower())
-    grid.cell_data["von Mises (MPa)"] = grid.cell_data[vm_name] / 1e6
-    scale = 0.1 * 0.2 / max(np.abs(u).max(), 1e-30)
-    warped = grid.warp_by_vector(disp_name, factor=scale)
-    plotter = pv.Plotter(shape=(1, 2), window_size=(1000, 900), off_screen=True)
-    plotter.subplot(0, 0)
-    plotter.add_text(f"displacement (x{scale:.0f})", font_size=10)
-    warped.point_data["|u| (mm)"] = grid.point_data["|u| (mm)"]
-    bar = {"fmt": "%.2f", "n_labels": 4, "position_x": 0.2, "width": 0.6}
-    plotter.add_mesh(
-        warped, scalars="|u| (mm)", cmap="viridis", show_edges=False, scalar_bar_args=bar
-    )
-    plotter.add_mesh(grid, style="wireframe", color="grey", opacity=0.15)
-    plotter.view_xy()
-    plotter.subplot(0, 1)
-    plotter.add_text("von Mises stress", font_size=10)
-    plotter.add_mesh(
+    grid = bp.read_fields(output / "fields.pvd")
+    u = np.asarray(grid.point_data["displacement"])
+    warp = float(f"{0.1 * 0.2 / max(np.abs(u).max(), 1e-30):.1g}")  # 10 % of the length
+    common = dict(displacement="displacement", warp=warp, window_size=(700, 1000))
+    disp = bp.field_view(
         grid,
-        scalars="von Mises (MPa)",
-        cmap="inferno",
-        show_edges=False,
-        scalar_bar_args={**bar, "fmt": "%.1f"},
+        "displacement",
+        output / "long_bone_displacement.png",
+        quantity="|u|",
+        unit="µm",
+        clim=None,
+        title=f"long bone: displacement at t = {summary['steps'] * scene.analysis.dt * 1e3:.0f} ms",
+        **common,
     )
-    plotter.view_xy()
-    plotter.screenshot(str(png))
-    plotter.close()
-    print(f"picture: {png}")
+    bp.show(disp, disp)
+    vm = bp.field_view(
+        grid, "von_mises", png, quantity="von Mises stress", unit="MPa", cmap="inferno",
+        title="long bone: von Mises stress", **common,
+    )  # fmt: skip
+    bp.show(vm, vm)
+    print(f"pictures: {disp}, {vm}")
 comm.barrier()
