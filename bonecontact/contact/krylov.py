@@ -185,10 +185,10 @@ class PreconditionerReuse:
     * the last solve with it needed at most ``growth`` times the Krylov iterations of
       the first solve after it was built;
 
-    otherwise it is rebuilt from ``B_A``.  A kept preconditioner of a symmetric
-    positive definite matrix is still one for ``B_A``: CG converges to the same
-    tolerance, in more iterations the more the sets differ.  ``rows = 0`` rebuilds
-    every time.
+    otherwise it is rebuilt from ``B_A``.  The kept cycle smooths the finest level
+    with ``B_A`` but the diagonal and eigenvalue bounds of ``B_C``; should that make it
+    indefinite, CG stops within a few iterations and the caller rebuilds
+    (:meth:`forget`) and solves again.  ``rows = 0`` rebuilds every time.
 
     Attributes
     ----------
