@@ -21,6 +21,14 @@ from typing import Any
 
 import numpy as np
 
+from bonecontact.fracture.crack import FractureError
+from bonecontact.fracture.scene_tables import (
+    CrackSpec,
+    FractureSpec,
+    check_strengths,
+    crack_from_table,
+    fracture_from_table,
+)
 from bonecontact.materials.laws import (
     FORMULATIONS,
     Isotropic,
@@ -67,6 +75,8 @@ MODEL_KEYS: dict[str, tuple[str, ...]] = {
 }
 #: Keys every ``[[material]]`` may carry besides the constants of its model.
 MATERIAL_COMMON_KEYS = ("name", "regions", "model", "rho", "tau_v", "formulation")
+#: Strength keys a ``[[material]]`` may carry (Pa, Pa·√m), needed by a fracture check.
+MATERIAL_STRENGTH_KEYS = ("sigma_t", "sigma_c", "K_Ic")
 
 TOP_LEVEL_KEYS = (
     "format",
@@ -82,6 +92,8 @@ TOP_LEVEL_KEYS = (
     "initial_velocity",
     "output",
     "neoplasm",
+    "fracture",
+    "crack",
 )
 SCENE_KEYS = ("name", "mesh", "dimension")
 ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps")
@@ -105,7 +117,7 @@ INITIAL_VELOCITY_KEYS = ("regions", "value")
 OUTPUT_KEYS = ("directory", "fields_every", "probes", "checkpoint_every")
 
 #: Tables that later capabilities will add (rejected with a clearer message until then).
-FUTURE_TABLES = ("fracture",)
+FUTURE_TABLES: tuple[str, ...] = ()
 
 #: ``[neoplasm]`` keys; ``radius`` and ``h`` are an extension (initial geometry of meshless scenes).
 NEOPLASM_KEYS = (
@@ -137,6 +149,8 @@ MECHANICS_TABLES = (
     "pressure",
     "body_force",
     "initial_velocity",
+    "fracture",
+    "crack",
 )
 
 
@@ -389,7 +403,7 @@ def _read_material(entry: dict[str, Any], i: int, dim: int, dynamic: bool) -> Ma
     model = tab.string("model", required=True, choices=tuple(MODEL_KEYS))
     assert model is not None
     constants = MODEL_KEYS[model]
-    tab.check_keys(MATERIAL_COMMON_KEYS + constants)
+    tab.check_keys(MATERIAL_COMMON_KEYS + constants + MATERIAL_STRENGTH_KEYS)
     regions = tab.names("regions")
 
     kwargs: dict[str, Any] = {}
@@ -431,7 +445,8 @@ def _read_material(entry: dict[str, Any], i: int, dim: int, dynamic: bool) -> Ma
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         key = {"isotropic": "nu", "transversely_isotropic": "nu_pa", "orthotropic": "nu12"}[model]
         raise tab.error(key, f"engineering constants give a singular compliance ({exc})") from None
-    return MaterialSpec(name=name, regions=regions, material=material, index=i)
+    strengths = {k: tab.number(k, positive=True) for k in MATERIAL_STRENGTH_KEYS if tab.has(k)}
+    return MaterialSpec(name=name, regions=regions, material=material, index=i, strengths=strengths)
 
 
 def _read_materials(doc: Mapping[str, Any], dim: int, dynamic: bool) -> tuple[MaterialSpec, ...]:
@@ -846,6 +861,58 @@ def _read_neoplasm(
     )
 
 
+def _read_fracture(
+    doc: Mapping[str, Any], dim: int, materials: Sequence[MaterialSpec], has_neoplasm: bool
+) -> tuple[FractureSpec | None, tuple[CrackSpec, ...]]:
+    """``[fracture]`` and ``[[crack]]`` (docs/theory/fracture.md#scene-tables), parsed by
+    :mod:`bonecontact.fracture.scene_tables`; its errors name the key."""
+    tab = _table(doc, "fracture", required=False)
+    entries = _array_of_tables(doc, "crack")
+    if tab is None and not entries:
+        return None, ()
+    label = "[fracture]" if tab is not None else "[[crack]]"
+    if dim != 2:
+        raise SceneError(None, label, None, "fracture is supported in 2D only by this version")
+    if has_neoplasm:
+        raise SceneError(
+            None, label, None, "a fracture check in a coupled [neoplasm] scene is not supported yet"
+        )
+    try:
+        spec = fracture_from_table(tab.data if tab is not None else {})
+    except FractureError as exc:
+        raise SceneError(None, "[fracture]", exc.key, _fracture_message(exc)) from None
+    cracks = []
+    for i, entry in enumerate(entries):
+        try:
+            cracks.append(crack_from_table(entry, i + 1))
+        except FractureError as exc:
+            where = table_label("crack", i, entry.get("name"))
+            raise SceneError(None, where, exc.key, _fracture_message(exc)) from None
+    for m in materials:
+        try:
+            check_strengths(spec, {m.name: m.strengths}, [m.name])
+        except FractureError as exc:
+            raise SceneError(
+                None,
+                table_label("material", m.index, m.name),
+                exc.key,
+                f"missing: the [fracture] check needs {exc.key} (a positive number) of every "
+                "material (values with sources: data/materials.toml [strength.*])",
+            ) from None
+    names = [c.name for c in cracks]
+    for i, c in enumerate(cracks):
+        if names.index(c.name) != i:
+            raise SceneError(None, table_label("crack", i, c.name), "name", "is not unique")
+    return spec, tuple(cracks)
+
+
+def _fracture_message(exc: FractureError) -> str:
+    """The message of a FractureError without its ``key:`` prefix."""
+    text = str(exc)
+    prefix = f"{exc.key}: "
+    return text[len(prefix) :] if text.startswith(prefix) else text
+
+
 def _reject_mechanics_tables(doc: Mapping[str, Any]) -> None:
     """A growth-only scene has no mechanics: its tables would be silently unused."""
     for name in MECHANICS_TABLES:
@@ -939,6 +1006,7 @@ def _read_document(
     initial_velocities = _read_initial_velocities(doc, dim)
     output = _read_output(doc, dim)
     neoplasm = _read_neoplasm(doc, True, has_analysis=True)
+    fracture, cracks = _read_fracture(doc, dim, materials, neoplasm is not None)
     # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md): 2D
     # only for now
     if neoplasm is not None and dim != 2:
@@ -965,6 +1033,8 @@ def _read_document(
         output=output,
         raw=doc,
         neoplasm=neoplasm,
+        fracture=fracture,
+        cracks=cracks,
     )
 
 

@@ -23,6 +23,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
 from bonecontact.materials.laws import Material
 from bonecontact.neoplasm.cyst import CystParameters
 from bonecontact.neoplasm.tumour import TumourParameters
@@ -219,12 +220,16 @@ class MaterialSpec:
         The validated material law.
     index
         Position of the entry in the file, counting from 0.
+    strengths
+        ``sigma_t``, ``sigma_c``, ``K_Ic`` (Pa, Pa·√m) given in the entry, for the fracture
+        check (docs/theory/fracture.md#material-strength).
     """
 
     name: str
     regions: tuple[str, ...]
     material: Material
     index: int
+    strengths: dict[str, float] = field(default_factory=dict, compare=False)
 
 
 @dataclass(frozen=True)
@@ -449,6 +454,9 @@ class Scene:
         ``[neoplasm]``, or ``None``.  A scene with ``[neoplasm]`` and no ``[analysis]``
         is a *growth-only* scene; with both it is a *coupled* scene (2D only, run by
         :mod:`bonecontact.runners.coupled`).
+    fracture, cracks
+        ``[fracture]`` (``None``: no fracture check) and the ``[[crack]]`` entries
+        (docs/theory/fracture.md#scene-tables).
     """
 
     path: Path
@@ -465,6 +473,8 @@ class Scene:
     output: OutputSpec
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
     neoplasm: NeoplasmSpec | None = None
+    fracture: FractureSpec | None = None
+    cracks: tuple[CrackSpec, ...] = ()
 
     @property
     def growth_only(self) -> bool:
