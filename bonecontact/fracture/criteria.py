@@ -220,8 +220,9 @@ def _maximum(
     comm: MPI.Comm, cs: CellStresses, risk: np.ndarray, phi: np.ndarray, mode: np.ndarray
 ) -> RiskMaximum:
     best = (-1.0, 0.0, 0.0, 0.0, 0)
-    if risk.size:
-        i = int(np.argmax(risk))
+    if risk.size:  # ties (a uniform or zero field): the smallest x, then y, as across ranks
+        ties = np.flatnonzero(risk == risk.max())
+        i = int(ties[np.lexsort((cs.midpoints[ties, 1], cs.midpoints[ties, 0]))[0]])
         best = (float(risk[i]), *map(float, cs.midpoints[i]), float(phi[i]), int(mode[i]))
     rows = comm.allgather(best)
     top = max(r[0] for r in rows)

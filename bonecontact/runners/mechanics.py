@@ -32,6 +32,7 @@ from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
+from bonecontact.runners.fracture_check import FRACTURE_HISTORY_COLUMNS, FractureMonitor
 from bonecontact.runners.plausibility import (
     SMALL_STRAIN_LIMIT,
     StrainMonitor,
@@ -47,7 +48,7 @@ from bonecontact.runners.results import (
     StressFields,
 )
 from bonecontact.scene import Scene, SceneError, check_against_mesh
-from bonecontact.scene.checks import PlausibilityWarning
+from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
 
 __all__ = ["SceneModel", "build_model", "read_mesh", "run_mechanics"]
 
@@ -116,6 +117,8 @@ def build_model(
     timer = timer if timer is not None else PhaseTimer()
     with timer.phase("mesh_read"):
         md, groups = read_mesh(scene, comm)
+        check_cracks_in_mesh(scene, md.mesh, md.cell_tags, groups)
+        _refuse_fracture_not_run(scene)
         issues = scene_issues(scene, md, groups, comm)
     emit(issues)
     tag = {name: t for name, (d, t) in groups.items()}
@@ -131,6 +134,25 @@ def build_model(
     with timer.phase("mortar_geometry"):
         interfaces = _contact_interfaces(scene, model, md, tag)
     return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues)
+
+
+def _refuse_fracture_not_run(scene: Scene) -> None:
+    """What this version reads and checks but does not run yet: cracks and propagation."""
+    if scene.cracks:
+        raise SceneError(
+            str(scene.path),
+            "[[crack]] #1",
+            None,
+            "cracks are read and checked, but running a scene with a given crack is not "
+            "supported yet (the [fracture] initiation check is)",
+        )
+    if scene.fracture is not None and scene.fracture.propagate:
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "propagate",
+            "crack propagation in scenes is not supported yet (the initiation check is)",
+        )
 
 
 def _mechanics(scene: Scene, md: Any, tag: dict[str, int]) -> Mechanics:
@@ -255,12 +277,19 @@ class _Recorder:
         self.stress = StressFields(
             sm.model.mesh, sm.model.stress_expression(integ.u, integ.velocity)
         )
+        self.fracture = None
+        if scene.fracture is not None:
+            tag = {name: t for name, (d, t) in sm.groups.items()}
+            self.fracture = FractureMonitor(scene, sm.model, integ.u, tag)
+        extra = (tuple(ENERGY_COLUMNS) if dynamic else ()) + (
+            FRACTURE_HISTORY_COLUMNS if self.fracture is not None else ()
+        )
         self.writer = ResultsWriter(
             comm,
             outdir,
             scene.name,
             sm.probes,
-            ENERGY_COLUMNS if dynamic else (),
+            extra,
             append=ckpt is not None and ckpt.restarted_from is not None,
             fields_stem=ckpt.fields_stem if ckpt is not None else "fields",
         )
@@ -269,8 +298,9 @@ class _Recorder:
 
     def _write_fields(self, t: float) -> None:
         integ, stress = self.integ, self.stress
+        risk = [] if self.fracture is None else [self.fracture.risk]
         self.writer.fields(
-            t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal]
+            t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal, *risk]
         )
 
     def record(self, step: int, t: float, write_fields: bool, tables: bool = True) -> None:
@@ -279,12 +309,13 @@ class _Recorder:
         integ, sm = self.integ, self.sm
         sm.model.update_nodal_volumetric(integ.u, integ.velocity)
         self.stress.update()
+        risk = [] if self.fracture is None else self.fracture.update(step, t)
         if not tables:
             if self.fields_written != step:
                 self._write_fields(t)
             return
         self.strain.update()
-        self.writer.history(self._history_rows(step, t))
+        self.writer.history([row + risk for row in self._history_rows(step, t)])
         self.writer.probe_rows(step, t, integ.u, integ.velocity, self.stress)
         if write_fields:
             self._write_fields(t)
@@ -500,6 +531,8 @@ def run_mechanics(
     if ckpt.time_s:
         timer.add("checkpoint", ckpt.time_s)
     info.update(rec.strain.summary())
+    if rec.fracture is not None:
+        info["fracture"] = rec.fracture.summary()
     info["warnings"] = [str(i) for i in sm.issues]
     info["phases_s"] = timer.summary(comm)
     if message is not None:

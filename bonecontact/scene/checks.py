@@ -21,7 +21,10 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+from bonecontact.fracture.crack import FractureError
+from bonecontact.fracture.scene_tables import check_crack_region
 from bonecontact.materials.laws import Isotropic, Material, Orthotropic, TransverselyIsotropic
 from bonecontact.materials.library import DATA_DIR
 from bonecontact.scene.errors import SceneError, table_label
@@ -36,6 +39,8 @@ __all__ = [
     "PlausibilityWarning",
     "RangeClass",
     "check_against_mesh",
+    "check_crack_groups",
+    "check_cracks_in_mesh",
     "check_load_strains",
     "check_material_ranges",
     "check_mesh_scale",
@@ -141,6 +146,7 @@ def check_against_mesh(
     fixed = check_dirichlet_boundaries(scene, mesh)
     check_load_targets(scene, mesh, fixed)
     check_initial_velocity_regions(scene, mesh)
+    check_crack_groups(scene, mesh)
 
 
 def check_dimension(scene: Scene, tdim: int, gdim: int) -> None:
@@ -194,6 +200,32 @@ def check_neoplasm_groups(scene: Scene, mesh: MeshGroups) -> None:
                 "host",
                 f'"{h}" has the same cells (tag {rtag}) as the neoplasm region "{neo.region}"',
             )
+
+
+def check_crack_groups(scene: Scene, mesh: MeshGroups) -> None:
+    """The region of every ``[[crack]]`` is a cell group (its geometry against the cells:
+    :func:`check_cracks_in_mesh`)."""
+    for i, c in enumerate(scene.cracks):
+        mesh.cell(c.region, table_label("crack", i, c.name), "region")
+
+
+def check_cracks_in_mesh(
+    scene: Scene, msh: Any, cell_tags: Any, groups: Mapping[str, tuple[int, int]]
+) -> None:
+    """Every ``[[crack]]`` lies in the cells of its region (collective; raised on every rank).
+
+    :func:`bonecontact.fracture.scene_tables.check_crack_region` samples each segment;
+    a crack leaving the mesh, leaving its region or crossing another body, and a
+    ``[fracture]`` increment not smaller than the region are a :class:`SceneError`.
+    """
+    increment = scene.fracture.increment if scene.fracture is not None else None
+    for i, c in enumerate(scene.cracks):
+        try:
+            check_crack_region(c, msh, cell_tags, groups[c.region][1], increment)
+        except FractureError as exc:
+            table = "[fracture]" if exc.key == "increment" else table_label("crack", i, c.name)
+            message = str(exc).removeprefix(f"{exc.key}: ")
+            raise SceneError(str(scene.path), table, exc.key, message) from None
 
 
 def check_cyst_cavity(scene: Scene, mesh: MeshGroups, owner: Mapping[int, str]) -> str | None:
