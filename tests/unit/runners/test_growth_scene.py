@@ -388,7 +388,7 @@ def test_example_scenes_check(capsys):
     for name in ("tumour_growth_2d.toml", "cyst_radicular.toml"):
         assert main(["check", str(ROOT / "data" / "scenes" / name)]) == 0
     if MPI.COMM_WORLD.rank == 0:
-        assert capsys.readouterr().err.count(": ok") == 2
+        assert capsys.readouterr().out.count(": ok (") == 2
 
 
 @pytest.mark.serial
