@@ -20,7 +20,7 @@
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
 #   make clean        remove caches, test logs, docs/api, build/ and demos/results;  make distclean  also removes .venv
 #
-# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=1800
+# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=2700
 # PYTEST_ARGS="-k hertz" (added to every pytest call).
 
 SHELL := /bin/bash
@@ -35,7 +35,7 @@ STAMP        := $(VENV)/.install.stamp
 LOG_DIR      := $(VENV)/test-logs
 DOCS_DIR     := docs/api
 MPI_SIZES    ?= 2 3
-TEST_TIMEOUT ?= 1800
+TEST_TIMEOUT ?= 2700
 PYTEST_ARGS  ?=
 
 # Keep MPI ranks from each starting a full set of BLAS/OpenMP threads.
