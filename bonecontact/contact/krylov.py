@@ -5,7 +5,7 @@ Every PDAS iteration solves the condensed system ``B Ũ = r`` in the nodal frame
 slave nodes: the operator ``At = T Q A Qᵀ Tᵀ`` with the Dirichlet rows, the fixed
 contact rows (active normal rows, stick rows) eliminated and, with 3D Newton slip rows,
 a few rows replaced by their linearisation.  It is solved by CG (GMRES with the
-nonsymmetric slip rows) preconditioned by GAMG (smoothed aggregation).  This module
+nonsymmetric slip rows) preconditioned by GAMG (plain aggregation, W-cycles).  This module
 provides the three pieces the solver needs:
 
 * :func:`condensed_near_nullspace` — the rigid-body modes of every body, mapped into the
