@@ -172,6 +172,17 @@ def _check_strengths(criterion: str, sigma_t: float | None, sigma_c: float | Non
             raise FractureError(key, f"the {criterion!r} criterion needs a positive strength")
 
 
+def _smallest_strength(comm: MPI.Comm, values: float | npt.ArrayLike) -> float:
+    """The smallest strength over all ranks (collective, so that a missing or invalid
+    value is refused on every rank; a rank with no cells contributes nothing).  ``nan``
+    when any value is ``nan`` (a strength that is not given)."""
+    a = np.asarray(values, dtype=float).ravel()
+    local = float(np.min(a, initial=np.inf)) if not np.isnan(a).any() else np.nan
+    has_nan = comm.allreduce(int(math.isnan(local)), op=MPI.MAX)
+    smallest = comm.allreduce(np.inf if math.isnan(local) else local, op=MPI.MIN)
+    return math.nan if has_nan else smallest
+
+
 def risk_field(
     model: Mechanics,
     u: fem.Function,
@@ -198,8 +209,9 @@ def risk_field(
         The DG0 risk (named ``"fracture_risk"``; initiation where it reaches 1) and its
         maximum over all ranks (ties: the smallest x, then y).
     """
-    st = float(np.min(sigma_t)) if np.ndim(sigma_t) else sigma_t
-    sc = None if sigma_c is None else (float(np.min(sigma_c)) if np.ndim(sigma_c) else sigma_c)
+    comm = model.mesh.comm
+    st = _smallest_strength(comm, sigma_t)
+    sc = None if sigma_c is None else _smallest_strength(comm, sigma_c)
     _check_strengths(criterion, st, sc)
     cs = cell_stresses(model, u)
     s1, s3, phi = cs.principal()

@@ -14,6 +14,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 
 from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.criteria import (
@@ -116,3 +117,36 @@ def test_principal_direction_average_of_a_uniform_state(square, phi_deg, crack_d
     theta = principal_direction_average(cs, COMM, (0.0, 0.0), (math.cos(c), math.sin(c)), 10)
     expected = (phi + math.pi / 2 - c + math.pi / 2) % math.pi - math.pi / 2
     assert theta == pytest.approx(expected, abs=1e-9)
+
+
+def _all_cells_on_rank_0():
+    """A cell partitioner that puts every cell on rank 0: the other ranks own none."""
+    from dolfinx.cpp.graph import AdjacencyList_int32
+
+    def partition(comm, nparts, graph, ghosting):
+        n = graph.num_nodes
+        return AdjacencyList_int32(np.zeros(n, np.int32), np.arange(n + 1, dtype=np.int32))
+
+    return dmesh.create_cell_partitioner(partition, dmesh.GhostMode.none, 2)
+
+
+def test_risk_field_on_ranks_without_cells():
+    """Uniaxial strain ε_xx on a mesh that only rank 0 holds: every rank gets the exact
+    risk E(1−ν)/((1+ν)(1−2ν)) ε/σ_t (ranks with no cells take part in the reductions),
+    and a strength that is not given is refused on every rank."""
+    part = _all_cells_on_rank_0() if COMM.size > 1 else None
+    msh = dmesh.create_rectangle(COMM, [[0.0, 0.0], [1.0, 1.0]], [4, 4], partitioner=part)
+    model = Mechanics(msh, MAT)
+    u = fem.Function(model.V)
+    eps = 1e-3
+    u.interpolate(lambda x: np.vstack([eps * x[0], 0.0 * x[1]]))
+    n = msh.topology.index_map(2).size_local
+    assert COMM.allreduce(n, op=MPI.SUM) == 32
+    s_xx = MAT.E * (1 - MAT.nu) / ((1 + MAT.nu) * (1 - 2 * MAT.nu)) * eps
+    f, mx = risk_field(model, u, np.full(n, 10e6))
+    assert mx.value == pytest.approx(s_xx / 10e6, rel=1e-10)
+    assert COMM.allgather(mx.location) == [mx.location] * COMM.size
+    sigma_t = np.full(n, 10e6)
+    sigma_t[:1] = np.nan  # not given for one cell (on rank 0 only)
+    with pytest.raises(FractureError, match="sigma_t"):
+        risk_field(model, u, sigma_t)
