@@ -30,6 +30,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from cli_support import IMPACT_A, impact_scene
 from dolfinx import fem, mesh
 
 from bonecontact.contact.pdas import ContactSolver
@@ -46,51 +47,6 @@ from bonecontact.runners.checkpoint import (
 from bonecontact.runners.mechanics import run_mechanics
 from bonecontact.scene import load_scene
 
-A_REF = 5.0e-4
-
-SCENE = """format = 1
-[scene]
-name = "impact"
-mesh = "{mesh}"
-dimension = 2
-[analysis]
-kind = "dynamic"
-t_end = {t_end}
-dt = 1.0e-4
-[[material]]
-name = "cylinder"
-regions = ["cylinder"]
-model = "isotropic"
-E = 2.0e9
-nu = 0.3
-rho = 1200.0
-tau_v = 1.0e-5
-[[material]]
-name = "block"
-regions = ["block"]
-model = "isotropic"
-E = 17.0e9
-nu = 0.3
-rho = 1900.0
-[[contact]]
-name = "hertz"
-slave = "cyl_contact"
-master = "block_contact"
-friction = "coulomb"
-coefficient = 0.3
-[[dirichlet]]
-boundary = "block_bottom"
-value = [0.0, 0.0]
-[[dirichlet]]
-boundary = "cyl_top"
-value = [4.0e-6, -3.0e-6]
-schedule = [[0.0, 0.0], [1.0e-3, 1.0], [2.0e-3, 1.0]]
-[output]
-directory = "results"
-fields_every = 0
-checkpoint_every = 4
-"""
-
 
 def _scene(path: Path, t_end: float):
     """The dynamic contact scene (mesh written collectively), loaded on every rank."""
@@ -99,11 +55,11 @@ def _scene(path: Path, t_end: float):
     comm = MPI.COMM_WORLD
     msh = path / "hertz.msh"
     if not comm.bcast(msh.exists() if comm.rank == 0 else None, root=0):
-        meshing.hertz_2d(comm, path=msh, h_contact=A_REF / 4, zone=1.5 * A_REF, h_far=3e-3)
+        meshing.hertz_2d(comm, path=msh, h_contact=IMPACT_A / 4, zone=1.5 * IMPACT_A, h_far=3e-3)
     comm.barrier()
     toml = path / f"scene_{t_end:g}.toml"
     if comm.rank == 0:
-        toml.write_text(SCENE.format(mesh=msh, t_end=t_end))
+        toml.write_text(impact_scene(msh, t_end))
     comm.barrier()
     return load_scene(toml)
 
@@ -262,7 +218,7 @@ def test_nan_solution_fails_cleanly_and_the_checkpoint_survives(tmp_shared_path,
     a = np.array([r[3:] for r in csv.reader(open(out / "history.csv"))][1:], dtype=float)
     b = np.array([r[3:] for r in csv.reader(open(tmp_shared_path / "ref" / "history.csv"))][1:])
     b = b.astype(float)
-    scale = np.maximum(np.abs(b).max(axis=0), 1e-3 * A_REF)
+    scale = np.maximum(np.abs(b).max(axis=0), 1e-3 * IMPACT_A)
     assert a.shape == b.shape and (np.abs(a - b) <= 1e-10 * (np.abs(b) + scale)).all()
 
 

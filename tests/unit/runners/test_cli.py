@@ -11,19 +11,16 @@ These tests spawn their own processes, so they run only in the serial session.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from cli_support import ENV as BASE_ENV
+from cli_support import run_cli
 
 pytestmark = pytest.mark.serial
 
-BIN = Path(sys.executable).parent
-CLI = str(BIN / "bonecontact")
-MPIEXEC = str(BIN / "mpiexec")
-ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
+ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
 
 
 @pytest.fixture(scope="module")
@@ -87,10 +84,7 @@ def _scene(
 
 
 def _run(args: list[str], nproc: int = 1, timeout: float = 180) -> subprocess.CompletedProcess:
-    cmd = [CLI, *args] if nproc == 1 else [MPIEXEC, "-n", str(nproc), CLI, *args]
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=timeout, env=ENV, stdin=subprocess.DEVNULL
-    )
+    return run_cli(args, nproc, timeout, env=ENV)
 
 
 def _sub(old: str, new: str):
@@ -251,14 +245,7 @@ def test_solver_failure_exit_1_last_state_written(tmp_path, meshes):
         ),
     )
     env_opts = {**ENV, "PETSC_OPTIONS": "-bc_ksp_max_it 1 -bc_ksp_error_if_not_converged 1"}
-    res = subprocess.run(
-        [CLI, "run", str(scene), "-q"],
-        capture_output=True,
-        text=True,
-        timeout=180,
-        env=env_opts,
-        stdin=subprocess.DEVNULL,
-    )
+    res = run_cli(["run", str(scene), "-q"], timeout=180, env=env_opts)
     assert res.returncode == 1, res.stdout + res.stderr
     assert "Traceback" not in res.stderr
     summary = json.loads((out / "summary.json").read_text())

@@ -11,19 +11,15 @@ from __future__ import annotations
 
 import csv
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_support import run_scene
 
 pytestmark = pytest.mark.serial
 
-BIN = Path(sys.executable).parent
 ROOT = Path(__file__).resolve().parents[3]
-ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 
 SCENE_2D = """format = 1
 [scene]
@@ -139,12 +135,7 @@ def _run_all(scene: Path, tmp: Path) -> dict[int, Path]:
     outs = {}
     for n in (1, 2, 3):
         out = tmp / f"out{n}"
-        cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
-        if n > 1:
-            cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-        res = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
-        )
+        res = run_scene(scene, out, n, timeout=300)
         assert res.returncode == 0, f"{n} ranks: exit {res.returncode}\n{res.stderr}"
         outs[n] = out
     return outs

@@ -11,21 +11,15 @@ These tests spawn their own processes, so they run only in the serial session.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from importlib.metadata import version
 from pathlib import Path
 
 import pytest
+from cli_support import run_cli
 
 pytestmark = pytest.mark.serial
 
 ROOT = Path(__file__).resolve().parents[3]
-BIN = Path(sys.executable).parent
-CLI = str(BIN / "bonecontact")
-MPIEXEC = str(BIN / "mpiexec")
-ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 
 BAR = """format = 1
 
@@ -83,10 +77,7 @@ def _scene(tmp_path, meshes, E="17.0e9", t="1.0e6", mesh="rect_m.msh", name="cor
 
 
 def _run(args, nproc=1):
-    cmd = [CLI, *args] if nproc == 1 else [MPIEXEC, "-n", str(nproc), CLI, *args]
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
-    )
+    return run_cli(args, nproc, timeout=300)
 
 
 def test_version():

@@ -14,31 +14,18 @@ from __future__ import annotations
 
 import csv
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_support import run_scene as _run
 
 from bonecontact.verification.analytic import contact_modulus, hertz_2d
 
 pytestmark = pytest.mark.serial
 
-BIN = Path(sys.executable).parent
-ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 P = 2.0e5
 R, A_REF, E1, E2, NU = 0.01, 5.0e-4, 2.0e9, 17.0e9, 0.3
-
-
-def _run(scene: Path, out: Path, n: int = 1) -> subprocess.CompletedProcess:
-    cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
-    if n > 1:
-        cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=600, env=ENV, stdin=subprocess.DEVNULL
-    )
 
 
 def _csv(path: Path) -> tuple[list[str], list[list[str]]]:

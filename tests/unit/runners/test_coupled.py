@@ -40,9 +40,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -50,6 +47,8 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 import ufl
+from cli_support import ENV as BASE_ENV
+from cli_support import run_scene as run_cli_scene
 from dolfinx import fem
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
@@ -58,8 +57,7 @@ from bonecontact.runners import run_scene
 from bonecontact.scene import SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parents[3]
-BIN = Path(sys.executable).parent
-ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
+ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
 YEAR = SECONDS_PER_YEAR
 
 
@@ -513,12 +511,7 @@ def test_coupled_run_same_on_two_ranks(disc_mesh, tmp_path):
     outs = []
     for n in (1, 2):
         out = tmp_path / f"r{n}"
-        cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
-        if n > 1:
-            cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-        r = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=600, env=ENV, stdin=subprocess.DEVNULL
-        )
+        r = run_cli_scene(scene, out, n, env=ENV)
         assert r.returncode == 0, r.stderr[-3000:]
         outs.append(out)
     for name in ("growth.csv", "history.csv", "mechanics_00003/history.csv"):

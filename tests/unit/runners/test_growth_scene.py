@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import csv
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 import pytest
+from cli_support import ENV as BASE_ENV
+from cli_support import run_scene
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
@@ -28,8 +27,7 @@ from bonecontact.runners.cli import main
 from bonecontact.scene.expressions import ExpressionError, parse_rate
 
 ROOT = Path(__file__).resolve().parents[3]
-BIN = Path(sys.executable).parent
-ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
+ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
 YEAR = SECONDS_PER_YEAR
 
 # a meshless 2D tumour (Byrne-Chaplain reduction, lengths in units of sqrt(D_c/lambda) = 1)
@@ -403,12 +401,7 @@ def test_invalid_input_real_command(tmp_path, nproc):
         out = tmp_path / "out"
         scene = tmp_path / "scene.toml"
         scene.write_text(_scene_text(base, edit, out, tmp_path / "none.msh"))
-        cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q"]
-        if nproc > 1:
-            cmd = [str(BIN / "mpiexec"), "-n", str(nproc), *cmd]
-        res = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=120, env=ENV, stdin=subprocess.DEVNULL
-        )
+        res = run_scene(scene, None, nproc, timeout=120, env=ENV)
         assert res.returncode == 2, res.stdout + res.stderr
         assert res.stderr.count("error:") == 1 and "[neoplasm." in res.stderr, res.stderr
         for w in words:
@@ -580,12 +573,7 @@ def test_growth_csv_same_on_1_and_2_ranks(tmp_path):
         out = tmp_path / f"out{n}"
         scene = tmp_path / f"region{n}.toml"
         scene.write_text(REGION.format(mesh=tmp_path / "disc.msh", out=out))
-        cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q"]
-        if n > 1:
-            cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
-        res = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
-        )
+        res = run_scene(scene, None, n, timeout=300, env=ENV)
         assert res.returncode == 0, res.stderr
         outs[n] = _read_growth(out / "growth.csv")
     (h1, g1), (h2, g2) = outs[1], outs[2]

@@ -27,75 +27,23 @@ import json
 import os
 import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_support import IMPACT_A, finish, impact_scene, run_scene, start_scene, wait_for_lines
 
 pytestmark = pytest.mark.serial
 
-BIN = Path(sys.executable).parent
-ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
-A_REF = 5.0e-4  # contact zone size of the mesh (m)
+A_REF = IMPACT_A  # contact zone size of the mesh (m)
 WORDS = ("hertz", "open", "stick", "slip")
 
-SCENE = """format = 1
-[scene]
-name = "impact"
-mesh = "{mesh}"
-dimension = 2
-[analysis]
-kind = "dynamic"
-t_end = {t_end}
-dt = 1.0e-4
-[[material]]
-name = "cylinder"
-regions = ["cylinder"]
-model = "isotropic"
-E = 2.0e9
-nu = 0.3
-rho = 1200.0
-tau_v = 1.0e-5
-[[material]]
-name = "block"
-regions = ["block"]
-model = "isotropic"
-E = 17.0e9
-nu = 0.3
-rho = 1900.0
-[[contact]]
-name = "hertz"
-slave = "cyl_contact"
-master = "block_contact"
-friction = "coulomb"
-coefficient = 0.3
-[[dirichlet]]
-boundary = "block_bottom"
-value = [0.0, 0.0]
-[[dirichlet]]
-boundary = "cyl_top"
-value = [4.0e-6, -3.0e-6]
-schedule = [[0.0, 0.0], [1.0e-3, 1.0], [2.0e-3, 1.0]]
-[output]
-directory = "results"
-fields_every = 5
-checkpoint_every = {every}
-probes = [[0.0, 0.005]]
-"""
+
+def _scene(mesh: Path, t_end: float, every: int = 4) -> str:
+    return impact_scene(mesh, t_end, every, fields_every=5, probes=[(0.0, 0.005)])
 
 
-def _run(scene: Path, out: Path, n: int = 1, *extra: str) -> subprocess.CompletedProcess:
-    cmd = _command(scene, out, n, *extra)
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=600, env=ENV, stdin=subprocess.DEVNULL
-    )
-
-
-def _command(scene: Path, out: Path, n: int, *extra: str) -> list[str]:
-    cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out), *extra]
-    return [str(BIN / "mpiexec"), "-n", str(n), *cmd] if n > 1 else cmd
+_run = run_scene
 
 
 def _table(path: Path) -> tuple[list[str], np.ndarray, list[str]]:
@@ -131,8 +79,8 @@ def case(tmp_path_factory):
         None, path=tmp / "hertz.msh", h_contact=A_REF / 4, zone=1.5 * A_REF, h_far=3e-3
     )
     full, short = tmp / "full.toml", tmp / "short.toml"
-    full.write_text(SCENE.format(mesh=mesh, t_end=2.0e-3, every=4))
-    short.write_text(SCENE.format(mesh=mesh, t_end=1.0e-3, every=4))
+    full.write_text(_scene(mesh, 2.0e-3))
+    short.write_text(_scene(mesh, 1.0e-3))
     refs = {}
     for n in (1, 2):
         res = _run(full, tmp / f"ref{n}", n)
@@ -168,35 +116,19 @@ def test_restart_equals_uninterrupted(case, tmp_path, first, then):
     print(f"restart {first} -> {then} ranks: largest relative difference {worst:.2e}")
 
 
-def _stop_with_sigterm(scene: Path, out: Path, n: int) -> subprocess.CompletedProcess:
+def _stop_with_sigterm(scene: Path, out: Path, n: int):
     """Start the run, send SIGTERM once step 2 is in history.csv; wait (60 s at most)."""
-    proc = subprocess.Popen(
-        _command(scene, out, n),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=ENV,
-        stdin=subprocess.DEVNULL,
-    )
-    hist = out / "history.csv"
-    t0 = time.monotonic()
-    while not (hist.is_file() and len(hist.read_text().splitlines()) >= 4):
-        assert proc.poll() is None and time.monotonic() - t0 < 300, "the run ended early"
-        time.sleep(0.02)
+    proc = start_scene(scene, out, n)
+    wait_for_lines(proc, out / "history.csv", 4)
     proc.send_signal(signal.SIGTERM)
-    try:
-        stdout, stderr = proc.communicate(timeout=60)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        raise
-    return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+    return finish(proc)
 
 
 @pytest.mark.parametrize("n", [1, 2])
 def test_sigterm_interrupts_with_checkpoint(case, tmp_path, n):
     """200 steps (the drag then a long hold), stopped by SIGTERM after step ≥ 2."""
     scene = tmp_path / "long.toml"
-    scene.write_text(SCENE.format(mesh=case["mesh"], t_end=2.0e-2, every=0))
+    scene.write_text(_scene(case["mesh"], 2.0e-2, every=0))
     out = tmp_path / "out"
     res = _stop_with_sigterm(scene, out, n)
     assert res.returncode == 128 + signal.SIGTERM, res.stderr
@@ -258,29 +190,16 @@ def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
         case["full"].read_text().replace("checkpoint_every = 4", "checkpoint_every = 1")
     )
     out = tmp_path / "out"
-    proc = subprocess.Popen(
-        _command(scene, out, 2),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=ENV,
-        stdin=subprocess.DEVNULL,
-    )
-    hist = out / "history.csv"
-    t0 = time.monotonic()
-    while not (hist.is_file() and len(hist.read_text().splitlines()) >= 7):
-        assert proc.poll() is None and time.monotonic() - t0 < 300, "the run ended early"
-        time.sleep(0.02)
+    proc = start_scene(scene, out, 2)
+    wait_for_lines(proc, out / "history.csv", 7)
     pids = _rank_pids(out)
     assert len(pids) == 2, pids
     os.kill(pids[1], signal.SIGKILL)
     try:
-        proc.communicate(timeout=60)
+        res = finish(proc)
     except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
         pytest.fail("the surviving rank hangs after one rank was killed")
-    assert proc.returncode != 0
+    assert res.returncode != 0
     assert not (out / "summary.json").exists()
     res = _run(scene, out, 2, "--restart")
     assert res.returncode == 0, res.stderr

@@ -1,0 +1,158 @@
+"""What the runner tests share: the ``bonecontact`` command run in a subprocess (serially
+or under ``mpiexec``) and the dynamic Coulomb contact scene of the checkpoint and restart
+tests.
+
+Not a test module (no ``test_`` prefix); the runner tests import it by name (pytest puts
+this folder on ``sys.path``).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+BIN = Path(sys.executable).parent
+CLI = str(BIN / "bonecontact")
+MPIEXEC = str(BIN / "mpiexec")
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+
+def cli_command(args: list[str], n: int = 1) -> list[str]:
+    """The command line of ``bonecontact ARGS`` on ``n`` ranks."""
+    return [CLI, *args] if n == 1 else [MPIEXEC, "-n", str(n), CLI, *args]
+
+
+def run_cli(
+    args: list[str], n: int = 1, timeout: float = 600, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess:
+    """Run ``bonecontact ARGS`` on ``n`` ranks (environment ``env``, default ``ENV``);
+    stdout and stderr captured as text."""
+    return subprocess.run(
+        cli_command(args, n),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=ENV if env is None else env,
+        stdin=subprocess.DEVNULL,
+    )
+
+
+def scene_args(scene: Path, out: Path | None, *extra: str) -> list[str]:
+    """``run SCENE -q [-o OUT] EXTRA...``: a quiet run, results in ``out`` if given."""
+    return ["run", str(scene), "-q", *(["-o", str(out)] if out is not None else []), *extra]
+
+
+def run_scene(
+    scene: Path,
+    out: Path | None,
+    n: int = 1,
+    *extra: str,
+    timeout: float = 600,
+    env: dict[str, str] | None = None,
+) -> subprocess.CompletedProcess:
+    """``bonecontact run SCENE -q -o OUT EXTRA...`` on ``n`` ranks, to completion."""
+    return run_cli(scene_args(scene, out, *extra), n, timeout, env)
+
+
+def start_scene(scene: Path, out: Path, n: int = 1) -> subprocess.Popen:
+    """Start ``bonecontact run SCENE -q -o OUT`` on ``n`` ranks without waiting."""
+    return subprocess.Popen(
+        cli_command(scene_args(scene, out), n),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+        stdin=subprocess.DEVNULL,
+    )
+
+
+def wait_for_lines(proc: subprocess.Popen, table: Path, lines: int, limit: float = 300) -> None:
+    """Wait until ``table`` has ``lines`` lines (header included); fail if the run ends
+    first or takes longer than ``limit`` seconds."""
+    t0 = time.monotonic()
+    while not (table.is_file() and len(table.read_text().splitlines()) >= lines):
+        assert proc.poll() is None, "the run ended early"
+        assert time.monotonic() - t0 < limit, f"{table.name} has fewer than {lines} lines"
+        time.sleep(0.02)
+
+
+def finish(proc: subprocess.Popen, timeout: float = 60) -> subprocess.CompletedProcess:
+    """Wait for ``proc`` (``timeout`` seconds at most, then kill it and raise)."""
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        raise
+    return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+
+
+#: Contact zone size of the impact scene's mesh (m): ``hertz_2d(h_contact=IMPACT_A / 4,
+#: zone=1.5 * IMPACT_A, h_far=3e-3)``.
+IMPACT_A = 5.0e-4
+
+_IMPACT_SCENE = """format = 1
+[scene]
+name = "impact"
+mesh = "{mesh}"
+dimension = 2
+[analysis]
+kind = "dynamic"
+t_end = {t_end}
+dt = 1.0e-4
+[[material]]
+name = "cylinder"
+regions = ["cylinder"]
+model = "isotropic"
+E = 2.0e9
+nu = 0.3
+rho = 1200.0
+tau_v = 1.0e-5
+[[material]]
+name = "block"
+regions = ["block"]
+model = "isotropic"
+E = 17.0e9
+nu = 0.3
+rho = 1900.0
+[[contact]]
+name = "hertz"
+slave = "cyl_contact"
+master = "block_contact"
+friction = "coulomb"
+coefficient = 0.3
+[[dirichlet]]
+boundary = "block_bottom"
+value = [0.0, 0.0]
+[[dirichlet]]
+boundary = "cyl_top"
+value = [4.0e-6, -3.0e-6]
+schedule = [[0.0, 0.0], [1.0e-3, 1.0], [2.0e-3, 1.0]]
+[output]
+directory = "results"
+fields_every = {fields_every}
+checkpoint_every = {every}
+"""
+
+
+def impact_scene(
+    mesh: Path | str,
+    t_end: float,
+    every: int = 4,
+    fields_every: int = 0,
+    probes: list[tuple[float, float]] | None = None,
+) -> str:
+    """The scene text of a dynamic 2D contact with Coulomb friction (μ = 0.3).
+
+    A cylinder (E = 2 GPa, Kelvin–Voigt τ = 10 µs) pressed into a block (17 GPa) and
+    dragged sideways by its top over 1 ms, then held; Δt = 0.1 ms, so ``t_end = 2e-3``
+    is 20 steps. Stick and slip nodes occur and the active set grows during the run.
+    ``every`` is ``[output] checkpoint_every`` (0: none).
+    """
+    text = _IMPACT_SCENE.format(mesh=mesh, t_end=t_end, every=every, fields_every=fields_every)
+    if probes:
+        text += f"probes = {[list(p) for p in probes]}\n"
+    return text
