@@ -144,7 +144,7 @@ def _classify_curves(
     return names
 
 
-def _point_tag(p: np.ndarray, tol: float) -> int:
+def point_tag(p: np.ndarray, tol: float) -> int:
     ents = gmsh.model.getEntitiesInBoundingBox(
         p[0] - tol, p[1] - tol, -tol, p[0] + tol, p[1] + tol, tol, dim=0
     )
@@ -153,7 +153,7 @@ def _point_tag(p: np.ndarray, tol: float) -> int:
     return ents[0][1]
 
 
-def _size_fields(
+def size_fields(
     tips: list[int],
     holes: Sequence[Hole],
     hole_curves: list[list[int]],
@@ -205,20 +205,31 @@ def _build_geometry(outline: np.ndarray, holes: Sequence[Hole], crack: Crack2D |
     occ.synchronize()
 
 
-def _split_crack(names: dict[str, list[int]], crack: Crack2D, tol: float) -> None:
-    """Duplicate the crack nodes (gmsh ``Crack`` plugin); the tips stay shared."""
-    gmsh.model.addPhysicalGroup(1, names["crack"], _CRACK_GROUP)
+def split_crack(
+    names: dict[str, list[int]],
+    crack: Crack2D,
+    tol: float,
+    crack_group: int = _CRACK_GROUP,
+    plus_group: int = _PLUS_GROUP,
+    mouth_group: int = _MOUTH_GROUP,
+) -> None:
+    """Duplicate the crack nodes (gmsh ``Crack`` plugin); the tips stay shared.  The two
+    faces become the physical groups ``crack_group`` and ``plus_group`` (named
+    ``crack_a`` and ``crack_b``)."""
+    gmsh.model.addPhysicalGroup(1, names["crack"], crack_group)
     if crack.mouth_ends:
-        mouths = [_point_tag(crack.points[e], tol) for e in crack.mouth_ends]
-        gmsh.model.addPhysicalGroup(0, mouths, _MOUTH_GROUP)
+        mouths = [point_tag(crack.points[e], tol) for e in crack.mouth_ends]
+        gmsh.model.addPhysicalGroup(0, mouths, mouth_group)
     plugin = gmsh.plugin
     plugin.setNumber("Crack", "Dimension", 1)
-    plugin.setNumber("Crack", "PhysicalGroup", _CRACK_GROUP)
-    plugin.setNumber("Crack", "NewPhysicalGroup", _PLUS_GROUP)
-    plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", _MOUTH_GROUP if crack.mouth_ends else 0)
+    plugin.setNumber("Crack", "PhysicalGroup", crack_group)
+    plugin.setNumber("Crack", "NewPhysicalGroup", plus_group)
+    plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", mouth_group if crack.mouth_ends else 0)
     plugin.run("Crack")
     if crack.mouth_ends:
-        gmsh.model.removePhysicalGroups([(0, _MOUTH_GROUP)])
+        gmsh.model.removePhysicalGroups([(0, mouth_group)])
+    gmsh.model.setPhysicalName(1, crack_group, "crack_a")
+    gmsh.model.setPhysicalName(1, plus_group, "crack_b")
     # the plugin leaves node tags with gaps; DOLFINx's reader needs them contiguous
     gmsh.model.mesh.renumberNodes()
     gmsh.model.mesh.renumberElements()
@@ -236,9 +247,9 @@ def _build_and_mesh(
     tol = 1e-7 * scale
     _build_geometry(outline, holes, crack)
     names = _classify_curves(outline, holes, crack, tol)
-    tips = [_point_tag(crack.points[e], tol) for e in crack.tip_ends] if crack else []
+    tips = [point_tag(crack.points[e], tol) for e in crack.tip_ends] if crack else []
     hole_curves = [names[f"hole{j}"] for j in range(len(holes))]
-    _size_fields(tips, holes, hole_curves, size, h_max)
+    size_fields(tips, holes, hole_curves, size, h_max)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     groups: dict[str, int] = {"body": 1}
     surfaces = [t for _, t in gmsh.model.getEntities(2)]
@@ -249,13 +260,13 @@ def _build_and_mesh(
             groups[name] = k
     gmsh.model.mesh.generate(2)
     if crack is not None:
-        _split_crack(names, crack, tol)
+        split_crack(names, crack, tol)
         groups["crack_a"], groups["crack_b"] = _CRACK_GROUP, _PLUS_GROUP
     return groups
 
 
 # --------------------------------------------------------------------- DOLFINx side
-def _left_side_sign(cm: CrackedMesh, tag: int) -> int:
+def left_side_sign(cm: CrackedMesh, tag: int) -> int:
     """+1 if the cells behind facet group ``tag`` lie left of the crack polyline, else −1."""
     msh, crack = cm.mesh, cm.crack
     tdim = msh.topology.dim
@@ -339,6 +350,6 @@ def mesh_cracked_body(
     cm = CrackedMesh(md.mesh, md.cell_tags, md.facet_tags, crack, groups, poly)
     if crack is not None:
         a, b = groups.pop("crack_a"), groups.pop("crack_b")
-        plus, minus = (a, b) if _left_side_sign(cm, a) > 0 else (b, a)
+        plus, minus = (a, b) if left_side_sign(cm, a) > 0 else (b, a)
         groups["crack_plus"], groups["crack_minus"] = plus, minus
     return cm

@@ -52,17 +52,32 @@ __all__ = [
     "write_fracture_table",
 ]
 
-#: Columns of a fracture table, one row per tip and increment.
+#: Columns of a fracture table (``fracture.csv``), one row per tip and evaluated state:
+#: ``increment`` (crack increments so far), ``step`` and ``time`` of the analysis (a
+#: Python :func:`propagate` run: 0 and nan), ``tip`` (the polyline end, 0 or -1), ``x``,
+#: ``y`` (the tip, m), ``length`` (of the crack, m), ``K_I``, ``K_II`` (Pa·√m, interaction
+#: integral), ``J`` (domain J-integral, J/m²), ``G`` ((K_I² + K_II²)/E′, J/m²),
+#: ``K_I_dc``, ``K_II_dc`` (displacement correlation, the cross-check; nan when not
+#: evaluated), ``angle_deg`` (kink angle of the direction criterion, counter-clockwise from
+#: the crack direction), ``K_eq`` (MTS equivalent K), ``load_factor`` (K_Ic/K_eq: the load
+#: at which the tip would advance, relative to the current one; nan without K_Ic) and
+#: ``status``.
 FRACTURE_COLUMNS = (
     "increment",
+    "step",
+    "time",
     "tip",
     "x",
     "y",
     "length",
     "K_I",
     "K_II",
+    "J",
     "G",
+    "K_I_dc",
+    "K_II_dc",
     "angle_deg",
+    "K_eq",
     "load_factor",
     "status",
 )
@@ -133,6 +148,12 @@ class IncrementRecord:
     angle_deg: float
     load_factor: float
     status: str
+    step: int = 0
+    time: float = math.nan
+    J: float = math.nan
+    K_I_dc: float = math.nan
+    K_II_dc: float = math.nan
+    K_eq: float = math.nan
 
     def row(self) -> tuple:
         return tuple(getattr(self, c) for c in FRACTURE_COLUMNS)
@@ -262,6 +283,8 @@ def propagate(
                     math.degrees(theta),
                     load,
                     tip_status,
+                    J=k.J,
+                    K_eq=k_eq,
                 )
             )
         result.paths.append(crack.points.copy())

@@ -16,6 +16,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bonecontact.runners.coupled import check_coupled, run_coupled
+from bonecontact.runners.cracks import check_cracked, run_cracked
 from bonecontact.runners.growth import build_growth, run_growth
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import RunResult
@@ -76,6 +77,15 @@ def run_scene(
         return run_growth(scene, comm, output, progress)
     if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
         return run_coupled(scene, comm, output, progress)
+    if scene.cracks:  # a given crack: re-meshed body, face pair, fracture.csv
+        if restart or scene.output.checkpoint_every:
+            raise SceneError(
+                scene.path,
+                "[output]",
+                "checkpoint_every",
+                "checkpoints and restarts are not implemented for scenes with a [[crack]]",
+            )
+        return run_cracked(scene, comm, output, progress)
     return run_mechanics(scene, comm, output, progress, restart)
 
 
@@ -96,5 +106,7 @@ def check(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         build_growth(scene, comm)
     elif kind == "coupled":  # growth model, host mesh at t = 0, mechanics
         check_coupled(scene, comm)
+    elif scene.cracks:
+        check_cracked(scene, comm)
     else:
         build_model(scene, comm)

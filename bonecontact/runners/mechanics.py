@@ -99,7 +99,10 @@ def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
 
 
 def build_model(
-    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, timer: PhaseTimer | None = None
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    timer: PhaseTimer | None = None,
+    mesh: tuple[Any, dict[str, tuple[int, int]]] | None = None,
 ) -> SceneModel:
     """Build the mechanics model of a scene (no output written).
 
@@ -109,6 +112,10 @@ def build_model(
     are emitted as one :class:`~bonecontact.scene.checks.PlausibilityWarning` on every rank
     and kept in ``SceneModel.issues``.
 
+    ``mesh`` (``(mesh_data, groups)``): a mesh already read and checked, instead of the
+    scene's file (a scene with a crack: the body re-meshed around it,
+    :mod:`bonecontact.runners.cracks`).
+
     Raises
     ------
     SceneError
@@ -116,9 +123,12 @@ def build_model(
     """
     timer = timer if timer is not None else PhaseTimer()
     with timer.phase("mesh_read"):
-        md, groups = read_mesh(scene, comm)
-        check_cracks_in_mesh(scene, md.mesh, md.cell_tags, groups)
-        _refuse_fracture_not_run(scene)
+        if mesh is None:
+            md, groups = read_mesh(scene, comm)
+            check_cracks_in_mesh(scene, md.mesh, md.cell_tags, groups)
+            _refuse_fracture_not_run(scene)
+        else:
+            md, groups = mesh
         issues = scene_issues(scene, md, groups, comm)
     emit(issues)
     tag = {name: t for name, (d, t) in groups.items()}
@@ -137,21 +147,15 @@ def build_model(
 
 
 def _refuse_fracture_not_run(scene: Scene) -> None:
-    """What this version reads and checks but does not run yet: cracks and propagation."""
-    if scene.cracks:
-        raise SceneError(
-            str(scene.path),
-            "[[crack]] #1",
-            None,
-            "cracks are read and checked, but running a scene with a given crack is not "
-            "supported yet (the [fracture] initiation check is)",
-        )
-    if scene.fracture is not None and scene.fracture.propagate:
+    """A scene without ``[[crack]]`` (those run in :mod:`bonecontact.runners.cracks`) has
+    nothing to propagate."""
+    if scene.fracture is not None and scene.fracture.propagate and not scene.cracks:
         raise SceneError(
             str(scene.path),
             "[fracture]",
             "propagate",
-            "crack propagation in scenes is not supported yet (the initiation check is)",
+            "propagation grows a given crack: add a [[crack]] (initiation alone is the "
+            "[fracture] check without propagate)",
         )
 
 
@@ -224,7 +228,7 @@ def _contact_interfaces(scene: Scene, model: Mechanics, md: Any, tag: dict[str, 
     return interfaces
 
 
-def _steps(scene: Scene) -> tuple[int, float]:
+def analysis_steps(scene: Scene) -> tuple[int, float]:
     a = scene.analysis
     if a.kind == "static":
         return a.load_steps, 1.0 / a.load_steps
@@ -234,7 +238,7 @@ def _steps(scene: Scene) -> tuple[int, float]:
     return max(n, 1), a.dt
 
 
-def _integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> Integrator:
+def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> Integrator:
     """The time integrator of the scene's analysis (with its contact pairs)."""
     model = sm.model
     contact = None
@@ -260,7 +264,7 @@ def _integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> Integ
 
 
 # ----------------------------------------------------------------------------- recording
-class _Recorder:
+class Recorder:
     """Writes the tables (history, contact, probes) and fields of a state as the run goes."""
 
     def __init__(
@@ -367,7 +371,7 @@ def _step_through(
     scene: Scene,
     comm: MPI.Comm,
     integ: Integrator,
-    rec: _Recorder,
+    rec: Recorder,
     nsteps: int,
     dt: float,
     progress: bool,
@@ -427,7 +431,7 @@ def _step_through(
     return status, message
 
 
-def _run_info(
+def run_info(
     scene: Scene,
     sm: SceneModel,
     integ: Integrator,
@@ -503,10 +507,10 @@ def run_mechanics(
     timer = PhaseTimer()
     sm = build_model(scene, comm, timer)
     outdir = Path(output) if output is not None else scene.output.directory
-    nsteps, dt = _steps(scene)
+    nsteps, dt = analysis_steps(scene)
     dynamic = scene.analysis.kind == "dynamic"  # dynamic runs book the energy balance
     with timer.phase("solver_setup"):  # assembly, factorisation or preconditioner
-        integ = _integrator(scene, sm, dt, dynamic)
+        integ = scene_integrator(scene, sm, dt, dynamic)
         integ.set_initial(None, sm.v0)
     ckpt = Checkpointer(
         outdir, integ, scene.output.checkpoint_every, _checkpoint_info(scene, sm, dt)
@@ -515,7 +519,7 @@ def run_mechanics(
         with timer.phase("checkpoint"):
             ckpt.resume(None if restart is True else restart)
     with timer.phase("output"):
-        rec = _Recorder(scene, sm, integ, comm, outdir, dynamic, ckpt)
+        rec = Recorder(scene, sm, integ, comm, outdir, dynamic, ckpt)
     e0 = ckpt.counters.e0
     info = {
         "dofs": sm.model.num_dofs,
@@ -526,7 +530,7 @@ def run_mechanics(
     }
     with ckpt.stop:
         status, message = _step_through(scene, comm, integ, rec, nsteps, dt, progress, timer, ckpt)
-    info.update(_run_info(scene, sm, integ, ckpt.counters, dynamic, e0, t_start))
+    info.update(run_info(scene, sm, integ, ckpt.counters, dynamic, e0, t_start))
     info.update(ckpt.summary())
     if ckpt.time_s:
         timer.add("checkpoint", ckpt.time_s)

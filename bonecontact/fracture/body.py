@@ -1,0 +1,323 @@
+"""A scene's 2D body re-meshed around a crack (docs/theory/fracture.md#scene-tables).
+
+A scene gives its body as a gmsh mesh.  To cut a crack into it, the body's boundary is
+taken from that mesh (:func:`body_outline`): the exterior facets are chained into closed
+loops (the outer boundary and the holes), and runs of collinear facets of one facet
+group are merged into one straight segment; every segment keeps its facet group.  The
+body is then rebuilt from these loops with the OpenCASCADE kernel of gmsh, the crack is
+embedded (``fragment``), the body is meshed graded towards the tips and the crack nodes
+are duplicated (:func:`mesh_body_with_crack`, as :mod:`bonecontact.fracture.meshing`).
+The new mesh carries the scene's cell group and facet groups under their names and tags,
+so every boundary condition of the scene applies to it unchanged.
+
+Limits: the body is one cell group (one region); curved boundaries are kept as the
+polylines of the given mesh's boundary facets.
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+from dolfinx import mesh
+from dolfinx.io.gmsh import model_to_mesh
+
+from bonecontact.fracture.crack import (
+    Crack2D,
+    FractureError,
+    point_in_polygon,
+    point_segment_distance,
+    segments_intersect,
+)
+from bonecontact.fracture.meshing import (
+    CrackedMesh,
+    TipMesh,
+    left_side_sign,
+    point_tag,
+    size_fields,
+    split_crack,
+)
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.meshing.session import gmsh_session
+
+__all__ = ["BodyOutline", "body_outline", "mesh_body_with_crack"]
+
+
+@dataclass(frozen=True)
+class BodyOutline:
+    """The boundary of a 2D body: closed loops of straight segments with facet groups.
+
+    Attributes
+    ----------
+    loops
+        Vertices of every loop, shape (n_i, 2) (the segment ``k`` runs from vertex ``k``
+        to ``k + 1``, the last back to the first); ``loops[0]`` is the outer boundary.
+    loop_tags
+        Facet-group tag of every segment of every loop (0: in no group).
+    names
+        Facet-group tag → name.
+    region
+        (name, tag) of the body's cell group.
+    h_max
+        Largest boundary facet of the given mesh (m): the size away from the tips.
+    """
+
+    loops: tuple[npt.NDArray[np.float64], ...]
+    loop_tags: tuple[npt.NDArray[np.int32], ...]
+    names: dict[int, str]
+    region: tuple[str, int]
+    h_max: float
+
+    @property
+    def outer(self) -> npt.NDArray[np.float64]:
+        return self.loops[0]
+
+    @property
+    def scale(self) -> float:
+        return float(np.ptp(self.outer, axis=0).max())
+
+    def segments(self) -> npt.NDArray[np.float64]:
+        """All boundary segments, shape (n, 2, 2)."""
+        return np.concatenate(
+            [np.stack([lp, np.roll(lp, -1, axis=0)], axis=1) for lp in self.loops]
+        )
+
+    def distance(self, p: npt.ArrayLike) -> float:
+        """Distance from ``p`` to the boundary (m)."""
+        return min(point_segment_distance(p, a, b) for a, b in self.segments())
+
+    def check_crack(self, crack: Crack2D) -> None:
+        """Raise :class:`FractureError` unless the crack lies in the body (outer loop,
+        outside every hole loop)."""
+        crack.check_inside(self.outer, (), self.scale)
+        tol = 1e-9 * self.scale
+        for k, hole in enumerate(self.loops[1:]):
+            for p in crack.points:
+                if point_in_polygon(p, hole):
+                    raise FractureError("points", f"crack point {p.tolist()} lies in hole {k}")
+            edges = np.stack([hole, np.roll(hole, -1, axis=0)], axis=1)
+            for i in range(len(crack.points) - 1):
+                a, b = crack.points[i], crack.points[i + 1]
+                if any(segments_intersect(a, b, e0, e1, tol) for e0, e1 in edges):
+                    raise FractureError("points", f"crack segment {i} reaches hole {k}")
+
+
+# ------------------------------------------------------------------ the given mesh
+def _boundary_edges(
+    msh: mesh.Mesh, facet_tags: mesh.MeshTags
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
+    """Owned exterior facets of all ranks: vertex coordinates (n, 2, 2) and tag (0: none)."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    ext = mesh.exterior_facet_indices(msh.topology)
+    ext = ext[ext < msh.topology.index_map(tdim - 1).size_local]
+    geom = mesh.entities_to_geometry(msh, tdim - 1, ext)
+    xy = msh.geometry.x[geom][:, :, :2] if ext.size else np.zeros((0, 2, 2))
+    tag_of = dict(zip(facet_tags.indices.tolist(), facet_tags.values.tolist(), strict=True))
+    tags = np.array([tag_of.get(int(f), 0) for f in ext], dtype=np.int32)
+    parts = msh.comm.allgather((xy, tags))
+    return np.concatenate([p[0] for p in parts]).reshape(-1, 2, 2), np.concatenate(
+        [p[1] for p in parts]
+    ).astype(np.int32)
+
+
+def _chain_loops(
+    edges: npt.NDArray[np.float64], tags: npt.NDArray[np.int32], tol: float
+) -> list[tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]]:
+    """Chain boundary edges into closed loops: [(vertices, segment tags)]."""
+    keys = np.round(edges.reshape(-1, 2) / tol).astype(np.int64)
+    _, node = np.unique(keys, axis=0, return_inverse=True)
+    node = node.reshape(-1, 2)
+    coords = np.zeros((node.max() + 1 if node.size else 0, 2))
+    coords[node.ravel()] = edges.reshape(-1, 2)
+    incident: dict[int, list[int]] = {}
+    for e, (a, b) in enumerate(node):
+        incident.setdefault(int(a), []).append(e)
+        incident.setdefault(int(b), []).append(e)
+    if any(len(v) != 2 for v in incident.values()):
+        raise MeshingError("the mesh boundary is not a set of closed loops (a non-manifold vertex)")
+    used = np.zeros(len(node), dtype=bool)
+    loops = []
+    for start in range(len(node)):
+        if used[start]:
+            continue
+        verts, seg_tags = [int(node[start, 0])], []
+        e, v = start, int(node[start, 1])
+        while True:
+            used[e] = True
+            seg_tags.append(int(tags[e]))
+            if v == verts[0]:
+                break
+            verts.append(v)
+            e = next(k for k in incident[v] if k != e)
+            v = int(node[e, 1]) if int(node[e, 0]) == v else int(node[e, 0])
+        loops.append((coords[verts], np.array(seg_tags, dtype=np.int32)))
+    return loops
+
+
+def _merge_collinear(
+    verts: npt.NDArray[np.float64], tags: npt.NDArray[np.int32], rtol: float = 1e-9
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
+    """Drop the vertices between two collinear segments of one facet group."""
+    n = len(verts)
+
+    def straight(i: int) -> bool:  # vertex i joins segment i-1 and segment i
+        a, b, c = verts[i - 1], verts[i], verts[(i + 1) % n]
+        u, w = b - a, c - b
+        cross = abs(u[0] * w[1] - u[1] * w[0])
+        return tags[i - 1] == tags[i] and cross <= rtol * np.linalg.norm(u) * np.linalg.norm(w)
+
+    keep = np.array([not straight(i) for i in range(n)])
+    if not keep.any():
+        raise MeshingError("a boundary loop of the mesh is degenerate")
+    idx = np.flatnonzero(keep)
+    return verts[idx], tags[idx]
+
+
+def _signed_area(p: npt.NDArray[np.float64]) -> float:
+    q = np.roll(p, -1, axis=0)
+    return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
+
+
+def body_outline(
+    msh: mesh.Mesh,
+    cell_tags: mesh.MeshTags,
+    facet_tags: mesh.MeshTags,
+    groups: dict[str, tuple[int, int]],
+    region: str,
+) -> BodyOutline:
+    """The boundary of a one-region 2D mesh as loops of facet-group segments (collective).
+
+    Raises
+    ------
+    FractureError
+        The mesh has cells outside ``region`` (key ``region``), on every rank.
+    MeshingError
+        The boundary is not a set of closed loops.
+    """
+    comm = msh.comm
+    tdim = msh.topology.dim
+    n_cells = msh.topology.index_map(tdim).size_local
+    region_tag = groups[region][1]
+    own = cell_tags.indices[cell_tags.indices < n_cells]
+    vals = cell_tags.values[cell_tags.indices < n_cells]
+    other = int(own.size < n_cells or np.any(vals != region_tag))
+    if comm.allreduce(other, op=MPI.MAX):
+        raise FractureError(
+            "region",
+            f"a scene with a crack needs a mesh of one cell group (the crack's region "
+            f"{region!r}); this mesh has cells outside it",
+        )
+    edges, tags = _boundary_edges(msh, facet_tags)
+    scale = float(np.ptp(edges.reshape(-1, 2), axis=0).max())
+    loops = _chain_loops(edges, tags, 1e-9 * scale)
+    merged = [_merge_collinear(v, t) for v, t in loops]
+    merged.sort(key=lambda vt: -abs(_signed_area(vt[0])))
+    h_max = float(np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1).max())
+    names = {t: n for n, (d, t) in groups.items() if d == tdim - 1}
+    return BodyOutline(
+        tuple(v for v, _ in merged),
+        tuple(t for _, t in merged),
+        names,
+        (region, region_tag),
+        h_max,
+    )
+
+
+# ---------------------------------------------------------------- gmsh (rank 0)
+def _build(body: BodyOutline, crack: Crack2D, size: TipMesh, tags: tuple[int, int, int]) -> None:
+    occ = gmsh.model.occ
+    loops = []
+    for verts in body.loops:
+        pts = [occ.addPoint(x, y, 0) for x, y in verts]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        loops.append(occ.addCurveLoop(lines))
+    surface = occ.addPlaneSurface(loops)
+    cp = [occ.addPoint(x, y, 0) for x, y in crack.points]
+    cl = [occ.addLine(cp[i], cp[i + 1]) for i in range(len(cp) - 1)]
+    occ.fragment([(2, surface)], [(1, t) for t in cl])
+    occ.synchronize()
+    tol = 1e-7 * body.scale
+    segs = body.segments()
+    seg_tags = np.concatenate(body.loop_tags)
+    names: dict[str, list[int]] = {}
+    for _, curve in gmsh.model.getEntities(1):
+        lo, hi = gmsh.model.getParametrizationBounds(1, curve)
+        p = np.asarray(gmsh.model.getValue(1, curve, [0.5 * (lo[0] + hi[0])])[:2])
+        pts = crack.points
+        if min(point_segment_distance(p, pts[k], pts[k + 1]) for k in range(len(pts) - 1)) < tol:
+            names.setdefault("crack", []).append(curve)
+            continue
+        d = np.array([point_segment_distance(p, a, b) for a, b in segs])
+        k = int(np.argmin(d))
+        if d[k] > tol:
+            raise MeshingError(f"curve {curve} at {p.tolist()} belongs to no boundary segment")
+        names.setdefault(f"tag{int(seg_tags[k])}", []).append(curve)
+    tips = [point_tag(crack.points[e], tol) for e in crack.tip_ends]
+    size_fields(tips, (), [], size, min(size.h_max or body.h_max, body.h_max))
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    region, region_tag = body.region
+    gmsh.model.addPhysicalGroup(2, [t for _, t in gmsh.model.getEntities(2)], region_tag, region)
+    for key, curves in names.items():
+        tag = int(key[3:]) if key.startswith("tag") else 0
+        if tag > 0:
+            gmsh.model.addPhysicalGroup(1, curves, tag, name=body.names.get(tag, f"facets{tag}"))
+    gmsh.model.mesh.generate(2)
+    split_crack(names, crack, tol, *tags)
+
+
+def mesh_body_with_crack(
+    body: BodyOutline, crack: Crack2D, size: TipMesh, comm: MPI.Comm | None = None
+) -> tuple[CrackedMesh, object]:
+    """Mesh ``body`` with ``crack`` cut into it (collective; gmsh on rank 0).
+
+    Returns
+    -------
+    (CrackedMesh, dolfinx.io.gmsh.MeshData)
+        The cracked mesh (groups: the region, the facet groups by name, ``crack_plus``,
+        ``crack_minus``) and the mesh data with its physical groups (the crack groups
+        named ``crack_plus``/``crack_minus``).
+
+    Raises
+    ------
+    FractureError
+        The crack does not lie in the body (on every rank).
+    MeshingError
+        gmsh failed (on every rank).
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    body.check_crack(crack)
+    top = max([body.region[1], *body.names, 0])
+    tags = (top + 1, top + 2, top + 3)  # crack, its second face, the mouth points
+    error = None
+    with gmsh_session("cracked_scene") if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                _build(body, crack, size, tags)
+            except Exception as exc:  # reported on every rank below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            raise MeshingError(f"cracked body: {error}")
+        md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=2)
+    groups = {
+        n: int(pg.tag) for n, pg in md.physical_groups.items() if n not in ("crack_a", "crack_b")
+    }
+    cm = CrackedMesh(md.mesh, md.cell_tags, md.facet_tags, crack, groups, body.outer)
+    a, b = tags[0], tags[1]
+    plus, minus = (a, b) if left_side_sign(cm, a) > 0 else (b, a)
+    cm.groups["crack_plus"], cm.groups["crack_minus"] = plus, minus
+    return cm, md
+
+
+def tip_size_default(crack: Crack2D, increment: float | None) -> float:
+    """Default tip element size: Δa/8 with an increment, else 1/100 of the shortest tip
+    segment (m)."""
+    if increment is not None:
+        return increment / 8
+    return min(crack.tip_segment_length(e) for e in crack.tip_ends) / 100

@@ -1,0 +1,487 @@
+"""Mechanics scenes with a ``[[crack]]`` (docs/scene_format.md#fracture, docs/theory/fracture.md).
+
+The crack is cut into the scene's body (:mod:`bonecontact.fracture.body`: the body's
+boundary is taken from the scene mesh, re-meshed with gmsh around the crack, graded
+towards the tips), its two faces become a contact pair (``crack_plus`` slave,
+``crack_minus`` master; frictionless, or Coulomb with the crack's ``friction`` and the
+fixed-point bound) solved with the scene's other pairs by the mortar PDAS, and after
+every step K_I, K_II, J and G of every tip come from the interaction integral (with the
+contact tractions as face term) and K_I, K_II from displacement correlation as a
+cross-check; rows go to ``fracture.csv`` as the run goes.
+
+With ``[fracture] propagate = true`` a tip whose MTS equivalent K reaches the K_Ic of
+the cracked material grows by Δa in the direction of the criterion; the body is re-meshed
+around the longer crack and the same step (same load) is solved again, until no tip grows
+(arrest at this load: the analysis goes on to the next step), a grown tip comes within
+Δa of the free surface (*fractured*: the run stops, with the time and step in
+``summary.json`` and on the console) or ``max_increments`` increments are made.  Static
+analyses only: the solution of a static step does not depend on the previous state, so
+nothing needs to be transferred to the new mesh.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import re
+import time
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+from mpi4py import MPI
+
+from tqdm import tqdm
+
+from bonecontact.common.formatting import format_cell
+from bonecontact.common.profiling import PhaseTimer
+from bonecontact.contact.interface import ContactInputError
+from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_crack
+from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.fracture.criteria import (
+    cell_stresses,
+    mts_angle,
+    mts_equivalent_k,
+    principal_direction_average,
+)
+from bonecontact.fracture.faces import face_interface, face_traction
+from bonecontact.fracture.meshing import CrackedMesh, TipMesh
+from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
+from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
+from bonecontact.fracture.sif import displacement_correlation, interaction_integral
+from bonecontact.materials.laws import Isotropic
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.runners.checkpoint import RunCounters
+from bonecontact.runners.mechanics import (
+    Recorder,
+    SceneModel,
+    analysis_steps,
+    build_model,
+    read_mesh,
+    run_info,
+    scene_integrator,
+)
+from bonecontact.runners.results import RunResult
+from bonecontact.scene import Scene, SceneError
+from bonecontact.scene.checks import check_cracks_in_mesh
+from bonecontact.scene.errors import table_label
+from bonecontact.scene.spec import ContactSpec
+
+__all__ = ["CrackRun", "check_cracked", "run_cracked"]
+
+
+class FractureTable:
+    """``fracture.csv`` (:data:`~bonecontact.fracture.propagation.FRACTURE_COLUMNS`), rank 0
+    writes row by row (flushed) as the run goes."""
+
+    def __init__(self, comm: MPI.Comm, directory: Path):
+        self.comm, self._file, self._w = comm, None, None
+        if comm.rank == 0:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+            self._file = open(Path(directory) / "fracture.csv", "w", newline="")
+            self._w = csv.writer(self._file)
+            self._w.writerow(FRACTURE_COLUMNS)
+        comm.barrier()
+
+    def rows(self, records: list[IncrementRecord]) -> None:
+        if self._w is not None:
+            for r in records:
+                self._w.writerow([format_cell(v) for v in r.row()])
+            self._file.flush()
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+@dataclasses.dataclass
+class CrackRun:
+    """What a crack scene needs besides the scene model."""
+
+    scene: Scene  # the scene with the crack's face pair added to its contacts
+    spec: CrackSpec
+    fracture: FractureSpec
+    body: BodyOutline
+    material: Isotropic
+    K_Ic: float | None
+    tip_mesh: TipMesh
+    groups: dict[str, tuple[int, int]]
+
+
+def _pair_name(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
+
+
+def _scene_error(scene: Scene, i: int, spec: CrackSpec, exc: Exception, key: str) -> SceneError:
+    k = getattr(exc, "key", key)
+    text = str(exc)
+    text = text[len(k) + 2 :] if text.startswith(f"{k}: ") else text
+    return SceneError(str(scene.path), table_label("crack", i, spec.name), k, text)
+
+
+def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
+    """Read the scene mesh, check the crack against it and take the body's outline
+    (collective; every input problem is a :class:`SceneError` on every rank)."""
+    if len(scene.cracks) > 1:
+        raise SceneError(
+            str(scene.path),
+            table_label("crack", 1, scene.cracks[1].name),
+            None,
+            "this version runs one [[crack]] per scene",
+        )
+    spec = scene.cracks[0]
+    fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    md0, groups = read_mesh(scene, comm)
+    check_cracks_in_mesh(scene, md0.mesh, md0.cell_tags, groups)
+    try:
+        body = body_outline(md0.mesh, md0.cell_tags, md0.facet_tags, groups, spec.region)
+        body.check_crack(spec.crack)
+    except (FractureError, MeshingError) as exc:
+        raise _scene_error(scene, 0, spec, exc, "region") from None
+    mat_spec = next(m for m in scene.materials if spec.region in m.regions)
+    if not isinstance(mat_spec.material, Isotropic):
+        raise SceneError(
+            str(scene.path),
+            table_label("material", mat_spec.index, mat_spec.name),
+            "model",
+            "the stress intensity factors of a crack need an isotropic material around it",
+        )
+    if fr.propagate and scene.analysis.kind != "static":
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "propagate",
+            f"propagation runs static analyses in this version, not {scene.analysis.kind!r}",
+        )
+    seg = min(spec.crack.tip_segment_length(e) for e in spec.crack.tip_ends)
+    h_tip = (
+        fr.tip_size
+        if fr.tip_size is not None
+        else (fr.increment / 8 if fr.propagate else seg / 100)
+    )
+    mu = spec.friction
+    pair = ContactSpec(
+        _pair_name(spec.name),
+        "crack_plus",
+        "crack_minus",
+        "coulomb" if mu > 0 else "none",
+        float(mu),
+        0.0,
+        "fixed_point" if mu > 0 else "previous_step",
+    )
+    return CrackRun(
+        dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,)),
+        spec,
+        fr,
+        body,
+        mat_spec.material,
+        mat_spec.strengths.get("K_Ic"),
+        TipMesh(h_tip, fr.tip_grading),
+        groups,
+    )
+
+
+def build_cracked(
+    scene: Scene, run: CrackRun, crack: Crack2D, comm: MPI.Comm, timer: PhaseTimer
+) -> tuple[SceneModel, CrackedMesh]:
+    """The scene model on the body meshed around ``crack``, with the face pair last."""
+    try:
+        with timer.phase("mesh_read"):
+            cm, md = mesh_body_with_crack(run.body, crack, run.tip_mesh, comm)
+    except (FractureError, MeshingError) as exc:
+        raise _scene_error(scene, 0, run.spec, exc, "points") from None
+    sm = build_model(scene, comm, timer, mesh=(md, run.groups))
+    try:
+        with timer.phase("mortar_geometry"):
+            sm.interfaces.append(face_interface(sm.model, cm, _pair_name(run.spec.name)))
+    except ContactInputError as exc:
+        raise _scene_error(scene, 0, run.spec, exc, "points") from None
+    return sm, cm
+
+
+def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+    """Every check of a crack scene, the first mesh and face pair included (nothing
+    written)."""
+    run = prepare(scene, comm)
+    build_cracked(scene, run, run.spec.crack, comm, PhaseTimer())
+
+
+# ------------------------------------------------------------------ tip evaluation
+def _radius(crack: Crack2D, end: int, run: CrackRun) -> float:
+    """Integration-domain radius: within the straight tip segment and away from the
+    surface; with propagation at most 2Δa (docs/theory/fracture.md#propagation)."""
+    seg = crack.tip_segment_length(end)
+    free = run.body.distance(crack.tip(end))
+    r = min(0.4 * seg, 0.8 * free)
+    if run.fracture.propagate:
+        r = min(0.8 * seg, 0.8 * free, 2.0 * run.fracture.increment)
+    return r
+
+
+def evaluate_tips(
+    sm: SceneModel,
+    cm: CrackedMesh,
+    u: Any,
+    result: Any,
+    run: CrackRun,
+    increment: int,
+    step: int,
+    t: float,
+) -> list[IncrementRecord]:
+    """K, J, G, displacement correlation and the kink of every tip (collective)."""
+    crack, comm = cm.crack, cm.mesh.comm
+    k_pair = len(sm.interfaces) - 1
+    face = None
+    if result is not None:
+        face = face_traction(sm.model.V, sm.interfaces[k_pair], result, k_pair)
+    records = []
+    for end in crack.tip_ends:
+        r_out = _radius(crack, end, run)
+        if r_out < 4 * run.tip_mesh.h_tip:
+            raise FractureError(
+                "tip_size",
+                f"the integration domain at tip {end} (r = {r_out:.3g} m) spans fewer than "
+                "4 tip elements; choose a smaller tip_size",
+            )
+        k = interaction_integral(u, cm, end, run.material, r_out, face_traction=face)
+        try:
+            dc = displacement_correlation(u, cm, end, run.material, r_out)
+            kdc = (dc.K_I, dc.K_II)
+        except FractureError:
+            kdc = (math.nan, math.nan)
+        if run.fracture.direction == "mts":
+            theta = mts_angle(k.K_I, k.K_II)
+        else:
+            theta = principal_direction_average(
+                cell_stresses(sm.model, u),
+                comm,
+                crack.tip(end),
+                crack.direction(end),
+                24,
+                2.0 * run.tip_mesh.h_tip,
+            )
+        k_eq = mts_equivalent_k(k.K_I, k.K_II, theta)
+        load = run.K_Ic / k_eq if (run.K_Ic and k_eq > 0) else math.nan
+        status = "stationary"
+        if run.fracture.propagate:
+            status = "grows" if (run.K_Ic and k_eq >= run.K_Ic) else "holds"
+        x, y = crack.tip(end)
+        records.append(
+            IncrementRecord(
+                increment,
+                end,
+                float(x),
+                float(y),
+                crack.length,
+                k.K_I,
+                k.K_II,
+                k.G,
+                math.degrees(theta),
+                load,
+                status,
+                step=step,
+                time=t,
+                J=k.J,
+                K_I_dc=kdc[0],
+                K_II_dc=kdc[1],
+                K_eq=k_eq,
+            )
+        )
+    return records
+
+
+def _grow(crack: Crack2D, records: list[IncrementRecord], run: CrackRun) -> tuple[Crack2D, bool]:
+    """The crack grown at every tip that grows; whether a grown tip is within Δa of the
+    free surface (then marked ``fractured``)."""
+    da = run.fracture.increment
+    fractured = False
+    for i, r in enumerate(records):
+        if r.status != "grows":
+            continue
+        crack = crack.extended(r.tip, da, math.radians(r.angle_deg))
+        if run.body.distance(crack.tip(r.tip)) < da:
+            fractured = True
+            records[i] = dataclasses.replace(r, status="fractured")
+    return crack, fractured
+
+
+# ------------------------------------------------------------------------- run
+def _console(comm: MPI.Comm, progress: bool, text: str) -> None:
+    if comm.rank == 0:
+        tqdm.write(text) if progress else print(text, flush=True)
+
+
+def run_cracked(
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+) -> RunResult:
+    """Validate, build and run a scene with a ``[[crack]]`` (module docstring), writing its
+    results incrementally: history.csv, the contact tables (the crack pair included),
+    fields (``fields.*``; after the k-th re-meshing ``fields_increment<k>.*``),
+    fracture.csv and summary.json."""
+    t_start = time.perf_counter()
+    timer = PhaseTimer()
+    run = prepare(scene, comm)
+    crack = run.spec.crack
+    sm, cm = build_cracked(scene, run, crack, comm, timer)
+    outdir = Path(output) if output is not None else scene.output.directory
+    nsteps, dt = analysis_steps(scene)
+    counts = RunCounters()
+    table = FractureTable(comm, outdir)
+
+    def start(sm: SceneModel, step: int, increment: int):
+        with timer.phase("solver_setup"):
+            integ = scene_integrator(run.scene, sm, dt, False)
+            integ.set_initial(None, sm.v0)
+            integ.step_count, integ.t = step, step * dt
+        stem = "fields" if increment == 0 else f"fields_increment{increment}"
+        # after a re-meshing: history.csv continues, the fields go to new files
+        files = SimpleNamespace(restarted_from="increment" if increment else None, fields_stem=stem)
+        with timer.phase("output"):
+            rec = Recorder(run.scene, sm, integ, comm, outdir, False, files)
+        return integ, rec
+
+    integ, rec = start(sm, 0, 0)
+    every = scene.output.fields_every
+    status, message = "converged", None
+    increment, fractured_at, prop_status = 0, None, None
+    tips_last: list[IncrementRecord] = []
+    with timer.phase("output"):
+        rec.record(0, 0.0, every > 0)
+    bar = tqdm(
+        total=nsteps,
+        desc=scene.name,
+        unit="step",
+        disable=(comm.rank != 0) or not progress,
+        dynamic_ncols=True,
+    )
+    k = 1
+    try:
+        while k <= nsteps:
+            with timer.phase("time_stepping"):
+                si = integ.step()
+            res = integ.last_contact
+            counts.linear.append(si.linear_iterations)
+            if res is not None:
+                counts.pdas.append(res.iterations)
+                counts.bound_updates.append(res.bound_updates)
+                timer.add("contact_solve", res.wall_time)
+            with timer.phase("fracture"):
+                records = evaluate_tips(sm, cm, integ.u, res, run, increment, k, integ.t)
+            grows = any(r.status == "grows" for r in records)
+            if grows and increment >= run.fracture.max_increments:
+                records = [
+                    dataclasses.replace(r, status="max_increments") if r.status == "grows" else r
+                    for r in records
+                ]
+                grows, prop_status = False, "max_increments"
+            fractured = False
+            if grows:
+                crack, fractured = _grow(crack, records, run)
+            table.rows(records)
+            tips_last = records
+            last = k == nsteps or fractured
+            if not grows or fractured:
+                with timer.phase("output"):
+                    rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
+                bar.update(1)
+            if fractured:
+                increment += 1
+                fractured_at = (integ.t, k)
+                prop_status = "fractured"
+                _console(
+                    comm,
+                    progress,
+                    f"{scene.name}: fractured at t = {integ.t:.6g} "
+                    f"(step {k}, after {increment} crack increments)",
+                )
+                break
+            if grows:
+                increment += 1
+                prop_status = "grows"
+                integ.destroy()
+                rec.writer.close()
+                sm, cm = build_cracked(scene, run, crack, comm, timer)
+                integ, rec = start(sm, k - 1, increment)
+                continue  # the same load on the longer crack
+            if prop_status == "grows":
+                prop_status = "arrested"
+            k += 1
+    except RuntimeError as exc:
+        status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
+    bar.close()
+    table.close()
+    info: dict[str, Any] = {
+        "dofs": sm.model.num_dofs,
+        "analysis": scene.analysis.kind,
+        "dt": dt,
+        "setup_time_s": integ.setup_time,
+        "linear_solver": scene.solver.linear,
+    }
+    info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
+    info.update(rec.strain.summary())
+    frac = rec.fracture.summary() if rec.fracture is not None else {}
+    frac["crack"] = _crack_summary(run, crack, tips_last, increment, prop_status, fractured_at)
+    info["fracture"] = frac
+    info["warnings"] = [str(i) for i in sm.issues]
+    info["phases_s"] = timer.summary(comm)
+    if message is not None:
+        info["message"] = message
+    summary = rec.writer.summary(status, **info)
+    rec.writer.close()
+    return RunResult(status, summary, integ, outdir)
+
+
+def _crack_summary(
+    run: CrackRun,
+    crack: Crack2D,
+    tips: list[IncrementRecord],
+    increments: int,
+    status: str | None,
+    fractured_at: tuple[float, int] | None,
+) -> dict[str, Any]:
+    """The ``fracture.crack`` entry of summary.json."""
+    out: dict[str, Any] = {
+        "name": run.spec.name,
+        "pair": _pair_name(run.spec.name),
+        "friction": run.spec.friction,
+        "points": crack.points.tolist(),
+        "length": crack.length,
+        "tips": [
+            {
+                c: getattr(r, c)
+                for c in (
+                    "tip",
+                    "x",
+                    "y",
+                    "K_I",
+                    "K_II",
+                    "J",
+                    "G",
+                    "K_I_dc",
+                    "K_II_dc",
+                    "angle_deg",
+                    "K_eq",
+                    "load_factor",
+                    "status",
+                )
+            }
+            for r in tips
+        ],
+    }
+    if run.fracture.propagate:
+        out["propagation"] = {
+            "status": status or "no_growth",
+            "increments": increments,
+            "increment": run.fracture.increment,
+            "direction": run.fracture.direction,
+            "K_Ic": run.K_Ic,
+            "fractured": fractured_at is not None,
+            "fracture_time": None if fractured_at is None else fractured_at[0],
+            "fracture_step": None if fractured_at is None else fractured_at[1],
+        }
+    return out

@@ -1,0 +1,272 @@
+"""Scenes with a ``[[crack]]`` through the ``bonecontact`` command (bonecontact.runners.cracks).
+
+A plate [−W, W] × [−H, H] (W = 20 mm, H = 2W), E = 17 GPa, ν = 0.3, plane strain, loaded
+by σ_yy = σ on its top and bottom edges; rigid-body motion is removed on two short edge
+pieces at the bottom-left corner (u_x = 0 on 2 mm of the left edge, u_y = 0 on 2 mm of the
+bottom edge), which the uniform stress state satisfies exactly.  The runner cuts the crack
+into the body, makes its faces a contact pair and writes fracture.csv.
+
+* Centre crack 2a, a/W = 0.3, tension: K_I = σ√(πa)√(sec(πa/2W)) (Feddersen) within 2 %
+  at both tips, K_II ≈ 0, J ≈ G; displacement correlation (the cross-check) within 15 %.
+* Inclined centre crack (45°, a/W = 0.1) under compression, faces with friction
+  μ = 0.3: closed (no interpenetration), K_I ≈ 0 and
+  |K_II| = √(πa)(|τ| − μ|σ_n|) within 3 %.
+* The inclined crack in tension, propagating: the first kink is the MTS angle of the
+  computed K (−53.1° for K_I = K_II), later increments run normal to the load.
+* A crack near the right edge: it grows until it reaches the free surface; the run
+  reports ``fractured`` with the load at which it happened.
+* 1, 2 and 3 ranks give the same K and the same path.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.serial
+
+BIN = Path(sys.executable).parent
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+W, H, PIN = 0.02, 0.04, 0.002  # m
+E, NU = 17.0e9, 0.3
+SIGMA = 1.0e6  # Pa
+
+SCENE = """format = 1
+[scene]
+name = "{name}"
+mesh = "{mesh}"
+dimension = 2
+[analysis]
+kind = "static"
+load_steps = {steps}
+[[material]]
+name = "cortical"
+regions = ["plate"]
+model = "isotropic"
+E = {E}
+nu = {nu}
+sigma_t = 133e6
+K_Ic = {K_Ic}
+[[dirichlet]]
+boundary = "pin_x"
+value = [0.0, "free"]
+[[dirichlet]]
+boundary = "pin_y"
+value = ["free", 0.0]
+[[traction]]
+boundary = "top"
+value = [0.0, {sigma}]
+[[traction]]
+boundary = "bottom"
+value = [0.0, {minus_sigma}]
+[[crack]]
+name = "c"
+points = {points}
+region = "plate"
+friction = {friction}
+[output]
+fields_every = 0
+{extra}"""
+
+
+def _mesh(path: Path, h: float = 0.002) -> None:
+    """The plate with its edge groups (pin_y, bottom, right, top, left, pin_x)."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        geo = gmsh.model.geo
+        corners = [(-W, -H), (-W + PIN, -H), (W, -H), (W, H), (-W, H), (-W, -H + PIN)]
+        p = [geo.addPoint(x, y, 0, h) for x, y in corners]
+        lines = [geo.addLine(p[i], p[(i + 1) % 6]) for i in range(6)]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        gmsh.model.addPhysicalGroup(2, [1], 1, name="plate")
+        names = ("pin_y", "bottom", "right", "top", "left", "pin_x")
+        for k, (name, line) in enumerate(zip(names, lines, strict=True)):
+            gmsh.model.addPhysicalGroup(1, [line], 2 + k, name=name)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+@pytest.fixture(scope="module")
+def mesh(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("plate") / "plate.msh"
+    _mesh(path)
+    return path
+
+
+def _scene(
+    folder: Path,
+    mesh: Path,
+    name: str,
+    points: list,
+    sigma: float = SIGMA,
+    friction: float = 0.0,
+    K_Ic: float = 1.0e6,
+    steps: int = 1,
+    extra: str = "",
+) -> Path:
+    path = folder / f"{name}.toml"
+    path.write_text(
+        SCENE.format(
+            name=name,
+            mesh=mesh,
+            steps=steps,
+            E=E,
+            nu=NU,
+            K_Ic=K_Ic,
+            sigma=sigma,
+            minus_sigma=-sigma,
+            points=points,
+            friction=friction,
+            extra=extra,
+        )
+    )
+    return path
+
+
+def _run(scene: Path, out: Path, n: int = 1) -> Path:
+    cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
+    if n > 1:
+        cmd = [str(BIN / "mpiexec"), "-n", str(n), *cmd]
+    res = subprocess.run(
+        cmd, capture_output=True, text=True, timeout=900, env=ENV, stdin=subprocess.DEVNULL
+    )
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def _rows(out: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(open(out / "fracture.csv")))
+
+
+def _f(row: dict[str, str], key: str) -> float:
+    return float(row[key])
+
+
+A_CENTRE = 0.3 * W
+CENTRE = [[-A_CENTRE, 0.0], [A_CENTRE, 0.0]]
+A_INCL = 0.1 * W
+S45 = A_INCL / math.sqrt(2)
+INCLINED = [[-S45, -S45], [S45, S45]]
+
+
+def feddersen(a: float) -> float:
+    return SIGMA * math.sqrt(math.pi * a / math.cos(math.pi * a / (2 * W)))
+
+
+@pytest.fixture(scope="module")
+def centre(mesh: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
+    tmp = tmp_path_factory.mktemp("centre")
+    scene = _scene(tmp, mesh, "centre", CENTRE)
+    return {n: _run(scene, tmp / f"out{n}", n) for n in (1, 2)}
+
+
+def test_centre_crack_in_tension_gives_feddersen(centre: dict[int, Path]) -> None:
+    rows = _rows(centre[1])
+    assert [r["tip"] for r in rows] == ["0", "-1"]
+    k_ref = feddersen(A_CENTRE)
+    e_prime = E / (1 - NU**2)
+    for r in rows:
+        assert _f(r, "K_I") == pytest.approx(k_ref, rel=2e-2)
+        assert abs(_f(r, "K_II")) < 1e-2 * k_ref
+        assert _f(r, "G") == pytest.approx(_f(r, "K_I") ** 2 / e_prime, rel=1e-2)
+        assert _f(r, "J") == pytest.approx(_f(r, "G"), rel=3e-2)
+        assert _f(r, "K_I_dc") == pytest.approx(_f(r, "K_I"), rel=0.15)
+        assert r["status"] == "stationary" and r["step"] == "1" and r["time"] == "1.0"
+    info = json.loads((centre[1] / "summary.json").read_text())
+    crack = info["fracture"]["crack"]
+    assert crack["length"] == pytest.approx(2 * A_CENTRE, rel=1e-12)
+    assert [t["K_I"] for t in crack["tips"]] == [_f(r, "K_I") for r in rows]
+    assert info["contact"]["pairs"] == ["c"]
+    assert (centre[1] / "contact_c.csv").is_file()
+
+
+def test_centre_crack_two_ranks_same_k(centre: dict[int, Path]) -> None:
+    for a, b in zip(_rows(centre[1]), _rows(centre[2]), strict=True):
+        for key in ("K_I", "K_II", "J", "K_I_dc"):
+            assert _f(b, key) == pytest.approx(_f(a, key), rel=1e-6, abs=1e-6 * SIGMA)
+
+
+def test_closed_inclined_crack_with_friction(mesh: Path, tmp_path: Path) -> None:
+    mu = 0.3
+    scene = _scene(tmp_path, mesh, "closed", INCLINED, sigma=-SIGMA, friction=mu)
+    out = _run(scene, tmp_path / "out")
+    k0 = SIGMA * math.sqrt(math.pi * A_INCL)
+    expected = k0 * (0.5 - mu * 0.5)  # |tau| - mu |sigma_n| at 45 degrees
+    for r in _rows(out):
+        assert abs(_f(r, "K_I")) < 3e-2 * k0
+        assert abs(_f(r, "K_II")) == pytest.approx(expected, rel=3e-2)
+    nodes = list(csv.DictReader(open(out / "contact_c.csv")))
+    assert len(nodes) > 10
+    assert min(float(n["gap"]) for n in nodes) > -1e-9 * A_INCL
+    assert all(n["status"] in ("stick", "slip") for n in nodes)
+
+
+def _propagating(folder: Path, mesh: Path, n: int) -> Path:
+    extra = "[fracture]\npropagate = true\nincrement = 0.001\nmax_increments = 3\n"
+    scene = _scene(folder, mesh, "kink", INCLINED, K_Ic=1.0e4, extra=extra)
+    return _run(scene, folder / f"out{n}", n)
+
+
+def test_inclined_crack_kinks_by_mts_and_turns_normal_to_the_load(
+    mesh: Path, tmp_path: Path
+) -> None:
+    from bonecontact.fracture.criteria import mts_angle
+
+    out = _propagating(tmp_path, mesh, 1)
+    rows = _rows(out)
+    assert [int(r["increment"]) for r in rows] == [0, 0, 1, 1, 2, 2, 3, 3]
+    for r in rows[:2]:
+        theta = mts_angle(_f(r, "K_I"), _f(r, "K_II"))
+        assert _f(r, "angle_deg") == pytest.approx(math.degrees(theta), abs=1e-9)
+        assert _f(r, "angle_deg") == pytest.approx(-53.13, abs=1.0)
+    info = json.loads((out / "summary.json").read_text())["fracture"]["crack"]
+    pts = info["points"]
+    assert len(pts) == 2 + 2 * 3
+    for a, b in ((pts[1], pts[0]), (pts[-2], pts[-1])):  # the last segment at each tip
+        angle = math.degrees(math.atan2(b[1] - a[1], b[0] - a[0]))
+        assert min(abs(angle), 180 - abs(angle)) < 10.0  # normal to the load (y)
+    for r in rows[-2:]:
+        assert abs(_f(r, "K_II")) < 0.05 * _f(r, "K_I")
+    assert info["propagation"]["status"] == "max_increments"
+    assert info["propagation"]["fractured"] is False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n", [2, 3])
+def test_propagation_same_path_on_ranks(mesh: Path, tmp_path: Path, n: int) -> None:
+    serial = json.loads((_propagating(tmp_path, mesh, 1) / "summary.json").read_text())
+    par = json.loads((_propagating(tmp_path, mesh, n) / "summary.json").read_text())
+    a, b = serial["fracture"]["crack"]["points"], par["fracture"]["crack"]["points"]
+    assert b == pytest.approx(a, abs=1e-9 * W)
+
+
+@pytest.mark.slow
+def test_crack_near_the_edge_fractures_the_plate(mesh: Path, tmp_path: Path) -> None:
+    """Load in 4 steps; K_Ic 0.6 of the initial K_eq at full load: nothing grows at
+    t = 0.5, the crack grows at t = 0.75 (K rises as it nears the edge) through to the
+    free surface: fractured at t = 0.75."""
+    points = [[0.25 * W, 0.0], [0.7 * W, 0.0]]
+    stationary = _run(_scene(tmp_path, mesh, "edge0", points, steps=4), tmp_path / "s")
+    k_eq = _f([r for r in _rows(stationary) if r["time"] == "1.0"][1], "K_eq")
+    extra = "[fracture]\npropagate = true\nincrement = 0.002\nmax_increments = 20\n"
+    scene = _scene(tmp_path, mesh, "edge", points, K_Ic=0.6 * k_eq, steps=4, extra=extra)
+    out = _run(scene, tmp_path / "p")
+    info = json.loads((out / "summary.json").read_text())["fracture"]["crack"]["propagation"]
+    assert info["fractured"] is True and info["status"] == "fractured"
+    assert info["fracture_time"] == 0.75 and info["fracture_step"] == 3
+    rows = _rows(out)
+    assert {r["status"] for r in rows if r["time"] == "0.5"} == {"holds"}
+    assert rows[-1]["status"] == "fractured" or rows[-2]["status"] == "fractured"
