@@ -388,15 +388,17 @@ def _master_surface_mortar(
     search_radius: float | None,
     name: str,
     stats: dict[str, float],
+    local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
+    shared: npt.NDArray[np.bool_],
 ) -> _MortarData:
     """Gather the master facets near each rank's slave facets and integrate the owned slave
-    facets against them; phase times and counts are added to ``stats``."""
+    facets against them; phase times and counts are added to ``stats``.  ``shared``: the
+    slave nodes that are master nodes too and may not be (refused)."""
     comm, gdim = V.mesh.comm, V.mesh.geometry.dim
     t0 = time.perf_counter()
-    local_master = _local_surface(V, facet_tags, master)
     if comm.allreduce(local_master[0].shape[0], op=MPI.SUM) == 0:
         raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
-    if comm.allreduce(bool(np.isin(local_master[0], surf.gids).any()), op=MPI.LOR):
+    if shared.any():
         raise ContactInputError(
             f"contact {name!r}: slave and master surfaces share nodes; the bodies "
             "must be meshed separately (no shared interface nodes)"
@@ -558,6 +560,7 @@ def build_interface(
     name: str = "contact",
     search_radius: float | None = None,
     max_penetration: float | None = None,
+    shared_nodes: str = "refuse",
 ) -> ContactInterface:
     """Build a contact interface (collective).
 
@@ -584,6 +587,13 @@ def build_interface(
     max_penetration
         Initial interpenetration (negative nodal gap) beyond which the input is
         rejected; default 1e-6 × the size of the slave surface.
+    shared_nodes
+        Nodes that belong to both surfaces (the tip of a crack whose two faces are the
+        pair): ``"refuse"`` (default; bodies must be meshed separately) or
+        ``"no_multiplier"``: such a node carries no multiplier (the dual basis is
+        modified there as at a Dirichlet node, so its neighbour's multiplier covers the
+        whole facet) and acts as a master node only; the jump across the pair vanishes
+        there identically (docs/theory/fracture.md#crack-faces-in-contact).
 
     Raises
     ------
@@ -602,13 +612,31 @@ def build_interface(
     ranges = _owner_ranges(comm, V)
     lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
     mask = _dirichlet_node_mask(V, surf.gids, dirichlet_dofs)
+    if shared_nodes not in ("refuse", "no_multiplier"):
+        raise ValueError(f"shared_nodes: 'refuse' or 'no_multiplier', not {shared_nodes!r}")
     stats["t_gather"] = time.perf_counter() - t_start
     # mortar integrals: D, weighted gap, M
     if isinstance(master, RigidPlane):
         mortar = _rigid_plane_mortar(comm, surf, master, mask)
     else:
+        local_master = _local_surface(V, facet_tags, master)
+        shared = _allreduce(
+            comm, np.isin(surf.gids, local_master[0]).astype(np.int32), MPI.MAX, np.int32
+        ).astype(bool)
+        if shared_nodes == "no_multiplier":
+            mask, shared = mask | shared, np.zeros_like(shared)
         mortar = _master_surface_mortar(
-            V, facet_tags, master, slave, surf, mask, search_radius, name, stats
+            V,
+            facet_tags,
+            master,
+            slave,
+            surf,
+            mask,
+            search_radius,
+            name,
+            stats,
+            local_master,
+            shared,
         )
     # nodes carrying a multiplier, initial interpenetration
     carries = _multiplier_nodes(surf, mortar.d)

@@ -27,6 +27,7 @@ from bonecontact.fracture.criteria import (
     risk_field,
 )
 from bonecontact.fracture.faces import (
+    FaceTraction,
     contact_tags,
     crack_face_solver,
     face_interface,
@@ -85,6 +86,7 @@ __all__ = [
     "Crack2D",
     "CrackSpec",
     "CrackedMesh",
+    "FaceTraction",
     "FractureError",
     "FractureSpec",
     "Hole",

@@ -4,16 +4,21 @@ The faces of a :class:`~bonecontact.fracture.meshing.CrackedMesh` are duplicated
 node, so they match; ``crack_plus`` is the slave (it carries the multipliers) and
 ``crack_minus`` the master of a dual-mortar interface solved by the PDAS
 :class:`~bonecontact.contact.pdas.ContactSolver` (non-penetration, frictionless or
-Coulomb).  The contact interface needs slave and master surfaces without common nodes,
-so the slave facets touching a tip (where both faces share the node) are left out: the
-last element at each tip carries no contact constraint.
+Coulomb).  The whole faces form the pair.  The tip node belongs to both faces; it
+carries no multiplier (``shared_nodes="no_multiplier"`` of
+:func:`~bonecontact.contact.interface.build_interface`: the dual basis is modified there
+as at a Dirichlet node, so the multiplier of the tip's neighbour covers the whole tip
+facet) and is a master node only — the jump of the displacement across the faces
+vanishes at the tip by construction.
 
-:func:`face_traction` turns the multipliers of a solve into a P1 traction field on both
+:func:`face_traction` turns the multipliers of a solve into P1 traction fields on the two
 faces, the input of the face term of
 :func:`~bonecontact.fracture.sif.interaction_integral`.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +34,7 @@ from bonecontact.mechanics.model import Mechanics
 __all__ = [
     "MASTER_TAG",
     "SLAVE_TAG",
+    "FaceTraction",
     "contact_tags",
     "crack_face_solver",
     "face_interface",
@@ -39,28 +45,14 @@ __all__ = [
 SLAVE_TAG, MASTER_TAG = 1, 2
 
 
-def _tip_vertices(cm: CrackedMesh) -> npt.NDArray[np.int32]:
-    tips = [cm.crack.tip(e) for e in cm.crack.tip_ends]
-    tol = 1e-9 * float(np.ptp(cm.outline, axis=0).max())
-    return mesh.locate_entities(
-        cm.mesh,
-        0,
-        lambda x: np.logical_or.reduce([np.hypot(x[0] - t[0], x[1] - t[1]) <= tol for t in tips]),
-    )
-
-
 def contact_tags(cm: CrackedMesh) -> mesh.MeshTags:
-    """Facet markers of the pair: slave = ``crack_plus`` without the tip facets, master =
-    ``crack_minus``."""
+    """Facet markers of the pair: slave = ``crack_plus``, master = ``crack_minus`` (whole
+    faces; the shared tip node carries no multiplier, see the module docstring)."""
     msh = cm.mesh
-    msh.topology.create_connectivity(1, 0)
-    f2v = msh.topology.connectivity(1, 0)
-    tipv = _tip_vertices(cm)
     plus, minus = (cm.facet_tags.find(t) for t in cm.face_tags)
-    keep = np.array([not np.isin(f2v.links(f), tipv).any() for f in plus], dtype=bool)
-    ent = np.concatenate([plus[keep], minus]).astype(np.int32)
+    ent = np.concatenate([plus, minus]).astype(np.int32)
     val = np.concatenate(
-        [np.full(int(keep.sum()), SLAVE_TAG, np.int32), np.full(minus.size, MASTER_TAG, np.int32)]
+        [np.full(plus.size, SLAVE_TAG, np.int32), np.full(minus.size, MASTER_TAG, np.int32)]
     )
     order = np.argsort(ent)
     return mesh.meshtags(msh, 1, ent[order], val[order])
@@ -72,7 +64,13 @@ def face_interface(model: Mechanics, cm: CrackedMesh, name: str = "crack") -> Co
     if cm.crack is None:
         raise ValueError("the mesh has no crack")
     return build_interface(
-        model.V, contact_tags(cm), SLAVE_TAG, MASTER_TAG, dirichlet_dofs=model.bc_dofs(), name=name
+        model.V,
+        contact_tags(cm),
+        SLAVE_TAG,
+        MASTER_TAG,
+        dirichlet_dofs=model.bc_dofs(),
+        name=name,
+        shared_nodes="no_multiplier",
     )
 
 
@@ -94,15 +92,31 @@ def crack_face_solver(
     return ContactSolver(model.V, [face_interface(model, cm)], opts)
 
 
+class FaceTraction(NamedTuple):
+    """The traction on each crack face (Pa): P1 functions, ``plus`` on the nodes of
+    ``crack_plus`` and ``minus`` on those of ``crack_minus``; both hold the shared tip node
+    with the value of their own face."""
+
+    plus: fem.Function
+    minus: fem.Function
+
+
 def face_traction(
-    V: fem.FunctionSpace, itf: ContactInterface, result: PDASResult, k: int = 0
-) -> fem.Function:
-    """P1 traction on both crack faces from the multipliers of pair ``k`` (Pa).
+    V: fem.FunctionSpace,
+    itf: ContactInterface,
+    result: PDASResult,
+    k: int = 0,
+    tips: npt.ArrayLike = (),
+) -> FaceTraction:
+    """P1 traction on the two crack faces from the multipliers of pair ``k`` (Pa).
 
     On a slave node the traction on the face is −(λ_n n + λ_t t) (n, t the slave normal
     and tangent; λ_n > 0 a pressure); the coincident master node carries the opposite.
-    The slave data are gathered (a face is small), so every rank fills its owned and
-    ghost dofs without a scatter.
+    At a tip (``tips``: their coordinates) the node carries no multiplier; the modified
+    dual basis of its neighbour is 1 on the whole tip facet, so the multiplier there is
+    the neighbour's: the tip node gets the traction of the nearest slave node (in
+    ``plus``) and its opposite (in ``minus``).  The slave data are gathered (a face is
+    small), so every rank fills its owned and ghost dofs without a scatter.
     """
     comm = V.mesh.comm
     bs = V.dofmap.index_map_bs
@@ -111,25 +125,30 @@ def face_traction(
     t = -(lam_n[:, None] * itf.normals + np.einsum("nk,nkd->nd", lam_t, itf.tangents))
     rows = np.column_stack([itf.global_blocks.astype(float), itf.coords[:, :bs], t])
     rows = np.concatenate(comm.allgather(rows))
-    f = fem.Function(V, name="crack_face_traction")
+    plus = fem.Function(V, name="crack_face_traction_plus")
+    minus = fem.Function(V, name="crack_face_traction_minus")
     if rows.size == 0:
-        return f
+        return FaceTraction(plus, minus)
     im = V.dofmap.index_map
     n_local = im.size_local + im.num_ghosts
     gblocks = im.local_to_global(np.arange(n_local, dtype=np.int32))
-    values = f.x.array.reshape(-1, bs)
+    vp, vm = plus.x.array.reshape(-1, bs), minus.x.array.reshape(-1, bs)
     slave_g = rows[:, 0].astype(np.int64)
     is_slave = np.isin(gblocks, slave_g)
     pos = {g: i for i, g in enumerate(slave_g)}
     for b in np.flatnonzero(is_slave):
-        values[b] = rows[pos[int(gblocks[b])], 1 + bs :]
+        vp[b] = rows[pos[int(gblocks[b])], 1 + bs :]
     # master nodes: the other node at the same point
     x = V.tabulate_dof_coordinates()[:, :bs]
-    scale = float(np.ptp(x, axis=0).max()) if x.size else 1.0
-    key = lambda p: tuple(np.round(p / (1e-9 * max(scale, 1e-300))).astype(np.int64))  # noqa: E731
+    scale = float(np.ptp(rows[:, 1 : 1 + bs], axis=0).max()) or 1.0
+    key = lambda p: tuple(np.round(p / (1e-9 * scale)).astype(np.int64))  # noqa: E731
     at = {key(r[1 : 1 + bs]): r[1 + bs :] for r in rows}
     for b in np.flatnonzero(~is_slave):
         tr = at.get(key(x[b]))
         if tr is not None:
-            values[b] = -tr
-    return f
+            vm[b] = -tr
+    for tip in np.asarray(tips, dtype=float).reshape(-1, bs):
+        nearest = rows[np.argmin(np.linalg.norm(rows[:, 1 : 1 + bs] - tip, axis=1)), 1 + bs :]
+        for b in np.flatnonzero(np.linalg.norm(x - tip, axis=1) <= 1e-9 * scale):
+            vp[b], vm[b] = nearest, -nearest
+    return FaceTraction(plus, minus)

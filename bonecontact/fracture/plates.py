@@ -22,9 +22,10 @@ import numpy as np
 import ufl
 from dolfinx import fem, mesh
 
+from bonecontact.contact.interface import ContactInterface
 from bonecontact.contact.pdas import PDASResult
 from bonecontact.fracture.crack import Crack2D
-from bonecontact.fracture.faces import crack_face_solver, face_traction
+from bonecontact.fracture.faces import FaceTraction, crack_face_solver, face_traction
 from bonecontact.fracture.meshing import CrackedMesh, Hole, TipMesh, mesh_cracked_body
 from bonecontact.fracture.sif import plane_stress_equivalent
 from bonecontact.fracture.williams import PlaneState
@@ -74,9 +75,11 @@ class PlateSolution:
     u: fem.Function
     potential: float
     #: P1 traction on the crack faces (contact multipliers or the face pressure), or None
-    face_traction: fem.Function | ufl.core.expr.Expr | None = None
+    face_traction: FaceTraction | ufl.core.expr.Expr | None = None
     #: the PDAS result of a run with crack-face contact
     contact: PDASResult | None = None
+    #: the crack faces' contact interface of that run
+    contact_interface: ContactInterface | None = None
 
 
 def _corner_facets(cm: CrackedMesh, corner: np.ndarray) -> np.ndarray:
@@ -148,7 +151,8 @@ def solve_plate(
     integ.step()
     result = integ.last_contact
     if solver is not None:
-        face = face_traction(m.V, solver.interfaces[0], result)
+        tips = [cm.crack.tip(e) for e in cm.crack.tip_ends]
+        face = face_traction(m.V, solver.interfaces[0], result, 0, tips)
     u = fem.Function(m.V, name="displacement")
     u.x.array[:] = integ.u.x.array
     integ.destroy()
@@ -161,7 +165,8 @@ def solve_plate(
         for n, t in tractions.items()
     )
     work = cm.mesh.comm.allreduce(work, op=MPI.SUM)
-    return PlateSolution(cm, m, u, -0.5 * work, face, result)
+    itf = solver.interfaces[0] if solver is not None else None
+    return PlateSolution(cm, m, u, -0.5 * work, face, result, itf)
 
 
 def solve_tension(

@@ -222,12 +222,13 @@ def _with_face_terms(cm, end, d, const, t, du1, quadrature_degree, integrand, J_
     g = (const["kappa"] + 1) / (4 * const["mu"] * ufl.sqrt(2 * np.pi * r))
     dua1 = -g * (const["k1"] * e2 + const["k2"] * e1)  # on the e2 side; opposite on the other
     e2_side, other = cm.face_tags if end == -1 else cm.face_tags[::-1]
-    faces = ds(e2_side) + ds(other)
-    face_term = ufl.dot(t, dua1) * d.q * ds(e2_side) - ufl.dot(t, dua1) * d.q * ds(other)
-    return (
-        integrand * d.dx - face_term,
-        J_integrand - ufl.dot(t, du1) * d.q * faces,
-    )
+    if isinstance(t, tuple):  # one traction field per face (FaceTraction: plus, minus)
+        t_e2, t_other = t if end == -1 else t[::-1]
+    else:
+        t_e2 = t_other = t
+    face_term = ufl.dot(t_e2, dua1) * d.q * ds(e2_side) - ufl.dot(t_other, dua1) * d.q * ds(other)
+    J_face = ufl.dot(t_e2, du1) * d.q * ds(e2_side) + ufl.dot(t_other, du1) * d.q * ds(other)
+    return integrand * d.dx - face_term, J_integrand - J_face
 
 
 def _total_compiled(form: fem.Form, comm: MPI.Comm) -> float:
@@ -243,7 +244,7 @@ def interaction_integral(
     r_in: float | None = None,
     plane: PlaneState = "strain",
     quadrature_degree: int = 4,
-    face_traction: ufl.core.expr.Expr | None = None,
+    face_traction: ufl.core.expr.Expr | tuple | None = None,
 ) -> SIFResult:
     """K_I, K_II and J at a tip by the domain interaction integral.
 
@@ -269,8 +270,10 @@ def interaction_integral(
     quadrature_degree
         Quadrature of the ring cells (the auxiliary fields are not polynomials).
     face_traction
-        The traction t (Pa, a UFL vector on the crack faces, e.g. ``-p * FacetNormal`` or
-        a P1 function holding the contact tractions of both faces): adds the face term
+        The traction t (Pa): a UFL vector on the crack faces (e.g. ``-p * FacetNormal``),
+        or the contact tractions of the two faces
+        (:class:`~bonecontact.fracture.faces.FaceTraction`, one P1 field per face, so
+        that the shared tip node has the value of each face): adds the face term
         −∫ t·∂u^a/∂x₁ q ds.  ``None``: traction-free faces.  (σ(u)n of the cells along
         the faces is no substitute: P1 stresses next to the tip are far off.)
 

@@ -235,7 +235,8 @@ def evaluate_tips(
     k_pair = len(sm.interfaces) - 1
     face = None
     if result is not None:
-        face = face_traction(sm.model.V, sm.interfaces[k_pair], result, k_pair)
+        tips = [crack.tip(e) for e in crack.tip_ends]
+        face = face_traction(sm.model.V, sm.interfaces[k_pair], result, k_pair, tips)
     records = []
     for end in crack.tip_ends:
         r_out = _radius(crack, end, run)

@@ -7,9 +7,13 @@ Coulomb friction μ (fixed-point bound).  Closed form (σ_n = |σ|cos²β, τ = 
 K_I = 0, |K_II| = √(πa)(τ − μσ_n) when τ > μσ_n, 0 when the faces stick.
 The interaction integral includes the crack-face term with the contact tractions.
 
-Measured (tip size a/80): |K_II|/reference 1.012 (β = 30°, μ = 0.3, slip), 1.007
-(45°, 0.3), 0.998 (45°, frictionless); stick (15°, 0.3): |K_II| = 0.4 % of |σ|√(πa);
-|K_I| ≤ 1.5 % of |σ|√(πa) (the last element at each tip carries no contact constraint).
+The whole faces are in the pair: the tip node, shared by the faces, carries no multiplier
+and the modified dual basis of its neighbour covers the tip facet; the face traction of the
+integral has the neighbour's multiplier at the tip, on each face.
+Measured (tip size a/80): |K_II|/reference 0.999 (β = 30°, μ = 0.3, slip), 1.002
+(45°, 0.3), 0.998 (45°, frictionless); stick (15°, 0.3): |K_II| = 0.1 % of |σ|√(πa);
+|K_I| ≤ 0.6 % of |σ|√(πa).  (With the tip facets left out of the pair, as before:
+1.012, 1.007, 0.998; 0.4 %; |K_I| ≤ 1.5 %.)
 Also: the pressurised crack K_I = p√(πa) with the face term (−0.5 %).
 """
 
@@ -60,11 +64,11 @@ def test_closed_crack_under_compression(beta, mu, status):
     assert n_state == COMM.allreduce(int(res.status[0].size), op=MPI.SUM) > 0
     for r_out in (0.2 * A, 0.4 * A):
         k = interaction_integral(sol.u, sol.cm, -1, MAT, r_out, face_traction=sol.face_traction)
-        assert abs(k.K_I) < 0.03 * k0
+        assert abs(k.K_I) < 0.01 * k0
         if expected > 0:
-            assert abs(k.K_II) == pytest.approx(expected, rel=3e-2)
+            assert abs(k.K_II) == pytest.approx(expected, rel=1e-2)
         else:
-            assert abs(k.K_II) < 0.03 * k0 * tau
+            assert abs(k.K_II) < 0.01 * k0 * tau
 
 
 def test_pressurised_crack_face_term():

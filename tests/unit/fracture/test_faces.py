@@ -36,35 +36,62 @@ def closed():
     return solve_plate(cm, MAT, {"edge2": (0.0, -1e6), "edge0": (0.0, 1e6)}, face_contact=True)
 
 
-def test_pair_leaves_out_the_tip_facets(closed):
+def test_pair_holds_the_whole_faces(closed):
+    """Both faces are in the pair up to the tips; the tip node (shared by the faces)
+    carries no multiplier, every other slave node does."""
     cm = closed.cm
     tags = contact_tags(cm)
     ds = ufl.Measure("ds", domain=cm.mesh, subdomain_data=tags)
     slave, master = total(1.0 * ds(SLAVE_TAG)), total(1.0 * ds(MASTER_TAG))
     assert master == pytest.approx(2 * A, rel=1e-12)
-    # two tip facets of about h_tip each are left out of the slave side
-    assert 2 * A - 2 * 1.5 * H_TIP < slave < 2 * A - 2 * 0.5 * H_TIP
+    assert slave == pytest.approx(2 * A, rel=1e-12)
+    itf = closed.contact_interface
+    tips = [cm.crack.tip(e) for e in cm.crack.tip_ends]
+    at_tip = [np.linalg.norm(itf.coords[:, :2] - t, axis=1).min(initial=1.0) for t in tips]
+    assert COMM.allreduce(min(at_tip), op=MPI.MIN) > 0.5 * H_TIP  # no multiplier at a tip
+    plus = cm.facet_tags.find(cm.face_tags[0])
+    n_plus_nodes = COMM.allreduce(int(plus[plus < cm.mesh.topology.index_map(1).size_local].size))
+    assert COMM.allreduce(itf.num_owned) == n_plus_nodes - 1  # n facets: n + 1 nodes, 2 tips
 
 
 def test_face_traction_is_the_normal_stress_on_the_crack_plane(closed):
-    """Frictionless: t = -sigma_n n on both faces, sigma_n = |sigma| cos^2(30 deg)."""
+    """Frictionless: t = -sigma_n n on both faces, sigma_n = |sigma| cos^2(30 deg), up
+    to the tips."""
     cm, t = closed.cm, closed.face_traction
     ds = ufl.Measure("ds", domain=cm.mesh, subdomain_data=cm.facet_tags)
     n = ufl.FacetNormal(cm.mesh)
     e1 = ufl.as_vector([math.cos(math.pi / 6), math.sin(math.pi / 6)])
     sn = 1e6 * math.cos(math.pi / 6) ** 2
-    for tag in cm.face_tags:
+    for tag, tf in zip(cm.face_tags, t, strict=True):
         length = total(1.0 * ds(tag))
-        assert total(ufl.dot(t, n) * ds(tag)) / length == pytest.approx(-sn, rel=2e-2)
-        assert abs(total(ufl.dot(t, e1) * ds(tag))) / length < 1e-9 * sn
-    # action and reaction: coincident face nodes carry opposite tractions
-    x = t.function_space.tabulate_dof_coordinates()[:, :2]
-    vals = t.x.array.reshape(-1, 2)
-    loaded = np.linalg.norm(vals, axis=1) > 0
+        assert total(ufl.dot(tf, n) * ds(tag)) / length == pytest.approx(-sn, rel=1e-2)
+        assert abs(total(ufl.dot(tf, e1) * ds(tag))) / length < 1e-9 * sn
+    # action and reaction: coincident face nodes carry opposite tractions, the tips too
+    x = t.plus.function_space.tabulate_dof_coordinates()[:, :2]
+    vp, vm = t.plus.x.array.reshape(-1, 2), t.minus.x.array.reshape(-1, 2)
     pts = {}
-    for p, v in zip(map(tuple, np.round(x[loaded] / 1e-12).astype(np.int64)), vals[loaded]):
-        pts.setdefault(p, []).append(v)
+    for vals in (vp, vm):
+        loaded = np.linalg.norm(vals, axis=1) > 0
+        keys = map(tuple, np.round(x[loaded] / 1e-12).astype(np.int64))
+        for p, v in zip(keys, vals[loaded], strict=True):
+            pts.setdefault(p, []).append(v)
     pairs = [v for v in pts.values() if len(v) == 2]
     assert COMM.allreduce(len(pairs), op=MPI.SUM) > 0
+    for tip in (cm.crack.tip(e) for e in cm.crack.tip_ends):  # its traction on each face
+        at_tip = np.flatnonzero(np.linalg.norm(x - tip, axis=1) < 1e-12)
+        for b in at_tip:
+            assert np.dot(vp[b], -vm[b]) > 0.75 * sn**2  # the neighbour: 0.87 sn
     for a, b in pairs:
         np.testing.assert_allclose(a, -b, rtol=1e-12, atol=1e-9)
+
+
+def test_shared_tip_is_refused_unless_asked(closed):
+    """Two surfaces with a common node are refused by default (separate bodies must not
+    share nodes); the crack faces ask for ``shared_nodes="no_multiplier"``."""
+    from bonecontact.contact.interface import ContactInputError, build_interface
+
+    cm = closed.cm
+    with pytest.raises(ContactInputError, match="share nodes"):
+        build_interface(closed.model.V, contact_tags(cm), SLAVE_TAG, MASTER_TAG)
+    with pytest.raises(ValueError, match="shared_nodes"):
+        build_interface(closed.model.V, contact_tags(cm), SLAVE_TAG, MASTER_TAG, shared_nodes="yes")

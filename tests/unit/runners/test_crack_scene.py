@@ -270,3 +270,22 @@ def test_crack_near_the_edge_fractures_the_plate(mesh: Path, tmp_path: Path) -> 
     rows = _rows(out)
     assert {r["status"] for r in rows if r["time"] == "0.5"} == {"holds"}
     assert rows[-1]["status"] == "fractured" or rows[-2]["status"] == "fractured"
+
+
+def test_closed_crack_propagates_in_shear(mesh: Path, tmp_path: Path) -> None:
+    """Frictionless 45° crack under compression, one increment: the faces stay closed
+    (K_I ≈ 0, no interpenetration before and after the increment) and the tips kink by
+    the MTS angle of pure mode II, ∓70.53°."""
+    extra = "[fracture]\npropagate = true\nincrement = 0.001\nmax_increments = 1\n"
+    scene = _scene(tmp_path, mesh, "shear", INCLINED, sigma=-SIGMA, K_Ic=1.0e4, extra=extra)
+    out = _run(scene, tmp_path / "out")
+    rows = _rows(out)
+    k0 = SIGMA * math.sqrt(math.pi * A_INCL)
+    for r in rows[:2]:
+        assert abs(_f(r, "K_I")) < 3e-2 * k0
+        assert abs(_f(r, "K_II")) == pytest.approx(0.5 * k0, rel=3e-2)
+        assert abs(_f(r, "angle_deg")) == pytest.approx(70.53, abs=1.0)
+        assert r["status"] == "grows"
+    assert [r["status"] for r in rows[2:]] == ["max_increments"] * 2
+    nodes = list(csv.DictReader(open(out / "contact_c.csv")))  # the state after the increment
+    assert min(float(n["gap"]) for n in nodes) > -1e-9 * A_INCL
