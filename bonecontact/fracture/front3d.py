@@ -1,0 +1,595 @@
+"""Stress intensity factors along the front of a planar crack in 3D
+(docs/theory/fracture.md#3d-crack-fronts).
+
+* :class:`EllipticalFront` — a penny-shaped (a = b) or elliptical crack front in the plane
+  z = z₀: points, the local front frame (e₁ in the crack plane normal to the front, pointing
+  ahead; e₂ the crack-plane normal; e₃ = e₁ × e₂ along the front) and arc length.
+* :func:`mesh_crack_octant` — one eighth of a block with the crack at its centre, the three
+  symmetry planes as boundaries (x = 0, y = 0 and the crack plane z = 0: the crack face is
+  the part of z = 0 inside the front, the ligament the rest), graded by gmsh towards the
+  front.  Valid for loads symmetric about the three planes (mode I only).
+* :func:`front_interaction_integral` — K_I (and K_II, K_III on a model with both crack faces)
+  at one front point by the 3D domain interaction integral: plane-strain Williams fields and
+  the anti-plane field of the tangent line at the point as auxiliary fields, a q-function
+  that is a ring around the front times a plateau along it, normalised by ∫ q ds along the
+  front.
+* :func:`front_displacement_correlation` — K_I from the crack-face opening near the point
+  (the cheap cross-check).
+* :func:`penny_k`, :func:`irwin_k` — the closed forms under remote tension σ normal to the
+  crack: K_I = 2σ√(a/π) (penny), Irwin's K_I(φ) (ellipse).
+
+The auxiliary fields are those of a straight front (the tangent line at the point); the
+curvature of the real front is not corrected for, so the domain must be small against the
+front's radius of curvature (b²/a at the ends of the major axis).  One homogeneous isotropic
+material; traction-free crack faces.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import nullcontext
+from dataclasses import dataclass, field
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import default_scalar_type, fem, mesh
+from dolfinx.io.gmsh import model_to_mesh
+from scipy.special import ellipe
+
+from bonecontact.fracture.crack import FractureError
+from bonecontact.fracture.williams import elastic_constants
+from bonecontact.materials.laws import Isotropic
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.meshing.session import gmsh_session
+
+__all__ = [
+    "OCTANT_GROUPS",
+    "CrackBlock",
+    "EllipticalFront",
+    "FrontSIF",
+    "front_displacement_correlation",
+    "front_interaction_integral",
+    "irwin_k",
+    "mesh_crack_octant",
+    "penny_k",
+]
+
+#: Boundary groups of :func:`mesh_crack_octant` (facet tags).
+OCTANT_GROUPS = {
+    "crack": 2,
+    "ligament": 3,
+    "sym_x": 4,
+    "sym_y": 5,
+    "top": 6,
+    "side_x": 7,
+    "side_y": 8,
+}
+_SAMPLES = 4096  # points of the discretised front (geometry of q and of the normalisation)
+
+
+# ------------------------------------------------------------------- closed forms
+def penny_k(sigma: float, a: float) -> float:
+    """K_I = 2σ√(a/π) of a penny-shaped crack of radius ``a`` under remote tension σ."""
+    return 2.0 * sigma * math.sqrt(a / math.pi)
+
+
+def irwin_k(sigma: float, a: float, b: float, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Irwin's K_I of an elliptical crack (semi-axes a ≥ b) under remote tension σ.
+
+    K_I(φ) = σ√(πb)/E(k) · (sin²φ + (b/a)² cos²φ)^¼, k² = 1 − b²/a², at the front point
+    (a cos φ, b sin φ); E the complete elliptic integral of the second kind.
+    """
+    if not (a >= b > 0):
+        raise FractureError("b", f"need a >= b > 0, got a={a}, b={b}")
+    phi = np.asarray(phi, dtype=float)
+    E = ellipe(1.0 - (b / a) ** 2)  # scipy's argument is m = k²
+    return (
+        sigma
+        * math.sqrt(math.pi * b)
+        / E
+        * (np.sin(phi) ** 2 + (b / a) ** 2 * np.cos(phi) ** 2) ** 0.25
+    )
+
+
+# ------------------------------------------------------------------------ the front
+@dataclass(frozen=True)
+class EllipticalFront:
+    """The front of a planar elliptical crack x = c + (a cos φ, b sin φ, 0) (a = b: penny).
+
+    Parameters
+    ----------
+    a, b
+        Semi-axes along x and y (m), a ≥ b > 0.
+    centre
+        Centre of the crack (m); the crack plane is z = centre[2].
+    """
+
+    a: float
+    b: float
+    centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for key in ("a", "b"):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise FractureError(key, f"must be a positive number, got {v!r}")
+        if self.b > self.a:
+            raise FractureError(
+                "b", f"the semi-axis along y must not exceed a, got b={self.b} > a={self.a}"
+            )
+
+    def point(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Front points at parameters ``phi``, shape (n, 3)."""
+        phi = np.atleast_1d(np.asarray(phi, dtype=float))
+        c = np.asarray(self.centre, dtype=float)
+        return c + np.column_stack([self.a * np.cos(phi), self.b * np.sin(phi), 0 * phi])
+
+    def frame(self, phi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(e₁, e₂, e₃) at ``phi``: e₁ the outward in-plane normal of the front (ahead of
+        the crack), e₂ = +z (the crack-plane normal), e₃ = e₁ × e₂ (along the front)."""
+        n = np.array([self.b * math.cos(phi), self.a * math.sin(phi), 0.0])
+        e1 = n / np.linalg.norm(n)
+        e2 = np.array([0.0, 0.0, 1.0])
+        return e1, e2, np.cross(e1, e2)
+
+    def radius_of_curvature(self, phi: float) -> float:
+        """ρ(φ) = (a² sin²φ + b² cos²φ)^{3/2}/(ab) (m)."""
+        s, c = math.sin(phi), math.cos(phi)
+        return (self.a**2 * s * s + self.b**2 * c * c) ** 1.5 / (self.a * self.b)
+
+    def samples(self, n: int = _SAMPLES) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(φ, points (n, 3), cumulative arc length from φ = 0) of a dense closed sampling."""
+        phi = np.linspace(0.0, 2 * math.pi, n + 1)
+        pts = self.point(phi)
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+        return phi[:-1], pts[:-1], s[:-1]
+
+    @property
+    def perimeter(self) -> float:
+        """Length of the whole front (m)."""
+        return 4.0 * self.a * float(ellipe(1.0 - (self.b / self.a) ** 2))
+
+
+# ------------------------------------------------------------------------- meshing
+@dataclass
+class CrackBlock:
+    """A meshed block with a planar crack (one octant, see :func:`mesh_crack_octant`).
+
+    Attributes
+    ----------
+    mesh, cell_tags, facet_tags
+        The DOLFINx mesh and markers (cells: tag 1; facets: :data:`OCTANT_GROUPS`).
+    front
+        The crack front.
+    groups
+        Facet group name → tag.
+    half_model
+        The crack plane is a symmetry plane of the model (only one face is meshed).
+    """
+
+    mesh: mesh.Mesh
+    cell_tags: mesh.MeshTags
+    facet_tags: mesh.MeshTags
+    front: EllipticalFront
+    groups: dict[str, int] = field(default_factory=lambda: dict(OCTANT_GROUPS))
+    half_model: bool = True
+
+
+def _classify_surfaces(
+    front: EllipticalFront, W: float, H: float, tol: float
+) -> dict[str, list[int]]:
+    names: dict[str, list[int]] = {}
+    for _, tag in gmsh.model.getEntities(2):
+        x, y, z = gmsh.model.occ.getCenterOfMass(2, tag)
+        if abs(z) < tol:
+            inside = (x / front.a) ** 2 + (y / front.b) ** 2 < 1.0
+            name = "crack" if inside else "ligament"
+        elif abs(x) < tol:
+            name = "sym_x"
+        elif abs(y) < tol:
+            name = "sym_y"
+        elif abs(z - H) < tol:
+            name = "top"
+        elif abs(x - W) < tol:
+            name = "side_x"
+        elif abs(y - W) < tol:
+            name = "side_y"
+        else:
+            raise MeshingError(f"surface {tag} at {(x, y, z)} belongs to no block face")
+        names.setdefault(name, []).append(tag)
+    return names
+
+
+def _front_curves(front: EllipticalFront, tol: float) -> list[int]:
+    """The elliptic arc: the curve in z = 0 off both symmetry planes, inside the front's box."""
+    out = []
+    for _, tag in gmsh.model.getEntities(1):
+        x, y, z = gmsh.model.occ.getCenterOfMass(1, tag)
+        if abs(z) < tol and tol < x < front.a and tol < y < front.b:
+            out.append(tag)
+    if len(out) != 1:
+        raise MeshingError(f"expected one front curve, found {len(out)}")
+    return out
+
+
+def _build_octant(
+    front: EllipticalFront, W: float, H: float, h_front: float, grading: float, h_max: float
+) -> None:
+    occ = gmsh.model.occ
+    tol = 1e-7 * W
+    box = occ.addBox(0, 0, 0, W, W, H)
+    disk = occ.addDisk(0, 0, 0, front.a, front.b)
+    rect = occ.addRectangle(0, 0, 0, W, W)
+    quarter, _ = occ.intersect([(2, disk)], [(2, rect)])
+    occ.fragment([(3, box)], quarter)
+    occ.synchronize()
+    vols = [t for _, t in gmsh.model.getEntities(3)]
+    gmsh.model.addPhysicalGroup(3, vols, 1, name="body")
+    for name, tags in _classify_surfaces(front, W, H, tol).items():
+        gmsh.model.addPhysicalGroup(2, tags, OCTANT_GROUPS[name], name=name)
+    fld = gmsh.model.mesh.field
+    d = fld.add("Distance")
+    fld.setNumbers(d, "CurvesList", _front_curves(front, tol))
+    fld.setNumber(d, "Sampling", max(50, int(2.0 * front.perimeter / 4 / h_front)))
+    f = fld.add("MathEval")
+    fld.setString(f, "F", f"Min({h_front!r} + {grading!r}*F{d}, {h_max!r})")
+    fld.setAsBackgroundMesh(f)
+    for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{opt}", 0)
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT
+    gmsh.model.mesh.generate(3)
+
+
+def mesh_crack_octant(
+    front: EllipticalFront,
+    half_size: float,
+    h_front: float,
+    grading: float = 0.3,
+    h_max: float | None = None,
+    comm: MPI.Comm | None = None,
+    half_height: float | None = None,
+) -> CrackBlock:
+    """Mesh the octant x, y, z ≥ 0 of the block [−W, W]² × [−H, H] with the crack at its centre.
+
+    Parameters
+    ----------
+    front
+        The crack (centre at the origin).
+    half_size, half_height
+        W and H (m); H defaults to W.  The crack must fit: a < W.
+    h_front, grading, h_max
+        Element size at the front, its growth per unit distance from the front and the
+        largest size (default W/4).
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``); gmsh runs on rank 0.
+
+    Returns
+    -------
+    CrackBlock
+        Facet groups: ``crack`` (z = 0 inside the front: the traction-free face),
+        ``ligament`` (z = 0 outside it), ``sym_x`` (x = 0), ``sym_y`` (y = 0), ``top``
+        (z = H), ``side_x`` (x = W), ``side_y`` (y = W).
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    W = float(half_size)
+    H = W if half_height is None else float(half_height)
+    if any(abs(c) > 0 for c in front.centre):
+        raise FractureError("centre", "the octant model needs the crack centred at the origin")
+    if not (front.a < W and front.b < H):
+        raise FractureError(
+            "half_size", f"the crack (a={front.a}) must lie inside the block (W={W})"
+        )
+    for key, v in (("h_front", h_front), ("grading", grading)):
+        if not (math.isfinite(v) and v > 0):
+            raise FractureError(key, f"must be a positive number, got {v!r}")
+    h_max = W / 4 if h_max is None else float(h_max)
+    error = None
+    with gmsh_session("crack_octant") if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                _build_octant(front, W, H, h_front, grading, h_max)
+            except Exception as exc:  # reported on every rank below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            raise MeshingError(f"crack octant: {error}")
+        md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
+    return CrackBlock(md.mesh, md.cell_tags, md.facet_tags, front)
+
+
+# ------------------------------------------------------------ the interaction integral
+@dataclass(frozen=True)
+class FrontSIF:
+    """Stress intensity factors at one front point.
+
+    Attributes
+    ----------
+    phi
+        Front parameter of the point.
+    point, e1
+        The point (m) and the in-plane direction ahead of the front.
+    K_I, K_II, K_III
+        Pa·√m (``nan`` where the model cannot give them: K_II, K_III of a half model).
+    G
+        (K_I² + K_II²)(1 − ν²)/E + K_III²/(2μ) (J/m²), with the available modes.
+    method
+        ``"interaction"`` or ``"displacement"``.
+    """
+
+    phi: float
+    point: tuple[float, float, float]
+    e1: tuple[float, float, float]
+    K_I: float
+    K_II: float
+    K_III: float
+    G: float
+    method: str
+
+
+def _front_coordinates(
+    front: EllipticalFront, x: np.ndarray, phi0: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance r of points ``x`` (n, 3) to the front and the arc length s of their nearest
+    front point measured from the point φ₀ (wrapped to (−P/2, P/2])."""
+    _, pts, s_all = front.samples()
+    per = front.perimeter
+    s0 = float(
+        np.interp(phi0 % (2 * math.pi), np.linspace(0, 2 * math.pi, _SAMPLES + 1)[:-1], s_all)
+    )
+    r = np.empty(len(x))
+    s = np.empty(len(x))
+    for lo in range(0, len(x), 2048):
+        d = np.linalg.norm(x[lo : lo + 2048, None, :] - pts[None, :, :], axis=2)
+        k = np.argmin(d, axis=1)
+        r[lo : lo + 2048] = d[np.arange(len(k)), k]
+        s[lo : lo + 2048] = s_all[k]
+    s = (s - s0 + 0.5 * per) % per - 0.5 * per
+    return r, s
+
+
+def _q_values(front, x, phi0, r_in, r_out, l_in, l_out) -> np.ndarray:
+    r, s = _front_coordinates(front, x, phi0)
+    ring = np.clip((r_out - r) / (r_out - r_in), 0.0, 1.0)
+    along = np.clip((l_out - np.abs(s)) / (l_out - l_in), 0.0, 1.0)
+    return ring * along
+
+
+def _q_function(V1: fem.FunctionSpace, front, phi0, r_in, r_out, l_in, l_out, p0) -> fem.Function:
+    """The P1 q-function; evaluated only at nodes near the point (zero elsewhere)."""
+    q = fem.Function(V1)
+    x = V1.tabulate_dof_coordinates()
+    near = np.linalg.norm(x - p0, axis=1) <= r_out + l_out + 1e-9 * (r_out + l_out)
+    vals = np.zeros(len(x))
+    if near.any():
+        vals[near] = _q_values(front, x[near], phi0, r_in, r_out, l_in, l_out)
+    q.x.array[:] = vals
+    return q
+
+
+def _normalisation(front, block_min, block_max, phi0, e1_0, l_in, l_out) -> float:
+    """∫ q (e₁(φ₀)·e₁(s)) ds along the part of the front inside the model's bounding box."""
+    phi, pts, _ = front.samples()
+    tol = 1e-9 * float(np.max(block_max - block_min))
+    inside = np.all((pts >= block_min - tol) & (pts <= block_max + tol), axis=1)
+    _, s = _front_coordinates(front, pts, phi0)
+    along = np.clip((l_out - np.abs(s)) / (l_out - l_in), 0.0, 1.0)
+    e1 = np.column_stack([front.b * np.cos(phi), front.a * np.sin(phi), 0 * phi])
+    e1 /= np.linalg.norm(e1, axis=1)[:, None]
+    ds = np.hypot(front.a * np.sin(phi), front.b * np.cos(phi)) * (2 * math.pi / _SAMPLES)
+    return float(np.sum((along * (e1 @ e1_0) * ds)[inside]))
+
+
+def _check_domain(block: CrackBlock, q: fem.Function) -> np.ndarray:
+    """Owned cells where q > 0; refuse a domain touching an outer boundary other than
+    the crack plane and symmetry planes through the point."""
+    msh = block.mesh
+    tdim = msh.topology.dim
+    n_owned = msh.topology.index_map(tdim).size_local
+    vals = q.x.array[q.function_space.dofmap.list[:n_owned]]
+    support = np.flatnonzero(vals.max(axis=1) > 0).astype(np.int32)
+    outer = [block.groups[k] for k in ("top", "side_x", "side_y") if k in block.groups]
+    facets = np.concatenate([block.facet_tags.find(t) for t in outer]).astype(np.int32)
+    dofs = fem.locate_dofs_topological(q.function_space, tdim - 1, facets)
+    touches = int(np.any(q.x.array[dofs] > 0))
+    if msh.comm.allreduce(touches, op=MPI.MAX):
+        raise FractureError(
+            "r_out", "the integration domain reaches the outer boundary; take a smaller r_out"
+        )
+    return support
+
+
+def _auxiliary_displacement(x, const: dict, rho: float, mu: float, kappa: float):
+    """The near-front field of unit K (``const["k"]`` = (K_I, K_II, K_III)) in the local
+    coordinates of the osculating circle of the front at the point (centre C = p₀ − ρe₁,
+    radius ρ, in the crack plane): x₁ = |x − C|_in-plane − ρ, x₂ = (x − p₀)·e₂, e₁(x) the
+    in-plane direction from C, e₃(x) = e₁(x) × e₂.  Plane-strain Williams displacements
+    (modes I, II) and u₃ = (2K_III/μ)√(r/2π) sin(θ/2) (mode III)."""
+    e2 = const["e2"]
+    d = x - (const["p0"] - rho * const["e1"])
+    dn = ufl.dot(d, e2)
+    d_in = d - dn * e2
+    R = ufl.sqrt(ufl.dot(d_in, d_in))
+    E1 = d_in / R
+    E3 = ufl.cross(E1, e2)
+    x1, x2 = R - rho, dn
+    r = ufl.sqrt(x1**2 + x2**2)
+    th = ufl.atan2(x2, x1)
+    k1, k2, k3 = const["k"][0], const["k"][1], const["k"][2]
+    cc = ufl.sqrt(r / (2 * math.pi)) / (2 * mu)
+    ch, sh = ufl.cos(th / 2), ufl.sin(th / 2)
+    u1 = cc * (k1 * ch * (kappa - 1 + 2 * sh**2) + k2 * sh * (kappa + 1 + 2 * ch**2))
+    u2 = cc * (k1 * sh * (kappa + 1 - 2 * ch**2) - k2 * ch * (kappa - 1 - 2 * sh**2))
+    u3 = 4 * cc * k3 * sh
+    return u1 * E1 + u2 * e2 + u3 * E3
+
+
+def front_interaction_integral(
+    u: fem.Function,
+    block: CrackBlock,
+    phi: float,
+    material: Isotropic,
+    r_out: float,
+    r_in: float | None = None,
+    length: float | None = None,
+    quadrature_degree: int = 4,
+) -> FrontSIF:
+    """K at the front point ``phi`` by the 3D domain interaction integral.
+
+    The virtual extension is q(x) e₁(φ): q = ring(r) · plateau(s), r the distance to the
+    front, s the arc length from the point; ring falls linearly from 1 at ``r_in`` to 0 at
+    ``r_out``, the plateau from 1 at |s| = ``length``/2 to 0 at ``length``.  The auxiliary
+    fields are the plane-strain Williams fields (modes I, II) and the anti-plane field
+    (mode III) of the tangent line at the point, and
+
+        K_I = E′ I_I / 2,  K_II = E′ I_II / 2,  K_III = μ I_III,  E′ = E/(1 − ν²),
+
+    with I = ∫_V [σ:∂u^a/∂x₁ + σ^a:∂u/∂x₁ − σ^a:ε δ₁ⱼ] ∂q/∂xⱼ dV / ∫_front q (e₁·e₁(s)) ds.
+    On a half model (the crack plane a symmetry plane) the volume integral is doubled and
+    only K_I is computed.
+
+    Parameters
+    ----------
+    u
+        Displacement (vector Lagrange on ``block.mesh``).
+    block
+        The meshed body and its front.
+    phi
+        Front parameter of the point.
+    material
+        The homogeneous isotropic material.
+    r_out, r_in, length
+        Domain sizes (m): ``r_in`` defaults to r_out/2, ``length`` (half-length along the
+        front) to r_out.  Keep them small against the radius of curvature of the front.
+    quadrature_degree
+        Quadrature of the ring cells.
+
+    Returns
+    -------
+    FrontSIF
+    """
+    if not isinstance(material, Isotropic):
+        raise FractureError(
+            "material", f"needs a homogeneous isotropic material, got {type(material).__name__}"
+        )
+    r_in = 0.5 * r_out if r_in is None else r_in
+    length = r_out if length is None else length
+    if not (0 <= r_in < r_out) or not length > 0:
+        raise FractureError(
+            "r_out", f"need 0 <= r_in < r_out and length > 0, got {r_in}, {r_out}, {length}"
+        )
+    front, msh = block.front, block.mesh
+    rho = front.radius_of_curvature(phi)
+    if max(r_out, length) > 0.75 * rho:
+        raise FractureError(
+            "r_out",
+            f"the domain (r_out={r_out:g}, length={length:g}) must be smaller than 0.75 times the "
+            f"front's radius of curvature there ({rho:g})",
+        )
+    p0 = front.point(phi)[0]
+    e1, e2, _ = front.frame(phi)
+    V1 = fem.functionspace(msh, ("Lagrange", 1))
+    q = _q_function(V1, front, phi, r_in, r_out, 0.5 * length, length, p0)
+    support = _check_domain(block, q)
+    tags = mesh.meshtags(msh, 3, support, np.ones(support.size, dtype=np.int32))
+    dx = ufl.Measure(
+        "dx", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": quadrature_degree}
+    )(1)
+    boxes = msh.comm.allgather((msh.geometry.x.min(axis=0), msh.geometry.x.max(axis=0)))
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    norm = _normalisation(front, lo, hi, phi, e1, 0.5 * length, length)
+    E, nu = material.E, material.nu
+    mu, lmbda = material.mu, material.lmbda
+    c = elastic_constants(E, nu, "strain")
+    const = {
+        k: fem.Constant(msh, np.asarray(v, dtype=default_scalar_type))
+        for k, v in (("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0)))
+    }
+    x = ufl.SpatialCoordinate(msh)
+    ua = _auxiliary_displacement(x, const, rho, mu, c["kappa"])
+
+    def sigma(v):
+        eps = ufl.sym(ufl.grad(v))
+        return lmbda * ufl.tr(eps) * ufl.Identity(3) + 2 * mu * eps
+
+    s, eps_u, sa = sigma(u), ufl.sym(ufl.grad(u)), sigma(ua)
+    du1 = ufl.dot(ufl.grad(u), const["e1"])
+    dua1 = ufl.dot(ufl.grad(ua), const["e1"])
+    gq = ufl.grad(q)
+    flux = ufl.dot(s, dua1) + ufl.dot(sa, du1) - ufl.inner(sa, eps_u) * const["e1"]
+    # the curved auxiliary field is not in equilibrium: its divergence adds a volume term
+    form = fem.form((ufl.dot(flux, gq) + q * ufl.dot(ufl.div(sa), du1)) * dx)
+    factor = 2.0 if block.half_model else 1.0
+    modes = (
+        ((1.0, 0.0, 0.0),)
+        if block.half_model
+        else ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    )
+    values = []
+    for k in modes:
+        const["k"].value[:] = k
+        values.append(factor * msh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM) / norm)
+    K_I = 0.5 * c["E_prime"] * values[0]
+    K_II, K_III = (
+        (0.5 * c["E_prime"] * values[1], mu * values[2])
+        if len(values) == 3
+        else (math.nan, math.nan)
+    )
+    G = (K_I**2 + (0.0 if math.isnan(K_II) else K_II**2)) / c["E_prime"] + (
+        0.0 if math.isnan(K_III) else K_III**2 / (2 * mu)
+    )
+    return FrontSIF(
+        float(phi), tuple(map(float, p0)), tuple(map(float, e1)), K_I, K_II, K_III, G, "interaction"
+    )
+
+
+# --------------------------------------------------------- displacement correlation
+def front_displacement_correlation(
+    u: fem.Function,
+    block: CrackBlock,
+    phi: float,
+    material: Isotropic,
+    r_max: float,
+    slab: float,
+    skip: float = 0.0,
+) -> FrontSIF:
+    """K_I from the opening of the crack face near the front point ``phi`` (half model).
+
+    Crack-face nodes whose nearest front point lies within arc length ``slab`` of the point
+    and whose distance r to the front is in (``skip``, ``r_max``] give
+    K(r) = μ/(κ + 1) √(2π/r) [u]·e₂ with [u]·e₂ = 2u_z (κ = 3 − 4ν); K(r) is fitted by a
+    straight line in r and taken at r = 0.  P1 elements open too little near the front:
+    a cross-check, some 10 % low.
+    """
+    if not block.half_model:
+        raise FractureError("block", "the displacement correlation here needs the half model")
+    front, msh, V = block.front, block.mesh, u.function_space
+    blocks = fem.locate_dofs_topological(V, 2, block.facet_tags.find(block.groups["crack"]))
+    blocks = blocks[blocks < V.dofmap.index_map.size_local]
+    x = V.tabulate_dof_coordinates()[blocks]
+    uz = u.x.array.reshape(-1, V.dofmap.index_map_bs)[blocks, 2]
+    r, s = _front_coordinates(front, x, phi) if len(x) else (np.zeros(0), np.zeros(0))
+    keep = (np.abs(s) <= slab) & (r > skip) & (r <= r_max)
+    rows = np.concatenate(msh.comm.allgather(np.column_stack([r[keep], uz[keep]])))
+    if len(rows) < 2:
+        raise FractureError("r_max", "needs at least two crack-face nodes near the point")
+    c = elastic_constants(material.E, material.nu, "strain")
+    k = c["mu"] / (c["kappa"] + 1) * np.sqrt(2 * np.pi / rows[:, 0]) * 2 * rows[:, 1]
+    A = np.column_stack([np.ones(len(rows)), rows[:, 0]])
+    K_I = float(np.linalg.lstsq(A, k, rcond=None)[0][0])
+    e1, _, _ = front.frame(phi)
+    p0 = front.point(phi)[0]
+    return FrontSIF(
+        float(phi),
+        tuple(map(float, p0)),
+        tuple(map(float, e1)),
+        K_I,
+        math.nan,
+        math.nan,
+        K_I**2 / c["E_prime"],
+        "displacement",
+    )
