@@ -5,9 +5,16 @@ contact test pairs), :mod:`~bonecontact.meshing.anatomy` the bone sections (long
 knee), :mod:`~bonecontact.meshing.builder` their shared gmsh plumbing,
 :mod:`~bonecontact.meshing.session` the one gmsh session helper of the package and
 :mod:`~bonecontact.meshing.io` the reading of gmsh files into DOLFINx meshes.
+
+Geometry from real data: :mod:`~bonecontact.meshing.surface_repair` reads, checks, repairs
+and remeshes closed bone surfaces (STL scans), :mod:`~bonecontact.meshing.stl` turns one into
+a tetrahedral bone (cortical shell, cancellous core, facet groups selected by region),
+:mod:`~bonecontact.meshing.anatomy_data` loads the shipped bone surfaces and
+:mod:`~bonecontact.meshing.ct` segments CT images and meshes the bone found.
 """
 
 from bonecontact.meshing.anatomy import knee_2d, long_bone_2d
+from bonecontact.meshing.anatomy_data import ANATOMY_SURFACES, anatomy_surface
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.meshing.session import gmsh_session
@@ -22,19 +29,40 @@ from bonecontact.meshing.shapes import (
     two_blocks_2d,
     two_boxes_3d,
 )
+from bonecontact.meshing.stl import SurfaceRegion, bone_from_surface
+from bonecontact.meshing.surface_repair import (
+    MeshInputError,
+    Surface,
+    check_surface,
+    prepare_surface,
+    read_surface,
+    remesh_surface,
+    repair_surface,
+)
 
 __all__ = [
+    "ANATOMY_SURFACES",
+    "MeshInputError",
     "MeshingError",
+    "Surface",
+    "SurfaceRegion",
+    "anatomy_surface",
+    "bone_from_surface",
     "box",
     "cantilever",
+    "check_surface",
     "gmsh_session",
     "hertz_2d",
     "hertz_3d",
     "knee_2d",
     "long_bone_2d",
+    "prepare_surface",
     "quarter_tube",
     "read_gmsh_mesh",
+    "read_surface",
     "rectangle",
+    "remesh_surface",
+    "repair_surface",
     "stacked_blocks_2d",
     "two_blocks_2d",
     "two_boxes_3d",
