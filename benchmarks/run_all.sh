@@ -48,6 +48,13 @@ $PY benchmarks/summarize.py contact3d
 echo "== dynamic contact: two-bar impact error and energy drift against dt"
 $PY benchmarks/bench_impact.py $quick
 
+echo "== fracture: K error against dofs and time, kink angles, cost of a propagation increment"
+rm -f benchmarks/results/fracture.csv benchmarks/results/fracture_direction.csv benchmarks/results/fracture_increment.csv
+$PY benchmarks/bench_fracture.py $quick
+echo "== 3D crack front: penny-crack K_I error against dofs and time"
+rm -f benchmarks/results/front3d.csv
+$PY benchmarks/bench_front3d.py $quick
+
 # further studies (growth) add their scripts here
 for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
   if [ -f "$extra" ]; then echo "== $extra"; $PY "$extra" $quick; fi
