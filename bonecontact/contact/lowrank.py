@@ -63,6 +63,9 @@ from bonecontact.common.linalg import configure_ksp
 __all__ = [
     "DENSE_BLOCKS",
     "MIN_BLOCK",
+    "RESPLIT_GROWTH",
+    "SOLVE_RATE",
+    "SOLVE_RATE_PARALLEL",
     "LowRankActiveSetSolver",
     "SingularActiveSetError",
     "SplitBasis",
@@ -87,6 +90,14 @@ def null_pivots(ksp: PETSc.KSP) -> int:
 DENSE_BLOCKS = 5
 #: Smallest chunk of columns and smallest cache (columns), whatever the memory.
 MIN_BLOCK = 16
+#: Rate of a block of columns (forward and backward substitutions) relative to a
+#: factorisation, in floating-point operations per second: MUMPS on the 3D load-driven
+#: Hertz benchmark, 65k dofs, serially (2.3 against 4.5 GFlop/s); on more than one rank
+#: the distributed substitutions gain far less from blocking.
+SOLVE_RATE, SOLVE_RATE_PARALLEL = 0.5, 0.33
+#: A new split basis with the contact zone in it, relative to the present factorisation
+#: (operations): the extra fill of the zone's interface coupling and a new analysis.
+RESPLIT_GROWTH = 1.25
 
 
 class SplitBasis:
@@ -230,12 +241,8 @@ class LowRankActiveSetSolver:
         self.split: SplitBasis | None = None
         if split is not None:
             A0, Qt, T, Tt, allowed, first = split
-            comm0 = A0.getComm().tompi4py()
-            rows_ = np.asarray(rows, dtype=np.int64)
-            off = int(sum(comm0.allgather(int(rows_.size))[: comm0.rank]))
-            own = np.asarray(allowed, dtype=bool)[off : off + rows_.size]
-            patch = rows_[own] + A0.getOwnershipRange()[0]
-            self.split = SplitBasis(A0, Qt, T, Tt, patch, allowed)
+            self._split_args = (A0, Qt, T, Tt)
+            self.split = self._make_split(np.asarray(allowed, dtype=bool), rows)
             self.split.first = np.asarray(first, dtype=bool)
             A = self.split.K
         self.A = A
@@ -254,21 +261,18 @@ class LowRankActiveSetSolver:
         self.memory_ratio = float(memory_ratio)
         self.block_limit = self.column_limit = self.max_columns
         # the contact rows of A (A·X is only ever needed there)
-        lo_c, hi_c = A.getOwnershipRangeColumn()
-        isrow = PETSc.IS().createGeneral(
-            (self.L.astype(np.int64) + self.start).astype(PETSc.IntType), comm=self.comm
-        )
-        iscol = PETSc.IS().createStride(hi_c - lo_c, first=lo_c, step=1, comm=self.comm)
-        self.AL = A.createSubMatrix(isrow, iscol)
-        isrow.destroy()
-        iscol.destroy()
+        self.AL = self._contact_rows(A)
         self.B0 = A.duplicate(copy=True)
         self.B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
-        self.ksp = PETSc.KSP().create(self.comm)
-        self.ksp.setOptionsPrefix(prefix)
-        configure_ksp(self.ksp, "direct", prefix=prefix)
-        PETSc.Options()[f"{prefix}mat_mumps_icntl_24"] = 1  # detect null pivots (singular sets)
-        self.ksp.setFromOptions()
+        self.prefix = prefix
+        self.ksp = self._make_ksp()
+        self.resplits = 0
+        self._new_pattern = True
+        self._in_respond = False
+        self._r0_orig: PETSc.Vec | None = None
+        if self.split is not None:  # the node of every replicated contact row
+            bs = max(self._split_args[0].getBlockSize(), 1)
+            self._node = self._gather((self.L.astype(np.int64) + self.start) // bs)
         self.base: npt.NDArray[np.bool_] | None = None
         self.cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.t_factor = 0.0
@@ -285,6 +289,36 @@ class LowRankActiveSetSolver:
         self._vals: npt.NDArray[np.float64] = np.zeros(self.ns)
         self._wg: npt.NDArray[np.float64] = np.zeros(self.ns)
         self._reff = A.createVecLeft()
+
+    def _make_split(self, allowed: npt.NDArray[np.bool_], rows: npt.NDArray) -> SplitBasis:
+        """The split basis with the replicated contact rows ``allowed`` in the contact basis."""
+        A0, Qt, T, Tt = self._split_args
+        comm0 = A0.getComm().tompi4py()
+        rows_ = np.asarray(rows, dtype=np.int64)
+        off = int(sum(comm0.allgather(int(rows_.size))[: comm0.rank]))
+        own = allowed[off : off + rows_.size]
+        patch = rows_[own] + A0.getOwnershipRange()[0]
+        return SplitBasis(A0, Qt, T, Tt, patch, allowed)
+
+    def _contact_rows(self, A: PETSc.Mat) -> PETSc.Mat:
+        """The contact rows of ``A`` (``A·X`` is only ever needed there)."""
+        lo_c, hi_c = A.getOwnershipRangeColumn()
+        isrow = PETSc.IS().createGeneral(
+            (self.L.astype(np.int64) + self.start).astype(PETSc.IntType), comm=self.comm
+        )
+        iscol = PETSc.IS().createStride(hi_c - lo_c, first=lo_c, step=1, comm=self.comm)
+        AL = A.createSubMatrix(isrow, iscol)
+        isrow.destroy()
+        iscol.destroy()
+        return AL
+
+    def _make_ksp(self) -> PETSc.KSP:
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOptionsPrefix(self.prefix)
+        configure_ksp(ksp, "direct", prefix=self.prefix)
+        PETSc.Options()[f"{self.prefix}mat_mumps_icntl_24"] = 1  # detect null pivots
+        ksp.setFromOptions()
+        return ksp
 
     # ------------------------------------------------------------------ small utilities
     def _gather(self, local: npt.NDArray) -> npt.NDArray:
@@ -346,7 +380,8 @@ class LowRankActiveSetSolver:
         # the first factorisation includes the symbolic analysis, which later ones reuse:
         # count half of it as the cost of a refactorisation until one is measured
         # (numeric / first = 0.37-0.50 measured on 2D Hertz meshes, 1 and 2 ranks)
-        self.t_factor = 0.5 * dt if self.factorizations == 0 else dt
+        self.t_factor = 0.5 * dt if self._new_pattern else dt
+        self._new_pattern = False
         self.factorizations += 1
 
     def _set_memory_limits(self) -> None:
@@ -390,6 +425,20 @@ class LowRankActiveSetSolver:
         holding their values ``bc_values``) and the replicated values the contact rows
         take when fixed (gaps for normal rows, the previous slip for tangential ones);
         factorise at ``initial`` (replicated mask) if there is no base yet."""
+        if self.split is not None:  # (kept for a re-split)
+            if self._r0_orig is None:
+                self._r0_orig = r0.duplicate()
+            r0.copy(self._r0_orig)
+        self._bc_values = np.asarray(bc_values, dtype=np.float64)
+        self._vals = np.asarray(values, dtype=np.float64).copy()
+        self._wg = np.zeros(self.ns)
+        self._set_r0(r0)
+        if self.base is None:
+            self.factorize(initial if self.split is None else self.split.first)
+        self._base_solve()
+
+    def _set_r0(self, r0: PETSc.Vec) -> None:
+        """The right-hand side in the rows of the factorised operator."""
         r0.copy(self._r0)
         if self.split is not None:  # T Q_P b = T Q b − Jᵀ T b (docstring of SplitBasis)
             jr = self.split.Jt.createVecLeft()
@@ -397,12 +446,63 @@ class LowRankActiveSetSolver:
             self._r0.axpy(-1.0, jr)
             jr.destroy()
         self._r0.copy(self._reff)
-        self._bc_values = np.asarray(bc_values, dtype=np.float64)
-        self._vals = np.asarray(values, dtype=np.float64).copy()
-        self._wg = np.zeros(self.ns)
         self._r0N = self._gather(self._r0.array[self.L])
-        if self.base is None:
-            self.factorize(initial if self.split is None else self.split.first)
+
+    # ------------------------------------------------------------------ re-split
+    def _factor_counts(self) -> tuple[float, float]:
+        """Entries of the LU factors and flops of the last factorisation (MUMPS
+        INFOG(29), RINFOG(3)); ``(nan, nan)`` for another factorisation package."""
+        pc = self.ksp.getPC()
+        if pc.getFactorSolverType() != "mumps":
+            return float("nan"), float("nan")
+        F = pc.getFactorMatrix()
+        nnz = float(F.getMumpsInfog(29))
+        if nnz < 0:  # (MUMPS gives large counts in millions, negated)
+            nnz = -1.0e6 * nnz
+        return nnz, float(F.getMumpsRinfog(3))
+
+    def _resplit_pays(self, new_columns: int) -> bool:
+        """Is a new split basis with the current set in it cheaper than ``new_columns``
+        force columns?  (docs/theory/pdas.md#split-basis)
+
+        Counted in floating-point operations of the present factors, so that the choice
+        (and with it the path of the solve) does not depend on the machine or its load:
+        a column is a forward and a backward substitution, ``2 · nnz(LU)`` operations
+        done at about half the rate of a factorisation (``SOLVE_RATE``; a third of it
+        on more than one rank); the new factorisation is counted as the present one's
+        operations times ``RESPLIT_GROWTH`` (more fill, a new analysis), times
+        ``rebase_ratio``."""
+        nnz, flops = self._factor_counts()
+        if not (np.isfinite(nnz) and np.isfinite(flops)) or self._in_respond:
+            return False
+        rate = SOLVE_RATE if self.comm.size == 1 else SOLVE_RATE_PARALLEL
+        cost_columns = new_columns * 2.0 * nnz / rate
+        return cost_columns > self.rebase_ratio * RESPLIT_GROWTH * flops
+
+    def _resplit(self, mask: npt.NDArray[np.bool_]) -> None:
+        """Rebuild the split basis with the nodes of ``mask`` (replicated, fixed rows)
+        added to the contact basis, and make ``mask`` the factorised base set: the
+        columns the set would need become one factorisation."""
+        nodes = np.unique(self._node[mask])
+        allowed = self.split.allowed | np.isin(self._node, nodes)
+        first = self.split.first
+        self.split.destroy()
+        for obj in (self.ksp, self.B0, self.AL):
+            obj.destroy()
+        self.split = self._make_split(allowed, self.L)
+        self.split.first = first
+        self.A = self.split.K
+        self.AL = self._contact_rows(self.A)
+        self.B0 = self.A.duplicate(copy=True)
+        self.B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.ksp = self._make_ksp()
+        self.resplits += 1
+        self.base = None
+        self._new_pattern = True  # (its first factorisation includes the analysis)
+        self._set_r0(self._r0_orig)
+        wg, self._wg = self._wg, np.zeros(self.ns)
+        self._set_given(wg)
+        self.factorize(mask)
         self._base_solve()
 
     def _set_given(self, wgiven: npt.NDArray | None) -> bool:
@@ -509,14 +609,26 @@ class LowRankActiveSetSolver:
         """Force columns in a split basis: a unit contact force at a slave row ``q`` also
         acts on the master side, ``e_q − Jᵀ e_q`` (:class:`SplitBasis`)."""
         lo, hi = self.offset, self.offset + self.L.size
-        E = _dense(self.comm, self.nloc, len(qs))
-        Ea = E.getDenseArray(readonly=False)
-        for j in wq:
-            if lo <= qs[j] < hi:
-                Ea[self.L[qs[j] - lo], j] = 1.0
+        mine = np.array([j for j in wq if lo <= qs[j] < hi], dtype=np.int64)
+        rows = self.L[np.array([qs[j] for j in mine], dtype=np.int64) - lo] if mine.size else []
+        # E: one unit entry per force column (sparse; J has few entries per row)
+        indptr = np.zeros(self.nloc + 1, dtype=np.int64)
+        order = np.argsort(np.asarray(rows, dtype=np.int64), kind="stable")
+        np.add.at(indptr, np.asarray(rows, dtype=np.int64)[order] + 1, 1)
+        E = PETSc.Mat().createAIJ(
+            size=((self.nloc, PETSc.DECIDE), (PETSc.DECIDE, len(qs))),
+            csr=(
+                np.cumsum(indptr).astype(PETSc.IntType),
+                mine[order].astype(PETSc.IntType),
+                np.ones(mine.size),
+            ),
+            comm=self.comm,
+        )
         E.assemble()
         JtE = self.split.Jt.matMult(E)
-        R[:, wq] -= JtE.getDenseArray()[:, wq]
+        ai, aj, av = JtE.getValuesCSR()
+        r = np.repeat(np.arange(self.nloc), np.diff(ai))
+        np.subtract.at(R, (r, aj.astype(np.int64)), av)
         if self.bc_local.size:
             R[np.ix_(self.bc_local, np.asarray(wq))] = 0.0
         JtE.destroy()
@@ -580,7 +692,12 @@ class LowRankActiveSetSolver:
         too_many = len(self.cache) + len(missing) > self.column_limit
         cost_columns = self.t_block + len(missing) * self.t_column
         cost_rebase = self.rebase_ratio * self.t_factor + self.t_solve
-        if self.split is not None:
+        if self.split is not None and missing and self._resplit_pays(len(missing)):
+            self._resplit(active)
+            refactorized = True
+            diff = needed()
+            missing = [int(q) for q in diff if int(q) not in self.cache]
+        elif self.split is not None:
             if too_many:  # (no rebase: keep the columns of this set only)
                 keep = {int(q) for q in diff}
                 self.cache = {q: c for q, c in self.cache.items() if q in keep}
@@ -669,10 +786,12 @@ class LowRankActiveSetSolver:
         saved = (self._vals, self._xbN, self._AxbN, self._y, self.t_solve)
         xb = self._xb.copy()
         self._vals = self._vals + np.asarray(dvals, dtype=np.float64)
+        self._in_respond = True  # (no re-split: the state restored below is of this basis)
         try:
             self._base_solve()
             xN, wN, _ = self.solve_set(active, scale)
         finally:
+            self._in_respond = False
             self._vals, self._xbN, self._AxbN, self._y, self.t_solve = saved
             xb.copy(self._xb)
             xb.destroy()
@@ -719,6 +838,8 @@ class LowRankActiveSetSolver:
     def destroy(self) -> None:
         if self.split is not None:
             self.split.destroy()
+        if self._r0_orig is not None:
+            self._r0_orig.destroy()
         for obj in (
             self.ksp,
             self.B0,

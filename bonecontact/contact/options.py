@@ -41,7 +41,9 @@ class PDASOptions:
     #: :class:`bonecontact.contact.lowrank.LowRankActiveSetSolver`.
     max_columns: int = 2000
     #: Low-rank strategy: the cost ratio (columns against one factorisation) beyond
-    #: which the current set is refactorised instead.
+    #: which the current set is refactorised instead (with the split basis: the set
+    #: added to the contact basis and refactorised, costs counted in operations; 0
+    #: re-splits whenever columns are missing, a huge value never).
     rebase_ratio: float = 1.0
     #: Low-rank strategy: the memory of a block of columns, and of the column cache, each
     #: at most this fraction of the memory of the LU factors (blocks are computed in

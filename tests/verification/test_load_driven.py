@@ -217,13 +217,14 @@ def test_cold_start_3d_hertz_iterations(h, p0_tol, a_tol):
     takes at most 6 PDAS iterations and a warm step (+10 % load) at most 2, with the
     same pressures as the damped 2D rule (a second path to the same discrete solution),
     the resultant equal to the load, and Hertz's p0 and a to the discretisation error of
-    these meshes.  The split basis of the low-rank solver (one factorisation of the
-    operator with only the support patch in the contact basis) gives the same pressures
-    as the full contact basis."""
+    these meshes.  The split basis of the low-rank solver (the operator with only the
+    support patch in the contact basis, factorised once, and at most once more with the
+    predicted contact zone added when its force columns would cost more) gives the same
+    pressures as the full contact basis."""
     got = _sphere_on_block(h, "compliance")
     ref = _sphere_on_block(h, "damped")
     full = _sphere_on_block(h, "compliance", split_basis=False)
-    assert got["cold"].factorizations == 1
+    assert got["cold"].factorizations <= 2
     assert np.abs(got["p"] - full["p"]).max() <= 1e-8 * full["p"].max()
     assert got["cold"].iterations <= 6
     assert got["cold"].iterations <= ref["cold"].iterations

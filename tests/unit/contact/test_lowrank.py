@@ -99,9 +99,12 @@ def test_lowrank_equals_refactor_on_hertz():
         "small_cache": {"max_columns": 5, **full},
         # a memory share far below one column: chunks and cache at their minimum (16)
         "memory_cap": {"memory_ratio": 1e-9, **full},
-        # only the support patch in the contact basis: one factorisation, force columns
+        # only the support patch in the contact basis, force columns; re-split (the set
+        # added to the basis, refactorised) when the columns would cost more operations
         "split": {},
-        "split_small_cache": {"max_columns": 5},
+        "split_never_resplit": {"rebase_ratio": 1e12},
+        "split_always_resplit": {"rebase_ratio": 0.0},
+        "split_small_cache": {"max_columns": 5, "rebase_ratio": 1e12},
     }
     for name, opts in cases.items():
         got = _run(m, itf, cold_start_fraction=0.0, **opts)[0]
@@ -109,8 +112,14 @@ def test_lowrank_equals_refactor_on_hertz():
         assert np.array_equal(got["active"], ref["active"]), name
         assert _rel(got["u"], ref["u"]) < 1e-10, name
         assert np.abs(got["p"] - ref["p"]).max() < 1e-10 * ref["p"].max(), name
-        if name.startswith("split"):
-            assert got["fact"] == 1  # the split base is never refactorised
+        if name in ("split_never_resplit", "split_small_cache"):
+            assert got["fact"] == 1  # one factorisation, every other set by columns
+        elif name == "split_always_resplit":
+            # a new split basis whenever a set needs columns: never more factorisations
+            # than the refactorising strategy, and more than one here
+            assert 1 < got["fact"] <= ref["fact"]
+        elif name == "split":
+            assert got["fact"] <= ref["fact"]
         elif name == "never_rebase":
             # one factorisation; a column for every node whose status ever differed from the cold
             # start
