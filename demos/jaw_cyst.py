@@ -36,7 +36,9 @@
 # notebook.  `BONECONTACT_DEMO_QUICK=1` takes a coarser mesh and 3-month growth steps
 # (what the test suite runs).  The keratocyst's results are written into OUTPUT_DIR itself
 # (`growth.csv`, `history.csv`, `summary.json`, fields, `mechanics_<step>/` for the
-# intermediate analyses), the radicular cyst's into `OUTPUT_DIR/radicular/`.
+# intermediate analyses), the radicular cyst's into `OUTPUT_DIR/radicular/`.  The fracture check
+# at the end writes `fracture_bite.csv` (the bite force that fractures the thinned bone, per
+# cyst size) and its plot into OUTPUT_DIR.
 #
 # ## The cyst growth ODE
 # Osmotic material $s$ (mol per metre of thickness) enters the lumen through the lining
@@ -90,6 +92,12 @@ import numpy as np
 
 import bonecontact.plot as bp
 from bonecontact.common.constants import SECONDS_PER_YEAR
+from bonecontact.fracture import cell_stresses, risk_field
+from bonecontact.materials.laws import Isotropic
+from bonecontact.materials.library import load_strengths
+from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
@@ -348,4 +356,125 @@ if comm.rank == 0:
         )
         bp.show(png, png)
     print(f"pictures: {output / 'jaw_cyst_growth.png'}, {', '.join(v[2] for v in views)}")
+comm.barrier()
+
+# %% [markdown]
+# ## The bite force that fractures the thinned mandible
+# The fracture check of `bonecontact.fracture` ([the fracture notes](../docs/theory/fracture.md#initiation-risk))
+# on each analysed state: the bone with the cavity of that cyst size is loaded by the bite
+# alone (the cyst's osmotic pressure, tens of pascals, is left out, so that the problem is
+# linear in the bite), and every cell gets the risk
+#
+# $$R = \max\Bigl(\frac{\sigma_1}{\sigma_t},\ -\frac{\sigma_3}{\sigma_c},\ 0\Bigr)$$
+#
+# from its principal stresses (σ_zz of plane strain included) and the strengths of
+# `data/materials.toml`: `[strength.cortical_bone]` (σ_t = 133 MPa, σ_c = 193 MPa, along the
+# osteons).  The mandible fractures when its cortical shell does, so $R$ is taken over the
+# cortical bone; cells within 5 mm of the clamped ends are left out (the clamp is an
+# idealisation whose corners carry a singular stress).  The problem is linear elastic and
+# $R$ is homogeneous of degree one in the load, so the bite force at which $R$ reaches 1 is
+#
+# $$F_\text{fracture} = \frac{F_\text{applied}}{\max R},$$
+#
+# with $F_\text{applied}$ = 3 MPa on the 10 mm patch, i.e. 300 N on a 10 mm wide tooth.  As a
+# check each state is also solved at twice the bite: its risk must be twice as large.
+
+# %%
+BITE, TOOTH = 3.0e6, 10 * MM  # the occlusal traction (Pa) and the tooth width (m)
+F_APPLIED = BITE * (PATCH[1] - PATCH[0]) * TOOTH  # N
+CLAMP_ZONE = 5 * MM
+cortical_strength = load_strengths()["cortical_bone"]
+
+
+def bite_risk(msh_path: Path, scale: float) -> tuple[float, tuple[float, float], str]:
+    """Largest cortical risk (away from the clamps) of the bone in ``msh_path`` under
+    ``scale`` times the bite: value, cell midpoint, governing term."""
+    _, md = read_gmsh_mesh(msh_path, comm, 2)
+    tag = {name: g.tag for name, g in md.physical_groups.items()}
+    mats = {
+        tag["cortical"]: Isotropic(E=17.0e9, nu=0.3),
+        tag["cancellous"]: Isotropic(E=1.0e9, nu=0.25),
+    }
+    model = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
+    for end in ("symphysis", "ramus"):
+        for comp in (0, 1):
+            model.add_dirichlet(model.facets(tag[end]), comp, 0.0)
+    model.add_traction(tag["occlusal"], (0.0, -scale * BITE))
+    integ = Integrator(model, "static", 1.0)
+    integ.step()
+    n = md.mesh.topology.index_map(2).size_local
+    mid = cell_stresses(model, integ.u).midpoints  # owned cells, in risk_field's order
+    cortical = np.zeros(n, dtype=bool)
+    cells = model.cells(tag["cortical"])
+    cortical[cells[cells < n]] = True
+    counted = cortical & (mid[:, 0] > CLAMP_ZONE) & (mid[:, 0] < L - CLAMP_ZONE)
+    # cells that do not count get an infinite strength: their risk is zero
+    sigma_t = np.where(counted, cortical_strength["sigma_t"], np.inf)
+    sigma_c = np.where(counted, cortical_strength["sigma_c"], np.inf)
+    _, mx = risk_field(model, integ.u, sigma_t, sigma_c, "tension_compression")
+    integ.destroy()
+    return mx.value, mx.location, mx.mode
+
+
+fracture_rows = []
+for kind, s in results.items():
+    for a in s["coupling"]["analyses"]:
+        directory = Path(a["directory"])
+        R = a["equivalent_radius"]
+        risk, where, mode = bite_risk(directory / "host_mesh.msh", 1.0)
+        risk2, _, _ = bite_risk(directory / "host_mesh.msh", 2.0)
+        fracture_rows.append(
+            {
+                "cyst": kind,
+                "months": round(a["time"] / MONTH),
+                "radius_mm": R / MM,
+                "thinnest_bone_mm": min(YC - R, H - YC - R) / MM,
+                "max_risk": risk,
+                "risk_ratio_2F": risk2 / risk,
+                "x_mm": where[0] / MM,
+                "y_mm": where[1] / MM,
+                "mode": mode,
+                "fracture_bite_force_N": F_APPLIED / risk,
+            }
+        )
+fracture_rows.sort(key=lambda r: r["radius_mm"])
+if comm.rank == 0:
+    import csv
+
+    with open(output / "fracture_bite.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(fracture_rows[0]))
+        w.writeheader()
+        w.writerows(fracture_rows)
+    for r in fracture_rows:
+        print(
+            f"{r['cyst']:10s} {r['months']:2d} months: R = {r['radius_mm']:5.2f} mm, max risk at the "
+            f"bite {r['max_risk']:.3f} ({r['mode']}, at x = {r['x_mm']:.1f}, y = {r['y_mm']:.1f} mm), "
+            f"at twice the bite x{r['risk_ratio_2F']:.12f}; fracture bite force {r['fracture_bite_force_N']:.0f} N"
+        )
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    for kind, marker in (("keratocyst", "o-"), ("radicular", "s")):
+        rk = [r for r in fracture_rows if r["cyst"] == kind]
+        ax.plot(
+            [r["radius_mm"] for r in rk],
+            [r["fracture_bite_force_N"] for r in rk],
+            marker,
+            label=kind,
+        )
+    bp.line_axes(
+        ax,
+        ("cyst radius", "mm"),
+        ("bite force at fracture", "N"),
+        "bite force at which the cortical shell fractures",
+    )
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8)
+    fig.text(
+        0.01,
+        0.01,
+        "max(σ₁/σ_t, −σ₃/σ_c) = 1 in the cortical bone (σ_t = 133, σ_c = 193 MPa), 10 mm wide tooth, "
+        "clamps excluded",
+        fontsize=7,
+    )
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    bp.show(fig, output / "jaw_cyst_fracture_force.png", dpi=120)
 comm.barrier()

@@ -343,6 +343,29 @@ def test_jaw_cyst_growth_and_cavity(demo_runs):
     _check_png(out / "jaw_cyst_radicular_von_mises.png", (1200, 700))
 
 
+def test_jaw_cyst_fracture_bite_force(demo_runs):
+    """Jaw-cyst demo, fracture check: the risk is linear in the bite (twice the bite gives
+    twice the risk to round-off), the bite force that fractures the cortical shell falls
+    as the keratocyst grows, and 2 ranks give the serial table."""
+    (r1, o1), (r2, o2) = demo_runs["jaw_cyst", 1], demo_runs["jaw_cyst", 2]
+    assert r1.returncode == 0 and r2.returncode == 0
+
+    def table(out):
+        return np.genfromtxt(
+            out / "fracture_bite.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+        )
+
+    one, two = table(o1), table(o2)
+    assert len(one) == 4  # three keratocyst analyses and the radicular cyst
+    np.testing.assert_allclose(one["risk_ratio_2F"], 2.0, rtol=1e-9)
+    assert np.all(np.isfinite(one["fracture_bite_force_N"]) & (one["max_risk"] > 0))
+    k = one[one["cyst"] == "keratocyst"]
+    assert np.all(np.diff(k["radius_mm"]) > 0)
+    assert np.all(np.diff(k["fracture_bite_force_N"]) < 0)
+    np.testing.assert_allclose(two["max_risk"], one["max_risk"], rtol=1e-8)
+    _check_png(o1 / "jaw_cyst_fracture_force.png")
+
+
 def test_knee_tumour_growth_and_loaded_bone(demo_runs):
     """Tumour demo: the tumour grows monotonically (R 4.8 -> 7.7 mm in 20 days); each of
     the five contact analyses on the rebuilt mesh carries the applied body weight
