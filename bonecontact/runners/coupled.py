@@ -69,6 +69,7 @@ from bonecontact.neoplasm.host import (
     neoplasm_polygon,
     read_host_geometry,
 )
+from bonecontact.neoplasm.host3d import build_host_mesh3d, read_host_geometry3d, sphere_surface
 from bonecontact.runners.growth import build_growth, growth_times
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import (
@@ -116,17 +117,21 @@ def mechanics_scene(scene: Scene, hm: HostMesh, pressure: float | None, output: 
 
 # ----------------------------------------------------------------------------- driver
 class _Coupled:
-    """Growth driver + host geometry + the neoplasm polygon of the current state."""
+    """Growth driver + host geometry + the neoplasm boundary of the current state
+    (a polygon in 2D, a closed triangulated surface in 3D)."""
 
     def __init__(self, scene: Scene, comm: MPI.Comm):
         neo = scene.neoplasm
         assert neo is not None and neo.region is not None
         self.scene, self.comm, self.neo = scene, comm, neo
+        self.dim = scene.dimension
         self.driver = build_growth(scene, comm)  # checks the scene against the mesh
         geo, info, err = None, None, None
         if comm.rank == 0:
             try:
-                geo = read_host_geometry(scene.mesh_path)
+                geo = (read_host_geometry if self.dim == 2 else read_host_geometry3d)(
+                    scene.mesh_path
+                )
                 size = geo.node_size()
                 nodes = np.unique(geo.cells[neo.region][1])
                 info = (geo.centroid(neo.region), float(np.median(size[nodes])))
@@ -159,6 +164,27 @@ class _Coupled:
         )
         return np.asarray(b.points[:, :2]), h
 
+    def surface(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], float]:
+        """3D: the current neoplasm surface (points, triangles) and its mesh size (collective).
+
+        Cyst ODE: a geodesic sphere of the current radius about the region's centroid, edge
+        about the scene mesh's size at the region (between R/32 and R/4); tumour (or a
+        moving-wall cyst): the current boundary of the growth mesh.
+        """
+        if self.cavity and hasattr(self.driver, "R"):
+            R = self.driver.R
+            h = min(max(self.h_region, R / 32), R / 4)
+            p, t = sphere_surface(self.center, R, h)
+            return p, t, h
+        m = self.driver.model
+        b = m.boundary()
+        if hasattr(m, "h"):
+            h = float(m.h)
+        else:
+            e = b.points[b.facets[:, [1, 2, 0]]] - b.points[b.facets]
+            h = float(np.mean(np.linalg.norm(e, axis=2)))
+        return np.asarray(b.points), np.asarray(b.facets), h
+
     def pressure(self) -> float | None:
         """Cyst: P_h+ - P_h- now (Pa); tumour: ``None``."""
         if not self.cavity:
@@ -166,6 +192,12 @@ class _Coupled:
         return float(self.driver.f if hasattr(self.driver, "f") else self.driver.model.f)
 
     def host_mesh(self, path: Path | None) -> tuple[HostMesh, npt.NDArray[np.float64]]:
+        """The rebuilt host mesh and the neoplasm boundary points embedded (collective)."""
+        if self.dim == 3:
+            pts, tri, h = self.surface()
+            return build_host_mesh3d(
+                self.geo, self.neo.region, self.neo.host, pts, tri, self.cavity, h, path, self.comm
+            ), pts
         poly, h = self.polygon()
         return build_host_mesh(
             self.geo, self.neo.region, self.neo.host, poly, self.cavity, h, path, self.comm
@@ -254,16 +286,17 @@ class _Analyses:
         where = self.outdir if final else self.outdir / f"mechanics_{step:05d}"
         hm, poly = cp.host_mesh(where / "host_mesh.msh")
         if comm.rank == 0:
-            write_points(where / "neoplasm_boundary.csv", ["x", "y"], poly)
+            write_points(where / "neoplasm_boundary.csv", ["x", "y", "z"][: cp.dim], poly)
         pressure = cp.pressure()
         res = run_mechanics(
             mechanics_scene(self.scene, hm, pressure, where), comm, output=where, progress=False
         )
+        measure = "neoplasm_area_in_bone" if cp.dim == 2 else "neoplasm_volume_in_bone"
         rec = {
             "growth_step": step,
             "time": t,
             "equivalent_radius": row[2],
-            "neoplasm_area_in_bone": hm.neoplasm_area,
+            measure: hm.neoplasm_area,
             "cells": hm.cells,
             "status": res.status,
             "directory": str(where),
@@ -361,8 +394,8 @@ def _coupled_summary(
         "units": {
             "time": "s",
             "radius": "m",
-            "volume": "m^2 (area)",
-            "surface_area": "m (perimeter)",
+            "volume": "m^2 (area)" if driver.dim == 2 else "m^3",
+            "surface_area": "m (perimeter)" if driver.dim == 2 else "m^2",
             "pressure": "Pa",
         },
         **driver.info(),

@@ -1007,17 +1007,8 @@ def _read_document(
     output = _read_output(doc, dim)
     neoplasm = _read_neoplasm(doc, True, has_analysis=True)
     fracture, cracks = _read_fracture(doc, dim, materials, neoplasm is not None)
-    # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md): 2D
-    # only for now
-    if neoplasm is not None and dim != 2:
-        raise SceneError(
-            None,
-            "[neoplasm]",
-            None,
-            "growth together with an [analysis] (the neoplasm coupled to the loaded bone) is "
-            "supported in 2D only by this version of bonecontact; in 3D run the growth alone "
-            "(a scene with [neoplasm] and without [analysis], [[material]] and loads)",
-        )
+    # growth coupled to the loaded bone (bonecontact.runners.coupled, docs/neoplasm_format.md):
+    # 2D and 3D (in 3D the neoplasm must stay strictly inside one region, checked with the mesh)
     return Scene(
         path=path,
         name=name,

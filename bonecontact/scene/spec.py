@@ -452,7 +452,7 @@ class Scene:
         The parsed TOML document, untouched.
     neoplasm
         ``[neoplasm]``, or ``None``.  A scene with ``[neoplasm]`` and no ``[analysis]``
-        is a *growth-only* scene; with both it is a *coupled* scene (2D only, run by
+        is a *growth-only* scene; with both it is a *coupled* scene (2D and 3D, run by
         :mod:`bonecontact.runners.coupled`).
     fracture, cracks
         ``[fracture]`` (``None``: no fracture check) and the ``[[crack]]`` entries

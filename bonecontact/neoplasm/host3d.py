@@ -1,0 +1,628 @@
+"""The 3D host mechanics mesh rebuilt around a neoplasm by gmsh (coupled runs).
+
+The 3D counterpart of :mod:`bonecontact.neoplasm.host`.  There is no boolean geometry
+here: the scene mesh's surfaces are handed to gmsh as they are, as *discrete* surfaces,
+and only the volumes are meshed again.
+
+:func:`build_host_mesh3d` (gmsh on rank 0, the result broadcast)
+
+1. reads the scene's tetrahedra per cell group (:func:`read_host_geometry3d`); the cells
+   of ``region`` (the neoplasm at t = 0) join ``host[0]`` (with ``host = []`` they stay
+   ``region``): call the result the *host group*;
+2. recovers every surface of the cell groups: a tetrahedron face on the outer boundary
+   or between two groups; faces with the same pair of groups and the same facet groups,
+   and edge-connected, become one gmsh discrete surface (its triangles and nodes kept
+   exactly);
+3. checks that the neoplasm's closed triangulated surface lies **strictly inside** one
+   body of the host group (every vertex inside, and a clearance of at least a quarter
+   of the neoplasm's mesh size from the body's surface); otherwise a
+   :class:`~bonecontact.neoplasm.host.CouplingError` names the group and the distance
+   (the neoplasm crossing an interface or the outer surface is not supported in 3D);
+4. adds the neoplasm surface as a discrete surface, builds one volume per body (its
+   surface loops: the outer shell first, then its holes, the neoplasm among them) and,
+   for a tumour, the neoplasm's own volume; meshes in 3D with a size that grows
+   linearly with the distance from the neoplasm (its mesh size on the wall);
+5. names the groups: every cell group and facet group keeps its name and tag (a facet
+   group lying only between ``region`` and ``host[0]`` disappears with that interface);
+   a tumour's volume takes the name and tag of ``region``; a cyst leaves a cavity; the
+   neoplasm surface is the facet group ``"<region>_wall"`` with a new tag.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from bonecontact.meshing.session import gmsh_session
+from bonecontact.neoplasm.host import CouplingError, HostMesh, wall_name
+
+__all__ = [
+    "HostGeometry3D",
+    "build_host_mesh3d",
+    "read_host_geometry3d",
+    "sphere_surface",
+    "surface_volume",
+]
+
+#: Smallest clearance between the neoplasm and its host body's surface, in units of the
+#: neoplasm's mesh size.
+CLEARANCE = 0.25
+#: Growth of the mesh size away from the neoplasm (m per m of distance).
+GRADING = 0.12
+
+
+# ----------------------------------------------------------------------------- scene geometry
+@dataclass
+class HostGeometry3D:
+    """The scene's 3D mesh as plain arrays (rank 0 only).
+
+    Parameters
+    ----------
+    x
+        ``(n, 3)`` node coordinates (m).
+    cells
+        Cell group name -> ``(tag, tetrahedra)``, ``(m, 4)`` node indices.
+    facets
+        Facet group name -> ``(tag, triangles)``, ``(k, 3)`` node indices.
+    """
+
+    x: npt.NDArray[np.float64]
+    cells: dict[str, tuple[int, npt.NDArray[np.int64]]]
+    facets: dict[str, tuple[int, npt.NDArray[np.int64]]] = field(default_factory=dict)
+
+    def node_size(self) -> npt.NDArray[np.float64]:
+        """Local mesh size at each node: mean length of the tetrahedron edges touching it."""
+        tets = np.concatenate([t for _, t in self.cells.values()])
+        pairs = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+        e = np.concatenate([tets[:, list(p)] for p in pairs])
+        ln = np.linalg.norm(self.x[e[:, 1]] - self.x[e[:, 0]], axis=1)
+        s = np.bincount(e.ravel(), weights=np.repeat(ln, 2), minlength=len(self.x))
+        c = np.bincount(e.ravel(), minlength=len(self.x))
+        return np.where(c > 0, s / np.maximum(c, 1), np.nan)
+
+    def _volumes(self, group: str) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        p = self.x[self.cells[group][1]]
+        v = np.abs(
+            np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]))
+        )
+        return v / 6.0, p.mean(axis=1)
+
+    def centroid(self, group: str) -> npt.NDArray[np.float64]:
+        """Volume centroid of a cell group."""
+        v, c = self._volumes(group)
+        return (v[:, None] * c).sum(axis=0) / v.sum()
+
+    def volume(self, group: str) -> float:
+        """Volume of a cell group (m³)."""
+        return float(self._volumes(group)[0].sum())
+
+
+def read_host_geometry3d(path: str | Path) -> HostGeometry3D:
+    """Read a 3D gmsh file (linear tetrahedra and triangles in named physical groups); serial.
+
+    Raises
+    ------
+    CouplingError
+        No 3D cell group, or other elements than 4-node tetrahedra / 3-node triangles.
+    """
+    with gmsh_session("bonecontact-host3d-read"):
+        gmsh.merge(str(path))
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        x = coords.reshape(-1, 3).copy()
+        cells: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
+        facets: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
+        for dim, ptag in gmsh.model.getPhysicalGroups():
+            if dim not in (2, 3):
+                continue
+            name = gmsh.model.getPhysicalName(dim, ptag) or str(ptag)
+            want, nn = (4, 4) if dim == 3 else (2, 3)
+            conn = []
+            for ent in gmsh.model.getEntitiesForPhysicalGroup(dim, ptag):
+                types, _, ntags = gmsh.model.mesh.getElements(dim, int(ent))
+                for t, nt in zip(types, ntags):
+                    if t != want:
+                        raise CouplingError(
+                            f'physical group "{name}" holds gmsh elements of type {t}; the '
+                            "coupled 3D host mesh needs linear tetrahedra and 3-node triangles"
+                        )
+                    conn.append(index[np.asarray(nt, dtype=np.int64)].reshape(-1, nn))
+            arr = np.concatenate(conn) if conn else np.zeros((0, nn), dtype=np.int64)
+            (cells if dim == 3 else facets)[name] = (int(ptag), arr)
+    if not cells:
+        raise CouplingError(f"{path}: no 3D cell groups")
+    return HostGeometry3D(x, cells, facets)
+
+
+# ----------------------------------------------------------------------------- neoplasm surface
+def sphere_surface(
+    center: npt.ArrayLike, radius: float, h: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """A closed triangulated sphere (outward triangles, vertices on the sphere), edges ~``h``.
+
+    The icosahedron with every edge divided into ``m`` parts (``m`` from ``h``, at least
+    2), projected onto the sphere: 10 m² + 2 vertices.
+    """
+    m = max(2, int(math.ceil(1.05 * radius / h)))
+    t = (1.0 + math.sqrt(5.0)) / 2.0
+    v = np.array(
+        [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
+         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]],
+        dtype=np.float64,
+    )  # fmt: skip
+    faces = np.array(
+        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]],
+        dtype=np.int64,
+    )  # fmt: skip
+    keys: dict[tuple[int, ...], int] = {}
+    pts: list[npt.NDArray[np.float64]] = []
+    tris: list[tuple[int, int, int]] = []
+
+    def vid(f: int, i: int, j: int) -> int:
+        # barycentric (i, j, m-i-j) on face f; key by the sorted corner weights
+        a, b, c = faces[f]
+        w = {int(a): m - i - j, int(b): i, int(c): j}
+        key = tuple(sorted((k, wk) for k, wk in w.items() if wk > 0))
+        if key not in keys:
+            keys[key] = len(pts)
+            pts.append(((m - i - j) * v[a] + i * v[b] + j * v[c]) / m)
+        return keys[key]
+
+    for f in range(len(faces)):
+        for i in range(m):
+            for j in range(m - i):
+                p0, p1, p2 = vid(f, i, j), vid(f, i + 1, j), vid(f, i, j + 1)
+                tris.append((p0, p1, p2))
+                if i + j < m - 1:
+                    tris.append((p1, vid(f, i + 1, j + 1), p2))
+    x = np.asarray(pts)
+    x = radius * x / np.linalg.norm(x, axis=1)[:, None] + np.asarray(center, dtype=np.float64)
+    tri = np.asarray(tris, dtype=np.int64)
+    if surface_volume(x, tri) < 0:
+        tri = tri[:, [0, 2, 1]]
+    return x, tri
+
+
+def surface_volume(points: npt.ArrayLike, triangles: npt.ArrayLike) -> float:
+    """Signed volume enclosed by a closed triangulated surface (> 0 for outward triangles)."""
+    p = np.asarray(points, dtype=np.float64)[np.asarray(triangles)]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
+
+
+# ----------------------------------------------------------------------------- surfaces
+_TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+
+
+@dataclass
+class _Surfaces:
+    """The recovered surfaces of the scene mesh (rank 0).
+
+    ``tri`` ``(F, 3)`` structural faces (oriented outward from ``side[:, 0]``); ``side``
+    ``(F, 2)`` group indices on either side (-1: outside); ``cellcomp`` ``(F, 2)`` the body
+    (connected component of one group's cells) on either side (-1: outside); ``key``
+    ``(F,)`` surface-kind index; ``names`` facet groups per kind; ``patch`` ``(F,)`` the
+    discrete surface of each face.
+    """
+
+    tri: npt.NDArray[np.int64]
+    side: npt.NDArray[np.int64]
+    body: npt.NDArray[np.int64]
+    patch: npt.NDArray[np.int64]
+    patch_facets: list[tuple[str, ...]]
+    body_group: npt.NDArray[np.int64]
+
+
+def _components(n: int, pairs: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Connected components of ``n`` nodes joined by ``pairs`` ``(k, 2)``."""
+    if len(pairs) == 0:
+        return np.arange(n)
+    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return connected_components(g, directed=False)[1].astype(np.int64)
+
+
+def _edge_pairs(tri: npt.NDArray[np.int64], label: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Pairs of faces with the same ``label`` that share an edge."""
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.sort(e, axis=1)
+    f = np.tile(np.arange(len(tri)), 3)
+    key = np.column_stack([label[f], e])
+    order = np.lexsort(key.T[::-1])
+    ks, fs = key[order], f[order]
+    same = np.all(ks[1:] == ks[:-1], axis=1)
+    return np.column_stack([fs[:-1][same], fs[1:][same]])
+
+
+def _recover_surfaces(
+    geo: HostGeometry3D, label: npt.NDArray[np.int64], tets: npt.NDArray[np.int64]
+) -> _Surfaces:
+    """Boundary and interface faces, the bodies and the discrete surface patches."""
+    nt = len(tets)
+    p = geo.x[tets]
+    neg = (
+        np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) < 0
+    )
+    tets = tets.copy()
+    tets[neg] = tets[neg][:, [0, 1, 3, 2]]
+    faces = tets[:, _TET_FACES].reshape(-1, 3)  # outward from their tet
+    owner = np.repeat(np.arange(nt), 4)
+    skey = np.sort(faces, axis=1)
+    _, first, count = np.unique(skey, axis=0, return_index=True, return_counts=True)
+    _, rlast = np.unique(skey[::-1], axis=0, return_index=True)
+    last = len(skey) - 1 - rlast
+    if np.any(count > 2):
+        raise CouplingError("the scene mesh has a face shared by more than two tetrahedra")
+    # cell adjacency through faces inside one group -> bodies
+    own = owner[first]
+    other = np.where(count == 2, owner[last], -1)
+    internal = other >= 0
+    same = internal & (label[own] == label[np.maximum(other, 0)])
+    body = _components(nt, np.column_stack([own[same], other[same]]))
+    _, body = np.unique(body, return_inverse=True)
+    body_group = np.zeros(body.max() + 1, dtype=np.int64)
+    body_group[body] = label
+    struct = ~same
+    fi = np.where(struct)[0]
+    tri = faces[first[fi]]
+    a, b = own[fi], other[fi]
+    side = np.column_stack([label[a], np.where(b >= 0, label[np.maximum(b, 0)], -1)])
+    bodies = np.column_stack([body[a], np.where(b >= 0, body[np.maximum(b, 0)], -1)])
+    # facet groups per structural face
+    fkey = {tuple(k): i for i, k in enumerate(np.sort(tri, axis=1).tolist())}
+    names: list[set[str]] = [set() for _ in range(len(tri))]
+    for g, (_, t) in geo.facets.items():
+        for k in np.sort(t, axis=1).tolist():
+            i = fkey.get(tuple(k))
+            if i is not None:
+                names[i].add(g)
+    kinds: dict[tuple, int] = {}
+    kind = np.empty(len(tri), dtype=np.int64)
+    for i in range(len(tri)):
+        k = (tuple(sorted(bodies[i].tolist())), tuple(sorted(names[i])))
+        kind[i] = kinds.setdefault(k, len(kinds))
+    patch = _components(len(tri), _edge_pairs(np.sort(tri, axis=1), kind))
+    _, patch = np.unique(patch, return_inverse=True)
+    patch_facets: list[tuple[str, ...]] = [()] * (patch.max() + 1 if len(patch) else 0)
+    for i in range(len(tri)):
+        patch_facets[patch[i]] = tuple(sorted(names[i]))
+    return _Surfaces(tri, side, bodies, patch, patch_facets, body_group)
+
+
+# ----------------------------------------------------------------------------- inside checks
+def _winding(
+    points: npt.NDArray[np.float64], tri_x: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
+    """Generalised winding number of points w.r.t. an oriented closed triangle set."""
+    out = np.zeros(len(points))
+    for s in range(0, len(points), 256):
+        p = points[s : s + 256, None, None, :]
+        r = tri_x[None, :, :, :] - p  # (P, F, 3, 3)
+        n = np.linalg.norm(r, axis=-1)
+        a, b, c = r[..., 0, :], r[..., 1, :], r[..., 2, :]
+        num = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+        den = (
+            n[..., 0] * n[..., 1] * n[..., 2]
+            + np.einsum("pfi,pfi->pf", a, b) * n[..., 2]
+            + np.einsum("pfi,pfi->pf", b, c) * n[..., 0]
+            + np.einsum("pfi,pfi->pf", c, a) * n[..., 1]
+        )
+        out[s : s + 256] = 2.0 * np.arctan2(num, den).sum(axis=1) / (4.0 * math.pi)
+    return out
+
+
+def _point_triangle_distance(
+    p: npt.NDArray[np.float64], t: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
+    """Distance from points ``p`` ``(k, 3)`` to triangles ``t`` ``(k, 3, 3)`` (pairwise)."""
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    ab, ac = b - a, c - a
+    n = np.cross(ab, ac)
+    nn = np.maximum(np.einsum("ij,ij->i", n, n), 1e-300)
+    # projection onto the plane, barycentric coordinates
+    d = np.einsum("ij,ij->i", p - a, n) / nn
+    q = p - d[:, None] * n
+    v0 = q - a
+    d00, d01, d11 = (
+        np.einsum("ij,ij->i", ab, ab),
+        np.einsum("ij,ij->i", ab, ac),
+        np.einsum("ij,ij->i", ac, ac),
+    )
+    d20, d21 = np.einsum("ij,ij->i", v0, ab), np.einsum("ij,ij->i", v0, ac)
+    den = np.maximum(d00 * d11 - d01 * d01, 1e-300)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+    dist = np.where(inside, np.abs(d) * np.sqrt(nn), np.inf)
+    for s0, s1 in ((a, b), (b, c), (c, a)):
+        e = s1 - s0
+        u = np.clip(
+            np.einsum("ij,ij->i", p - s0, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300), 0, 1
+        )
+        dist = np.minimum(dist, np.linalg.norm(s0 + u[:, None] * e - p, axis=1))
+    return dist
+
+
+def _distance_to_surface(
+    pts: npt.NDArray[np.float64], x: npt.NDArray[np.float64], tri: npt.NDArray[np.int64]
+) -> npt.NDArray[np.float64]:
+    """Distance from each point to a triangle set (exact; candidates found by a k-d tree)."""
+    cen = x[tri].mean(axis=1)
+    rad = np.linalg.norm(x[tri] - cen[:, None, :], axis=2).max(axis=1)
+    tree = cKDTree(cen)
+    d0, _ = tree.query(pts)
+    out = np.empty(len(pts))
+    rmax = rad.max()
+    for i, p in enumerate(pts):
+        cand = np.asarray(tree.query_ball_point(p, d0[i] + rmax), dtype=np.int64)
+        out[i] = _point_triangle_distance(np.repeat(p[None], len(cand), 0), x[tri[cand]]).min()
+    return out
+
+
+def _host_body(
+    sf: _Surfaces, x: npt.NDArray[np.float64], gname: str, gidx: int,
+    npts: npt.NDArray[np.float64], ntri: npt.NDArray[np.int64], h_neo: float,
+) -> int:  # fmt: skip
+    """The body of the host group that holds the neoplasm strictly inside (CouplingError else)."""
+    cands = np.where(sf.body_group == gidx)[0]
+    best, gap = -1, None
+    for bd in cands:
+        fw = sf.body[:, 0] == bd
+        bw = sf.body[:, 1] == bd
+        tri = np.concatenate([sf.tri[fw], sf.tri[bw][:, [0, 2, 1]]])  # outward from bd
+        if not len(tri):
+            continue
+        wn = _winding(npts, x[tri])
+        inside = wn > 0.5
+        if not inside.any():
+            continue
+        d_out = _distance_to_surface(npts[~inside], x, tri) if (~inside).any() else np.zeros(0)
+        if d_out.size:
+            gap = -float(d_out.max())
+        else:
+            # clearance both ways: neoplasm vertices to the body's surface and back
+            bn = np.unique(tri)
+            d1 = _distance_to_surface(npts, x, tri).min()
+            d2 = _distance_to_surface(x[bn], npts, ntri).min()
+            gap = float(min(d1, d2))
+            if gap >= CLEARANCE * h_neo:
+                return int(bd)
+        best = int(bd)
+        break
+    if best < 0 or gap is None:
+        raise CouplingError(
+            f'the neoplasm is not inside the cell group "{gname}" (3D: it must lie strictly '
+            "inside one body of the group it grows in)"
+        )
+    if gap < 0:
+        raise CouplingError(
+            f'the neoplasm is not strictly inside the cell group "{gname}": it reaches '
+            f"{-gap:.4g} m beyond its surface (3D coupling needs the neoplasm strictly inside "
+            "one region; crossing an interface or the outer surface is not supported)"
+        )
+    raise CouplingError(
+        f'the neoplasm is not strictly inside the cell group "{gname}": it comes within '
+        f"{gap:.4g} m of its surface (at least {CLEARANCE} x its mesh size = "
+        f"{CLEARANCE * h_neo:.4g} m needed in 3D)"
+    )
+
+
+# ----------------------------------------------------------------------------- gmsh model
+def _add_patches(sf: _Surfaces, x: npt.NDArray[np.float64]) -> dict[int, int]:
+    """One discrete gmsh surface per patch (nodes added once, by the first patch using them)."""
+    added = np.zeros(len(x), dtype=bool)
+    ent = {}
+    for p in range(len(sf.patch_facets)):
+        tri = sf.tri[sf.patch == p]
+        s = gmsh.model.addDiscreteEntity(2)
+        nodes = np.unique(tri)
+        new = nodes[~added[nodes]]
+        added[new] = True
+        if len(new):
+            gmsh.model.mesh.addNodes(2, s, new + 1, x[new].ravel())
+        gmsh.model.mesh.addElementsByType(s, 2, [], (tri + 1).ravel())
+        ent[p] = s
+    return ent
+
+
+def _shells(sf: _Surfaces, bd: int, x: npt.NDArray[np.float64]) -> list[list[int]]:
+    """Patches bounding body ``bd`` grouped into shells, the outer shell first."""
+    fi = np.where((sf.body[:, 0] == bd) | (sf.body[:, 1] == bd))[0]
+    tri = np.sort(sf.tri[fi], axis=1)
+    comp = _components(len(fi), _edge_pairs(tri, np.zeros(len(fi), dtype=np.int64)))
+    shells = []
+    for c in np.unique(comp):
+        f = fi[comp == c]
+        ext = np.ptp(x[np.unique(sf.tri[f])], axis=0)
+        shells.append((float(np.linalg.norm(ext)), sorted({int(p) for p in sf.patch[f]})))
+    shells.sort(key=lambda s: -s[0])
+    return [s for _, s in shells]
+
+
+def _size_callback(npts: npt.NDArray[np.float64], h_neo: float, h_max: float):
+    tree = cKDTree(npts)
+
+    def size(dim: int, tag: int, px: float, py: float, pz: float, lc: float) -> float:
+        d, _ = tree.query((px, py, pz))
+        return min(lc, h_max, h_neo + GRADING * d)
+
+    return size
+
+
+def _build_serial(
+    geo: HostGeometry3D,
+    region: str,
+    host: tuple[str, ...],
+    points: npt.NDArray[np.float64],
+    triangles: npt.NDArray[np.int64],
+    cavity: bool,
+    h_neo: float,
+    path: Path | None,
+) -> HostMesh:
+    if region not in geo.cells:
+        raise CouplingError(f'the mesh has no cell group "{region}"')
+    names = list(geo.cells)
+    gname = host[0] if host else region
+    merged = [gname if n == region else n for n in names]
+    group = sorted(set(merged))
+    gi = {g: i for i, g in enumerate(group)}
+    tets = np.concatenate([geo.cells[n][1] for n in names])
+    label = np.concatenate([np.full(len(geo.cells[n][1]), gi[m]) for n, m in zip(names, merged)])
+    # rounded to 0.1 nm: the surface comes from reductions whose round-off may differ with
+    # the number of ranks, and gmsh's mesh is not continuous in its input
+    npts = np.round(np.asarray(points, dtype=np.float64), 10)
+    ntri = np.asarray(triangles, dtype=np.int64)
+    if surface_volume(npts, ntri) < 0:
+        ntri = ntri[:, [0, 2, 1]]
+    sf = _recover_surfaces(geo, label, tets)
+    hb = _host_body(sf, geo.x, gname, gi[gname], npts, ntri, h_neo)
+    tags = {n: t for n, (t, _) in geo.cells.items()}
+    with gmsh_session("bonecontact-host3d"):
+        ent = _add_patches(sf, geo.x)
+        s_neo = gmsh.model.addDiscreteEntity(2)
+        off = len(geo.x) + 1
+        gmsh.model.mesh.addNodes(2, s_neo, np.arange(len(npts)) + off, npts.ravel())
+        gmsh.model.mesh.addElementsByType(s_neo, 2, [], (ntri + off).ravel())
+        vols: dict[str, list[int]] = {}
+        kernel = gmsh.model.geo
+        for bd in range(len(sf.body_group)):
+            loops = [kernel.addSurfaceLoop([ent[p] for p in sh]) for sh in _shells(sf, bd, geo.x)]
+            if bd == hb:
+                loops.append(kernel.addSurfaceLoop([s_neo]))
+            vols.setdefault(group[sf.body_group[bd]], []).append(kernel.addVolume(loops))
+        neo_vol = None if cavity else kernel.addVolume([kernel.addSurfaceLoop([s_neo])])
+        kernel.synchronize()
+        for g, vs in vols.items():
+            tag = tags[g] if g in tags else tags[region]
+            gmsh.model.addPhysicalGroup(3, vs, tag, name=g)
+        if neo_vol is not None:
+            if region in vols:  # host = []: the neoplasm joins its region
+                gmsh.model.removePhysicalGroups([(3, tags[region])])
+                gmsh.model.addPhysicalGroup(3, vols[region] + [neo_vol], tags[region], name=region)
+            else:
+                gmsh.model.addPhysicalGroup(3, [neo_vol], tags[region], name=region)
+        facet_names = []
+        for g, (tag, _) in geo.facets.items():
+            members = [ent[p] for p, fs in enumerate(sf.patch_facets) if g in fs]
+            if members:
+                gmsh.model.addPhysicalGroup(2, members, tag, name=g)
+                facet_names.append(g)
+        wname = wall_name(region)
+        used = list(tags.values()) + [t for t, _ in geo.facets.values()]
+        gmsh.model.addPhysicalGroup(2, [s_neo], max(used) + 1, name=wname)
+        facet_names.append(wname)
+        h_max = float(np.nanmax(geo.node_size()))
+        gmsh.model.mesh.setSizeCallback(_size_callback(npts, h_neo, h_max))
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+        gmsh.model.mesh.generate(3)
+        ncells = 0
+        for _, v in gmsh.model.getEntities(3):
+            types, etags, _ = gmsh.model.mesh.getElements(3, v)
+            ncells += sum(len(t) for t in etags)
+        if cavity:
+            neo_volume = surface_volume(npts, ntri)
+        else:
+            neo_volume = _meshed_volume(neo_vol)
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            gmsh.write(str(path))
+        cell_groups = tuple(sorted(set(vols) | ({region} if neo_vol is not None else set())))
+        return HostMesh(
+            path, cell_groups, tuple(facet_names), float(neo_volume), wname, int(ncells)
+        )
+
+
+def _meshed_volume(vol: int) -> float:
+    """Volume of the tetrahedra of a gmsh volume."""
+    types, _, ntags = gmsh.model.mesh.getElements(3, vol)
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    pos = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    pos[tags.astype(np.int64)] = np.arange(len(tags))
+    x = coords.reshape(-1, 3)
+    total = 0.0
+    for t, nt in zip(types, ntags):
+        if t != 4:
+            continue
+        p = x[pos[np.asarray(nt, dtype=np.int64)].reshape(-1, 4)]
+        total += float(
+            np.abs(
+                np.einsum(
+                    "ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])
+                )
+            ).sum()
+            / 6.0
+        )
+    return total
+
+
+def build_host_mesh3d(
+    geo: HostGeometry3D | None,
+    region: str,
+    host: tuple[str, ...],
+    points: npt.ArrayLike | None,
+    triangles: npt.ArrayLike | None,
+    cavity: bool,
+    h_neo: float,
+    path: Path | None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> HostMesh:
+    """Rebuild the 3D host mesh with the neoplasm surface embedded (gmsh on rank 0; collective).
+
+    Parameters
+    ----------
+    geo
+        The scene's mesh (:func:`read_host_geometry3d`); used on rank 0 only.
+    region, host
+        ``[neoplasm] region`` and ``host``.
+    points, triangles
+        The neoplasm's closed surface: ``(N, 3)`` vertices and ``(M, 3)`` triangles (either
+        orientation); rank 0's are used.
+    cavity
+        ``True`` for a cyst: no cells inside the neoplasm.
+    h_neo
+        Mesh size on the neoplasm surface (m); the size grows away from it.
+    path
+        Where rank 0 writes the gmsh file (``None``: build and check only).
+
+    Returns
+    -------
+    HostMesh
+        The same on every rank; ``neoplasm_area`` is the neoplasm's volume (m³) and
+        ``cells`` the number of tetrahedra.
+
+    Raises
+    ------
+    CouplingError
+        On every rank: the neoplasm is not strictly inside one body of the group it grows
+        in (the message names the group and the distance), or gmsh fails.
+    """
+    res, err = None, None
+    if comm.rank == 0:
+        try:
+            res = _build_serial(
+                geo, region, host, np.asarray(points), np.asarray(triangles), cavity, h_neo, path
+            )
+        except CouplingError as exc:
+            err = str(exc)
+        except Exception as exc:  # reported on every rank
+            err = (
+                f"cannot rebuild the 3D host mesh around the neoplasm: {type(exc).__name__}: {exc}"
+            )
+    res, err = comm.bcast((res, err), root=0)
+    if err is not None:
+        raise CouplingError(err)
+    return res
