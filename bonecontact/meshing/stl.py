@@ -22,6 +22,7 @@ gmsh file, as for every builder of :mod:`bonecontact.meshing`.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,7 @@ from bonecontact.meshing.surface_repair import (
     Surface,
     prepare_surface,
     remesh_surface,
+    split_components,
     surface_defects,
 )
 
@@ -151,19 +153,43 @@ def cortical_inner_surface(
     depth, lo = depth_field(surface, d)
     if depth.max() <= thickness:
         return []
-    verts, faces, _, _ = marching_cubes(depth, level=thickness, spacing=(d, d, d))
+    with warnings.catch_warnings():  # scikit-image 0.26 sets an array's shape (NumPy 2.5)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        verts, faces, _, _ = marching_cubes(depth, level=thickness, spacing=(d, d, d))
     # marching cubes shares its vertices and orients its triangles consistently
     level = Surface(verts + lo, faces.astype(np.int64), surface.source)
     pieces = []
-    for piece in _components(level):
+    for piece in split_components(level):
         if surface_defects(piece) and not surface_defects(piece)[0].startswith("inverted"):
             continue  # open or pinched (a non-manifold edge where the core nearly vanishes)
         if piece.volume < 0:
             piece = Surface(piece.points, piece.triangles[:, ::-1], piece.source)
         if piece.volume < size**3:
             continue
-        pieces.append(remesh_surface(piece, size))
+        pieces.append(_remesh_inside(piece, depth, lo, d, thickness, size))
     return pieces
+
+
+def _remesh_inside(
+    piece: Surface, depth: np.ndarray, lo: np.ndarray, d: float, thickness: float, size: float
+) -> Surface:
+    """Remesh a level-set piece to ``size``, finer where the chords of its triangles would
+    come closer than half the cortical thickness to the bone surface (a coarse triangle
+    bulging out of a concave inner surface)."""
+    from scipy.ndimage import map_coordinates
+
+    for attempt in range(5):
+        out = remesh_surface(piece, size * 0.7**attempt)
+        a, b, c = (out.points[out.triangles[:, i]] for i in range(3))
+        probes = np.vstack([(a + b + c) / 3, (a + b) / 2, (b + c) / 2, (c + a) / 2])
+        at = map_coordinates(depth, ((probes - lo) / d).T, order=1)
+        if at.min() >= 0.5 * thickness:
+            return out
+    raise MeshInputError(
+        f"{piece.source}: the inner surface of the cortex cannot be meshed within "
+        f"{size:.3g} m of the bone surface (depth {at.min():.3g} m < half the cortical "
+        f"thickness {thickness:.3g} m): use a thicker cortex or a smaller element size"
+    )
 
 
 def inside_mask(surface: Surface, axes: Sequence[np.ndarray]) -> np.ndarray:
@@ -219,26 +245,6 @@ def depth_field(surface: Surface, spacing: float, pad: int = 2) -> tuple[np.ndar
     inside = inside_mask(surface, axes)
     depth = distance_transform_edt(inside, sampling=spacing) - 0.16 * spacing
     return np.where(inside, depth, 0.0), lo
-
-
-def _components(surface: Surface) -> list[Surface]:
-    """The connected pieces of a surface."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    tri = surface.triangles
-    n = len(surface.points)
-    rows = np.concatenate([tri[:, 0], tri[:, 1]])
-    cols = np.concatenate([tri[:, 1], tri[:, 2]])
-    g = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    k, labels = connected_components(g, directed=False)
-    out = []
-    for c in range(k):
-        t = tri[labels[tri[:, 0]] == c]
-        if len(t):
-            used, t = np.unique(t, return_inverse=True)
-            out.append(Surface(surface.points[used], t.reshape(-1, 3), surface.source))
-    return out
 
 
 def bone_from_surface(

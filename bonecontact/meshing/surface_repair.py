@@ -43,6 +43,7 @@ __all__ = [
     "read_surface",
     "remesh_surface",
     "repair_surface",
+    "split_components",
     "surface_defects",
 ]
 
@@ -289,6 +290,23 @@ def check_surface(surface: Surface) -> None:
     defects = surface_defects(surface)
     if defects:
         raise MeshInputError(f"{surface.source}: " + "; ".join(defects))
+
+
+def split_components(surface: Surface) -> list[Surface]:
+    """The connected pieces of a surface (sharing vertices), largest area first."""
+    tri = surface.triangles
+    n = len(surface.points)
+    rows = np.concatenate([tri[:, 0], tri[:, 1]])
+    cols = np.concatenate([tri[:, 1], tri[:, 2]])
+    g = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    k, labels = connected_components(g, directed=False)
+    out = []
+    for c in range(k):
+        t = tri[labels[tri[:, 0]] == c]
+        if len(t):
+            used, t = np.unique(t, return_inverse=True)
+            out.append(Surface(surface.points[used], t.reshape(-1, 3), surface.source))
+    return sorted(out, key=lambda s: -s.area)
 
 
 # ------------------------------------------------------------------------------ repairs
