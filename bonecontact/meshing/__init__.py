@@ -16,6 +16,14 @@ a tetrahedral bone (cortical shell, cancellous core, facet groups selected by re
 from bonecontact.meshing.anatomy import knee_2d, long_bone_2d
 from bonecontact.meshing.anatomy_data import ANATOMY_SURFACES, anatomy_surface
 from bonecontact.meshing.builder import MeshingError
+from bonecontact.meshing.ct import (
+    CTImage,
+    bone_regions,
+    ct_bone_surface,
+    ct_slice_mesh,
+    read_ct_series,
+    read_ct_slice,
+)
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.meshing.session import gmsh_session
 from bonecontact.meshing.shapes import (
@@ -42,15 +50,19 @@ from bonecontact.meshing.surface_repair import (
 
 __all__ = [
     "ANATOMY_SURFACES",
+    "CTImage",
     "MeshInputError",
     "MeshingError",
     "Surface",
     "SurfaceRegion",
     "anatomy_surface",
     "bone_from_surface",
+    "bone_regions",
     "box",
     "cantilever",
     "check_surface",
+    "ct_bone_surface",
+    "ct_slice_mesh",
     "gmsh_session",
     "hertz_2d",
     "hertz_3d",
@@ -58,6 +70,8 @@ __all__ = [
     "long_bone_2d",
     "prepare_surface",
     "quarter_tube",
+    "read_ct_series",
+    "read_ct_slice",
     "read_gmsh_mesh",
     "read_surface",
     "rectangle",
