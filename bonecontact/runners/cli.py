@@ -5,6 +5,9 @@ a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, 
 stdout.  Implausible values (likely unit slips, :mod:`bonecontact.runners.plausibility`) are
 printed as warnings before anything is solved; ``--strict`` makes them errors (exit status 2).
 
+``bonecontact mesh-surface SURFACE.stl OUT.msh --size H [--cortical T]`` meshes a closed
+bone surface (:func:`bonecontact.meshing.stl.main`; exit status 2 for a broken surface).
+
 ``bonecontact run SCENE.toml --restart [CHECKPOINT]`` continues a mechanics run from its
 newest (or the named) checkpoint (docs/checkpoint.md).
 
@@ -28,6 +31,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bonecontact.common.version import __version__
+from bonecontact.meshing.stl import main as mesh_surface
 from bonecontact.runners.checkpoint import CheckpointError
 from bonecontact.runners.dispatch import check, run_kind, run_scene
 from bonecontact.runners.mechanics import SceneModel, build_model
@@ -68,6 +72,12 @@ def _parser() -> argparse.ArgumentParser:
         metavar="CHECKPOINT",
         help="continue from the newest checkpoint of the output directory, or from the "
         "named checkpoint directory (docs/checkpoint.md)",
+    )
+    sub.add_parser(
+        "mesh-surface",
+        add_help=False,
+        help="tetrahedral bone (.msh) from a closed surface file (STL, ...); "
+        "'bonecontact mesh-surface -h' for its options",
     )
     c = sub.add_parser("check", help="validate a scene file and its mesh without running it")
     c.add_argument("scene", type=Path, help="scene file (TOML)")
@@ -172,6 +182,9 @@ def _signal_number(name: str) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     comm = MPI.COMM_WORLD
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["mesh-surface"]:  # its own parser (bonecontact.meshing.stl)
+        return mesh_surface(argv[1:])
     args = _parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.simplefilter("error" if args.strict else "always", PlausibilityWarning)
