@@ -132,3 +132,21 @@ def test_shipped_vertebra_meshes():
     # a vertebral body is mostly cancellous; the thin processes are all cortex
     assert 0.2 < measure(md, "L4_cancellous") / total < 0.8
     assert 1e-4 < measure(md, "L4_endplate") < 2e-3  # the upper endplate: a few cm²
+
+
+def test_command_line_exit_status(tmp_path, capsys):
+    from bonecontact.meshing.stl import main
+
+    s = icosphere(nsub=2)
+    broken = tmp_path / "inverted.stl"
+    meshio.write(broken, meshio.Mesh(s.points, [("triangle", s.triangles[:, ::-1])]), binary=True)
+    out = tmp_path / "out.msh"
+    assert main([str(broken), str(out), "--size", "0.005"]) == 2
+    assert "inverted.stl: inverted shell" in capsys.readouterr().err
+    assert not out.exists()
+    good = tmp_path / "ball_mm.stl"
+    meshio.write(good, meshio.Mesh(s.points * 1e3, [("triangle", s.triangles)]), binary=True)
+    args = [str(good), str(out), "--size", "0.006", "--scale", "1e-3", "--keep-triangles"]
+    assert main([*args, "--cone", "top", "0", "1", "0", "30", "--cortical", "0.003"]) == 0
+    m = meshio.read(out)
+    assert {"bone_cortical", "bone_cancellous", "top", "bone_surface"} == set(m.field_data)
