@@ -33,6 +33,7 @@ from mpi4py import MPI
 from bonecontact.common.version import __version__
 from bonecontact.meshing.stl import main as mesh_surface
 from bonecontact.runners.checkpoint import CheckpointError
+from bonecontact.runners.cracks import check_cracked
 from bonecontact.runners.dispatch import check, run_kind, run_scene
 from bonecontact.runners.mechanics import SceneModel, build_model
 from bonecontact.runners.plausibility import count_bodies, mesh_extent
@@ -146,7 +147,10 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
     for c in scene.contacts:
         fr = "frictionless" if c.friction == "none" else c.friction
         rows.append(("contact", f"{c.name}: {c.slave} (slave) on {c.master} (master), {fr}"))
-    if not scene.contacts:
+    for c in scene.cracks:
+        fr = f"Coulomb {c.friction:g}" if c.friction else "frictionless"
+        rows.append(("contact", f"{c.name}: the crack's faces (re-meshed body), {fr}"))
+    if not scene.contacts and not scene.cracks:
         rows.append(("contact", "none"))
     if sm is not None:
         rows.append(("dofs", f"{sm.model.num_dofs} (P1 displacement)"))
@@ -160,7 +164,9 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
 
 def _check(scene: Scene, shown: Path, comm: MPI.Comm) -> int:
     """``bonecontact check``: every check, then the summary on stdout (rank 0)."""
-    sm = build_model(scene, comm) if run_kind(scene) == "mechanics" else None
+    sm = None
+    if run_kind(scene) == "mechanics":  # a crack: the model on the body meshed around it
+        sm = check_cracked(scene, comm) if scene.cracks else build_model(scene, comm)
     if sm is None:
         check(scene, comm)
     rows = _summary_lines(scene, sm, comm)

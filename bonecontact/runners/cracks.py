@@ -201,11 +201,11 @@ def build_cracked(
     return sm, cm
 
 
-def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
-    """Every check of a crack scene, the first mesh and face pair included (nothing
-    written)."""
+def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
+    """Every check of a crack scene, the first cracked mesh and the face pair included
+    (nothing written); the scene model on that mesh."""
     run = prepare(scene, comm)
-    build_cracked(scene, run, run.spec.crack, comm, PhaseTimer())
+    return build_cracked(scene, run, run.spec.crack, comm, PhaseTimer())[0]
 
 
 # ------------------------------------------------------------------ tip evaluation
@@ -412,7 +412,7 @@ def run_cracked(
             if prop_status == "grows":
                 prop_status = "arrested"
             k += 1
-    except RuntimeError as exc:
+    except (RuntimeError, FractureError) as exc:  # a solver failure; a tip K cannot be had
         status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
     bar.close()
     table.close()

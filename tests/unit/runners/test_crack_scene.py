@@ -28,6 +28,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytestmark = pytest.mark.serial
@@ -170,7 +171,7 @@ def feddersen(a: float) -> float:
 def centre(mesh: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
     tmp = tmp_path_factory.mktemp("centre")
     scene = _scene(tmp, mesh, "centre", CENTRE)
-    return {n: _run(scene, tmp / f"out{n}", n) for n in (1, 2)}
+    return {n: _run(scene, tmp / f"out{n}", n) for n in (1, 2, 3)}
 
 
 def test_centre_crack_in_tension_gives_feddersen(centre: dict[int, Path]) -> None:
@@ -193,8 +194,9 @@ def test_centre_crack_in_tension_gives_feddersen(centre: dict[int, Path]) -> Non
     assert (centre[1] / "contact_c.csv").is_file()
 
 
-def test_centre_crack_two_ranks_same_k(centre: dict[int, Path]) -> None:
-    for a, b in zip(_rows(centre[1]), _rows(centre[2]), strict=True):
+@pytest.mark.parametrize("n", [2, 3])
+def test_centre_crack_ranks_give_the_serial_k(centre: dict[int, Path], n: int) -> None:
+    for a, b in zip(_rows(centre[1]), _rows(centre[n]), strict=True):
         for key in ("K_I", "K_II", "J", "K_I_dc"):
             assert _f(b, key) == pytest.approx(_f(a, key), rel=1e-6, abs=1e-6 * SIGMA)
 
@@ -250,7 +252,8 @@ def test_propagation_same_path_on_ranks(mesh: Path, tmp_path: Path, n: int) -> N
     serial = json.loads((_propagating(tmp_path, mesh, 1) / "summary.json").read_text())
     par = json.loads((_propagating(tmp_path, mesh, n) / "summary.json").read_text())
     a, b = serial["fracture"]["crack"]["points"], par["fracture"]["crack"]["points"]
-    assert b == pytest.approx(a, abs=1e-9 * W)
+    # the solvers' round-off (K to ~1e-7) moves the path by < 1e-6 of the increment
+    np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=0, atol=1e-6 * 0.001)
 
 
 @pytest.mark.slow
