@@ -9,9 +9,11 @@ q (ring r_out/2 … r_out, plateau along the front of half-length r_out).
 * Penny-shaped crack, radius a: K_I = 2σ√(a/π) at every front point.  Coarse mesh
   (front size a/16, grading 0.12): within 1.5 % at r_out = 0.3a (measured −0.4 %, +1.0 %,
   −0.2 % at φ = 0, 45°, 90°; the same to 1e-14 on 2 ranks).
-* Elliptical crack a/b = 2 (slow): Irwin's K_I(φ) within 3 % at r_out = 0.3b (front
+* Elliptical crack a/b = 2: Irwin's K_I(φ) within 3 % at r_out = 0.3b (front
   size b/12.5, ~9 200 dofs; measured −2.3 % at the end of the major axis, where the
   front's radius of curvature b²/a is smallest, −1.6 … +0.4 % elsewhere).
+* Slow: front a/32 (~46k dofs): within 1.5 % at φ = 0 … 90°, r_out = 0.3a and 0.45a agree
+  within 0.5 %.
 * On several ranks the distributed result equals the serial one on the same gmsh mesh.
 * Mixed mode on a full model: the exact straight-front near field with
   (K_I, K_II, K_III) = (1, 0.6, 0.4) interpolated (discontinuous P2, the two crack faces
@@ -51,8 +53,9 @@ SIGMA = 1.0
 PHIS = (0.0, math.pi / 4, math.pi / 2)
 
 
-def solve_octant(front, h_front, comm, grading=0.12):
-    blk = mesh_crack_octant(front, 4.0 * front.a, h_front, grading, front.a, comm)
+def solve_octant(front, h_front, comm, grading=0.12, h_max=None):
+    h_max = front.a if h_max is None else h_max
+    blk = mesh_crack_octant(front, 4.0 * front.a, h_front, grading, h_max, comm)
     m = Mechanics(blk.mesh, MAT, blk.cell_tags, blk.facet_tags)
     g = blk.groups
     m.add_dirichlet(m.facets(g["sym_x"]), 0, 0.0)
@@ -115,7 +118,6 @@ def test_irwin_reference():
     assert k[1] / k[0] == pytest.approx(math.sqrt(2.0), rel=1e-12)
 
 
-@pytest.mark.slow
 def test_elliptical_crack_irwin():
     b = 0.5
     blk, u = solve_octant(EllipticalFront(1.0, b), 0.04, MPI.COMM_WORLD)
@@ -164,3 +166,18 @@ def test_mixed_mode_exact_field_full_model():
     assert (k.K_I, k.K_II, k.K_III) == pytest.approx(K, rel=0.01)
     with pytest.raises(FractureError, match="outer boundary"):
         front_interaction_integral(u, blk, 0.0, MAT, 0.5, length=1.2)
+
+
+@pytest.mark.slow
+def test_penny_crack_fine_mesh_and_domain_independence():
+    """Front a/32, grading and largest size refined with it (~46k dofs): K_I within 1.5 %
+    at φ = 0 … 90° (the W = 4a block adds about +1.5 %), and the same within 0.5 % for
+    r_out = 0.3a and 0.45a."""
+    blk, u = solve_octant(EllipticalFront(1.0, 1.0), 1.0 / 32, MPI.COMM_WORLD, 0.06, 0.25)
+    ref = penny_k(SIGMA, 1.0)
+    for phi in np.radians([0.0, 22.5, 45.0, 67.5, 90.0]):
+        k3 = front_interaction_integral(u, blk, phi, MAT, 0.3).K_I
+        assert k3 == pytest.approx(ref, rel=0.015)
+        if phi in (0.0, np.radians(45.0)):
+            k45 = front_interaction_integral(u, blk, phi, MAT, 0.45, length=0.3).K_I
+            assert k45 == pytest.approx(k3, rel=0.005)
