@@ -292,3 +292,35 @@ def test_closed_crack_propagates_in_shear(mesh: Path, tmp_path: Path) -> None:
     assert [r["status"] for r in rows[2:]] == ["max_increments"] * 2
     nodes = list(csv.DictReader(open(out / "contact_c.csv")))  # the state after the increment
     assert min(float(n["gap"]) for n in nodes) > -1e-9 * A_INCL
+
+
+@pytest.mark.parametrize(
+    "edit, where",
+    [
+        (
+            lambda s: (
+                s + '[[crack]]\nname = "d"\npoints = [[0.0, 0.01], [0.002, 0.01]]\n'
+                'region = "plate"\n'
+            ),
+            '[[crack]] #2 "d"',
+        ),
+        (
+            lambda s: (
+                s.replace('kind = "static"', 'kind = "quasistatic"\nt_end = 1.0\ndt = 1.0')
+                + "[fracture]\npropagate = true\nincrement = 0.001\n"
+            ),
+            '[fracture], key "propagate"',
+        ),
+    ],
+    ids=["two_cracks", "quasistatic_propagation"],
+)
+def test_what_is_not_run_is_exit_2(mesh: Path, tmp_path: Path, edit, where: str) -> None:
+    path = _scene(tmp_path, mesh, "refused", CENTRE)
+    path.write_text(edit(path.read_text()))
+    cmd = [str(BIN / "bonecontact"), "run", str(path), "-q", "-o", str(tmp_path / "out")]
+    res = subprocess.run(
+        cmd, capture_output=True, text=True, timeout=300, env=ENV, stdin=subprocess.DEVNULL
+    )
+    assert res.returncode == 2, res.stderr
+    assert where in res.stderr
+    assert not (tmp_path / "out" / "fracture.csv").exists()
