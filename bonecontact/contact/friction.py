@@ -12,7 +12,10 @@ identical on all ranks), pure NumPy:
   the stick rule for a reversed slip (:func:`slip_directions`);
 * 3D slip nodes: the damped semi-smooth Newton rows of ``|ξ| λ_t − ĝ ξ = 0``
   (:func:`slip_newton_rows`) and the Aitken-accelerated fixed point of the slip
-  directions (:func:`aitken_directions`).
+  directions (:func:`aitken_directions`);
+* the edge of the contact zone for bounds that do not vanish with the pressure
+  (:func:`update_edge_sets`, :func:`edge_groups`): touching nodes with zero pressure and
+  a friction traction between 0 and the bound.
 """
 
 from __future__ import annotations
@@ -24,14 +27,20 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "EDGE_AFTER_RELEASES",
     "FRICTION_KIND",
+    "EdgeSets",
     "FrictionLaw",
     "aitken_directions",
     "coulomb_fixed_point_bounds",
+    "edge_groups",
+    "merge_groups",
     "slip_directions",
     "slip_newton_rows",
     "slip_set",
     "step_bounds",
+    "update_edge_sets",
+    "with_normal_row",
 ]
 
 #: Integer codes of the friction kinds in the per-node arrays.
@@ -227,3 +236,172 @@ def aitken_directions(
         ok = nrm_d > 1e-12
         idx = np.flatnonzero(both)[ok]
         new_dirs[idx] = upd[ok] / nrm_d[ok, None]
+
+
+# ----------------------------------------------------------------------- the edge rule
+@dataclass
+class EdgeSets:
+    """Edge nodes of one contact solve (docs/theory/pdas.md#edge-of-the-contact-zone).
+
+    ``edge`` marks the nodes held at the edge state (touching, zero pressure, friction
+    traction ``β s_p`` with ``0 ≤ β ≤ ĝ_p``); ``releases`` counts, per node, how often
+    the node left the active set with a non-zero, pressure-independent bound during
+    this solve.
+    """
+
+    edge: npt.NDArray[np.bool_]
+    releases: npt.NDArray[np.int_]
+
+    @classmethod
+    def empty(cls, n: int) -> EdgeSets:
+        """No edge node, no release (the start of a solve)."""
+        return cls(np.zeros(n, dtype=bool), np.zeros(n, dtype=int))
+
+    def signature(self) -> bytes:
+        """What the cycling test must tell apart: the edge set and the releases up to
+        :data:`EDGE_AFTER_RELEASES` (a set repeated with a node one release closer to the
+        edge state is not a cycle)."""
+        capped = np.minimum(self.releases, EDGE_AFTER_RELEASES).astype(np.int8)
+        return self.edge.tobytes() + capped.tobytes()
+
+
+#: An inactive node with a pressure-independent bound is taken to the edge state when it
+#: penetrates again after this many releases from the active set within one solve.
+EDGE_AFTER_RELEASES = 2
+
+
+def edge_groups(
+    nodes: npt.NDArray[np.int64],
+    rows: list[npt.NDArray[np.int64]],
+    dirs: npt.NDArray[np.float64],
+    gap: npt.NDArray[np.float64],
+    stiffness: npt.NDArray[np.float64],
+) -> tuple:
+    """The replaced rows of edge nodes: ``w_n = 0``, ``u_n = g`` and, in 3D, the friction
+    traction along the slip direction (``s⊥ · w_t = 0``).
+
+    The normal and tangential rows of an edge node form one group of the linear
+    solvers' coupled rows ``G w + H x = h`` (``w`` the residual, ``x`` the unknowns of
+    the group's rows): the normal residual vanishes (zero pressure), the normal
+    approach equals the gap (touching), and the tangential residual — the friction
+    force, an unknown — is free in 2D and along ``s_p`` in 3D.
+
+    Parameters
+    ----------
+    nodes
+        The edge nodes (replicated numbering).
+    rows
+        Per component ``j``, the replicated row of component ``j`` of every node.
+    dirs
+        Slip directions ``s_p`` of all nodes, ``(n, gdim − 1)``.
+    gap
+        Nodal gaps of all nodes.
+    stiffness
+        A row scale per node (the normal-row stiffness), so that ``u_n = g`` is weighed
+        like the other rows.
+
+    Returns
+    -------
+    (rows, G, H, h)
+        ``rows`` is ``(m, gdim)``; ``G, H`` are ``(m, gdim, gdim)``; ``h`` is ``(m, gdim)``.
+    """
+    bs = len(rows)
+    m = nodes.size
+    grp = np.stack([rows[j][nodes] for j in range(bs)], axis=1).astype(np.int64)
+    G = np.zeros((m, bs, bs))
+    H = np.zeros((m, bs, bs))
+    h = np.zeros((m, bs))
+    k = stiffness[nodes]
+    G[:, 0, 0] = 1.0  # w_n = 0
+    H[:, 1, 0] = k  # k u_n = k g
+    h[:, 1] = k * gap[nodes]
+    if bs == 3:  # the traction along s: (−s₂, s₁) · w_t = 0
+        G[:, 2, 1] = -dirs[nodes, 1]
+        G[:, 2, 2] = dirs[nodes, 0]
+    return grp, G, H, h
+
+
+def with_normal_row(
+    coupled: tuple,
+    normal_rows: npt.NDArray[np.int64],
+    gap: npt.NDArray[np.float64],
+    stiffness: npt.NDArray[np.float64],
+) -> tuple:
+    """Groups of tangential coupled rows (3D Newton slip rows) extended by the node's
+    normal row with the equation ``u_n = g``, so that they can be solved together with
+    the (normal + tangential) groups of edge nodes.
+
+    ``normal_rows``, ``gap`` and ``stiffness`` are per group.
+    """
+    rows, G, H, h = coupled
+    m, r = rows.shape
+    rows3 = np.concatenate([normal_rows[:, None].astype(np.int64), rows], axis=1)
+    G3 = np.zeros((m, r + 1, r + 1))
+    H3 = np.zeros((m, r + 1, r + 1))
+    G3[:, 1:, 1:] = G
+    H3[:, 1:, 1:] = H
+    H3[:, 0, 0] = stiffness
+    h3 = np.concatenate([(stiffness * gap)[:, None], h], axis=1)
+    return rows3, G3, H3, h3
+
+
+def merge_groups(a: tuple | None, b: tuple | None) -> tuple | None:
+    """Concatenate two sets of coupled row groups of the same group size."""
+    if a is None:
+        return b
+    if b is None:
+        return a
+    return tuple(np.concatenate([x, y], axis=0) for x, y in zip(a, b))
+
+
+def update_edge_sets(
+    an: npt.NDArray[np.bool_],
+    new_an: npt.NDArray[np.bool_],
+    stick: npt.NDArray[np.bool_],
+    new_stick: npt.NDArray[np.bool_],
+    new_dirs: npt.NDArray[np.float64],
+    dirs: npt.NDArray[np.float64],
+    sets: EdgeSets,
+    rigid: npt.NDArray[np.bool_],
+    g: npt.NDArray[np.float64],
+    lam_t: npt.NDArray[np.float64],
+    z: npt.NDArray[np.float64],
+    zn: npt.NDArray[np.float64],
+    tol: float,
+) -> EdgeSets:
+    """The edge rule (docs/theory/pdas.md#edge-of-the-contact-zone): new normal, stick and
+    edge sets (``new_an``, ``new_stick``, ``new_dirs`` updated in place).
+
+    * releases: a node of ``rigid`` (friction bound > 0 that does not follow the current
+      pressure: Tresca, semi-implicit Coulomb) in ``an`` but not in ``new_an``;
+    * entry: such a node, released at least :data:`EDGE_AFTER_RELEASES` times, that
+      penetrates again (in ``new_an``, not in ``an``) becomes an edge node, slipping
+      along ``ξ/|ξ|``;
+    * an edge node whose friction traction ``β = λ_t · s`` exceeds the bound
+      (``β > ĝ``) returns to the active set (slip); with ``β < 0`` it opens; otherwise
+      it stays and its direction follows ``ξ``.  When an edge node leaves, the other
+      nodes keep their sets for one iteration: the traction of that solve is outside
+      the friction law, and the sets it suggests elsewhere are not to be trusted.
+    """
+    edge, releases = sets.edge, sets.releases.copy()
+    releases += (an & ~new_an & rigid & (g > 0.0) & ~edge).astype(int)
+    enter = new_an & ~an & ~edge & rigid & (g > 0.0) & (releases >= EDGE_AFTER_RELEASES)
+    turn = (edge | enter) & (zn > 0.0)
+    new_dirs[turn] = z[turn] / zn[turn, None]
+    beta = (lam_t * new_dirs).sum(axis=1)
+    up = edge & (beta > g + tol)
+    down = edge & (beta < -tol)
+    stay = edge & ~up & ~down
+    if (up | down).any():
+        # the solve gave an edge node a traction outside [0, ĝ]: only the edge nodes
+        # change in this iteration (the other nodes' indicators were computed with it)
+        others = ~edge
+        new_an[others], new_stick[others] = an[others], stick[others]
+        new_dirs[others] = dirs[others]
+        releases = sets.releases.copy()
+        enter[:] = False
+    new_edge = enter | stay
+    new_an[new_edge | down] = False
+    new_an[up] = True
+    new_stick[new_edge | up] = False
+    return EdgeSets(new_edge, releases)

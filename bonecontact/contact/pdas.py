@@ -37,6 +37,10 @@ Sets at iteration k (docs/theory/pdas.md#active-set-rule) and what each does to 
   (to ``direction_tol``), and with Newton rows ``|λ_t − ĝ s| ≤ direction_tol · max ĝ``.
 * frictionless pairs: the tangential rows always stay (λ_t = 0); their active nodes
   are reported as ``slip``.
+* edge (Tresca and semi-implicit Coulomb nodes that keep toggling between open and
+  slip at the edge of the zone; docs/theory/pdas.md#edge-of-the-contact-zone): touching
+  with zero pressure and a friction traction ``β s_p``, ``0 ≤ β ≤ ĝ_p``, from the solve
+  (:func:`bonecontact.contact.friction.update_edge_sets`); reported as active ``slip``.
 
 Friction bounds ``ĝ_p``: Tresca, the given bound; Coulomb ``previous_step`` (semi-
 implicit), ``μ λ_n,p`` of the previous step — one Tresca problem per step; Coulomb
@@ -103,12 +107,17 @@ from bonecontact.common.linalg import configure_ksp
 from bonecontact.contact import cold_start
 from bonecontact.contact.friction import (
     FRICTION_KIND,
+    EdgeSets,
     aitken_directions,
     coulomb_fixed_point_bounds,
+    edge_groups,
+    merge_groups,
     slip_directions,
     slip_newton_rows,
     slip_set,
     step_bounds,
+    update_edge_sets,
+    with_normal_row,
 )
 from bonecontact.contact.interface import ContactInterface, basis_transform, rotation_matrix
 from bonecontact.contact.krylov import PreconditionerReuse, configure_condensed_ksp
@@ -228,6 +237,7 @@ class _PDASState:
     aitken: list = field(
         default_factory=lambda: [None, 1.0]
     )  # 3D slip directions: residual, relaxation
+    edges: EdgeSets | None = None  # edge of the contact zone (docs/theory/pdas.md)
     history: list[dict] = field(default_factory=list)
     seen: set = field(default_factory=set)
     lin_total: int = 0
@@ -256,6 +266,7 @@ class _Iterate:
     changed_t: int = 0
     turned: int = 0
     bound_change: float = 0.0
+    new_edges: EdgeSets | None = None
 
 
 class ContactSolver:
@@ -661,6 +672,7 @@ class ContactSolver:
             self._update_active_set(st, it, k)
             self._update_friction_bounds(st, it, k)
             self._update_slip_sets(st, it)
+            self._update_edge_sets(st, it)
             if self._check_convergence(st, it, k, its, extra):
                 break
             self._accept_sets(st, it, k)
@@ -697,6 +709,7 @@ class ContactSolver:
             xold=xold,
             values=values,
             x_prev=xold,
+            edges=EdgeSets.empty(self.NS),
         )
         lr = self.lowrank
         if lr is not None:
@@ -739,6 +752,7 @@ class ContactSolver:
         else:
             for j in range(1, bs):
                 wg[R[j][slip]] = (g * D * st.dirs[:, j - 1])[slip]
+        coupled = self._with_edge_rows(st, fixed, coupled)
         try:
             if self.lowrank is not None:
                 x, w, info = self.lowrank.solve_set(fixed, self._scale, wg, st.margin, coupled)
@@ -865,6 +879,58 @@ class ContactSolver:
             aitken_directions(both, dirs, new_dirs, it.changed_sets + changed_t != 0, st.aitken)
         it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned
 
+    def _with_edge_rows(self, st: _PDASState, fixed: np.ndarray, coupled: tuple | None):
+        """Step 3, edge nodes (docs/theory/pdas.md#edge-of-the-contact-zone): their normal
+        and tangential rows become one coupled group (zero pressure, touching, traction
+        along the slip direction); 3D Newton slip groups then take their normal row
+        along (``u_n = g``) so that all groups have the same size.  ``fixed`` loses the
+        normal rows moved into groups (in place)."""
+        edge = st.edges.edge
+        if not edge.any():
+            return coupled
+        R, k = self._ridx, self._scale[self._ridx[0]]
+        nodes = np.flatnonzero(edge)
+        groups = edge_groups(nodes, R, st.dirs, self._gap, k)
+        fixed[R[0][nodes]] = False
+        if coupled is not None:
+            normal = R[0][np.searchsorted(R[1], coupled[0][:, 0])]
+            coupled = with_normal_row(
+                coupled, normal, self._gap[np.searchsorted(R[0], normal)], self._scale[normal]
+            )
+            fixed[normal] = False
+        return merge_groups(coupled, groups)
+
+    def _update_edge_sets(self, st: _PDASState, it: _Iterate) -> None:
+        """Step 7b: the edge rule for friction nodes whose bound does not follow the current
+        pressure (docs/theory/pdas.md#edge-of-the-contact-zone), and the set changes
+        counted again when it moved a node."""
+        rigid = self._fric & ~self._fp
+        if not rigid.any():
+            return
+        new_an, new_stick = it.new_an.copy(), it.new_stick.copy()
+        gs = max(float(st.g.max()) if self.NS else 0.0, it.eps)
+        it.new_edges = update_edge_sets(
+            st.an, it.new_an, st.stick, it.new_stick, it.new_dirs, st.dirs, st.edges, rigid,
+            st.g, it.lam_t, it.z, it.zn, 1e-10 * gs,
+        )  # fmt: skip
+        old, new = st.edges.edge, it.new_edges.edge
+        moved = (new_an != it.new_an).any() or (new_stick != it.new_stick).any()
+        if not (moved or old.any() or new.any()):
+            return
+        fric = self._fric
+        it.changed_sets = int((it.new_an != st.an).sum() + (new != old).sum())
+        changed_t = int(((it.new_stick != st.stick) & it.new_an & fric).sum())
+        both_e = new & old
+        if self.bs == 2:
+            slip = st.an & fric & ~st.stick
+            both = it.new_an & fric & ~it.new_stick & slip
+            flips = np.sign(it.new_dirs[:, 0]) != np.sign(st.dirs[:, 0])
+            changed_t += int((flips & (both | both_e)).sum())
+        else:
+            turn = np.linalg.norm(it.new_dirs[both_e] - st.dirs[both_e], axis=1)
+            it.turned += int((turn > self.direction_tol).sum())
+        it.changed_t = changed_t
+
     def _check_convergence(
         self, st: _PDASState, it: _Iterate, k: int, its: int, extra: dict
     ) -> bool:
@@ -884,6 +950,7 @@ class ContactSolver:
                 "changed": changed,
                 "update": update,
                 "bound_change": it.bound_change,
+                "edge": int(st.edges.edge.sum()),
                 "linear_iterations": its,
                 **extra,
             }
@@ -901,9 +968,12 @@ class ContactSolver:
         st.margin = margin
         st.an, st.stick, st.dirs = it.new_an, it.new_stick, it.new_dirs
         st.lam_t_k, st.z_k = it.lam_t, it.z
+        if it.new_edges is not None:
+            st.edges = it.new_edges
         if it.changed_sets + it.changed_t == 0:
             return  # only 3D slip directions still turning: not a cycle
         sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes() if bs == 2 else b"")
+        sig += (st.edges.signature(),)
         if sig in st.seen:
             raise ContactConvergenceError(
                 f"contact: the active set cycles (iteration {k + 1} repeats an earlier set)",
@@ -920,7 +990,7 @@ class ContactSolver:
             it = self._multipliers_of_field(st)
         else:
             n_fact, n_cols = (len(st.history) if self.linear == "direct" else 0), 0
-        an = st.an
+        an = st.an | st.edges.edge  # edge nodes touch (with zero pressure)
         self._an, self._dir = an, st.dirs
         self._cold = False
         self._lam_n_prev = np.where(an, it.lam_n, 0.0)
