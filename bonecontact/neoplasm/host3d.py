@@ -370,51 +370,61 @@ def _distance_to_surface(
     return out
 
 
+def _body_surface(sf: _Surfaces, bd: int) -> npt.NDArray[np.int64]:
+    """The structural faces of body ``bd``, oriented outward from it."""
+    fw, bw = sf.body[:, 0] == bd, sf.body[:, 1] == bd
+    return np.concatenate([sf.tri[fw], sf.tri[bw][:, [0, 2, 1]]])
+
+
 def _host_body(
     sf: _Surfaces, x: npt.NDArray[np.float64], gname: str, gidx: int,
     npts: npt.NDArray[np.float64], ntri: npt.NDArray[np.int64], h_neo: float,
 ) -> int:  # fmt: skip
-    """The body of the host group that holds the neoplasm strictly inside (CouplingError else)."""
-    cands = np.where(sf.body_group == gidx)[0]
-    best, gap = -1, None
-    for bd in cands:
-        fw = sf.body[:, 0] == bd
-        bw = sf.body[:, 1] == bd
-        tri = np.concatenate([sf.tri[fw], sf.tri[bw][:, [0, 2, 1]]])  # outward from bd
+    """The body of the host group that holds the neoplasm strictly inside (CouplingError else).
+
+    Strictly inside: every neoplasm vertex inside the body (winding number of its closed
+    surface), no vertex of the body's surface inside the neoplasm (an engulfed hole), and
+    the two surfaces at least ``CLEARANCE`` neoplasm mesh sizes apart.
+    """
+    limit = " (3D coupling needs the neoplasm strictly inside one body of the group it grows "
+    limit += "into; crossing an interface or the outer surface is not supported)"
+    away = math.inf
+    for bd in np.where(sf.body_group == gidx)[0]:
+        tri = _body_surface(sf, int(bd))
         if not len(tri):
             continue
-        wn = _winding(npts, x[tri])
-        inside = wn > 0.5
+        inside = _winding(npts, x[tri]) > 0.5
         if not inside.any():
+            away = min(away, float(_distance_to_surface(npts, x, tri).min()))
             continue
-        d_out = _distance_to_surface(npts[~inside], x, tri) if (~inside).any() else np.zeros(0)
-        if d_out.size:
-            gap = -float(d_out.max())
-        else:
-            # clearance both ways: neoplasm vertices to the body's surface and back
-            bn = np.unique(tri)
-            d1 = _distance_to_surface(npts, x, tri).min()
-            d2 = _distance_to_surface(x[bn], npts, ntri).min()
-            gap = float(min(d1, d2))
-            if gap >= CLEARANCE * h_neo:
-                return int(bd)
-        best = int(bd)
-        break
-    if best < 0 or gap is None:
-        raise CouplingError(
-            f'the neoplasm is not inside the cell group "{gname}" (3D: it must lie strictly '
-            "inside one body of the group it grows in)"
+        if not inside.all():
+            out = float(_distance_to_surface(npts[~inside], x, tri).max())
+            raise CouplingError(
+                f'the neoplasm is not strictly inside the cell group "{gname}": it reaches '
+                f"{out:.4g} m beyond its surface{limit}"
+            )
+        bn = np.unique(tri)
+        lo, hi = npts.min(axis=0), npts.max(axis=0)
+        near = bn[np.all((x[bn] >= lo) & (x[bn] <= hi), axis=1)]
+        if len(near) and np.any(_winding(x[near], npts[ntri]) > 0.5):
+            raise CouplingError(
+                f'the neoplasm engulfs part of the surface of the cell group "{gname}" (a '
+                f"hole or an interface with another group){limit}"
+            )
+        gap = min(
+            float(_distance_to_surface(npts, x, tri).min()),
+            float(_distance_to_surface(x[bn], npts, ntri).min()),
         )
-    if gap < 0:
-        raise CouplingError(
-            f'the neoplasm is not strictly inside the cell group "{gname}": it reaches '
-            f"{-gap:.4g} m beyond its surface (3D coupling needs the neoplasm strictly inside "
-            "one region; crossing an interface or the outer surface is not supported)"
-        )
+        if gap < CLEARANCE * h_neo:
+            raise CouplingError(
+                f'the neoplasm is not strictly inside the cell group "{gname}": it comes '
+                f"within {gap:.4g} m of its surface (at least {CLEARANCE} x its mesh size = "
+                f"{CLEARANCE * h_neo:.4g} m needed in 3D){limit}"
+            )
+        return int(bd)
     raise CouplingError(
-        f'the neoplasm is not strictly inside the cell group "{gname}": it comes within '
-        f"{gap:.4g} m of its surface (at least {CLEARANCE} x its mesh size = "
-        f"{CLEARANCE * h_neo:.4g} m needed in 3D)"
+        f'the neoplasm is not inside the cell group "{gname}": it lies {away:.4g} m away from '
+        f"it{limit}"
     )
 
 

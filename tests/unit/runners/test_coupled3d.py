@@ -345,6 +345,9 @@ def test_neoplasm_outside_its_region_is_refused(ball_mesh):
     p, t = sphere_surface((0.0, 0.0, B_BALL - R - 7e-4), R, 0.004)
     with pytest.raises(CouplingError, match=r'"bone": it comes within 0\.000[4-7]\d* m of its'):
         build_host_mesh3d(geo, "cyst", ("bone",), p, t, True, 0.004, None)
+    p, t = sphere_surface((0.0, 0.0, 0.05), R, h)  # 27 mm from the ball, less to its facets
+    with pytest.raises(CouplingError, match=r'not inside the cell group "bone": it lies 0\.02[67]'):
+        build_host_mesh3d(geo, "cyst", ("bone",), p, t, True, h, None)
     p, t = sphere_surface((0.001, 0.0, 0.0), R, h)
     hm = build_host_mesh3d(geo, "cyst", ("bone",), p, t, False, h, None)
     assert hm.cell_groups == ("bone", "cyst") and hm.wall == "cyst_wall"
