@@ -33,7 +33,7 @@ import gmsh
 import numpy as np
 from dolfinx.io.gmsh import MeshData
 
-from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
+from bonecontact.meshing.builder import MeshingError, PhysicalGroups, check_positive, generate
 from bonecontact.meshing.surface_repair import (
     MeshInputError,
     Surface,
@@ -425,8 +425,6 @@ def surface_parser(prog: str = "bonecontact mesh-surface"):
 def main(argv: Sequence[str] | None = None) -> int:
     """``bonecontact mesh-surface``; returns the exit status (2: bad input)."""
     import sys
-
-    from bonecontact.meshing.builder import MeshingError
 
     args = surface_parser().parse_args(argv)
     try:

@@ -368,8 +368,13 @@ def remesh_surface(surface: Surface, size: float) -> Surface:
     )
     out = Surface(np.asarray(on_surface, float), tri.astype(np.int64), surface.source)
     out = orient_surface(merge_vertices(out))
-    if surface_defects(out) and not surface_defects(out)[0].startswith("inverted"):
-        out = repair_surface(out)
+    # clusters across a part thinner than ``size`` fold the surface through itself:
+    # pymeshfix removes the self-intersections (and any hole or non-manifold edge)
+    from pymeshfix import MeshFix
+
+    fix = MeshFix(out.points, out.triangles.astype(np.int32))
+    fix.repair(joincomp=False, remove_smallest_components=True)
+    out = orient_surface(Surface(np.asarray(fix.points, float), fix.faces.astype(np.int64)))
     if out.volume < 0:
         out = Surface(out.points, out.triangles[:, ::-1], out.source)
     note = f"remeshed to {len(out.triangles)} triangles of size {size:.3g} m (pyacvd)"

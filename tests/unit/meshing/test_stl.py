@@ -123,7 +123,9 @@ def test_written_file_loads_with_its_groups(tmp_path):
 
 def test_shipped_vertebra_meshes():
     l4 = anatomy_surface("L4")
-    endplate = SurfaceRegion("L4_endplate", cone=((0, 1, 0), 30), plane=((0, 0.03, 0), (0, 1, 0)))
+    endplate = SurfaceRegion(
+        "L4_endplate", cone=((0, 1, 0), 35), box=((-0.02, 0.02, -0.03), (0.02, 0.04, 0.03))
+    )
     md = bone_from_surface(l4, 5e-3, 2e-3, name="L4", regions=[endplate], remesh=False, comm=COMM)
     assert set(md.physical_groups) == {"L4_cortical", "L4_cancellous", "L4_endplate", "L4_surface"}
     total = measure(md, "L4_cortical") + measure(md, "L4_cancellous")

@@ -42,7 +42,7 @@ def ran(tmp_path_factory):
 
 
 def test_page_has_the_examples():
-    assert len(_blocks()) == 4
+    assert len(_blocks()) == 6
 
 
 def test_disc_on_plate_groups_and_sizes(ran):
@@ -93,3 +93,27 @@ def test_external_mesh_in_metres_with_groups(ran):
     np.testing.assert_allclose(x.max(axis=0)[:2] - x.min(axis=0)[:2], [0.01, 0.02], rtol=1e-12)
     assert len(md.facet_tags.find(md.physical_groups["top"].tag)) == 1
     assert len(md.cell_tags.find(md.physical_groups["cortical"].tag)) == 2
+
+
+def test_surface_scan_and_ct_examples(ran):
+    """The L4 written in mm and read with scale 1e-3 keeps its volume; the CT slice meshes."""
+    import meshio
+
+    from bonecontact.meshing import anatomy_surface, read_gmsh_mesh
+
+    d, ns = ran
+    _, md = read_gmsh_mesh(d / "L4.msh", MPI.COMM_SELF, 3)
+    assert set(md.physical_groups) == {
+        "L4_cortical",
+        "L4_cancellous",
+        "L4_endplate",
+        "L4_base",
+        "L4_surface",
+    }
+    m = meshio.read(d / "L4.msh")
+    a, b, c, e = (m.points[m.cells_dict["tetra"][:, i]] for i in range(4))
+    volume = np.abs(np.einsum("ij,ij->i", b - a, np.cross(c - a, e - a))).sum() / 6
+    assert volume == pytest.approx(anatomy_surface("L4").volume, rel=0.05)  # remeshed to 4 mm
+    _, md = read_gmsh_mesh(d / "vertebra.msh", MPI.COMM_SELF, 2)
+    assert {"vertebra", "vertebra_outer"} <= set(md.physical_groups)
+    assert len(ns["regions"]) >= 1
