@@ -49,6 +49,7 @@ from bonecontact.runners.results import (
 )
 from bonecontact.scene import Scene, SceneError, check_against_mesh
 from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
+from bonecontact.scene.mesh_checks import check_mesh
 
 __all__ = ["SceneModel", "build_model", "read_mesh", "run_mechanics"]
 
@@ -69,7 +70,8 @@ class SceneModel:
 
 # ----------------------------------------------------------------------------- set-up
 def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
-    """Read the scene's gmsh file; check dimension and physical groups (collective).
+    """Read the scene's gmsh file; check dimension, physical groups and the mesh itself
+    (:func:`bonecontact.scene.mesh_checks.check_mesh`; collective).
 
     Returns
     -------
@@ -95,6 +97,7 @@ def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
         )
     groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in md.physical_groups.items()}
     check_against_mesh(scene, groups, md.mesh.topology.dim, md.mesh.geometry.dim)
+    check_mesh(scene, md, groups, comm)  # bad elements, duplicated nodes, detached pieces
     return md, groups
 
 
