@@ -21,6 +21,10 @@ Boundary geometry (replicated on every rank, only the boundary is gathered):
     mesh's input (gmsh) node index, so the result does not depend on the partition.
 ``curvature.polygon_curvature`` / ``curvature.surface_curvature``
     (module :mod:`bonecontact.neoplasm.curvature`) mean curvature of the boundary.
+``snap_to_grid(points) -> points``
+    Coordinates rounded to a power-of-two grid of about 3e-10 of the extent: what gmsh
+    and the resampling see, so that a boundary moved on any number of ranks (round-off
+    apart) gives the same mesh.
 ``resample_closed_curve(points, h) -> points``
     Redistribute the nodes of a closed curve uniformly in arclength (periodic cubic
     spline through the old nodes, so a fixed smooth boundary is preserved to O(h^4)).
@@ -83,6 +87,7 @@ __all__ = [
     "release_replaced_meshes",
     "resample_closed_curve",
     "smooth_surface",
+    "snap_to_grid",
     "sphere_mesh",
     "surface_mesh",
     "transfer",
@@ -118,6 +123,27 @@ class CoverageError(RuntimeError):
 
 
 # ----------------------------------------------------------------------------- gmsh
+SNAP_BITS = 32
+
+
+def snap_to_grid(points: npt.ArrayLike, bits: int = SNAP_BITS) -> npt.NDArray[np.float64]:
+    """Round coordinates to a grid of spacing ``2**(floor(log2(extent)) - bits)``.
+
+    ``extent`` is the largest side of the bounding box, so the spacing is a power of two
+    between ``2**-bits`` and ``2**(1-bits)`` of it (``bits = 32``: 2.3e-10 to 4.7e-10)
+    and the rounding is exact arithmetic.  What gmsh meshes is snapped: a boundary that
+    differs only by round-off (a solve on another number of ranks) then gives the same
+    gmsh input, hence the same mesh, unless a coordinate straddles a half-grid point
+    (probability about round-off / spacing, 1e-6 per coordinate).
+    """
+    p = np.array(points, dtype=np.float64)
+    extent = float(np.max(np.ptp(p, axis=0))) if p.size else 0.0
+    if not extent > 0.0 or not np.isfinite(extent):
+        return p
+    q = 2.0 ** (np.floor(np.log2(extent)) - bits)
+    return np.round(p / q) * q
+
+
 def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
     """Build and mesh a gmsh model on rank 0, then distribute it over ``comm``.
 
@@ -128,6 +154,7 @@ def _run_gmsh(name: str, dim: int, build, comm: MPI.Comm) -> dmesh.Mesh:
     with gmsh_session(name) if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
             try:
+                gmsh.option.setNumber("General.NumThreads", 1)  # reproducible meshes
                 build()
                 gmsh.model.mesh.generate(dim)
             except Exception as exc:  # reported collectively below
@@ -177,9 +204,10 @@ def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:
 
     Returns
     -------
-    The distributed mesh; its boundary vertices are exactly ``points``.
+    The distributed mesh; its boundary vertices are exactly ``points`` snapped to a grid
+    (:func:`snap_to_grid`: about 3e-10 of the extent).
     """
-    pts = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
+    pts = snap_to_grid(points) if comm.rank == 0 else None
 
     def build() -> None:
         if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
@@ -207,12 +235,13 @@ def surface_mesh(
     """Tetrahedralise the inside of a closed triangulated surface; the surface is kept.
 
     ``points`` ``(N, 3)`` and ``triangles`` ``(M, 3)`` (indices into ``points``) are read
-    on rank 0.  The boundary vertices of the result are exactly ``points``.  gmsh's
+    on rank 0.  The boundary vertices of the result are exactly ``points`` snapped to a
+    grid (:func:`snap_to_grid`: about 3e-10 of the extent).  gmsh's
     Delaunay algorithm: its HXT algorithm is about twice as fast from 10⁴ cells on, but
     its mesh changes with round-off differences of the surface, so a growing tumour would
     no longer be the same on any number of ranks (radius 2e-7 apart after two remeshes).
     """
-    pts = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
+    pts = snap_to_grid(points) if comm.rank == 0 else None
     tri = np.asarray(triangles, dtype=np.int64) if comm.rank == 0 else None
 
     def build() -> None:
@@ -347,8 +376,20 @@ def _owned_exterior_facets(msh: dmesh.Mesh) -> npt.NDArray[np.int32]:
     return facets[facets < msh.topology.index_map(fdim).size_local]
 
 
+def _canonical_triangles(tri: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Triangles in a partition-independent order: each rotated (orientation kept) to start
+    at its smallest vertex index, then sorted lexicographically."""
+    start = np.argmin(tri, axis=1)
+    tri = tri[np.arange(len(tri))[:, None], (start[:, None] + np.arange(3)) % 3]
+    return tri[np.lexsort(tri.T[::-1])]
+
+
 def gather_boundary(msh: dmesh.Mesh) -> Boundary:
-    """Gather the exterior boundary of ``msh`` to every rank (only boundary data moves)."""
+    """Gather the exterior boundary of ``msh`` to every rank (only boundary data moves).
+
+    The result does not depend on the partition: points in the order of their input
+    (gmsh) node index (2D: along the loop from the lowest index), 3D triangles in the
+    order of :func:`_canonical_triangles`."""
     comm = msh.comm
     tdim = msh.topology.dim
     fdim = tdim - 1
@@ -384,7 +425,7 @@ def gather_boundary(msh: dmesh.Mesh) -> Boundary:
     points = all_xyz.reshape(-1, gdim)[first]
     conn = inverse.reshape(-1, tdim)
     if tdim == 3:
-        return Boundary(points, ukeys, conn.astype(np.int64))
+        return Boundary(points, ukeys, _canonical_triangles(conn.astype(np.int64)))
     # 2D: the edges (a -> b) are oriented with the outward normal on the right, i.e. the
     # domain on the left for a counter-clockwise outer loop; chain them from the lowest key
     nxt = np.full(len(ukeys), -1, dtype=np.int64)
@@ -414,11 +455,13 @@ def resample_closed_curve(
 
     A periodic cubic spline is passed through the nodes (parametrised by chord length,
     starting at ``points[0]``, which stays a node) and sampled at ``n`` equally spaced
-    arclength values (``n = max(8, round(L / h))`` when ``n`` is not given).
+    arclength values (``n = max(8, round(L / h))`` when ``n`` is not given).  The nodes
+    are first snapped to a grid (:func:`snap_to_grid`), so that curves differing by
+    round-off give the same result.
     """
     from scipy.interpolate import CubicSpline
 
-    p = np.asarray(points, dtype=np.float64)
+    p = snap_to_grid(points)
     chord = np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1)
     if np.any(chord <= 0):
         raise RemeshError("closed curve has coincident consecutive nodes")
