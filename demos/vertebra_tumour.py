@@ -1,0 +1,618 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3 (bonecontact)
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # A vertebral body with a tumour: growth, fracture risk, a crack to the endplate
+#
+# A 2D (plane-strain) sagittal section of a lumbar vertebral body, 30 mm deep
+# (anterior–posterior) and 24 mm high: a cortical shell (1 mm anterior and posterior
+# walls, 1 mm endplates) around a cancellous core, between two intervertebral discs
+# (8 mm soft layers, bonded to the endplates).  The spine's compressive load enters
+# through the upper disc; the lower disc rests on the vertebra below (fixed).  A tumour
+# starts as a 3 mm disc of soft tissue in the centre of the cancellous core and grows.
+#
+# The storyline:
+#
+# 1. **growth and risk** — the tumour grows (the free-boundary model of
+#    `demos/knee_tumour.py`), the host mesh is rebuilt around it by gmsh and loaded;
+#    a `[fracture]` table makes every analysis evaluate the initiation risk
+#    $\max_\text{cells} \sigma_1/\sigma_t$ of the bone;
+# 2. **crack** — at the first state where the risk reaches 1, a crack is put at the
+#    location of the largest risk, normal to the largest principal stress, and grown by
+#    the crack scenes of `bonecontact` (`[[crack]]`, `[fracture] propagate = true`) until
+#    it reaches a free surface: the vertebral body has fractured;
+# 3. **fragments** — the crack faces are a Coulomb contact pair all along: where they
+#    close, the fragments press and rub on each other.
+#
+# `python demos/vertebra_tumour.py [OUTPUT_DIR]`, `mpiexec -n 2 python
+# demos/vertebra_tumour.py`, or as a notebook.  `BONECONTACT_DEMO_QUICK=1` takes coarser
+# meshes, longer growth steps and a longer crack increment (what the test suite runs).
+# Units: SI, 2D forces per metre of thickness.
+#
+# ## The load
+# The compressive force on a lumbar vertebra is about 0.5 kN standing and 2–3.5 kN when a
+# load is lifted with a bent back (intradiscal-pressure and telemetry measurements,
+# e.g. Wilke et al. 1999, Spine 24:755).  A section per metre of a vertebral body about
+# 45 mm wide (left–right) and 30 mm deep carries $F/(0.045\,\text{m})$; we apply the
+# *lifting* load $F = 2.7$ kN, i.e. about four times the upper body weight standing
+# (the activity factor), as a uniform traction
+# $p = F/(0.045 \cdot 0.030)\ \text{m}^2 = 2.0$ MPa on the top of the upper disc.
+# With the standing load the risk stays below 1 at every tumour size below (it is
+# linear in the load: divide by four).
+#
+# ## Mechanics
+# Each analysis solves, from an unstressed state on the rebuilt mesh,
+#
+# $$-\nabla\cdot\mathbb C\,e(u) = 0, \qquad u = 0 \ \text{under the lower disc}, \qquad
+# \sigma n = (0, -p) \ \text{on the upper disc},$$
+#
+# with isotropic layers: cortical shell $E = 12$ GPa, $\nu = 0.3$; cancellous core 1 GPa,
+# 0.25; disc 10 MPa, 0.45 (a homogenised annulus and nucleus); tumour 50 kPa,
+# $\nu = 0.49$ (near-fluid, average nodal pressure against locking).
+#
+# ## Initiation risk
+# Per cell, from the principal stresses $\sigma_1 \ge \sigma_2$ of the P1 solution,
+#
+# $$ r = \frac{\sigma_1}{\sigma_t}, $$
+#
+# the tension criterion: a crack opens where the largest principal stress reaches the
+# tensile strength, normal to its direction.  Cancellous bone: $\sigma_t = 1.75$ MPa
+# (vertebral trabecular bone, Kopperdahl & Keaveny 1998, `data/materials.toml`
+# `[strength.cancellous_bone_vertebral]`); cortical shell $\sigma_t = 133$ MPa; the discs
+# are given an annulus tensile strength of 10 MPa and the tumour an arbitrary 1 MPa (both
+# stay far below 1: they are not what fractures).  Crushing of the cancellous bone in
+# compression (σ_c ≈ 1.9 MPa) is a different failure — a compression fracture — that
+# this demo does not follow.
+
+# %%
+import dataclasses
+import os
+import sys
+from pathlib import Path
+
+from mpi4py import MPI  # before dolfinx
+
+import numpy as np
+
+import bonecontact.plot as bp
+from bonecontact.common.constants import SECONDS_PER_DAY
+from bonecontact.runners import cracks as crack_runner
+from bonecontact.runners import run_scene
+from bonecontact.scene import load_scene
+
+comm = MPI.COMM_WORLD
+here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
+args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
+# results: the first argument, else $BONECONTACT_OUTPUT/vertebra_tumour, else demos/results/...
+output = bp.output_dir("vertebra_tumour", here, args)
+quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
+
+MM = 1e-3
+W, H, T, D = 30 * MM, 24 * MM, 1.0 * MM, 8 * MM  # body depth, height, shell, disc height
+TUMOUR = (0.0, H / 2, 3 * MM)  # centre and initial radius
+P = 0.5e6  # Pa: the standing load on the upper disc (see above)
+LIFT = 4.0  # activity factor of lifting
+h = (1.2 if quick else 0.7) * MM  # mesh size (half of it around the tumour)
+days, every = 24, 4  # growth time, days between analyses
+if comm.rank == 0:
+    output.mkdir(parents=True, exist_ok=True)
+comm.barrier()
+
+# %% [markdown]
+# ## The section (gmsh)
+# Cell groups `disc_upper`, `disc_lower`, `cortical`, `cancellous`, `tumour`; facet groups
+# `disc_top` (loaded) and `disc_bottom` (fixed).  The vertebra spans $0 \le y \le H$.
+
+
+# %%
+def vertebra_mesh(path: Path) -> None:
+    if comm.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        x0 = -W / 2
+        parts = [
+            occ.addRectangle(x0, H, 0, W, D),  # upper disc
+            occ.addRectangle(x0, -D, 0, W, D),  # lower disc
+            occ.addRectangle(x0, 0, 0, W, H),  # vertebral body
+            occ.addRectangle(x0 + T, T, 0, W - 2 * T, H - 2 * T),  # cancellous core
+            occ.addDisk(*TUMOUR[:2], 0, TUMOUR[2], TUMOUR[2]),
+        ]
+        _, m = occ.fragment([(2, p) for p in parts], [])
+        occ.synchronize()
+        tum = [t for d, t in m[4] if d == 2]
+        canc = [t for d, t in m[3] if d == 2 and t not in tum]
+        cort = [t for d, t in m[2] if d == 2 and t not in tum + canc]
+        groups = {
+            "disc_upper": [t for d, t in m[0] if d == 2],
+            "disc_lower": [t for d, t in m[1] if d == 2],
+            "cortical": cort,
+            "cancellous": canc,
+            "tumour": tum,
+        }
+        for k, (name, ss) in enumerate(groups.items()):
+            gmsh.model.addPhysicalGroup(2, ss, 1 + k, name=name)
+        rim = [
+            abs(t)
+            for _, t in gmsh.model.getBoundary(
+                [(2, s) for s in sum(groups.values(), [])], combined=True
+            )
+        ]
+        com = {c: occ.getCenterOfMass(1, c) for c in rim}
+        top = [c for c in rim if abs(com[c][1] - (H + D)) < 1e-9]
+        bottom = [c for c in rim if abs(com[c][1] + D) < 1e-9]
+        gmsh.model.addPhysicalGroup(1, top, 10, name="disc_top")
+        gmsh.model.addPhysicalGroup(1, bottom, 11, name="disc_bottom")
+        f = gmsh.model.mesh.field
+        d = f.add("Distance")
+        f.setNumbers(d, "PointsList", [occ.addPoint(*TUMOUR[:2], 0)])
+        occ.synchronize()
+        th = f.add("Threshold")
+        f.setNumber(th, "InField", d)
+        f.setNumber(th, "SizeMin", h / 2)
+        f.setNumber(th, "SizeMax", h)
+        f.setNumber(th, "DistMin", 3 * TUMOUR[2])
+        f.setNumber(th, "DistMax", 4 * TUMOUR[2])
+        f.setAsBackgroundMesh(th)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+        gmsh.finalize()
+    comm.barrier()
+
+
+vertebra_mesh(output / "vertebra.msh")
+
+# %% [markdown]
+# ## The coupled scene: growth, analyses, risk
+# `[neoplasm]` (the tumour, free to grow into the cancellous core), `[analysis]` (the
+# lifting load) and `[fracture]` (the risk after every analysis).  The tumour grows as in
+# `demos/knee_tumour.py`: quasi-steady nutrient $-D_c\Delta u_c + \lambda u_c = 0$,
+# $-\Delta\sigma = \mu(u_c - \tfrac12)$ in the tumour, $u_c = 1$, $\sigma = 0$ and normal
+# velocity $V_n = -\partial_n\sigma$ on its boundary, with $D_c = 10^{-9}$ m²/s,
+# $\lambda = 10^{-5}$ 1/s (nutrient length 10 mm) and $\mu = 1/(5\ \text{days})$ — an
+# aggressive, illustrative rate, not fitted to a patient; 2-day growth steps.
+
+# %%
+SCENE = f"""format = 1
+[scene]
+name = "vertebra_tumour"
+mesh = "{{mesh}}"
+dimension = 2
+
+[analysis]
+kind = "static"
+load_steps = 1
+
+[solver]
+linear = "direct"
+
+[[material]]
+name = "cortical"
+regions = ["cortical"]
+model = "isotropic"
+E = 12.0e9
+nu = 0.3
+sigma_t = 133.0e6
+
+[[material]]
+name = "cancellous"
+regions = ["cancellous"]
+model = "isotropic"
+E = 1.0e9
+nu = 0.25
+sigma_t = 1.75e6
+
+[[material]]
+name = "disc"
+regions = ["disc_upper", "disc_lower"]
+model = "isotropic"
+E = 10.0e6
+nu = 0.45
+sigma_t = 10.0e6
+
+[[material]]
+name = "tumour"
+regions = ["tumour"]
+model = "isotropic"
+E = 5.0e4
+nu = 0.49
+formulation = "nodal_pressure"
+sigma_t = 1.0e6
+
+[[dirichlet]]
+boundary = "disc_bottom"
+value = [0.0, 0.0]
+
+[[traction]]
+boundary = "disc_top"
+value = [0.0, {-P}]
+
+[output]
+directory = "results"
+fields_every = 1
+"""
+RISK = """
+[fracture]
+criterion = "tension"
+"""
+GROWTH = f"""
+[neoplasm]
+kind = "tumour"
+region = "tumour"
+host = ["cancellous"]
+t_end = {days * SECONDS_PER_DAY}
+dt = {2 * SECONDS_PER_DAY}
+remesh_every = 1
+mechanics_every = {every // 2}
+
+[neoplasm.tumour]
+D_c = 1.0e-9
+lambda = 1.0e-5
+eps0 = 0.0
+u_c1 = 1.0
+K_B = "{1 / (5 * SECONDS_PER_DAY):.8e}*(u_c - 0.5)"
+K_Q = 0.0
+K_A = 0.0
+K_P = 0.0
+K_D = 0.0
+K_R = 0.0
+gamma = 0.0
+u_p0 = 1.0
+u_q0 = 0.0
+"""
+
+
+def run_text(text: str, path: Path, out: Path, what: str):
+    """Write the scene ``text`` to ``path``, run it into ``out``; the run's result."""
+    if comm.rank == 0:
+        path.write_text(text)
+    comm.barrier()
+    res = run_scene(load_scene(path), comm, output=out, progress=False)
+    if res.status != "converged":
+        raise SystemExit(f"{what} failed: {res.summary.get('message')}")
+    return res
+
+
+grown = run_text(
+    SCENE.format(mesh=output / "vertebra.msh") + GROWTH,
+    output / "vertebra_tumour.toml",
+    output,
+    "the growth run",
+)
+analyses = grown.summary["coupling"]["analyses"]
+risk = []  # (day, R, max risk, location, crack direction, directory)
+for a in analyses:
+    d = Path(a["directory"])
+    res = run_text(
+        SCENE.format(mesh=d / "host_mesh.msh") + RISK, d / "risk.toml", d / "risk", "a risk check"
+    )
+    s = res.summary
+    fr = s["fracture"]
+    risk.append(
+        (
+            a["time"] / SECONDS_PER_DAY,
+            a["equivalent_radius"],
+            fr["max_risk"],
+            fr["location"],
+            fr["crack_direction"],
+            d / "risk",
+        )
+    )
+if comm.rank == 0:
+    with open(output / "risk.csv", "w") as f:
+        f.write("day,equivalent_radius,max_risk,x,y,crack_dir_x,crack_dir_y\n")
+        for day, R, r, loc, cd, _ in risk:
+            f.write(
+                f"{day:.6g},{R:.9g},{r:.9g},{loc[0]:.9g},{loc[1]:.9g},{cd[0]:.9g},{cd[1]:.9g}\n"
+            )
+    for day, R, r, loc, cd, _ in risk:
+        print(
+            f"day {day:4.0f}: R = {1e3 * R:.2f} mm, max risk {r:.3f} at "
+            f"({1e3 * loc[0]:.2f}, {1e3 * loc[1]:.2f}) mm, crack direction ({cd[0]:.2f}, {cd[1]:.2f})"
+        )
+
+# %% [markdown]
+# ## Risk over the growth
+# The largest risk of each analysis against the growth time.  It is linear in the load:
+# the dashed line is the same risk under the lifting load (activity factor 4), which is
+# what the crack analysis below ramps to.
+
+# %%
+if comm.rank == 0:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    t_days = [r[0] for r in risk]
+    ax.plot(t_days, [r[2] for r in risk], "o-", label=f"standing, p = {P / 1e6:.1f} MPa")
+    ax.plot(
+        t_days, [LIFT * r[2] for r in risk], "s--", label=f"lifting, p = {LIFT * P / 1e6:.1f} MPa"
+    )
+    ax.axhline(1.0, color="k", lw=0.8)
+    for day, R, *_ in risk:
+        ax.annotate(
+            f"R = {1e3 * R:.1f} mm",
+            (day, 0.0),
+            textcoords="offset points",
+            xytext=(0, 4),
+            ha="center",
+            fontsize=8,
+        )
+    ax.legend()
+    bp.line_axes(ax, ("growth time", "days"), ("largest risk σ₁/σ_t in the bone", "–"))
+    fig.suptitle("vertebra_tumour: initiation risk as the tumour grows")
+    fig.tight_layout()
+    bp.show(fig, output / "vertebra_risk.png", dpi=120)
+
+# %% [markdown]
+# ## The crack
+# The first analysis whose risk reaches 1 gives the crack: it starts at the cell of the
+# largest risk and runs normal to $\sigma_1$ there (for a soft inclusion under vertical
+# compression $\sigma_1$ is the horizontal hoop tension at the lesion's poles, so the crack
+# is vertical, towards an endplate).
+#
+# The crack scenes of this version cut the crack into a body of **one** cell group, so
+# the crack analysis takes the vertebral body alone, homogenised to cancellous bone
+# (the thin shell's share of the load is neglected: conservative), with the tumour as a
+# cavity (at 50 kPa it carries next to nothing) and the disc replaced by the load it
+# transmits, a uniform pressure on the upper endplate (the nucleus is nearly a fluid);
+# the lower endplate is held.  A crack may not touch a cavity's wall in these scenes
+# (and a crack with one tip must start on the outer surface), so the initial flaw lies on
+# the line of largest risk, centred in the ligament between the lesion wall and the
+# endplate, a quarter of the ligament long, with two tips: the vertebral body has
+# fractured when the crack has cut through the ligament (a tip reaches the lesion or the
+# endplate).
+#
+# The load ramps in four steps from the standing load to the lifting load; at every step
+# the tip's $K_I$, $K_{II}$ come from the interaction integral (crack-face contact tractions
+# as face term) and the tip grows by $\Delta a$ in the direction of maximum tangential
+# stress, $\theta = 2\arctan\big[(K_I - \sqrt{K_I^2 + 8K_{II}^2})/(4K_{II})\big]$, while
+#
+# $$ K_\text{eq} = \cos\tfrac{\theta}{2}\Big[K_I\cos^2\tfrac{\theta}{2} - \tfrac32 K_{II}\sin\theta\Big] \ \ge\ K_{Ic}, $$
+#
+# re-meshing around the longer crack and solving the same load again, until the tip
+# holds or comes within $\Delta a$ of the surface (fracture).  $K_{Ic} = 0.012$ MPa√m is
+# an *assumed* toughness for the tumour-infiltrated (lytic) bone around the lesion, an
+# order of magnitude below values reported for healthy trabecular bone, chosen so that
+# the flaw holds under the standing load and grows while lifting: the analysis shows the
+# mechanism, it is not a calibrated prediction.  The crack faces are a Coulomb contact pair,
+# $\mu = 0.4$ (assumed for rough bone fracture surfaces): closed faces carry
+# $\lambda_n \ge 0$ and $|\lambda_t| \le \mu\lambda_n$.
+
+# %%
+first = next((r for r in risk if r[2] >= 1.0), None)
+if first is None:
+    raise SystemExit("the risk never reached 1: grow the tumour longer")
+day0, R0, r0, loc, cdir, rdir = first
+lesion = np.genfromtxt(rdir.parent / "neoplasm_boundary.csv", delimiter=",", names=True)
+lesion = np.column_stack([lesion["x"], lesion["y"]])
+centre = lesion.mean(axis=0)
+cdir = np.asarray(cdir) / np.linalg.norm(cdir)
+if np.dot(cdir, np.asarray(loc) - centre) < 0:
+    cdir = -cdir  # pointing away from the lesion
+da = (0.5 if quick else 0.35) * MM
+# the ligament between the lesion wall (at the largest risk) and the endplate along the
+# crack line; the crack is centred in it, a quarter of its length
+loc = np.asarray(loc)
+exits = [
+    (b - loc[i]) / cdir[i]
+    for i, b in ((0, -W / 2), (0, W / 2), (1, 0.0), (1, H))
+    if abs(cdir[i]) > 1e-12
+]
+ligament = min(t for t in exits if t > 0)
+mid = loc + 0.5 * ligament * cdir
+crack0 = np.array([mid - ligament / 8 * cdir, mid + ligament / 8 * cdir])
+
+
+def cracked_body_mesh(path: Path) -> None:
+    """The vertebral body with the lesion as a cavity: cell group ``vertebral_body``,
+    facets ``upper_endplate``, ``lower_endplate``, ``walls``, ``lesion``."""
+    if comm.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        body = occ.addRectangle(-W / 2, 0, 0, W, H)
+        pts = [occ.addPoint(x, y, 0) for x, y in lesion]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        hole = occ.addPlaneSurface([occ.addCurveLoop(lines)])
+        out, _ = occ.cut([(2, body)], [(2, hole)])
+        occ.synchronize()
+        surf = [t for d, t in out if d == 2]
+        gmsh.model.addPhysicalGroup(2, surf, 1, name="vertebral_body")
+        rim = [abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in surf], combined=False)]
+        com = {c: occ.getCenterOfMass(1, c) for c in rim}
+        pick = {
+            "upper_endplate": [c for c in rim if abs(com[c][1] - H) < 1e-9],
+            "lower_endplate": [c for c in rim if abs(com[c][1]) < 1e-9],
+            "walls": [c for c in rim if abs(abs(com[c][0]) - W / 2) < 1e-9],
+        }
+        pick["lesion"] = [c for c in rim if not any(c in v for v in pick.values())]
+        for k, (name, cs) in enumerate(pick.items()):
+            gmsh.model.addPhysicalGroup(1, cs, 10 + k, name=name)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+        gmsh.finalize()
+    comm.barrier()
+
+
+cracked_body_mesh(output / "vertebral_body.msh")
+
+# %% [markdown]
+# A work-around: the crack scenes take the body's boundary loops in the orientation in
+# which the mesh facets chain up; with a cavity whose loop turns the other way than the
+# outer one, gmsh's crack splitting leaves the crack nodes of one face unused and the
+# mesh cannot be distributed.  Until the crack-scene code orients the loops itself, the
+# demo turns every loop counter-clockwise before the body is meshed around the crack.
+
+
+# %%
+def _counter_clockwise(outline):
+    loops, tags = [], []
+    for v, t in zip(outline.loops, outline.loop_tags, strict=True):
+        x, y = v[:, 0], v[:, 1]
+        if np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0:  # clockwise
+            v, t = v[::-1], np.roll(t[::-1], -1)
+        loops.append(v)
+        tags.append(t)
+    return dataclasses.replace(outline, loops=tuple(loops), loop_tags=tuple(tags))
+
+
+_body_outline = crack_runner.body_outline
+crack_runner.body_outline = lambda *a, **k: _counter_clockwise(_body_outline(*a, **k))
+CRACK = f"""format = 1
+[scene]
+name = "vertebra_crack"
+mesh = "{output / "vertebral_body.msh"}"
+dimension = 2
+
+[analysis]
+kind = "static"
+load_steps = 4
+
+[solver]
+linear = "direct"
+
+[[material]]
+name = "cancellous"
+regions = ["vertebral_body"]
+model = "isotropic"
+E = 1.0e9
+nu = 0.25
+sigma_t = 1.75e6
+K_Ic = 0.012e6
+
+[[dirichlet]]
+boundary = "lower_endplate"
+value = [0.0, 0.0]
+
+[[traction]]
+boundary = "upper_endplate"
+value = [0.0, {-LIFT * P}]
+
+[fracture]
+criterion = "tension"
+direction = "mts"
+propagate = true
+increment = {da}
+max_increments = 40
+
+[[crack]]
+name = "split"
+points = {crack0.tolist()}
+tips = "both"
+region = "vertebral_body"
+friction = 0.4
+
+[output]
+directory = "results"
+fields_every = 1
+"""
+cracked = run_text(CRACK, output / "vertebra_crack.toml", output / "crack", "the crack run")
+cs = cracked.summary["fracture"]["crack"]
+if comm.rank == 0:
+    pr = cs["propagation"]
+    print(
+        f"crack from day {day0:.0f} (R = {1e3 * R0:.2f} mm, risk {r0:.2f}): {pr['status']} after "
+        f"{pr['increments']} increments, length {1e3 * cs['length']:.2f} mm, "
+        f"end at ({1e3 * cs['points'][-1][0]:.2f}, {1e3 * cs['points'][-1][1]:.2f}) mm"
+    )
+
+# %% [markdown]
+# ## The crack path over the stress field, and K against crack length
+# Left: the largest principal stress $\sigma_1$ of the last cracked state (the mesh of
+# the last crack increment) with the initial flaw and the path.  Right: $K_I$ of each tip
+# against the crack length at the lifting load (the row of each increment at the last
+# load step), with $K_{Ic}$.
+
+# %%
+if comm.rank == 0:
+    import matplotlib.tri as mtri
+
+    fr = np.genfromtxt(
+        output / "crack" / "fracture.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
+    pvds = sorted((output / "crack").glob("fields*.pvd"), key=lambda p: p.stat().st_mtime)
+    grid = bp.read_fields(pvds[-1])
+    cells = grid.cells.reshape(-1, 4)[:, 1:]
+    xy = 1e3 * grid.points[:, :2]
+    s1 = np.asarray(grid.cell_data["principal_stress"]).reshape(grid.n_cells, -1).max(axis=1) / 1e6
+    path = 1e3 * np.asarray(cs["points"])
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [1.3, 1]})
+    lim = np.percentile(np.abs(s1), 99)
+    pc = a1.tripcolor(
+        mtri.Triangulation(xy[:, 0], xy[:, 1], cells),
+        facecolors=s1,
+        cmap="RdBu_r",
+        vmin=-lim,
+        vmax=lim,
+    )
+    fig.colorbar(pc, ax=a1, label="σ₁ (MPa)")
+    a1.plot(*(1e3 * np.vstack([lesion, lesion[:1]])).T, "k-", lw=1, label="lesion (tumour)")
+    a1.plot(*(1e3 * crack0).T, "c-", lw=4, label="initial flaw")
+    a1.plot(*path.T, "y.-", lw=1.5, ms=4, label="crack path")
+    a1.set_aspect("equal")
+    a1.set_xlabel("x (mm)")
+    a1.set_ylabel("y (mm)")
+    a1.legend(loc="upper right", fontsize=8)
+    a1.set_title(
+        f"largest principal stress at {LIFT * P / 1e6:.1f} MPa (colour range: 99th percentile)",
+        fontsize=9,
+    )
+    last = fr[fr["step"] == fr["step"].max()]
+    K_Ic = cracked.summary["fracture"]["crack"]["propagation"]["K_Ic"]
+    for tip, name in ((0, "tip towards the lesion"), (-1, "tip towards the endplate")):
+        rows = last[last["tip"] == tip]
+        a2.plot(1e3 * rows["length"], rows["K_I"] / 1e6, "o-", label=f"K_I, {name}")
+    a2.axhline(K_Ic / 1e6, color="k", ls="--", label="K_Ic (assumed)")
+    a2.legend(fontsize=8)
+    bp.line_axes(a2, ("crack length", "mm"), ("K_I at the lifting load", "MPa√m"))
+    fig.suptitle(f"vertebra_tumour: crack from day {day0:.0f} — {cs['propagation']['status']}")
+    fig.tight_layout()
+    bp.show(fig, output / "vertebra_crack.png", dpi=120)
+
+# %% [markdown]
+# ## The crack faces: a Coulomb contact pair
+# `contact_split.csv` holds the state of every crack-face node of the last solve: gap,
+# contact pressure, tangential traction, slip and status (open, stick, slip).  Under
+# vertical compression the crack across the lesion's pole opens (the hoop tension pulls
+# its faces apart); faces that close would press and rub with $|\lambda_t| \le \mu\lambda_n$.
+
+# %%
+if comm.rank == 0:
+    faces = np.genfromtxt(
+        output / "crack" / "contact_split.csv",
+        delimiter=",",
+        names=True,
+        dtype=None,
+        encoding="utf-8",
+    )
+    states = {k: int((faces["status"] == k).sum()) for k in ("open", "stick", "slip")}
+    closed = faces["status"] != "open"
+    bound = np.all(
+        np.abs(faces["traction_t"][closed]) <= 0.4 * faces["pressure"][closed] * (1 + 1e-6) + 1e-9
+    )
+    print(
+        f"crack-face nodes: {states}; largest opening {1e6 * faces['gap'].max():.2f} µm; "
+        f"|traction_t| <= mu pressure on closed nodes: {bool(bound)}"
+    )
+    print(f"pictures: {output / 'vertebra_risk.png'}, {output / 'vertebra_crack.png'}")
+comm.barrier()
