@@ -410,3 +410,45 @@ def test_contact_api_reproduces_hertz(demo_runs):
     for key in ("load_N_per_m", "a_error", "p0_error"):
         assert results[2][key] == pytest.approx(r[key], rel=1e-6, abs=1e-9), key
     _check_png(demo_runs["contact_api", 1][1] / "contact_pressure.png")
+
+
+def test_vertebra_tumour_risk_and_fracture(demo_runs):
+    """Vertebra demo: the largest risk of the bone rises as the tumour grows and reaches 1;
+    with the crack faces open, K_I of the initial flaw is linear in the load (load step k
+    gives k times step 1 to 1e-6) and nearly mode I on the symmetric line (|K_II| < 5 %);
+    the crack grows to fracture — its last tip lies within one increment of the boundary
+    (lesion wall or the vertebral body's outline) — and 2 ranks give the serial path (to
+    1e-4 of the increment)."""
+    (r1, o1), (r2, o2) = demo_runs["vertebra_tumour", 1], demo_runs["vertebra_tumour", 2]
+    assert r1.returncode == 0 and r2.returncode == 0
+    risk = np.genfromtxt(o1 / "risk.csv", delimiter=",", names=True)
+    assert np.all(np.diff(risk["equivalent_radius"]) > 0)
+    assert np.all(np.diff(risk["max_risk"]) > 0) and risk["max_risk"][0] < 1 <= risk["max_risk"][-1]
+    fr = np.genfromtxt(
+        o1 / "crack" / "fracture.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
+    first = fr[fr["increment"] == 0]
+    for tip in (0, -1):
+        k = first[first["tip"] == tip]
+        np.testing.assert_allclose(k["K_I"] / k["K_I"][0], k["step"] / k["step"][0], rtol=1e-6)
+        assert np.all(np.abs(k["K_II"]) < 0.05 * k["K_I"])
+    crack = json.loads((o1 / "crack" / "summary.json").read_text())["fracture"]["crack"]
+    prop = crack["propagation"]
+    assert prop["status"] == "fractured" and prop["fractured"] and prop["increments"] >= 2
+    assert "fractured" in set(fr["status"])
+    # the tip that fractured: within one increment of the lesion or the outline
+    hit = fr[fr["status"] == "fractured"][-1]
+    tip = np.asarray(crack["points"][0 if hit["tip"] == 0 else -1])  # the grown tip
+    # the boundary of the body the crack was cut into (its gmsh line elements)
+    import meshio
+
+    body = meshio.read(o1 / "vertebral_body.msh")
+    edges = np.concatenate([c.data for c in body.cells if c.type == "line"])
+    a, b = body.points[edges[:, 0], :2], body.points[edges[:, 1], :2]
+    t = np.clip(np.einsum("ij,ij->i", tip - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0, 1)
+    dist = np.linalg.norm(a + t[:, None] * (b - a) - tip, axis=1).min()
+    assert dist < prop["increment"], (dist, prop["increment"])
+    crack2 = json.loads((o2 / "crack" / "summary.json").read_text())["fracture"]["crack"]
+    np.testing.assert_allclose(crack2["points"], crack["points"], atol=1e-4 * prop["increment"])
+    _check_png(o1 / "vertebra_risk.png")
+    _check_png(o1 / "vertebra_crack.png")
