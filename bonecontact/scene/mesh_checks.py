@@ -53,6 +53,13 @@ def _where(x: npt.ArrayLike) -> str:
     return "(" + ", ".join(f"{float(v):.6g}" for v in np.asarray(x).ravel()) + ")"
 
 
+def _tag_arrays(tags: Any) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
+    """(indices, values) of a meshtags object; empty when the mesh has none."""
+    if tags is None:
+        return np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.int32)
+    return tags.indices, tags.values
+
+
 def _names(groups: Mapping[str, tuple[int, int]], dim: int) -> dict[int, str]:
     return {tag: name for name, (d, tag) in groups.items() if d == dim}
 
@@ -127,7 +134,8 @@ def _cell_tag_array(msh: Any, cell_tags: Any) -> npt.NDArray[np.int64]:
     tdim = msh.topology.dim
     imap = msh.topology.index_map(tdim)
     tags = np.full(imap.size_local + imap.num_ghosts, -1, dtype=np.int64)
-    tags[cell_tags.indices] = cell_tags.values
+    idx, val = _tag_arrays(cell_tags)
+    tags[idx] = val
     return tags
 
 
@@ -153,7 +161,7 @@ def _facet_findings(
     msh.topology.create_connectivity(tdim - 1, tdim)
     exterior = dmesh.exterior_facet_indices(msh.topology)
     n_owned = msh.topology.index_map(tdim - 1).size_local
-    idx, val = facet_tags.indices, facet_tags.values
+    idx, val = _tag_arrays(facet_tags)
     sel = np.isin(val, sorted(checked)) & (idx < n_owned) & ~np.isin(idx, exterior)
     if not sel.any():
         return []
@@ -186,7 +194,8 @@ def _boundary_vertex_rows(
     region = np.repeat(ctags[cell], tdim)
     on_contact = np.zeros(len(ext), dtype=bool)
     if contact:
-        tagged = facet_tags.indices[np.isin(facet_tags.values, sorted(contact))]
+        fidx, fval = _tag_arrays(facet_tags)
+        tagged = fidx[np.isin(fval, sorted(contact))]
         on_contact = np.isin(ext, tagged)
     on_contact = np.repeat(on_contact, tdim)
     imap = msh.topology.index_map(0)
@@ -262,7 +271,8 @@ def _piece_rows(
     if held:
         msh.topology.create_connectivity(tdim - 1, tdim)
         f2c = msh.topology.connectivity(tdim - 1, tdim)
-        f = facet_tags.indices[np.isin(facet_tags.values, sorted(held))]
+        fidx, fval = _tag_arrays(facet_tags)
+        f = fidx[np.isin(fval, sorted(held))]
         held_piece[label[f2c.array[f2c.offsets[f]]]] = True
     rows = []
     own_label = label[:n_owned]

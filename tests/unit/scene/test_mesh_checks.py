@@ -271,3 +271,16 @@ def test_check_command_exits_2(scenes, ranks):
     )
     assert res.returncode == 2, res.stdout + res.stderr
     assert "region 'body' is not one piece" in res.stdout + res.stderr
+
+
+def test_mesh_without_tags(scenes):
+    """A mesh read without cell or facet tags (a growth scene's region mesh) is checked
+    all the same: no finding on a valid mesh."""
+    from types import SimpleNamespace
+
+    from bonecontact.scene.mesh_checks import mesh_findings
+
+    scene = load_scene(scenes["valid"])
+    md, groups = read_mesh(scene, COMM)
+    bare = SimpleNamespace(mesh=md.mesh, cell_tags=None, facet_tags=None)
+    assert mesh_findings(scene, bare, groups, COMM) == []
