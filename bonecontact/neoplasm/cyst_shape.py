@@ -356,7 +356,7 @@ class CystShapeModel:
         b = self.boundary()
         h = self.mesh_size()
         if self.dim == 2:
-            msh = remesh.polygon_mesh(remesh.resample_closed_curve(b.points, h), h, self.comm)
+            msh, _ = remesh.moved_curve_mesh(b.points, h, self.comm)
         else:
             msh, _ = remesh.moved_surface_mesh(b.points, b.facets, h, self.comm)
         old_motion = self.motion

@@ -10,6 +10,9 @@ Meshing (gmsh on rank 0, distributed with :func:`dolfinx.io.gmsh.model_to_mesh`)
 ``surface_mesh(points, triangles, h, comm) -> dolfinx.mesh.Mesh``
     Tetrahedralise the inside of a closed triangulated surface (3D); the surface
     triangulation is kept as the boundary of the mesh.
+``moved_curve_mesh(points, h, comm)`` / ``moved_surface_mesh(points, triangles, h, comm)``
+    Remesh a moved boundary; when gmsh fails, retry with a smoothed boundary, then with
+    half the size as well (``REMESH_RETRIES``), before failing with every attempt named.
 ``sphere_mesh(radius, h, comm) -> dolfinx.mesh.Mesh``
     A tetrahedral ball (a convenience for 3D initial tumours).
 
@@ -56,7 +59,7 @@ kappa_1 + kappa_2 = div n in 3D).
 from __future__ import annotations
 
 import gc
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass
 
@@ -76,16 +79,19 @@ from bonecontact.common.geometry import signed_polygon_area
 from bonecontact.meshing.session import gmsh_session
 
 __all__ = [
+    "REMESH_RETRIES",
     "Boundary",
     "CoverageError",
     "DirichletLaplacian",
     "MeshMotion",
     "RemeshError",
     "gather_boundary",
+    "moved_curve_mesh",
     "moved_surface_mesh",
     "polygon_mesh",
     "release_replaced_meshes",
     "resample_closed_curve",
+    "smooth_curve",
     "smooth_surface",
     "snap_to_grid",
     "sphere_mesh",
@@ -293,6 +299,27 @@ def smooth_surface(
     return x
 
 
+#: What a remesh tries after gmsh fails on the moved boundary, in order: (smooth the
+#: boundary first, mesh size as a fraction of the requested one).  The boundary as it is,
+#: with the requested size, is always tried first.
+REMESH_RETRIES: tuple[tuple[bool, float], ...] = ((True, 1.0), (True, 0.5))
+
+
+def _with_retries(name: str, attempt: Callable[[bool, float], dmesh.Mesh]) -> tuple:
+    """``attempt(smooth, factor)`` for the boundary as it is, then for every entry of
+    :data:`REMESH_RETRIES` until one succeeds (collective: gmsh's errors are broadcast).
+
+    Returns ``(mesh, smoothed)``; raises :class:`RemeshError` naming every attempt."""
+    errors = []
+    for smooth, factor in ((False, 1.0), *REMESH_RETRIES):
+        try:
+            return attempt(smooth, factor), smooth
+        except RemeshError as exc:
+            how = ("smoothed boundary" if smooth else "boundary as moved") + f", size × {factor:g}"
+            errors.append(f"{how}: {exc}")
+    raise RemeshError(f"{name}: gmsh failed {len(errors)} times (" + "; ".join(errors) + ")")
+
+
 def moved_surface_mesh(
     points: npt.ArrayLike, triangles: npt.ArrayLike, h: float, comm: MPI.Comm
 ) -> tuple[dmesh.Mesh, bool]:
@@ -301,18 +328,53 @@ def moved_surface_mesh(
     The surface is kept as it is when possible (:func:`surface_mesh`).  A surface moved by
     a noisy nodal velocity can intersect itself at the scale of its edges ("PLC Error: a
     segment and a facet intersect"); it is then Taubin-smoothed
-    (:func:`smooth_surface`, rank 0) and tetrahedralised again.
+    (:func:`smooth_surface`, rank 0) and tetrahedralised again, then with half the mesh
+    size (:data:`REMESH_RETRIES`), before the remesh fails.
 
     Returns
     -------
     (mesh, smoothed)
         The distributed mesh and whether the surface had to be smoothed.
     """
-    try:
-        return surface_mesh(points, triangles, h, comm), False
-    except RemeshError:
-        pts = smooth_surface(points, triangles) if comm.rank == 0 else None
-        return surface_mesh(pts, triangles, h, comm), True
+    smoothed = smooth_surface(points, triangles) if comm.rank == 0 else None
+
+    def attempt(smooth: bool, factor: float) -> dmesh.Mesh:
+        return surface_mesh(smoothed if smooth else points, triangles, factor * h, comm)
+
+    return _with_retries("moved surface", attempt)
+
+
+def smooth_curve(
+    points: npt.ArrayLike, passes: int = 5, lam: float = 0.5, mu: float = -0.53
+) -> npt.NDArray[np.float64]:
+    """Taubin λ|μ smoothing of a closed polyline (the 2D counterpart of
+    :func:`smooth_surface`: each node's neighbours are the previous and next node)."""
+    x = np.array(points, dtype=np.float64)
+    for _ in range(passes):
+        for f in (lam, mu):
+            x += f * (0.5 * (np.roll(x, 1, axis=0) + np.roll(x, -1, axis=0)) - x)
+    return x
+
+
+def moved_curve_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> tuple[dmesh.Mesh, bool]:
+    """Triangulate the inside of a moved closed curve, resampled uniformly at ``h``
+    (:func:`resample_closed_curve`, :func:`polygon_mesh`); if gmsh fails, the curve is
+    Taubin-smoothed (:func:`smooth_curve`) and meshed again, then with half the size
+    (:data:`REMESH_RETRIES`), before the remesh fails.
+
+    ``points`` are read on rank 0.  Returns ``(mesh, smoothed)``.
+    """
+    raw = np.asarray(points, dtype=np.float64) if comm.rank == 0 else None
+    smoothed = smooth_curve(raw) if comm.rank == 0 else None
+
+    def attempt(smooth: bool, factor: float) -> dmesh.Mesh:
+        size = factor * h
+        curve = None
+        if comm.rank == 0:
+            curve = resample_closed_curve(smoothed if smooth else raw, size)
+        return polygon_mesh(curve, size, comm)
+
+    return _with_retries("moved curve", attempt)
 
 
 def sphere_mesh(

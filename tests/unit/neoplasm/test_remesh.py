@@ -108,3 +108,82 @@ def test_release_destroys_the_replaced_solvers():
     assert abs(_area(msh) / A0 - 1.21) < 1e-10
     remesh.release_replaced_meshes(shared)
     assert not shared.ksp.handle
+
+
+# ----------------------------------------------------------------- retries after gmsh fails
+def _failing(monkeypatch, name: str, failures: int) -> list:
+    """Replace ``remesh.<name>`` by a wrapper that raises RemeshError on its first
+    ``failures`` calls (on every rank, like a gmsh error broadcast from rank 0) and records
+    every call's boundary (rank 0) and size."""
+    real = getattr(remesh, name)
+    calls = []
+
+    def wrapper(points, *args):
+        h = args[-2]
+        calls.append((None if points is None else np.array(points), h))
+        if len(calls) <= failures:
+            raise remesh.RemeshError(f"{name}: injected failure {len(calls)}")
+        return real(points, *args)
+
+    monkeypatch.setattr(remesh, name, wrapper)
+    return calls
+
+
+def _noisy_circle(n: int = 80, r: float = 1.0, noise: float = 0.02) -> np.ndarray:
+    th = 2 * np.pi * np.arange(n) / n
+    rr = r * (1 + noise * (-1.0) ** np.arange(n))  # zigzag at the scale of the edges
+    return np.column_stack([rr * np.cos(th), rr * np.sin(th)])
+
+
+@pytest.mark.parametrize("failures", [1, 2])
+def test_curve_remesh_retries_smoothed_then_smaller(monkeypatch, failures):
+    """2D: a gmsh failure on the moved curve is retried with the Taubin-smoothed curve
+    (the zigzag's amplitude drops by more than half, the enclosed area stays within 1 %),
+    then also with half the size; the mesh of the successful attempt covers the
+    smoothed curve's area (to the resampling error, 1 %)."""
+    comm = MPI.COMM_WORLD
+    h = 0.1
+    pts = _noisy_circle()
+    calls = _failing(monkeypatch, "polygon_mesh", failures)
+    msh, smoothed = remesh.moved_curve_mesh(pts, h, comm)
+    assert smoothed
+    assert [c[1] for c in calls] == [h, h, 0.5 * h][: failures + 1]
+    smooth = remesh.smooth_curve(pts)
+    zig = lambda p: np.ptp(np.linalg.norm(p, axis=1))  # noqa: E731
+    assert zig(smooth) < 0.5 * zig(pts)
+    assert abs(signed_polygon_area(smooth)) == pytest.approx(
+        abs(signed_polygon_area(pts)), rel=0.01
+    )
+    if comm.rank == 0:  # the successful attempt meshed the resampled smoothed curve
+        last = calls[-1][0]
+        r = np.linalg.norm(last, axis=1)
+        assert r.min() > 1 - 0.5 * 0.02 and r.max() < 1 + 0.5 * 0.02
+    assert _area(msh) == pytest.approx(abs(signed_polygon_area(smooth)), rel=0.01)
+
+
+def test_curve_remesh_fails_after_the_retries(monkeypatch):
+    """Every attempt fails: one RemeshError naming the three attempts (on every rank)."""
+    calls = _failing(monkeypatch, "polygon_mesh", 10)
+    with pytest.raises(remesh.RemeshError) as info:
+        remesh.moved_curve_mesh(_noisy_circle(), 0.1, MPI.COMM_WORLD)
+    assert len(calls) == 3
+    msg = str(info.value)
+    assert "gmsh failed 3 times" in msg
+    assert "boundary as moved, size × 1" in msg and "smoothed boundary, size × 0.5" in msg
+
+
+def test_surface_remesh_retries_with_half_the_size(monkeypatch):
+    """3D: after two failures the smoothed surface is tetrahedralised with half the size;
+    the result encloses the smoothed surface's volume (to 2 %)."""
+    comm = MPI.COMM_WORLD
+    ball = remesh.sphere_mesh(1.0, 0.4, comm)
+    b = remesh.gather_boundary(ball)
+    calls = _failing(monkeypatch, "surface_mesh", 2)
+    msh, smoothed = remesh.moved_surface_mesh(b.points, b.facets, 0.4, comm)
+    assert smoothed and [c[1] for c in calls] == [0.4, 0.4, 0.2]
+    sm = remesh.smooth_surface(b.points, b.facets)
+    a, bb, c = (sm[b.facets[:, k]] for k in range(3))
+    volume = abs(np.einsum("ij,ij->i", a, np.cross(bb, c)).sum()) / 6.0
+    assert _area(msh) == pytest.approx(volume, rel=0.02)
+    n_cells = msh.topology.index_map(3).size_global
+    assert n_cells > ball.topology.index_map(3).size_global  # the smaller size was used
