@@ -178,8 +178,12 @@ def _remesh_inside(
     bulging out of a concave inner surface)."""
     from scipy.ndimage import map_coordinates
 
+    at = np.zeros(1)
     for attempt in range(5):
-        out = remesh_surface(piece, size * 0.7**attempt)
+        try:
+            out = remesh_surface(piece, size * 0.7**attempt)
+        except MeshInputError:  # a thin part of the core lost: finer
+            continue
         a, b, c = (out.points[out.triangles[:, i]] for i in range(3))
         probes = np.vstack([(a + b + c) / 3, (a + b) / 2, (b + c) / 2, (c + a) / 2])
         at = map_coordinates(depth, ((probes - lo) / d).T, order=1)

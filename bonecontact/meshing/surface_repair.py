@@ -334,14 +334,20 @@ def repair_surface(surface: Surface) -> Surface:
     return out
 
 
-def remesh_surface(surface: Surface, size: float) -> Surface:
+def remesh_surface(surface: Surface, size: float, max_volume_change: float = 0.05) -> Surface:
     """Remesh a closed surface into nearly equilateral triangles of edge ``size`` (m) by
     Voronoi clustering (pyacvd).
 
     The input is subdivided first (linear: the geometry is unchanged) until it has four
     times more vertices than the result will, so coarse input surfaces can be refined.  The
     cluster centres are then projected onto the input surface (closest point), which keeps
-    the enclosed volume.
+    the enclosed volume, and pymeshfix removes any self-intersection.
+
+    Raises
+    ------
+    MeshInputError
+        If the enclosed volume changed by more than ``max_volume_change`` (relative): the
+        surface has parts thinner than ``size`` that the remeshing folded or cut away.
     """
     import pyacvd
     import pyvista as pv
@@ -377,6 +383,14 @@ def remesh_surface(surface: Surface, size: float) -> Surface:
     out = orient_surface(Surface(np.asarray(fix.points, float), fix.faces.astype(np.int64)))
     if out.volume < 0:
         out = Surface(out.points, out.triangles[:, ::-1], out.source)
+    change = out.volume / surface.volume - 1.0
+    if abs(change) > max_volume_change:
+        raise MeshInputError(
+            f"{surface.source}: remeshing to {size:.3g} m changes the enclosed volume by "
+            f"{100 * change:+.1f} % (parts thinner than the size fold or are cut away): use "
+            "a smaller size, or keep the surface's own triangles (remesh=False, "
+            "--keep-triangles)"
+        )
     note = f"remeshed to {len(out.triangles)} triangles of size {size:.3g} m (pyacvd)"
     return Surface(out.points, out.triangles, surface.source, surface.repairs + (note,))
 

@@ -136,3 +136,12 @@ def test_remesh_to_requested_size():
     fine = remesh_surface(coarse, 2e-3)
     assert fine.mean_edge() == pytest.approx(2e-3, rel=0.25)
     assert fine.volume == pytest.approx(coarse.volume, rel=0.01)
+
+
+def test_remeshing_that_loses_volume_is_refused():
+    # a thin plate (1 mm) remeshed to 6 mm triangles: clusters span both faces
+    b = pv.Box(bounds=(0, 0.03, 0, 0.001, 0, 0.03), level=8).triangulate().clean()
+    s = Surface(np.asarray(b.points, float), b.faces.reshape(-1, 4)[:, 1:].astype(np.int64))
+    s = orient_surface(merge_vertices(s))
+    with pytest.raises(MeshInputError, match="changes the enclosed volume by"):
+        remesh_surface(s, 6e-3)
