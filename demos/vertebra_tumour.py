@@ -349,12 +349,13 @@ if comm.rank == 0:
         t_days, [LIFT * r[2] for r in risk], "s--", label=f"lifting, p = {LIFT * P / 1e6:.1f} MPa"
     )
     ax.axhline(1.0, color="k", lw=0.8)
-    for day, R, *_ in risk:
+    ax.set_ylim(bottom=0.0)
+    for day, R, rr, *_ in risk:
         ax.annotate(
             f"R = {1e3 * R:.1f} mm",
-            (day, 0.0),
+            (day, rr),
             textcoords="offset points",
-            xytext=(0, 4),
+            xytext=(0, -14),
             ha="center",
             fontsize=8,
         )
@@ -546,8 +547,8 @@ if comm.rank == 0:
 # ## The crack path over the stress field, and K against crack length
 # Left: the largest principal stress $\sigma_1$ of the last cracked state (the mesh of
 # the last crack increment) with the initial flaw and the path.  Right: $K_I$ of each tip
-# against the crack length at the lifting load (the row of each increment at the last
-# load step), with $K_{Ic}$.
+# against the crack length at the load step in which the crack ran through (the row of
+# each increment at that step), with $K_{Ic}$.
 
 # %%
 if comm.rank == 0:
@@ -563,6 +564,8 @@ if comm.rank == 0:
     xy = 1e3 * grid.points[:, :2]
     s1 = np.asarray(grid.cell_data["principal_stress"]).reshape(grid.n_cells, -1).max(axis=1) / 1e6
     path = 1e3 * np.asarray(cs["points"])
+    last = fr[fr["step"] == fr["step"].max()]  # the load step the crack ran at
+    p_end = LIFT * P * float(last["time"][0])  # static pseudo-time = load factor
     fig, (a1, a3, a2) = plt.subplots(
         1, 3, figsize=(16, 5), gridspec_kw={"width_ratios": [1.3, 1, 1]}
     )
@@ -584,20 +587,20 @@ if comm.rank == 0:
     )
     a1.legend(loc="upper right", fontsize=8)
     a1.set_title(
-        f"largest principal stress at {LIFT * P / 1e6:.1f} MPa (colour range: 99th percentile)",
+        f"largest principal stress at p = {p_end / 1e6:.1f} MPa (colour range: 99th percentile)",
         fontsize=9,
     )
     a3.set_xlim(zoom[0][0], zoom[1][0])
     a3.set_ylim(zoom[0][1], zoom[1][1])
     a3.set_title("zoom (green box): the path and the tip meshes", fontsize=9)
-    last = fr[fr["step"] == fr["step"].max()]
+
     K_Ic = cracked.summary["fracture"]["crack"]["propagation"]["K_Ic"]
     for tip, name in ((0, "tip towards the lesion"), (-1, "tip towards the endplate")):
         rows = last[last["tip"] == tip]
         a2.plot(1e3 * rows["length"], rows["K_I"] / 1e6, "o-", label=f"K_I, {name}")
     a2.axhline(K_Ic / 1e6, color="k", ls="--", label="K_Ic (assumed)")
     a2.legend(fontsize=8)
-    bp.line_axes(a2, ("crack length", "mm"), ("K_I at the lifting load", "MPa√m"))
+    bp.line_axes(a2, ("crack length", "mm"), (f"K_I at p = {p_end / 1e6:.1f} MPa", "MPa√m"))
     fig.suptitle(f"vertebra_tumour: crack from day {day0:.0f} — {cs['propagation']['status']}")
     fig.tight_layout()
     bp.show(fig, output / "vertebra_crack.png", dpi=120)
