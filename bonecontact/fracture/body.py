@@ -56,7 +56,8 @@ class BodyOutline:
     ----------
     loops
         Vertices of every loop, shape (n_i, 2) (the segment ``k`` runs from vertex ``k``
-        to ``k + 1``, the last back to the first); ``loops[0]`` is the outer boundary.
+        to ``k + 1``, the last back to the first), every loop counter-clockwise;
+        ``loops[0]`` is the outer boundary.
     loop_tags
         Facet-group tag of every segment of every loop (0: in no group).
     names
@@ -184,6 +185,21 @@ def _signed_area(p: npt.NDArray[np.float64]) -> float:
     return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
 
 
+def _counter_clockwise(
+    verts: npt.NDArray[np.float64], tags: npt.NDArray[np.int32]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
+    """The loop turned counter-clockwise if it is not: vertices reversed, and the tag of
+    segment ``j`` (from vertex ``j`` to ``j + 1``) that of the old segment ``n − 2 − j``.
+
+    The facets chain up in whatever order the mesh numbers them, so a hole's loop may
+    turn either way; gmsh's crack splitting needs every loop of the cracked body in one
+    orientation (with a hole turning the other way, the nodes of one crack face were
+    left unused)."""
+    if _signed_area(verts) >= 0.0:
+        return verts, tags
+    return verts[::-1].copy(), np.roll(tags[::-1], -1).copy()
+
+
 def body_outline(
     msh: mesh.Mesh,
     cell_tags: mesh.MeshTags,
@@ -216,7 +232,7 @@ def body_outline(
     edges, tags = _boundary_edges(msh, facet_tags)
     scale = float(np.ptp(edges.reshape(-1, 2), axis=0).max())
     loops = _chain_loops(edges, tags, 1e-9 * scale)
-    merged = [_merge_collinear(v, t) for v, t in loops]
+    merged = [_counter_clockwise(*_merge_collinear(v, t)) for v, t in loops]
     merged.sort(key=lambda vt: -abs(_signed_area(vt[0])))
     h_max = float(np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1).max())
     names = {t: n for n, (d, t) in groups.items() if d == tdim - 1}
