@@ -83,8 +83,9 @@ def main() -> None:
     tmp = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
     for n in (100,) if args.quick else (100, 300, 600):
         path = tmp / f"rect{n}.msh"
+        # collective (gmsh on rank 0, the others wait for the file)
+        shapes.rectangle(0.02, 0.01, n, n // 2, comm, path=path, structured=True)
         if comm.rank == 0:
-            shapes.rectangle(0.02, 0.01, n, n // 2, None, path=path, structured=True)
             (tmp / f"rect{n}.toml").write_text(RECT.format(mesh=path.name))
         comm.barrier()
         rows.append(measure(tmp / f"rect{n}.toml", comm))
