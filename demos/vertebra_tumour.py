@@ -79,7 +79,6 @@
 # this demo does not follow.
 
 # %%
-import dataclasses
 import os
 import sys
 from pathlib import Path
@@ -90,7 +89,6 @@ import numpy as np
 
 import bonecontact.plot as bp
 from bonecontact.common.constants import SECONDS_PER_DAY
-from bonecontact.runners import cracks as crack_runner
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
@@ -463,28 +461,7 @@ def cracked_body_mesh(path: Path) -> None:
 
 cracked_body_mesh(output / "vertebral_body.msh")
 
-# %% [markdown]
-# A work-around: the crack scenes take the body's boundary loops in the orientation in
-# which the mesh facets chain up; with a cavity whose loop turns the other way than the
-# outer one, gmsh's crack splitting leaves the crack nodes of one face unused and the
-# mesh cannot be distributed.  Until the crack-scene code orients the loops itself, the
-# demo turns every loop counter-clockwise before the body is meshed around the crack.
-
-
 # %%
-def _counter_clockwise(outline):
-    loops, tags = [], []
-    for v, t in zip(outline.loops, outline.loop_tags, strict=True):
-        x, y = v[:, 0], v[:, 1]
-        if np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0:  # clockwise
-            v, t = v[::-1], np.roll(t[::-1], -1)
-        loops.append(v)
-        tags.append(t)
-    return dataclasses.replace(outline, loops=tuple(loops), loop_tags=tuple(tags))
-
-
-_body_outline = crack_runner.body_outline
-crack_runner.body_outline = lambda *a, **k: _counter_clockwise(_body_outline(*a, **k))
 CRACK = f"""format = 1
 [scene]
 name = "vertebra_crack"
