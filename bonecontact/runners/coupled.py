@@ -39,7 +39,11 @@ writes the usual mechanics results into the output directory itself, earlier one
 ``mechanics_<step>/``; each analysis directory also holds ``host_mesh.msh`` (the rebuilt
 mesh) and ``neoplasm_boundary.csv`` (the polygon embedded).  ``summary.json`` is the
 final analysis's summary plus ``growth`` (as a growth-only run) and ``coupling`` (one
-record per analysis).
+record per analysis).  With ``[fracture]`` every analysis runs the initiation check (the
+risk field with its fields, ``max_risk`` columns in its history.csv); its largest risk
+goes into its ``coupling`` record, and ``summary.json`` ``fracture`` holds the largest risk
+of every analysis against growth time and the first growth time at which it reached 1
+(a pathological fracture initiates); a ``[[crack]]`` is refused in a coupled scene.
 
 The growth does not feel the mechanics (one-way coupling): the cyst ODE has its own
 Maxwell surrounding, the tumour its own pressure.  The rebuilt mesh is a fresh
@@ -305,9 +309,42 @@ class _Analyses:
         }
         if "message" in res.summary:
             rec["message"] = res.summary["message"]
+        rec.update(_analysis_risk(res.summary))
         self.records.append(rec)
         self.result = res
         return res.status == "converged"
+
+
+def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:
+    """The fracture-risk entries of an analysis record (none without ``[fracture]``): the
+    largest risk of the analysis, its location and mode."""
+    info = summary.get("fracture")
+    if not info or "max_risk" not in info:
+        return {}
+    return {
+        "max_risk": info["max_risk"],
+        "max_risk_location": info["location"],
+        "max_risk_mode": info["mode"],
+    }
+
+
+def _risk_over_growth(records: list[dict[str, Any]], criterion: str) -> dict[str, Any]:
+    """summary.json ``fracture`` of a coupled run: the largest risk of every analysis against
+    growth time, and the first growth time at which it reached 1 (initiation)."""
+    rows = [r for r in records if "max_risk" in r]
+    first = next((r for r in rows if r["max_risk"] >= 1.0), None)
+    peak = max(rows, key=lambda r: r["max_risk"], default=None)
+    return {
+        "criterion": criterion,
+        "growth_time": [r["time"] for r in rows],
+        "max_risk": [r["max_risk"] for r in rows],
+        "max_risk_overall": None if peak is None else peak["max_risk"],
+        "location": None if peak is None else peak["max_risk_location"],
+        "initiated": first is not None,
+        "initiation_growth_time": None if first is None else first["time"],
+        "initiation_growth_step": None if first is None else first["growth_step"],
+        "units": {"growth_time": "s", "location": "m", "max_risk": "1 (stress / strength)"},
+    }
 
 
 def _grow_and_analyse(
@@ -419,6 +456,8 @@ def _coupled_summary(
         ),
         "one_way": "the growth does not feel the mechanics",
     }
+    if scene.fracture is not None:
+        summary["fracture"] = _risk_over_growth(analyses.records, scene.fracture.criterion)
     if message is not None:
         summary["message"] = message
     return summary

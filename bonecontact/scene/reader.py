@@ -873,9 +873,13 @@ def _read_fracture(
     label = "[fracture]" if tab is not None else "[[crack]]"
     if dim != 2:
         raise SceneError(None, label, None, "fracture is supported in 2D only by this version")
-    if has_neoplasm:
+    if has_neoplasm and entries:
         raise SceneError(
-            None, label, None, "a fracture check in a coupled [neoplasm] scene is not supported yet"
+            None,
+            "[[crack]]",
+            None,
+            "a crack in a coupled [neoplasm] scene is not supported yet (a [fracture] "
+            "initiation check is: it runs at every analysis of the growth)",
         )
     try:
         spec = fracture_from_table(tab.data if tab is not None else {})
