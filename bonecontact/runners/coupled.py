@@ -317,7 +317,8 @@ class _Analyses:
 
 def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:
     """The fracture-risk entries of an analysis record (none without ``[fracture]``): the
-    largest risk of the analysis, its location and mode."""
+    largest risk of the analysis, its location, mode and the direction of a crack started
+    there (normal to the largest principal stress)."""
     info = summary.get("fracture")
     if not info or "max_risk" not in info:
         return {}
@@ -325,6 +326,7 @@ def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:
         "max_risk": info["max_risk"],
         "max_risk_location": info["location"],
         "max_risk_mode": info["mode"],
+        "max_risk_crack_direction": info["crack_direction"],
     }
 
 
