@@ -37,7 +37,6 @@ Measured (serial; the asserts state the tolerances):
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -49,12 +48,12 @@ import pytest
 import ufl
 from cli_support import ENV as BASE_ENV
 from cli_support import run_scene as run_cli_scene
+from coupled_support import gmsh_on_rank0, read_csv, refine_near, run_text
 from dolfinx import fem
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
-from bonecontact.runners import run_scene
-from bonecontact.scene import SceneError, load_scene
+from bonecontact.scene import SceneError
 
 ROOT = Path(__file__).resolve().parents[3]
 ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
@@ -62,43 +61,6 @@ YEAR = SECONDS_PER_YEAR
 
 
 # ----------------------------------------------------------------------------- meshes
-def _gmsh_on_rank0(build, path: Path) -> None:
-    comm = MPI.COMM_WORLD
-    if comm.rank == 0:
-        import gmsh
-
-        own = not gmsh.isInitialized()
-        if own:
-            gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("test")
-        try:
-            build(gmsh)
-            gmsh.model.mesh.generate(2)
-            gmsh.write(str(path))
-        finally:
-            if own:
-                gmsh.finalize()
-            else:
-                gmsh.model.remove()
-    comm.barrier()
-
-
-def _refine_near(gmsh, curves, h_in: float, h_out: float, dist: float) -> None:
-    f = gmsh.model.mesh.field
-    d = f.add("Distance")
-    f.setNumbers(d, "CurvesList", curves)
-    th = f.add("Threshold")
-    f.setNumber(th, "InField", d)
-    f.setNumber(th, "SizeMin", h_in)
-    f.setNumber(th, "SizeMax", h_out)
-    f.setNumber(th, "DistMin", 0.0)
-    f.setNumber(th, "DistMax", dist)
-    f.setAsBackgroundMesh(th)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-
-
 def disc_with_core(
     path: Path, b: float, r0: float, h_in: float, h_out: float, core: str = "cyst"
 ) -> None:
@@ -119,9 +81,9 @@ def disc_with_core(
         ]
         gmsh.model.addPhysicalGroup(1, rim, 3, name="outer")
         core_c = [abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in inner])]
-        _refine_near(gmsh, core_c, h_in, h_out, 4 * r0)
+        refine_near(gmsh, core_c, h_in, h_out, 4 * r0)
 
-    _gmsh_on_rank0(build, path)
+    gmsh_on_rank0(build, path, 2)
 
 
 def plate_with_inclusion(path: Path, L: float, R: float, h_in: float, h_out: float) -> None:
@@ -146,7 +108,7 @@ def plate_with_inclusion(path: Path, L: float, R: float, h_in: float, h_out: flo
         ):
             pick = [e for e in edges if abs(occ.getCenterOfMass(1, e)[axis] - val) < 1e-9 * L]
             gmsh.model.addPhysicalGroup(1, pick, 3 + k, name=name)
-        _refine_near(
+        refine_near(
             gmsh,
             [abs(t) for _, t in gmsh.model.getBoundary([(2, t) for t in inner])],
             h_in,
@@ -154,7 +116,7 @@ def plate_with_inclusion(path: Path, L: float, R: float, h_in: float, h_out: flo
             6 * R,
         )
 
-    _gmsh_on_rank0(build, path)
+    gmsh_on_rank0(build, path, 2)
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -269,19 +231,6 @@ def _goodier(E_m, nu_m, E_i, nu_i, sigma0):
     return 0.5 * sigma0 * (A + B), 0.5 * sigma0 * (A - B)
 
 
-def _read_csv(path: Path) -> dict[str, np.ndarray]:
-    with open(path) as f:
-        rows = list(csv.reader(f))
-
-    def num(v: str) -> float:
-        try:
-            return float(v) if v else math.nan
-        except ValueError:  # a name column (e.g. the empty contact pair)
-            return math.nan
-
-    return {k: np.array([num(r[i]) for r in rows[1:]]) for i, k in enumerate(rows[0])}
-
-
 def _wall_ratio(result, R: float, f: float) -> np.ndarray:
     """u_r / u_Lamé at the owned wall vertices (gathered on every rank)."""
     integ = result.integrator
@@ -299,14 +248,6 @@ def _wall_ratio(result, R: float, f: float) -> np.ndarray:
     return np.concatenate(MPI.COMM_WORLD.allgather(ratio))
 
 
-def _run(text: str, path: Path, out: Path):
-    scene_file = path / "scene.toml"
-    if MPI.COMM_WORLD.rank == 0:
-        scene_file.write_text(text)
-    MPI.COMM_WORLD.barrier()
-    return run_scene(load_scene(scene_file), MPI.COMM_WORLD, output=out, progress=False)
-
-
 @pytest.fixture(scope="module")
 def disc_mesh(tmp_path_factory):
     comm = MPI.COMM_WORLD
@@ -319,7 +260,7 @@ def disc_mesh(tmp_path_factory):
 
 # ----------------------------------------------------------------------------- tests
 def test_cyst_cavity_matches_ode_and_lame(disc_mesh, tmp_shared_path):
-    res = _run(
+    res = run_text(
         CYST_SCENE.format(
             mesh=disc_mesh,
             E=E_BONE,
@@ -333,7 +274,7 @@ def test_cyst_cavity_matches_ode_and_lame(disc_mesh, tmp_shared_path):
         tmp_shared_path / "out",
     )
     assert res.status == "converged", res.summary.get("message")
-    g = _read_csv(tmp_shared_path / "out" / "growth.csv")
+    g = read_csv(tmp_shared_path / "out" / "growth.csv")
     R0 = g["equivalent_radius"][0]
     assert R0 == pytest.approx(R0_CYST, rel=2e-3)  # the meshed disc region, sqrt(A/pi)
     ref = grow_sphere(
@@ -360,7 +301,7 @@ def test_near_fluid_tumour_inclusion_matches_goodier(tmp_shared_path, formulatio
     E_i, nu_i = E_BONE / 1000, 0.499
     mesh = tmp_shared_path / "plate.msh"
     plate_with_inclusion(mesh, L, R, R / 12, L / 8)
-    res = _run(
+    res = run_text(
         PLATE_SCENE.format(
             mesh=mesh,
             E=E_BONE,
@@ -388,7 +329,7 @@ def test_void_like_inclusion_gives_kirsch_concentration(tmp_shared_path):
     E_i, nu_i = E_BONE * 1e-4, 0.3
     mesh = tmp_shared_path / "plate.msh"
     plate_with_inclusion(mesh, L, R, R / 12, L / 8)
-    res = _run(
+    res = run_text(
         PLATE_SCENE.format(
             mesh=mesh,
             E=E_BONE,
@@ -434,7 +375,7 @@ def test_mechanics_every_alternates_growth_and_analyses(disc_mesh, tmp_shared_pa
     """mechanics_every = 2 over 4 growth steps: analyses after steps 2 and 4; the cavity
     grows between them and each analysis sees the pressure of its time."""
     out = tmp_shared_path / "out"
-    res = _run(
+    res = run_text(
         CYST_SCENE.format(
             mesh=disc_mesh, E=E_BONE, nu=NU_BONE, t_end=YEAR / 3, dt=YEAR / 12, every=2, out=out
         ),
@@ -444,7 +385,7 @@ def test_mechanics_every_alternates_growth_and_analyses(disc_mesh, tmp_shared_pa
     assert res.status == "converged", res.summary.get("message")
     an = res.summary["coupling"]["analyses"]
     assert [a["growth_step"] for a in an] == [2, 4]
-    g = _read_csv(out / "growth.csv")
+    g = read_csv(out / "growth.csv")
     for a, k in zip(an, (2, 4)):
         assert (
             a["cavity_pressure_Pa"] == g["pressure"][k]
@@ -495,10 +436,10 @@ def test_fracture_risk_over_growth_time(disc_mesh, tmp_shared_path):
     )
     text = text.replace("nu = 0.3\n", f"nu = 0.3\nsigma_t = {sigma_t!r}\n", 1)
     text += '\n[fracture]\ncriterion = "tension"\n'
-    res = _run(text, tmp_shared_path, out)
+    res = run_text(text, tmp_shared_path, out)
     assert res.status == "converged", res.summary.get("message")
     an = res.summary["coupling"]["analyses"]
-    g = _read_csv(out / "growth.csv")
+    g = read_csv(out / "growth.csv")
     for a, k in zip(an, (2, 4), strict=True):
         exact = _lame_clamped_hoop(
             g["equivalent_radius"][k], B_DISC, g["pressure"][k], E_BONE, NU_BONE
@@ -530,7 +471,7 @@ def test_coupled_scene_errors(disc_mesh, tmp_shared_path):
     )
     bad = text.replace('regions = ["bone"]', 'regions = ["bone", "cyst"]')
     with pytest.raises(SceneError, match="pressurised cavity"):
-        _run(bad, tmp_shared_path, tmp_shared_path / "out")
+        run_text(bad, tmp_shared_path, tmp_shared_path / "out")
     assert not (tmp_shared_path / "out").exists()
 
 
@@ -556,7 +497,7 @@ def test_coupled_run_same_on_two_ranks(disc_mesh, tmp_path):
         assert r.returncode == 0, r.stderr[-3000:]
         outs.append(out)
     for name in ("growth.csv", "history.csv", "mechanics_00003/history.csv"):
-        a, b = _read_csv(outs[0] / name), _read_csv(outs[1] / name)
+        a, b = read_csv(outs[0] / name), read_csv(outs[1] / name)
         for k in a:
             np.testing.assert_allclose(
                 a[k],
@@ -592,9 +533,9 @@ def test_growing_tumour_becomes_the_inclusion(tmp_shared_path):
         "t_end = 1.0\ndt = 1.0\nremesh_every = 0",
         "t_end = 2.0\ndt = 0.25\nremesh_every = 1\nmechanics_every = 4\nh = 2.5e-4",
     ).replace("K_B = 0.0", 'K_B = "2.0*(u_c - 0.5)"\nD_c = 4.0e-6')
-    res = _run(text, tmp_shared_path, out)
+    res = run_text(text, tmp_shared_path, out)
     assert res.status == "converged", res.summary.get("message")
-    g = _read_csv(out / "growth.csv")
+    g = read_csv(out / "growth.csv")
     an = res.summary["coupling"]["analyses"]
     assert [a["growth_step"] for a in an] == [4, 8]
     assert g["equivalent_radius"][-1] > 1.5 * g["equivalent_radius"][0]

@@ -25,7 +25,6 @@ machine: Lamé 116 s, Eshelby 225 s, 1/2/3 ranks 150 s, the growing tumour 16 s.
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -36,6 +35,7 @@ import numpy as np
 import pytest
 from cli_support import ENV as BASE_ENV
 from cli_support import run_scene as run_cli_scene
+from coupled_support import gmsh_on_rank0, read_csv, refine_near, run_text
 from dolfinx import fem
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
@@ -46,7 +46,6 @@ from bonecontact.neoplasm.host3d import (
     sphere_surface,
     surface_volume,
 )
-from bonecontact.runners import run_scene
 from bonecontact.scene import SceneError, load_scene
 
 ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
@@ -56,43 +55,6 @@ B_BALL, R0_CYST = 0.02, 0.002
 
 
 # ----------------------------------------------------------------------------- meshes
-def _gmsh_on_rank0(build, path: Path) -> None:
-    comm = MPI.COMM_WORLD
-    if comm.rank == 0:
-        import gmsh
-
-        own = not gmsh.isInitialized()
-        if own:
-            gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("test")
-        try:
-            build(gmsh)
-            gmsh.model.mesh.generate(3)
-            gmsh.write(str(path))
-        finally:
-            if own:
-                gmsh.finalize()
-            else:
-                gmsh.model.remove()
-    comm.barrier()
-
-
-def _refine_near(gmsh, surfaces, h_in: float, h_out: float, dist: float) -> None:
-    f = gmsh.model.mesh.field
-    d = f.add("Distance")
-    f.setNumbers(d, "SurfacesList", surfaces)
-    th = f.add("Threshold")
-    f.setNumber(th, "InField", d)
-    f.setNumber(th, "SizeMin", h_in)
-    f.setNumber(th, "SizeMax", h_out)
-    f.setNumber(th, "DistMin", 0.0)
-    f.setNumber(th, "DistMax", dist)
-    f.setAsBackgroundMesh(th)
-    for key in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
-        gmsh.option.setNumber(f"Mesh.{key}", 0)
-
-
 def ball_with_core(path: Path, b: float, r0: float, h_in: float, h_out: float) -> None:
     """Ball of radius ``b`` ("bone", outer facet group "outer") around a core ball ``r0``
     ("cyst")."""
@@ -108,9 +70,9 @@ def ball_with_core(path: Path, b: float, r0: float, h_in: float, h_out: float) -
         rim = gmsh.model.getBoundary([(3, s) for s in outer + inner], combined=True)
         gmsh.model.addPhysicalGroup(2, [abs(t) for _, t in rim], 3, name="outer")
         core = [abs(t) for _, t in gmsh.model.getBoundary([(3, s) for s in inner])]
-        _refine_near(gmsh, core, h_in, h_out, 4 * r0)
+        refine_near(gmsh, core, h_in, h_out, 4 * r0)
 
-    _gmsh_on_rank0(build, path)
+    gmsh_on_rank0(build, path, 3)
 
 
 def cube_with_inclusion(path: Path, L: float, R: float, h_in: float, h_out: float) -> None:
@@ -133,9 +95,9 @@ def cube_with_inclusion(path: Path, L: float, R: float, h_in: float, h_out: floa
             pick = [f for f in faces if abs(occ.getCenterOfMass(2, f)[axis] - val) < 1e-9 * L]
             gmsh.model.addPhysicalGroup(2, pick, 3 + k, name=name)
         core = [abs(t) for _, t in gmsh.model.getBoundary([(3, t) for t in inner])]
-        _refine_near(gmsh, core, h_in, h_out, 4 * R)
+        refine_near(gmsh, core, h_in, h_out, 4 * R)
 
-    _gmsh_on_rank0(build, path)
+    gmsh_on_rank0(build, path, 3)
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -255,27 +217,6 @@ def eshelby_sphere(E_m, nu_m, E_i, nu_i, sigma0):
     return K_i * theta * np.eye(3) + 2 * mu_i * e
 
 
-def _read_csv(path: Path) -> dict[str, np.ndarray]:
-    with open(path) as f:
-        rows = list(csv.reader(f))
-
-    def num(v: str) -> float:
-        try:
-            return float(v) if v else math.nan
-        except ValueError:
-            return math.nan
-
-    return {k: np.array([num(r[i]) for r in rows[1:]]) for i, k in enumerate(rows[0])}
-
-
-def _run(text: str, path: Path, out: Path):
-    scene_file = path / "scene.toml"
-    if MPI.COMM_WORLD.rank == 0:
-        scene_file.write_text(text)
-    MPI.COMM_WORLD.barrier()
-    return run_scene(load_scene(scene_file), MPI.COMM_WORLD, output=out, progress=False)
-
-
 def _wall_ratio(result, R: float, f: float, b: float) -> np.ndarray:
     """u_r / u_Lamé at the owned wall vertices (gathered on every rank)."""
     integ = result.integrator
@@ -359,7 +300,7 @@ def test_neoplasm_outside_its_region_is_refused(ball_mesh):
 def _cyst_lame_run(mesh: Path, tmp: Path) -> np.ndarray:
     """Grow the cyst for a year in the clamped ball; u_r / Lamé on the cavity wall."""
     out = tmp / "out"
-    res = _run(
+    res = run_text(
         CYST_SCENE.format(
             mesh=mesh, E=E_BONE, nu=NU_BONE, t_end=YEAR, dt=YEAR / 12, every=0, out=out
         ),
@@ -367,7 +308,7 @@ def _cyst_lame_run(mesh: Path, tmp: Path) -> np.ndarray:
         out,
     )
     assert res.status == "converged", res.summary.get("message")
-    g = _read_csv(out / "growth.csv")
+    g = read_csv(out / "growth.csv")
     R, f = g["equivalent_radius"][-1], g["pressure"][-1]
     assert R > 2 * g["equivalent_radius"][0] and f > 1.0
     an = res.summary["coupling"]["analyses"]
@@ -406,7 +347,7 @@ def test_soft_inclusion_3d_matches_eshelby(tmp_shared_path):
     E_i, nu_i = E_BONE / 10, 0.3
     mesh, out = tmp_shared_path / "cube.msh", tmp_shared_path / "out"
     cube_with_inclusion(mesh, L, R, R / 8, L / 3)
-    res = _run(
+    res = run_text(
         BLOCK_SCENE.format(
             mesh=mesh,
             E=E_BONE,
@@ -452,9 +393,9 @@ def test_growing_tumour_3d_is_embedded_at_its_volume(tmp_shared_path):
         "t_end = 1.0\ndt = 1.0\nremesh_every = 0",
         "t_end = 0.5\ndt = 0.25\nremesh_every = 1\nmechanics_every = 1",
     ).replace("K_B = 0.0", 'K_B = "2.0*(u_c - 0.5)"\nD_c = 4.0e-6')
-    res = _run(text, tmp_shared_path, out)
+    res = run_text(text, tmp_shared_path, out)
     assert res.status == "converged", res.summary.get("message")
-    g = _read_csv(out / "growth.csv")
+    g = read_csv(out / "growth.csv")
     an = res.summary["coupling"]["analyses"]
     assert [a["growth_step"] for a in an] == [1, 2]
     assert g["volume"][-1] > 1.05 * g["volume"][0]
@@ -503,7 +444,7 @@ def test_coupled_3d_same_on_one_two_three_ranks(ball_mesh, tmp_path):
         outs.append(out)
     for o in outs[1:]:
         for name in ("growth.csv", "history.csv"):
-            a, b = _read_csv(outs[0] / name), _read_csv(o / name)
+            a, b = read_csv(outs[0] / name), read_csv(o / name)
             for k in a:
                 np.testing.assert_allclose(
                     a[k],

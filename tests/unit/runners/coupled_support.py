@@ -1,0 +1,85 @@
+"""What the 2D and 3D coupled-scene tests share: gmsh meshes made on rank 0, a size field
+graded away from the neoplasm, scenes run in-process, and the CSV tables read back.
+
+Not a test module (no ``test_`` prefix); the coupled tests import it by name.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+from bonecontact.runners import RunResult, run_scene
+from bonecontact.scene import load_scene
+
+
+def gmsh_on_rank0(build: Callable, path: Path, dim: int) -> None:
+    """``build(gmsh)`` (geometry, groups, sizes) on rank 0, mesh in ``dim`` D, write
+    ``path``; every rank waits for the file."""
+    comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        import gmsh
+
+        own = not gmsh.isInitialized()
+        if own:
+            gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("test")
+        try:
+            build(gmsh)
+            gmsh.model.mesh.generate(dim)
+            gmsh.write(str(path))
+        finally:
+            if own:
+                gmsh.finalize()
+            else:
+                gmsh.model.remove()
+    comm.barrier()
+
+
+def refine_near(gmsh, entities: list[int], h_in: float, h_out: float, dist: float) -> None:
+    """Element size ``h_in`` at the curves (2D model) or surfaces (3D model) ``entities``,
+    growing linearly to ``h_out`` at distance ``dist``; the only size source."""
+    f = gmsh.model.mesh.field
+    d = f.add("Distance")
+    kind = "SurfacesList" if gmsh.model.getDimension() == 3 else "CurvesList"
+    f.setNumbers(d, kind, entities)
+    th = f.add("Threshold")
+    f.setNumber(th, "InField", d)
+    f.setNumber(th, "SizeMin", h_in)
+    f.setNumber(th, "SizeMax", h_out)
+    f.setNumber(th, "DistMin", 0.0)
+    f.setNumber(th, "DistMax", dist)
+    f.setAsBackgroundMesh(th)
+    for key in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{key}", 0)
+
+
+def read_csv(path: Path) -> dict[str, np.ndarray]:
+    """A results table as column name → values (non-numbers, e.g. names, as NaN)."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+
+    def num(v: str) -> float:
+        try:
+            return float(v) if v else math.nan
+        except ValueError:  # a name column (e.g. the empty contact pair)
+            return math.nan
+
+    return {k: np.array([num(r[i]) for r in rows[1:]]) for i, k in enumerate(rows[0])}
+
+
+def run_text(text: str, path: Path, out: Path) -> RunResult:
+    """Write the scene ``text`` to ``path/scene.toml`` (rank 0) and run it into ``out``
+    (collective, in-process)."""
+    scene_file = path / "scene.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        scene_file.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    return run_scene(load_scene(scene_file), MPI.COMM_WORLD, output=out, progress=False)
