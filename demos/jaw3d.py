@@ -17,8 +17,8 @@
 # The shipped mandible surface (`anatomy_surface("mandible")`, a low-resolution human
 # lower jaw, 2734 triangles; `data/anatomy/README.md`) is meshed into tetrahedra with a
 # 2 mm cortical shell around a cancellous core, keeping the surface's own triangles.  A
-# radicular cyst, 2 mm in radius at the start, sits in the cancellous core of the right
-# mandibular body below the molars.  The jaw is held at its condyles and bitten on: a
+# radicular cyst, 2 mm in radius at the start, sits in the cancellous core of the
+# mandibular body (on the side $z > 0$, below the molar region).  The jaw is held at its condyles and bitten on: a
 # bite force of 300 N pushes down on the upper (occlusal) surface of the teeth region.
 # The cyst grows (the osmotic/Maxwell cyst ODE of `data/scenes/jaw_cyst3d.toml`); at
 # intervals gmsh rebuilds the jaw's tetrahedra around the current cyst (a cavity with the
@@ -98,7 +98,7 @@ quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
 MM = 1e-3
 YEAR = 3.15576e7  # s (Julian year)
 F_BITE = 300.0  # N
-CYST = np.array([45.0, -13.0, 30.0]) * MM  # centre: cancellous core of the right body
+CYST = np.array([45.0, -13.0, 30.0]) * MM  # centre: cancellous core of the body, z > 0
 R0 = 2.0 * MM  # initial cyst radius
 H_BONE, CORTEX = 8 * MM, 2 * MM  # largest tetrahedron, cortical thickness
 years, per_year = (1.0, 2) if quick else (2.0, 2)  # growth time, analyses per year
@@ -110,12 +110,12 @@ comm.barrier()
 # %% [markdown]
 # ## The jaw mesh
 # Axes of the surface: $x$ forward (the chin at $x \approx 82$ mm), $y$ up (the condyles
-# at the top, $y \approx 30$–43 mm), $z$ from the left to the right side.  Facet groups
+# at the top, $y \approx 30$–43 mm), $z$ across (the jaw is symmetric about $z = 0$).  Facet groups
 # chosen on the surface: `condyles` (triangles with their centroid in the box
 # $0 \le x \le 50$ mm, $y \ge 25$ mm: the condylar and coronoid processes, both sides)
 # and `teeth` (centroid in $30 \le x \le 90$ mm, $-10 \le y \le 10$ mm, outward normal
-# within 45° of $+y$: the occlusal face of the dental arch, which the surface shows
-# without single teeth).  `bone_from_surface` meshes the closed surface with its own
+# within 45° of $+y$: the upper face of the alveolar part, where the teeth stand; the
+# surface has no single teeth).  `bone_from_surface` meshes the closed surface with its own
 # 4 mm triangles (remeshing this thin bone is refused), and a shell of 2 mm inside it
 # gives the cell groups `mandible_cortical` and `mandible_cancellous`.
 #
@@ -247,16 +247,18 @@ if comm.rank == 0:
 
 # %% [markdown]
 # ## The stress next to the cyst
-# From each analysis's fields: the largest von Mises stress of the cells within 3 mm of
-# the cyst wall (cell centroids with $|x - x_c| \le R + 3$ mm), against the growth time,
-# beside the cyst's radius.  What to expect: the lumen's osmotic excess pressure is tens
-# of pascals, so the stress next to the cyst is the bite's, redistributed around a hole
-# in the soft cancellous core; it changes little while the cyst stays well inside the
-# core (quick run: 0.40 and 0.39 MPa at R = 2.5 and 3.0 mm), far below the stresses in
-# the cortex (several MPa).
+# From each analysis's fields: the largest von Mises stress of the cells within 1 mm of
+# the cyst wall (cell centroids with $|x - x_c| \le R + 1$ mm: the cancellous bone
+# lining the cyst), against the growth time, beside the cyst's radius.  What to expect:
+# the lumen's osmotic excess pressure is tens of pascals, so the stress next to the cyst
+# is the bite's, concentrated at the rim of a hole in the soft cancellous core; it
+# changes little while the cyst stays inside the core (full run: 0.40, 0.39, 0.40 and
+# 0.41 MPa at R = 2.5, 3.0, 3.5 and 4.0 mm), an order of magnitude below the stress in
+# the cortical shell over the cyst (3.9 and 4.6 MPa within 3 mm of the wall at R = 3.5
+# and 4.0 mm).
 
 # %%
-NEAR = 3 * MM
+NEAR = 1 * MM
 
 
 def near_cyst_stress(directory: Path, radius: float) -> float:
@@ -293,7 +295,7 @@ if comm.rank == 0:
     a1.legend()
     bp.line_axes(a1, ("growth time", "years"), ("cyst radius", "mm"))
     a2.plot([a["time"] / YEAR for a in analyses], np.array(near) / 1e6, "s-")
-    bp.line_axes(a2, ("growth time", "years"), ("max von Mises, ≤ 3 mm from the cyst", "MPa"))
+    bp.line_axes(a2, ("growth time", "years"), ("max von Mises, ≤ 1 mm from the cyst", "MPa"))
     fig.suptitle(f"jaw3d: cyst growth and the stress next to it (bite force {F_BITE:.0f} N)")
     fig.tight_layout()
     bp.show(fig, output / "jaw3d_growth.png", dpi=120)
@@ -304,7 +306,7 @@ if comm.rank == 0:
 # shows the cavity and the bone around it), on the deformed shape (displacement
 # magnified), at the first and the last analysis, the colour range stopping at the 99th
 # percentile of the cells shown; then the same cut cropped to a 16 mm cube about the
-# cyst, the colour range stopping at the largest stress within 3 mm of the cyst wall (the
+# cyst, the colour range stopping at the largest stress within 1 mm of the cyst wall (the
 # stiffer cortex above it saturates).  The cells' own values (no smoothing).
 
 
