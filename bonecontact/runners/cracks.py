@@ -455,21 +455,8 @@ def _crack_summary(
         "tips": [
             {
                 c: getattr(r, c)
-                for c in (
-                    "tip",
-                    "x",
-                    "y",
-                    "K_I",
-                    "K_II",
-                    "J",
-                    "G",
-                    "K_I_dc",
-                    "K_II_dc",
-                    "angle_deg",
-                    "K_eq",
-                    "load_factor",
-                    "status",
-                )
+                for c in FRACTURE_COLUMNS
+                if c not in ("increment", "step", "time", "length")  # the crack's, not the tip's
             }
             for r in tips
         ],
