@@ -21,6 +21,7 @@ broadcast.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -531,13 +532,45 @@ def build_host_mesh(
     CouplingError
         On every rank, when gmsh fails or the neoplasm does not overlap the region/hosts.
     """
+    return build_on_rank0(
+        lambda: _build_host_serial(geo, region, host, np.asarray(polygon), cavity, h_neo, path),
+        "rebuild the host mesh around the neoplasm",
+        comm,
+    )
+
+
+def build_on_rank0(build: Callable[[], HostMesh], what: str, comm: MPI.Comm) -> HostMesh:
+    """Run a serial gmsh build on rank 0 and give its result, or its error, to every rank.
+
+    Parameters
+    ----------
+    build
+        The build, called on rank 0 only.
+    what
+        What it does, for the message of an unexpected exception ("rebuild the host mesh").
+    comm
+        The communicator; collective.
+
+    Returns
+    -------
+    HostMesh
+        Rank 0's result, on every rank.
+
+    Raises
+    ------
+    CouplingError
+        On every rank: the build's own :class:`CouplingError` message as it is, any other
+        exception as "cannot <what>: <type>: <message>" (so no rank waits for another).
+    """
     res, err = None, None
     if comm.rank == 0:
         try:
-            res = _build_host_serial(geo, region, host, np.asarray(polygon), cavity, h_neo, path)
+            res = build()
+        except CouplingError as exc:
+            err = str(exc)
         except Exception as exc:  # reported on every rank
-            err = f"{type(exc).__name__}: {exc}"
+            err = f"cannot {what}: {type(exc).__name__}: {exc}"
     res, err = comm.bcast((res, err), root=0)
     if err is not None:
-        raise CouplingError(f"cannot rebuild the host mesh around the neoplasm: {err}")
+        raise CouplingError(err)
     return res

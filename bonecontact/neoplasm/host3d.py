@@ -44,7 +44,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from bonecontact.meshing.session import gmsh_session
-from bonecontact.neoplasm.host import CouplingError, HostMesh, wall_name
+from bonecontact.neoplasm.host import CouplingError, HostMesh, build_on_rank0, wall_name
 
 __all__ = [
     "HostGeometry3D",
@@ -620,19 +620,10 @@ def build_host_mesh3d(
         On every rank: the neoplasm is not strictly inside one body of the group it grows
         in (the message names the group and the distance), or gmsh fails.
     """
-    res, err = None, None
-    if comm.rank == 0:
-        try:
-            res = _build_serial(
-                geo, region, host, np.asarray(points), np.asarray(triangles), cavity, h_neo, path
-            )
-        except CouplingError as exc:
-            err = str(exc)
-        except Exception as exc:  # reported on every rank
-            err = (
-                f"cannot rebuild the 3D host mesh around the neoplasm: {type(exc).__name__}: {exc}"
-            )
-    res, err = comm.bcast((res, err), root=0)
-    if err is not None:
-        raise CouplingError(err)
-    return res
+    return build_on_rank0(
+        lambda: _build_serial(
+            geo, region, host, np.asarray(points), np.asarray(triangles), cavity, h_neo, path
+        ),
+        "rebuild the 3D host mesh around the neoplasm",
+        comm,
+    )
