@@ -65,7 +65,6 @@
 # shows it in a coupled 2D scene).
 
 # %%
-import os
 import sys
 import time
 import warnings
@@ -93,7 +92,7 @@ here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd(
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/jaw3d, else demos/results/jaw3d
 output = bp.output_dir("jaw3d", here, args)
-quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
+quick = bp.quick_mode()
 
 MM = 1e-3
 YEAR = 3.15576e7  # s (Julian year)

@@ -107,7 +107,7 @@ root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir()
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/jaw_cyst, else demos/results/jaw_cyst
 output = bp.output_dir("jaw_cyst", here, args)
-quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
+quick = bp.quick_mode()
 
 MM, MONTH = 1e-3, SECONDS_PER_YEAR / 12
 L, H, T = 60 * MM, 24 * MM, 2.5 * MM  # section length, height, cortical thickness

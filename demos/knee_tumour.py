@@ -82,7 +82,6 @@
 
 # %%
 import dataclasses
-import os
 import sys
 from pathlib import Path
 
@@ -107,7 +106,7 @@ output = bp.output_dir("knee_tumour", here, args)
 
 # %%
 scene = load_scene(root / "data" / "scenes" / "knee2d_tumour.toml")
-if os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0"):  # analyses at days 10, 20
+if bp.quick_mode():  # analyses at days 10, 20
     scene = dataclasses.replace(
         scene, neoplasm=dataclasses.replace(scene.neoplasm, mechanics_every=5)
     )

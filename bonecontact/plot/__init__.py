@@ -40,6 +40,7 @@ __all__ = [
     "in_notebook",
     "line_axes",
     "output_dir",
+    "quick_mode",
     "read_fields",
     "show",
     "smooth_cell_data",
@@ -72,6 +73,12 @@ def output_dir(name: str, demo_dir: str | Path, argv: Sequence[str] = ()) -> Pat
     env = os.environ.get("BONECONTACT_OUTPUT")
     base = Path(env) if env else Path(demo_dir) / "results"
     return (base / name).resolve()
+
+
+def quick_mode() -> bool:
+    """Whether a demo should run at its reduced size: ``$BONECONTACT_DEMO_QUICK`` set and not
+    ``0`` (the test suite sets it)."""
+    return os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
 
 
 def show(figure: Any, path: str | Path, dpi: int = 150) -> Path:

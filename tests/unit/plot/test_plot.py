@@ -69,6 +69,17 @@ def test_output_dir(tmp_path, monkeypatch):
     assert bp.output_dir("knee2d", tmp_path, ["-q", str(tmp_path / "a")]) == tmp_path / "a"
 
 
+@pytest.mark.parametrize(
+    ("value", "quick"), [(None, False), ("", False), ("0", False), ("1", True)]
+)
+def test_quick_mode(monkeypatch, value, quick):
+    if value is None:
+        monkeypatch.delenv("BONECONTACT_DEMO_QUICK", raising=False)
+    else:
+        monkeypatch.setenv("BONECONTACT_DEMO_QUICK", value)
+    assert bp.quick_mode() is quick
+
+
 def test_show_saves_a_matplotlib_figure(tmp_path):
     import matplotlib
 
