@@ -97,6 +97,70 @@ class HostGeometry:
         return float(0.5 * np.abs(cross2(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])).sum())
 
 
+#: gmsh element types of the coupled host meshes: cell dimension -> (cells, facets), each
+#: (gmsh type, nodes per element, name).
+_HOST_ELEMENTS = {
+    2: ((2, 3, "linear triangles"), (1, 2, "2-node lines")),
+    3: ((4, 4, "linear tetrahedra"), (2, 3, "3-node triangles")),
+}
+
+
+def read_gmsh_groups(
+    path: str | Path, tdim: int
+) -> tuple[
+    npt.NDArray[np.float64],
+    dict[str, tuple[int, npt.NDArray[np.int64]]],
+    dict[str, tuple[int, npt.NDArray[np.int64]]],
+]:
+    """Read a gmsh file's nodes and its named cell and facet groups; serial.
+
+    Parameters
+    ----------
+    path
+        The gmsh file.
+    tdim
+        2 (triangles and lines, coordinates x, y) or 3 (tetrahedra and triangles).
+
+    Returns
+    -------
+    x, cells, facets
+        ``(N, tdim)`` node coordinates, and per group name its physical tag and
+        connectivity (rows of node indices into ``x``).
+
+    Raises
+    ------
+    CouplingError
+        A group holds other elements than the linear ones of ``tdim``.
+    """
+    (cell_type, cell_nodes, cell_name), (facet_type, facet_nodes, facet_name) = _HOST_ELEMENTS[tdim]
+    with gmsh_session("bonecontact-host-read"):
+        gmsh.merge(str(path))
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        x = coords.reshape(-1, 3)[:, :tdim].copy()
+        cells: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
+        facets: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
+        for dim, ptag in gmsh.model.getPhysicalGroups():
+            if dim not in (tdim - 1, tdim):
+                continue
+            name = gmsh.model.getPhysicalName(dim, ptag) or str(ptag)
+            want, nn = (cell_type, cell_nodes) if dim == tdim else (facet_type, facet_nodes)
+            conn = []
+            for ent in gmsh.model.getEntitiesForPhysicalGroup(dim, ptag):
+                types, _, ntags = gmsh.model.mesh.getElements(dim, int(ent))
+                for t, nt in zip(types, ntags):
+                    if t != want:
+                        raise CouplingError(
+                            f'physical group "{name}" holds gmsh elements of type {t}; the '
+                            f"coupled {tdim}D host mesh needs {cell_name} and {facet_name}"
+                        )
+                    conn.append(index[np.asarray(nt, dtype=np.int64)].reshape(-1, nn))
+            arr = np.concatenate(conn) if conn else np.zeros((0, nn), dtype=np.int64)
+            (cells if dim == tdim else facets)[name] = (int(ptag), arr)
+    return x, cells, facets
+
+
 def read_host_geometry(path: str | Path) -> HostGeometry:
     """Read a 2D gmsh file (linear triangles and lines in named physical groups); serial.
 
@@ -105,31 +169,7 @@ def read_host_geometry(path: str | Path) -> HostGeometry:
     CouplingError
         Not 2D, or other elements than 3-node triangles / 2-node lines in a group.
     """
-    with gmsh_session("bonecontact-host-read"):
-        gmsh.merge(str(path))
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-        index[tags.astype(np.int64)] = np.arange(len(tags))
-        x = coords.reshape(-1, 3)[:, :2].copy()
-        cells: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
-        facets: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
-        for dim, ptag in gmsh.model.getPhysicalGroups():
-            if dim not in (1, 2):
-                continue
-            name = gmsh.model.getPhysicalName(dim, ptag) or str(ptag)
-            want, nn = (2, 3) if dim == 2 else (1, 2)
-            conn = []
-            for ent in gmsh.model.getEntitiesForPhysicalGroup(dim, ptag):
-                types, _, ntags = gmsh.model.mesh.getElements(dim, int(ent))
-                for t, nt in zip(types, ntags):
-                    if t != want:
-                        raise CouplingError(
-                            f'physical group "{name}" holds gmsh elements of type {t}; the '
-                            "coupled host mesh needs linear triangles and 2-node lines"
-                        )
-                    conn.append(index[np.asarray(nt, dtype=np.int64)].reshape(-1, nn))
-            arr = np.concatenate(conn) if conn else np.zeros((0, nn), dtype=np.int64)
-            (cells if dim == 2 else facets)[name] = (int(ptag), arr)
+    x, cells, facets = read_gmsh_groups(path, 2)
     if not cells:
         raise CouplingError(f"{path}: no 2D cell groups")
     for _name, (_tag, t) in cells.items():  # counter-clockwise triangles

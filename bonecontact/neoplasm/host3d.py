@@ -44,7 +44,13 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from bonecontact.meshing.session import gmsh_session
-from bonecontact.neoplasm.host import CouplingError, HostMesh, build_on_rank0, wall_name
+from bonecontact.neoplasm.host import (
+    CouplingError,
+    HostMesh,
+    build_on_rank0,
+    read_gmsh_groups,
+    wall_name,
+)
 
 __all__ = [
     "HostGeometry3D",
@@ -115,31 +121,7 @@ def read_host_geometry3d(path: str | Path) -> HostGeometry3D:
     CouplingError
         No 3D cell group, or other elements than 4-node tetrahedra / 3-node triangles.
     """
-    with gmsh_session("bonecontact-host3d-read"):
-        gmsh.merge(str(path))
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-        index[tags.astype(np.int64)] = np.arange(len(tags))
-        x = coords.reshape(-1, 3).copy()
-        cells: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
-        facets: dict[str, tuple[int, npt.NDArray[np.int64]]] = {}
-        for dim, ptag in gmsh.model.getPhysicalGroups():
-            if dim not in (2, 3):
-                continue
-            name = gmsh.model.getPhysicalName(dim, ptag) or str(ptag)
-            want, nn = (4, 4) if dim == 3 else (2, 3)
-            conn = []
-            for ent in gmsh.model.getEntitiesForPhysicalGroup(dim, ptag):
-                types, _, ntags = gmsh.model.mesh.getElements(dim, int(ent))
-                for t, nt in zip(types, ntags):
-                    if t != want:
-                        raise CouplingError(
-                            f'physical group "{name}" holds gmsh elements of type {t}; the '
-                            "coupled 3D host mesh needs linear tetrahedra and 3-node triangles"
-                        )
-                    conn.append(index[np.asarray(nt, dtype=np.int64)].reshape(-1, nn))
-            arr = np.concatenate(conn) if conn else np.zeros((0, nn), dtype=np.int64)
-            (cells if dim == 3 else facets)[name] = (int(ptag), arr)
+    x, cells, facets = read_gmsh_groups(path, 3)
     if not cells:
         raise CouplingError(f"{path}: no 3D cell groups")
     return HostGeometry3D(x, cells, facets)
