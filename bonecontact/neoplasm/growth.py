@@ -115,6 +115,15 @@ class CystSphereGrowth:
             return [4.0 / 3.0 * math.pi * R**3, 4.0 * math.pi * R**2, R, self.f]
         return [math.pi * R**2, 2.0 * math.pi * R, R, self.f]
 
+    def checkpoint_state(self) -> dict[str, Any]:
+        """What a restart needs besides the mesh and fields (here everything: R, f, t, steps)."""
+        return {"R": self.R, "f": self.f, "t": self.t, "steps": self.steps}
+
+    def restore_checkpoint_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state` (a restart)."""
+        self.R, self.f = float(state["R"]), float(state["f"])
+        self.t, self.steps = float(state["t"]), int(state["steps"])
+
     def info(self) -> dict[str, Any]:
         return {
             "model": "cyst sphere ODE (osmotic/Maxwell)"
@@ -154,6 +163,38 @@ class CystShapeGrowth:
     def step(self, dt: float) -> None:
         """One growth step (collective); the model remeshes every ``remesh_every`` steps."""
         self.model.step(dt)
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The scalars a restart needs besides the mesh: time, counters, pressure, the last
+        wall velocity and the references of the strain and of the mesh size."""
+        m = self.model
+        return {
+            "t": m.t,
+            "steps": m.steps,
+            "remeshes": m.remeshes,
+            "f": m.f,
+            "vn": m.normal_velocity(),
+            "R_eq0": m.R_eq0,
+            "L0": m.L0,
+            "h0": m.h0,
+        }
+
+    def restore_checkpoint_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state` (after :meth:`replace_mesh`)."""
+        m = self.model
+        m.t, m.steps, m.remeshes = float(state["t"]), int(state["steps"]), int(state["remeshes"])
+        m.f, m._vn = float(state["f"]), float(state["vn"])
+        m.R_eq0, m.L0, m.h0 = float(state["R_eq0"]), float(state["L0"]), float(state["h0"])
+
+    def fields(self) -> dict[str, fem.Function]:
+        """The fields a restart needs besides the mesh (none: the wall is the mesh's boundary)."""
+        return {}
+
+    def replace_mesh(self, msh: dmesh.Mesh) -> None:
+        """Continue on ``msh`` (a restart's copy of the checkpoint's mesh; collective)."""
+        old = self.model.motion
+        self.model._setup(msh)
+        remesh.release_replaced_meshes(old)
 
     def row(self) -> list[float]:
         """``volume, surface_area, equivalent_radius, pressure`` of the current cyst mesh."""
@@ -199,6 +240,40 @@ class TumourGrowth:
         self.model.step(dt)
         if self.remesh_every and self.model.steps % self.remesh_every == 0:
             self.remeshes += 1
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The scalars a restart needs besides the mesh and :meth:`fields`."""
+        m = self.model
+        return {
+            "t": m.t,
+            "steps": m.steps,
+            "remeshes": self.remeshes,
+            "smoothed_remeshes": m.smoothed_remeshes,
+            "h": m.h,
+            "degree": m.degree,
+        }
+
+    def restore_checkpoint_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state` (after :meth:`replace_mesh`)."""
+        m = self.model
+        m.t, m.steps = float(state["t"]), int(state["steps"])
+        self.remeshes, m.smoothed_remeshes = int(state["remeshes"]), int(state["smoothed_remeshes"])
+
+    def fields(self) -> dict[str, fem.Function]:
+        """The fields a restart needs besides the mesh: the densities u_p, u_q (DG0), the
+        nutrient u_c (its previous value with eps0 > 0) and the mesh displacement ``w`` of
+        the last step (the ALE term of the nutrient with eps0 > 0)."""
+        m = self.model
+        if m.degree != 1:
+            raise ValueError("checkpoints of a tumour need degree = 1")
+        return {"u_p": m.u_p, "u_q": m.u_q, "u_c": m.u_c, "w": m._w}
+
+    def replace_mesh(self, msh: dmesh.Mesh) -> None:
+        """Continue on ``msh`` (a restart's copy of the checkpoint's mesh; collective)."""
+        m = self.model
+        old = (m.motion, m._laplacian)
+        m._setup(msh)
+        remesh.release_replaced_meshes(*old)
 
     def row(self) -> list[float]:
         m = self.model

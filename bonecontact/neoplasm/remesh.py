@@ -86,6 +86,7 @@ __all__ = [
     "MeshMotion",
     "RemeshError",
     "gather_boundary",
+    "mesh_from_cells",
     "moved_curve_mesh",
     "moved_surface_mesh",
     "polygon_mesh",
@@ -191,8 +192,25 @@ def _distribute_cells(comm: MPI.Comm, dim: int) -> dmesh.Mesh:
     if cells is None:
         cells = np.empty((0, nodes), dtype=np.int64)
     perm = gmsh_io.cell_perm_array(dmesh.to_type(str(domain.ufl_cell())), nodes)
+    return mesh_from_cells(comm, cells[:, perm].copy(), x, dim)
+
+
+#: gmsh element type of the cells of a remeshed 2D / 3D neoplasm (P1 triangles / tetrahedra)
+_GMSH_SIMPLEX = {2: 2, 3: 4}
+
+
+def mesh_from_cells(
+    comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], dim: int
+) -> dmesh.Mesh:
+    """The distributed P1 simplex mesh of ``cells`` (DOLFINx node order, rows of ``x``)
+    and ``x``, given on rank 0 (empty elsewhere), with the partitioner every remesh uses.
+
+    The same arrays give the same mesh (partition, numbering, ``input_global_indices`` =
+    rows of ``x``, ``original_cell_index`` = rows of ``cells``) on the same number of ranks:
+    a restart rebuilds the mesh of a checkpoint with it (collective)."""
+    domain = gmsh_io.ufl_mesh(_GMSH_SIMPLEX[dim], dim, dtype=np.float64)
     partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
-    return dmesh.create_mesh(comm, cells[:, perm].copy(), domain, x, partitioner)
+    return dmesh.create_mesh(comm, cells, domain, x, partitioner)
 
 
 def polygon_mesh(points: npt.ArrayLike, h: float, comm: MPI.Comm) -> dmesh.Mesh:

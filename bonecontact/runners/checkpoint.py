@@ -53,8 +53,12 @@ __all__ = [
     "InputOrder",
     "RunCounters",
     "StopRequest",
+    "checkpoint_dir",
     "find_checkpoint",
+    "on_root",
     "read_checkpoint",
+    "save_checkpoint",
+    "trim_rows",
     "trim_tables",
     "write_checkpoint",
 ]
@@ -86,7 +90,6 @@ class InputOrder:
 
     def __init__(self, V: fem.FunctionSpace):
         msh = V.mesh
-        self.comm = msh.comm
         cells = V.dofmap.list
         gnodes = msh.geometry.dofmaps[0]
         if cells.shape != gnodes.shape:
@@ -95,10 +98,22 @@ class InputOrder:
         keys = np.full(nblocks, -1, dtype=np.int64)
         inp = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)
         keys[cells.ravel()] = inp[gnodes.ravel()]
-        self.n_owned = V.dofmap.index_map.size_local
-        self.keys = keys[: self.n_owned]
+        self._init(msh.comm, keys[: V.dofmap.index_map.size_local])
+
+    def _init(self, comm: MPI.Comm, keys: npt.NDArray[np.int64]) -> None:
+        self.comm = comm
+        self.n_owned = len(keys)
+        self.keys = np.asarray(keys, dtype=np.int64)
         self.num_nodes = int(self.comm.allreduce(int(self.keys.max(initial=-1)), op=MPI.MAX)) + 1
         self._scatters: dict[int, tuple[PETSc.Scatter, PETSc.Vec, PETSc.Vec]] = {}
+
+    @classmethod
+    def of_keys(cls, comm: MPI.Comm, keys: npt.ArrayLike) -> InputOrder:
+        """The order given by ``keys``: the position in the file of each owned entity
+        (e.g. the original index of each owned cell); keys are unique over the ranks."""
+        order = cls.__new__(cls)
+        order._init(comm, np.asarray(keys, dtype=np.int64))
+        return order
 
     def _scatter(self, ncomp: int) -> tuple[PETSc.Scatter, PETSc.Vec, PETSc.Vec]:
         if ncomp not in self._scatters:
@@ -207,7 +222,7 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def _on_root(comm: MPI.Comm, action: Callable[[], Any]) -> Any:
+def on_root(comm: MPI.Comm, action: Callable[[], Any]) -> Any:
     """Run ``action`` on rank 0; its result, or its error as CheckpointError, on every rank."""
     result, error = None, None
     if comm.rank == 0:
@@ -254,24 +269,11 @@ def write_checkpoint(
         removed; earlier checkpoints are untouched).
     """
     comm = integ.model.mesh.comm
-    root = checkpoint_dir(output)
-    name = f"step_{integ.step_count:08d}"
-    tmp = root / f".{name}.tmp"
-    final = root / name
 
-    def prepare() -> None:
-        root.mkdir(parents=True, exist_ok=True)
-        if tmp.exists():
-            shutil.rmtree(tmp)
-        tmp.mkdir()
-
-    _on_root(comm, prepare)
-    try:
+    def files(tmp: Path) -> None:
         _write_state(tmp / "state.h5", integ)
         vtkhdf.write_mesh(str(tmp / "mesh.vtkhdf"), integ.model.mesh)
-    except Exception as exc:  # collective writes fail on every rank
-        _on_root(comm, lambda: shutil.rmtree(tmp, ignore_errors=True))
-        raise CheckpointError(f"cannot write checkpoint {final}: {exc}") from None
+
     st = integ.state()
     meta = {
         "format": FORMAT_VERSION,
@@ -294,10 +296,49 @@ def write_checkpoint(
         },
         **info,
     }
+    return save_checkpoint(output, integ.step_count, comm, files, meta)
+
+
+def save_checkpoint(
+    output: Path,
+    step: int,
+    comm: MPI.Comm,
+    files: Callable[[Path], None],
+    meta: dict[str, Any],
+) -> Path:
+    """Write the checkpoint of ``step`` atomically (collective): ``files(tmp)`` writes
+    ``state.h5`` (and any further files) into the temporary directory ``tmp`` (collective),
+    then rank 0 flushes every file to disk, adds the size and SHA-256 of ``state.h5`` to
+    ``meta`` and writes ``meta.json``, renames the directory to ``step_<step>`` and keeps
+    the newest :data:`KEEP` checkpoints.
+
+    Raises
+    ------
+    CheckpointError
+        On every rank, if any part cannot be written (the temporary directory is
+        removed; earlier checkpoints are untouched).
+    """
+    root = checkpoint_dir(output)
+    name = f"step_{step:08d}"
+    tmp = root / f".{name}.tmp"
+    final = root / name
+
+    def prepare() -> None:
+        root.mkdir(parents=True, exist_ok=True)
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        tmp.mkdir()
+
+    on_root(comm, prepare)
+    try:
+        files(tmp)
+    except Exception as exc:  # collective writes fail on every rank
+        on_root(comm, lambda: shutil.rmtree(tmp, ignore_errors=True))
+        raise CheckpointError(f"cannot write checkpoint {final}: {exc}") from None
 
     def publish() -> str:
-        for f in ("state.h5", "mesh.vtkhdf"):
-            _fsync(tmp / f)
+        for f in tmp.iterdir():
+            _fsync(f)
         h5 = tmp / "state.h5"
         meta["state_size"] = h5.stat().st_size
         meta["state_sha256"] = _sha256(h5)
@@ -314,9 +355,9 @@ def write_checkpoint(
         return str(final)
 
     try:
-        return Path(_on_root(comm, publish))
+        return Path(on_root(comm, publish))
     except CheckpointError as exc:
-        _on_root(comm, lambda: shutil.rmtree(tmp, ignore_errors=True))
+        on_root(comm, lambda: shutil.rmtree(tmp, ignore_errors=True))
         raise CheckpointError(f"cannot write checkpoint {final}: {exc}") from None
 
 
@@ -412,7 +453,7 @@ def find_checkpoint(
         why = f" ({'; '.join(skipped)})" if skipped else ""
         raise CheckpointError(f"no intact checkpoint in {root}{why}")
 
-    path, meta, skipped = _on_root(comm, search)
+    path, meta, skipped = on_root(comm, search)
     if comm.rank == 0:
         for msg in skipped:
             warnings.warn(f"{msg}; using an older checkpoint", UserWarning, stacklevel=2)
@@ -537,7 +578,38 @@ def trim_tables(output: Path, step: int, comm: MPI.Comm) -> None:
                 os.fsync(f.fileno())
             os.replace(tmp, path)
 
-    _on_root(comm, trim)
+    on_root(comm, trim)
+
+
+def trim_rows(path: Path, rows: int, comm: MPI.Comm) -> None:
+    """Keep the header and the first ``rows`` rows of the table ``path`` (rank 0; collective).
+
+    For tables with one row per step and no step column (growth.csv: row k is step k).
+
+    Raises
+    ------
+    CheckpointError
+        If the table is missing or has fewer rows (rows would be missing).
+    """
+
+    def trim() -> None:
+        if not path.is_file():
+            raise CheckpointError(f"{path} is missing: cannot append to it")
+        with open(path, newline="") as f:
+            table = list(csv.reader(f))
+        if len(table) - 1 < rows:
+            raise CheckpointError(
+                f"{path} has {len(table) - 1} rows, the checkpoint needs {rows} (the checkpoint "
+                "is newer than the table): cannot continue it without missing rows"
+            )
+        tmp = path.with_suffix(".csv.tmp")
+        with open(tmp, "w", newline="") as f:
+            csv.writer(f).writerows(table[: rows + 1])
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+
+    on_root(comm, trim)
 
 
 # ----------------------------------------------------------------------------- stopping

@@ -71,6 +71,8 @@ from bonecontact.neoplasm.growth import (
     tumour_growth,
 )
 from bonecontact.neoplasm.remesh import Boundary, RemeshError
+from bonecontact.runners.checkpoint import CheckpointError
+from bonecontact.runners.growth_checkpoint import GrowthCheckpointer
 from bonecontact.runners.mechanics import read_mesh
 from bonecontact.runners.results import (
     GROWTH_UNITS,
@@ -82,7 +84,7 @@ from bonecontact.runners.results import (
 )
 from bonecontact.scene import Scene, SceneError
 
-__all__ = ["build_growth", "growth_times", "run_growth"]
+__all__ = ["build_growth", "growth_checkpointer", "growth_times", "run_growth"]
 
 Driver = CystSphereGrowth | CystShapeGrowth | TumourGrowth
 
@@ -217,16 +219,39 @@ def growth_times(scene: Scene) -> np.ndarray:
     return np.concatenate([[0.0], scene.neoplasm.times()])
 
 
+def growth_checkpointer(
+    scene: Scene, driver: Driver, comm: MPI.Comm, outdir: Path, run: str
+) -> GrowthCheckpointer:
+    """The checkpoints of a growth (``run = "growth"``) or coupled run (docs/checkpoint.md)."""
+    neo = scene.neoplasm
+    assert neo is not None
+    info = {"scene": scene.name, "run": run, "dt": neo.dt, "remesh_every": neo.remesh_every}
+    return GrowthCheckpointer(outdir, driver, comm, scene.output.checkpoint_every, info)
+
+
 def run_growth(
-    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None, progress: bool = True
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Run a growth-only scene: growth.csv, boundary.csv (tumour, shape cyst) and summary.json.
+
+    ``restart``: continue from the newest checkpoint in the output directory (``True``)
+    or from the named one (a path); docs/checkpoint.md.
 
     Returns
     -------
     RunResult
-        ``status`` ``"converged"`` or ``"failed"`` (a growth step raised: the message is
-        in the summary, the rows of the steps done are in growth.csv).
+        ``status`` ``"converged"``, ``"failed"`` (a growth step raised: the message is
+        in the summary, the rows of the steps done are in growth.csv) or ``"interrupted"``
+        (a signal; a checkpoint of the last step was written).
+
+    Raises
+    ------
+    CheckpointError
+        The checkpoint to restart from is missing, damaged or from another scene.
     """
     t_start = time.perf_counter()
     timer = PhaseTimer()
@@ -234,11 +259,21 @@ def run_growth(
         driver = build_growth(scene, comm)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
+    ckpt = growth_checkpointer(scene, driver, comm, outdir, "growth")
+    resumed = None
+    if restart:
+        with timer.phase("checkpoint"):
+            resumed = ckpt.resume(None if restart is True else restart)
     with timer.phase("output"):
-        table = GrowthTable(comm, outdir, driver.columns)
-    status, message, first, last, t_done = _grow(scene, comm, driver, table, times, progress, timer)
+        table = GrowthTable(comm, outdir, driver.columns, append=resumed is not None)
+    with ckpt.stop:
+        status, message, first, last, t_done = _grow(
+            scene, comm, driver, table, times, progress, timer, ckpt, resumed
+        )
     with timer.phase("output"):
         _write_boundary(driver, comm, outdir)
+    if ckpt.time_s:
+        timer.add("checkpoint", ckpt.time_s)
     growth = _growth_entry(scene, driver, status, len(times) - 1, first, last, t_done)
     summary = run_summary(
         scene.name,
@@ -248,6 +283,7 @@ def run_growth(
         units=GROWTH_UNITS,
         steps=driver.steps,
         growth=growth,
+        **ckpt.summary(),
         phases_s=_phases(driver, timer, comm),
     )
     if message is not None:
@@ -274,8 +310,12 @@ def _grow(
     times: np.ndarray,
     progress: bool,
     timer: PhaseTimer,
+    ckpt: GrowthCheckpointer,
+    resumed: dict[str, Any] | None,
 ) -> tuple[str, str | None, list[float], list[float], float]:
-    """Step the driver through ``times``, one growth.csv row per step; a failed step ends the run.
+    """Step the driver through ``times``, one growth.csv row per step; a failed step ends the
+    run, a signal too (after a checkpoint).  A restarted run (``resumed``: the checkpoint's
+    meta.json) starts after the checkpoint's step.
 
     ``timer`` gets the phases ``growth_steps`` (the steps) and ``output`` (the rows).
     Returns ``(status, message, first row, last row, time of the last row)``.
@@ -288,21 +328,32 @@ def _grow(
         return vals
 
     status, message = "converged", None
-    first = record(0.0)
-    last, t_done = first, 0.0
+    nsteps = len(times) - 1
+    if resumed is None:
+        first = record(0.0)
+        last, t_done = first, 0.0
+    else:
+        first, last = resumed["first_row"], resumed["last_row"]
+        t_done = float(times[driver.steps])
     bar = tqdm(
-        total=len(times) - 1,
+        total=nsteps,
+        initial=driver.steps,
         desc=scene.name,
         unit="step",
         disable=(comm.rank != 0) or not progress,
         dynamic_ncols=True,
     )
     try:
-        for k in range(1, len(times)):
+        for k in range(driver.steps + 1, nsteps + 1):
             with timer.phase("growth_steps"):
                 driver.step(float(times[k] - times[k - 1]))
             last, t_done = record(float(times[k])), float(times[k])
             bar.update(1)
+            if ckpt.after_step(k == nsteps, {"first_row": first, "last_row": last}) and k < nsteps:
+                status, message = "interrupted", f"stopped after growth step {k} by a signal"
+                break
+    except CheckpointError as exc:
+        status, message = "failed", str(exc)
     except (
         RuntimeError
     ) as exc:  # TumourError, RemeshError, CoverageError, PETSc errors, ODE failure

@@ -306,16 +306,21 @@ class GrowthTable:
         Output directory (created).
     columns
         Header: ``time`` and the driver's columns.
+    append
+        Continue an existing growth.csv (a restart) instead of starting it.
     """
 
-    def __init__(self, comm: MPI.Comm, directory: Path, columns: Sequence[str]):
+    def __init__(
+        self, comm: MPI.Comm, directory: Path, columns: Sequence[str], append: bool = False
+    ):
         self.comm = comm
         self._file = self._writer = None
         if comm.rank == 0:
             Path(directory).mkdir(parents=True, exist_ok=True)
-            self._file = open(Path(directory) / "growth.csv", "w", newline="")
+            self._file = open(Path(directory) / "growth.csv", "a" if append else "w", newline="")
             self._writer = csv.writer(self._file)
-            self._writer.writerow(columns)
+            if not append:
+                self._writer.writerow(columns)
         comm.barrier()
 
     def row(self, t: float, values: Sequence[float]) -> None:
