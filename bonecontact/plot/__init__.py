@@ -293,6 +293,7 @@ def field_view(
     window_size: tuple[int, int] = (1200, 900),
     zoom: float = 1.0,
     up: str = "y",
+    view: str | None = None,
 ) -> Path:
     """A pyvista picture of a field, fit for a paper, written to ``path`` (PNG).
 
@@ -331,12 +332,17 @@ def field_view(
         Picture size in pixels and camera zoom.
     up
         The up axis of the view (``"y"``: the convention of the meshes).
+    view
+        ``None``: isometric (3D) or the plane of a flat grid; ``"xy"``, ``"xz"`` or
+        ``"yz"``: looking at that plane along the third axis (a cut face of a 3D grid).
 
     Returns
     -------
     Path
         ``path``.
     """
+    if view not in (None, "xy", "xz", "yz"):
+        raise ValueError(f"field_view: view must be None, 'xy', 'xz' or 'yz', not {view!r}")
     pv = _pyvista()
     scale = LENGTH_UNITS[length_unit]
     factor = UNIT_FACTORS.get(unit, 1.0)
@@ -377,7 +383,7 @@ def field_view(
         pl.add_legend(
             legend, bcolor="white", border=True, loc="upper left", size=(0.28, 0.04 * len(legend))
         )
-    _axes(pl, g, length_unit, up)
+    _axes(pl, g, length_unit, up, view)
     notes = [title] if title else []
     foot = []
     if displacement is not None and warp:
@@ -422,8 +428,9 @@ def _points3(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
     return np.pad(p, ((0, 0), (0, 3 - p.shape[1])))
 
 
-def _axes(pl: Any, g: Any, length_unit: str, up: str) -> None:
-    """Bounds with labelled axes in ``length_unit`` and a camera with ``up`` upwards."""
+def _axes(pl: Any, g: Any, length_unit: str, up: str, view: str | None = None) -> None:
+    """Bounds with labelled axes in ``length_unit`` and a camera with ``up`` upwards,
+    looking along the normal of ``view`` (a plane ``"xy"``, ``"xz"``, ``"yz"``) if given."""
     b = g.bounds
     flat = abs(b[5] - b[4]) < 1e-12 * max(abs(b[1] - b[0]), abs(b[3] - b[2]), 1.0)
     pl.show_bounds(
@@ -439,7 +446,10 @@ def _axes(pl: Any, g: Any, length_unit: str, up: str) -> None:
         show_zlabels=not flat,
     )
     view_up = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[up]
-    if flat:
+    if view is not None:
+        getattr(pl, f"view_{view}")()
+        pl.camera.up = view_up
+    elif flat:
         pl.view_xy()
         pl.camera.up = view_up
     else:

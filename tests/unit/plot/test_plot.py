@@ -133,6 +133,13 @@ def test_field_view_writes_png_without_x_server(tmp_path):
     assert img[..., :3].std() > 0.05  # not a blank picture
 
 
+def test_field_view_refuses_an_unknown_view(tmp_path):
+    """``view`` names a coordinate plane (or None); anything else is refused before drawing."""
+    with pytest.raises(ValueError, match="view must be"):
+        bp.field_view(None, "von_mises", tmp_path / "v.png", quantity="q", view="front")
+    assert not (tmp_path / "v.png").exists()
+
+
 def test_plot_has_no_bonecontact_imports():
     """bonecontact.plot stands alone (any layer may use it; it reads files, not models)."""
     src = Path(bp.__file__).read_text()
