@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import signal
 import tempfile
 import time
 from dataclasses import replace
@@ -74,7 +75,9 @@ from bonecontact.neoplasm.host import (
     read_host_geometry,
 )
 from bonecontact.neoplasm.host3d import build_host_mesh3d, read_host_geometry3d, sphere_surface
-from bonecontact.runners.growth import build_growth, growth_times
+from bonecontact.runners.checkpoint import CheckpointError
+from bonecontact.runners.growth import build_growth, growth_checkpointer, growth_times
+from bonecontact.runners.growth_checkpoint import GrowthCheckpointer
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import (
     SUMMARY_FORMAT,
@@ -115,8 +118,13 @@ def mechanics_scene(scene: Scene, hm: HostMesh, pressure: float | None, output: 
         neoplasm=None,
         materials=materials,
         loads=loads,
-        output=replace(scene.output, directory=output),
+        output=replace(scene.output, directory=output, checkpoint_every=0),
     )
+
+
+def _signal_number(name: str) -> int:
+    """15 for ``"SIGTERM"`` (2 for an unknown name)."""
+    return int(getattr(signal.Signals, name, signal.SIGINT))
 
 
 # ----------------------------------------------------------------------------- driver
@@ -239,30 +247,50 @@ def _check(scene: Scene, comm: MPI.Comm, cp: _Coupled) -> None:
 
 # ----------------------------------------------------------------------------- run
 def run_coupled(
-    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None, progress: bool = True
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Run a coupled scene: growth, host remeshing and the scene's analysis (collective).
+
+    ``restart``: continue from the newest checkpoint in the output directory (``True``)
+    or from the named one (a path); docs/checkpoint.md.
 
     Returns
     -------
     RunResult
         The final analysis's result (``status`` ``"failed"`` if the growth or an analysis
-        failed; ``summary`` then has the message), with ``summary["growth"]`` and
-        ``summary["coupling"]``.
+        failed; ``summary`` then has the message; ``"interrupted"`` after a signal, with a
+        checkpoint), with ``summary["growth"]`` and ``summary["coupling"]``.
+
+    Raises
+    ------
+    CheckpointError
+        The checkpoint to restart from is missing, damaged or from another scene.
     """
     t_start = time.perf_counter()
     cp = _Coupled(scene, comm)
     _check(scene, comm, cp)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
-    table = GrowthTable(comm, outdir, cp.driver.columns)
+    ckpt = growth_checkpointer(scene, cp.driver, comm, outdir, "coupled")
     analyses = _Analyses(scene, comm, cp, outdir, len(times) - 1)
-    status, message, first, last, t_done = _grow_and_analyse(
-        scene, comm, cp, table, analyses, times, progress
-    )
+    resumed = None
+    if restart:
+        resumed = ckpt.resume(None if restart is True else restart)
+        analyses.records = list(resumed["records"])
+        analyses.last_summary = resumed["last_summary"]
+    table = GrowthTable(comm, outdir, cp.driver.columns, append=resumed is not None)
+    with ckpt.stop:
+        status, message, first, last, t_done = _grow_and_analyse(
+            scene, comm, cp, table, analyses, times, progress, ckpt, resumed
+        )
     summary = _coupled_summary(
         scene, comm, cp, analyses, status, message, (first, last, t_done), t_start
     )
+    summary.update(ckpt.summary())
     write_summary(comm, outdir, summary)
     comm.barrier()
     result = analyses.result
@@ -274,8 +302,10 @@ class _Analyses:
 
     def __init__(self, scene: Scene, comm: MPI.Comm, cp: _Coupled, outdir: Path, nsteps: int):
         self.scene, self.comm, self.cp, self.outdir, self.nsteps = scene, comm, cp, outdir, nsteps
+        self.signal = 0  # the signal that stopped an analysis
         self.records: list[dict[str, Any]] = []
         self.result: RunResult | None = None
+        self.last_summary: dict[str, Any] | None = None  # the last analysis's summary
 
     def due(self, step: int) -> bool:
         """An analysis follows the last growth step and every ``mechanics_every`` steps."""
@@ -284,7 +314,7 @@ class _Analyses:
 
     def run(self, step: int, t: float, row: list[float]) -> bool:
         """Rebuild the host mesh and run the analysis after growth step ``step``; ``True`` if it
-        converged."""
+        converged.  An analysis stopped by a signal leaves no record and sets ``signal``."""
         comm, cp = self.comm, self.cp
         final = step == self.nsteps
         where = self.outdir if final else self.outdir / f"mechanics_{step:05d}"
@@ -310,8 +340,15 @@ class _Analyses:
         if "message" in res.summary:
             rec["message"] = res.summary["message"]
         rec.update(_analysis_risk(res.summary))
+        if res.status == "interrupted":  # a signal: the analysis runs again on restart
+            self.signal = _signal_number(res.summary.get("signal", "SIGINT"))
+            if comm.rank == 0:
+                shutil.rmtree(where / "checkpoints", ignore_errors=True)
+            comm.barrier()
+            return False
         self.records.append(rec)
         self.result = res
+        self.last_summary = res.summary
         return res.status == "converged"
 
 
@@ -357,8 +394,13 @@ def _grow_and_analyse(
     analyses: _Analyses,
     times: np.ndarray,
     progress: bool,
+    ckpt: GrowthCheckpointer,
+    resumed: dict[str, Any] | None,
 ) -> tuple[str, str | None, list[float], list[float], float]:
-    """Step the growth (one growth.csv row per step), with the analyses when due.
+    """Step the growth (one growth.csv row per step), with the analyses when due, and a
+    checkpoint after a step and its analysis when one is due or a signal came.  A restarted
+    run (``resumed``: the checkpoint's meta.json) starts after the checkpoint's step (with
+    that step's analysis if a signal stopped it).
 
     Returns ``(status, message, first row, last row, time of the last row)``.
     """
@@ -370,28 +412,59 @@ def _grow_and_analyse(
         return vals
 
     status, message = "converged", None
-    first = record(0.0)
-    last, t_done = first, 0.0
+    if resumed is None:
+        first = record(0.0)
+        last, t_done, pending = first, 0.0, False
+    else:
+        first, last = resumed["first_row"], resumed["last_row"]
+        t_done, pending = float(times[driver.steps]), bool(resumed["analysis_pending"])
     bar = tqdm(
         total=nsteps,
+        initial=driver.steps,
         desc=scene.name,
         unit="step",
         disable=(comm.rank != 0) or not progress,
         dynamic_ncols=True,
     )
+
+    def content(pending: bool) -> dict[str, Any]:
+        return {
+            "first_row": first,
+            "last_row": last,
+            "records": analyses.records,
+            "last_summary": analyses.last_summary,
+            "analysis_pending": pending,
+        }
+
+    k = driver.steps
     try:
-        for k in range(1, nsteps + 1):
-            driver.step(float(times[k] - times[k - 1]))
-            last, t_done = record(float(times[k])), float(times[k])
-            bar.update(1)
-            if analyses.due(k):
-                if not analyses.run(k, t_done, last):
-                    status = "failed"
-                    message = (
-                        f"analysis after growth step {k} (t = {t_done:.6g} s): "
-                        f"{analyses.records[-1].get('message')}"
-                    )
+        while k <= nsteps:
+            if not pending:
+                if k == nsteps:
                     break
+                k += 1
+                driver.step(float(times[k] - times[k - 1]))
+                last, t_done = record(float(times[k])), float(times[k])
+                bar.update(1)
+            pending = False
+            if analyses.due(k) and not analyses.run(k, t_done, last):
+                if analyses.signal:  # stopped during the analysis: it runs again on restart
+                    ckpt.signum = analyses.signal
+                    ckpt.after_step(k == nsteps, content(True))
+                    status = "interrupted"
+                    message = f"stopped in the analysis after growth step {k} by a signal"
+                    break
+                status = "failed"
+                message = (
+                    f"analysis after growth step {k} (t = {t_done:.6g} s): "
+                    f"{analyses.records[-1].get('message')}"
+                )
+                break
+            if ckpt.after_step(k == nsteps, content(False)) and k < nsteps:
+                status, message = "interrupted", f"stopped after growth step {k} by a signal"
+                break
+    except CheckpointError as exc:
+        status, message = "failed", str(exc)
     except (RuntimeError, CouplingError) as exc:
         status = "failed"
         t_fail = times[min(driver.steps + 1, nsteps)]
@@ -439,12 +512,14 @@ def _coupled_summary(
         },
         **driver.info(),
     }
-    result = analyses.result
+    last_summary = analyses.last_summary
     summary: dict[str, Any] = (
-        dict(result.summary)
-        if result is not None
+        dict(last_summary)
+        if last_summary is not None
         else {"scene": scene.name, "format": SUMMARY_FORMAT, "ranks": comm.size, "steps": 0}
     )
+    for key in ("restarted_from", "signal"):  # the final analysis's own, if any: not the run's
+        summary.pop(key, None)
     summary["status"] = status
     summary["growth"] = growth
     summary["coupling"] = {

@@ -55,8 +55,8 @@ def run_scene(
     progress
         Show a progress bar (rank 0 only).
     restart
-        Continue from the newest checkpoint (``True``) or the named one (mechanics
-        runs only; docs/checkpoint.md).
+        Continue from the newest checkpoint (``True``) or the named one
+        (docs/checkpoint.md; not for scenes with a crack).
 
     Returns
     -------
@@ -66,17 +66,10 @@ def run_scene(
     """
     output = None if output is None else Path(output)
     kind = run_kind(scene)
-    if kind != "mechanics" and (restart or scene.output.checkpoint_every):
-        raise SceneError(
-            scene.path,
-            "[output]",
-            "checkpoint_every",
-            f"checkpoints and restarts are implemented for mechanics runs only, not {kind} runs",
-        )
     if kind == "growth":  # [neoplasm] without [analysis]: growth.csv
-        return run_growth(scene, comm, output, progress)
+        return run_growth(scene, comm, output, progress, restart)
     if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
-        return run_coupled(scene, comm, output, progress)
+        return run_coupled(scene, comm, output, progress, restart)
     if scene.cracks:  # a given crack: re-meshed body, face pair, fracture.csv
         if restart or scene.output.checkpoint_every:
             raise SceneError(

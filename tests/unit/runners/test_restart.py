@@ -15,7 +15,6 @@ grows during the run), 20 steps, checkpoints every 4 steps.
 * SIGTERM (1 and 2 ranks): exit 143, status "interrupted", a checkpoint of the last
   recorded step; the restart completes the run with the uninterrupted run's rows.
 * Refused restarts exit 2 with a message: no checkpoint, another time step.
-* A growth-only scene with checkpoint_every exits 2 (not implemented for growth runs).
 * One of 2 ranks killed (SIGKILL) mid-run: mpiexec ends within 60 s (no hang), and the
   restart from the last intact checkpoint completes the run with the uninterrupted rows.
 """
@@ -206,15 +205,3 @@ def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
     _, hist_rows, _ = _table(out / "history.csv")
     assert hist_rows[:, 0].tolist() == list(range(21))
     _assert_same_tables(case["refs"][2], out)
-
-
-def test_growth_scene_refuses_checkpoints(tmp_path):
-    """Growth runs do not checkpoint yet: the key (or --restart) exits 2, naming it."""
-    root = Path(__file__).resolve().parents[3]
-    text = (root / "data" / "scenes" / "tumour_growth_2d.toml").read_text()
-    scene = tmp_path / "growth.toml"
-    scene.write_text(text.replace("[output]\n", "[output]\ncheckpoint_every = 2\n", 1))
-    res = _run(scene, tmp_path / "out")
-    assert res.returncode == 2, res.stderr
-    assert "checkpoint_every" in res.stderr and "growth runs" in res.stderr
-    assert not (tmp_path / "out").exists()
