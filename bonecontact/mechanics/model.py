@@ -293,14 +293,27 @@ class Mechanics:
         return self._anp
 
     def _anp_matrix(self, c0: float, cv: float) -> PETSc.Mat:
-        """Bᵀ diag(c0 k/m² + cv k_v/m²) B."""
+        """Bᵀ diag(c0 k/m² + cv k_v/m²) B, from the rows of B of the nodes of nodal-pressure
+        cells only (B is assembled over the whole mesh: its other rows hold structural zeros
+        that would couple every node to its second neighbours)."""
         d = self._anp_setup()
         w = d["w0"].copy()
         w.scale(c0)
         w.axpy(cv, d["wv"])
-        DB = d["B"].copy()
-        DB.diagonalScale(L=w)
-        return d["B"].transposeMatMult(DB)
+        B = d["B"]
+        keep = np.flatnonzero(w.array_r != 0.0)
+        comm = B.getComm()
+        rows = PETSc.IS().createGeneral(
+            (keep + w.getOwnershipRange()[0]).astype(PETSc.IntType), comm=comm
+        )
+        c0_, c1_ = B.getOwnershipRangeColumn()
+        cols = PETSc.IS().createStride(c1_ - c0_, first=c0_, step=1, comm=comm)
+        Bs = B.createSubMatrix(rows, cols)
+        ws = Bs.createVecLeft()
+        ws.array[:] = w.array_r[keep]
+        DB = Bs.copy()
+        DB.diagonalScale(L=ws)
+        return Bs.transposeMatMult(DB)
 
     def combined_operator(self, c_mass: float, c_elastic: float, c_viscous: float) -> PETSc.Mat:
         """c_M M + c_K K + c_V Kv assembled in one pass (nodal-pressure terms included)."""
