@@ -90,6 +90,20 @@ def finish(proc: subprocess.Popen, timeout: float = 60) -> subprocess.CompletedP
     return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
 
 
+def rank_pids(out: Path) -> list[int]:
+    """Process ids of the ``bonecontact`` ranks writing to ``out`` (not mpiexec/hydra)."""
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            cmd = (proc / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        text = [c.decode(errors="replace") for c in cmd]
+        if str(out) in text and not any("mpiexec" in c or "hydra" in c for c in text):
+            pids.append(int(proc.name))
+    return sorted(pids)
+
+
 #: Contact zone size of the impact scene's mesh (m): ``hertz_2d(h_contact=IMPACT_A / 4,
 #: zone=1.5 * IMPACT_A, h_far=3e-3)``.
 IMPACT_A = 5.0e-4

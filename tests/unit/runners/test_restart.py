@@ -30,7 +30,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_support import IMPACT_A, finish, impact_scene, run_scene, start_scene, wait_for_lines
+from cli_support import (
+    IMPACT_A,
+    finish,
+    impact_scene,
+    rank_pids,
+    run_scene,
+    start_scene,
+    wait_for_lines,
+)
 
 pytestmark = pytest.mark.serial
 
@@ -165,20 +173,6 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert hist[:, 0].tolist() == list(range(11))  # nothing changed
 
 
-def _rank_pids(out: Path) -> list[int]:
-    """Process ids of the ``bonecontact`` ranks writing to ``out`` (not mpiexec/hydra)."""
-    pids = []
-    for proc in Path("/proc").iterdir():
-        try:
-            cmd = (proc / "cmdline").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        text = [c.decode(errors="replace") for c in cmd]
-        if str(out) in text and not any("mpiexec" in c or "hydra" in c for c in text):
-            pids.append(int(proc.name))
-    return sorted(pids)
-
-
 def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
     """SIGKILL to one of 2 ranks after step 5 (checkpoints every step): mpiexec ends
     within 60 s with a failure status, no checkpoint is damaged (a half-written one
@@ -191,7 +185,7 @@ def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
     out = tmp_path / "out"
     proc = start_scene(scene, out, 2)
     wait_for_lines(proc, out / "history.csv", 7)
-    pids = _rank_pids(out)
+    pids = rank_pids(out)
     assert len(pids) == 2, pids
     os.kill(pids[1], signal.SIGKILL)
     try:
