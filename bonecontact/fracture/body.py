@@ -90,22 +90,55 @@ class BodyOutline:
 
     def distance(self, p: npt.ArrayLike) -> float:
         """Distance from ``p`` to the boundary (m)."""
-        return min(point_segment_distance(p, a, b) for a, b in self.segments())
+        return float(_distances(np.asarray(p, dtype=float)[:2], self.segments()).min())
+
+    def nearest(self, p: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], float]:
+        """The boundary point nearest to ``p`` and its distance (m)."""
+        p = np.asarray(p, dtype=float)[:2]
+        best, dist = p, np.inf
+        for a, b in self.segments():
+            ab = b - a
+            s = float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
+            q = a + s * ab
+            d = float(np.linalg.norm(p - q))
+            if d < dist:
+                best, dist = q, d
+        return best, dist
+
+    def inside(self, p: npt.ArrayLike) -> bool:
+        """Whether ``p`` lies strictly inside the body (in the outer loop, in no hole)."""
+        return point_in_polygon(p, self.outer) and not any(
+            point_in_polygon(p, hole) for hole in self.loops[1:]
+        )
 
     def check_crack(self, crack: Crack2D) -> None:
-        """Raise :class:`FractureError` unless the crack lies in the body (outer loop,
-        outside every hole loop)."""
-        crack.check_inside(self.outer, (), self.scale)
+        """Raise :class:`FractureError` unless the crack lies in the body: tips and interior
+        vertices strictly inside (in the outer loop, outside every hole), a mouth on a loop
+        (the outer boundary or a hole's edge), no segment crossing or touching a loop
+        except at its mouth."""
         tol = 1e-9 * self.scale
-        for k, hole in enumerate(self.loops[1:]):
-            for p in crack.points:
-                if point_in_polygon(p, hole):
-                    raise FractureError("points", f"crack point {p.tolist()} lies in hole {k}")
-            edges = np.stack([hole, np.roll(hole, -1, axis=0)], axis=1)
-            for i in range(len(crack.points) - 1):
-                a, b = crack.points[i], crack.points[i + 1]
-                if any(segments_intersect(a, b, e0, e1, tol) for e0, e1 in edges):
-                    raise FractureError("points", f"crack segment {i} reaches hole {k}")
+        pts = crack.points
+        n = len(pts)
+        mouth = [
+            (i == 0 and 0 in crack.mouth_ends) or (i == n - 1 and -1 in crack.mouth_ends)
+            for i in range(n)
+        ]
+        for i, p in enumerate(pts):
+            on_loop = self.distance(p) <= tol
+            if mouth[i] and not on_loop:
+                raise FractureError("points", f"the crack mouth {p.tolist()} is not on the outline")
+            if not mouth[i] and (on_loop or not self.inside(p)):
+                raise FractureError("points", f"crack point {p.tolist()} is not inside the body")
+        segs = self.segments()
+        for i in range(n - 1):
+            a, b = pts[i], pts[i + 1]
+            # shrink a segment ending at a mouth so that its contact there is allowed
+            shrink = 1e-6 + 10.0 * tol / float(np.linalg.norm(b - a))
+            a2 = a + shrink * (b - a) if mouth[i] else a
+            b2 = b - shrink * (b - a) if mouth[i + 1] else b
+            for e0, e1 in segs:
+                if segments_intersect(a2, b2, e0, e1, tol):
+                    raise FractureError("points", f"crack segment {i} crosses the outline")
 
 
 # ------------------------------------------------------------------ the given mesh
@@ -245,6 +278,13 @@ def body_outline(
     )
 
 
+def _distances(p: npt.NDArray[np.float64], segs: npt.NDArray[np.float64]) -> np.ndarray:
+    """Distance from ``p`` to every segment of ``segs`` (shape (n, 2, 2))."""
+    a, ab = segs[:, 0], segs[:, 1] - segs[:, 0]
+    s = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+    return np.linalg.norm(p - (a + s[:, None] * ab), axis=1)
+
+
 # ---------------------------------------------------------------- gmsh (rank 0)
 def _build(body: BodyOutline, crack: Crack2D, size: TipMesh, tags: tuple[int, int, int]) -> None:
     occ = gmsh.model.occ
@@ -269,7 +309,7 @@ def _build(body: BodyOutline, crack: Crack2D, size: TipMesh, tags: tuple[int, in
         if min(point_segment_distance(p, pts[k], pts[k + 1]) for k in range(len(pts) - 1)) < tol:
             names.setdefault("crack", []).append(curve)
             continue
-        d = np.array([point_segment_distance(p, a, b) for a, b in segs])
+        d = _distances(p, segs)
         k = int(np.argmin(d))
         if d[k] > tol:
             raise MeshingError(f"curve {curve} at {p.tolist()} belongs to no boundary segment")

@@ -42,6 +42,9 @@ FRACTURE_KEYS = (
     "max_increments",
     "tip_size",
     "tip_grading",
+    "initiate",
+    "initiation_length",
+    "friction",
 )
 #: Keys of a ``[[crack]]`` table.
 CRACK_KEYS = ("name", "points", "tips", "region", "friction")
@@ -49,7 +52,11 @@ CRACK_KEYS = ("name", "points", "tips", "region", "friction")
 
 @dataclass(frozen=True)
 class FractureSpec:
-    """The ``[fracture]`` table: initiation criterion, direction method, propagation."""
+    """The ``[fracture]`` table: initiation criterion, direction method, propagation, and
+    the automatic insertion of a crack where the risk reaches 1 (``initiate``: its length
+    ``initiation_length``, m, ``None``: the default of
+    :func:`bonecontact.fracture.initiation.default_length`; ``friction``: the Coulomb
+    coefficient of its face pair)."""
 
     criterion: str = "tension"
     direction: str = "mts"
@@ -58,6 +65,9 @@ class FractureSpec:
     max_increments: int = 10
     tip_size: float | None = None
     tip_grading: float = 0.25
+    initiate: bool = False
+    initiation_length: float | None = None
+    friction: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -104,6 +114,15 @@ def fracture_from_table(table: Mapping) -> FractureSpec:
     n = table.get("max_increments", 10)
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise FractureError("max_increments", f"must be a positive integer, got {n!r}")
+    initiate = table.get("initiate", False)
+    if not isinstance(initiate, bool):
+        raise FractureError("initiate", "must be true or false")
+    for key in ("initiation_length", "friction"):
+        if key in table and not initiate:
+            raise FractureError(key, "applies to an initiated crack only: set initiate = true")
+    friction = table.get("friction", 0.0)
+    if isinstance(friction, bool) or not isinstance(friction, (int, float)) or friction < 0:
+        raise FractureError("friction", f"must be a number >= 0, got {friction!r}")
     return FractureSpec(
         criterion,
         direction,
@@ -112,6 +131,9 @@ def fracture_from_table(table: Mapping) -> FractureSpec:
         n,
         _positive(table, "tip_size", None),
         _positive(table, "tip_grading", 0.25),
+        initiate,
+        _positive(table, "initiation_length", None),
+        float(friction),
     )
 
 

@@ -33,7 +33,7 @@ from mpi4py import MPI
 from bonecontact.common.version import __version__
 from bonecontact.meshing.stl import main as mesh_surface
 from bonecontact.runners.checkpoint import CheckpointError
-from bonecontact.runners.cracks import check_cracked
+from bonecontact.runners.cracks import check_cracked, is_crack_scene
 from bonecontact.runners.dispatch import check, run_kind, run_scene
 from bonecontact.runners.mechanics import SceneModel, build_model
 from bonecontact.runners.plausibility import count_bodies, mesh_extent
@@ -150,7 +150,12 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
     for c in scene.cracks:
         fr = f"Coulomb {c.friction:g}" if c.friction else "frictionless"
         rows.append(("contact", f"{c.name}: the crack's faces (re-meshed body), {fr}"))
-    if not scene.contacts and not scene.cracks:
+    initiates = scene.fracture is not None and scene.fracture.initiate and not scene.cracks
+    if initiates:
+        mu = scene.fracture.friction
+        fr = f"Coulomb {mu:g}" if mu else "frictionless"
+        rows.append(("contact", f"initiated: the faces of the crack inserted at risk 1, {fr}"))
+    if not scene.contacts and not scene.cracks and not initiates:
         rows.append(("contact", "none"))
     if sm is not None:
         rows.append(("dofs", f"{sm.model.num_dofs} (P1 displacement)"))
@@ -166,7 +171,7 @@ def _check(scene: Scene, shown: Path, comm: MPI.Comm) -> int:
     """``bonecontact check``: every check, then the summary on stdout (rank 0)."""
     sm = None
     if run_kind(scene) == "mechanics":  # a crack: the model on the body meshed around it
-        sm = check_cracked(scene, comm) if scene.cracks else build_model(scene, comm)
+        sm = check_cracked(scene, comm) if is_crack_scene(scene) else build_model(scene, comm)
     if sm is None:
         check(scene, comm)
     rows = _summary_lines(scene, sm, comm)

@@ -1,4 +1,11 @@
-"""Mechanics scenes with a ``[[crack]]`` (docs/scene_format.md#fracture, docs/theory/fracture.md).
+"""Mechanics scenes with a ``[[crack]]`` or ``[fracture] initiate = true``
+(docs/scene_format.md#fracture, docs/theory/fracture.md).
+
+With ``initiate = true`` and no ``[[crack]]`` the scene runs on its own mesh, step by step,
+with the initiation check; at the first step whose largest risk reaches 1 a short crack is
+inserted there (:mod:`bonecontact.fracture.initiation`: from the surface point if the cell
+of the maximum is at the boundary, else centred on it; normal to σ₁), the same step is
+solved again on the cracked body and the run goes on as a crack scene (below).
 
 The crack is cut into the scene's body (:mod:`bonecontact.fracture.body`: the body's
 boundary is taken from the scene mesh, re-meshed with gmsh around the crack, graded
@@ -32,6 +39,7 @@ from typing import Any
 
 from mpi4py import MPI
 
+import numpy as np
 from tqdm import tqdm
 
 from bonecontact.common.formatting import format_cell
@@ -46,6 +54,14 @@ from bonecontact.fracture.criteria import (
     principal_direction_average,
 )
 from bonecontact.fracture.faces import face_interface, face_traction
+from bonecontact.fracture.initiation import (
+    Initiation,
+    cell_size_at,
+    default_length,
+    initiation_crack,
+    initiation_time,
+    risk_peak,
+)
 from bonecontact.fracture.meshing import CrackedMesh, TipMesh
 from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
 from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
@@ -68,7 +84,7 @@ from bonecontact.scene.checks import check_cracks_in_mesh
 from bonecontact.scene.errors import table_label
 from bonecontact.scene.spec import ContactSpec
 
-__all__ = ["CrackRun", "check_cracked", "run_cracked"]
+__all__ = ["CrackRun", "check_cracked", "is_crack_scene", "run_cracked"]
 
 
 class FractureTable:
@@ -101,29 +117,78 @@ class CrackRun:
     """What a crack scene needs besides the scene model."""
 
     scene: Scene  # the scene with the crack's face pair added to its contacts
-    spec: CrackSpec
+    spec: CrackSpec | None  # None: no crack yet, one is initiated where the risk reaches 1
     fracture: FractureSpec
     body: BodyOutline
     material: Isotropic
     K_Ic: float | None
-    tip_mesh: TipMesh
+    tip_mesh: TipMesh | None
     groups: dict[str, tuple[int, int]]
+    mesh: Any = None  # the scene's mesh data as read (the uncracked body)
+    initiated: bool = False  # the crack was inserted by the run
+
+
+def is_crack_scene(scene: Scene) -> bool:
+    """Whether a mechanics scene runs here: it has a ``[[crack]]`` or ``[fracture]
+    initiate = true``."""
+    return bool(scene.cracks) or (scene.fracture is not None and scene.fracture.initiate)
 
 
 def _pair_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
 
 
-def _scene_error(scene: Scene, i: int, spec: CrackSpec, exc: Exception, key: str) -> SceneError:
+def _scene_error(
+    scene: Scene, i: int, spec: CrackSpec | None, exc: Exception, key: str, initiated: bool = False
+) -> SceneError:
+    """The error of a crack's geometry or mesh, naming the ``[[crack]]`` table and key (an
+    initiated crack: ``[fracture]`` and ``initiation_length``)."""
     k = getattr(exc, "key", key)
     text = str(exc)
     text = text[len(k) + 2 :] if text.startswith(f"{k}: ") else text
+    if spec is None or initiated:
+        return SceneError(str(scene.path), "[fracture]", "initiation_length", text)
     return SceneError(str(scene.path), table_label("crack", i, spec.name), k, text)
+
+
+def _only_region(scene: Scene, groups: dict[str, tuple[int, int]]) -> str:
+    """The one cell group of the mesh of a scene that initiates a crack."""
+    regions = sorted(n for n, (d, _) in groups.items() if d == scene.dimension)
+    if len(regions) != 1:
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "initiate",
+            "initiation inserts the crack into a mesh of one cell group; this mesh has "
+            f"{len(regions)}: {', '.join(regions)}",
+        )
+    return regions[0]
+
+
+def _check_initiation(scene: Scene, fr: FractureSpec, body: BodyOutline) -> None:
+    """What an initiating scene must satisfy before it runs (exit 2 naming the key)."""
+    if scene.analysis.kind != "static":
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "initiate",
+            f"crack initiation runs static analyses in this version, not {scene.analysis.kind!r}",
+        )
+    extent = float(np.ptp(body.outer, axis=0).min())
+    if fr.initiation_length is not None and fr.initiation_length >= 0.5 * extent:
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "initiation_length",
+            f"{fr.initiation_length} m is not smaller than half the body's width "
+            f"({extent:.6g} m across)",
+        )
 
 
 def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
     """Read the scene mesh, check the crack against it and take the body's outline
-    (collective; every input problem is a :class:`SceneError` on every rank)."""
+    (collective; every input problem is a :class:`SceneError` on every rank).  A scene
+    with ``[fracture] initiate = true`` has no crack yet (``spec`` is ``None``)."""
     if len(scene.cracks) > 1:
         raise SceneError(
             str(scene.path),
@@ -131,16 +196,27 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
             None,
             "this version runs one [[crack]] per scene",
         )
-    spec = scene.cracks[0]
     fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    if fr.initiate and scene.cracks:
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "initiate",
+            "a scene either gives its [[crack]] or initiates one, not both",
+        )
+    spec = scene.cracks[0] if scene.cracks else None
     md0, groups = read_mesh(scene, comm)
     check_cracks_in_mesh(scene, md0.mesh, md0.cell_tags, groups)
+    region = spec.region if spec is not None else _only_region(scene, groups)
     try:
-        body = body_outline(md0.mesh, md0.cell_tags, md0.facet_tags, groups, spec.region)
-        body.check_crack(spec.crack)
+        body = body_outline(md0.mesh, md0.cell_tags, md0.facet_tags, groups, region)
+        if spec is not None:
+            body.check_crack(spec.crack)
     except (FractureError, MeshingError) as exc:
+        if spec is None:
+            raise SceneError(str(scene.path), "[fracture]", "initiate", str(exc)) from None
         raise _scene_error(scene, 0, spec, exc, "region") from None
-    mat_spec = next(m for m in scene.materials if spec.region in m.regions)
+    mat_spec = next(m for m in scene.materials if region in m.regions)
     if not isinstance(mat_spec.material, Isotropic):
         raise SceneError(
             str(scene.path),
@@ -155,12 +231,27 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
             "propagate",
             f"propagation runs static analyses in this version, not {scene.analysis.kind!r}",
         )
-    seg = min(spec.crack.tip_segment_length(e) for e in spec.crack.tip_ends)
-    h_tip = (
-        fr.tip_size
-        if fr.tip_size is not None
-        else (fr.increment / 8 if fr.propagate else seg / 100)
+    if spec is None:
+        _check_initiation(scene, fr, body)
+    run = CrackRun(
+        scene, None, fr, body, mat_spec.material, mat_spec.strengths.get("K_Ic"), None, groups, md0
     )
+    return run if spec is None else with_crack(run, spec)
+
+
+def with_crack(run: CrackRun, spec: CrackSpec, initiated: bool = False) -> CrackRun:
+    """The run with its crack: the tip mesh and the face pair added to the scene's pairs.
+
+    Tip size: ``tip_size``; default Δa/8 with propagation (for an initiated crack at most
+    an eighth of its length), else 1/100 of the shortest tip segment."""
+    fr = run.fracture
+    seg = min(spec.crack.tip_segment_length(e) for e in spec.crack.tip_ends)
+    if fr.tip_size is not None:
+        h_tip = fr.tip_size
+    elif fr.propagate:
+        h_tip = fr.increment / 8 if not initiated else min(fr.increment, spec.crack.length) / 8
+    else:
+        h_tip = seg / 100
     mu = spec.friction
     pair = ContactSpec(
         _pair_name(spec.name),
@@ -171,15 +262,12 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
         0.0,
         "fixed_point" if mu > 0 else "previous_step",
     )
-    return CrackRun(
-        dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,)),
-        spec,
-        fr,
-        body,
-        mat_spec.material,
-        mat_spec.strengths.get("K_Ic"),
-        TipMesh(h_tip, fr.tip_grading),
-        groups,
+    return dataclasses.replace(
+        run,
+        scene=dataclasses.replace(run.scene, contacts=tuple(run.scene.contacts) + (pair,)),
+        spec=spec,
+        tip_mesh=TipMesh(h_tip, fr.tip_grading),
+        initiated=initiated,
     )
 
 
@@ -191,13 +279,13 @@ def build_cracked(
         with timer.phase("mesh_read"):
             cm, md = mesh_body_with_crack(run.body, crack, run.tip_mesh, comm)
     except (FractureError, MeshingError) as exc:
-        raise _scene_error(scene, 0, run.spec, exc, "points") from None
+        raise _scene_error(scene, 0, run.spec, exc, "points", run.initiated) from None
     sm = build_model(scene, comm, timer, mesh=(md, run.groups))
     try:
         with timer.phase("mortar_geometry"):
             sm.interfaces.append(face_interface(sm.model, cm, _pair_name(run.spec.name)))
     except ContactInputError as exc:
-        raise _scene_error(scene, 0, run.spec, exc, "points") from None
+        raise _scene_error(scene, 0, run.spec, exc, "points", run.initiated) from None
     return sm, cm
 
 
@@ -205,6 +293,8 @@ def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
     """Every check of a crack scene, the first cracked mesh and the face pair included
     (nothing written); the scene model on that mesh."""
     run = prepare(scene, comm)
+    if run.spec is None:  # the crack is initiated by the run: the uncracked model
+        return build_model(scene, comm, PhaseTimer(), mesh=(run.mesh, run.groups))
     return build_cracked(scene, run, run.spec.crack, comm, PhaseTimer())[0]
 
 
@@ -314,45 +404,92 @@ def _console(comm: MPI.Comm, progress: bool, text: str) -> None:
         tqdm.write(text) if progress else print(text, flush=True)
 
 
+def _initiate(
+    scene: Scene, run: CrackRun, sm: SceneModel, rec: Recorder, prev: tuple[float, float], t: float
+) -> tuple[Initiation, dict[str, Any]]:
+    """The crack inserted at the risk maximum of the current state, and its record for
+    summary.json (collective; a crack that does not fit is a SceneError on every rank)."""
+    fr, mx = run.fracture, rec.fracture.current
+    h = cell_size_at(sm.model.mesh, mx.location)
+    centre = mx.location
+    for _ in range(2):  # about the largest cell, then about the peak's centre
+        centre, direction = risk_peak(sm.model, rec.integ.u, rec.fracture.risk, centre, 20 * h)
+    length = (
+        fr.initiation_length
+        if fr.initiation_length is not None
+        else default_length(fr.increment if fr.propagate else None, h)
+    )
+    try:
+        ini = initiation_crack(run.body, centre, direction, length, h)
+    except FractureError as exc:
+        raise _scene_error(scene, 0, None, exc, "initiation_length") from None
+    record = {
+        "step": rec.integ.step_count,
+        "time": t,
+        "load_factor": initiation_time(prev[0], prev[1], t, mx.value),
+        "risk": mx.value,
+        "mode": mx.mode,
+        "max_risk_location": list(mx.location),
+        "location": list(ini.location),
+        "point": list(ini.point),
+        "on_surface": ini.on_surface,
+        "direction": list(ini.direction),
+        "length": ini.length,
+        "cell_size": ini.cell_size,
+        "points": ini.crack.points.tolist(),
+        "tips": ini.crack.tips,
+    }
+    return ini, record
+
+
 def run_cracked(
     scene: Scene,
     comm: MPI.Comm = MPI.COMM_WORLD,
     output: Path | None = None,
     progress: bool = True,
 ) -> RunResult:
-    """Validate, build and run a scene with a ``[[crack]]`` (module docstring), writing its
-    results incrementally: history.csv, the contact tables (the crack pair included),
-    fields (``fields.*``; after the k-th re-meshing ``fields_increment<k>.*``),
+    """Validate, build and run a scene with a ``[[crack]]`` or with ``[fracture] initiate =
+    true`` (module docstring), writing its results incrementally: history.csv, the contact
+    tables (the crack pair included), fields (``fields.*``; after an initiation
+    ``fields_initiated.*``, after the k-th re-meshing ``fields_increment<k>.*``),
     fracture.csv and summary.json."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare(scene, comm)
-    crack = run.spec.crack
-    sm, cm = build_cracked(scene, run, crack, comm, timer)
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = analysis_steps(scene)
     counts = RunCounters()
     table = FractureTable(comm, outdir)
+    crack, cm = None, None
+    if run.spec is None:  # no crack yet: the scene's own mesh until the risk reaches 1
+        sm = build_model(scene, comm, timer, mesh=(run.mesh, run.groups))
+    else:
+        crack = run.spec.crack
+        sm, cm = build_cracked(scene, run, crack, comm, timer)
 
-    def start(sm: SceneModel, step: int, increment: int):
+    def start(sm: SceneModel, run: CrackRun, step: int, stem: str):
         with timer.phase("solver_setup"):
             integ = scene_integrator(run.scene, sm, dt, False)
             integ.set_initial(None, sm.v0)
             integ.step_count, integ.t = step, step * dt
-        stem = "fields" if increment == 0 else f"fields_increment{increment}"
         # after a re-meshing: history.csv continues, the fields go to new files
-        files = SimpleNamespace(restarted_from="increment" if increment else None, fields_stem=stem)
+        files = SimpleNamespace(
+            restarted_from="increment" if stem != "fields" else None, fields_stem=stem
+        )
         with timer.phase("output"):
             rec = Recorder(run.scene, sm, integ, comm, outdir, False, files)
         return integ, rec
 
-    integ, rec = start(sm, 0, 0)
+    integ, rec = start(sm, run, 0, "fields")
     every = scene.output.fields_every
     status, message = "converged", None
     increment, fractured_at, prop_status = 0, None, None
     tips_last: list[IncrementRecord] = []
+    initiation: dict[str, Any] | None = None
+    risk_before: dict[str, Any] | None = None  # the initiation check on the uncracked body
     with timer.phase("output"):
         rec.record(0, 0.0, every > 0)
+    prev = (0.0, rec.fracture.current.value if rec.fracture is not None else 0.0)
     bar = tqdm(
         total=nsteps,
         desc=scene.name,
@@ -371,6 +508,41 @@ def run_cracked(
                 counts.pdas.append(res.iterations)
                 counts.bound_updates.append(res.bound_updates)
                 timer.add("contact_solve", res.wall_time)
+            if cm is None:  # no crack yet: does the risk reach 1?
+                with timer.phase("fracture"):
+                    sm.model.update_nodal_volumetric(integ.u, integ.velocity)  # as record does
+                    rec.fracture.update(k, integ.t)
+                if rec.fracture.current.value < 1.0:
+                    with timer.phase("output"):
+                        rec.record(k, integ.t, (every > 0 and k % every == 0) or k == nsteps)
+                    prev = (integ.t, rec.fracture.current.value)
+                    bar.update(1)
+                    k += 1
+                    continue
+                with timer.phase("fracture"):
+                    ini, initiation = _initiate(scene, run, sm, rec, prev, integ.t)
+                risk_before = rec.fracture.summary()
+                run = with_crack(
+                    run,
+                    CrackSpec("initiated", ini.crack, run.body.region[0], run.fracture.friction),
+                    initiated=True,
+                )
+                crack = ini.crack
+                where = "at the surface point" if ini.on_surface else "centred at"
+                _console(
+                    comm,
+                    progress,
+                    f"{scene.name}: risk {rec.fracture.current.value:.4g} >= 1 at t = "
+                    f"{integ.t:.6g} (step {k}; 1 reached at {initiation['load_factor']:.6g}): "
+                    f"crack of {ini.length:.4g} m inserted {where} "
+                    f"({ini.point[0]:.6g}, {ini.point[1]:.6g}) along "
+                    f"({ini.direction[0]:.4f}, {ini.direction[1]:.4f})",
+                )
+                integ.destroy()
+                rec.writer.close()
+                sm, cm = build_cracked(scene, run, crack, comm, timer)
+                integ, rec = start(sm, run, k - 1, "fields_initiated")
+                continue  # the same load on the cracked body
             with timer.phase("fracture"):
                 records = evaluate_tips(sm, cm, integ.u, res, run, increment, k, integ.t)
             grows = any(r.status == "grows" for r in records)
@@ -407,13 +579,17 @@ def run_cracked(
                 integ.destroy()
                 rec.writer.close()
                 sm, cm = build_cracked(scene, run, crack, comm, timer)
-                integ, rec = start(sm, k - 1, increment)
+                integ, rec = start(sm, run, k - 1, f"fields_increment{increment}")
                 continue  # the same load on the longer crack
             if prop_status == "grows":
                 prop_status = "arrested"
             k += 1
     except (RuntimeError, FractureError) as exc:  # a solver failure; a tip K cannot be had
         status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
+    except SceneError:
+        bar.close()
+        table.close()
+        raise
     bar.close()
     table.close()
     info: dict[str, Any] = {
@@ -425,8 +601,14 @@ def run_cracked(
     }
     info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
     info.update(rec.strain.summary())
-    frac = rec.fracture.summary() if rec.fracture is not None else {}
-    frac["crack"] = _crack_summary(run, crack, tips_last, increment, prop_status, fractured_at)
+    frac = risk_before or (rec.fracture.summary() if rec.fracture is not None else {})
+    if run.fracture.initiate:
+        frac["initiation"] = initiation
+    frac["crack"] = (
+        None
+        if run.spec is None
+        else _crack_summary(run, crack, tips_last, increment, prop_status, fractured_at)
+    )
     info["fracture"] = frac
     info["warnings"] = [str(i) for i in sm.issues]
     info["phases_s"] = timer.summary(comm)

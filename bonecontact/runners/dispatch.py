@@ -16,7 +16,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bonecontact.runners.coupled import check_coupled, run_coupled
-from bonecontact.runners.cracks import check_cracked, run_cracked
+from bonecontact.runners.cracks import check_cracked, is_crack_scene, run_cracked
 from bonecontact.runners.growth import build_growth, run_growth
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import RunResult
@@ -68,18 +68,32 @@ def run_scene(
     kind = run_kind(scene)
     if kind == "growth":  # [neoplasm] without [analysis]: growth.csv
         return run_growth(scene, comm, output, progress, restart)
+    _refuse_initiation(scene, kind)
     if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
         return run_coupled(scene, comm, output, progress, restart)
-    if scene.cracks:  # a given crack: re-meshed body, face pair, fracture.csv
+    if is_crack_scene(scene):  # a given or initiated crack: re-meshed body, face pair, fracture.csv
         if restart or scene.output.checkpoint_every:
             raise SceneError(
                 scene.path,
                 "[output]",
                 "checkpoint_every",
-                "checkpoints and restarts are not implemented for scenes with a [[crack]]",
+                "checkpoints and restarts are not implemented for scenes with a [[crack]] "
+                "or [fracture] initiate = true",
             )
         return run_cracked(scene, comm, output, progress)
     return run_mechanics(scene, comm, output, progress, restart)
+
+
+def _refuse_initiation(scene: Scene, kind: str) -> None:
+    """Crack initiation runs in mechanics scenes only."""
+    if kind == "coupled" and scene.fracture is not None and scene.fracture.initiate:
+        raise SceneError(
+            scene.path,
+            "[fracture]",
+            "initiate",
+            "a coupled [neoplasm] scene computes the risk and the growth time of initiation; "
+            "inserting the crack runs in a static mechanics scene",
+        )
 
 
 #: :func:`run_scene` under its short name
@@ -95,11 +109,12 @@ def check(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         On every rank.
     """
     kind = run_kind(scene)
+    _refuse_initiation(scene, kind)
     if kind == "growth":
         build_growth(scene, comm)
     elif kind == "coupled":  # growth model, host mesh at t = 0, mechanics
         check_coupled(scene, comm)
-    elif scene.cracks:
+    elif is_crack_scene(scene):
         check_cracked(scene, comm)
     else:
         build_model(scene, comm)

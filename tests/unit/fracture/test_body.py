@@ -8,7 +8,10 @@ A square plate [−L, L]² with a circular hole of radius R at its centre (facet
   (≤ πR², within the chord error of its segments); every segment keeps its facet group;
 * the body meshed around a crack between the hole and the outer edge uses every node (a
   hole loop turning the other way than the outer one used to leave one face's nodes
-  unused) and the two crack faces have the crack's length each.
+  unused) and the two crack faces have the crack's length each;
+* a crack's mouth may lie on the hole's edge (an edge crack from the hole) as on the outer
+  edge; a tip in the hole, a segment across the hole or the outer edge, or a mouth off
+  the outline is refused, naming the key ``points``.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from dolfinx.io.gmsh import model_to_mesh
 from dolfinx.mesh import entities_to_geometry
 
 from bonecontact.fracture.body import body_outline, mesh_body_with_crack
-from bonecontact.fracture.crack import Crack2D
+from bonecontact.fracture.crack import Crack2D, FractureError
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.meshing.session import gmsh_session
 
@@ -100,3 +103,26 @@ def test_cracked_body_with_a_hole_uses_every_node(reverse_hole: bool) -> None:
         x = msh.geometry.x[entities_to_geometry(msh, 1, facets)][:, :, :2]
         length = float(np.linalg.norm(x[:, 1] - x[:, 0], axis=1).sum())
         assert comm.allreduce(length, op=MPI.SUM) == pytest.approx(a, rel=1e-9), name
+
+
+def test_crack_mouths_on_either_loop_and_what_is_refused() -> None:
+    comm = MPI.COMM_WORLD
+    md, groups = _plate_with_hole(comm, False)
+    body = body_outline(md.mesh, md.cell_tags, md.facet_tags, groups, "plate")
+    hole = body.loops[1]
+    k = int(np.argmax(hole[:, 0]))  # the hole's vertex on the +x axis
+    mouth = hole[k]
+    out = mouth / np.linalg.norm(mouth)
+    body.check_crack(Crack2D(np.array([mouth, mouth + 0.2 * out]), "end"))  # from the hole
+    body.check_crack(Crack2D(np.array([[L, 0.5], [L - 0.2, 0.5]]), "end"))  # from the edge
+    refused = [
+        Crack2D(np.array([mouth + 0.01 * out, mouth + 0.2 * out]), "end"),  # mouth off a loop
+        Crack2D(np.array([[-0.5, 0.0], [0.5, 0.0]])),  # across the hole
+        Crack2D(np.array([[0.0, 0.0], [0.0, 0.5]])),  # a tip in the hole
+        Crack2D(np.array([[0.8, 0.5], [1.2, 0.5]])),  # a tip outside the plate
+        Crack2D(np.array([mouth, mouth - 0.1 * out]), "end"),  # from the hole into it
+    ]
+    for crack in refused:
+        with pytest.raises(FractureError) as err:
+            body.check_crack(crack)
+        assert err.value.key == "points", crack.points

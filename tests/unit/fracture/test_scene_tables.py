@@ -40,6 +40,9 @@ def test_defaults_and_a_full_table():
         }
     )
     assert spec.propagate and spec.increment == 1e-3 and spec.max_increments == 5
+    ini = fracture_from_table({"initiate": True, "initiation_length": 2e-4, "friction": 0.3})
+    assert (ini.initiate, ini.initiation_length, ini.friction) == (True, 2e-4, 0.3)
+    assert fracture_from_table({"initiate": True}).initiation_length is None
     c = crack_from_table({"points": [[0, 0], [1e-3, 0]], "region": "cortex", "friction": 0.4})
     assert c.name == "crack1" and c.friction == 0.4 and c.crack.length == pytest.approx(1e-3)
 
@@ -55,6 +58,12 @@ def test_defaults_and_a_full_table():
         ({"max_increments": 0}, "max_increments"),
         ({"tip_size": 0}, "tip_size"),
         ({"speed": 1}, "speed"),
+        ({"initiate": 1}, "initiate"),
+        ({"initiation_length": 1e-3}, "initiation_length"),
+        ({"friction": 0.3}, "friction"),
+        ({"initiate": True, "initiation_length": 0.0}, "initiation_length"),
+        ({"initiate": True, "friction": -0.1}, "friction"),
+        ({"initiate": True, "friction": True}, "friction"),
     ],
 )
 def test_bad_fracture_tables(table, key):
