@@ -194,8 +194,13 @@ def patch_response(solver, st, it, shift: float) -> npt.NDArray[np.float64]:
     if solver.lowrank is not None:
         _, w2 = solver.lowrank.respond(fixed, solver._scale, dvals)
     else:
+        # the solve overwrites the field Ũ: keep the first iterate's (the PDAS may stop
+        # at this iteration, and the next solve starts from it)
+        kept = solver.Uh.copy()
         zero = np.zeros(solver.bs * solver.NS)
         _, w2, its = solver._solve_refactor(fixed, st.values + dvals, zero, st.b)
+        kept.copy(solver.Uh)
+        kept.destroy()
         st.lin_total += its
     return w2[R0] - it.lam_n * solver._D
 

@@ -37,6 +37,7 @@ __all__ = [
     "apply_inverse_transpose",
     "condensed_near_nullspace",
     "configure_condensed_ksp",
+    "reduction_decades",
 ]
 
 #: GAMG options of the condensed system (under the solver's prefix; the command line
@@ -168,6 +169,17 @@ def configure_condensed_ksp(
     if nonsymmetric:
         ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
     ksp.setInitialGuessNonzero(True)
+    ksp.setConvergenceHistory(length=max_it + 1, reset=True)  # (for reduction_decades)
+
+
+def reduction_decades(ksp: PETSc.KSP) -> float:
+    """Decades by which the last solve of ``ksp`` reduced its residual norm (from the
+    convergence history; 0 without one).  Solves to different tolerances, or from
+    different initial guesses, compare by their iterations per decade."""
+    hist = ksp.getConvergenceHistory()
+    if len(hist) < 2 or not hist[-1] > 0.0 or not hist[0] > 0.0:
+        return 0.0
+    return float(max(np.log10(hist[0] / hist[-1]), 0.0))
 
 
 @dataclass
@@ -182,8 +194,10 @@ class PreconditionerReuse:
     * ``A`` and ``C`` differ in at most ``max(1, rows · n_C)`` contact rows (fixed or
       replaced in one and not in the other), ``n_C`` the contact rows fixed or
       replaced in ``C``, and
-    * the last solve with it needed at most ``growth`` times the Krylov iterations of
-      the first solve after it was built;
+    * the last solve with it needed at most ``growth`` times the Krylov iterations per
+      decade of residual reduction of the first solve after it was built (per decade:
+      the loose and tight solves of an inexact PDAS reduce the residual by different
+      factors);
 
     otherwise it is rebuilt from ``B_A``.  The kept cycle smooths the finest level
     with ``B_A`` but the diagonal and eigenvalue bounds of ``B_C``; should that make it
@@ -201,8 +215,8 @@ class PreconditionerReuse:
     builds: int = 0
     reuses: int = 0
     _mask: npt.NDArray[np.bool_] | None = None
-    _first_its: int = 0
-    _last_its: int = 0
+    _first_rate: float = 0.0
+    _last_rate: float = 0.0
     _fresh: bool = False
 
     def decide(self, ksp: PETSc.KSP, replaced: npt.NDArray[np.bool_]) -> bool:
@@ -213,7 +227,7 @@ class PreconditionerReuse:
         if keep:
             changed = int((replaced != self._mask).sum())
             keep = changed <= max(1, int(self.rows * int(self._mask.sum())))
-            keep = keep and self._last_its <= self.growth * max(self._first_its, 1)
+            keep = keep and self._last_rate <= self.growth * max(self._first_rate, 1.0)
         ksp.getPC().setReusePreconditioner(keep)
         if keep:
             self.reuses += 1
@@ -223,11 +237,14 @@ class PreconditionerReuse:
         self._fresh = not keep
         return keep
 
-    def record(self, its: int) -> None:
-        """After the solve: its Krylov iterations."""
+    def record(self, its: int, decades: float | None = None) -> None:
+        """After the solve: its Krylov iterations and, if known, the decades by which
+        it reduced the residual (:func:`reduction_decades`; the rate compared is
+        iterations per decade, at least one decade counted)."""
+        rate = its / max(decades if decades is not None else 1.0, 1.0)
         if self._fresh:
-            self._first_its = its
-        self._last_its = its
+            self._first_rate = rate
+        self._last_rate = rate
 
     def forget(self) -> None:
         """Rebuild at the next solve (a new operator, or a failed solve)."""

@@ -87,8 +87,16 @@ class PDASOptions:
     #: (docs/theory/pdas.md#preconditioner-reuse); 0 rebuilds it at every solve.
     pc_reuse_rows: float = 0.25
     #: ... and the last solve with it took at most this many times the Krylov iterations
-    #: of the first solve after it was built; otherwise it is rebuilt.
+    #: per decade of residual reduction of the first solve after it was built; otherwise
+    #: it is rebuilt.
     pc_reuse_growth: float = 1.5
+    #: Iterative solver, frictionless pairs: inexact PDAS — while the active set still
+    #: changes, each Krylov solve stops at this relative tolerance; once a loose solve
+    #: leaves the set unchanged, the same set is solved again to the tight tolerance
+    #: (warm-started from the loose iterate) and the convergence test is taken on that
+    #: solve (docs/theory/pdas.md#inexact-solves).  0 (or a value not above the tight
+    #: tolerance): every solve to the tight tolerance.
+    loose_rtol: float = 1e-4
 
     def __post_init__(self) -> None:
         if self.slip_3d not in ("newton", "fixed_point"):
@@ -112,6 +120,8 @@ class PDASOptions:
                 f"pc_reuse_rows must be >= 0 and pc_reuse_growth >= 1, got "
                 f"{self.pc_reuse_rows} and {self.pc_reuse_growth}"
             )
+        if not 0.0 <= self.loose_rtol < 1.0:
+            raise ValueError(f"loose_rtol must be in [0, 1), got {self.loose_rtol}")
         if int(self.max_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
 
