@@ -25,18 +25,19 @@
 #
 # 1. **growth and risk** — the tumour grows (the free-boundary model of
 #    `demos/knee_tumour.py`), the host mesh is rebuilt around it by gmsh every few days
-#    and loaded by the standing load; on every rebuilt mesh the same scene with a
-#    `[fracture]` table evaluates the initiation risk $\max_\text{cells} \sigma_1/\sigma_t$
-#    of the bone (coupled scenes do not take `[fracture]` in this version, hence a second
-#    run per mesh);
+#    and loaded by the standing load; the coupled scene's `[fracture]` table evaluates
+#    the initiation risk $\max_\text{cells} \sigma_1/\sigma_t$ of the bone on every
+#    rebuilt mesh;
 # 2. **crack** — at the first state where the risk reaches 1, a flaw is put on the line
 #    through the location of the largest risk, normal to the largest principal stress, and
 #    grown by the crack scenes of `bonecontact` (`[[crack]]`, `[fracture] propagate = true`)
 #    as the load ramps up to a lifting load, until it reaches a free surface: the
 #    vertebral body has fractured;
-# 3. **fragments** — the crack faces are a Coulomb contact pair all along: where they
-#    close, the fragments press and rub on each other (here they open: the crack runs
-#    along the compression, pulled open by the hoop tension at the lesion's pole).
+# 3. **fragments** — the crack faces are a Coulomb contact pair all along.  While the
+#    crack runs they open (it runs along the compression, pulled open by the hoop tension
+#    at the lesion's pole); after the fracture the fractured body is loaded as in a
+#    forward bend, held sideways by the shell: the faces close, and the fragments press
+#    and rub on each other through the Coulomb pair.
 #
 # `python demos/vertebra_tumour.py [OUTPUT_DIR]`, `mpiexec -n 2 python
 # demos/vertebra_tumour.py`, or as a notebook.  `BONECONTACT_DEMO_QUICK=1` takes coarser
@@ -79,7 +80,6 @@
 # this demo does not follow.
 
 # %%
-import os
 import sys
 from pathlib import Path
 
@@ -97,7 +97,7 @@ here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd(
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/vertebra_tumour, else demos/results/...
 output = bp.output_dir("vertebra_tumour", here, args)
-quick = os.environ.get("BONECONTACT_DEMO_QUICK", "0") not in ("", "0")
+quick = bp.quick_mode()
 
 MM = 1e-3
 W, H, T, D = 30 * MM, 24 * MM, 1.0 * MM, 8 * MM  # body depth, height, shell, disc height
@@ -369,12 +369,12 @@ if comm.rank == 0:
 # (the thin shell's share of the load is neglected: conservative), with the tumour as a
 # cavity (at 50 kPa it carries next to nothing) and the disc replaced by the load it
 # transmits, a uniform pressure on the upper endplate (the nucleus is nearly a fluid);
-# the lower endplate is held.  A crack may not touch a cavity's wall in these scenes
-# (and a crack with one tip must start on the outer surface), so the initial flaw lies on
-# the line of largest risk, centred in the ligament between the lesion wall and the
-# endplate, a quarter of the ligament long, with two tips: the vertebral body has
-# fractured when the crack has cut through the ligament (a tip reaches the lesion or the
-# endplate).
+# the lower endplate is held.  The initial flaw lies on the line of largest risk,
+# centred in the ligament between the lesion wall and the endplate, a quarter of the
+# ligament long, with two tips: the vertebral body has fractured when the crack has cut
+# through the ligament (a tip reaches the lesion or the endplate).  (A crack scene can
+# also insert the crack itself, `[fracture] initiate = true`, at the lesion's wall; the
+# flaw in the ligament keeps the two tips of this storyline.)
 #
 # The load ramps in four steps from the standing load to the lifting load; at every step
 # the tip's $K_I$, $K_{II}$ come from the interaction integral (crack-face contact tractions
@@ -419,9 +419,10 @@ mid = loc + 0.5 * ligament * cdir
 crack0 = np.array([mid - ligament / 8 * cdir, mid + ligament / 8 * cdir])
 
 
-def cracked_body_mesh(path: Path) -> None:
+def cracked_body_mesh(path: Path, split: bool = False) -> None:
     """The vertebral body with the lesion as a cavity: cell group ``vertebral_body``,
-    facets ``upper_endplate``, ``lower_endplate``, ``walls``, ``lesion``."""
+    facets ``upper_endplate``, ``lower_endplate``, ``walls``, ``lesion``; ``split``: the
+    upper endplate in two halves, ``upper_anterior`` (x < 0) and ``upper_posterior``."""
     if comm.rank == 0:
         import gmsh
 
@@ -433,6 +434,8 @@ def cracked_body_mesh(path: Path) -> None:
         lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
         hole = occ.addPlaneSurface([occ.addCurveLoop(lines)])
         out, _ = occ.cut([(2, body)], [(2, hole)])
+        if split:  # a vertex in the middle of the upper endplate
+            out, _ = occ.fragment(out, [(0, occ.addPoint(0.0, H, 0))])
         occ.synchronize()
         surf = [t for d, t in out if d == 2]
         gmsh.model.addPhysicalGroup(2, surf, 1, name="vertebral_body")
@@ -444,6 +447,10 @@ def cracked_body_mesh(path: Path) -> None:
             "walls": [c for c in rim if abs(abs(com[c][0]) - W / 2) < 1e-9],
         }
         pick["lesion"] = [c for c in rim if not any(c in v for v in pick.values())]
+        if split:
+            upper = pick.pop("upper_endplate")
+            pick["upper_anterior"] = [c for c in upper if com[c][0] < 0]
+            pick["upper_posterior"] = [c for c in upper if com[c][0] > 0]
         for k, (name, cs) in enumerate(pick.items()):
             gmsh.model.addPhysicalGroup(1, cs, 10 + k, name=name)
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
@@ -602,4 +609,153 @@ if comm.rank == 0:
         f"|traction_t| <= mu pressure on closed nodes: {bool(bound)}"
     )
     print(f"pictures: {output / 'vertebra_risk.png'}, {output / 'vertebra_crack.png'}")
+comm.barrier()
+
+# %% [markdown]
+# ## After the fracture: the fragments in frictional contact
+# The crack has cut the ligament between the lesion and the endplate (to within one
+# increment).  Is the fractured vertebral body still a load-bearing structure?  The
+# fragments are held together only where the faces press on each other, and they can
+# slide along each other where $|\lambda_t|$ would exceed $\mu\lambda_n$.
+#
+# One more static analysis of the fractured body (the final crack, not growing):
+#
+# * a forward bend while lifting: the upper endplate carries the lifting force, 90 % of
+#   it on its anterior half ($x < 0$: 1.8 times the lifting pressure) and 10 % on the
+#   posterior half (0.2 times): the same force as the uniform lifting load, its resultant
+#   6 mm anterior of the centre;
+# * the cortical shell, which the crack analysis left out, holds the body sideways: the
+#   anterior and posterior walls do not move horizontally ($u_x = 0$, $u_y$ free);
+# * the crack faces are the Coulomb pair of the crack run ($\mu = 0.4$).
+#
+# The shell's confinement closes the faces (in a body that cannot expand sideways the
+# vertical compression $p$ brings a horizontal one, $\nu p/(1-\nu) = p/3$ far from the
+# lesion), and the uneven load pushes the anterior fragment down along the posterior one:
+# the faces carry compression and friction; where the friction needed exceeds
+# $\mu\lambda_n$ the faces slip.  The totals are the pair's `normal_force`
+# and `tangential_force` in `history.csv` (N per metre of thickness); every closed node
+# satisfies Coulomb's law $|\lambda_t| \le \mu\lambda_n$ (`contact_split.csv`).
+
+
+# %%
+def boundary_distance(p: np.ndarray) -> float:
+    """Distance from ``p`` to the lesion wall and the outline of the vertebral body (m)."""
+    ring = np.vstack([lesion, lesion[:1]])
+    box = np.array([[-W / 2, 0], [W / 2, 0], [W / 2, H], [-W / 2, H], [-W / 2, 0]])
+    d = np.inf
+    for poly in (ring, box):
+        a, b = poly[:-1], poly[1:]
+        t = np.clip(np.einsum("ij,ij->i", p - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0, 1)
+        d = min(d, float(np.linalg.norm(a + t[:, None] * (b - a) - p, axis=1).min()))
+    return d
+
+
+path_final = np.asarray(cs["points"])
+d_tip = min(boundary_distance(path_final[0]), boundary_distance(path_final[-1]))
+h_tip = min(da, 0.8 * d_tip) / 10  # four tip elements in the K domain of a tip near a surface
+cracked_body_mesh(output / "vertebral_body_split.msh", split=True)
+MU = 0.4
+FRAGMENTS = f"""format = 1
+[scene]
+name = "vertebra_fragments"
+mesh = "{output / "vertebral_body_split.msh"}"
+dimension = 2
+
+[analysis]
+kind = "static"
+load_steps = 1
+
+[solver]
+linear = "direct"
+
+[[material]]
+name = "cancellous"
+regions = ["vertebral_body"]
+model = "isotropic"
+E = 1.0e9
+nu = 0.25
+sigma_t = 1.75e6
+
+[[dirichlet]]
+boundary = "lower_endplate"
+value = [0.0, 0.0]
+
+[[dirichlet]]
+boundary = "walls"
+value = [0.0, "free"]
+
+[[traction]]
+boundary = "upper_anterior"
+value = [0.0, {-1.8 * LIFT * P}]
+
+[[traction]]
+boundary = "upper_posterior"
+value = [0.0, {-0.2 * LIFT * P}]
+
+[fracture]
+criterion = "tension"
+tip_size = {h_tip}
+
+[[crack]]
+name = "split"
+points = {path_final.tolist()}
+tips = "both"
+region = "vertebral_body"
+friction = {MU}
+
+[output]
+directory = "results"
+fields_every = 1
+"""
+post = run_text(
+    FRAGMENTS, output / "vertebra_fragments.toml", output / "fragments", "the fragments run"
+)
+if comm.rank == 0:
+    hist = np.genfromtxt(
+        output / "fragments" / "history.csv",
+        delimiter=",",
+        names=True,
+        dtype=None,
+        encoding="utf-8",
+    )
+    pair = hist[(hist["pair"] == "split") & (hist["step"] == hist["step"].max())][0]
+    faces = np.genfromtxt(
+        output / "fragments" / "contact_split.csv",
+        delimiter=",",
+        names=True,
+        dtype=None,
+        encoding="utf-8",
+    )
+    states = {k: int((faces["status"] == k).sum()) for k in ("open", "stick", "slip")}
+    closed = faces["status"] != "open"
+    ratio = np.abs(faces["traction_t"][closed]) / faces["pressure"][closed]
+    print(
+        f"after the fracture: crack faces {states}; contact force across the faces: normal "
+        f"{pair['normal_force']:.4g} N/m, tangential {pair['tangential_force']:.4g} N/m "
+        f"(ratio {pair['tangential_force'] / pair['normal_force']:.3f}, mu = {MU}); "
+        f"largest |traction_t|/pressure of a closed node {ratio.max():.4f}; mean face "
+        f"pressure {pair['normal_force'] / cs['length'] / 1e6:.3f} MPa (confined body far "
+        f"from the lesion: nu p/(1 - nu) = {LIFT * P / 3 / 1e6:.3f} MPa)"
+    )
+
+# %% [markdown]
+# The faces' contact pressure and friction traction along the crack (against the height
+# $y$), with the bound $\mu\lambda_n$: where $|\lambda_t|$ reaches it the faces slip.
+
+# %%
+if comm.rank == 0:
+    order = np.argsort(faces["y"])
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    y_mm = 1e3 * faces["y"][order]
+    ax.plot(y_mm, faces["pressure"][order] / 1e6, "o-", ms=3, label="pressure λ_n")
+    ax.plot(y_mm, np.abs(faces["traction_t"][order]) / 1e6, "s-", ms=3, label="|λ_t|")
+    ax.plot(y_mm, MU * faces["pressure"][order] / 1e6, "k--", lw=0.8, label="μ λ_n")
+    slip = faces["status"][order] == "slip"
+    ax.plot(y_mm[slip], np.abs(faces["traction_t"][order][slip]) / 1e6, "rx", label="slip")
+    ax.legend(fontsize=8)
+    bp.line_axes(ax, ("height y along the crack", "mm"), ("face traction", "MPa"))
+    fig.suptitle("vertebra_tumour: the fragments after the fracture (Coulomb crack faces)")
+    fig.tight_layout()
+    bp.show(fig, output / "vertebra_fragments.png", dpi=120)
+    print(f"pictures: {output / 'vertebra_fragments.png'}")
 comm.barrier()

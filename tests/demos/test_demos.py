@@ -419,7 +419,12 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     gives k times step 1 to 1e-6) and nearly mode I on the symmetric line (|K_II| < 5 %);
     the crack grows to fracture — its last tip lies within one increment of the boundary
     (lesion wall or the vertebral body's outline) — and 2 ranks give the serial path (to
-    1e-4 of the increment)."""
+    1e-4 of the increment).  After the fracture (walls held sideways, uneven lifting load)
+    the fragments are in frictional contact: every face node closed (gap ≥ 0), Coulomb's
+    law at every node (|λ_t| ≤ μλ_n, = μλ_n where it slips; some nodes stick, some
+    slip), the mean face pressure the confined-body value νp/(1 − ν) within 15 % (the
+    lesion and the tips perturb it; measured +5 %), 2 ranks the serial face forces (to
+    1e-4, as the paths; measured 4e-6)."""
     (r1, o1), (r2, o2) = demo_runs["vertebra_tumour", 1], demo_runs["vertebra_tumour", 2]
     assert r1.returncode == 0 and r2.returncode == 0
     risk = np.genfromtxt(o1 / "risk.csv", delimiter=",", names=True)
@@ -453,6 +458,34 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     np.testing.assert_allclose(crack2["points"], crack["points"], atol=1e-4 * prop["increment"])
     _check_png(o1 / "vertebra_risk.png")
     _check_png(o1 / "vertebra_crack.png")
+    # after the fracture: the fragments in frictional contact
+    mu, p_lift = 0.4, 4 * 0.5e6
+    forces = []
+    for out in (o1, o2):
+        hist = _named_table(out / "fragments" / "history.csv")
+        forces.append(hist[hist["pair"] == "split"][-1])
+    faces = _named_table(o1 / "fragments" / "contact_split.csv")
+    length = json.loads((o1 / "fragments" / "summary.json").read_text())["fracture"]["crack"][
+        "length"
+    ]
+    assert np.all(faces["status"] != "open") and faces["gap"].min() > -1e-9 * length
+    lam_n, lam_t = faces["pressure"], np.abs(faces["traction_t"])
+    assert np.all(lam_n > 0) and np.all(lam_t <= mu * lam_n * (1 + 1e-6))
+    slip = faces["status"] == "slip"
+    assert slip.any() and (faces["status"] == "stick").any()
+    np.testing.assert_allclose(lam_t[slip], mu * lam_n[slip], rtol=1e-6)
+    f1, f2 = forces
+    assert f1["n_active"] == len(faces) and f1["n_slip"] == slip.sum()
+    assert f1["normal_force"] / length == pytest.approx(p_lift / 3, rel=0.15)  # nu = 0.25
+    assert f1["tangential_force"] <= mu * f1["normal_force"]
+    for key in ("normal_force", "tangential_force"):
+        assert f2[key] == pytest.approx(f1[key], rel=1e-4)  # the paths agree to 1e-4 da
+    _check_png(o1 / "vertebra_fragments.png")
+
+
+def _named_table(path: Path) -> np.ndarray:
+    """A CSV table with named columns (strings where not numbers)."""
+    return np.genfromtxt(path, delimiter=",", names=True, dtype=None, encoding="utf-8")
 
 
 def _nodal_force(pvd: Path, msh: Path, group: str) -> np.ndarray:
