@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -294,6 +294,7 @@ def field_view(
     zoom: float = 1.0,
     up: str = "y",
     view: str | None = None,
+    axis_titles: Mapping[str, str] | None = None,
 ) -> Path:
     """A pyvista picture of a field, fit for a paper, written to ``path`` (PNG).
 
@@ -334,7 +335,12 @@ def field_view(
         The up axis of the view (``"y"``: the convention of the meshes).
     view
         ``None``: isometric (3D) or the plane of a flat grid; ``"xy"``, ``"xz"`` or
-        ``"yz"``: looking at that plane along the third axis (a cut face of a 3D grid).
+        ``"yz"``: looking at that plane along the third axis (a cut face of a 3D grid),
+        unlit (the colours are the colour bar's), in parallel projection and without the
+        third axis.
+    axis_titles
+        Axis titles instead of the coordinate names, the unit appended, e.g.
+        ``{"x": "x, back to front"}`` gives ``"x, back to front (mm)"``.
 
     Returns
     -------
@@ -368,7 +374,15 @@ def field_view(
     cr = ColorRange(clim[0], clim[1], float(cell_vals.max()), above)
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     pl.set_background("white")
-    pl.add_mesh(g, scalars=key, cmap=cmap, clim=clim, scalar_bar_args=_scalar_bar_args(label))
+    # a plane seen face-on: unlit, so that its colours are the colour bar's
+    pl.add_mesh(
+        g,
+        scalars=key,
+        cmap=cmap,
+        clim=clim,
+        scalar_bar_args=_scalar_bar_args(label),
+        lighting=view is None,
+    )
     legend = []
     moved = (grid, displacement, warp) if displacement is not None and warp else None
     if contact_points is not None and len(np.asarray(contact_points)):
@@ -383,7 +397,7 @@ def field_view(
         pl.add_legend(
             legend, bcolor="white", border=True, loc="upper left", size=(0.28, 0.04 * len(legend))
         )
-    _axes(pl, g, length_unit, up, view)
+    _axes(pl, g, length_unit, up, view, axis_titles or {})
     notes = [title] if title else []
     foot = []
     if displacement is not None and warp:
@@ -428,27 +442,37 @@ def _points3(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
     return np.pad(p, ((0, 0), (0, 3 - p.shape[1])))
 
 
-def _axes(pl: Any, g: Any, length_unit: str, up: str, view: str | None = None) -> None:
-    """Bounds with labelled axes in ``length_unit`` and a camera with ``up`` upwards,
-    looking along the normal of ``view`` (a plane ``"xy"``, ``"xz"``, ``"yz"``) if given."""
+def _axes(
+    pl: Any,
+    g: Any,
+    length_unit: str,
+    up: str,
+    view: str | None = None,
+    titles: Mapping[str, str] | None = None,
+) -> None:
+    """Bounds with labelled axes in ``length_unit`` (``titles``: other names than x, y, z)
+    and a camera with ``up`` upwards, looking along the normal of ``view`` (a plane
+    ``"xy"``, ``"xz"``, ``"yz"``; parallel projection) if given."""
+    titles = titles or {}
     b = g.bounds
     flat = abs(b[5] - b[4]) < 1e-12 * max(abs(b[1] - b[0]), abs(b[3] - b[2]), 1.0)
+    # the axis along the line of sight would be drawn end-on (its ticks in a corner)
+    hidden = {"xy": "z", "xz": "y", "yz": "x"}[view] if view else ("z" if flat else "")
+    shown = {f"show_{a}{part}": a != hidden for a in "xyz" for part in ("axis", "labels")}
     pl.show_bounds(
-        xtitle=f"x ({length_unit})",
-        ytitle=f"y ({length_unit})",
-        ztitle=f"z ({length_unit})",
+        **{f"{a}title": f"{titles.get(a, a)} ({length_unit})" for a in "xyz"},
         color="black",
         font_size=12,
         location="outer",
         grid=False,
         ticks="outside",
-        show_zaxis=not flat,
-        show_zlabels=not flat,
+        **shown,
     )
     view_up = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[up]
     if view is not None:
         getattr(pl, f"view_{view}")()
         pl.camera.up = view_up
+        pl.enable_parallel_projection()
     elif flat:
         pl.view_xy()
         pl.camera.up = view_up

@@ -133,6 +133,32 @@ def test_field_view_writes_png_without_x_server(tmp_path):
     assert img[..., :3].std() > 0.05  # not a blank picture
 
 
+FACE_ON = """
+import numpy as np, pyvista as pv, bonecontact.plot as bp
+g = pv.ImageData(dimensions=(5, 5, 3), spacing=(0.01, 0.01, 0.005)).cast_to_unstructured_grid()
+g.cell_data["von_mises"] = np.full(g.n_cells, 2e6)
+bp.field_view(g, "von_mises", r"{out}", quantity="q", unit="MPa", clim=(0.0, 1.0),
+              cmap="inferno", window_size=(400, 300), view="xy")
+"""
+
+
+@pytest.mark.serial  # spawns its own process
+def test_field_view_face_on_shows_the_colour_bar_colours(tmp_path):
+    """A cut face seen face-on (``view``) is drawn unlit: a cell above the colour range
+    has exactly the colour of the top of the colour bar (the colour map's last colour)."""
+    import matplotlib
+
+    out = tmp_path / "face.png"
+    r = subprocess.run(
+        [sys.executable, "-c", FACE_ON.format(out=out)], capture_output=True, text=True, timeout=120
+    )
+    assert r.returncode == 0, r.stderr
+    img = matplotlib.image.imread(out)[..., :3]
+    top = np.array(matplotlib.colormaps["inferno"](1.0)[:3])
+    centre = img[img.shape[0] // 2, int(img.shape[1] * 0.4)]  # left of the colour bar
+    np.testing.assert_allclose(centre, top, atol=2 / 255)
+
+
 def test_field_view_refuses_an_unknown_view(tmp_path):
     """``view`` names a coordinate plane (or None); anything else is refused before drawing."""
     with pytest.raises(ValueError, match="view must be"):
