@@ -29,8 +29,10 @@ from bonecontact.mechanics.model import Mechanics
 
 __all__ = [
     "RISK_CRITERIA",
+    "CellPrincipal",
     "CellStresses",
     "RiskMaximum",
+    "cell_principal",
     "cell_stresses",
     "mts_angle",
     "mts_equivalent_k",
@@ -153,14 +155,56 @@ def principal_direction_average(
 # ------------------------------------------------------------------- risk field
 @dataclass(frozen=True)
 class RiskMaximum:
-    """The largest initiation risk: value, cell midpoint, and the direction (unit vector)
-    a crack started there would take (normal to σ₁ for tension, along the plane of
-    maximum shear otherwise: here normal to σ₁ as well), and which term governs."""
+    """The largest initiation risk: value, cell midpoint (2 or 3 coordinates, m), the
+    crack a crack started there would open, and which term governs.
+
+    ``crack_normal`` is the unit σ₁ axis (the normal of the crack plane, 2 or 3
+    components; the sign makes its largest component positive).  In 2D
+    ``crack_direction`` is the unit vector along the crack line (normal to the in-plane
+    σ₁ axis); in 3D the crack is a plane and ``crack_direction`` is ``None``.  For the
+    compression term the crack is likewise taken normal to σ₁.
+    """
 
     value: float
-    location: tuple[float, float]
-    crack_direction: tuple[float, float]
+    location: tuple[float, ...]
+    crack_direction: tuple[float, float] | None
     mode: str
+    crack_normal: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class CellPrincipal:
+    """σ₁ ≥ … ≥ σ₃ of the owned cells of a 2D or 3D model and the σ₁ axis.
+
+    In 2D σ₁ and σ₃ include σ_zz (plane strain) and ``axis`` is the in-plane direction of
+    the larger in-plane principal stress; in 3D ``axis`` is the σ₁ eigenvector.
+    """
+
+    cells: npt.NDArray[np.int32]
+    midpoints: npt.NDArray[np.float64]  # (n, gdim)
+    sigma_1: npt.NDArray[np.float64]
+    sigma_3: npt.NDArray[np.float64]
+    axis: npt.NDArray[np.float64]  # (n, gdim) unit vectors
+
+
+def cell_principal(model: Mechanics, u: fem.Function) -> CellPrincipal:
+    """Principal stresses and σ₁ axis of every owned cell (2D: :func:`cell_stresses`;
+    3D: the eigen-decomposition of the cell's 3×3 stress)."""
+    if model.dim == 2:
+        cs = cell_stresses(model, u)
+        s1, s3, phi = cs.principal()
+        axis = np.column_stack([np.cos(phi), np.sin(phi)])
+        return CellPrincipal(cs.cells, cs.midpoints, s1, s3, axis)
+    msh = model.mesh
+    T = fem.functionspace(msh, ("DG", 0, (3, 3)))
+    s = fem.Function(T)
+    s.interpolate(fem.Expression(model.stress_expression(u), T.element.interpolation_points))
+    n = msh.topology.index_map(3).size_local
+    tensors = s.x.array.reshape(-1, 3, 3)[T.dofmap.list[:n, 0]]
+    w, v = np.linalg.eigh(0.5 * (tensors + np.transpose(tensors, (0, 2, 1))))
+    cells = np.arange(n, dtype=np.int32)
+    mid = mesh.compute_midpoints(msh, 3, cells)
+    return CellPrincipal(cells, mid, w[:, 2].copy(), w[:, 0].copy(), v[:, :, 2].copy())
 
 
 def _check_strengths(criterion: str, sigma_t: float | None, sigma_c: float | None) -> None:
@@ -195,7 +239,7 @@ def risk_field(
     Parameters
     ----------
     model, u
-        The 2D mechanics model and its displacement.
+        The 2D or 3D mechanics model and its displacement.
     sigma_t, sigma_c
         Tensile and compressive strengths (Pa, > 0): numbers, or one value per owned
         cell (heterogeneous strengths).
@@ -207,14 +251,14 @@ def risk_field(
     -------
     (dolfinx.fem.Function, RiskMaximum)
         The DG0 risk (named ``"fracture_risk"``; initiation where it reaches 1) and its
-        maximum over all ranks (ties: the smallest x, then y).
+        maximum over all ranks (ties: the smallest x, then y, then z).
     """
     comm = model.mesh.comm
     st = _smallest_strength(comm, sigma_t)
     sc = None if sigma_c is None else _smallest_strength(comm, sigma_c)
     _check_strengths(criterion, st, sc)
-    cs = cell_stresses(model, u)
-    s1, s3, phi = cs.principal()
+    cp = cell_principal(model, u)
+    s1, s3 = cp.sigma_1, cp.sigma_3
     tension = np.maximum(s1, 0.0) / np.asarray(sigma_t, dtype=float)
     risk, mode = tension, np.zeros(s1.shape, dtype=int)
     if criterion == "tension_compression":
@@ -223,26 +267,31 @@ def risk_field(
         risk = np.maximum(tension, compression)
     V0 = fem.functionspace(model.mesh, ("DG", 0))
     f = fem.Function(V0, name="fracture_risk")
-    f.x.array[V0.dofmap.list[cs.cells, 0]] = risk
+    f.x.array[V0.dofmap.list[cp.cells, 0]] = risk
     f.x.scatter_forward()
-    return f, _maximum(model.mesh.comm, cs, risk, phi, mode)
+    return f, _maximum(model.mesh.comm, cp, risk, mode)
 
 
-def _maximum(
-    comm: MPI.Comm, cs: CellStresses, risk: np.ndarray, phi: np.ndarray, mode: np.ndarray
-) -> RiskMaximum:
-    best = (-1.0, 0.0, 0.0, 0.0, 0)
-    if risk.size:  # ties (a uniform or zero field): the smallest x, then y, as across ranks
+def _maximum(comm: MPI.Comm, cp: CellPrincipal, risk: np.ndarray, mode: np.ndarray) -> RiskMaximum:
+    gdim = cp.midpoints.shape[1]
+    best: tuple = (-1.0, (0.0,) * gdim, (0.0,) * gdim, 0)
+    if risk.size:  # ties (a uniform or zero field): the smallest x, then y (then z)
         ties = np.flatnonzero(risk == risk.max())
-        i = int(ties[np.lexsort((cs.midpoints[ties, 1], cs.midpoints[ties, 0]))[0]])
-        best = (float(risk[i]), *map(float, cs.midpoints[i]), float(phi[i]), int(mode[i]))
+        keys = tuple(cp.midpoints[ties, k] for k in reversed(range(gdim)))
+        i = int(ties[np.lexsort(keys)[0]])
+        best = (
+            float(risk[i]),
+            tuple(map(float, cp.midpoints[i])),
+            tuple(map(float, cp.axis[i])),
+            int(mode[i]),
+        )
     rows = comm.allgather(best)
     top = max(r[0] for r in rows)
-    value, x, y, angle, m = min((r for r in rows if r[0] == top), key=lambda r: (r[1], r[2]))
-    normal = angle + 0.5 * math.pi
-    return RiskMaximum(
-        value,
-        (x, y),
-        (math.cos(normal), math.sin(normal)),
-        ("tension", "compression")[m],
-    )
+    value, x, axis, m = min((r for r in rows if r[0] == top), key=lambda r: r[1])
+    a = np.asarray(axis)
+    a = a if a[int(np.argmax(np.abs(a)))] >= 0 else -a
+    along = None
+    if gdim == 2:  # along the crack line: the sigma_1 angle phi (from the cell) + 90 degrees
+        normal = math.atan2(axis[1], axis[0]) + 0.5 * math.pi
+        along = (math.cos(normal), math.sin(normal))
+    return RiskMaximum(value, x, along, ("tension", "compression")[m], tuple(map(float, a)))

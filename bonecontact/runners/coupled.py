@@ -364,6 +364,7 @@ def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:
         "max_risk_location": info["location"],
         "max_risk_mode": info["mode"],
         "max_risk_crack_direction": info["crack_direction"],
+        "max_risk_crack_normal": info["crack_normal"],
     }
 
 

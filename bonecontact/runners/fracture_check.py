@@ -18,11 +18,16 @@ from bonecontact.fracture import risk_field
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.scene import Scene
 
-__all__ = ["FRACTURE_HISTORY_COLUMNS", "FractureMonitor"]
+__all__ = ["FRACTURE_HISTORY_COLUMNS", "FractureMonitor", "fracture_history_columns"]
 
-#: history.csv columns of a scene with ``[fracture]``: the largest risk of the state and
-#: the midpoint of its cell (m).
+#: history.csv columns of a 2D scene with ``[fracture]``: the largest risk of the state
+#: and the midpoint of its cell (m); a 3D scene adds ``max_risk_z``.
 FRACTURE_HISTORY_COLUMNS = ("max_risk", "max_risk_x", "max_risk_y")
+
+
+def fracture_history_columns(dim: int) -> tuple[str, ...]:
+    """The history.csv columns of the fracture check of a ``dim``-dimensional scene."""
+    return FRACTURE_HISTORY_COLUMNS + (("max_risk_z",) if dim == 3 else ())
 
 
 def _cell_strengths(scene: Scene, model: Mechanics, tag: dict[str, int], key: str) -> np.ndarray:
@@ -64,7 +69,7 @@ class FractureMonitor:
             self.peak = (mx, t, step)
         if self.initiation is None and mx.value >= 1.0:
             self.initiation = (t, step)
-        return [mx.value, mx.location[0], mx.location[1]]
+        return [mx.value, *mx.location]
 
     def summary(self) -> dict[str, Any]:
         """The ``fracture`` entry of summary.json."""
@@ -78,7 +83,8 @@ class FractureMonitor:
             time=t,
             step=step,
             mode=mx.mode,
-            crack_direction=list(mx.crack_direction),
+            crack_direction=None if mx.crack_direction is None else list(mx.crack_direction),
+            crack_normal=list(mx.crack_normal),
             initiated=self.initiation is not None,
             initiation_time=None if self.initiation is None else self.initiation[0],
         )

@@ -32,7 +32,7 @@ from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
-from bonecontact.runners.fracture_check import FRACTURE_HISTORY_COLUMNS, FractureMonitor
+from bonecontact.runners.fracture_check import FractureMonitor, fracture_history_columns
 from bonecontact.runners.plausibility import (
     SMALL_STRAIN_LIMIT,
     StrainMonitor,
@@ -289,7 +289,7 @@ class Recorder:
             tag = {name: t for name, (d, t) in sm.groups.items()}
             self.fracture = FractureMonitor(scene, sm.model, integ.u, tag)
         extra = (tuple(ENERGY_COLUMNS) if dynamic else ()) + (
-            FRACTURE_HISTORY_COLUMNS if self.fracture is not None else ()
+            fracture_history_columns(sm.model.dim) if self.fracture is not None else ()
         )
         self.writer = ResultsWriter(
             comm,

@@ -870,9 +870,14 @@ def _read_fracture(
     entries = _array_of_tables(doc, "crack")
     if tab is None and not entries:
         return None, ()
-    label = "[fracture]" if tab is not None else "[[crack]]"
-    if dim != 2:
-        raise SceneError(None, label, None, "fracture is supported in 2D only by this version")
+    if dim != 2 and entries:
+        raise SceneError(
+            None,
+            "[[crack]]",
+            None,
+            "cracks in scenes are 2D in this version (a 3D scene takes the [fracture] "
+            "initiation check; K along a planar 3D front: bonecontact.fracture.front3d)",
+        )
     if has_neoplasm and entries:
         raise SceneError(
             None,
@@ -885,6 +890,11 @@ def _read_fracture(
         spec = fracture_from_table(tab.data if tab is not None else {})
     except FractureError as exc:
         raise SceneError(None, "[fracture]", exc.key, _fracture_message(exc)) from None
+    for key in ("propagate", "initiate"):
+        if dim != 2 and getattr(spec, key):
+            raise SceneError(
+                None, "[fracture]", key, "runs in 2D scenes in this version (3D: the risk only)"
+            )
     cracks = []
     for i, entry in enumerate(entries):
         try:

@@ -150,3 +150,35 @@ def test_risk_field_on_ranks_without_cells():
     sigma_t[:1] = np.nan  # not given for one cell (on rank 0 only)
     with pytest.raises(FractureError, match="sigma_t"):
         risk_field(model, u, sigma_t)
+
+
+def test_risk_field_3d_uniform_state():
+    """u = G x in a 3D box (exact in P1: the uniform stress σ = λ tr ε I + 2μ ε, ε the
+    symmetric part of G): every cell's risk is the largest eigenvalue of σ over σ_t (or
+    −smallest/σ_c), the crack normal is its eigenvector, the location a cell midpoint,
+    the same on every rank."""
+    msh = dmesh.create_box(COMM, [[0.0, 0.0, 0.0], [1.0, 0.5, 0.5]], [4, 2, 2])
+    model = Mechanics(msh, MAT)
+    G = np.array([[1e-4, 4e-5, -2e-5], [1e-5, -3e-4, 5e-5], [0.0, 2e-5, 2e-4]])
+    u = fem.Function(model.V)
+    u.interpolate(lambda x: G @ x)
+    eps = 0.5 * (G + G.T)
+    sig = MAT.lmbda * np.trace(eps) * np.eye(3) + 2 * MAT.mu * eps
+    w, v = np.linalg.eigh(sig)
+    f, mx = risk_field(model, u, 10e6)
+    owned = f.function_space.dofmap.index_map.size_local
+    np.testing.assert_allclose(f.x.array[:owned], w[2] / 10e6, rtol=1e-9)
+    assert mx.value == pytest.approx(w[2] / 10e6, rel=1e-9) and mx.mode == "tension"
+    assert mx.crack_direction is None and len(mx.location) == 3
+    assert abs(float(np.dot(mx.crack_normal, v[:, 2]))) == pytest.approx(1.0, rel=1e-9)
+    mids = dmesh.compute_midpoints(msh, 3, np.arange(msh.topology.index_map(3).size_local))
+    all_mids = np.concatenate(COMM.allgather(mids))
+    assert np.min(np.linalg.norm(all_mids - np.array(mx.location), axis=1)) < 1e-12  # a cell
+    assert (
+        COMM.allgather((mx.location, mx.crack_normal))
+        == [(mx.location, mx.crack_normal)] * COMM.size
+    )
+    f, mx = risk_field(model, u, 10e6, 5e6, "tension_compression")
+    expected = max(w[2] / 10e6, -w[0] / 5e6)
+    assert mx.value == pytest.approx(expected, rel=1e-9)
+    assert mx.mode == ("compression" if -w[0] / 5e6 > w[2] / 10e6 else "tension")

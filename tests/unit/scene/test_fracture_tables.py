@@ -161,10 +161,13 @@ def test_missing_strength_names_material_and_key(
     assert "[fracture]" in exc.message
 
 
-def test_bad_strength_and_3d_refused(tmp_path: Path) -> None:
+def test_bad_strength_and_what_3d_refuses(tmp_path: Path) -> None:
     exc = _error(tmp_path, _scene(strengths="sigma_t = -5.0", tail="\n[fracture]\n"))
     assert (exc.table, exc.key) == ('[[material]] #1 "cortical"', "sigma_t")
     assert "> 0" in exc.message
     text3d = _scene(dim=3, tail="\n[fracture]\n").replace("[0.0, 0.0]", "[0.0, 0.0, 0.0]")
-    exc = _error(tmp_path, text3d)
-    assert exc.table == "[fracture]" and "2D only" in exc.message
+    assert load_scene(_write(tmp_path, text3d)).fracture == FractureSpec()  # the risk check
+    exc = _error(tmp_path, text3d + "propagate = true\nincrement = 1e-3\n")
+    assert (exc.table, exc.key) == ("[fracture]", "propagate") and "2D" in exc.message
+    exc = _error(tmp_path, text3d.replace("[fracture]", FRACTURE))
+    assert exc.table == "[[crack]]" and "2D" in exc.message
