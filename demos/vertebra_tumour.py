@@ -373,8 +373,11 @@ if comm.rank == 0:
 # centred in the ligament between the lesion wall and the endplate, a quarter of the
 # ligament long, with two tips: the vertebral body has fractured when the crack has cut
 # through the ligament (a tip reaches the lesion or the endplate).  (A crack scene can
-# also insert the crack itself, `[fracture] initiate = true`, at the lesion's wall; the
-# flaw in the ligament keeps the two tips of this storyline.)
+# also insert the crack itself, `[fracture] initiate = true`: in this body, quick run,
+# it starts at the lesion's upper pole at 0.38 of the lifting load, normal to the hoop
+# tension, runs up and arrests 1.3 mm below the upper endplate, where the endplate's
+# compression closes its faces ($K_I < 0$).  The flaw in the ligament follows the
+# storyline to a fracture.)
 #
 # The load ramps in four steps from the standing load to the lifting load; at every step
 # the tip's $K_I$, $K_{II}$ come from the interaction integral (crack-face contact tractions
