@@ -345,10 +345,10 @@ class CystShapeModel:
         self.motion.move(disp)
         self.f = f
         self._vn = delta / dt
+        if self.remesh_every and (self.steps + 1) % self.remesh_every == 0:
+            self.remesh()  # a RemeshError leaves t and steps at the last completed step
         self.t += dt
         self.steps += 1
-        if self.remesh_every and self.steps % self.remesh_every == 0:
-            self.remesh()
 
     # ------------------------------------------------------------------ remeshing
     def remesh(self) -> None:

@@ -260,7 +260,7 @@ class TumourModel:
         if remesh_every < 0:
             raise TumourError("remesh_every must be >= 0 (0 = never remesh)")
         self.remesh_every = int(remesh_every)
-        self.smoothed_remeshes = 0  # 3D remeshes that needed the moved surface smoothed
+        self.smoothed_remeshes = 0  # remeshes that needed the moved boundary smoothed
         self.t = 0.0
         self.steps = 0
         self.timer = PhaseTimer()  # wall time of each phase of the steps, accumulated
@@ -572,22 +572,25 @@ class TumourModel:
             self.motion.apply(w)  # the extension of disp, solved above
         with self.timer.phase("reaction"):
             self._react(dt)
+        if self.remesh_every and (self.steps + 1) % self.remesh_every == 0:
+            self.remesh()  # a RemeshError leaves t and steps at the last completed step
         self.t += dt
         self.steps += 1
-        if self.remesh_every and self.steps % self.remesh_every == 0:
-            self.remesh()
 
     # ------------------------------------------------------------------ remeshing
     def remesh(self) -> None:
-        """Rebuild the mesh from the current boundary and transfer the fields (collective)."""
+        """Rebuild the mesh from the current boundary and transfer the fields (collective).
+
+        If gmsh fails, the boundary is smoothed and meshed again, then with half the size
+        (:func:`bonecontact.neoplasm.remesh.moved_curve_mesh`, ``moved_surface_mesh``)
+        before :class:`bonecontact.neoplasm.remesh.RemeshError` is raised."""
         with self.timer.phase("gmsh"):
             b = self.boundary()
             if self.dim == 2:
-                pts = remesh.resample_closed_curve(b.points, self.h)
-                msh = remesh.polygon_mesh(pts, self.h, self.comm)
+                msh, smoothed = remesh.moved_curve_mesh(b.points, self.h, self.comm)
             else:
                 msh, smoothed = remesh.moved_surface_mesh(b.points, b.facets, self.h, self.comm)
-                self.smoothed_remeshes += int(smoothed)
+            self.smoothed_remeshes += int(smoothed)
         old = self.fields
         old_w = self._w
         old_solvers = (self.motion, self._laplacian)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
+import math
 import os
 import re
 import shutil
@@ -48,7 +49,9 @@ from bonecontact.mechanics.integrator import Integrator
 __all__ = [
     "FORMAT_VERSION",
     "KEEP",
+    "KIND",
     "CheckpointError",
+    "CheckpointSchedule",
     "Checkpointer",
     "InputOrder",
     "RunCounters",
@@ -67,6 +70,8 @@ __all__ = [
 FORMAT_VERSION = 1
 #: How many complete checkpoints a run keeps (the newest ones).
 KEEP = 2
+#: The ``kind`` of a mechanics checkpoint's meta.json.
+KIND = "bonecontact mechanics checkpoint"
 _NAME = re.compile(r"^step_(\d{8})$")
 _TABLES = ("history.csv", "probes.csv")
 
@@ -277,7 +282,7 @@ def write_checkpoint(
     st = integ.state()
     meta = {
         "format": FORMAT_VERSION,
-        "kind": "bonecontact mechanics checkpoint",
+        "kind": KIND,
         "bonecontact_version": __version__,
         "step": integ.step_count,
         "time": integ.t,
@@ -648,6 +653,39 @@ class StopRequest:
         return int(comm.allreduce(self.signum, op=MPI.MAX))
 
 
+class CheckpointSchedule:
+    """When periodic checkpoints are due: every ``every`` steps, after the first step that
+    reaches each multiple of ``interval`` of simulated time, and after the last step when
+    either is set (0 turns each off).
+
+    Parameters
+    ----------
+    every
+        Steps between checkpoints (``[output] checkpoint_every``).
+    interval
+        Simulated time between checkpoints, s (``[output] checkpoint_time``).
+    t0
+        The time the run starts (or continues) from, s.
+    """
+
+    def __init__(self, every: int, interval: float, t0: float = 0.0):
+        self.every, self.interval = int(every), float(interval)
+        self.t_last = float(t0)
+
+    def _slot(self, t: float) -> int:
+        """How many whole intervals ``t`` has reached (a relative 1e-9 of slack for the
+        round-off of summed steps)."""
+        return math.floor(t / self.interval + 1e-9)
+
+    def due(self, step: int, t: float, last: bool) -> bool:
+        """Whether a checkpoint is due after ``step``, which reached time ``t`` (call once
+        per step)."""
+        by_time = self.interval > 0 and self._slot(t) > self._slot(self.t_last)
+        self.t_last = float(t)
+        by_step = self.every > 0 and step % self.every == 0
+        return by_step or by_time or (last and (self.every > 0 or self.interval > 0))
+
+
 def signal_name(signum: int) -> str:
     """``"SIGTERM"`` for 15, etc."""
     try:
@@ -671,10 +709,21 @@ class Checkpointer:
     info
         Entries that must agree between a checkpoint and the run continuing it
         (scene name, analysis kind, dt).
+    interval
+        Also write one after the first step that reaches each multiple of this much
+        simulated time, s (0: none).
     """
 
-    def __init__(self, output: Path, integ: Integrator, every: int, info: dict[str, Any]):
+    def __init__(
+        self,
+        output: Path,
+        integ: Integrator,
+        every: int,
+        info: dict[str, Any],
+        interval: float = 0.0,
+    ):
         self.output, self.integ, self.every = Path(output), integ, int(every)
+        self.schedule = CheckpointSchedule(every, interval, integ.t)
         self.comm = integ.model.mesh.comm
         self.info = dict(info)
         self.counters = RunCounters(e0=integ.balance.total)
@@ -701,6 +750,11 @@ class Checkpointer:
             On every rank, before any file is changed.
         """
         path, meta = find_checkpoint(self.output, self.comm, None if not named else Path(named))
+        if meta.get("kind") != KIND:
+            raise CheckpointError(
+                f"checkpoint {path} is a {meta.get('kind')!r}, not a mechanics run's: "
+                "a restart continues the same scene"
+            )
         for key, value in self.info.items():
             if meta.get(key) != value:
                 raise CheckpointError(
@@ -709,6 +763,7 @@ class Checkpointer:
                 )
         self.counters = read_checkpoint(path, meta, self.integ)
         self.counters.segment += 1
+        self.schedule.t_last = self.integ.t
         trim_tables(self.output, int(meta["step"]), self.comm)
         self.restarted_from = {
             "checkpoint": str(path),
@@ -726,13 +781,13 @@ class Checkpointer:
             self.counters.bound_updates.append(int(bound_updates or 0))
 
     def after_step(self, last: bool = False) -> int:
-        """Between steps (collective): write a checkpoint when one is due (every
-        ``every`` steps and after the ``last`` one) or a signal came.
+        """Between steps (collective): write a checkpoint when one is due
+        (:class:`CheckpointSchedule`) or a signal came.
 
         Returns the signal number (0: go on)."""
         self.signum = self.stop.agreed(self.comm)
-        step = self.integ.step_count
-        if self.signum or (self.every > 0 and (step % self.every == 0 or last)):
+        due = self.schedule.due(self.integ.step_count, self.integ.t, last)
+        if self.signum or due:
             self.write()
         return self.signum
 
@@ -749,6 +804,7 @@ class Checkpointer:
         out: dict[str, Any] = {
             "checkpoints": {
                 "every": self.every,
+                "time": self.schedule.interval,
                 "written": self.written,
                 "write_time_s": self.time_s,
                 "last": None if self.last is None else str(self.last),

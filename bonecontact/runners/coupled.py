@@ -118,7 +118,7 @@ def mechanics_scene(scene: Scene, hm: HostMesh, pressure: float | None, output: 
         neoplasm=None,
         materials=materials,
         loads=loads,
-        output=replace(scene.output, directory=output, checkpoint_every=0),
+        output=replace(scene.output, directory=output, checkpoint_every=0, checkpoint_time=0.0),
     )
 
 

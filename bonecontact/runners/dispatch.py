@@ -72,7 +72,7 @@ def run_scene(
     if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
         return run_coupled(scene, comm, output, progress, restart)
     if is_crack_scene(scene):  # a given or initiated crack: re-meshed body, face pair, fracture.csv
-        if restart or scene.output.checkpoint_every:
+        if restart or scene.output.checkpoints:
             raise SceneError(
                 scene.path,
                 "[output]",

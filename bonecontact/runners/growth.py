@@ -226,7 +226,8 @@ def growth_checkpointer(
     neo = scene.neoplasm
     assert neo is not None
     info = {"scene": scene.name, "run": run, "dt": neo.dt, "remesh_every": neo.remesh_every}
-    return GrowthCheckpointer(outdir, driver, comm, scene.output.checkpoint_every, info)
+    out = scene.output
+    return GrowthCheckpointer(outdir, driver, comm, out.checkpoint_every, info, out.checkpoint_time)
 
 
 def run_growth(

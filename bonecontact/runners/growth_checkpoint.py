@@ -49,6 +49,7 @@ from bonecontact.neoplasm.remesh import mesh_from_cells
 from bonecontact.runners.checkpoint import (
     FORMAT_VERSION,
     CheckpointError,
+    CheckpointSchedule,
     InputOrder,
     StopRequest,
     find_checkpoint,
@@ -277,12 +278,22 @@ class GrowthCheckpointer:
         Write a checkpoint every this many growth steps (0: only when stopped by a signal).
     info
         Entries that must agree between a checkpoint and the run continuing it.
+    interval
+        Also write one after the first growth step that reaches each multiple of this
+        much simulated time, s (0: none).
     """
 
     def __init__(
-        self, output: Path, driver: Driver, comm: MPI.Comm, every: int, info: dict[str, Any]
+        self,
+        output: Path,
+        driver: Driver,
+        comm: MPI.Comm,
+        every: int,
+        info: dict[str, Any],
+        interval: float = 0.0,
     ):
         self.output, self.driver, self.comm, self.every = Path(output), driver, comm, int(every)
+        self.schedule = CheckpointSchedule(every, interval, driver.t)
         self.info = dict(info)
         self.stop = StopRequest()
         self.restarted_from: dict[str, Any] | None = None
@@ -318,6 +329,7 @@ class GrowthCheckpointer:
                     "a restart continues the same scene"
                 )
         read_growth_state(path, meta, self.driver, self.comm)
+        self.schedule.t_last = self.driver.t
         trim_rows(self.output / "growth.csv", int(meta["step"]) + 1, self.comm)
         self.restarted_from = {
             "checkpoint": str(path),
@@ -329,13 +341,13 @@ class GrowthCheckpointer:
         return meta
 
     def after_step(self, last: bool, content: dict[str, Any]) -> int:
-        """Between growth steps (collective): write a checkpoint when one is due (every
-        ``every`` steps and after the ``last`` one) or a signal came.
+        """Between growth steps (collective): write a checkpoint when one is due
+        (:class:`bonecontact.runners.checkpoint.CheckpointSchedule`) or a signal came.
 
         Returns the signal number (0: go on)."""
         self.signum = max(self.signum, self.stop.agreed(self.comm))
-        step = self.driver.steps
-        if self.signum or (self.every > 0 and (step % self.every == 0 or last)):
+        due = self.schedule.due(self.driver.steps, self.driver.t, last)
+        if self.signum or due:
             self.write(content)
         return self.signum
 
@@ -353,6 +365,7 @@ class GrowthCheckpointer:
         out: dict[str, Any] = {
             "checkpoints": {
                 "every": self.every,
+                "time": self.schedule.interval,
                 "written": self.written,
                 "write_time_s": self.time_s,
                 "last": None if self.last is None else str(self.last),

@@ -515,8 +515,9 @@ def run_mechanics(
     with timer.phase("solver_setup"):  # assembly, factorisation or preconditioner
         integ = scene_integrator(scene, sm, dt, dynamic)
         integ.set_initial(None, sm.v0)
+    out = scene.output
     ckpt = Checkpointer(
-        outdir, integ, scene.output.checkpoint_every, _checkpoint_info(scene, sm, dt)
+        outdir, integ, out.checkpoint_every, _checkpoint_info(scene, sm, dt), out.checkpoint_time
     )
     if restart:
         with timer.phase("checkpoint"):

@@ -114,7 +114,7 @@ TRACTION_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 PRESSURE_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 BODY_FORCE_KEYS = ("regions", "value") + SCHEDULE_KEYS
 INITIAL_VELOCITY_KEYS = ("regions", "value")
-OUTPUT_KEYS = ("directory", "fields_every", "probes", "checkpoint_every")
+OUTPUT_KEYS = ("directory", "fields_every", "probes", "checkpoint_every", "checkpoint_time")
 
 #: Tables that later capabilities will add (rejected with a clearer message until then).
 FUTURE_TABLES: tuple[str, ...] = ()
@@ -657,6 +657,7 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
         directory = Path.cwd() / directory
     fields_every = tab.integer("fields_every", default=1, minimum=0)
     checkpoint_every = tab.integer("checkpoint_every", default=0, minimum=0)
+    checkpoint_time = tab.number("checkpoint_time", default=0.0, nonnegative=True)
     raw = tab.raw("probes", False)
     probes: tuple[tuple[float, ...], ...] = ()
     if raw is not _MISSING:
@@ -673,6 +674,7 @@ def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
         fields_every=fields_every,
         probes=probes,  # type: ignore[arg-type]
         checkpoint_every=checkpoint_every,  # type: ignore[arg-type]
+        checkpoint_time=checkpoint_time,  # type: ignore[arg-type]
     )
 
 

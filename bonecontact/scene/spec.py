@@ -346,12 +346,22 @@ class OutputSpec:
     checkpoint_every
         Write a restart checkpoint every this many steps (docs/checkpoint.md); 0: none
         (an interrupted run still writes one).
+    checkpoint_time
+        Also write one after the first step that reaches each multiple of this much
+        simulated time (s); 0: none.
     """
 
     directory: Path = field(default_factory=lambda: Path.cwd() / "results")
     fields_every: int = 1
     probes: tuple[tuple[float, ...], ...] = ()
     checkpoint_every: int = 0
+    checkpoint_time: float = 0.0
+
+    @property
+    def checkpoints(self) -> bool:
+        """Whether periodic checkpoints are asked for (``checkpoint_every`` or
+        ``checkpoint_time``)."""
+        return self.checkpoint_every > 0 or self.checkpoint_time > 0
 
 
 @dataclass(frozen=True)

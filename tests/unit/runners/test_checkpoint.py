@@ -37,6 +37,7 @@ from bonecontact.contact.pdas import ContactSolver
 from bonecontact.runners.checkpoint import (
     FORMAT_VERSION,
     CheckpointError,
+    CheckpointSchedule,
     InputOrder,
     RunCounters,
     find_checkpoint,
@@ -246,3 +247,52 @@ def test_failed_checkpoint_write_stops_the_run_cleanly(tmp_shared_path, monkeypa
     assert [p.name for p in (out / "checkpoints").iterdir()] == ["step_00000004"]
     monkeypatch.setattr(os, "fsync", fsync)
     assert find_checkpoint(out, MPI.COMM_WORLD)[1]["step"] == 4
+
+
+def test_schedule_by_simulated_time():
+    """``checkpoint_time`` T: due after the first step reaching each multiple of T.  Steps
+    of 0.1 s summed in floating point (0.1 + 0.1 + 0.1 != 0.3) against T = 0.25 s: due
+    after steps k with floor(2k/5) > floor(2(k-1)/5), in integers: 3, 5, 8, 10; with
+    ``checkpoint_every`` = 4 also 4 and 8; the last step always when either is set."""
+    by_time, both, last_only = [], [], []
+    s1, s2, s3 = CheckpointSchedule(0, 0.25), CheckpointSchedule(4, 0.25), CheckpointSchedule(0, 0)
+    t = 0.0
+    for k in range(1, 12):
+        t += 0.1
+        last = k == 11
+        for sched, due in ((s1, by_time), (s2, both), (s3, last_only)):
+            if sched.due(k, t, last):
+                due.append(k)
+    expected = [k for k in range(1, 12) if (2 * k) // 5 > (2 * (k - 1)) // 5]
+    assert expected == [3, 5, 8, 10]
+    assert by_time == expected + [11]
+    assert both == [3, 4, 5, 8, 10, 11]
+    assert last_only == []  # nothing periodic: only a signal writes one
+
+
+def test_checkpoint_time_in_a_run(tmp_shared_path):
+    """``[output] checkpoint_time = 3.5e-4`` s with Δt = 1e-4 s over 12 steps: checkpoints
+    after steps 4, 7, 11 (floor(k/3.5) increases) and 12 (the last); the last two kept.
+    A negative value is refused naming the key."""
+    from bonecontact.scene import SceneError
+
+    scene = _scene(tmp_shared_path, 1.2e-3)
+    text = scene.path.read_text().replace("checkpoint_every = 4", "checkpoint_time = 3.5e-4")
+    toml = tmp_shared_path / "by_time.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        toml.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    out = tmp_shared_path / "out"
+    res = run_mechanics(load_scene(toml), output=out, progress=False)
+    assert res.status == "converged" and res.summary["steps"] == 12
+    info = res.summary["checkpoints"]
+    assert info["written"] == 4 and info["time"] == 3.5e-4 and info["every"] == 0
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
+        "step_00000011",
+        "step_00000012",
+    ]
+    if MPI.COMM_WORLD.rank == 0:
+        toml.write_text(text.replace("checkpoint_time = 3.5e-4", "checkpoint_time = -1.0"))
+    MPI.COMM_WORLD.barrier()
+    with pytest.raises(SceneError, match=r"\[output\].*checkpoint_time.*>= 0"):
+        load_scene(toml)

@@ -23,7 +23,8 @@ checkpoints, on the same number of ranks unless said otherwise):
 * another number of ranks (2 -> 1): supported; the tables agree to 1e-10 (round-off).
 * SIGTERM (1 and 2 ranks): exit 143, status "interrupted", a checkpoint of the last step;
   the restart completes the run with the uninterrupted rows.
-* refused restarts exit 2 naming the problem: no checkpoint, another dt, another scene.
+* refused restarts exit 2 naming the problem: no checkpoint, another dt, another scene,
+  a growth checkpoint for a mechanics scene.
 
 The default suite runs the serial cases, the 2-rank kill of the growth scene and the
 2 -> 1 restart of the growth scene (7 tests: 6 min wall on the shared 2-core machine
@@ -397,4 +398,10 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert "Traceback" not in res.stderr
     res = run_scene(case["scenes"]["coupled", 1], out, 1, "--restart")  # another scene
     assert res.returncode == 2 and "scene = 'tumour'" in res.stderr, res.stderr
+    plate = tmp_path / "plate_only.toml"  # the coupled scene without growth: mechanics
+    text = case["scenes"]["coupled", 1].read_text()
+    plate.write_text(text[: text.index("[neoplasm]")] + text[text.index("[output]") :])
+    res = run_scene(plate, out, 1, "--restart")
+    assert res.returncode == 2, res.stderr
+    assert "'bonecontact growth checkpoint', not a mechanics run's" in res.stderr, res.stderr
     assert len(_rows(out / "growth.csv")) == 5  # nothing changed

@@ -611,3 +611,169 @@ def test_failed_growth_step_exit_1_rows_kept(shared_dir, monkeypatch):
     assert s["status"] == "failed" and s["growth"]["steps"] == 2
     assert "growth step 3" in s["message"] and "simulated remesh failure" in s["message"]
     assert s["growth"]["final_radius"] == g[-1, 3]
+
+
+def test_remesh_failure_after_retries_keeps_the_last_checkpoint(shared_dir, monkeypatch):
+    """gmsh fails on every remesh from growth step 3 on (injected: every call of
+    ``remesh.polygon_mesh`` raises RemeshError on every rank, as a gmsh error broadcast
+    from rank 0 does): the remesh is tried with the moved boundary, the smoothed one and
+    the smoothed one at half the size, then the run stops: exit 1, status "failed", the
+    message names the step and the three attempts; growth.csv holds the rows of steps
+    0-2, the checkpoint of step 2 is intact and continues, without the fault, to the rows
+    of an uninterrupted run (to 1e-10)."""
+    import json
+
+    from bonecontact.neoplasm import growth, remesh
+
+    text = TUMOUR.replace("t_end = 3.0", "t_end = 1.0").replace(
+        'directory = "{out}"', 'directory = "{out}"\ncheckpoint_every = 1'
+    )
+    ref = shared_dir / "out-remesh-ref"
+    assert main(["run", str(_write(shared_dir, "ref.toml", text.format(out=ref))), "-q"]) == 0
+    out = shared_dir / "out-remesh-fail"
+    scene = _write(shared_dir, "remesh_fail.toml", text.format(out=out))
+
+    attempts = []
+    real_polygon, real_step = remesh.polygon_mesh, growth.TumourGrowth.step
+
+    def polygon_mesh(points, h, comm):
+        if armed:
+            attempts.append(h)
+            raise remesh.RemeshError("injected: gmsh could not mesh the curve")
+        return real_polygon(points, h, comm)
+
+    def step(self, dt):
+        nonlocal armed
+        armed = self.steps == 2
+        real_step(self, dt)
+
+    armed = False
+    monkeypatch.setattr(remesh, "polygon_mesh", polygon_mesh)
+    monkeypatch.setattr(growth.TumourGrowth, "step", step)
+    assert main(["run", str(scene), "-q"]) == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "failed" and s["growth"]["steps"] == 2
+    assert "growth step 3" in s["message"] and "gmsh failed 3 times" in s["message"]
+    assert "smoothed boundary, size × 0.5" in s["message"]
+    assert attempts == [0.25, 0.25, 0.125]  # the size of each attempt (h = 0.25)
+    _, g = _read_growth(out / "growth.csv")
+    np.testing.assert_allclose(g[:, 0], [0.0, 0.2, 0.4], rtol=1e-14)
+    ckpts = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert ckpts == ["step_00000001", "step_00000002"]
+
+    monkeypatch.undo()
+    assert main(["run", str(scene), "-q", "--restart"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "converged" and s["restarted_from"]["step"] == 2
+    (_, g), (_, gr) = _read_growth(out / "growth.csv"), _read_growth(ref / "growth.csv")
+    assert g.shape == gr.shape == (6, 4)
+    np.testing.assert_allclose(g, gr, rtol=1e-10, atol=0)
+
+
+CYST_RESTART = """format = 1
+[scene]
+name = "cyst_restart"
+dimension = 2
+
+[neoplasm]
+kind = "cyst"
+radius = 2.0e-3
+t_end = {t_end!r}
+dt = {dt!r}
+remesh_every = 2
+
+[neoplasm.cyst]
+model = "{model}"
+strain = "log"
+beta = 3.2e-11
+C_minus = 1.0
+
+[output]
+directory = "{out}"
+checkpoint_every = 2
+"""
+
+
+@pytest.mark.parametrize("model", ["sphere", "shape"])
+def test_cyst_restart_equals_uninterrupted(shared_dir, model):
+    """A cyst run stopped after step 5 (checkpoints of steps 4 and 5 kept) and continued
+    from step 4 to step 8 gives growth.csv (pressure included) of the uninterrupted
+    8-step run to 1e-10, every row once; remesh counts and final pressure equal.  The
+    ODE cyst's checkpoint holds (R, f); the moving-wall cyst's the wall mesh, its last
+    wall velocity and the strain and size references."""
+    import json
+
+    dt = YEAR / 12
+    text = CYST_RESTART.replace("{model}", model)
+    ref, out = shared_dir / f"cyst-{model}-ref", shared_dir / f"cyst-{model}-out"
+    full = _write(shared_dir, f"cyst_{model}.toml", text.format(t_end=8 * dt, dt=dt, out=ref))
+    assert main(["run", str(full), "-q"]) == 0
+    short = _write(shared_dir, f"cyst_{model}_5.toml", text.format(t_end=5 * dt, dt=dt, out=out))
+    assert main(["run", str(short), "-q"]) == 0
+    names = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert names == ["step_00000004", "step_00000005"]
+    cont = _write(shared_dir, f"cyst_{model}_cont.toml", text.format(t_end=8 * dt, dt=dt, out=out))
+    ckpt = out / "checkpoints" / "step_00000004"
+    assert main(["run", str(cont), "-q", "--restart", str(ckpt)]) == 0
+    (h1, g1), (h2, g2) = _read_growth(ref / "growth.csv"), _read_growth(out / "growth.csv")
+    assert h1 == h2 and h1[-1] == "pressure" and g1.shape == g2.shape == (9, 5)
+    np.testing.assert_allclose(g2, g1, rtol=1e-10, atol=0)
+    assert g1[-1, 3] > g1[0, 3] and g1[-1, 4] != g1[1, 4]  # it grows, the pressure changes
+    s1 = json.loads((ref / "summary.json").read_text())
+    s2 = json.loads((out / "summary.json").read_text())
+    assert s2["restarted_from"]["step"] == 4 and s2["status"] == "converged"
+    for key in ("steps", "remeshes", "final_pressure_Pa"):
+        assert s2["growth"].get(key) == pytest.approx(s1["growth"].get(key), rel=1e-10), key
+
+
+def test_checkpoint_time_in_a_growth_run(shared_dir):
+    """``[output] checkpoint_time = 0.3`` with growth steps of 0.2 over 5 steps:
+    checkpoints after steps 2 (t = 0.4), 3 (0.6) and 5 (1.0: a new multiple of 0.3, and
+    the last); the last two kept."""
+    import json
+
+    out = shared_dir / "out-by-time"
+    text = TUMOUR.replace("t_end = 3.0", "t_end = 1.0").replace(
+        'directory = "{out}"', 'directory = "{out}"\ncheckpoint_time = 0.3'
+    )
+    assert main(["run", str(_write(shared_dir, "by_time.toml", text.format(out=out))), "-q"]) == 0
+    info = json.loads((out / "summary.json").read_text())["checkpoints"]
+    assert info["written"] == 3 and info["time"] == 0.3 and info["every"] == 0
+    names = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert names == ["step_00000003", "step_00000005"]
+
+
+def test_full_disk_during_a_growth_checkpoint(shared_dir, monkeypatch):
+    """The disk fills while the checkpoint of growth step 3 is written (ENOSPC at its
+    fsync): every rank stops, exit 1, status "failed" with a message naming that
+    checkpoint; its temporary directory is gone, the checkpoints of steps 1 and 2 are
+    intact (the newest found on restart is step 2), growth.csv has the rows up to step 3."""
+    import errno
+    import json
+    import os
+
+    from bonecontact.runners.checkpoint import find_checkpoint
+
+    fsync = os.fsync
+
+    def full(fd: int) -> None:  # (Linux: the file of a descriptor from /proc)
+        if "step_00000003" in os.readlink(f"/proc/self/fd/{fd}"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        fsync(fd)
+
+    out = shared_dir / "out-full-disk"
+    text = TUMOUR.replace("t_end = 3.0", "t_end = 1.0").replace(
+        'directory = "{out}"', 'directory = "{out}"\ncheckpoint_every = 1'
+    )
+    scene = _write(shared_dir, "full_disk.toml", text.format(out=out))
+    monkeypatch.setattr(os, "fsync", full)
+    assert main(["run", str(scene), "-q"]) == 1
+    monkeypatch.setattr(os, "fsync", fsync)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "failed" and "step_00000003" in s["message"]
+    assert "No space left" in s["message"]
+    names = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert names == ["step_00000001", "step_00000002"]
+    assert find_checkpoint(out, MPI.COMM_WORLD)[1]["step"] == 2
+    _, g = _read_growth(out / "growth.csv")
+    np.testing.assert_allclose(g[:, 0], [0.0, 0.2, 0.4, 0.6], rtol=1e-14)

@@ -174,17 +174,18 @@ def test_restart_refused_with_a_message(case, tmp_path):
 
 
 def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
-    """SIGKILL to one of 2 ranks after step 5 (checkpoints every step): mpiexec ends
-    within 60 s with a failure status, no checkpoint is damaged (a half-written one
-    keeps its temporary name), and the restart completes the run with the
-    uninterrupted rows."""
+    """SIGKILL to one of 2 ranks once history.csv has the row of a step drawn by a
+    seeded generator from 2..17 (checkpoints every step): mpiexec ends within 60 s with
+    a failure status, no checkpoint is damaged (a half-written one keeps its temporary
+    name), and the restart completes the run with the uninterrupted rows."""
+    step = int(np.random.default_rng(20261127).integers(2, 18))
     scene = tmp_path / "every.toml"
     scene.write_text(
         case["full"].read_text().replace("checkpoint_every = 4", "checkpoint_every = 1")
     )
     out = tmp_path / "out"
     proc = start_scene(scene, out, 2)
-    wait_for_lines(proc, out / "history.csv", 7)
+    wait_for_lines(proc, out / "history.csv", step + 2)
     pids = rank_pids(out)
     assert len(pids) == 2, pids
     os.kill(pids[1], signal.SIGKILL)
@@ -198,4 +199,6 @@ def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
     assert res.returncode == 0, res.stderr
     _, hist_rows, _ = _table(out / "history.csv")
     assert hist_rows[:, 0].tolist() == list(range(21))
+    s = json.loads((out / "summary.json").read_text())
+    assert s["restarted_from"]["step"] >= step - 1, (step, s["restarted_from"])
     _assert_same_tables(case["refs"][2], out)
