@@ -15,8 +15,9 @@ grows during the run), 20 steps, checkpoints every 4 steps.
 * SIGTERM (1 and 2 ranks): exit 143, status "interrupted", a checkpoint of the last
   recorded step; the restart completes the run with the uninterrupted run's rows.
 * Refused restarts exit 2 with a message: no checkpoint, another time step.
-* One of 2 ranks killed (SIGKILL) mid-run: mpiexec ends within 60 s (no hang), and the
-  restart from the last intact checkpoint completes the run with the uninterrupted rows.
+* One rank killed (SIGKILL; serially the process, on 2 ranks rank 1) at a seeded step:
+  the run ends within 60 s (no hang), and the restart from the last intact checkpoint
+  completes the run with the uninterrupted rows.
 """
 
 from __future__ import annotations
@@ -173,32 +174,34 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert hist[:, 0].tolist() == list(range(11))  # nothing changed
 
 
-def test_one_rank_killed_no_hang_and_restart(case, tmp_path):
-    """SIGKILL to one of 2 ranks once history.csv has the row of a step drawn by a
-    seeded generator from 2..17 (checkpoints every step): mpiexec ends within 60 s with
-    a failure status, no checkpoint is damaged (a half-written one keeps its temporary
-    name), and the restart completes the run with the uninterrupted rows."""
-    step = int(np.random.default_rng(20261127).integers(2, 18))
+@pytest.mark.parametrize("n", [1, 2])
+def test_one_rank_killed_no_hang_and_restart(case, tmp_path, n):
+    """SIGKILL to one rank (serially the process, else rank 1 of 2) once history.csv has
+    the row of a step drawn by a seeded generator from 2..17 (checkpoints every step):
+    the run ends within 60 s with a failure status (mpiexec ends the other rank), no
+    checkpoint is damaged (a half-written one keeps its temporary name), and the restart
+    completes the run with the uninterrupted rows."""
+    step = int(np.random.default_rng([20261127, n]).integers(2, 18))
     scene = tmp_path / "every.toml"
     scene.write_text(
         case["full"].read_text().replace("checkpoint_every = 4", "checkpoint_every = 1")
     )
     out = tmp_path / "out"
-    proc = start_scene(scene, out, 2)
+    proc = start_scene(scene, out, n)
     wait_for_lines(proc, out / "history.csv", step + 2)
-    pids = rank_pids(out)
-    assert len(pids) == 2, pids
-    os.kill(pids[1], signal.SIGKILL)
+    pids = [proc.pid] if n == 1 else rank_pids(out)
+    assert len(pids) == n, pids
+    os.kill(pids[-1], signal.SIGKILL)
     try:
         res = finish(proc)
     except subprocess.TimeoutExpired:
         pytest.fail("the surviving rank hangs after one rank was killed")
     assert res.returncode != 0
     assert not (out / "summary.json").exists()
-    res = _run(scene, out, 2, "--restart")
+    res = _run(scene, out, n, "--restart")
     assert res.returncode == 0, res.stderr
     _, hist_rows, _ = _table(out / "history.csv")
     assert hist_rows[:, 0].tolist() == list(range(21))
     s = json.loads((out / "summary.json").read_text())
     assert s["restarted_from"]["step"] >= step - 1, (step, s["restarted_from"])
-    _assert_same_tables(case["refs"][2], out)
+    _assert_same_tables(case["refs"][n], out)
