@@ -84,7 +84,7 @@ from bonecontact.scene.checks import check_cracks_in_mesh
 from bonecontact.scene.errors import table_label
 from bonecontact.scene.spec import ContactSpec
 
-__all__ = ["CrackRun", "check_cracked", "is_crack_scene", "run_cracked"]
+__all__ = ["CrackRun", "check_cracked", "is_crack_scene", "run_cracked", "write_crack_path"]
 
 
 class FractureTable:
@@ -399,6 +399,17 @@ def _grow(crack: Crack2D, records: list[IncrementRecord], run: CrackRun) -> tupl
 
 
 # ------------------------------------------------------------------------- run
+def write_crack_path(path: Path, crack: Crack2D) -> None:
+    """The crack's polyline as a legacy VTK file (POLYDATA, one line; z = 0), to be shown
+    with the fields of the mesh it was cut into (ParaView, pyvista)."""
+    pts = crack.points
+    lines = ["# vtk DataFile Version 3.0", f"crack path, {len(pts)} points", "ASCII"]
+    lines += ["DATASET POLYDATA", f"POINTS {len(pts)} double"]
+    lines += [f"{float(x)!r} {float(y)!r} 0.0" for x, y in pts]
+    lines += [f"LINES 1 {len(pts) + 1}", " ".join(map(str, [len(pts), *range(len(pts))]))]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
 def _console(comm: MPI.Comm, progress: bool, text: str) -> None:
     if comm.rank == 0:
         tqdm.write(text) if progress else print(text, flush=True)
@@ -467,7 +478,7 @@ def run_cracked(
         crack = run.spec.crack
         sm, cm = build_cracked(scene, run, crack, comm, timer)
 
-    def start(sm: SceneModel, run: CrackRun, step: int, stem: str):
+    def start(sm: SceneModel, run: CrackRun, step: int, stem: str, crack: Crack2D | None):
         with timer.phase("solver_setup"):
             integ = scene_integrator(run.scene, sm, dt, False)
             integ.set_initial(None, sm.v0)
@@ -478,9 +489,11 @@ def run_cracked(
         )
         with timer.phase("output"):
             rec = Recorder(run.scene, sm, integ, comm, outdir, False, files)
+            if crack is not None and comm.rank == 0:
+                write_crack_path(outdir / f"{stem}_crack.vtk", crack)
         return integ, rec
 
-    integ, rec = start(sm, run, 0, "fields")
+    integ, rec = start(sm, run, 0, "fields", crack)
     every = scene.output.fields_every
     status, message = "converged", None
     increment, fractured_at, prop_status = 0, None, None
@@ -541,7 +554,7 @@ def run_cracked(
                 integ.destroy()
                 rec.writer.close()
                 sm, cm = build_cracked(scene, run, crack, comm, timer)
-                integ, rec = start(sm, run, k - 1, "fields_initiated")
+                integ, rec = start(sm, run, k - 1, "fields_initiated", crack)
                 continue  # the same load on the cracked body
             with timer.phase("fracture"):
                 records = evaluate_tips(sm, cm, integ.u, res, run, increment, k, integ.t)
@@ -579,7 +592,7 @@ def run_cracked(
                 integ.destroy()
                 rec.writer.close()
                 sm, cm = build_cracked(scene, run, crack, comm, timer)
-                integ, rec = start(sm, run, k - 1, f"fields_increment{increment}")
+                integ, rec = start(sm, run, k - 1, f"fields_increment{increment}", crack)
                 continue  # the same load on the longer crack
             if prop_status == "grows":
                 prop_status = "arrested"

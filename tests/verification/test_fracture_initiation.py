@@ -190,6 +190,13 @@ def test_crack_is_inserted_at_the_kirsch_load_at_the_hole_edge(serial: Path) -> 
     tips = list(csv.DictReader(open(serial / "fracture.csv")))
     assert [(int(r["step"]), int(r["tip"])) for r in tips] == [(3, -1), (4, -1)]
     assert (serial / "fields_initiated.xdmf").exists()
+    # the crack path with the fields of the cracked body (none before: no crack yet)
+    import pyvista
+
+    path = pyvista.read(serial / "fields_initiated_crack.vtk")
+    assert path.n_points == 2 and path.n_lines == 1
+    assert path.points[:, :2].ravel() == pytest.approx(sum(crack["points"], []), abs=1e-15)
+    assert not (serial / "fields_crack.vtk").exists()
     # an edge crack at the hole: Bowie's factor for a/R = 0.05 lies between F(0.1), F(0)
     last = tips[-1]
     a = float(last["length"])

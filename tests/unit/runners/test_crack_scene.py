@@ -244,6 +244,13 @@ def test_inclined_crack_kinks_by_mts_and_turns_normal_to_the_load(
         assert abs(_f(r, "K_II")) < 0.05 * _f(r, "K_I")
     assert info["propagation"]["status"] == "max_increments"
     assert info["propagation"]["fractured"] is False
+    # the crack path with each mesh's fields: the initial crack, then one per increment
+    import pyvista
+
+    first = pyvista.read(out / "fields_crack.vtk")
+    assert first.n_points == 2 and first.n_lines == 1
+    last = pyvista.read(out / "fields_increment3_crack.vtk")
+    np.testing.assert_allclose(last.points[:, :2], pts, rtol=0, atol=1e-15)
 
 
 @pytest.mark.slow
