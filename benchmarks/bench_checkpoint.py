@@ -1,20 +1,23 @@
 """Cost of a restart checkpoint against the cost of a step (docs/checkpoint.md).
 
-Each case is a scene run by the command line (``bonecontact run``, serially or under
-``mpiexec -n N``) with ``[output] checkpoint_every`` set, then continued with
-``--restart`` from its second-newest checkpoint.  Figures (all from ``summary.json``,
-slowest rank, and the files on disk):
+Each case is a scene run in-process as ``bonecontact run`` runs it
+(:func:`bonecontact.runners.dispatch.run_scene`) with ``[output] checkpoint_every`` set,
+then continued with ``restart`` from its second-newest checkpoint.  Run the script
+serially and under ``mpiexec -n 2``.  Figures (slowest rank):
 
-* *step* = the solve time of one step: ``phases_s.time_stepping`` (mechanics: the
-  steps' solves, contact included; no output) or ``phases_s.growth_steps`` (growth: the
-  steps, remeshing included) of the restarted run, divided by the number of steps it
-  ran (its forms are compiled by then); *step, first run* = the same over the whole
-  first run (it includes the just-in-time compilation of forms not yet in the cache);
-* *write* = ``checkpoints.write_time_s / checkpoints.written`` (the state gathered into
-  input order, ``state.h5``, ``mesh.vtkhdf``, ``meta.json``, fsync, rename);
+* *step* = the median wall time of a step after the first (``Integrator.step``, contact
+  solve included, or the growth driver's step, remeshing included; timed by wrapping
+  that method); *first step* = the first step of the run (it includes the forms'
+  just-in-time compilation when they are not cached, the first factorisation with
+  contact and caches built once), *first step after restart* = the same for the
+  restarted run (a restart pays these set-up costs again);
+* *write* = ``summary.json`` ``checkpoints.write_time_s / checkpoints.written`` (the
+  state gathered into input order, ``state.h5``, ``mesh.vtkhdf``, ``meta.json``, fsync,
+  rename);
 * *read* = the restarted run's ``phases_s.checkpoint`` less its own writes: finding
   and verifying the checkpoint (SHA-256 of ``state.h5``), reading it into the model
-  (growth: rebuilding and partitioning the mesh) and trimming the tables;
+  (growth: rebuilding and partitioning the mesh and setting the model up on it) and
+  trimming the tables;
 * *size* = the files of the last checkpoint (bytes), ``state.h5`` alone too;
 * *dofs* (mechanics) or *cells* (growth: the final mesh's).
 
@@ -32,26 +35,32 @@ Cases (the scenes of the other studies):
 * ``tumour3d``: a meshless 3D ball tumour (remeshed every step, nutrient with memory),
   6 steps.
 
-Usage:  python benchmarks/bench_checkpoint.py [--quick] [--ranks 1,2] [--cases a,b]
+Usage:  python benchmarks/bench_checkpoint.py [--quick] [--cases a,b]
             [--out benchmarks/results/checkpoint.csv]
+        mpiexec -n 2 python benchmarks/bench_checkpoint.py [--quick]
 
-Run it serially (it starts ``mpiexec`` itself for the 2-rank cases).  Rows are appended
-to the results file, with the machine, the date and the 1-minute load average at the
-start of each case.
+Rows are appended to the results file, with the machine, the date and the 1-minute load
+average at the start of each case.
 """
 
 from __future__ import annotations
 
+import dolfinx_solver  # noqa: F401  (before dolfinx / petsc4py)
+
 import argparse
 import csv
-import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -60,6 +69,10 @@ sys.path.insert(0, str(HERE))
 from bench_contact3d import SIZES  # noqa: E402
 from common import machine  # noqa: E402
 
+from bonecontact.mechanics.integrator import Integrator  # noqa: E402
+from bonecontact.neoplasm.growth import TumourGrowth  # noqa: E402
+from bonecontact.runners.dispatch import run_scene  # noqa: E402
+from bonecontact.scene import load_scene  # noqa: E402
 from bonecontact.verification.load_driven import (  # noqa: E402
     LOAD_DRIVEN_E,
     LOAD_DRIVEN_NU,
@@ -67,7 +80,7 @@ from bonecontact.verification.load_driven import (  # noqa: E402
     LOAD_DRIVEN_STIFFNESS_RATIO,
 )
 
-BIN = Path(sys.executable).parent
+COMM = MPI.COMM_WORLD
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 #: Contact zone scale of the 2D impact meshes (m), as in the restart tests.
 IMPACT_A = 5.0e-4
@@ -289,54 +302,84 @@ QUICK = ["impact2d_10k", "tumour2d"]
 
 
 # ----------------------------------------------------------------------------- runs
-def _run(scene: Path, out: Path, ranks: int, *extra: str) -> dict:
-    """``bonecontact run SCENE -q -o OUT EXTRA`` on ``ranks`` ranks; its summary.json."""
-    cmd = [str(BIN / "bonecontact"), "run", str(scene), "-q", "-o", str(out), *extra]
-    if ranks > 1:
-        cmd = [str(BIN / "mpiexec"), "-n", str(ranks), *cmd]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=ENV, stdin=subprocess.DEVNULL)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)}: exit {proc.returncode}\n{proc.stderr[-2000:]}")
-    return json.loads((out / "summary.json").read_text())
+class StepTimer:
+    """The wall time of every call of ``cls.step`` while it is installed (the benchmark's
+    instrumentation: the integrator's or the growth driver's step)."""
+
+    def __init__(self, cls: type):
+        self.cls, self.real, self.times = cls, cls.step, []
+        real, times = self.real, self.times
+
+        def step(obj, *args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return real(obj, *args, **kwargs)
+            finally:
+                times.append(time.perf_counter() - t0)
+
+        cls.step = step
+
+    def close(self) -> np.ndarray:
+        """Uninstall; the times of the steps, slowest rank (collective)."""
+        self.cls.step = self.real
+        t = np.array(self.times)
+        out = np.empty_like(t)
+        COMM.Allreduce(t, out, op=MPI.MAX)
+        return out
+
+
+def _run(scene_path: Path, out: Path, kind: str, restart: Path | None = None):
+    """Run the scene in-process (collective); the summary and the step times."""
+    timer = StepTimer(Integrator if kind == "mechanics" else TumourGrowth)
+    try:
+        res = run_scene(load_scene(scene_path), COMM, out, progress=False, restart=restart)
+    finally:
+        times = timer.close()
+    if res.status != "converged":
+        raise RuntimeError(f"{scene_path}: {res.status}: {res.summary.get('message')}")
+    return res.summary, times
 
 
 def _size(path: Path) -> int:
     return sum(p.stat().st_size for p in path.iterdir() if p.is_file())
 
 
-def measure(name: str, ranks: int, mesh_dir: Path) -> dict:
-    """Run case ``name`` with checkpoints, then restart it from the second-newest one."""
+def measure(name: str, mesh_dir: Path) -> dict:
+    """Run case ``name`` with checkpoints, then restart it from the second-newest one
+    (collective)."""
     write_scene, every, kind = CASES[name]
     load = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory(prefix=f"ckpt-{name}-") as tmp:
-        work = Path(tmp)
-        scene = write_scene(work, mesh_dir, every)
+    work = Path(COMM.bcast(tempfile.mkdtemp(prefix=f"ckpt-{name}-") if COMM.rank == 0 else None))
+    try:
+        scene = COMM.bcast(write_scene(work, mesh_dir, every) if COMM.rank == 0 else None)
         out = work / "out"
-        s = _run(scene, out, ranks)
+        s, times = _run(scene, out, kind)
         steps = int(s["steps"])
-        phase = "time_stepping" if kind == "mechanics" else "growth_steps"
-        first_s = float(s["phases_s"][phase]) / steps
         written = int(s["checkpoints"]["written"])
         write_s = float(s["checkpoints"]["write_time_s"]) / written
         ckpts = sorted(p for p in (out / "checkpoints").iterdir() if p.name.startswith("step_"))
-        size = _size(ckpts[-1])
-        state = (ckpts[-1] / "state.h5").stat().st_size
-        r = _run(scene, out, ranks, "--restart", str(ckpts[0]))
+        size, state = _size(ckpts[-1]), (ckpts[-1] / "state.h5").stat().st_size
+        r, times2 = _run(scene, out, kind, restart=ckpts[0])
         read_s = float(r["phases_s"]["checkpoint"]) - float(r["checkpoints"]["write_time_s"])
-        start = int(ckpts[0].name[5:])
-        assert r["restarted_from"]["step"] == start and int(r["steps"]) == steps
-        step_s = float(r["phases_s"][phase]) / (steps - start)  # forms compiled by now
+        assert r["restarted_from"]["step"] == int(ckpts[0].name[5:])
+        assert len(times) == steps and int(r["steps"]) == steps
+    finally:
+        COMM.barrier()
+        if COMM.rank == 0:
+            shutil.rmtree(work, ignore_errors=True)
+    step_s = float(np.median(times[1:]))  # the first step may compile forms, build caches
     dofs = s.get("dofs")
     cells = s.get("growth", {}).get("final_cells")
     return {
         "case": name,
         "kind": kind,
-        "ranks": ranks,
+        "ranks": COMM.size,
         "dofs": "" if dofs is None else dofs,
         "cells": "" if cells is None else cells,
         "steps": steps,
         "step_s": round(step_s, 4),
-        "step_first_run_s": round(first_s, 4),
+        "first_step_s": round(float(times[0]), 4),
+        "first_step_after_restart_s": round(float(times2[0]), 4),
         "write_s": round(write_s, 4),
         "read_s": round(read_s, 4),
         "size_mb": round(size / 1e6, 3),
@@ -352,19 +395,17 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
     ap.add_argument("--cases", default=None, help=f"comma-separated, of {', '.join(CASES)}")
-    ap.add_argument("--ranks", default="1,2")
     ap.add_argument("--mesh-dir", default=str(Path(tempfile.gettempdir()) / "bench_checkpoint"))
     ap.add_argument("--out", default=str(HERE / "results/checkpoint.csv"))
     args = ap.parse_args()
     names = args.cases.split(",") if args.cases else (QUICK if args.quick else DEFAULT)
-    ranks = [int(n) for n in args.ranks.split(",")]
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     for name in names:
-        for n in ranks:
-            row = measure(name, n, Path(args.mesh_dir))
-            row["date"] = time.strftime("%Y-%m-%d", time.gmtime())
+        row = measure(name, Path(args.mesh_dir))
+        row["date"] = time.strftime("%Y-%m-%d", time.gmtime())
+        if COMM.rank == 0:
             print(row, flush=True)
+            out.parent.mkdir(parents=True, exist_ok=True)
             new = not out.exists()
             with open(out, "a", newline="") as f:
                 w = csv.DictWriter(f, list(row))

@@ -55,6 +55,11 @@ echo "== 3D crack front: penny-crack K_I error against dofs and time"
 rm -f benchmarks/results/front3d.csv
 $PY benchmarks/bench_front3d.py $quick
 
+echo "== checkpoints: write time, size and restart read time against a step (1 and 2 ranks)"
+rm -f benchmarks/results/checkpoint.csv
+$PY benchmarks/bench_checkpoint.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_checkpoint.py $quick
+
 # further studies (growth) add their scripts here
 for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
   if [ -f "$extra" ]; then echo "== $extra"; $PY "$extra" $quick; fi
