@@ -145,8 +145,9 @@ class ColorRange:
         """``"colour scale clipped at 12 MPa (max 53 MPa, 0.5 % of cells above)"`` or ``""``."""
         if not self.clipped:
             return ""
+        u = f" {unit}" if unit else ""  # "": a dimensionless quantity
         return (
-            f"colour scale clipped at {self.vmax:{fmt}} {unit} (max {self.data_max:{fmt}} {unit}, "
+            f"colour scale clipped at {self.vmax:{fmt}}{u} (max {self.data_max:{fmt}}{u}, "
             f"{100 * self.clipped_fraction:.2g} % of the area above)"
         )
 
@@ -307,8 +308,9 @@ def field_view(
     path
         The PNG to write.
     quantity, unit
-        Colour-bar title ``"<quantity> (<unit>)"``; a ``unit`` of :data:`UNIT_FACTORS` converts
-        the SI field (Pa, m), any other shows the field as it is.
+        Colour-bar title ``"<quantity> (<unit>)"`` (``unit = ""``: a dimensionless
+        quantity, the title alone); a ``unit`` of :data:`UNIT_FACTORS` converts the SI
+        field (Pa, m), any other shows the field as it is.
     length_unit
         Unit of the axes (``"mm"``, ``"m"``, ``"µm"``).
     upper_percentile
@@ -358,7 +360,7 @@ def field_view(
         u = np.asarray(grid.point_data[displacement])
         g.points = g.points + warp * np.pad(u, ((0, 0), (0, 3 - u.shape[1])))
     g.points = g.points * scale
-    label = f"{quantity} ({unit})"
+    label = f"{quantity} ({unit})" if unit else quantity
     key = "_display"
     if len(values) == g.n_points:
         g.point_data[key] = values * factor

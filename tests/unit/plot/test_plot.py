@@ -35,6 +35,7 @@ def test_color_range_percentile_and_clipping():
     assert cr.clipped_fraction == pytest.approx(0.01)
     assert cr.clipped
     assert "clipped at 99 MPa (max 100 MPa, 1 % of the area above)" in cr.note("MPa")
+    assert "clipped at 99 (max 100, 1 %" in cr.note("")  # a dimensionless quantity
     assert bp.color_range(v, upper=100.0).note("MPa") == ""
     assert bp.color_range(v, lower=None).vmin == 0.0
 
