@@ -5,13 +5,16 @@ propagation increment.
    (grading and h_max refined with it): K_I error against Feddersen's closed form for the
    domain interaction integral (r_out = 0.3a) and displacement correlation (r_max = 0.3a),
    their wall times (best of 2) and the time of the linear solve.
-2. Inclined centre crack β = 45° (a/W = 0.05): MTS and principal-direction-average kink
-   angles against the MTS angle of the exact K (−53.13°).
+2. Inclined centre crack β = 45° (a/W = 0.05) over tip sizes a/20 … a/160: K_I and K_II
+   errors of both methods against σ√(πa)cos²β, σ√(πa)sinβcosβ, with their times; and
+   over β = 0 … 60° the MTS and principal-direction-average kink angles against the MTS
+   angle of the exact K (−53.13° at 45°).
 3. One propagation increment (mesh + solve + SIF + direction) of the β = 45° crack against
    one linear solve (assembly + MUMPS factorisation + solve) of the same mesh.
 
 Usage: python benchmarks/bench_fracture.py [--quick]   (also under mpiexec -n K)
-Writes benchmarks/results/fracture.csv, fracture_direction.csv, fracture_increment.csv.
+Writes benchmarks/results/fracture.csv, fracture_mixed.csv, fracture_direction.csv,
+fracture_increment.csv.
 """
 
 from __future__ import annotations
@@ -84,6 +87,39 @@ def sif_study(quick: bool) -> list[dict]:
     return rows
 
 
+def mixed_mode_study(quick: bool) -> list[dict]:
+    """Inclined centre crack β = 45° (a/W = 0.05): K_I and K_II errors against
+    σ√(πa)cos²β and σ√(πa)sinβcosβ (infinite plate; the finite width adds ~+0.15 %) for
+    both methods over tip sizes a/20 … a/160, with their times."""
+    a, beta = 0.05, math.radians(45.0)
+    ref_1 = SIGMA * math.sqrt(math.pi * a) * math.cos(beta) ** 2
+    ref_2 = SIGMA * math.sqrt(math.pi * a) * math.sin(beta) * math.cos(beta)
+    rows = []
+    for n in (20, 40, 80) if quick else (20, 40, 80, 160):
+        size = TipMesh(a / n, max(0.06, 0.25 * (20 / n) ** 0.5), 0.1)
+        cm = mesh_plate(1.0, 2.0, centre_crack(a, 45.0), size, COMM)
+        sol, t_solve = best_time(lambda cm=cm: solve_tension(cm, MAT, SIGMA))
+        ii, t_ii = best_time(lambda s=sol, c=cm: interaction_integral(s.u, c, -1, MAT, 0.3 * a))
+        dc, t_dc = best_time(lambda s=sol, c=cm: displacement_correlation(s.u, c, -1, MAT, 0.3 * a))
+        rows.append(
+            {
+                "h_tip/a": f"1/{n}",
+                "dofs": sol.model.num_dofs,
+                "ranks": COMM.size,
+                "err_KI_interaction_%": f"{100 * (ii.K_I / ref_1 - 1):+.3f}",
+                "err_KII_interaction_%": f"{100 * (ii.K_II / ref_2 - 1):+.3f}",
+                "err_KI_displacement_%": f"{100 * (dc.K_I / ref_1 - 1):+.3f}",
+                "err_KII_displacement_%": f"{100 * (dc.K_II / ref_2 - 1):+.3f}",
+                "t_solve_s": f"{t_solve:.3f}",
+                "t_interaction_s": f"{t_ii:.4f}",
+                "t_displacement_s": f"{t_dc:.4f}",
+            }
+        )
+        if COMM.rank == 0:
+            print(rows[-1], flush=True)
+    return rows
+
+
 def direction_study() -> list[dict]:
     a = 0.05
     rows = []
@@ -143,6 +179,7 @@ def main() -> None:
     OUT.mkdir(exist_ok=True)
     extra = {"machine": machine()}
     write_rows(OUT, "fracture", sif_study(args.quick), extra)
+    write_rows(OUT, "fracture_mixed", mixed_mode_study(args.quick), extra)
     write_rows(OUT, "fracture_direction", direction_study(), extra)
     write_rows(OUT, "fracture_increment", increment_study(), extra)
 
