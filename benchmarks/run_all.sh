@@ -45,6 +45,11 @@ $PY benchmarks/bench_contact3d.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_contact3d.py $quick
 $PY benchmarks/summarize.py contact3d
 
+echo "== inexact PDAS: Krylov iterations and time of the iterative 3D contact solve, tight vs loose tolerance (1 and 2 ranks)"
+rm -f benchmarks/results/krylov3d.csv
+$PY benchmarks/bench_krylov3d.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_krylov3d.py --quick
+
 echo "== dynamic contact: two-bar impact error and energy drift against dt"
 $PY benchmarks/bench_impact.py $quick
 

@@ -1,0 +1,199 @@
+"""Krylov settings of the iterative 3D contact solve, compared in one process.
+
+The load-driven 3D Hertz problem of ``bench_contact3d.py`` (hemisphere held only by
+contact, CG + GAMG) is built once per size; then the contact solve is repeated from a
+cold start with each variant of the Krylov settings, the variants alternating over
+``--rounds`` rounds so that all see the same machine load.  Per solve: PDAS and CG
+iterations, preconditioner builds, PETSc floating-point operations of the contact solve
+(summed over the ranks: independent of the load), its wall time and CPU time (summed over
+the ranks: less sensitive to other processes on the cores), the active nodes, the
+Hertz errors, the equilibrium defect and the largest displacement difference from the
+first variant (relative to the largest displacement).  Once per size and round, one
+iterative linear solve of the same mesh (``bench_contact3d.linear_solve``: the hemisphere
+supported at the slave nodes within the Hertz radius, a fresh CG + GAMG, tight
+tolerance); every row of the round gives the contact solve's wall time, CPU time and
+flops as ratios to it.
+
+Variants (``--variants``, comma-separated): ``tight`` (every Krylov solve to the tight
+tolerance), ``loose1e-2`` … (inexact PDAS with that loose tolerance), and suffixes
+``+cheb1`` (one Chebyshev iteration per level), ``+v`` (V-cycles), ``+reuseP``
+(``pc_gamg_reuse_interpolation``), ``+agg1`` (one level of aggressive coarsening),
+``+th0.05`` (``pc_gamg_threshold``), e.g. ``loose1e-4+cheb1``.
+
+Usage (also under ``mpiexec -n 2``)::
+
+    python benchmarks/bench_krylov3d.py --sizes 65k,200k --variants tight,loose1e-4 --rounds 2
+
+Appends rows to ``results/krylov3d.csv`` (the figures: benchmarks/README.md, "Inexact
+PDAS").
+"""
+
+from __future__ import annotations
+
+import dolfinx_solver  # noqa: F401
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+from bench_contact3d import SIZES, linear_solve
+from common import machine, write_rows
+
+from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
+
+COMM = MPI.COMM_WORLD
+OUT = Path(__file__).parent / "results"
+PREFIX = "bc_contact_"
+
+#: PETSc options of the suffixes (under the contact solver's prefix).
+SUFFIXES: dict[str, dict[str, object]] = {
+    "cheb1": {"mg_levels_ksp_max_it": 1},
+    "v": {"pc_mg_cycle_type": "v"},
+    "reuseP": {"pc_gamg_reuse_interpolation": True},
+    "agg1": {"pc_gamg_aggressive_coarsening": 1},
+    "th0.05": {"pc_gamg_threshold": 0.05},
+    "th-1": {"pc_gamg_threshold": -1.0},
+}
+DEFAULTS = {"pc_mg_cycle_type": "w", "pc_gamg_threshold": 0.01}
+
+
+def parse_variant(name: str, tight: float) -> tuple[float, dict[str, object]]:
+    """Loose tolerance and PETSc options of a variant name (module docstring)."""
+    base, *suffixes = name.split("+")
+    loose = tight if base == "tight" else float(base.removeprefix("loose"))
+    opts: dict[str, object] = {}
+    for sfx in suffixes:
+        if sfx not in SUFFIXES:
+            raise SystemExit(f"unknown variant suffix {sfx!r}; allowed: {', '.join(SUFFIXES)}")
+        opts.update(SUFFIXES[sfx])
+    return loose, opts
+
+
+def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
+    """Set the variant's options and drop the preconditioner (rebuilt at the next solve)."""
+    opts = PETSc.Options()
+    for key in ("mg_levels_ksp_max_it", "pc_gamg_reuse_interpolation",
+                "pc_gamg_aggressive_coarsening"):  # fmt: skip
+        if opts.hasName(PREFIX + key):
+            opts.delValue(PREFIX + key)
+    for key, value in {**DEFAULTS, **popts}.items():
+        opts[PREFIX + key] = value
+    pc = solver.ksp.getPC()
+    pc.reset()
+    solver.ksp.setFromOptions()
+    solver.pc_reuse.forget()
+    solver.loose_rtol = max(loose, solver.rtol)
+
+
+def one_linear_solve(pb, tight: float) -> dict:
+    """Time, flops (summed over the ranks) and CG iterations of one iterative linear solve
+    of the same mesh (``bench_contact3d.linear_solve``)."""
+    f0, c0 = PETSc.Log.getFlops(), time.process_time()
+    t, its, reason = linear_solve(pb, "iterative", tight)
+    cpu = COMM.allreduce(time.process_time() - c0, op=MPI.SUM)
+    flops = COMM.allreduce(PETSc.Log.getFlops() - f0, op=MPI.SUM)
+    if reason < 0:
+        raise RuntimeError(f"the reference linear solve diverged (reason {reason})")
+    return {"t": COMM.allreduce(t, op=MPI.MAX), "flops": flops, "its": its, "cpu": cpu}
+
+
+def solve_once(pb, name: str, tight: float, ref: np.ndarray | None) -> tuple[dict, np.ndarray]:
+    """One cold contact solve with the variant ``name``: its CSV row and the displacement."""
+    solver, integ = pb.integrator.contact, pb.integrator
+    loose, popts = parse_variant(name, tight)
+    apply_variant(solver, loose, popts)
+    solver.reset()
+    integ.u.x.array[:] = 0.0
+    b = integ.rhs(1.0)
+    integ.apply_dirichlet(1.0, b)
+    builds0 = solver.pc_reuse.builds
+    COMM.barrier()
+    f0 = PETSc.Log.getFlops()
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = solver.solve(b, integ.u)
+    cpu = COMM.allreduce(time.process_time() - c0, op=MPI.SUM)
+    t = COMM.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    flops = COMM.allreduce(PETSc.Log.getFlops() - f0, op=MPI.SUM)
+    integ.last_contact = res
+    err = hertz_errors(pb, res)
+    u = integ.u.x.array[: integ.u.function_space.dofmap.index_map.size_local * 3].copy()
+    umax = COMM.allreduce(float(np.abs(u).max(initial=0.0)), op=MPI.MAX)
+    diff = 0.0
+    if ref is not None:
+        diff = COMM.allreduce(float(np.abs(u - ref).max(initial=0.0)), op=MPI.MAX) / umax
+    per_it = [h.get("linear_iterations", 0) for h in res.history]
+    row = {
+        "variant": name,
+        "ranks": COMM.size,
+        "dofs": pb.model.num_dofs,
+        "pdas_iterations": res.iterations,
+        "krylov_iterations": res.linear_iterations,
+        "per_pdas_iteration": "/".join(map(str, per_it)),
+        "pc_builds": solver.pc_reuse.builds - builds0,
+        "gflops": round(flops / 1e9, 2),
+        "t_contact_s": round(t, 2),
+        "cpu_contact_s": round(cpu, 2),
+        "active": err["active"],
+        "err_a": float(f"{err['a']:.4e}"),
+        "err_p0": float(f"{err['p0']:.4e}"),
+        "equilibrium": float(f"{err['equilibrium']:.1e}"),
+        "u_diff": float(f"{diff:.1e}"),
+    }
+    b.destroy()
+    return row, u
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--sizes", default="65k", help="labels of bench_contact3d.SIZES")
+    p.add_argument("--variants", default="tight,loose1e-4")
+    p.add_argument("--rounds", type=int, default=2)
+    p.add_argument("--rtol", type=float, default=1e-12, help="tight Krylov tolerance")
+    p.add_argument(
+        "--mesh-dir", default=os.path.join(tempfile.gettempdir(), "bonecontact-bench-meshes")
+    )
+    p.add_argument("--out", default=str(OUT))
+    p.add_argument("--load", default="", help="machine load during the run (recorded)")
+    p.add_argument("--quick", action="store_true", help="25k dofs, one round (a smoke run)")
+    args = p.parse_args()
+    if args.quick:
+        args.sizes, args.rounds = "25k", 1
+    variants = args.variants.split(",")
+    for label in args.sizes.split(","):
+        h, h_far, mesher = SIZES[label]
+        pb = sphere_on_block_3d(
+            COMM, h, h_far=h_far, linear="iterative", rtol=args.rtol,
+            mesh_file=Path(args.mesh_dir) / f"contact3d_{label}_{mesher}.msh",
+            algorithm_3d=mesher,
+        )  # fmt: skip
+        ref = None
+        for rnd in range(args.rounds):
+            lin = one_linear_solve(pb, args.rtol)
+            for name in variants:
+                row, u = solve_once(pb, name, args.rtol, ref)
+                if ref is None:
+                    ref = u
+                row |= {
+                    "t_linear_s": round(lin["t"], 2),
+                    "linear_its": lin["its"],
+                    "ratio_time": round(row["t_contact_s"] / lin["t"], 2),
+                    "ratio_flops": round(row["gflops"] * 1e9 / max(lin["flops"], 1.0), 2),
+                    "cpu_linear_s": round(lin["cpu"], 2),
+                    "ratio_cpu": round(row["cpu_contact_s"] / lin["cpu"], 2),
+                }
+                row = {"size": label, "round": rnd + 1, **row, "load": args.load}
+                row["machine"] = machine()
+                if COMM.rank == 0:
+                    print("krylov3d", row, flush=True)
+                write_rows(Path(args.out), "krylov3d", [row])
+        pb.destroy()
+
+
+if __name__ == "__main__":
+    main()
