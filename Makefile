@@ -145,7 +145,7 @@ notebooks: install
 
 # Serial suite: every selected test, including tests marked `serial` that spawn their own mpiexec.
 define run_serial
-@bash -c "$$RUN_PYTEST" run-pytest serial $(PY) -m pytest -x -q -m "$(SELECT)" $(PYTEST_ARGS)
+@bash -c "$$RUN_PYTEST" run-pytest serial $(PY) -m pytest -x -q --durations=15 -m "$(SELECT)" $(PYTEST_ARGS)
 endef
 
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
@@ -157,12 +157,12 @@ define run_parallel
 @mkdir -p "$(LOG_DIR)"
 @for n in $(MPI_SIZES); do \
   rm -f "$(LOG_DIR)/mpi-$$n".rank*.log; \
-  SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q -m '$(MPI_SELECT)' \
+  SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q --durations=15 -m '$(MPI_SELECT)' \
     -p no:cacheprovider $(PYTEST_ARGS)   # ranks > 0 write to $(LOG_DIR)/mpi-$$n.rank<r>.log" \
   bash -c "$$RUN_PYTEST" run-pytest "mpi-$$n" \
     timeout --kill-after=30 $(TEST_TIMEOUT) $(MPIEXEC) -n $$n \
     $(RANK_LOG) "$(LOG_DIR)/mpi-$$n" \
-    $(PY) -m mpi4py -m pytest -x -q -m "$(MPI_SELECT)" -p no:cacheprovider $(PYTEST_ARGS); \
+    $(PY) -m mpi4py -m pytest -x -q --durations=15 -m "$(MPI_SELECT)" -p no:cacheprovider $(PYTEST_ARGS); \
 done
 endef
 
