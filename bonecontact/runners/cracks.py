@@ -484,8 +484,12 @@ def run_cracked(
             integ.set_initial(None, sm.v0)
             integ.step_count, integ.t = step, step * dt
         # after a re-meshing: history.csv continues, the fields go to new files
+        # (no checkpoints in crack scenes: what a Recorder would store goes nowhere)
         files = SimpleNamespace(
-            restarted_from="increment" if stem != "fields" else None, fields_stem=stem
+            restarted_from="increment" if stem != "fields" else None,
+            fields_stem=stem,
+            extra={},
+            resumed={},
         )
         with timer.phase("output"):
             rec = Recorder(run.scene, sm, integ, comm, outdir, False, files)
