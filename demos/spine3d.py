@@ -28,7 +28,7 @@
 #
 # `python demos/spine3d.py [OUTPUT_DIR]`, `mpiexec -n 2 python demos/spine3d.py`, or as a
 # notebook.  `BONECONTACT_DEMO_QUICK=1` grows the tumour for 12 days with two analyses
-# (days 6 and 12), with a coarser mesh and depth grid for the cortex, instead of 24 days
+# (days 6 and 12), with a coarser mesh, instead of 24 days
 # with four analyses.  Time on this 2-core machine, shared with other jobs (load 8–10):
 # quick 72–140 s, full 210 s wall on 1 rank, of which 32 s and 35 s of CPU time.
 # Units: SI.
@@ -58,6 +58,13 @@
 # resolved); the tumour a lytic, nearly incompressible tissue, $E = 0.5$ MPa,
 # $\nu = 0.49$, with the average-nodal-pressure formulation (no locking).
 #
+# **Fracture risk.**  `[fracture]` evaluates in every analysis the initiation risk of
+# each cell, $R = \max(\sigma_1, 0)/\sigma_t$ (docs/theory/fracture.md), with the tensile
+# strengths of data/materials.toml: cortical bone 133 MPa (`[strength.cortical_bone]`),
+# vertebral cancellous bone 1.75 MPa (`[strength.cancellous_bone_vertebral]`).  The disc
+# (10 MPa) and the tumour (1 MPa) get values only because every material needs one; we
+# read the risk of the bone's cells, $R = 1$ being where a crack would start.
+#
 # **The load.**  The traction on the upper endplate $\Gamma$ of L3 is normal to the
 # horizontal, $t = -q(x)\,e_y$, and varies linearly from back to front,
 #
@@ -82,8 +89,8 @@
 # **Not in this demo.**  The facet joints (the small joints between the processes of L3
 # and L4) are not a contact pair here: on these low-resolution surfaces the joint
 # surfaces come within 1–2 mm of each other with crossing normals and no cartilage, and
-# a forward bend opens them in any case.  The fracture check (`[fracture]`) is not part
-# of this demo (`demos/vertebra_tumour.py` shows it in a coupled scene).
+# a forward bend opens them in any case.  A crack (its insertion and growth) is 2D only
+# in this version (`demos/vertebra_tumour.py`); here the fracture check gives the risk.
 
 # %%
 import json
@@ -130,7 +137,6 @@ H_BONE = 8 * MM if quick else 5 * MM  # largest tetrahedron
 days, every = (12, 3) if quick else (24, 3)  # growth time, growth steps between analyses
 N_BINS = 6  # facet groups of the loaded endplate
 DISC_LEVELS = 2  # refinements of the disc's faces (the endplate fans of the surfaces)
-DEPTH_GRID = CORTEX / 2 if quick else None  # grid of the depth below the surface (None: 0.5 mm)
 t0 = time.perf_counter()
 if comm.rank == 0:
     output.mkdir(parents=True, exist_ok=True)
@@ -293,9 +299,7 @@ def segment_surfaces(h: float, cortex: float) -> dict:
         patches[f"L3_top_{i}"] = top[rows]
     wall = side_wall(x, rim_loop(patches["L4_endplate"]), rim_loop(patches["L3_endplate_inf"]))
     patches["disc_surface"] = wall
-    inner = {
-        v: cortical_inner_surface(s, cortex, h, DEPTH_GRID) for v, s in (("L4", l4), ("L3", l3))
-    }
+    inner = {v: cortical_inner_surface(s, cortex, h) for v, s in (("L4", l4), ("L3", l3))}
     return {"x": x, "patches": patches, "inner": inner}
 
 
@@ -420,6 +424,7 @@ regions = ["L3_cortical", "L4_cortical"]
 model = "isotropic"
 E = 17.0e9
 nu = 0.3
+sigma_t = 133.0e6
 
 [[material]]
 name = "cancellous"
@@ -427,6 +432,7 @@ regions = ["L3_cancellous", "L4_cancellous"]
 model = "isotropic"
 E = 723.05e6
 nu = 0.25
+sigma_t = 1.75e6
 
 [[material]]
 name = "disc"
@@ -434,6 +440,7 @@ regions = ["disc"]
 model = "isotropic"
 E = 4.2e6
 nu = 0.45
+sigma_t = 10.0e6
 
 [[material]]
 name = "tumour"
@@ -442,6 +449,10 @@ model = "isotropic"
 E = 0.5e6
 nu = 0.49
 formulation = "nodal_pressure"
+sigma_t = 1.0e6
+
+[fracture]
+criterion = "tension"
 
 [[dirichlet]]
 boundary = "L4_base"
@@ -513,6 +524,15 @@ if comm.rank == 0:
 # 0.80, 0.86, 0.88 MPa), highest on the side towards the loaded front of the endplate.
 # The shortening changes by less than 1 % (652–656 µm) and not smoothly: the disc is
 # re-tetrahedralised at every rebuild, and its mesh, not the tumour, moves that number.
+# The largest fracture risk of L4 sits in the cancellous bone just above the tumour's
+# upper pole, between the tumour and the loaded endplate, and rises as the tumour grows
+# (full run: 0.17, 0.20, 0.21, 0.23; 99 % of L4's cancellous cells stay below 0.11):
+# far from 1 under body weight and a forward bend, with these strengths.  The largest
+# risk of L3 (0.11–0.12, in its posterior arch) does not change.  On the coarser quick
+# mesh the largest risk of all L4 is one cancellous cell against the front cortex
+# (0.36–0.37, where the stiffness jumps 23-fold across a coarse interface) while the
+# risk next to the tumour is that of the full run (0.18, 0.21): the risk within 2 mm of
+# the tumour is the number to follow, a single cell's maximum elsewhere is a mesh value.
 #
 # **A limit of this model.**  The disc carries the flexion by strains of 20–30 % at its
 # front and back (the run prints the largest strain of each analysis, summary.json
@@ -552,6 +572,24 @@ def near_tumour_stress(directory: Path, radius: float) -> float:
     return float(np.asarray(grid.cell_data["von_mises"])[near].max())
 
 
+BONE = ("L3_cortical", "L3_cancellous", "L4_cortical", "L4_cancellous")
+
+
+def bone_risk(directory: Path, radius: float) -> tuple[float, float, float]:
+    """The largest fracture risk of the bone cells of L4 within NEAR of the tumour, of all
+    bone cells of L4 and of L3 (the written ``fracture_risk`` of each cell; cells matched
+    to the mesh's regions by centroid)."""
+    grid = bp.read_fields(sorted(Path(directory).glob("fields*.pvd"))[-1])
+    g = read_host_geometry3d(Path(directory) / "host_mesh.msh")
+    centres = np.vstack([g.x[g.cells[k][1]].mean(axis=1) for k in BONE])
+    _, idx = cKDTree(np.asarray(grid.cell_centers().points)).query(centres)
+    risk = np.asarray(grid.cell_data["fracture_risk"])[idx]
+    n = np.cumsum([0] + [len(g.cells[k][1]) for k in BONE])
+    l3, l4 = slice(n[0], n[2]), slice(n[2], n[4])
+    near = np.linalg.norm(centres[l4] - TUMOUR, axis=1) <= radius + NEAR
+    return float(risk[l4][near].max()), float(risk[l4].max()), float(risk[l3].max())
+
+
 if comm.rank == 0:
     import matplotlib
 
@@ -571,13 +609,15 @@ if comm.rank == 0:
                 endplate_motion(d, ["L4_endplate"])[0],
                 near_tumour_stress(d, a["equivalent_radius"]),
                 json.loads((d / "summary.json").read_text())["max_strain"],
+                *bone_risk(d, a["equivalent_radius"]),
             )
         )
     rows = np.array(rows)
     with open(output / "subsidence.csv", "w") as f:
         f.write(
             "time,equivalent_radius,tumour_volume,subsidence_L3_top,flexion_L3_top_deg,"
-            "subsidence_L4_endplate,max_von_mises_near_tumour,max_strain\n"
+            "subsidence_L4_endplate,max_von_mises_near_tumour,max_strain,"
+            "max_risk_L4_near_tumour,max_risk_L4,max_risk_L3\n"
         )
         for r in rows:
             f.write(",".join(f"{v:.9g}" for v in r) + "\n")
@@ -585,9 +625,11 @@ if comm.rank == 0:
         print(
             f"day {r[0] / DAY:.0f}: L3 top sinks {r[3] / MM:.4f} mm and tilts {r[4]:.2f}° "
             f"forwards, the L4 endplate sinks {r[5] / MM * 1e3:.3f} µm; von Mises ≤ 2 mm "
-            f"from the tumour {r[6] / 1e6:.3f} MPa; largest strain {r[7]:.2f} (in the disc)"
+            f"from the tumour {r[6] / 1e6:.3f} MPa; largest strain {r[7]:.2f} (in the disc); "
+            f"largest fracture risk of the bone: L4 ≤ 2 mm from the tumour {r[8]:.3f}, "
+            f"L4 {r[9]:.3f}, L3 {r[10]:.3f}"
         )
-    fig, ((a1, a2), (a3, a4)) = plt.subplots(2, 2, figsize=(11, 7.5))
+    fig, ((a1, a2), (a3, a4), (a5, a6)) = plt.subplots(3, 2, figsize=(11, 11))
     a1.plot(growth["time"] / DAY, growth["volume"] * 1e9, "-", label="growth.csv")
     a1.plot(rows[:, 0] / DAY, rows[:, 2] * 1e9, "o", label="analyses (tumour cells)")
     a1.legend()
@@ -600,9 +642,16 @@ if comm.rank == 0:
     )
     a4.plot(rows[:, 0] / DAY, rows[:, 6] / 1e6, "s-", color="C3")
     bp.line_axes(a4, ("growth time", "days"), ("max von Mises ≤ 2 mm from the tumour", "MPa"))
-    for ax in (a1, a2, a3, a4):
+    a5.plot(rows[:, 0] / DAY, rows[:, 8], "s-", color="C4", label="L4, ≤ 2 mm from the tumour")
+    a5.plot(rows[:, 0] / DAY, rows[:, 9], "^:", color="C4", label="L4, all its bone")
+    a5.plot(rows[:, 0] / DAY, rows[:, 10], "o--", color="C5", label="L3")
+    a5.legend()
+    bp.line_axes(a5, ("growth time", "days"), ("largest fracture risk σ₁/σ_t of the bone", ""))
+    a6.plot(rows[:, 0] / DAY, rows[:, 4], "s-", color="C6")
+    bp.line_axes(a6, ("growth time", "days"), ("forward tilt of the L3 top", "°"))
+    for ax in (a1, a2, a3, a4, a5, a6):
         ax.set_xlim(-0.5, days + 0.5)
-    for ax in (a2, a3, a4):
+    for ax in (a2, a3, a4, a6):
         ax.ticklabel_format(axis="y", useOffset=False)
     fig.suptitle(
         f"spine3d: tumour in L4, {F_BODY:.0f} N body weight and {M_FLEX} N·m flexion on L3"
@@ -611,14 +660,16 @@ if comm.rank == 0:
     bp.show(fig, output / "spine3d_growth.png", dpi=120)
 
 # %% [markdown]
-# ## The segment cut in the mid-sagittal plane: von Mises stress on the deformed shape
+# ## The segment cut in the mid-sagittal plane: stress and fracture risk on the deformed shape
 # The half $z \le 0$ of the segment seen from the side (the cut face shows both
 # vertebral bodies, the disc between them and the tumour in L4, outlined in cyan; the
 # soft tumour's own stress is near zero, so it shows black), in parallel projection, on
 # the deformed shape at true scale, at the last analysis; the colour range stops at the
 # 99th percentile of the cells shown (the thin cortex carries most of the load).  Then
 # the same cut cropped to the L4 body, the colour range stopping at the largest stress
-# of the bone within 2 mm of the tumour (the cortex saturates).
+# of the bone within 2 mm of the tumour (the cortex saturates); and the fracture risk
+# $\sigma_1/\sigma_t$ on that cut (its colour range to the 99th percentile): the weak
+# cancellous bone, not the stiff cortex, carries the risk.
 
 
 # %%
@@ -636,32 +687,50 @@ def tumour_outline(directory: Path) -> np.ndarray:
 
 
 def stress_pictures(a: dict) -> list[Path]:
-    """Two PNGs of analysis ``a``: the cut segment and the cut L4 body."""
+    """Three PNGs of analysis ``a``: the cut segment and the cut L4 body (von Mises), the
+    cut L4 body (fracture risk)."""
     d = Path(a["directory"])
     grid = bp.read_fields(sorted(d.glob("fields*.pvd"))[-1])
     cut = grid.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, 0.0), invert=True)
-    title = (
-        f"spine3d: von Mises, day {a['time'] / DAY:.0f}, tumour R = "
-        f"{a['equivalent_radius'] / MM:.1f} mm, {F_BODY:.0f} N + {M_FLEX} N·m flexion"
+    state = (
+        f"day {a['time'] / DAY:.0f}, tumour R = {a['equivalent_radius'] / MM:.1f} mm, "
+        f"{F_BODY:.0f} N + {M_FLEX} N·m flexion"
     )
     body = cut.clip_box([-18 * MM, 16 * MM, -3 * MM, 29 * MM, -25 * MM, 0.0], invert=False)
     near = near_tumour_stress(d, a["equivalent_radius"]) / 1e6  # MPa
     outline = tumour_outline(d)
     pngs = []
-    for g, name, clim, what in (
-        (cut, "spine3d_von_mises.png", None, ""),
-        (body, "spine3d_L4_body.png", (0.0, near), " (L4 body)"),
+    for g, name, field, quantity, unit, clim, title in (
+        (cut, "spine3d_von_mises.png", "von_mises", "von Mises stress", "MPa", None, "von Mises"),
+        (
+            body,
+            "spine3d_L4_body.png",
+            "von_mises",
+            "von Mises stress",
+            "MPa",
+            (0.0, near),
+            "von Mises (L4 body)",
+        ),
+        (
+            body,
+            "spine3d_L4_risk.png",
+            "fracture_risk",
+            "fracture risk sigma_1/sigma_t",
+            "",
+            None,
+            "fracture risk (L4 body)",
+        ),
     ):
         pngs.append(
             bp.field_view(
                 g,
-                "von_mises",
+                field,
                 output / name,
-                quantity="von Mises stress",
-                unit="MPa",
+                quantity=quantity,
+                unit=unit,
                 displacement="displacement",
                 warp=1.0,
-                title=title + what,
+                title=f"spine3d: {title}, {state}",
                 cmap="inferno",
                 clim=clim,
                 smooth=False,

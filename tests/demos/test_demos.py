@@ -588,8 +588,11 @@ def test_spine3d_segment_balance_tumour_volume_and_ranks(demo_runs):
     balance the applied load: resultant (0, 500 N, 0) and moment about the z axis through
     the loaded endplate's area centroid x̄ = 7.5 N·m within 1 %; the tumour cells of the
     rebuilt mesh (the sum of their tetrahedra) hold the volume growth.csv reports at that
-    time within 1 %; the L4 endplate sinks further as the tumour grows; and 2 ranks give
-    the serial subsidences and stresses."""
+    time within 1 %; the L4 endplate sinks further as the tumour grows; the bone's fracture
+    risk (the written cell values and the demo's maxima) is max(σ₁, 0)/σ_t of the written
+    cell stresses, below 1, and next to the tumour it rises as the tumour grows (the
+    tension at its upper pole); and 2 ranks give the serial subsidences, stresses and
+    risks."""
     from bonecontact.neoplasm.host3d import read_host_geometry3d
 
     (r1, o1), (r2, o2) = demo_runs["spine3d", 1], demo_runs["spine3d", 2]
@@ -598,6 +601,7 @@ def test_spine3d_segment_balance_tumour_volume_and_ranks(demo_runs):
     g = np.genfromtxt(o1 / "growth.csv", delimiter=",", names=True)
     an = s["coupling"]["analyses"]
     assert len(an) == 2  # quick: days 6 and 12
+    risks = []
     for a in an:
         assert a["status"] == "converged"
         d = Path(a["directory"])
@@ -618,12 +622,49 @@ def test_spine3d_segment_balance_tumour_volume_and_ranks(demo_runs):
         np.testing.assert_allclose(f.sum(axis=0), [0.0, 500.0, 0.0], atol=5.0)
         moment_z = ((x[:, 0] - xbar) * f[:, 1] - x[:, 1] * f[:, 0]).sum()
         assert moment_z == pytest.approx(7.5, rel=0.01)
-    assert an[-1]["equivalent_radius"] > 1.1 * an[0]["equivalent_radius"]
+        risks.append(_spine3d_bone_risk(d, geo, a["equivalent_radius"]))
     sub1 = np.genfromtxt(o1 / "subsidence.csv", delimiter=",", names=True)
+    # the bone's fracture risk: max(σ₁, 0)/σ_t recomputed from the written cell stresses
+    for k, name in enumerate(("max_risk_L4_near_tumour", "max_risk_L4", "max_risk_L3")):
+        np.testing.assert_allclose(sub1[name], [r[k] for r in risks], rtol=1e-8)  # 9 digits
+    near = sub1["max_risk_L4_near_tumour"]
+    assert np.all((near > 0) & (sub1["max_risk_L4"] < 1))  # no fracture
+    assert np.all(np.diff(near) > 0)  # the tension at the tumour's pole grows with it
+    assert an[-1]["equivalent_radius"] > 1.1 * an[0]["equivalent_radius"]
     sub2 = np.genfromtxt(o2 / "subsidence.csv", delimiter=",", names=True)
     assert np.all(np.diff(sub1["subsidence_L4_endplate"]) > 0)
     assert np.all(sub1["subsidence_L3_top"] > sub1["subsidence_L4_endplate"])
     for k in sub1.dtype.names:
         np.testing.assert_allclose(sub2[k], sub1[k], rtol=1e-6)
-    for name in ("spine3d_growth.png", "spine3d_von_mises.png", "spine3d_L4_body.png"):
-        _check_png(o1 / name)
+    for name in ("growth", "von_mises", "L4_body", "L4_risk"):
+        _check_png(o1 / f"spine3d_{name}.png")
+
+
+def _spine3d_bone_risk(directory: Path, geo, radius: float) -> tuple[float, float, float]:
+    """The largest max(σ₁, 0)/σ_t of the bone cells of L4 within 2 mm of the tumour (the
+    demo's centre (0, 16, 0) mm), of all L4 and of L3, from the written cell stresses
+    (σ_t 133 MPa cortical, 1.75 MPa cancellous, as the demo's scene); the written
+    ``fracture_risk`` of those cells must be the same."""
+    from scipy.spatial import cKDTree
+
+    from bonecontact.plot import read_fields
+
+    grid = read_fields(directory / "fields.pvd")
+    tree = cKDTree(np.asarray(grid.cell_centers().points))
+    sig = np.asarray(grid.cell_data["stress"]).reshape(-1, 3, 3)
+    written = np.asarray(grid.cell_data["fracture_risk"])
+    out, near = {}, 0.0
+    for v in ("L4", "L3"):
+        r = []
+        for region, sigma_t in (("cortical", 133.0e6), ("cancellous", 1.75e6)):
+            centres = geo.x[geo.cells[f"{v}_{region}"][1]].mean(axis=1)
+            dist, idx = tree.query(centres)
+            assert dist.max() < 1e-9
+            own = np.maximum(np.linalg.eigvalsh(sig[idx])[:, -1], 0.0) / sigma_t
+            np.testing.assert_allclose(written[idx], own, rtol=1e-9, atol=1e-12)
+            r.append(own.max())
+            if v == "L4":
+                close = np.linalg.norm(centres - [0.0, 0.016, 0.0], axis=1) <= radius + 2e-3
+                near = max(near, own[close].max(initial=0.0))
+        out[v] = max(r)
+    return near, out["L4"], out["L3"]
