@@ -29,8 +29,9 @@
 # `python demos/spine3d.py [OUTPUT_DIR]`, `mpiexec -n 2 python demos/spine3d.py`, or as a
 # notebook.  `BONECONTACT_DEMO_QUICK=1` grows the tumour for 12 days with two analyses
 # (days 6 and 12), with a coarser mesh, instead of 24 days
-# with four analyses.  Time on this 2-core machine, shared with other jobs (load 8–10):
-# quick 72–140 s, full 210 s wall on 1 rank, of which 32 s and 35 s of CPU time.
+# with four analyses.  Time on this 2-core machine, shared with other jobs (load 7–12):
+# quick 72–190 s, full 126–210 s wall on 1 rank, of which 32–37 s and 35–48 s of CPU
+# time (a quiet machine needs about the CPU time).
 # Units: SI.
 #
 # ## The tumour
