@@ -646,6 +646,9 @@ class StopRequest:
     def __exit__(self, *exc: object) -> None:
         for s, h in self._old.items():
             signal.signal(s, h)
+            outer = getattr(h, "__self__", None)
+            if isinstance(outer, StopRequest) and self.signum and not outer.signum:
+                outer.signum = self.signum  # a nested run's signal stops the enclosing run
         self._old.clear()
 
     def agreed(self, comm: MPI.Comm) -> int:
@@ -712,6 +715,9 @@ class Checkpointer:
     interval
         Also write one after the first step that reaches each multiple of this much
         simulated time, s (0: none).
+    on_signal
+        Write a checkpoint when a signal stops the run (``False`` for an analysis run by
+        a coupled run: the coupled run checkpoints, the signal reaches it).
     """
 
     def __init__(
@@ -721,9 +727,15 @@ class Checkpointer:
         every: int,
         info: dict[str, Any],
         interval: float = 0.0,
+        on_signal: bool = True,
     ):
         self.output, self.integ, self.every = Path(output), integ, int(every)
+        self.on_signal = bool(on_signal)
         self.schedule = CheckpointSchedule(every, interval, integ.t)
+        #: further state for meta.json: entry name -> a function giving its JSON value
+        self.extra: dict[str, Callable[[], Any]] = {}
+        #: the meta.json of the checkpoint the run continues from (after :meth:`resume`)
+        self.resumed: dict[str, Any] = {}
         self.comm = integ.model.mesh.comm
         self.info = dict(info)
         self.counters = RunCounters(e0=integ.balance.total)
@@ -762,6 +774,7 @@ class Checkpointer:
                     "a restart continues the same scene"
                 )
         self.counters = read_checkpoint(path, meta, self.integ)
+        self.resumed = meta
         self.counters.segment += 1
         self.schedule.t_last = self.integ.t
         trim_tables(self.output, int(meta["step"]), self.comm)
@@ -787,14 +800,15 @@ class Checkpointer:
         Returns the signal number (0: go on)."""
         self.signum = self.stop.agreed(self.comm)
         due = self.schedule.due(self.integ.step_count, self.integ.t, last)
-        if self.signum or due:
+        if (self.signum and self.on_signal) or due:
             self.write()
         return self.signum
 
     def write(self) -> Path:
         """Write a checkpoint of the current state now (collective)."""
         t0 = time.perf_counter()
-        self.last = write_checkpoint(self.output, self.integ, self.counters, self.info)
+        info = {**self.info, **{name: get() for name, get in self.extra.items()}}
+        self.last = write_checkpoint(self.output, self.integ, self.counters, info)
         self.time_s += time.perf_counter() - t0
         self.written += 1
         return self.last

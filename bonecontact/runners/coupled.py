@@ -322,8 +322,12 @@ class _Analyses:
         if comm.rank == 0:
             write_points(where / "neoplasm_boundary.csv", ["x", "y", "z"][: cp.dim], poly)
         pressure = cp.pressure()
-        res = run_mechanics(
-            mechanics_scene(self.scene, hm, pressure, where), comm, output=where, progress=False
+        res = run_mechanics(  # a signal: no checkpoint of its own, it reaches this run
+            mechanics_scene(self.scene, hm, pressure, where),
+            comm,
+            output=where,
+            progress=False,
+            checkpoint_on_signal=False,
         )
         measure = "neoplasm_area_in_bone" if cp.dim == 2 else "neoplasm_volume_in_bone"
         rec = {
@@ -342,9 +346,6 @@ class _Analyses:
         rec.update(_analysis_risk(res.summary))
         if res.status == "interrupted":  # a signal: the analysis runs again on restart
             self.signal = _signal_number(res.summary.get("signal", "SIGINT"))
-            if comm.rank == 0:
-                shutil.rmtree(where / "checkpoints", ignore_errors=True)
-            comm.barrier()
             return False
         self.records.append(rec)
         self.result = res

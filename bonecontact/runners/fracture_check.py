@@ -9,12 +9,13 @@ first time the risk reached 1 (initiation), to ``summary.json``.
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
 from dolfinx import fem
 
-from bonecontact.fracture import risk_field
+from bonecontact.fracture import RiskMaximum, risk_field
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.scene import Scene
 
@@ -70,6 +71,32 @@ class FractureMonitor:
         if self.initiation is None and mx.value >= 1.0:
             self.initiation = (t, step)
         return [mx.value, *mx.location]
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The maxima so far, for a restart checkpoint's meta.json: the largest risk
+        (with its time and step) and the initiation (time, step)."""
+        peak = None
+        if self.peak is not None:
+            mx, t, step = self.peak
+            peak = {"risk": asdict(mx), "time": t, "step": step}
+        return {"peak": peak, "initiation": self.initiation}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state` (a restarted run)."""
+        peak = state.get("peak")
+        if peak is not None:
+            r = peak["risk"]
+            direction = r["crack_direction"]
+            mx = RiskMaximum(
+                value=float(r["value"]),
+                location=tuple(r["location"]),
+                crack_direction=None if direction is None else tuple(direction),
+                mode=str(r["mode"]),
+                crack_normal=tuple(r["crack_normal"]),
+            )
+            self.peak = (mx, float(peak["time"]), int(peak["step"]))
+        ini = state.get("initiation")
+        self.initiation = None if ini is None else (float(ini[0]), int(ini[1]))
 
     def summary(self) -> dict[str, Any]:
         """The ``fracture`` entry of summary.json."""

@@ -288,6 +288,10 @@ class Recorder:
         if scene.fracture is not None:
             tag = {name: t for name, (d, t) in sm.groups.items()}
             self.fracture = FractureMonitor(scene, sm.model, integ.u, tag)
+            if ckpt is not None:  # the maxima so far go into the checkpoints
+                ckpt.extra["fracture"] = self.fracture.checkpoint_state
+                if "fracture" in ckpt.resumed:
+                    self.fracture.restore(ckpt.resumed["fracture"])
         extra = (tuple(ENERGY_COLUMNS) if dynamic else ()) + (
             fracture_history_columns(sm.model.dim) if self.fracture is not None else ()
         )
@@ -488,11 +492,14 @@ def run_mechanics(
     output: Path | None = None,
     progress: bool = True,
     restart: str | Path | bool | None = None,
+    checkpoint_on_signal: bool = True,
 ) -> RunResult:
     """Validate, build and run a mechanics scene, writing its results incrementally.
 
     ``restart``: continue from the newest checkpoint in the output directory (``True``)
-    or from the named one (a path); docs/checkpoint.md.
+    or from the named one (a path); docs/checkpoint.md.  ``checkpoint_on_signal=False``
+    (an analysis of a coupled run): a signal stops the run after the step without a
+    checkpoint and is passed on to the enclosing run.
 
     Returns
     -------
@@ -517,7 +524,12 @@ def run_mechanics(
         integ.set_initial(None, sm.v0)
     out = scene.output
     ckpt = Checkpointer(
-        outdir, integ, out.checkpoint_every, _checkpoint_info(scene, sm, dt), out.checkpoint_time
+        outdir,
+        integ,
+        out.checkpoint_every,
+        _checkpoint_info(scene, sm, dt),
+        out.checkpoint_time,
+        checkpoint_on_signal,
     )
     if restart:
         with timer.phase("checkpoint"):

@@ -296,3 +296,33 @@ def test_checkpoint_time_in_a_run(tmp_shared_path):
     MPI.COMM_WORLD.barrier()
     with pytest.raises(SceneError, match=r"\[output\].*checkpoint_time.*>= 0"):
         load_scene(toml)
+
+
+def test_fracture_maxima_survive_a_restart(tmp_shared_path):
+    """With the ``[fracture]`` check, the checkpoint carries the largest risk so far:
+    the run continued from the checkpoint of step 16 reports the ``fracture`` entry of
+    the uninterrupted run (risk, place, step, mode, initiation), although its own steps
+    17-20 stay below that peak, reached at step 16 or before (checked, so the test can
+    fail; without the stored maxima the continued run reports 0.6477 instead of 0.6482)."""
+    scene = _scene(tmp_shared_path, 2.0e-3)
+    text = scene.path.read_text().replace("nu = 0.3\n", "nu = 0.3\nsigma_t = 2.0e6\n")
+    text = text.replace("[output]", '[fracture]\ncriterion = "tension"\n[output]')
+    toml = tmp_shared_path / "fracture.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        toml.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    out = tmp_shared_path / "out"
+    ref = run_mechanics(load_scene(toml), output=out, progress=False).summary["fracture"]
+    assert ref["step"] <= 16 and ref["max_risk"] > 0.0, ref
+    with open(out / "history.csv") as f:
+        risk = [float(r["max_risk"]) for r in csv.DictReader(f)]
+    assert max(risk[17:]) < ref["max_risk"]  # the continued steps alone would not find it
+    res = run_mechanics(
+        load_scene(toml), output=out, progress=False, restart=out / "checkpoints/step_00000016"
+    )
+    got = res.summary["fracture"]
+    assert res.summary["restarted_from"]["step"] == 16
+    assert got["max_risk"] == pytest.approx(ref["max_risk"], rel=1e-12)
+    for key in ("step", "time", "mode", "initiated", "initiation_time", "criterion"):
+        assert got[key] == ref[key], key
+    np.testing.assert_allclose(got["location"], ref["location"], rtol=1e-12)

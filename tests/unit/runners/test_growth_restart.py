@@ -405,3 +405,51 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert res.returncode == 2, res.stderr
     assert "'bonecontact growth checkpoint', not a mechanics run's" in res.stderr, res.stderr
     assert len(_rows(out / "growth.csv")) == 5  # nothing changed
+
+
+@pytest.mark.parametrize("at", [1, 2])
+def test_signal_during_a_coupled_analysis(case, tmp_path, monkeypatch, at):
+    """SIGTERM (sent to this process) during step ``at`` of the 2-step analysis after
+    growth step 2 of the coupled scene, run in-process: the analysis's own run takes the
+    signal and passes it on.  At its first step the analysis stops ("interrupted", no
+    record) and the coupled checkpoint of step 2 marks it as still to run; at its last
+    step it finishes and the checkpoint follows it.  Either way the run ends
+    "interrupted" with that checkpoint and no checkpoint of the analysis, and the
+    restart gives growth.csv, every history.csv and the records of the uninterrupted
+    run (1e-10)."""
+    from bonecontact.mechanics.integrator import Integrator
+    from bonecontact.runners import run_scene as run_in_process
+    from bonecontact.scene import load_scene
+
+    scene = tmp_path / "coupled.toml"
+    text = case["scenes"]["coupled", 0].read_text()  # no periodic checkpoints
+    scene.write_text(text.replace("load_steps = 1", "load_steps = 2"))
+    ref = tmp_path / "ref"
+    assert run_in_process(load_scene(scene), output=ref, progress=False).status == "converged"
+    calls = []
+    step = Integrator.step
+
+    def signalled(self):
+        calls.append(1)
+        if len(calls) == at:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return step(self)
+
+    monkeypatch.setattr(Integrator, "step", signalled)
+    out = tmp_path / "out"
+    res = run_in_process(load_scene(scene), output=out, progress=False)
+    monkeypatch.undo()
+    s = json.loads((out / "summary.json").read_text())
+    assert res.status == "interrupted" and s["status"] == "interrupted", s.get("message")
+    assert s["signal"] == "SIGTERM"
+    assert [p.name for p in (out / "checkpoints").iterdir()] == ["step_00000002"]
+    meta = json.loads((out / "checkpoints/step_00000002/meta.json").read_text())
+    assert meta["analysis_pending"] == (at == 1)
+    assert len(meta["records"]) == (0 if at == 1 else 1)
+    assert not (out / "mechanics_00002" / "checkpoints").exists()
+    assert len(_rows(out / "growth.csv")) == 3
+    res = run_in_process(load_scene(scene), output=out, progress=False, restart=True)
+    assert res.status == "converged"
+    for table in _coupled_tables(ref):
+        _same(ref, out, table)
+    _same_records(ref, out)
