@@ -25,11 +25,15 @@ checkpoints, on the same number of ranks unless said otherwise):
   the restart completes the run with the uninterrupted rows.
 * refused restarts exit 2 naming the problem: no checkpoint, another dt, another scene,
   a growth checkpoint for a mechanics scene.
+* a signal during a coupled run's analysis (in-process: SIGTERM sent to this process at
+  the analysis's first or last step) stops the coupled run with its own checkpoint;
+  the restart gives the uninterrupted tables and records.
 
 The default suite runs the serial cases, the 2-rank kill of the growth scene and the
-2 -> 1 restart of the growth scene (7 tests: 6 min wall on the shared 2-core machine
-under a load of 8, 1.7 min of CPU); the 2-rank coupled kill, the coupled 2 -> 1 restart
-and the 2-rank SIGTERM are marked ``slow`` (all 10: 7 min under the same load).
+2 -> 1 restart of the growth scene (9 tests; the first 7 took 6 min wall on the shared
+2-core machine under a load of 8, 1.7 min of CPU, the signal tests add about 25 s each);
+the 2-rank coupled kill, the coupled 2 -> 1 restart and the 2-rank SIGTERM are marked
+``slow`` (the 10 subprocess tests: 7-10 min under a load of 8-11).
 """
 
 from __future__ import annotations
