@@ -42,6 +42,7 @@ import json
 import os
 import signal
 import subprocess
+import time
 from pathlib import Path
 
 import numpy as np
@@ -454,6 +455,35 @@ def test_signal_during_a_coupled_analysis(case, tmp_path, monkeypatch, at):
     assert len(_rows(out / "growth.csv")) == 3
     res = run_in_process(load_scene(scene), output=out, progress=False, restart=True)
     assert res.status == "converged"
+    for table in _coupled_tables(ref):
+        _same(ref, out, table)
+    _same_records(ref, out)
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_coupled_run_on_two_ranks(case, tmp_path):
+    """SIGTERM to ``mpiexec`` once the first analysis (after growth step 2) has started:
+    every rank stops, exit 143, status "interrupted" with one checkpoint (of step 2 with
+    the analysis pending, or of a later step); the restart on 2 ranks gives the tables
+    and records of the uninterrupted 2-rank run."""
+    scene = case["scenes"]["coupled", 0]
+    out = tmp_path / "out"
+    proc = _start(scene, out, 2)
+    t0 = time.monotonic()
+    while not (out / "mechanics_00002").is_dir():
+        assert proc.poll() is None, "the run ended early"
+        assert time.monotonic() - t0 < 300
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGTERM)
+    res = finish(proc)
+    assert res.returncode == 128 + signal.SIGTERM, res.stderr[-3000:]
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "interrupted" and s["signal"] == "SIGTERM"
+    (ckpt,) = (out / "checkpoints").iterdir()
+    assert int(ckpt.name[5:]) >= 2
+    res = run_scene(scene, out, 2, "--restart")
+    assert res.returncode == 0, res.stderr[-3000:]
+    ref = case["ref"]("coupled", 2)
     for table in _coupled_tables(ref):
         _same(ref, out, table)
     _same_records(ref, out)
