@@ -438,7 +438,7 @@ def _grow_and_analyse(
             "analysis_pending": pending,
         }
 
-    k = driver.steps
+    k, analysing = driver.steps, False
     try:
         while k <= nsteps:
             if not pending:
@@ -448,8 +448,8 @@ def _grow_and_analyse(
                 driver.step(float(times[k] - times[k - 1]))
                 last, t_done = record(float(times[k])), float(times[k])
                 bar.update(1)
-            pending = False
-            if analyses.due(k) and not analyses.run(k, t_done, last):
+            pending, analysing = False, analyses.due(k)
+            if analysing and not analyses.run(k, t_done, last):
                 if analyses.signal:  # stopped during the analysis: it runs again on restart
                     ckpt.signum = analyses.signal
                     ckpt.after_step(k == nsteps, content(True))
@@ -462,15 +462,19 @@ def _grow_and_analyse(
                     f"{analyses.records[-1].get('message')}"
                 )
                 break
+            analysing = False
             if ckpt.after_step(k == nsteps, content(False)) and k < nsteps:
                 status, message = "interrupted", f"stopped after growth step {k} by a signal"
                 break
     except CheckpointError as exc:
         status, message = "failed", str(exc)
-    except (RuntimeError, CouplingError) as exc:
+    except (RuntimeError, CouplingError) as exc:  # a growth step, or an analysis's host mesh
         status = "failed"
-        t_fail = times[min(driver.steps + 1, nsteps)]
-        message = f"growth step {driver.steps + 1} (t = {t_fail:.6g} s): {exc}"
+        if analysing:
+            message = f"analysis after growth step {k} (t = {t_done:.6g} s): {exc}"
+        else:
+            t_fail = times[min(driver.steps + 1, nsteps)]
+            message = f"growth step {driver.steps + 1} (t = {t_fail:.6g} s): {exc}"
     finally:
         bar.close()
         table.close()

@@ -28,6 +28,9 @@ checkpoints, on the same number of ranks unless said otherwise):
 * a signal during a coupled run's analysis (in-process: SIGTERM sent to this process at
   the analysis's first or last step) stops the coupled run with its own checkpoint;
   the restart gives the uninterrupted tables and records.
+* SIGTERM to ``mpiexec`` during a coupled run on 2 ranks (slow); a host mesh that gmsh
+  cannot rebuild (injected) fails the coupled run cleanly, and the restart from the
+  last checkpoint completes it.
 
 The default suite runs the serial cases, the 2-rank kill of the growth scene and the
 2 -> 1 restart of the growth scene (9 tests; the first 7 took 6 min wall on the shared
@@ -484,6 +487,47 @@ def test_sigterm_stops_a_coupled_run_on_two_ranks(case, tmp_path):
     res = run_scene(scene, out, 2, "--restart")
     assert res.returncode == 0, res.stderr[-3000:]
     ref = case["ref"]("coupled", 2)
+    for table in _coupled_tables(ref):
+        _same(ref, out, table)
+    _same_records(ref, out)
+
+
+def test_host_remesh_failure_in_a_coupled_run(case, tmp_path, monkeypatch):
+    """gmsh cannot rebuild the host mesh for the analysis after growth step 4 (injected:
+    the host-mesh builder raises CouplingError, as a gmsh failure does; in-process): the
+    run ends "failed" with a message naming that analysis and the error; growth.csv
+    holds the rows to step 4, the record of the analysis after step 2 is kept, the
+    newest checkpoint is step 3's (step 4's is written after its analysis), and the
+    restart without the fault gives the uninterrupted tables and records."""
+    from bonecontact.neoplasm.host import CouplingError
+    from bonecontact.runners import coupled
+    from bonecontact.runners import run_scene as run_in_process
+    from bonecontact.scene import load_scene
+
+    scene = case["scenes"]["coupled", 1]  # checkpoints every step
+    real, calls = coupled.build_host_mesh, []
+
+    def failing(*args):
+        calls.append(1)
+        if len(calls) == 3:  # 1: the check at t = 0, 2: after step 2, 3: after step 4
+            raise CouplingError("injected: gmsh could not mesh the host")
+        return real(*args)
+
+    monkeypatch.setattr(coupled, "build_host_mesh", failing)
+    out = tmp_path / "out"
+    res = run_in_process(load_scene(scene), output=out, progress=False)
+    monkeypatch.undo()
+    s = json.loads((out / "summary.json").read_text())
+    assert res.status == "failed" and s["status"] == "failed"
+    assert s["message"].startswith("analysis after growth step 4"), s["message"]
+    assert "injected: gmsh could not mesh the host" in s["message"]
+    assert len(_rows(out / "growth.csv")) == 5
+    assert [r["growth_step"] for r in s["coupling"]["analyses"]] == [2]
+    names = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert names == ["step_00000002", "step_00000003"]
+    res = run_in_process(load_scene(scene), output=out, progress=False, restart=True)
+    assert res.status == "converged"
+    ref = case["ref"]("coupled", 1)
     for table in _coupled_tables(ref):
         _same(ref, out, table)
     _same_records(ref, out)
