@@ -61,6 +61,29 @@ def refine_near(gmsh, entities: list[int], h_in: float, h_out: float, dist: floa
         gmsh.option.setNumber(f"Mesh.{key}", 0)
 
 
+def plate_with_disc(gmsh, L: float, R: float) -> list[int]:
+    """Square [0, 2L]² ("plate", facet groups "left", "bottom", "right", "top") with a disc
+    of radius R at (L, L) ("tumour") in the current gmsh model; the disc's surface tags
+    (sizes are the caller's)."""
+    occ = gmsh.model.occ
+    s, c = occ.addRectangle(0, 0, 0, 2 * L, 2 * L), occ.addDisk(L, L, 0, R, R)
+    _, m = occ.fragment([(2, s)], [(2, c)])
+    occ.synchronize()
+    inner = [t for _, t in m[1]]
+    outer = [t for _, t in m[0] if t not in inner]
+    gmsh.model.addPhysicalGroup(2, outer, 1, name="plate")
+    gmsh.model.addPhysicalGroup(2, inner, 2, name="tumour")
+    edges = [
+        abs(t) for _, t in gmsh.model.getBoundary([(2, t) for t in outer + inner], combined=True)
+    ]
+    for k, (name, axis, val) in enumerate(
+        [("left", 0, 0.0), ("bottom", 1, 0.0), ("right", 0, 2 * L), ("top", 1, 2 * L)]
+    ):
+        pick = [e for e in edges if abs(occ.getCenterOfMass(1, e)[axis] - val) < 1e-9 * L]
+        gmsh.model.addPhysicalGroup(1, pick, 3 + k, name=name)
+    return inner
+
+
 def read_csv(path: Path) -> dict[str, np.ndarray]:
     """A results table as column name → values (non-numbers, e.g. names, as NaN)."""
     with open(path) as f:

@@ -48,7 +48,7 @@ import pytest
 import ufl
 from cli_support import ENV as BASE_ENV
 from cli_support import run_scene as run_cli_scene
-from coupled_support import gmsh_on_rank0, read_csv, refine_near, run_text
+from coupled_support import gmsh_on_rank0, plate_with_disc, read_csv, refine_near, run_text
 from dolfinx import fem
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
@@ -91,23 +91,7 @@ def plate_with_inclusion(path: Path, L: float, R: float, h_in: float, h_out: flo
     facet groups "left", "bottom", "right", "top"."""
 
     def build(gmsh):
-        occ = gmsh.model.occ
-        s, c = occ.addRectangle(0, 0, 0, 2 * L, 2 * L), occ.addDisk(L, L, 0, R, R)
-        _, m = occ.fragment([(2, s)], [(2, c)])
-        occ.synchronize()
-        inner = [t for _, t in m[1]]
-        outer = [t for _, t in m[0] if t not in inner]
-        gmsh.model.addPhysicalGroup(2, outer, 1, name="plate")
-        gmsh.model.addPhysicalGroup(2, inner, 2, name="tumour")
-        edges = [
-            abs(t)
-            for _, t in gmsh.model.getBoundary([(2, t) for t in outer + inner], combined=True)
-        ]
-        for k, (name, axis, val) in enumerate(
-            [("left", 0, 0.0), ("bottom", 1, 0.0), ("right", 0, 2 * L), ("top", 1, 2 * L)]
-        ):
-            pick = [e for e in edges if abs(occ.getCenterOfMass(1, e)[axis] - val) < 1e-9 * L]
-            gmsh.model.addPhysicalGroup(1, pick, 3 + k, name=name)
+        inner = plate_with_disc(gmsh, L, R)
         refine_near(
             gmsh,
             [abs(t) for _, t in gmsh.model.getBoundary([(2, t) for t in inner])],

@@ -58,7 +58,7 @@ from cli_support import (
     scene_args,
     wait_for_lines,
 )
-from coupled_support import gmsh_on_rank0, read_csv
+from coupled_support import gmsh_on_rank0, plate_with_disc, read_csv
 
 pytestmark = pytest.mark.serial
 
@@ -157,26 +157,12 @@ def _plate_mesh(path: Path, L: float = 0.01, R: float = 0.002) -> None:
     R at its centre ("tumour"), 0.4 mm at the disc, 2 mm away from it."""
 
     def build(gmsh):
-        occ = gmsh.model.occ
-        s, c = occ.addRectangle(0, 0, 0, 2 * L, 2 * L), occ.addDisk(L, L, 0, R, R)
-        _, m = occ.fragment([(2, s)], [(2, c)])
-        occ.synchronize()
-        inner = [t for _, t in m[1]]
-        outer = [t for _, t in m[0] if t not in inner]
-        gmsh.model.addPhysicalGroup(2, outer, 1, name="plate")
-        gmsh.model.addPhysicalGroup(2, inner, 2, name="tumour")
-        edges = [
-            abs(t)
-            for _, t in gmsh.model.getBoundary([(2, t) for t in outer + inner], combined=True)
-        ]
-        for k, (name, axis, val) in enumerate(
-            [("left", 0, 0.0), ("bottom", 1, 0.0), ("right", 0, 2 * L), ("top", 1, 2 * L)]
-        ):
-            pick = [e for e in edges if abs(occ.getCenterOfMass(1, e)[axis] - val) < 1e-9 * L]
-            gmsh.model.addPhysicalGroup(1, pick, 3 + k, name=name)
+        inner = plate_with_disc(gmsh, L, R)
         gmsh.option.setNumber("Mesh.MeshSizeMax", 2e-3)
         gmsh.option.setNumber("Mesh.MeshSizeMin", 4e-4)
-        gmsh.model.mesh.setSize(gmsh.model.getBoundary(m[1], recursive=True), 4e-4)
+        gmsh.model.mesh.setSize(
+            gmsh.model.getBoundary([(2, t) for t in inner], recursive=True), 4e-4
+        )
 
     gmsh_on_rank0(build, path, 2)
 
