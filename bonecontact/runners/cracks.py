@@ -24,12 +24,17 @@ around the longer crack and the same step (same load) is solved again, until no 
 ``summary.json`` and on the console) or ``max_increments`` increments are made.  Static
 analyses only: the solution of a static step does not depend on the previous state, so
 nothing needs to be transferred to the new mesh.
+
+Checkpoints are written between load steps and hold the crack with the mechanics state
+(:mod:`bonecontact.runners.crack_checkpoint`); a restart re-meshes the body around the
+stored crack and continues.
 """
 
 from __future__ import annotations
 
 import csv
 import dataclasses
+import json
 import math
 import re
 import time
@@ -68,7 +73,8 @@ from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
 from bonecontact.fracture.sif import displacement_correlation, interaction_integral
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
-from bonecontact.runners.checkpoint import RunCounters
+from bonecontact.runners.checkpoint import CheckpointError, RunCounters, read_checkpoint
+from bonecontact.runners.crack_checkpoint import CrackCheckpoints
 from bonecontact.runners.mechanics import (
     Recorder,
     SceneModel,
@@ -91,13 +97,14 @@ class FractureTable:
     """``fracture.csv`` (:data:`~bonecontact.fracture.propagation.FRACTURE_COLUMNS`), rank 0
     writes row by row (flushed) as the run goes."""
 
-    def __init__(self, comm: MPI.Comm, directory: Path):
+    def __init__(self, comm: MPI.Comm, directory: Path, append: bool = False):
         self.comm, self._file, self._w = comm, None, None
         if comm.rank == 0:
             Path(directory).mkdir(parents=True, exist_ok=True)
-            self._file = open(Path(directory) / "fracture.csv", "w", newline="")
+            self._file = open(Path(directory) / "fracture.csv", "a" if append else "w", newline="")
             self._w = csv.writer(self._file)
-            self._w.writerow(FRACTURE_COLUMNS)
+            if not append:
+                self._w.writerow(FRACTURE_COLUMNS)
         comm.barrier()
 
     def rows(self, records: list[IncrementRecord]) -> None:
@@ -453,43 +460,91 @@ def _initiate(
     return ini, record
 
 
+def _plain(o: object) -> Any:
+    """JSON of NumPy scalars and arrays (a checkpoint's crack state)."""
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"cannot store {type(o).__name__} in a checkpoint")
+
+
+def _initiated_spec(run: CrackRun, initiation: dict[str, Any]) -> CrackSpec:
+    """The ``[[crack]]`` of an initiated crack, from its initiation record."""
+    crack = Crack2D(np.asarray(initiation["points"], dtype=float), initiation["tips"])
+    return CrackSpec("initiated", crack, run.body.region[0], run.fracture.friction)
+
+
 def run_cracked(
     scene: Scene,
     comm: MPI.Comm = MPI.COMM_WORLD,
     output: Path | None = None,
     progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Validate, build and run a scene with a ``[[crack]]`` or with ``[fracture] initiate =
     true`` (module docstring), writing its results incrementally: history.csv, the contact
     tables (the crack pair included), fields (``fields.*``; after an initiation
-    ``fields_initiated.*``, after the k-th re-meshing ``fields_increment<k>.*``),
-    fracture.csv and summary.json."""
+    ``fields_initiated.*``, after the k-th re-meshing ``fields_increment<k>.*``, after the
+    n-th restart ``fields_restart<n>.*``), fracture.csv and summary.json.
+
+    ``restart``: continue from the newest checkpoint in the output directory (``True``)
+    or the named one (:mod:`bonecontact.runners.crack_checkpoint`); checkpoints are
+    written between load steps as ``[output] checkpoint_every`` / ``checkpoint_time`` ask
+    and when SIGINT/SIGTERM stops the run (``"interrupted"``).
+
+    Raises
+    ------
+    CheckpointError
+        The checkpoint to restart from is missing, damaged, from another scene or its
+        mesh cannot be rebuilt.
+    """
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = analysis_steps(scene)
     counts = RunCounters()
-    table = FractureTable(comm, outdir)
+    ck = CrackCheckpoints(
+        outdir,
+        comm,
+        scene.output.checkpoint_every,
+        scene.output.checkpoint_time,
+        {"scene": scene.name, "analysis": scene.analysis.kind, "dt": dt},
+    )
+    resume = ck.find(restart) if restart else None
+    saved = resume[1]["crack_run"] if resume is not None else None
     crack, cm = None, None
+    if saved is not None and saved["initiated"]:
+        run = with_crack(run, _initiated_spec(run, saved["initiation"]), initiated=True)
     if run.spec is None:  # no crack yet: the scene's own mesh until the risk reaches 1
         sm = build_model(scene, comm, timer, mesh=(run.mesh, run.groups))
     else:
         crack = run.spec.crack
+        if saved is not None:  # the crack as it had grown
+            crack = Crack2D(np.asarray(saved["points"], dtype=float), saved["tips"])
         sm, cm = build_cracked(scene, run, crack, comm, timer)
 
     def start(sm: SceneModel, run: CrackRun, step: int, stem: str, crack: Crack2D | None):
+        nonlocal counts
         with timer.phase("solver_setup"):
             integ = scene_integrator(run.scene, sm, dt, False)
             integ.set_initial(None, sm.v0)
             integ.step_count, integ.t = step, step * dt
-        # after a re-meshing: history.csv continues, the fields go to new files
-        # (no checkpoints in crack scenes: what a Recorder would store goes nowhere)
+        resumed = {}
+        if stem.startswith("fields_restart"):  # the state and counters of the checkpoint
+            with timer.phase("checkpoint"):
+                counts = read_checkpoint(resume[0], resume[1], integ)
+                counts.segment += 1
+                ck.resumed(*resume)
+            if saved["monitor"] is not None:
+                resumed["fracture"] = saved["monitor"]
+        # after a re-meshing or a restart: history.csv continues, the fields go to new files
         files = SimpleNamespace(
             restarted_from="increment" if stem != "fields" else None,
             fields_stem=stem,
             extra={},
-            resumed={},
+            resumed=resumed,
         )
         with timer.phase("output"):
             rec = Recorder(run.scene, sm, integ, comm, outdir, False, files)
@@ -497,110 +552,157 @@ def run_cracked(
                 write_crack_path(outdir / f"{stem}_crack.vtk", crack)
         return integ, rec
 
-    integ, rec = start(sm, run, 0, "fields", crack)
+    first = 1 if resume is None else int(resume[1]["step"]) + 1
+    segment = 0 if resume is None else int(resume[1]["counters"]["segment"]) + 1
+    integ, rec = start(
+        sm, run, first - 1, "fields" if resume is None else f"fields_restart{segment}", crack
+    )
+    table = FractureTable(comm, outdir, append=resume is not None)
     every = scene.output.fields_every
     status, message = "converged", None
     increment, fractured_at, prop_status = 0, None, None
     tips_last: list[IncrementRecord] = []
     initiation: dict[str, Any] | None = None
     risk_before: dict[str, Any] | None = None  # the initiation check on the uncracked body
-    with timer.phase("output"):
-        rec.record(0, 0.0, every > 0)
-    prev = (0.0, rec.fracture.current.value if rec.fracture is not None else 0.0)
+    if saved is None:
+        with timer.phase("output"):
+            rec.record(0, 0.0, every > 0)
+        prev = (0.0, rec.fracture.current.value if rec.fracture is not None else 0.0)
+    else:
+        increment, prop_status = int(saved["increment"]), saved["propagation"]
+        tips_last = [IncrementRecord(**r) for r in saved["tips_last"]]
+        initiation, risk_before = saved["initiation"], saved["risk_before"]
+        prev = tuple(saved["prev"])
+
+    def crack_state() -> dict[str, Any]:
+        """The ``crack_run`` entry of a checkpoint's meta.json."""
+        state = {
+            "initiated": run.initiated,
+            "points": None if crack is None else crack.points,
+            "tips": None if crack is None else crack.tips,
+            "increment": increment,
+            "propagation": prop_status,
+            "tips_last": [dataclasses.asdict(r) for r in tips_last],
+            "initiation": initiation,
+            "risk_before": risk_before,
+            "prev": list(prev),
+            "monitor": rec.fracture.checkpoint_state() if rec.fracture is not None else None,
+        }
+        return json.loads(json.dumps(state, default=_plain))
+
+    def stopped(k: int) -> bool:
+        """After load step k (collective): a checkpoint when due or asked for by a signal;
+        whether a signal stops the run here."""
+        last = k == nsteps
+        with timer.phase("checkpoint"):
+            signum = ck.after_step(integ, counts, crack_state(), last)
+        if signum and not last:
+            with timer.phase("output"):  # the fields of the last state
+                rec.record(k, integ.t, True, tables=False)
+        return bool(signum) and not last
+
     bar = tqdm(
         total=nsteps,
+        initial=first - 1,
         desc=scene.name,
         unit="step",
         disable=(comm.rank != 0) or not progress,
         dynamic_ncols=True,
     )
-    k = 1
+    k = first
     try:
-        while k <= nsteps:
-            with timer.phase("time_stepping"):
-                si = integ.step()
-            res = integ.last_contact
-            counts.linear.append(si.linear_iterations)
-            if res is not None:
-                counts.pdas.append(res.iterations)
-                counts.bound_updates.append(res.bound_updates)
-                timer.add("contact_solve", res.wall_time)
-            if cm is None:  # no crack yet: does the risk reach 1?
+        with ck.stop:
+            while k <= nsteps:
+                with timer.phase("time_stepping"):
+                    si = integ.step()
+                res = integ.last_contact
+                counts.linear.append(si.linear_iterations)
+                if res is not None:
+                    counts.pdas.append(res.iterations)
+                    counts.bound_updates.append(res.bound_updates)
+                    timer.add("contact_solve", res.wall_time)
+                if cm is None:  # no crack yet: does the risk reach 1?
+                    with timer.phase("fracture"):
+                        sm.model.update_nodal_volumetric(integ.u, integ.velocity)  # as record
+                        rec.fracture.update(k, integ.t)
+                    if rec.fracture.current.value < 1.0:
+                        with timer.phase("output"):
+                            rec.record(k, integ.t, (every > 0 and k % every == 0) or k == nsteps)
+                        prev = (integ.t, rec.fracture.current.value)
+                        bar.update(1)
+                        if stopped(k):
+                            status, message = "interrupted", f"stopped after step {k} by a signal"
+                            break
+                        k += 1
+                        continue
+                    with timer.phase("fracture"):
+                        ini, initiation = _initiate(scene, run, sm, rec, prev, integ.t)
+                    risk_before = rec.fracture.summary()
+                    run = with_crack(run, _initiated_spec(run, initiation), initiated=True)
+                    crack = run.spec.crack
+                    where = "at the surface point" if ini.on_surface else "centred at"
+                    _console(
+                        comm,
+                        progress,
+                        f"{scene.name}: risk {rec.fracture.current.value:.4g} >= 1 at t = "
+                        f"{integ.t:.6g} (step {k}; 1 reached at "
+                        f"{initiation['load_factor']:.6g}): crack of {ini.length:.4g} m "
+                        f"inserted {where} ({ini.point[0]:.6g}, {ini.point[1]:.6g}) along "
+                        f"({ini.direction[0]:.4f}, {ini.direction[1]:.4f})",
+                    )
+                    integ.destroy()
+                    rec.writer.close()
+                    sm, cm = build_cracked(scene, run, crack, comm, timer)
+                    integ, rec = start(sm, run, k - 1, "fields_initiated", crack)
+                    continue  # the same load on the cracked body
                 with timer.phase("fracture"):
-                    sm.model.update_nodal_volumetric(integ.u, integ.velocity)  # as record does
-                    rec.fracture.update(k, integ.t)
-                if rec.fracture.current.value < 1.0:
+                    records = evaluate_tips(sm, cm, integ.u, res, run, increment, k, integ.t)
+                grows = any(r.status == "grows" for r in records)
+                if grows and increment >= run.fracture.max_increments:
+                    records = [
+                        dataclasses.replace(r, status="max_increments")
+                        if r.status == "grows"
+                        else r
+                        for r in records
+                    ]
+                    grows, prop_status = False, "max_increments"
+                fractured = False
+                if grows:
+                    crack, fractured = _grow(crack, records, run)
+                table.rows(records)
+                tips_last = records
+                last = k == nsteps or fractured
+                if not grows or fractured:
                     with timer.phase("output"):
-                        rec.record(k, integ.t, (every > 0 and k % every == 0) or k == nsteps)
-                    prev = (integ.t, rec.fracture.current.value)
+                        rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
                     bar.update(1)
-                    k += 1
-                    continue
-                with timer.phase("fracture"):
-                    ini, initiation = _initiate(scene, run, sm, rec, prev, integ.t)
-                risk_before = rec.fracture.summary()
-                run = with_crack(
-                    run,
-                    CrackSpec("initiated", ini.crack, run.body.region[0], run.fracture.friction),
-                    initiated=True,
-                )
-                crack = ini.crack
-                where = "at the surface point" if ini.on_surface else "centred at"
-                _console(
-                    comm,
-                    progress,
-                    f"{scene.name}: risk {rec.fracture.current.value:.4g} >= 1 at t = "
-                    f"{integ.t:.6g} (step {k}; 1 reached at {initiation['load_factor']:.6g}): "
-                    f"crack of {ini.length:.4g} m inserted {where} "
-                    f"({ini.point[0]:.6g}, {ini.point[1]:.6g}) along "
-                    f"({ini.direction[0]:.4f}, {ini.direction[1]:.4f})",
-                )
-                integ.destroy()
-                rec.writer.close()
-                sm, cm = build_cracked(scene, run, crack, comm, timer)
-                integ, rec = start(sm, run, k - 1, "fields_initiated", crack)
-                continue  # the same load on the cracked body
-            with timer.phase("fracture"):
-                records = evaluate_tips(sm, cm, integ.u, res, run, increment, k, integ.t)
-            grows = any(r.status == "grows" for r in records)
-            if grows and increment >= run.fracture.max_increments:
-                records = [
-                    dataclasses.replace(r, status="max_increments") if r.status == "grows" else r
-                    for r in records
-                ]
-                grows, prop_status = False, "max_increments"
-            fractured = False
-            if grows:
-                crack, fractured = _grow(crack, records, run)
-            table.rows(records)
-            tips_last = records
-            last = k == nsteps or fractured
-            if not grows or fractured:
-                with timer.phase("output"):
-                    rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
-                bar.update(1)
-            if fractured:
-                increment += 1
-                fractured_at = (integ.t, k)
-                prop_status = "fractured"
-                _console(
-                    comm,
-                    progress,
-                    f"{scene.name}: fractured at t = {integ.t:.6g} "
-                    f"(step {k}, after {increment} crack increments)",
-                )
-                break
-            if grows:
-                increment += 1
-                prop_status = "grows"
-                integ.destroy()
-                rec.writer.close()
-                sm, cm = build_cracked(scene, run, crack, comm, timer)
-                integ, rec = start(sm, run, k - 1, f"fields_increment{increment}", crack)
-                continue  # the same load on the longer crack
-            if prop_status == "grows":
-                prop_status = "arrested"
-            k += 1
+                if fractured:
+                    increment += 1
+                    fractured_at = (integ.t, k)
+                    prop_status = "fractured"
+                    _console(
+                        comm,
+                        progress,
+                        f"{scene.name}: fractured at t = {integ.t:.6g} "
+                        f"(step {k}, after {increment} crack increments)",
+                    )
+                    break
+                if grows:
+                    increment += 1
+                    prop_status = "grows"
+                    integ.destroy()
+                    rec.writer.close()
+                    sm, cm = build_cracked(scene, run, crack, comm, timer)
+                    integ, rec = start(sm, run, k - 1, f"fields_increment{increment}", crack)
+                    continue  # the same load on the longer crack
+                if prop_status == "grows":
+                    prop_status = "arrested"
+                if stopped(k):
+                    status, message = "interrupted", f"stopped after step {k} by a signal"
+                    break
+                k += 1
+    except CheckpointError as exc:  # a checkpoint that cannot be written
+        status, message = "failed", str(exc)
     except (RuntimeError, FractureError) as exc:  # a solver failure; a tip K cannot be had
         status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
     except SceneError:
@@ -617,6 +719,7 @@ def run_cracked(
         "linear_solver": scene.solver.linear,
     }
     info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
+    info.update(ck.summary())
     info.update(rec.strain.summary())
     frac = risk_before or (rec.fracture.summary() if rec.fracture is not None else {})
     if run.fracture.initiate:

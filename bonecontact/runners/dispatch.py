@@ -56,7 +56,7 @@ def run_scene(
         Show a progress bar (rank 0 only).
     restart
         Continue from the newest checkpoint (``True``) or the named one
-        (docs/checkpoint.md; not for scenes with a crack).
+        (docs/checkpoint.md).
 
     Returns
     -------
@@ -72,15 +72,7 @@ def run_scene(
     if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
         return run_coupled(scene, comm, output, progress, restart)
     if is_crack_scene(scene):  # a given or initiated crack: re-meshed body, face pair, fracture.csv
-        if restart or scene.output.checkpoints:
-            raise SceneError(
-                scene.path,
-                "[output]",
-                "checkpoint_every",
-                "checkpoints and restarts are not implemented for scenes with a [[crack]] "
-                "or [fracture] initiate = true",
-            )
-        return run_cracked(scene, comm, output, progress)
+        return run_cracked(scene, comm, output, progress, restart)
     return run_mechanics(scene, comm, output, progress, restart)
 
 

@@ -26,6 +26,7 @@ import csv
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -217,6 +218,61 @@ def test_ranks_insert_the_same_crack(serial: Path, mesh: Path, tmp_path: Path, n
     ka = [float(r["K_I"]) for r in csv.DictReader(open(serial / "fracture.csv"))]
     kb = [float(r["K_I"]) for r in csv.DictReader(open(tmp_path / "out" / "fracture.csv"))]
     assert kb == pytest.approx(ka, rel=1e-6)
+
+
+def _numbers(path: Path) -> list[list[float | str]]:
+    """The rows of a table, numbers as floats, words as they are."""
+
+    def cell(v: str) -> float | str:
+        try:
+            return float(v)
+        except ValueError:
+            return v
+
+    return [[cell(v) for v in r] for r in csv.reader(open(path))]
+
+
+def _assert_same_tables(ref: Path, out: Path) -> None:
+    """history.csv and fracture.csv of ``out`` equal those of ``ref`` to 1e-10 relative,
+    every row once."""
+    for name in ("history.csv", "fracture.csv"):
+        a, b = _numbers(ref / name), _numbers(out / name)
+        assert len(a) == len(b), name
+        for ra, rb in zip(a, b, strict=True):
+            assert len(ra) == len(rb)
+            for x, y in zip(ra, rb, strict=True):
+                if isinstance(x, str) or math.isnan(x):
+                    assert str(x) == str(y), name
+                else:
+                    assert y == pytest.approx(x, rel=1e-10, abs=1e-300), name
+
+
+def test_restart_before_and_after_the_initiation(mesh: Path, tmp_path: Path) -> None:
+    """Checkpoints at t = 0.5 and 1 (``checkpoint_time = 0.5``); continued from step 2
+    (before the crack; checkpoints now every step) the run inserts the same crack at
+    step 3, and continued again from step 3 (the initiated crack re-meshed from the
+    checkpoint) it gives the same step 4: the tables equal the uninterrupted run's."""
+    ref, out = tmp_path / "ref", tmp_path / "out"
+    (tmp_path / "every").mkdir()
+    timed = _scene(tmp_path, mesh, crack="checkpoint_time = 0.5")  # a key of [output]
+    every = _scene(tmp_path / "every", mesh, crack="checkpoint_every = 1")
+    res = _run(timed, ref)
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in (ref / "checkpoints").iterdir()) == [
+        "step_00000002",
+        "step_00000004",
+    ]
+    shutil.copytree(ref, out)
+    for step in (2, 3):
+        named = out / "checkpoints" / f"step_{step:08d}"
+        cmd = [str(BIN / "bonecontact"), "run", str(every), "-q", "-o", str(out)]
+        res = _spawn([*cmd, "--restart", str(named)])
+        assert res.returncode == 0, res.stderr
+        _assert_same_tables(ref, out)
+        s, r = _initiation(out), _initiation(ref)
+        assert s["initiation"] == r["initiation"] and s["crack"] == r["crack"]
+        restarted = json.loads((out / "summary.json").read_text())["restarted_from"]
+        assert restarted["step"] == step
 
 
 @pytest.mark.parametrize(
