@@ -16,6 +16,8 @@ each increment), at steps 3 and 4 the tips want to grow but the increments are s
 * SIGTERM after step 1 (before any growth): exit 143, status "interrupted", a checkpoint
   of step 1; the restart grows the crack at step 2 as the uninterrupted run does (same
   tables).
+* Refused restarts exit 2 with a message and change nothing: no checkpoint, another Δt,
+  the crack checkpoint continued by the scene without its crack.
 * On 2 ranks (slow): the same kill and restart, against an uninterrupted 2-rank run to
   2e-5 only (two 2-rank runs of this scene differ by up to 1.8e-6: see the test).
 """
@@ -247,3 +249,26 @@ def test_sigterm_before_growth_then_restart(case: dict, tmp_path: Path) -> None:
     res = run_scene(case["never"], out, 1, "--restart")
     assert res.returncode == 0, res.stderr
     _assert_same(case["ref"], out)
+
+
+def test_restart_refused_with_a_message(case: dict, tmp_path: Path) -> None:
+    """No checkpoint, another Δt (8 load steps), a crack checkpoint continued by a scene
+    without the crack: exit 2 naming the item, nothing changed."""
+    out = tmp_path / "out"
+    res = run_scene(case["every"], out, 1, "--restart")
+    assert res.returncode == 2 and "no intact checkpoint" in res.stderr, res.stderr
+    other = tmp_path / "other_dt.toml"
+    other.write_text(case["every"].read_text().replace("load_steps = 4", "load_steps = 8"))
+    before = (case["ref"] / "fracture.csv").read_text()
+    res = run_scene(other, case["ref"], 1, "--restart")
+    assert res.returncode == 2 and "dt = 0.25" in res.stderr, res.stderr
+    assert "Traceback" not in res.stderr
+    assert (case["ref"] / "fracture.csv").read_text() == before
+    plain = tmp_path / "no_crack.toml"  # the same plate without its crack
+    text = case["every"].read_text()
+    start, end = text.index("[[crack]]"), text.index("[output]")
+    plain.write_text(text[:start] + text[end:])
+    res = run_scene(plain, case["ref"], 1, "--restart")
+    assert res.returncode == 2, res.stderr
+    assert "'bonecontact crack checkpoint', not a mechanics run's" in res.stderr, res.stderr
+    assert (case["ref"] / "fracture.csv").read_text() == before
