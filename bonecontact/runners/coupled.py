@@ -67,6 +67,7 @@ import numpy as np
 import numpy.typing as npt
 from tqdm import tqdm
 
+from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm.host import (
     CouplingError,
     HostMesh,
@@ -271,12 +272,15 @@ def run_coupled(
         The checkpoint to restart from is missing, damaged or from another scene.
     """
     t_start = time.perf_counter()
-    cp = _Coupled(scene, comm)
-    _check(scene, comm, cp)  # SceneError before anything is written
+    timer = PhaseTimer()
+    with timer.phase("setup"):
+        cp = _Coupled(scene, comm)
+    with timer.phase("check"):
+        _check(scene, comm, cp)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
     ckpt = growth_checkpointer(scene, cp.driver, comm, outdir, "coupled")
-    analyses = _Analyses(scene, comm, cp, outdir, len(times) - 1)
+    analyses = _Analyses(scene, comm, cp, outdir, len(times) - 1, timer)
     resumed = None
     if restart:
         resumed = ckpt.resume(None if restart is True else restart)
@@ -290,6 +294,7 @@ def run_coupled(
     summary = _coupled_summary(
         scene, comm, cp, analyses, status, message, (first, last, t_done), t_start
     )
+    summary["coupling"]["phases_s"] = timer.summary(comm)
     summary.update(ckpt.summary())
     write_summary(comm, outdir, summary)
     comm.barrier()
@@ -300,8 +305,17 @@ def run_coupled(
 class _Analyses:
     """The mechanics analyses of a coupled run: the host mesh rebuilt, the scene's analysis run."""
 
-    def __init__(self, scene: Scene, comm: MPI.Comm, cp: _Coupled, outdir: Path, nsteps: int):
+    def __init__(
+        self,
+        scene: Scene,
+        comm: MPI.Comm,
+        cp: _Coupled,
+        outdir: Path,
+        nsteps: int,
+        timer: PhaseTimer,
+    ):
         self.scene, self.comm, self.cp, self.outdir, self.nsteps = scene, comm, cp, outdir, nsteps
+        self.timer = timer  # the phases host_rebuild and analyses of the coupled run
         self.signal = 0  # the signal that stopped an analysis
         self.records: list[dict[str, Any]] = []
         self.result: RunResult | None = None
@@ -318,17 +332,19 @@ class _Analyses:
         comm, cp = self.comm, self.cp
         final = step == self.nsteps
         where = self.outdir if final else self.outdir / f"mechanics_{step:05d}"
-        hm, poly = cp.host_mesh(where / "host_mesh.msh")
-        if comm.rank == 0:
-            write_points(where / "neoplasm_boundary.csv", ["x", "y", "z"][: cp.dim], poly)
+        with self.timer.phase("host_rebuild"):
+            hm, poly = cp.host_mesh(where / "host_mesh.msh")
+            if comm.rank == 0:
+                write_points(where / "neoplasm_boundary.csv", ["x", "y", "z"][: cp.dim], poly)
         pressure = cp.pressure()
-        res = run_mechanics(  # a signal: no checkpoint of its own, it reaches this run
-            mechanics_scene(self.scene, hm, pressure, where),
-            comm,
-            output=where,
-            progress=False,
-            checkpoint_on_signal=False,
-        )
+        with self.timer.phase("analyses"):
+            res = run_mechanics(  # a signal: no checkpoint of its own, it reaches this run
+                mechanics_scene(self.scene, hm, pressure, where),
+                comm,
+                output=where,
+                progress=False,
+                checkpoint_on_signal=False,
+            )
         measure = "neoplasm_area_in_bone" if cp.dim == 2 else "neoplasm_volume_in_bone"
         rec = {
             "growth_step": step,
@@ -445,7 +461,8 @@ def _grow_and_analyse(
                 if k == nsteps:
                     break
                 k += 1
-                driver.step(float(times[k] - times[k - 1]))
+                with analyses.timer.phase("growth_steps"):
+                    driver.step(float(times[k] - times[k - 1]))
                 last, t_done = record(float(times[k])), float(times[k])
                 bar.update(1)
             pending, analysing = False, analyses.due(k)

@@ -389,6 +389,11 @@ def test_mechanics_every_alternates_growth_and_analyses(disc_mesh, tmp_shared_pa
         and s["growth"]["steps"] == 4
         and len(s["coupling"]["analyses"]) == 2
     )
+    # the coupled run's phases: disjoint parts of its wall time (each the slowest rank's;
+    # the ranks meet in every phase, so their sum stays within the run's wall time)
+    ph = s["coupling"]["phases_s"]
+    assert set(ph) == {"setup", "check", "growth_steps", "host_rebuild", "analyses"}
+    assert min(ph.values()) > 0 and sum(ph.values()) <= 1.1 * s["coupling"]["wall_time_s"]
 
 
 def _lame_clamped_hoop(R, b, p, E, nu):
