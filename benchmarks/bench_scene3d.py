@@ -453,6 +453,8 @@ def main() -> None:
     ap.add_argument("--cases", default=",".join(CASES), help="comma-separated: " + ",".join(CASES))
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = ap.parse_args()
+    if COMM.rank == 0:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
     cases = args.cases.split(",")
     bad = [c for c in cases if c not in CASES]
     if bad:
