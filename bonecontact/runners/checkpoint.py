@@ -57,6 +57,7 @@ __all__ = [
     "RunCounters",
     "StopRequest",
     "checkpoint_dir",
+    "checkpoint_summary",
     "find_checkpoint",
     "on_root",
     "read_checkpoint",
@@ -698,6 +699,27 @@ def signal_name(signum: int) -> str:
 
 
 # ----------------------------------------------------------------------------- the run's side
+def checkpoint_summary(ck: Any) -> dict[str, Any]:
+    """The summary.json entries of a run's checkpointer ``ck`` (:class:`Checkpointer`, or the
+    growth and crack ones: attributes ``every``, ``schedule``, ``written``, ``time_s``,
+    ``last``, ``restarted_from``, ``signum``): ``checkpoints``, after a restart
+    ``restarted_from``, after a signal ``signal``."""
+    out: dict[str, Any] = {
+        "checkpoints": {
+            "every": ck.every,
+            "time": ck.schedule.interval,
+            "written": ck.written,
+            "write_time_s": ck.time_s,
+            "last": None if ck.last is None else str(ck.last),
+        }
+    }
+    if ck.restarted_from is not None:
+        out["restarted_from"] = ck.restarted_from
+    if ck.signum:
+        out["signal"] = signal_name(ck.signum)
+    return out
+
+
 class Checkpointer:
     """A mechanics run's checkpoints: restart, periodic writes, the stop on a signal.
 
@@ -815,17 +837,4 @@ class Checkpointer:
 
     def summary(self) -> dict[str, Any]:
         """The summary.json entries: ``checkpoints`` and, after a restart, ``restarted_from``."""
-        out: dict[str, Any] = {
-            "checkpoints": {
-                "every": self.every,
-                "time": self.schedule.interval,
-                "written": self.written,
-                "write_time_s": self.time_s,
-                "last": None if self.last is None else str(self.last),
-            }
-        }
-        if self.restarted_from is not None:
-            out["restarted_from"] = self.restarted_from
-        if self.signum:
-            out["signal"] = signal_name(self.signum)
-        return out
+        return checkpoint_summary(self)

@@ -36,9 +36,9 @@ from bonecontact.runners.checkpoint import (
     CheckpointSchedule,
     RunCounters,
     StopRequest,
+    checkpoint_summary,
     find_checkpoint,
     on_root,
-    signal_name,
     trim_tables,
     write_checkpoint,
 )
@@ -166,17 +166,4 @@ class CrackCheckpoints:
     def summary(self) -> dict[str, Any]:
         """The summary.json entries: ``checkpoints``, after a restart ``restarted_from``,
         after a signal ``signal``."""
-        out: dict[str, Any] = {
-            "checkpoints": {
-                "every": self.every,
-                "time": self.schedule.interval,
-                "written": self.written,
-                "write_time_s": self.time_s,
-                "last": None if self.last is None else str(self.last),
-            }
-        }
-        if self.restarted_from is not None:
-            out["restarted_from"] = self.restarted_from
-        if self.signum:
-            out["signal"] = signal_name(self.signum)
-        return out
+        return checkpoint_summary(self)

@@ -52,9 +52,9 @@ from bonecontact.runners.checkpoint import (
     CheckpointSchedule,
     InputOrder,
     StopRequest,
+    checkpoint_summary,
     find_checkpoint,
     save_checkpoint,
-    signal_name,
     trim_rows,
 )
 
@@ -362,17 +362,4 @@ class GrowthCheckpointer:
     def summary(self) -> dict[str, Any]:
         """The summary.json entries: ``checkpoints``, after a restart ``restarted_from``,
         after a signal ``signal``."""
-        out: dict[str, Any] = {
-            "checkpoints": {
-                "every": self.every,
-                "time": self.schedule.interval,
-                "written": self.written,
-                "write_time_s": self.time_s,
-                "last": None if self.last is None else str(self.last),
-            }
-        }
-        if self.restarted_from is not None:
-            out["restarted_from"] = self.restarted_from
-        if self.signum:
-            out["signal"] = signal_name(self.signum)
-        return out
+        return checkpoint_summary(self)
