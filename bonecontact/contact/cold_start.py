@@ -209,7 +209,9 @@ def predicted_set(solver, st, it) -> npt.NDArray[np.bool_]:
     """The first set update of a 3D cold start, pair by pair (:func:`first_set`).
 
     ``solver`` is the :class:`~bonecontact.contact.pdas.ContactSolver`, ``st`` its
-    state (``st.an``: the support patch) and ``it`` the first iterate.
+    state (``st.an``: the support patch) and ``it`` the first iterate.  A pair whose
+    patch carries no compressive force in the first solve (pulled apart) takes the plain
+    active-set rule instead.
     """
     gap, D = solver._gap, solver._D
     force = it.lam_n * D
@@ -224,8 +226,14 @@ def predicted_set(solver, st, it) -> npt.NDArray[np.bool_]:
         )
     )
     new = np.zeros(solver.NS, dtype=bool)
+    release = it.ind_n > it.eps  # the plain rule (docs/theory/pdas.md#active-set-rule)
     for k in range(len(solver.interfaces)):
         m = pair == k
+        if st.an[m].any() and float(force[m & st.an].sum()) <= 0.0:
+            # a pair pulled apart (e.g. crack faces in tension): nothing to measure the
+            # compliance with, and keeping the patch would accept tensile multipliers
+            new[m] = release[m]
+            continue
         new[m] = first_set(
             X[m],
             gap[m],

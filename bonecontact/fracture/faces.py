@@ -47,7 +47,9 @@ SLAVE_TAG, MASTER_TAG = 1, 2
 
 def contact_tags(cm: CrackedMesh) -> mesh.MeshTags:
     """Facet markers of the pair: slave = ``crack_plus``, master = ``crack_minus`` (whole
-    faces; the shared tip node carries no multiplier, see the module docstring)."""
+    faces; the shared tip node carries no multiplier, see the module docstring).  A 3D
+    :class:`~bonecontact.fracture.body3d.CrackedBody3D` works the same way (its
+    ``face_tags``: ``crack_upper`` slave, ``crack_lower`` master; the front nodes shared)."""
     msh = cm.mesh
     plus, minus = (cm.facet_tags.find(t) for t in cm.face_tags)
     ent = np.concatenate([plus, minus]).astype(np.int32)
@@ -55,7 +57,7 @@ def contact_tags(cm: CrackedMesh) -> mesh.MeshTags:
         [np.full(plus.size, SLAVE_TAG, np.int32), np.full(minus.size, MASTER_TAG, np.int32)]
     )
     order = np.argsort(ent)
-    return mesh.meshtags(msh, 1, ent[order], val[order])
+    return mesh.meshtags(msh, msh.topology.dim - 1, ent[order], val[order])
 
 
 def face_interface(model: Mechanics, cm: CrackedMesh, name: str = "crack") -> ContactInterface:

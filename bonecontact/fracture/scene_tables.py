@@ -1,11 +1,13 @@
 """The fracture tables of a scene, parsed and checked (docs/theory/fracture.md#scene-tables).
 
 ``[fracture]`` chooses the criteria and the propagation; each ``[[crack]]`` is an initial
-2D crack.  The functions here take the tables as plain mappings (as read from TOML) and
-raise :class:`~bonecontact.fracture.crack.FractureError` naming the offending key; the
-scene reader turns that into its own error (exit code 2).  :func:`check_crack_region`
-checks a crack against the mesh: every point of it must lie in cells of its region
-(a crack outside its region or crossing another body is refused).
+crack: a 2D polyline, or in 3D a planar disc or ellipse
+(:class:`~bonecontact.fracture.crack3d.PlanarCrack`).  The functions here take the tables
+as plain mappings (as read from TOML) and raise
+:class:`~bonecontact.fracture.crack.FractureError` naming the offending key; the scene
+reader turns that into its own error (exit code 2).  :func:`check_crack_region` checks a
+crack against the mesh: every point of it must lie in cells of its region (a crack
+outside its region or crossing another body is refused).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import numpy as np
 from dolfinx import geometry, mesh
 
 from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.fracture.crack3d import CRACK3D_KEYS, PlanarCrack, planar_crack_from_table
 from bonecontact.fracture.criteria import RISK_CRITERIA
 
 __all__ = [
@@ -46,7 +49,7 @@ FRACTURE_KEYS = (
     "initiation_length",
     "friction",
 )
-#: Keys of a ``[[crack]]`` table.
+#: Keys of a 2D ``[[crack]]`` table (3D: :data:`~bonecontact.fracture.crack3d.CRACK3D_KEYS`).
 CRACK_KEYS = ("name", "points", "tips", "region", "friction")
 
 
@@ -73,12 +76,14 @@ class FractureSpec:
 @dataclass(frozen=True)
 class CrackSpec:
     """A ``[[crack]]`` table: the crack, the region (cell group) it lies in, and the face
-    friction coefficient of its contact pair (0: frictionless)."""
+    friction coefficient of its contact pair (0: frictionless); in 3D the number of
+    front points at which K is evaluated."""
 
     name: str
-    crack: Crack2D
+    crack: Crack2D | PlanarCrack
     region: str
     friction: float = 0.0
+    front_points: int = 8
 
 
 def _unknown(table: Mapping, allowed: Sequence[str]) -> None:
@@ -137,22 +142,39 @@ def fracture_from_table(table: Mapping) -> FractureSpec:
     )
 
 
-def crack_from_table(table: Mapping, index: int = 1) -> CrackSpec:
-    """Parse one ``[[crack]]`` (2D polyline ``points = [[x, y], …]``)."""
-    _unknown(table, CRACK_KEYS)
-    for key in ("points", "region"):
+def crack_from_table(table: Mapping, index: int = 1, dim: int = 2) -> CrackSpec:
+    """Parse one ``[[crack]]``: in 2D a polyline ``points = [[x, y], …]``, in 3D a planar
+    disc or ellipse (:func:`~bonecontact.fracture.crack3d.planar_crack_from_table`)."""
+    if dim == 3:
+        for key in ("points", "tips"):
+            if key in table:
+                raise FractureError(
+                    key,
+                    "a 3D crack is a planar disc or ellipse (shape, centre, normal, radius or "
+                    "semi_axes and axis), not a polyline",
+                )
+    _unknown(table, CRACK3D_KEYS if dim == 3 else CRACK_KEYS)
+    required = ("region",) if dim == 3 else ("points", "region")
+    for key in required:
         if key not in table:
             raise FractureError(key, "is required")
     name = str(table.get("name", f"crack{index}"))
+    friction = table.get("friction", 0.0)
+    if isinstance(friction, bool) or not isinstance(friction, (int, float)) or friction < 0:
+        raise FractureError("friction", f"must be a number >= 0, got {friction!r}")
+    if dim == 3:
+        n = table.get("front_points", 8)
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise FractureError("front_points", f"must be a positive integer, got {n!r}")
+        return CrackSpec(
+            name, planar_crack_from_table(table), str(table["region"]), float(friction), n
+        )
     pts = table["points"]
     try:
         arr = np.asarray(pts, dtype=float)
     except (TypeError, ValueError) as exc:
         raise FractureError("points", "must be a list of [x, y] pairs") from exc
     crack = Crack2D(arr, table.get("tips", "both"))
-    friction = table.get("friction", 0.0)
-    if isinstance(friction, bool) or not isinstance(friction, (int, float)) or friction < 0:
-        raise FractureError("friction", f"must be a number >= 0, got {friction!r}")
     return CrackSpec(name, crack, str(table["region"]), float(friction))
 
 
@@ -186,17 +208,22 @@ def check_crack_region(
 ) -> None:
     """Refuse a crack that leaves its region (collective).
 
-    Points sampled along every segment must each lie in a cell tagged ``region_tag``;
+    Points sampled along every segment (3D: over the disc, its front included) must each
+    lie in a cell tagged ``region_tag``;
     a point in a cell of another tag means the crack crosses another body, a point in no
     cell that it lies outside the mesh.  An ``increment`` must be shorter than the
     region's extent.
     """
-    pts = spec.crack.points
-    t = np.linspace(0.0, 1.0, samples_per_segment + 1)[1:-1]
-    samples = np.concatenate(
-        [pts[i] + np.outer(t, pts[i + 1] - pts[i]) for i in range(len(pts) - 1)]
-    )
-    x = np.column_stack([samples, np.zeros(len(samples))])
+    if isinstance(spec.crack, PlanarCrack):
+        samples = spec.crack.sample_points()
+        x, out_key = samples, spec.crack.size_key
+    else:
+        pts = spec.crack.points
+        t = np.linspace(0.0, 1.0, samples_per_segment + 1)[1:-1]
+        samples = np.concatenate(
+            [pts[i] + np.outer(t, pts[i + 1] - pts[i]) for i in range(len(pts) - 1)]
+        )
+        x, out_key = np.column_stack([samples, np.zeros(len(samples))]), "points"
     tdim = msh.topology.dim
     n_cells = msh.topology.index_map(tdim).size_local
     tree = geometry.bb_tree(msh, tdim, padding=0.0)
@@ -215,7 +242,7 @@ def check_crack_region(
     msh.comm.Allreduce(MPI.IN_PLACE, inside, op=MPI.SUM)
     if np.any(found == 0):
         p = samples[int(np.argmax(found == 0))]
-        raise FractureError("points", f"crack {spec.name!r} leaves the mesh near {p.tolist()}")
+        raise FractureError(out_key, f"crack {spec.name!r} leaves the mesh near {p.tolist()}")
     if np.any(inside == 0):
         p = samples[int(np.argmax(inside == 0))]
         raise FractureError(
@@ -223,9 +250,9 @@ def check_crack_region(
         )
     if increment is not None:
         cells = cell_tags.find(region_tag)
-        xs = mesh.compute_midpoints(msh, tdim, cells[cells < n_cells])[:, :2]
-        lo = xs.min(axis=0) if xs.size else np.full(2, np.inf)
-        hi = xs.max(axis=0) if xs.size else np.full(2, -np.inf)
+        xs = mesh.compute_midpoints(msh, tdim, cells[cells < n_cells])[:, :tdim]
+        lo = xs.min(axis=0) if xs.size else np.full(tdim, np.inf)
+        hi = xs.max(axis=0) if xs.size else np.full(tdim, -np.inf)
         msh.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)  # buffers: pickled min of arrays fails
         msh.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
         if increment >= float(np.max(hi - lo)):

@@ -75,6 +75,7 @@ from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import CheckpointError, RunCounters, read_checkpoint
 from bonecontact.runners.crack_checkpoint import CrackCheckpoints
+from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
 from bonecontact.runners.mechanics import (
     Recorder,
     SceneModel,
@@ -299,6 +300,8 @@ def build_cracked(
 def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
     """Every check of a crack scene, the first cracked mesh and the face pair included
     (nothing written); the scene model on that mesh."""
+    if scene.dimension == 3:  # a planar crack in a 3D body
+        return check_cracked3d(scene, comm)
     run = prepare(scene, comm)
     if run.spec is None:  # the crack is initiated by the run: the uncracked model
         return build_model(scene, comm, PhaseTimer(), mesh=(run.mesh, run.groups))
@@ -499,6 +502,10 @@ def run_cracked(
         The checkpoint to restart from is missing, damaged, from another scene or its
         mesh cannot be rebuilt.
     """
+    if scene.dimension == 3:  # a planar crack in a 3D body: K along the front
+        if restart:
+            raise CheckpointError("a 3D [[crack]] scene writes no checkpoints to restart from")
+        return run_cracked3d(scene, comm, output, progress)
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare(scene, comm)

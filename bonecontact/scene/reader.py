@@ -872,14 +872,6 @@ def _read_fracture(
     entries = _array_of_tables(doc, "crack")
     if tab is None and not entries:
         return None, ()
-    if dim != 2 and entries:
-        raise SceneError(
-            None,
-            "[[crack]]",
-            None,
-            "cracks in scenes are 2D in this version (a 3D scene takes the [fracture] "
-            "initiation check; K along a planar 3D front: bonecontact.fracture.front3d)",
-        )
     if has_neoplasm and entries:
         raise SceneError(
             None,
@@ -895,12 +887,16 @@ def _read_fracture(
     for key in ("propagate", "initiate"):
         if dim != 2 and getattr(spec, key):
             raise SceneError(
-                None, "[fracture]", key, "runs in 2D scenes in this version (3D: the risk only)"
+                None,
+                "[fracture]",
+                key,
+                "runs in 2D scenes in this version (3D: the risk, and K along the front of a "
+                "given planar [[crack]]; 3D propagation is planned, docs/theory/fracture.md)",
             )
     cracks = []
     for i, entry in enumerate(entries):
         try:
-            cracks.append(crack_from_table(entry, i + 1))
+            cracks.append(crack_from_table(entry, i + 1, dim))
         except FractureError as exc:
             where = table_label("crack", i, entry.get("name"))
             raise SceneError(None, where, exc.key, _fracture_message(exc)) from None

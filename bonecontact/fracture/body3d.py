@@ -1,0 +1,312 @@
+"""A scene's 3D body re-meshed around a planar crack (docs/theory/fracture.md#3d-crack-fronts).
+
+The counterpart of :mod:`bonecontact.fracture.body` in 3D.  The boundary triangles of the
+scene's mesh (with their facet groups) are gathered on rank 0 and become discrete gmsh
+surfaces, one per facet group, which bound the volume; the crack (a
+:class:`~bonecontact.fracture.crack3d.PlanarCrack`: disc or ellipse) is a plane surface
+of the built-in kernel embedded in that volume.  The volume is meshed with tetrahedra
+graded towards the front, h = min(h_f + g·d, h_max) (d the distance to the front, h_max
+the largest boundary facet of the scene's mesh), and gmsh's ``Crack`` plugin duplicates
+the nodes of the crack surface except those of the front: the two faces become the facet
+groups ``crack_upper`` (the side the crack normal points to) and ``crack_lower``.  The
+scene's boundary triangulation is kept as it is, so every facet group keeps its name,
+tag and shape (curved surfaces stay the facets of the given mesh).  All gmsh work runs
+on rank 0; DOLFINx distributes the mesh.
+
+Limits: the body is one cell group (the crack's region); the crack is interior (its
+front does not reach the surface).
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import nullcontext
+from dataclasses import dataclass, field
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+from dolfinx import mesh
+from dolfinx.io.gmsh import model_to_mesh
+
+from bonecontact.fracture.crack import FractureError
+from bonecontact.fracture.crack3d import PlanarCrack
+from bonecontact.fracture.front3d import CrackBlock
+from bonecontact.fracture.meshing import TipMesh
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.meshing.session import gmsh_session
+
+__all__ = ["BodySurface", "CrackedBody3D", "body_surface", "mesh_body_with_planar_crack"]
+
+
+@dataclass(frozen=True)
+class BodySurface:
+    """The boundary triangulation of a 3D body (the same on every rank).
+
+    Attributes
+    ----------
+    triangles
+        Vertex coordinates of every boundary facet, shape (n, 3, 3) (m).
+    tags
+        Facet-group tag of every facet (0: in no group).
+    names
+        Facet-group tag → name.
+    region
+        (name, tag) of the body's cell group.
+    h_max
+        Longest boundary edge (m): the element size away from the front.
+    """
+
+    triangles: npt.NDArray[np.float64]
+    tags: npt.NDArray[np.int32]
+    names: dict[int, str]
+    region: tuple[str, int]
+    h_max: float
+
+    @property
+    def scale(self) -> float:
+        return float(np.ptp(self.triangles.reshape(-1, 3), axis=0).max())
+
+    def distance(self, points: npt.ArrayLike) -> float:
+        """Smallest distance from ``points`` (m, 3) to the boundary vertices (m): an upper
+        bound of the distance to the surface, within a facet size."""
+        p = np.atleast_2d(np.asarray(points, dtype=float))
+        v = np.unique(self.triangles.reshape(-1, 3), axis=0)
+        return float(min(np.min(np.linalg.norm(v - q, axis=1)) for q in p))
+
+
+@dataclass
+class CrackedBody3D:
+    """A distributed 3D mesh with a planar crack whose faces are separate boundaries.
+
+    Attributes
+    ----------
+    mesh, cell_tags, facet_tags
+        The DOLFINx mesh and markers (the scene's groups under their tags).
+    crack
+        The crack.
+    groups
+        ``"crack_upper"``, ``"crack_lower"`` → facet tag.
+    """
+
+    mesh: mesh.Mesh
+    cell_tags: mesh.MeshTags
+    facet_tags: mesh.MeshTags
+    crack: PlanarCrack
+    groups: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def face_tags(self) -> tuple[int, int]:
+        """Facet tags ``(crack_upper, crack_lower)`` (the slave and master of the pair)."""
+        return self.groups["crack_upper"], self.groups["crack_lower"]
+
+    def block(self) -> CrackBlock:
+        """The model for :func:`~bonecontact.fracture.front3d.front_interaction_integral`
+        (both faces meshed: K_I, K_II, K_III)."""
+        return CrackBlock(
+            self.mesh,
+            self.cell_tags,
+            self.facet_tags,
+            self.crack.front(),
+            dict(self.groups),
+            half_model=False,
+        )
+
+
+def body_surface(
+    msh: mesh.Mesh,
+    cell_tags: mesh.MeshTags,
+    facet_tags: mesh.MeshTags,
+    groups: dict[str, tuple[int, int]],
+    region: str,
+) -> BodySurface:
+    """The boundary of a one-region 3D mesh, gathered on every rank (collective).
+
+    Raises
+    ------
+    FractureError
+        The mesh has cells outside ``region`` (key ``region``), on every rank.
+    """
+    comm = msh.comm
+    tdim = msh.topology.dim
+    n_cells = msh.topology.index_map(tdim).size_local
+    region_tag = groups[region][1]
+    own = cell_tags.indices < n_cells
+    other = int(int(own.sum()) < n_cells or np.any(cell_tags.values[own] != region_tag))
+    if comm.allreduce(other, op=MPI.MAX):
+        raise FractureError(
+            "region",
+            f"a scene with a crack needs a mesh of one cell group (the crack's region "
+            f"{region!r}); this mesh has cells outside it",
+        )
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    ext = mesh.exterior_facet_indices(msh.topology)
+    ext = ext[ext < msh.topology.index_map(tdim - 1).size_local]
+    geom = mesh.entities_to_geometry(msh, tdim - 1, ext)
+    tri = msh.geometry.x[geom] if ext.size else np.zeros((0, 3, 3))
+    tag_of = dict(zip(facet_tags.indices.tolist(), facet_tags.values.tolist(), strict=True))
+    tags = np.array([tag_of.get(int(f), 0) for f in ext], dtype=np.int32)
+    parts = comm.allgather((tri, tags))
+    tri = np.concatenate([p[0] for p in parts]).reshape(-1, 3, 3)
+    tags = np.concatenate([p[1] for p in parts]).astype(np.int32)
+    edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+    names = {t: n for n, (d, t) in groups.items() if d == tdim - 1}
+    return BodySurface(tri, tags, names, (region, region_tag), float(edges.max()))
+
+
+# ---------------------------------------------------------------------- gmsh (rank 0)
+def _boundary_surfaces(body: BodySurface) -> list[int]:
+    """One discrete surface per facet tag with the body's triangles; their tags."""
+    tol = 1e-9 * body.scale
+    xyz = body.triangles.reshape(-1, 3)
+    _, first, inv = np.unique(
+        np.round(xyz / tol).astype(np.int64), axis=0, return_index=True, return_inverse=True
+    )
+    conn = inv.reshape(-1, 3) + 1
+    values = np.unique(body.tags)
+    surfaces = []
+    for k, _ in enumerate(values, start=1):
+        gmsh.model.addDiscreteEntity(2, k)
+        surfaces.append(k)
+    gmsh.model.mesh.addNodes(2, surfaces[0], np.arange(1, len(first) + 1), xyz[first].ravel())
+    for k, t in zip(surfaces, values, strict=True):
+        gmsh.model.mesh.addElementsByType(k, 2, [], conn[body.tags == t].ravel())
+    for k, t in zip(surfaces, values, strict=True):
+        if t > 0:
+            gmsh.model.addPhysicalGroup(2, [k], int(t), name=body.names.get(int(t), f"facets{t}"))
+    return surfaces
+
+
+def _crack_surface(crack: PlanarCrack) -> tuple[int, list[int]]:
+    """The crack as a plane surface of the built-in kernel: its tag and the front curves."""
+    geo = gmsh.model.geo
+    c = np.asarray(crack.centre, dtype=float)
+    R = crack.axes
+    centre = geo.addPoint(*c)
+    ends = [
+        geo.addPoint(*(c + crack.a * math.cos(t) * R[0] + crack.b * math.sin(t) * R[1]))
+        for t in 0.5 * math.pi * np.arange(4)
+    ]
+    if crack.a == crack.b:
+        arcs = [geo.addCircleArc(ends[i], centre, ends[(i + 1) % 4]) for i in range(4)]
+    else:
+        arcs = [geo.addEllipseArc(ends[i], centre, ends[0], ends[(i + 1) % 4]) for i in range(4)]
+    return geo.addPlaneSurface([geo.addCurveLoop(arcs)]), arcs
+
+
+def _size_field(front: list[int], crack: PlanarCrack, size: TipMesh, h_max: float) -> None:
+    fld = gmsh.model.mesh.field
+    d = fld.add("Distance")
+    fld.setNumbers(d, "CurvesList", front)
+    perimeter = crack.front().perimeter
+    fld.setNumber(d, "Sampling", max(100, int(4 * perimeter / size.h_tip / 4)))
+    f = fld.add("MathEval")
+    fld.setString(f, "F", f"Min({size.h_tip!r} + {size.grading!r}*F{d}, {h_max!r})")
+    fld.setAsBackgroundMesh(f)
+    for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{opt}", 0)
+
+
+def _split(surface: int, crack_group: int, second_group: int) -> None:
+    """Duplicate the crack surface's nodes (not the front's): two physical groups."""
+    gmsh.model.addPhysicalGroup(2, [surface], crack_group, name="crack_a")
+    plugin = gmsh.plugin
+    plugin.setNumber("Crack", "Dimension", 2)
+    plugin.setNumber("Crack", "PhysicalGroup", crack_group)
+    plugin.setNumber("Crack", "NewPhysicalGroup", second_group)
+    plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", 0)
+    plugin.run("Crack")
+    gmsh.model.setPhysicalName(2, second_group, "crack_b")
+    gmsh.model.mesh.renumberNodes()  # the plugin leaves gaps; DOLFINx needs them contiguous
+    gmsh.model.mesh.renumberElements()
+
+
+def _build(body: BodySurface, crack: PlanarCrack, size: TipMesh, tags: tuple[int, int]) -> None:
+    surfaces = _boundary_surfaces(body)
+    geo = gmsh.model.geo
+    volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
+    surface, front = _crack_surface(crack)
+    geo.synchronize()
+    gmsh.model.mesh.embed(2, [surface], 3, volume)
+    region, region_tag = body.region
+    gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
+    _size_field(front, crack, size, min(size.h_max or body.h_max, body.h_max))
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT (honours the embedded crack)
+    gmsh.model.mesh.generate(3)
+    _split(surface, *tags)
+
+
+# --------------------------------------------------------------------- DOLFINx side
+def _upper_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.ndarray) -> int:
+    """+1 if the cells behind facet group ``tag`` lie on the side ``n`` points to, else −1
+    (collective)."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    facets = facet_tags.find(tag)
+    facets = facets[facets < msh.topology.index_map(tdim - 1).size_local]
+    total = 0.0
+    if facets.size:
+        cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int32)
+        fmid = mesh.compute_midpoints(msh, tdim - 1, facets)
+        cmid = mesh.compute_midpoints(msh, tdim, cells)
+        total = float(np.sum(np.sign((cmid - fmid) @ n)))
+    total = msh.comm.allreduce(total, op=MPI.SUM)
+    if total == 0:
+        raise MeshingError("cannot tell the sides of the crack faces apart")
+    return 1 if total > 0 else -1
+
+
+def mesh_body_with_planar_crack(
+    body: BodySurface, crack: PlanarCrack, size: TipMesh, comm: MPI.Comm | None = None
+) -> tuple[CrackedBody3D, object]:
+    """Mesh a 3D body with a planar crack cut into it (collective; gmsh on rank 0).
+
+    Parameters
+    ----------
+    body
+        The body's boundary (:func:`body_surface` of the scene's mesh).
+    crack
+        The crack, inside the body (checked against the cells beforehand:
+        :func:`~bonecontact.fracture.scene_tables.check_crack_region`).
+    size
+        Element size at the front, its growth per unit distance from the front and the
+        largest size (:class:`~bonecontact.fracture.meshing.TipMesh`; ``h_max`` at most
+        the body's longest boundary edge).
+    comm
+        MPI communicator (``None``: ``MPI.COMM_WORLD``).
+
+    Returns
+    -------
+    (CrackedBody3D, dolfinx.io.gmsh.MeshData)
+        The cracked mesh (the crack faces ``crack_upper``, on the side the normal points
+        to, and ``crack_lower``) and the mesh data with its physical groups.
+
+    Raises
+    ------
+    MeshingError
+        gmsh failed (on every rank).
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    top = max([body.region[1], *body.names, 0])
+    tags = (top + 1, top + 2)  # the crack surface, its second face
+    error = None
+    with gmsh_session("cracked_body3d") if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                _build(body, crack, size, tags)
+            except Exception as exc:  # reported on every rank below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            raise MeshingError(f"cracked 3D body: {error}")
+        md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
+    n = np.asarray(crack.normal, dtype=float)
+    a, b = tags
+    upper, lower = (a, b) if _upper_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
+    cb = CrackedBody3D(
+        md.mesh, md.cell_tags, md.facet_tags, crack, {"crack_upper": upper, "crack_lower": lower}
+    )
+    return cb, md

@@ -1,0 +1,470 @@
+"""3D mechanics scenes with a planar ``[[crack]]`` (docs/scene_format.md#fracture,
+docs/theory/fracture.md#3d-crack-fronts).
+
+The crack (a disc or an ellipse, :class:`~bonecontact.fracture.crack3d.PlanarCrack`) is cut
+into the scene's body (:mod:`bonecontact.fracture.body3d`: the body's boundary
+triangulation kept, the volume re-meshed by gmsh with the crack surface embedded, graded
+towards the front, the crack nodes split into the faces ``crack_upper`` and
+``crack_lower``).  The faces become a dual-mortar contact pair (``crack_upper`` slave;
+frictionless, or Coulomb with the crack's ``friction`` and the fixed-point bound) solved
+with the scene's other pairs by the PDAS, so an open crack is traction-free and a closed
+one carries compression and friction.  After every step K_I, K_II, K_III and G at
+``front_points`` points along the front come from the 3D domain interaction integral of
+:mod:`bonecontact.fracture.front3d` (traction-free faces: no face term), with
+displacement correlation as the cross-check; rows go to ``fracture.csv`` as the run goes,
+the largest K_I and G and their place to ``summary.json``, and the front with its K to
+``fields_crack_front.vtk``.
+
+Static and quasi-static analyses, one crack per scene, one cell group, an isotropic
+material around the front; no propagation and no checkpoints in 3D (refused with exit 2).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import mesh
+from tqdm import tqdm
+
+from bonecontact.common.formatting import format_cell
+from bonecontact.common.profiling import PhaseTimer
+from bonecontact.contact.interface import ContactInputError
+from bonecontact.fracture.body3d import (
+    BodySurface,
+    CrackedBody3D,
+    body_surface,
+    mesh_body_with_planar_crack,
+)
+from bonecontact.fracture.crack import FractureError
+from bonecontact.fracture.crack3d import PlanarCrack
+from bonecontact.fracture.faces import face_interface, face_traction
+from bonecontact.fracture.front3d import (
+    front_displacement_correlation,
+    front_interaction_integral,
+)
+from bonecontact.fracture.meshing import TipMesh
+from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
+from bonecontact.materials.laws import Isotropic
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.runners.checkpoint import RunCounters
+from bonecontact.runners.mechanics import (
+    Recorder,
+    SceneModel,
+    analysis_steps,
+    build_model,
+    read_mesh,
+    run_info,
+    scene_integrator,
+)
+from bonecontact.runners.results import RunResult
+from bonecontact.scene import Scene, SceneError
+from bonecontact.scene.checks import check_cracks_in_mesh
+from bonecontact.scene.errors import table_label
+from bonecontact.scene.spec import ContactSpec
+
+__all__ = [
+    "FRONT_COLUMNS",
+    "Crack3DRun",
+    "FrontRecord",
+    "check_cracked3d",
+    "run_cracked3d",
+    "write_front",
+]
+
+#: Columns of ``fracture.csv`` of a 3D crack (one row per front point and step).
+FRONT_COLUMNS = (
+    "step",
+    "time",
+    "point",
+    "phi_deg",
+    "s",
+    "x",
+    "y",
+    "z",
+    "K_I",
+    "K_II",
+    "K_III",
+    "G",
+    "K_I_dc",
+    "K_II_dc",
+    "K_III_dc",
+    "status",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class FrontRecord:
+    """One row of ``fracture.csv``: K at a front point after a step (:data:`FRONT_COLUMNS`;
+    ``phi_deg`` the front parameter, ``s`` the arc length from φ = 0, m)."""
+
+    step: int
+    time: float
+    point: int
+    phi_deg: float
+    s: float
+    x: float
+    y: float
+    z: float
+    K_I: float
+    K_II: float
+    K_III: float
+    G: float
+    K_I_dc: float
+    K_II_dc: float
+    K_III_dc: float
+    status: str = "stationary"
+
+    def row(self) -> list[Any]:
+        return [getattr(self, c) for c in FRONT_COLUMNS]
+
+
+@dataclasses.dataclass
+class Crack3DRun:
+    """What a 3D crack scene needs besides the scene model."""
+
+    scene: Scene  # with the crack's face pair added to its contacts
+    spec: CrackSpec
+    body: BodySurface
+    material: Isotropic
+    tip_mesh: TipMesh
+    r_out: float  # radius of the interaction-integral domain (m)
+    groups: dict[str, tuple[int, int]]
+
+
+def _pair_name(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
+
+
+def _error(scene: Scene, spec: CrackSpec, key: str, text: str) -> SceneError:
+    return SceneError(str(scene.path), table_label("crack", 0, spec.name), key, text)
+
+
+def _refuse(scene: Scene) -> None:
+    """What a 3D crack scene does not run (exit 2 naming the table and key)."""
+    if len(scene.cracks) > 1:
+        raise SceneError(
+            str(scene.path),
+            table_label("crack", 1, scene.cracks[1].name),
+            None,
+            "this version runs one [[crack]] per scene",
+        )
+    if scene.analysis.kind not in ("static", "quasistatic"):
+        raise SceneError(
+            str(scene.path),
+            "[analysis]",
+            "kind",
+            f"a 3D [[crack]] scene runs static or quasi-static analyses, not "
+            f"{scene.analysis.kind!r}",
+        )
+    if scene.output.checkpoint_every or scene.output.checkpoint_time:
+        raise SceneError(
+            str(scene.path),
+            "[output]",
+            "checkpoint_every" if scene.output.checkpoint_every else "checkpoint_time",
+            "a 3D [[crack]] scene writes no checkpoints in this version",
+        )
+
+
+def _domain_radius(crack: PlanarCrack, body: BodySurface, h_tip: float) -> float:
+    """Interaction-integral domain: 0.3 of the smaller semi-axis b or four front elements,
+    whichever is larger, but at most 0.6 of the smallest radius of curvature of the front
+    (b²/a) and half the distance from the front to the body's surface."""
+    front = crack.front()
+    free = body.distance(front.point(np.linspace(0.0, 2 * math.pi, 64, endpoint=False)))
+    return min(
+        max(0.3 * crack.b, 4 * h_tip), 0.6 * crack.b**2 / crack.a, 0.5 * max(free - h_tip, 0.0)
+    )
+
+
+def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
+    """Read the scene mesh, check the crack against it, take the body's surface and set
+    the front mesh and the integration domain (collective; every input problem is a
+    :class:`SceneError` on every rank)."""
+    _refuse(scene)
+    spec = scene.cracks[0]
+    fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    md0, groups = read_mesh(scene, comm)
+    check_cracks_in_mesh(scene, md0.mesh, md0.cell_tags, groups)
+    try:
+        body = body_surface(md0.mesh, md0.cell_tags, md0.facet_tags, groups, spec.region)
+    except FractureError as exc:
+        raise _error(scene, spec, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
+    mat_spec = next(m for m in scene.materials if spec.region in m.regions)
+    if not isinstance(mat_spec.material, Isotropic):
+        raise SceneError(
+            str(scene.path),
+            table_label("material", mat_spec.index, mat_spec.name),
+            "model",
+            "the stress intensity factors of a crack need an isotropic material around it",
+        )
+    crack = spec.crack
+    h_tip = fr.tip_size if fr.tip_size is not None else crack.b / 10
+    r_out = _domain_radius(crack, body, h_tip)
+    if r_out < 3 * h_tip:
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "tip_size",
+            f"the integration domain around the front (r = {r_out:.3g} m: at most 0.6 b²/a "
+            f"and half the distance to the surface) spans fewer than 3 front elements of "
+            f"{h_tip:.3g} m; choose a smaller tip_size (or a crack farther from the surface)",
+        )
+    mu = spec.friction
+    pair = ContactSpec(
+        _pair_name(spec.name),
+        "crack_upper",
+        "crack_lower",
+        "coulomb" if mu > 0 else "none",
+        float(mu),
+        0.0,
+        "fixed_point" if mu > 0 else "previous_step",
+    )
+    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
+    size = TipMesh(h_tip, fr.tip_grading)
+    return Crack3DRun(scene2, spec, body, mat_spec.material, size, r_out, groups)
+
+
+def build_cracked3d(
+    scene: Scene, run: Crack3DRun, comm: MPI.Comm, timer: PhaseTimer
+) -> tuple[SceneModel, CrackedBody3D]:
+    """The scene model on the body meshed around the crack, with the face pair last."""
+    try:
+        with timer.phase("mesh_read"):
+            cb, md = mesh_body_with_planar_crack(run.body, run.spec.crack, run.tip_mesh, comm)
+    except MeshingError as exc:
+        raise _error(scene, run.spec, run.spec.crack.size_key, str(exc)) from None
+    sm = build_model(scene, comm, timer, mesh=(md, run.groups))
+    try:
+        with timer.phase("mortar_geometry"):
+            sm.interfaces.append(face_interface(sm.model, cb, _pair_name(run.spec.name)))
+    except ContactInputError as exc:
+        raise _error(scene, run.spec, run.spec.crack.size_key, str(exc)) from None
+    return sm, cb
+
+
+def check_cracked3d(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
+    """Every check of a 3D crack scene, the cracked mesh and the face pair included
+    (nothing written); the scene model on that mesh."""
+    run = prepare3d(scene, comm)
+    return build_cracked3d(scene, run, comm, PhaseTimer())[0]
+
+
+def front_nodes(cb: CrackedBody3D) -> npt.NDArray[np.float64]:
+    """Coordinates of the front nodes (the nodes of both faces), on every rank
+    (collective)."""
+    msh = cb.mesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, 0)
+    msh.topology.create_connectivity(0, tdim)
+    f2v = msh.topology.connectivity(tdim - 1, 0)
+    scale = 1e-9 * cb.crack.a
+    keys = []
+    for tag in cb.face_tags:
+        facets = cb.facet_tags.find(tag)
+        verts = np.unique([v for f in facets for v in f2v.links(f)]).astype(np.int32)
+        x = msh.geometry.x[mesh.entities_to_geometry(msh, 0, verts).ravel()]
+        x = np.concatenate(msh.comm.allgather(x))
+        keys.append({tuple(np.round(p / scale).astype(np.int64)): p for p in x})
+    return np.array([keys[0][k] for k in keys[0].keys() & keys[1].keys()]).reshape(-1, 3)
+
+
+def evaluate_front(
+    u: Any,
+    cb: CrackedBody3D,
+    run: Crack3DRun,
+    step: int,
+    t: float,
+    traction: tuple | None = None,
+) -> list[FrontRecord]:
+    """K_I, K_II, K_III and G at the front points by the interaction integral (with the
+    face term of the contact tractions ``traction`` (upper, lower) of a closed crack),
+    and the displacement-correlation cross-check (collective)."""
+    crack, block = run.spec.crack, cb.block()
+    front = block.front
+    phis = crack.front_parameters(run.spec.front_points)
+    s0 = front.arc_length(0.0)
+    records = []
+    for i, phi in enumerate(phis):
+        k = front_interaction_integral(
+            u, block, float(phi), run.material, run.r_out, face_traction=traction
+        )
+        try:
+            dc = front_displacement_correlation(
+                u,
+                block,
+                float(phi),
+                run.material,
+                min(1.5 * run.r_out, 0.5 * crack.b),
+                0.5 * run.r_out,
+                skip=1.5 * run.tip_mesh.h_tip,  # the front and its first ring: P1 opens least
+            )
+            kdc = (dc.K_I, dc.K_II, dc.K_III)
+        except FractureError:
+            kdc = (math.nan, math.nan, math.nan)
+        x, y, z = k.point
+        s = float(front.arc_length(phi) - s0)
+        records.append(
+            FrontRecord(
+                step, t, i, math.degrees(phi), s, x, y, z, k.K_I, k.K_II, k.K_III, k.G, *kdc
+            )
+        )
+    return records
+
+
+def _face_tractions(sm: SceneModel, result: Any, tips: np.ndarray) -> tuple | None:
+    """The contact tractions on (crack_upper, crack_lower) when the pair (the last one)
+    has active nodes, else ``None`` (open: traction-free)."""
+    k = len(sm.interfaces) - 1
+    if result is None or int(result.n_active[k]) == 0:
+        return None
+    ft = face_traction(sm.model.V, sm.interfaces[k], result, k, tips)
+    return ft.plus, ft.minus
+
+
+class FrontTable:
+    """``fracture.csv`` of a 3D crack (:data:`FRONT_COLUMNS`), rank 0 writes as the run
+    goes."""
+
+    def __init__(self, comm: MPI.Comm, directory: Path):
+        self._file, self._w = None, None
+        if comm.rank == 0:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+            self._file = open(Path(directory) / "fracture.csv", "w", newline="")
+            self._w = csv.writer(self._file)
+            self._w.writerow(FRONT_COLUMNS)
+        comm.barrier()
+
+    def rows(self, records: list[FrontRecord]) -> None:
+        if self._w is not None:
+            for r in records:
+                self._w.writerow([format_cell(v) for v in r.row()])
+            self._file.flush()
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def write_front(path: Path, records: list[FrontRecord]) -> None:
+    """The front as a legacy VTK file: POLYDATA, a closed line through the evaluation
+    points, with K_I, K_II, K_III and G as point data (to show over the fields)."""
+    pts = np.array([[r.x, r.y, r.z] for r in records])
+    n = len(pts)
+    lines = ["# vtk DataFile Version 3.0", "crack front", "ASCII", "DATASET POLYDATA"]
+    lines += [f"POINTS {n} double"] + [" ".join(repr(float(c)) for c in p) for p in pts]
+    lines += [f"LINES 1 {n + 2}", " ".join(map(str, [n + 1, *range(n), 0]))]
+    lines += [f"POINT_DATA {n}"]
+    for name in ("K_I", "K_II", "K_III", "G"):
+        lines += [f"SCALARS {name} double 1", "LOOKUP_TABLE default"]
+        lines += [repr(float(getattr(r, name))) for r in records]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def _front_summary(run: Crack3DRun, records: list[FrontRecord]) -> dict[str, Any]:
+    """The ``fracture.crack`` entry of summary.json."""
+    c = run.spec.crack
+    out: dict[str, Any] = {
+        "name": run.spec.name,
+        "pair": _pair_name(run.spec.name),
+        "friction": run.spec.friction,
+        "shape": c.shape,
+        "centre": list(c.centre),
+        "normal": list(c.normal),
+        "semi_axes": [c.a, c.b],
+        "axis": list(c.axis),
+        "front_size": run.tip_mesh.h_tip,
+        "r_out": run.r_out,
+        "front": [dataclasses.asdict(r) for r in records],
+    }
+    for name in ("K_I", "G"):
+        vals = [getattr(r, name) for r in records]
+        best = records[int(np.nanargmax(np.abs(vals)))] if records else None
+        out[f"max_{name}"] = None if best is None else getattr(best, name)
+        out[f"max_{name}_location"] = None if best is None else [best.x, best.y, best.z]
+        out[f"max_{name}_phi_deg"] = None if best is None else best.phi_deg
+    return out
+
+
+def run_cracked3d(
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+) -> RunResult:
+    """Validate, build and run a 3D scene with a planar ``[[crack]]`` (module docstring),
+    writing history.csv, the contact tables (the crack pair included), fields, the front
+    (``fields_crack_front.vtk``), fracture.csv and summary.json."""
+    t_start = time.perf_counter()
+    timer = PhaseTimer()
+    run = prepare3d(scene, comm)
+    outdir = Path(output) if output is not None else scene.output.directory
+    nsteps, dt = analysis_steps(scene)
+    counts = RunCounters()
+    sm, cb = build_cracked3d(scene, run, comm, timer)
+    tips = front_nodes(cb)
+    with timer.phase("solver_setup"):
+        integ = scene_integrator(run.scene, sm, dt, False)
+        integ.set_initial(None, sm.v0)
+    with timer.phase("output"):
+        rec = Recorder(run.scene, sm, integ, comm, outdir, False)
+    table = FrontTable(comm, outdir)
+    every = scene.output.fields_every
+    status, message, last = "converged", None, []
+    with timer.phase("output"):
+        rec.record(0, 0.0, every > 0)
+    bar = tqdm(total=nsteps, desc=scene.name, unit="step", disable=(comm.rank != 0) or not progress)
+    k = 1
+    try:
+        while k <= nsteps:
+            with timer.phase("time_stepping"):
+                si = integ.step()
+            res = integ.last_contact
+            counts.linear.append(si.linear_iterations)
+            if res is not None:
+                counts.pdas.append(res.iterations)
+                counts.bound_updates.append(res.bound_updates)
+                timer.add("contact_solve", res.wall_time)
+            with timer.phase("fracture"):
+                traction = _face_tractions(sm, res, tips)
+                last = evaluate_front(integ.u, cb, run, k, integ.t, traction)
+            table.rows(last)
+            with timer.phase("output"):
+                rec.record(k, integ.t, (every > 0 and k % every == 0) or k == nsteps)
+                if comm.rank == 0:
+                    write_front(outdir / "fields_crack_front.vtk", last)
+            bar.update(1)
+            k += 1
+    except (RuntimeError, FractureError) as exc:  # a solver failure; K cannot be had
+        status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
+    bar.close()
+    table.close()
+    info: dict[str, Any] = {
+        "dofs": sm.model.num_dofs,
+        "analysis": scene.analysis.kind,
+        "dt": dt,
+        "setup_time_s": integ.setup_time,
+        "linear_solver": scene.solver.linear,
+    }
+    info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
+    info.update(rec.strain.summary())
+    frac = rec.fracture.summary() if rec.fracture is not None else {}
+    frac["crack"] = _front_summary(run, last)
+    info["fracture"] = frac
+    info["warnings"] = [str(i) for i in sm.issues]
+    info["phases_s"] = timer.summary(comm)
+    if message is not None:
+        info["message"] = message
+    summary = rec.writer.summary(status, **info)
+    rec.writer.close()
+    return RunResult(status, summary, integ, outdir)
