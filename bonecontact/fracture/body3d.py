@@ -165,14 +165,20 @@ def _boundary_surfaces(body: BodySurface) -> list[int]:
         np.round(xyz / tol).astype(np.int64), axis=0, return_index=True, return_inverse=True
     )
     conn = inv.reshape(-1, 3) + 1
-    values = np.unique(body.tags)
+    # a canonical order (the gathered order depends on the partition): each triangle
+    # from its smallest node, orientation kept; rows sorted
+    first_node = np.argmin(conn, axis=1)
+    conn = np.stack([np.roll(c, -k) for c, k in zip(conn, first_node, strict=True)])
+    order = np.lexsort(conn.T[::-1])
+    conn, tags = conn[order], body.tags[order]
+    values = np.unique(tags)
     surfaces = []
     for k, _ in enumerate(values, start=1):
         gmsh.model.addDiscreteEntity(2, k)
         surfaces.append(k)
     gmsh.model.mesh.addNodes(2, surfaces[0], np.arange(1, len(first) + 1), xyz[first].ravel())
     for k, t in zip(surfaces, values, strict=True):
-        gmsh.model.mesh.addElementsByType(k, 2, [], conn[body.tags == t].ravel())
+        gmsh.model.mesh.addElementsByType(k, 2, [], conn[tags == t].ravel())
     for k, t in zip(surfaces, values, strict=True):
         if t > 0:
             gmsh.model.addPhysicalGroup(2, [k], int(t), name=body.names.get(int(t), f"facets{t}"))
