@@ -6,8 +6,11 @@ domain interaction integral and displacement correlation (:mod:`~bonecontact.fra
 the initiation risk and the direction criteria (:mod:`~bonecontact.fracture.criteria`),
 the crack faces as a dual-mortar contact pair (:mod:`~bonecontact.fracture.faces`),
 the ``[fracture]``/``[[crack]]`` scene tables (:mod:`~bonecontact.fracture.scene_tables`),
-quasi-static propagation by remeshing (:mod:`~bonecontact.fracture.propagation`) and the
-cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`)."""
+quasi-static propagation by remeshing (:mod:`~bonecontact.fracture.propagation`), the
+cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`), and in 3D K along a
+planar crack front (:mod:`~bonecontact.fracture.front3d`), the planar disc or ellipse crack
+of a scene (:mod:`~bonecontact.fracture.crack3d`) and a body re-meshed around it with two
+faces (:mod:`~bonecontact.fracture.body3d`)."""
 
 from bonecontact.fracture.crack import (
     Crack2D,

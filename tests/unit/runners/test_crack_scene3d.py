@@ -20,8 +20,8 @@ docs/theory/fracture.md#3d-crack-fronts):
   Irwin, *The Stress Analysis of Cracks Handbook*, 3rd ed., penny-shaped crack under
   shear): K_II = 4τ√(a/π)/(2 − ν)·cos ω, K_III = 4(1 − ν)τ√(a/π)/(2 − ν)·sin ω, ω the
   angle between the shear direction and the radius to the front point.  K_I within 3 %
-  (measured −1.4 … +0.2 %), the shear modes within 6 % at a/8 (measured −2.9 … −5.3 %;
-  slow: within 3 % at a/12, measured −0.8 … −2.7 %).
+  (measured −1.4 … +0.2 %), the shear modes within 6 % of their maxima at a/8 (measured
+  3.9 % and 5.0 %; slow: within 3 % at a/12, measured −0.8 … −2.7 %).
 * bad input: a crack larger than the block, crossing its surface, reaching into another
   cell group, exit 2 naming the key; 2 and 3 ranks give the serial K (serial test).
 """
