@@ -59,6 +59,9 @@ $PY benchmarks/bench_fracture.py $quick
 echo "== 3D crack front: penny-crack K_I error against dofs and time"
 rm -f benchmarks/results/front3d.csv
 $PY benchmarks/bench_front3d.py $quick
+echo "== 3D crack in a scene: inclined penny K_I/K_II/K_III error against dofs and time"
+rm -f benchmarks/results/crack_scene3d.csv
+$PY benchmarks/bench_crack_scene3d.py $quick
 
 echo "== checkpoints: write time, size and restart read time against a step (1 and 2 ranks)"
 rm -f benchmarks/results/checkpoint.csv

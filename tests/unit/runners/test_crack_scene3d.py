@@ -20,8 +20,11 @@ docs/theory/fracture.md#3d-crack-fronts):
   Irwin, *The Stress Analysis of Cracks Handbook*, 3rd ed., penny-shaped crack under
   shear): K_II = 4τ√(a/π)/(2 − ν)·cos ω, K_III = 4(1 − ν)τ√(a/π)/(2 − ν)·sin ω, ω the
   angle between the shear direction and the radius to the front point.  K_I within 3 %
-  (measured −1.4 … +0.2 %), the shear modes within 6 % of their maxima at a/8 (measured
-  3.9 % and 5.0 %; slow: within 3 % at a/12, measured −0.8 … −2.7 %).
+  (measured −1.4 … +0.2 %), the shear modes within 7 % of their maxima at a/8 (measured
+  3.9 % and 5.0 %; slow: within 4 % at a/12, measured 2.7 %).  The unstructured mesh
+  adds a point-to-point scatter of 1–2 % (benchmarks/README.md, 3D crack scene: K_III
+  5.8, 3.2, 4.4 % at a/8, a/12, a/16 on a slightly different block mesh).
+* slow: an ellipse a = 2b against Irwin's K_I(φ) within 3.5 % (measured −3.1 … +0.1 %).
 * bad input: a crack larger than the block, crossing its surface, reaching into another
   cell group, exit 2 naming the key; 2 and 3 ranks give the serial K (serial test).
 """
@@ -39,6 +42,7 @@ import pytest
 from cli_support import run_cli, run_scene
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 
+from bonecontact.fracture.front3d import irwin_k
 from bonecontact.runners.dispatch import check
 from bonecontact.scene import SceneError, load_scene
 
@@ -82,7 +86,7 @@ tip_grading = 0.12
 name = "penny"
 centre = {centre}
 normal = {normal}
-radius = {radius}
+{size}
 region = "block"
 front_points = {points}
 [output]
@@ -123,7 +127,7 @@ def _text(mesh: str, **kw) -> str:
         "h": A / 8,
         "centre": "[0.0, 0.0, 0.0]",
         "normal": "[0.0, 0.0, 1.0]",
-        "radius": A,
+        "size": f"radius = {A!r}",
         "points": 8,
     }
     values.update(kw)
@@ -205,20 +209,32 @@ def _inclined(tab: dict[str, np.ndarray], rtol_shear: float) -> None:
 def test_inclined_penny(block_dir: Path) -> None:
     normal = f"[{math.sin(BETA)!r}, 0.0, {math.cos(BETA)!r}]"
     tab, _, _ = _run(block_dir, "inclined", normal=normal)
-    _inclined(tab, 0.06)
+    _inclined(tab, 0.07)
 
 
 @pytest.mark.slow
 def test_inclined_penny_finer(block_dir: Path) -> None:
     normal = f"[{math.sin(BETA)!r}, 0.0, {math.cos(BETA)!r}]"
     tab, _, _ = _run(block_dir, "inclined_fine", normal=normal, h=A / 12)
-    _inclined(tab, 0.03)
+    _inclined(tab, 0.04)
+
+
+@pytest.mark.slow
+def test_elliptical_crack(block_dir: Path) -> None:
+    """An ellipse a = 2b = a_penny normal to the load, front b/12: Irwin's K_I(φ) within
+    3.5 % (measured −3.1 … +0.1 %; the largest at the ends of the major axis, where the
+    front's radius of curvature b²/a is smallest — the octant model gave −2.3 % there)."""
+    size = f'shape = "ellipse"\nsemi_axes = [{A!r}, {A / 2!r}]\naxis = [1.0, 0.0, 0.0]'
+    tab, _, _ = _run(block_dir, "ellipse", size=size, h=A / 24)
+    ref = irwin_k(SIGMA, A, A / 2, np.radians(tab["phi_deg"]))
+    np.testing.assert_allclose(tab["K_I"], ref, rtol=0.035)
+    assert np.max(np.abs(tab["K_II"])) < 0.03 * np.max(ref)
 
 
 @pytest.mark.parametrize(
     ("kw", "key"),
     [
-        ({"radius": 5 * A}, "radius"),  # larger than the block
+        ({"size": f"radius = {5 * A!r}"}, "radius"),  # larger than the block
         ({"centre": f"[{W - 0.5 * A!r}, 0.0, 0.0]"}, "radius"),  # crosses the surface
         ({"centre": f"[0.0, 0.0, {W / 2!r}]", "normal": "[1.0, 0.0, 0.0]"}, "region"),
     ],
