@@ -169,6 +169,7 @@ def test_bad_strength_and_what_3d_refuses(tmp_path: Path) -> None:
     assert load_scene(_write(tmp_path, text3d)).fracture == FractureSpec()  # the risk check
     exc = _error(tmp_path, text3d + "propagate = true\nincrement = 1e-3\n")
     assert (exc.table, exc.key) == ("[fracture]", "propagate") and "2D" in exc.message
-    exc = _error(tmp_path, text3d.replace("[fracture]", FRACTURE))  # a 2D polyline
+    crack2d = FRACTURE[FRACTURE.index("[[crack]]") :]
+    exc = _error(tmp_path, text3d.replace("[fracture]", crack2d + "\n[fracture]"))  # a polyline
     assert exc.table.startswith("[[crack]]") and exc.key == "points", str(exc)
     assert "planar disc or ellipse" in exc.message
