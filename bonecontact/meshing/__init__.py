@@ -9,8 +9,10 @@ knee), :mod:`~bonecontact.meshing.builder` their shared gmsh plumbing,
 Geometry from real data: :mod:`~bonecontact.meshing.surface_repair` reads, checks, repairs
 and remeshes closed bone surfaces (STL scans), :mod:`~bonecontact.meshing.stl` turns one into
 a tetrahedral bone (cortical shell, cancellous core, facet groups selected by region),
-:mod:`~bonecontact.meshing.anatomy_data` loads the shipped bone surfaces and
-:mod:`~bonecontact.meshing.ct` segments CT images and meshes the bone found.
+:mod:`~bonecontact.meshing.anatomy_data` loads the shipped bone surfaces,
+:mod:`~bonecontact.meshing.joint` poses one bone on another, cuts them and meshes a joint
+with cartilage layers, and :mod:`~bonecontact.meshing.ct` segments CT images and meshes the
+bone found.
 """
 
 from bonecontact.meshing.anatomy import knee_2d, long_bone_2d
@@ -25,6 +27,14 @@ from bonecontact.meshing.ct import (
     read_ct_slice,
 )
 from bonecontact.meshing.io import read_gmsh_mesh
+from bonecontact.meshing.joint import (
+    Cartilage,
+    JointBone,
+    Pose,
+    clip_surface,
+    joint_from_surfaces,
+    pose_on,
+)
 from bonecontact.meshing.session import gmsh_session
 from bonecontact.meshing.shapes import (
     box,
@@ -51,8 +61,11 @@ from bonecontact.meshing.surface_repair import (
 __all__ = [
     "ANATOMY_SURFACES",
     "CTImage",
+    "Cartilage",
+    "JointBone",
     "MeshInputError",
     "MeshingError",
+    "Pose",
     "Surface",
     "SurfaceRegion",
     "anatomy_surface",
@@ -61,13 +74,16 @@ __all__ = [
     "box",
     "cantilever",
     "check_surface",
+    "clip_surface",
     "ct_bone_surface",
     "ct_slice_mesh",
     "gmsh_session",
     "hertz_2d",
     "hertz_3d",
+    "joint_from_surfaces",
     "knee_2d",
     "long_bone_2d",
+    "pose_on",
     "prepare_surface",
     "quarter_tube",
     "read_ct_series",

@@ -1,0 +1,688 @@
+"""A joint from two bone surfaces: posing one bone on the other, cartilage layers, one mesh.
+
+The shipped femur and tibia (``data/anatomy/``) are each in their own body frame; a knee
+built from them needs the femur placed on the tibia.  :func:`pose_on` does that from the
+surfaces alone: vertical rays through both surfaces (:func:`vertical_gaps`) give the gap
+between the upper bone's underside and the lower bone's top in every column of a grid;
+the smallest gap on each side of the joint (the two condyles of a knee, split by the
+lateral coordinate) is levelled by a rotation of the upper bone about the horizontal axis
+normal to the lateral direction (the frontal plane of a knee), and a vertical shift
+leaves the requested gap at both.  The rigid transform is reported (:class:`Pose`).
+
+:func:`clip_surface` cuts a bone surface by a plane and closes the cut (a flat cap, for
+a support or a load), so a scene can keep only the ends of two long bones that meet.
+
+:func:`joint_from_surfaces` meshes several bones into one body of tetrahedra, each bone a
+cortical shell around a cancellous core (as :func:`~bonecontact.meshing.stl.bone_from_surface`)
+with an optional **cartilage layer** (:class:`Cartilage`): the articular facets of the
+bone surface, selected by a :class:`~bonecontact.meshing.stl.SurfaceRegion` (a box, a
+side of a plane, a cone of normals), offset outward by the cartilage thickness along the
+vertices' normals; the layer is the solid between the facets and their offset, tapering
+to nothing over the ring of facets at its rim.  The facets become the bone–cartilage interface
+(the layer is bonded: it shares their triangles), the offset its free, articular surface:
+a facet group to pair in ``[[contact]]``.  The bones are not connected: they are separate
+bodies, meshed independently (non-matching where they meet).
+
+Units: m.  Axes: y up (gravity along −y), as everywhere in bonecontact.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+from dolfinx.io.gmsh import MeshData
+
+from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
+from bonecontact.meshing.stl import SurfaceRegion, cortical_inner_surface, select_triangles
+from bonecontact.meshing.surface_repair import (
+    MeshInputError,
+    Surface,
+    check_surface,
+    merge_vertices,
+    orient_surface,
+    prepare_surface,
+)
+
+__all__ = [
+    "Cartilage",
+    "JointBone",
+    "Pose",
+    "cartilage_layer",
+    "clip_surface",
+    "joint_from_surfaces",
+    "pose_on",
+    "vertical_gaps",
+]
+
+UP = np.array([0.0, 1.0, 0.0])
+
+
+# ------------------------------------------------------------------------- measuring
+@dataclass(frozen=True)
+class GapMap:
+    """Vertical gaps between two surfaces on a grid of columns (:func:`vertical_gaps`).
+
+    ``x``, ``z``: the grid's coordinates (m); ``gap[i, j]``: the lowest crossing of the
+    upper surface minus the highest crossing of the lower surface below it in column
+    ``(x[i], z[j])`` (m; NaN where a ray misses either surface); ``lower_top``: that
+    highest crossing (m).
+    """
+
+    x: np.ndarray
+    z: np.ndarray
+    gap: np.ndarray
+    lower_top: np.ndarray
+
+    def smallest(self, mask: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+        """The smallest gap (m) over the columns of ``mask`` and the point on the lower
+        surface below it (m)."""
+        g = np.where(np.isfinite(self.gap), self.gap, np.inf)
+        if mask is not None:
+            g = np.where(mask, g, np.inf)
+        i, j = np.unravel_index(int(np.argmin(g)), g.shape)
+        if not np.isfinite(g[i, j]):
+            raise MeshInputError("no vertical ray crosses both surfaces (they do not face)")
+        return float(g[i, j]), np.array([self.x[i], self.lower_top[i, j], self.z[j]])
+
+
+def _column_crossings(surface: Surface, x: np.ndarray, z: np.ndarray, lowest: bool) -> np.ndarray:
+    """The lowest (or highest) y at which each vertical ray (x[i], z[j]) crosses the
+    surface (NaN: no crossing).  The rays are shifted by a tiny irrational fraction of the
+    spacing so that none runs through a vertex or an edge."""
+    dx, dz = x[1] - x[0], z[1] - z[0]
+    xs, zs = x + 1e-7 * math.pi * dx, z + 1e-7 * math.e * dz
+    out = np.full((len(x), len(z)), np.inf if lowest else -np.inf)
+    p = surface.points[surface.triangles]
+    lo = np.ceil((p[:, :, [0, 2]].min(axis=1) - [xs[0], zs[0]]) / [dx, dz]).astype(int)
+    hi = np.floor((p[:, :, [0, 2]].max(axis=1) - [xs[0], zs[0]]) / [dx, dz]).astype(int)
+    for t in np.flatnonzero(np.all(hi >= lo, axis=1)):
+        i = np.arange(max(lo[t, 0], 0), min(hi[t, 0], len(x) - 1) + 1)
+        j = np.arange(max(lo[t, 1], 0), min(hi[t, 1], len(z) - 1) + 1)
+        if not len(i) or not len(j):
+            continue
+        ii, jj = np.meshgrid(i, j, indexing="ij")
+        a, b, c = p[t]
+        det = (b[0] - a[0]) * (c[2] - a[2]) - (c[0] - a[0]) * (b[2] - a[2])
+        if det == 0:
+            continue  # seen edge-on from below
+        qx, qz = xs[ii] - a[0], zs[jj] - a[2]
+        u = (qx * (c[2] - a[2]) - qz * (c[0] - a[0])) / det
+        v = (qz * (b[0] - a[0]) - qx * (b[2] - a[2])) / det
+        hit = (u >= 0) & (v >= 0) & (u + v <= 1)
+        y = a[1] + u[hit] * (b[1] - a[1]) + v[hit] * (c[1] - a[1])
+        cur = out[ii[hit], jj[hit]]
+        out[ii[hit], jj[hit]] = np.minimum(cur, y) if lowest else np.maximum(cur, y)
+    return np.where(np.isfinite(out), out, np.nan)
+
+
+def vertical_gaps(upper: Surface, lower: Surface, spacing: float = 0.5e-3) -> GapMap:
+    """Vertical gaps between the underside of ``upper`` and the top of ``lower``.
+
+    Vertical rays on a grid of ``spacing`` (m) over the overlap of the two surfaces'
+    horizontal extents; in each column the gap is the lowest crossing of ``upper`` minus
+    the highest crossing of ``lower`` (negative where they overlap).
+    """
+    check_positive(spacing=spacing)
+    lo = np.maximum(upper.points.min(axis=0), lower.points.min(axis=0))
+    hi = np.minimum(upper.points.max(axis=0), lower.points.max(axis=0))
+    if np.any(hi[[0, 2]] <= lo[[0, 2]]):
+        raise MeshInputError(
+            f"{upper.source} and {lower.source}: their horizontal extents do not overlap"
+        )
+    x = np.arange(lo[0], hi[0] + spacing, spacing)
+    z = np.arange(lo[2], hi[2] + spacing, spacing)
+    bottom = _column_crossings(upper, x, z, lowest=True)
+    top = _column_crossings(lower, x, z, lowest=False)
+    return GapMap(x, z, bottom - top, top)
+
+
+# --------------------------------------------------------------------------- posing
+@dataclass(frozen=True)
+class Pose:
+    """A rigid transform ``x -> R (x - centre) + centre + shift`` found by :func:`pose_on`.
+
+    ``rotation`` (3 × 3), ``centre`` and ``shift`` (m); ``angle`` (degrees) about ``axis``;
+    ``gaps``: the vertical gaps at the two contact points after posing (m; the
+    measurement of :func:`vertical_gaps`), ``points``: those points on the lower surface;
+    ``gaps_before``: the two gaps before (after the first vertical approach, for the
+    record); ``iterations``.
+    """
+
+    rotation: np.ndarray
+    centre: np.ndarray
+    shift: np.ndarray
+    axis: np.ndarray
+    angle: float
+    gaps: tuple[float, float]
+    points: np.ndarray
+    gaps_before: tuple[float, float]
+    iterations: int
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """The transformed points (m)."""
+        return (np.asarray(points) - self.centre) @ self.rotation.T + self.centre + self.shift
+
+    def matrix(self) -> np.ndarray:
+        """The 4 × 4 homogeneous matrix of the transform."""
+        m = np.eye(4)
+        m[:3, :3] = self.rotation
+        m[:3, 3] = self.centre + self.shift - self.rotation @ self.centre
+        return m
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix about the unit ``axis`` by ``angle`` (radians; Rodrigues)."""
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def _two_gaps(
+    upper: Surface, lower: Surface, lateral: np.ndarray, split: float | None, spacing: float
+) -> tuple[list[float], list[np.ndarray], float]:
+    """The smallest vertical gap on each side of the split (lateral coordinate, m)."""
+    gm = vertical_gaps(upper, lower, spacing)
+    xx, zz = np.meshgrid(gm.x, gm.z, indexing="ij")
+    s = xx * lateral[0] + zz * lateral[2]
+    if split is None:
+        finite = np.isfinite(gm.gap)
+        split = float(s[finite].mean())
+    gaps, pts = [], []
+    for side in (s < split, s >= split):
+        g, p = gm.smallest(side)
+        gaps.append(g)
+        pts.append(p)
+    return gaps, pts, split
+
+
+def pose_on(
+    upper: Surface,
+    lower: Surface,
+    gap: float,
+    *,
+    lateral: Sequence[float] = (0.0, 0.0, 1.0),
+    split: float | None = None,
+    spacing: float = 0.5e-3,
+    tolerance: float = 1e-5,
+    max_iterations: int = 20,
+) -> tuple[Surface, Pose]:
+    """Place ``upper`` on ``lower`` with the vertical gap ``gap`` at two contact points.
+
+    The joint is split by a vertical plane normal to the horizontal ``lateral`` direction
+    (at the lateral coordinate ``split``; default: the mean over the columns where both
+    surfaces are hit) into two sides (the medial and lateral compartments of a knee).
+    Repeated until the two gaps differ from ``gap`` by less than ``tolerance``:
+
+    1. vertical rays on a grid of ``spacing`` (:func:`vertical_gaps`) give the smallest
+       gap ``g1``, ``g2`` on each side, at lateral coordinates ``s1``, ``s2``;
+    2. ``upper`` turns about the horizontal axis ``up × lateral`` through the midpoint of
+       the two points by ``(g1 - g2) / (s1 - s2)`` (the small-angle levelling: a point at
+       lateral offset ``d`` sinks by ``angle × d``);
+    3. ``upper`` moves vertically by ``gap - min(g1, g2)``.
+
+    The first step only moves ``upper`` vertically so that its lowest point is ``gap``
+    above the highest point of ``lower`` within its horizontal extent.
+
+    Parameters
+    ----------
+    upper, lower
+        Closed surfaces (m); ``upper`` moves, ``lower`` stays.
+    gap
+        The vertical gap wanted at both contact points (m, >= 0; the two cartilage
+        thicknesses for bones whose cartilage is added afterwards).
+    lateral
+        Horizontal direction across the joint (default z, the knee's medial-lateral axis).
+    split
+        Lateral coordinate of the plane between the two sides (m).
+    spacing
+        Grid spacing of the rays (m): the contact points are found to this resolution.
+    tolerance
+        Accepted error of the two gaps (m).
+    max_iterations
+        Refused (MeshInputError) if not converged after this many.
+
+    Returns
+    -------
+    (Surface, Pose)
+        ``upper`` posed, and the transform with the measured gaps.
+    """
+    if not (math.isfinite(gap) and gap >= 0):
+        raise ValueError(f"gap must be >= 0 (m), got {gap!r}")
+    check_positive(spacing=spacing, tolerance=tolerance)
+    lat = np.asarray(lateral, float)
+    lat = lat - (lat @ UP) * UP
+    if np.linalg.norm(lat) == 0:
+        raise ValueError(f"lateral must be a horizontal direction, got {lateral!r}")
+    lat /= np.linalg.norm(lat)
+    axis = np.cross(UP, lat)
+    # first vertical approach: the lowest point of upper `gap` above the top of lower
+    lo, hi = upper.points.min(axis=0), upper.points.max(axis=0)
+    under = np.all(
+        (lower.points[:, [0, 2]] >= lo[[0, 2]]) & (lower.points[:, [0, 2]] <= hi[[0, 2]]), 1
+    )
+    top = lower.points[under, 1].max() if under.any() else lower.points[:, 1].max()
+    rot, centre, shift = np.eye(3), np.zeros(3), np.array([0.0, top + gap - lo[1], 0.0])
+
+    def current() -> Surface:
+        pts = (upper.points - centre) @ rot.T + centre + shift
+        return Surface(pts, upper.triangles, upper.source, upper.repairs)
+
+    gaps, pts, split = _two_gaps(current(), lower, lat, split, spacing)
+    before = (gaps[0], gaps[1])
+    iterations = 0
+    for iterations in range(1, max_iterations + 1):  # noqa: B007 (the count is reported)
+        s = [p @ lat for p in pts]
+        if abs(s[0] - s[1]) < 2 * spacing:
+            raise MeshInputError(
+                f"{upper.source} on {lower.source}: the two contact points are not on either "
+                f"side of the split (lateral coordinates {s[0]:.4g}, {s[1]:.4g} m)"
+            )
+        # levelling: rotate the posed upper surface about `axis` through the midpoint
+        angle = (gaps[0] - gaps[1]) / (s[0] - s[1])
+        mid = 0.5 * (pts[0] + pts[1])
+        r = _rotation(axis, angle)
+        # compose: x -> r (T(x) - mid) + mid with T(x) = rot (x - centre) + centre + shift
+        new_rot = r @ rot
+        new_off = r @ (centre + shift - rot @ centre - mid) + mid
+        rot, centre, shift = new_rot, np.zeros(3), new_off
+        gaps, pts, _ = _two_gaps(current(), lower, lat, split, spacing)
+        shift = shift + UP * (gap - min(gaps))
+        gaps, pts, _ = _two_gaps(current(), lower, lat, split, spacing)
+        if max(abs(g - gap) for g in gaps) < tolerance:
+            break
+    else:
+        raise MeshInputError(
+            f"{upper.source} on {lower.source}: the pose did not converge in {max_iterations} "
+            f"iterations (gaps {gaps[0]:.4g}, {gaps[1]:.4g} m, wanted {gap:.4g} m)"
+        )
+    # rot is a rotation about `axis` by construction: its angle from the skew part
+    skew = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+    angle = math.degrees(math.atan2(0.5 * skew @ axis, 0.5 * (np.trace(rot) - 1)))
+    pose = Pose(
+        rotation=rot,
+        centre=centre,
+        shift=shift,
+        axis=axis,
+        angle=float(angle),
+        gaps=(gaps[0], gaps[1]),
+        points=np.array(pts),
+        gaps_before=before,
+        iterations=iterations,
+    )
+    return current(), pose
+
+
+# ------------------------------------------------------------------------- clipping
+def clip_surface(surface: Surface, point: Sequence[float], normal: Sequence[float]) -> Surface:
+    """The part of a closed surface behind a plane, closed by a flat cap in the plane.
+
+    Keeps the side ``(x - point) · normal <= 0``; the cap's outward normal is ``normal``
+    (select it with ``SurfaceRegion(name, cone=(normal, 10))``).  The cap is triangulated
+    as it comes (long thin triangles): remesh the result (``prepare_surface(size=...)``).
+
+    Raises
+    ------
+    MeshInputError
+        If the plane misses the surface or the result is not one closed surface.
+    """
+    n = np.asarray(normal, float)
+    n = n / np.linalg.norm(n)
+    side = (surface.points - np.asarray(point, float)) @ n
+    if side.min() >= 0 or side.max() <= 0:
+        raise MeshInputError(f"{surface.source}: the clipping plane does not cut the surface")
+    # clip_closed_surface keeps the side its normal points to
+    poly = surface.to_pyvista().clip_closed_surface(normal=tuple(-n), origin=tuple(point))
+    poly = poly.triangulate().clean()
+    tri = poly.faces.reshape(-1, 4)[:, 1:].astype(np.int64)
+    out = orient_surface(
+        merge_vertices(Surface(np.asarray(poly.points, float), tri, surface.source))
+    )
+    if out.volume < 0:
+        out = Surface(out.points, out.triangles[:, ::-1], out.source)
+    check_surface(out)
+    where = np.round(np.asarray(point, float), 5).tolist()
+    note = f"clipped by the plane through {where} m, normal {np.round(n, 3).tolist()}"
+    return Surface(out.points, out.triangles, surface.source, surface.repairs + (note,))
+
+
+# ------------------------------------------------------------------------ cartilage
+@dataclass(frozen=True)
+class Cartilage:
+    """A cartilage layer on the articular facets of a bone (:func:`joint_from_surfaces`).
+
+    Parameters
+    ----------
+    name
+        Its cell group (``"femur_cartilage"``).
+    contact
+        The facet group of the layer's free (articular) surface, the one to pair in
+        ``[[contact]]`` (``"femur_contact"``).
+    regions
+        The articular facets of the bone surface: the triangles any of these regions
+        selects (several: e.g. one box per compartment of a joint).
+    thickness
+        Layer thickness (m), normal to the facets.
+    """
+
+    name: str
+    contact: str
+    regions: tuple[SurfaceRegion, ...]
+    thickness: float
+
+    def __post_init__(self) -> None:
+        check_positive(thickness=self.thickness)
+        if not self.regions:
+            raise ValueError(f"cartilage {self.name!r}: give at least one region")
+
+    def select(self, surface: Surface) -> np.ndarray:
+        """The triangles of ``surface`` that any region selects."""
+        c, n = surface.centroids(), surface.triangle_normals()
+        mask = np.zeros(len(c), bool)
+        for region in self.regions:
+            mask |= region.select(c, n)
+        return np.flatnonzero(mask)
+
+
+@dataclass(frozen=True)
+class CartilageLayer:
+    """The surfaces of a cartilage layer (:func:`cartilage_layer`): ``points`` = the bone
+    surface's points followed by the offset points; triangles into ``points``: ``base``
+    (the facets, the bone–cartilage interface, outward from the bone) and ``top`` (the
+    offset facets, the articular surface, outward); they share the rim's vertices (the
+    layer tapers to nothing there).  ``facets``: the bone surface's triangles used."""
+
+    points: np.ndarray
+    base: np.ndarray
+    top: np.ndarray
+    facets: np.ndarray = field(repr=False)
+
+    @property
+    def volume(self) -> float:
+        """Enclosed volume of the layer (m³; divergence theorem on its closed surface)."""
+        tri = np.vstack([self.top, self.base[:, ::-1]])
+        a, b, c = (self.points[tri[:, i]] for i in range(3))
+        return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+    def thickness(self) -> np.ndarray:
+        """Distance of each offset vertex from its bone vertex (m; 0 on the rim)."""
+        base, top = self.base.ravel(), self.top.ravel()
+        _, first = np.unique(base, return_index=True)
+        return np.linalg.norm(self.points[top[first]] - self.points[base[first]], axis=1)
+
+
+def _rim_edges(tri: np.ndarray) -> np.ndarray:
+    """The edges used by one triangle of ``tri`` (oriented as in it)."""
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    _, inv, cnt = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True, return_counts=True)
+    return edges[cnt[inv.ravel()] == 1]
+
+
+def _clean_facets(surface: Surface, facets: np.ndarray) -> np.ndarray:
+    """The facets without those at a pinch (a rim vertex where the facets meet only at
+    that vertex: the layer would be non-manifold there) and without those whose three
+    vertices are all on the rim (the layer has no thickness there); repeated until none
+    is left."""
+    for _ in range(100):
+        tri = surface.triangles[facets]
+        rim = _rim_edges(tri)
+        count = np.bincount(rim[:, 0], minlength=len(surface.points))
+        bad = np.isin(tri, np.flatnonzero(count > 1)).any(axis=1)
+        bad |= (count[tri] > 0).all(axis=1)
+        if not bad.any():
+            return facets
+        facets = facets[~bad]
+        if not len(facets):
+            break
+    raise MeshInputError(
+        f"{surface.source}: the cartilage facets are no surface with an interior (too few, "
+        "or a strip one triangle wide)"
+    )
+
+
+def cartilage_layer(surface: Surface, facets: np.ndarray, thickness: float) -> CartilageLayer:
+    """The layer of ``thickness`` (m) on the triangles ``facets`` of a closed surface.
+
+    Every inner vertex of the facets is offset outward along its normal (the
+    area-weighted mean of the normals of its facets) by ``thickness``; the vertices of
+    the facets' rim (edges used by one facet) stay, so the layer tapers to nothing over
+    the ring of facets at its rim (as articular cartilage thins at its edge) and its
+    articular surface meets the bone surface there without a step.  Facets at a pinch
+    of the selection, and facets with all three vertices on the rim, are left out.
+
+    Raises
+    ------
+    MeshInputError
+        If an offset triangle turns over (the facets curve more tightly than the
+        thickness), nothing is left of the selection, or the layer encloses no volume.
+    """
+    check_positive(thickness=thickness)
+    facets = _clean_facets(surface, np.asarray(facets, np.int64))
+    base = surface.triangles[facets]
+    fn = surface.triangle_normals(unit=False)[facets]
+    on_rim = np.zeros(len(surface.points), bool)
+    on_rim[_rim_edges(base).ravel()] = True
+    verts = np.unique(base)
+    verts = verts[~on_rim[verts]]
+    vn = np.zeros((len(surface.points), 3))
+    for k in range(3):
+        np.add.at(vn, base[:, k], fn)
+    vn = vn[verts] / np.linalg.norm(vn[verts], axis=1, keepdims=True)
+    n0 = len(surface.points)
+    new_id = np.arange(n0, dtype=np.int64)
+    new_id[verts] = n0 + np.arange(len(verts))
+    points = np.vstack([surface.points, surface.points[verts] + thickness * vn])
+    top = new_id[base]
+    nt = np.cross(points[top[:, 1]] - points[top[:, 0]], points[top[:, 2]] - points[top[:, 0]])
+    if np.any(np.einsum("ij,ij->i", nt, fn) <= 0):
+        raise MeshInputError(
+            f"{surface.source}: a cartilage layer of {thickness:.3g} m turns a facet over "
+            "(the facets curve more tightly than the thickness): use a thinner layer"
+        )
+    layer = CartilageLayer(points, base, top, facets)
+    if layer.volume <= 0:
+        raise MeshInputError(f"{surface.source}: the cartilage layer encloses no volume")
+    return layer
+
+
+# -------------------------------------------------------------------------- meshing
+@dataclass(frozen=True)
+class JointBone:
+    """One bone of :func:`joint_from_surfaces`.
+
+    Parameters
+    ----------
+    name
+        Prefix of its groups: ``<name>_cortical``, ``<name>_cancellous`` (or ``<name>``
+        without a cortex), ``<name>_surface`` (the facets no region took).
+    surface
+        Its closed surface (m).
+    cortical_thickness
+        Thickness of the cortical shell (m); ``None``: one cell group ``<name>``.
+    regions
+        Facet groups on its surface (first match wins), after the cartilage's facets.
+    cartilage
+        An optional cartilage layer.
+    """
+
+    name: str
+    surface: Surface
+    cortical_thickness: float | None = None
+    regions: Sequence[SurfaceRegion] = ()
+    cartilage: Cartilage | None = None
+
+
+@dataclass
+class _BoneParts:
+    name: str
+    points: np.ndarray
+    patches: dict[str, np.ndarray]  # facet group -> triangles into points
+    inner: list[Surface]
+    layer: CartilageLayer | None
+    cartilage: Cartilage | None
+
+
+def _bone_parts(bone: JointBone, h: float, remesh: bool) -> _BoneParts:
+    outer = prepare_surface(bone.surface, size=h if remesh else None)
+    facets = None
+    regions = list(bone.regions)
+    layer = None
+    if bone.cartilage is not None:
+        facets = bone.cartilage.select(outer)
+        if not len(facets):
+            raise MeshInputError(
+                f"{outer.source}: the regions of the cartilage {bone.cartilage.name!r} select "
+                "no triangle of the surface"
+            )
+        layer = cartilage_layer(outer, facets, bone.cartilage.thickness)
+    keep = np.ones(len(outer.triangles), bool)
+    if layer is not None:
+        keep[layer.facets] = False
+    rest = Surface(outer.points, outer.triangles[keep], outer.source)
+    groups = select_triangles(rest, regions, f"{bone.name}_surface")
+    patches = {g: rest.triangles[idx] for g, idx in groups.items()}
+    points = outer.points if layer is None else layer.points
+    t = bone.cortical_thickness
+    inner = [] if t is None else cortical_inner_surface(outer, t, h)
+    return _BoneParts(bone.name, points, patches, inner, layer, bone.cartilage)
+
+
+def _outer_surface(part: _BoneParts) -> Surface:
+    """The closed outer surface of a bone with its cartilage (for the intersection check)."""
+    tri = list(part.patches.values())
+    if part.layer is not None:
+        tri += [part.layer.top]
+    return Surface(part.points, np.vstack(tri), part.name)
+
+
+def _check_apart(parts: list[_BoneParts]) -> None:
+    """Refuse bones whose outer surfaces (cartilage included) cross each other."""
+    for i, a in enumerate(parts):
+        for b in parts[i + 1 :]:
+            hits, n = (
+                _outer_surface(a)
+                .to_pyvista()
+                .collision(_outer_surface(b).to_pyvista(), contact_mode=0)
+            )
+            if n:
+                where = np.asarray(hits.extract_cells(hits["ContactCells"]).points).mean(axis=0)
+                raise MeshInputError(
+                    f"the surfaces of {a.name!r} and {b.name!r} (with their cartilage) cross "
+                    f"each other at {n} triangle(s), near {np.round(where, 5).tolist()} m: "
+                    "leave a larger gap between the bones (pose_on) or use thinner layers"
+                )
+
+
+def _add_bone(part: _BoneParts, tags: PhysicalGroups, next_node: int, facet_groups: dict) -> int:
+    """Discrete surfaces, volumes and cell groups of one bone; facet groups collected in
+    ``facet_groups`` (name -> entities).  Returns the next free node tag."""
+    m, x = gmsh.model, part.points
+    added = np.zeros(len(x), bool)
+
+    def entity(tri: np.ndarray) -> int:
+        e = m.addDiscreteEntity(2)
+        new = np.unique(tri)
+        new = new[~added[new]]
+        added[new] = True
+        if len(new):
+            m.mesh.addNodes(2, e, new + next_node, x[new].ravel())
+        m.mesh.addElementsByType(e, 2, [], (tri + next_node).ravel())
+        return e
+
+    ent = {g: entity(tri) for g, tri in part.patches.items()}
+    for g, e in ent.items():
+        facet_groups.setdefault(g, []).append(e)
+    outer = list(ent.values())
+    layer_ents = None
+    if part.layer is not None:
+        base, top = entity(part.layer.base), entity(part.layer.top)
+        outer.append(base)
+        layer_ents = (base, top)
+        facet_groups.setdefault(part.cartilage.contact, []).append(top)
+    next_node += len(x)
+    kernel = m.geo
+    holes = []
+    for s in part.inner:
+        e = m.addDiscreteEntity(2)
+        m.mesh.addNodes(2, e, np.arange(len(s.points)) + next_node, s.points.ravel())
+        m.mesh.addElementsByType(e, 2, [], (s.triangles + next_node).ravel())
+        next_node += len(s.points)
+        holes.append(kernel.addSurfaceLoop([e]))
+    shell = kernel.addVolume([kernel.addSurfaceLoop(outer), *holes])
+    cores = [kernel.addVolume([loop]) for loop in holes]
+    cart = None
+    if layer_ents is not None:
+        cart = kernel.addVolume([kernel.addSurfaceLoop(list(layer_ents))])
+    kernel.synchronize()
+    if part.inner:
+        tags(3, [shell], f"{part.name}_cortical")
+        tags(3, cores, f"{part.name}_cancellous")
+    else:
+        tags(3, [shell], part.name)
+    if cart is not None:
+        tags(3, [cart], part.cartilage.name)
+    return next_node
+
+
+def joint_from_surfaces(
+    bones: Sequence[JointBone],
+    h: float,
+    *,
+    remesh: bool = True,
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+) -> MeshData | Path:
+    """Tetrahedral mesh of several bones (a joint), each with its cortex and cartilage.
+
+    Each bone's surface is checked and (``remesh``) remeshed to ``h`` (pyacvd; a coarse
+    surface is refined), its cartilage facets selected and offset outward
+    (:func:`cartilage_layer`), the rest of its surface split into its regions' facet
+    groups, its cortical inner surface built
+    (:func:`~bonecontact.meshing.stl.cortical_inner_surface`); gmsh tetrahedralises
+    every volume with tetrahedra no larger than ``h``.
+
+    Returns
+    -------
+    dolfinx.io.gmsh.MeshData or pathlib.Path
+        Per bone: cell groups ``<name>_cortical``, ``<name>_cancellous`` (or ``<name>``)
+        and the cartilage's ``name``; facet groups: the regions' names, the cartilage's
+        ``contact`` (its articular surface), ``<name>_surface`` (the rest of the
+        surface).  Groups named alike in several bones are
+        merged.
+
+    Raises
+    ------
+    MeshInputError
+        On every rank: a broken surface, a region or cartilage region selecting nothing,
+        a layer that turns over, two bones whose surfaces (with their cartilage) cross.
+    bonecontact.meshing.MeshingError
+        On every rank: gmsh failed.
+    """
+    check_positive(h=h)
+    comm = MPI.COMM_WORLD if comm is None else comm
+    parts, error = None, None
+    if comm.rank == 0:
+        try:
+            parts = [_bone_parts(b, h, remesh) for b in bones]
+            _check_apart(parts)
+        except (MeshInputError, ValueError) as exc:
+            error = exc
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise error
+
+    def build() -> None:
+        tags, facet_groups, next_node = PhysicalGroups(), {}, 1
+        for part in parts:
+            next_node = _add_bone(part, tags, next_node, facet_groups)
+        for g, ents in facet_groups.items():
+            tags(2, ents, g)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)  # Delaunay
+
+    return generate("joint", 3, build, comm, path)
