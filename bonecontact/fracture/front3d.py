@@ -1,27 +1,29 @@
 """Stress intensity factors along the front of a planar crack in 3D
 (docs/theory/fracture.md#3d-crack-fronts).
 
-* :class:`EllipticalFront` — a penny-shaped (a = b) or elliptical crack front in the plane
-  z = z₀: points, the local front frame (e₁ in the crack plane normal to the front, pointing
-  ahead; e₂ the crack-plane normal; e₃ = e₁ × e₂ along the front) and arc length.
+* :class:`EllipticalFront` — a penny-shaped (a = b) or elliptical crack front with any
+  centre and orientation (``axes``; default the plane z = z₀): points, the local front frame
+  (e₁ in the crack plane normal to the front, pointing ahead; e₂ the crack-plane normal;
+  e₃ = e₁ × e₂ along the front) and arc length.
 * :func:`mesh_crack_octant` — one eighth of a block with the crack at its centre, the three
   symmetry planes as boundaries (x = 0, y = 0 and the crack plane z = 0: the crack face is
   the part of z = 0 inside the front, the ligament the rest), graded by gmsh towards the
-  front.  Valid for loads symmetric about the three planes (mode I only).
+  front.  Valid for loads symmetric about the three planes (mode I only).  Models with
+  both crack faces come from :mod:`bonecontact.fracture.body3d`.
 * :func:`front_interaction_integral` — K_I (and K_II, K_III on a model with both crack faces)
   at one front point by the 3D domain interaction integral: plane-strain Williams fields and
-  the anti-plane field of the tangent line at the point as auxiliary fields, a q-function
-  that is a ring around the front times a plateau along it, normalised by ∫ q ds along the
-  front.
-* :func:`front_displacement_correlation` — K_I from the crack-face opening near the point
-  (the cheap cross-check).
+  the anti-plane field written in the coordinates of the osculating circle of the front at
+  the point as auxiliary fields (their divergence as a volume term), a q-function that is a
+  ring around the front times a plateau along it, normalised by ∫ q ds along the front; on
+  a two-face model the faces' part of the boundary (and the face tractions of a closed
+  crack) is added.
+* :func:`front_displacement_correlation` — K from the crack-face opening near the point
+  (the cheap cross-check; K_II, K_III too on a two-face model).
 * :func:`penny_k`, :func:`irwin_k` — the closed forms under remote tension σ normal to the
   crack: K_I = 2σ√(a/π) (penny), Irwin's K_I(φ) (ellipse).
 
-The auxiliary fields are those of a straight front (the tangent line at the point); the
-curvature of the real front is not corrected for, so the domain must be small against the
-front's radius of curvature (b²/a at the ends of the major axis).  One homogeneous isotropic
-material; traction-free crack faces.
+The domain must be small against the front's radius of curvature (b²/a at the ends of the
+major axis).  One homogeneous isotropic material around the front.
 """
 
 from __future__ import annotations
@@ -512,13 +514,15 @@ def front_interaction_integral(
     front, s the arc length from the point; ring falls linearly from 1 at ``r_in`` to 0 at
     ``r_out``, the plateau from 1 at |s| = ``length``/2 to 0 at ``length``.  The auxiliary
     fields are the plane-strain Williams fields (modes I, II) and the anti-plane field
-    (mode III) of the tangent line at the point, and
+    (mode III) in the coordinates of the front's osculating circle at the point, and
 
         K_I = E′ I_I / 2,  K_II = E′ I_II / 2,  K_III = μ I_III,  E′ = E/(1 − ν²),
 
-    with I = ∫_V [σ:∂u^a/∂x₁ + σ^a:∂u/∂x₁ − σ^a:ε δ₁ⱼ] ∂q/∂xⱼ dV / ∫_front q (e₁·e₁(s)) ds.
-    On a half model (the crack plane a symmetry plane) the volume integral is doubled and
-    only K_I is computed.
+    with I = {∫_V [σ:∂u^a/∂x₁ + σ^a:∂u/∂x₁ − σ^a:ε δ₁ⱼ] ∂q/∂xⱼ + q div σ^a·∂u/∂x₁ dV
+    − ∫_faces [t·∂u^a/∂x₁ + (σ^a n)·∂u/∂x₁] q dS} / ∫_front q (e₁·e₁(s)) ds, the face
+    integral on a model with both faces (``crack_upper``, ``crack_lower`` in
+    ``block.groups``).  On a half model (the crack plane a symmetry plane) the volume
+    integral is doubled and only K_I is computed.
 
     Parameters
     ----------
