@@ -25,6 +25,8 @@ docs/theory/fracture.md#3d-crack-fronts):
   adds a point-to-point scatter of 1–2 % (benchmarks/README.md, 3D crack scene: K_III
   5.8, 3.2, 4.4 % at a/8, a/12, a/16 on a slightly different block mesh).
 * slow: an ellipse a = 2b against Irwin's K_I(φ) within 3.5 % (measured −3.1 … +0.1 %).
+* slow: the penny at 45° closed by compression with Coulomb faces (μ = 0.3): K_II, K_III
+  of the effective shear τ − μσ_n within 10 % (measured 7 %), K_I ≈ 0.
 * bad input: a crack larger than the block, crossing its surface, reaching into another
   cell group, exit 2 naming the key; 2 and 3 ranks give the serial K (serial test).
 """
@@ -217,6 +219,32 @@ def test_inclined_penny_finer(block_dir: Path) -> None:
     normal = f"[{math.sin(BETA)!r}, 0.0, {math.cos(BETA)!r}]"
     tab, _, _ = _run(block_dir, "inclined_fine", normal=normal, h=A / 12)
     _inclined(tab, 0.04)
+
+
+@pytest.mark.slow
+def test_closed_inclined_penny_with_friction(block_dir: Path) -> None:
+    """The penny at β = 45° closed by compression, Coulomb faces μ = 0.3: it slides under
+    the effective shear τ − μσ_n (uniform, along the shear: the Kassir–Sih sliding is
+    parallel to τ), so K_II, K_III are Kassir–Sih's with τ_eff = σ(sinβcosβ − μcos²β)
+    = 0.7 of the frictionless shear; K_I = 0.  Within 10 % of the maxima at a/8
+    (measured K_II 0.93 … 1.00, K_III 0.96 … 0.97 of them), |K_I| within 7 % of
+    2|σ|√(a/π) (measured 5.2 %: the nodal contact pressures scatter, 0.2–0.8 MPa for
+    σ_n = 0.5 MPa); without friction the shear modes would be 1/0.7 = 1.43 times larger."""
+    beta, mu = math.radians(45.0), 0.3
+    normal = f"[{math.sin(beta)!r}, 0.0, {math.cos(beta)!r}]"
+    tab, _, out = _run(
+        block_dir, "friction", normal=normal, sigma=-SIGMA, points="8\nfriction = 0.3"
+    )
+    tau = SIGMA * (math.sin(beta) * math.cos(beta) - mu * math.cos(beta) ** 2)
+    k2 = 4 * tau * math.sqrt(A / math.pi) / (2 - NU)
+    omega = np.radians(tab["phi_deg"] - 90.0)
+    # compression: the upper face slides the other way than in tension
+    np.testing.assert_allclose(-tab["K_II"], k2 * np.cos(omega), atol=0.10 * k2)
+    k3 = (1 - NU) * k2
+    np.testing.assert_allclose(np.abs(tab["K_III"]), k3 * np.abs(np.sin(omega)), atol=0.10 * k3)
+    assert np.max(np.abs(tab["K_I"])) < 0.07 * REF
+    faces = read_csv(out / "contact_penny.csv")
+    assert np.min(faces["gap"]) >= -1e-9 * A
 
 
 @pytest.mark.slow
