@@ -59,7 +59,8 @@ class FractureSpec:
     the automatic insertion of a crack where the risk reaches 1 (``initiate``: its length
     ``initiation_length``, m, ``None``: the default of
     :func:`bonecontact.fracture.initiation.default_length`; ``friction``: the Coulomb
-    coefficient of its face pair)."""
+    coefficient of its face pair).  ``tip_grading`` ``None``: the default of the crack's
+    dimension (0.25 at a 2D tip, 0.12 along a 3D front)."""
 
     criterion: str = "tension"
     direction: str = "mts"
@@ -67,7 +68,7 @@ class FractureSpec:
     increment: float | None = None
     max_increments: int = 10
     tip_size: float | None = None
-    tip_grading: float = 0.25
+    tip_grading: float | None = None  # None: 0.25 for a 2D tip, 0.12 for a 3D front
     initiate: bool = False
     initiation_length: float | None = None
     friction: float = 0.0
@@ -135,7 +136,7 @@ def fracture_from_table(table: Mapping) -> FractureSpec:
         increment,
         n,
         _positive(table, "tip_size", None),
-        _positive(table, "tip_grading", 0.25),
+        _positive(table, "tip_grading", None),
         initiate,
         _positive(table, "initiation_length", None),
         float(friction),

@@ -274,7 +274,7 @@ def with_crack(run: CrackRun, spec: CrackSpec, initiated: bool = False) -> Crack
         run,
         scene=dataclasses.replace(run.scene, contacts=tuple(run.scene.contacts) + (pair,)),
         spec=spec,
-        tip_mesh=TipMesh(h_tip, fr.tip_grading),
+        tip_mesh=TipMesh(h_tip, fr.tip_grading if fr.tip_grading is not None else 0.25),
         initiated=initiated,
     )
 
