@@ -397,10 +397,16 @@ analyses = res.summary["coupling"]["analyses"]
 # carry the whole body weight $W$ (its guide takes no vertical force; the femur's own
 # equilibrium).  The tibia receives what the mortar coupling passes on: exactly the
 # femur's force if the master surface covered every slave node's neighbourhood
-# exactly; on these faceted surfaces, where the master's triangles seen from a slave
-# triangle overlap or leave slivers, it differs by 1–3 % (measured: −1.8 % on the
-# 4 mm mesh, +2.6 % on the quick 6 mm one), and the tibia's cut balances what it
-# receives.  `history.csv` reports the total normal force $\sum_p D_{pp}\lambda_{n,p}$
+# exactly, $\sum_q M_{pq} = D_{pp}$.  Here it differs by 1–3 % (measured: −1.8 % on the
+# 4 mm mesh, +2.6 % on the quick one), and the tibia's cut balances what it receives.
+# Why (full run, day 8): at most active nodes the row sums of the mortar matrix $M$
+# match $D_{pp}$ within 7 %, but one active node, on the inner flank of the medial
+# condyle, presses (6 MPa) on the tibial spine, whose steep facets are not in the
+# master (normals beyond 60° of $+y$): only 15 % of its neighbourhood is covered, and
+# $\sum_p \lambda_p \sum_q M_{pq}$ = 720.6 N against $\sum_p D_{pp}\lambda_p$ =
+# 737.7 N.  Taking the steep facets into the master (75°) makes other barely covered
+# slave nodes report initial penetrations of centimetres (their weighted gaps), which
+# the solver refuses.  `history.csv` reports the total normal force $\sum_p D_{pp}\lambda_{n,p}$
 # of the multipliers, larger than $W$ by the tilt of the contact normals.  From
 # `contact_tibiofemoral.csv` (the femur's cartilage nodes that carry a multiplier): the
 # contact area (a third of the area of the triangles around each closed node) and the
