@@ -400,8 +400,8 @@ analyses = res.summary["coupling"]["analyses"]
 # exactly, $\sum_q M_{pq} = D_{pp}$.  Here it differs by 1–3 % (measured: −1.8 % on the
 # 4 mm mesh, +2.6 % on the quick one), and the tibia's cut balances what it receives.
 # Why (full run, day 8): at most active nodes the row sums of the mortar matrix $M$
-# match $D_{pp}$ within 7 %, but one active node, on the inner flank of the medial
-# condyle, presses (6 MPa) on the tibial spine, whose steep facets are not in the
+# match $D_{pp}$ within 7 %, but one active node, on the inner flank of the
+# condyle at $z < 0$, presses (6 MPa) on the tibial spine, whose steep facets are not in the
 # master (normals beyond 60° of $+y$): only 15 % of its neighbourhood is covered, and
 # $\sum_p \lambda_p \sum_q M_{pq}$ = 720.6 N against $\sum_p D_{pp}\lambda_p$ =
 # 737.7 N.  Taking the steep facets into the master (75°) makes other barely covered
