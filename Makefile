@@ -22,7 +22,8 @@
 #   make clean        remove caches, test logs, docs/api, build/ and demos/results;  make distclean  also removes .venv
 #
 # Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=2700
-# PYTEST_ARGS="-k hertz" (added to every pytest call).
+# (seconds, each pytest session)  SERIAL_WORKERS=2 (pytest-xdist processes of the serial
+# session; 0: none)  PYTEST_ARGS="-k hertz" (added to every pytest call).
 
 SHELL := /bin/bash
 .SHELLFLAGS := -euo pipefail -c
@@ -36,6 +37,7 @@ STAMP        := $(VENV)/.install.stamp
 LOG_DIR      := $(VENV)/test-logs
 DOCS_DIR     := docs/api
 MPI_SIZES    ?= 2 3
+SERIAL_WORKERS ?= 2
 TEST_TIMEOUT ?= 2700
 PYTEST_ARGS  ?=
 
@@ -144,8 +146,13 @@ notebooks: install
 	@echo "== notebooks: $(NB_DIR)/*.ipynb (open with jupyter lab), results in $(NB_DIR)/results/"
 
 # Serial suite: every selected test, including tests marked `serial` that spawn their own mpiexec.
+# pytest-xdist spreads it over SERIAL_WORKERS processes (--dist loadgroup: the tests of one
+# demo share a worker, so each demo runs once); SERIAL_WORKERS=0 runs it in this process.
 define run_serial
-@bash -c "$$RUN_PYTEST" run-pytest serial $(PY) -m pytest -x -q --durations=15 -m "$(SELECT)" $(PYTEST_ARGS)
+@SHOW="timeout $(TEST_TIMEOUT) $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadgroup --durations=15 -m '$(SELECT)' $(PYTEST_ARGS)" \
+  bash -c "$$RUN_PYTEST" run-pytest serial \
+  timeout --kill-after=30 $(TEST_TIMEOUT) \
+  $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadgroup --durations=15 -m "$(SELECT)" $(PYTEST_ARGS)
 endef
 
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))

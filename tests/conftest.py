@@ -28,6 +28,14 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip)
 
 
+def pytest_collection_finish(session):
+    """Move everything alive after collection (modules, compiled forms, parameter sets) to
+    the collector's permanent generation: the ``gc.collect()`` after each test then scans
+    only what the test made (0.2 s → a few ms a test; about 5 min of a full run)."""
+    gc.collect()
+    gc.freeze()
+
+
 @pytest.fixture(autouse=True)
 def _collective_teardown():
     """Free PETSc/DOLFINx objects collectively and keep the ranks in step after each test."""

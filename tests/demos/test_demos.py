@@ -1,5 +1,8 @@
 """Every demo runs as a notebook (serially, in a Jupyter kernel, with its figures inline)
-and as a script under ``mpiexec -n 2``; both give the same results.
+and as a script under ``mpiexec -n 2``; both give the same results.  The default suite
+runs the 2-rank scripts of the cheap demos (``TWO_RANKS_DEFAULT``); the others' 2-rank
+runs and comparisons are marked ``slow`` (``make test-all``): their runners' parallel
+behaviour is tested on 2 and 3 ranks in the MPI sessions.
 
 Demo convention: ``python demos/X.py [OUTPUT_DIR]`` writes its results and pictures into
 OUTPUT_DIR; without it into ``$BONECONTACT_OUTPUT/X``, else ``demos/results/X``.
@@ -154,8 +157,29 @@ def test_demos_exist():
     assert any(d.stem == "long_bone" for d in DEMOS)
 
 
-@pytest.mark.parametrize("demo", [d.stem for d in DEMOS])
-@pytest.mark.parametrize("nproc", [1, 2])
+#: demos whose 2-rank script run is cheap enough for the default suite; the 2-rank runs of
+#: the others (10-90 s each) and the comparisons with them are marked slow (make test-all)
+TWO_RANKS_DEFAULT = {"knee2d", "long_bone", "contact_api"}
+
+
+def _marks(demo: str, nproc: int = 1) -> list:
+    """The tests of one demo share an xdist worker (each demo then runs once); its 2-rank
+    run is slow unless the demo is in TWO_RANKS_DEFAULT."""
+    marks = [pytest.mark.xdist_group(demo)]
+    if nproc == 2 and demo not in TWO_RANKS_DEFAULT:
+        marks.append(pytest.mark.slow)
+    return marks
+
+
+def _demo_params(nprocs: tuple[int, ...]) -> list:
+    return [
+        pytest.param(d.stem, n, marks=_marks(d.stem, n), id=f"{n}-{d.stem}")
+        for n in nprocs
+        for d in DEMOS
+    ]
+
+
+@pytest.mark.parametrize("demo, nproc", _demo_params((1, 2)))
 def test_demo_runs(demo_runs, demo, nproc):
     res, out = demo_runs[demo, nproc]
     assert res.returncode == 0, (
@@ -172,7 +196,7 @@ def test_demo_runs(demo_runs, demo, nproc):
     assert np.isfinite(hist[:, [1, 9, 10]]).all()
 
 
-@pytest.mark.parametrize("demo", [d.stem for d in DEMOS])
+@pytest.mark.parametrize("demo", [pytest.param(d.stem, marks=_marks(d.stem, 2)) for d in DEMOS])
 def test_demo_same_on_two_ranks(demo_runs, demo):
     (r1, o1), (r2, o2) = demo_runs[demo, 1], demo_runs[demo, 2]
     assert r1.returncode == 0 and r2.returncode == 0
@@ -187,6 +211,7 @@ def test_demo_same_on_two_ranks(demo_runs, demo):
         )
 
 
+@pytest.mark.xdist_group("long_bone")
 def test_long_bone_matches_kelvin_voigt_creep_of_static_solution(demo_runs, tmp_path):
     res, out = demo_runs["long_bone", 1]
     assert res.returncode == 0
@@ -229,7 +254,7 @@ def test_long_bone_matches_kelvin_voigt_creep_of_static_solution(demo_runs, tmp_
     np.testing.assert_allclose(ratio, factor, rtol=0.01)
 
 
-@pytest.mark.parametrize("demo", [d.stem for d in DEMOS])
+@pytest.mark.parametrize("demo", [pytest.param(d.stem, marks=_marks(d.stem)) for d in DEMOS])
 def test_demo_as_notebook_shows_figures_inline(demo_runs, demo):
     """Executed as a notebook, each demo shows its figures inline (the same PNGs it saves),
     states its equations in markdown cells and prints no widget warning."""
@@ -248,6 +273,7 @@ def test_demo_as_notebook_shows_figures_inline(demo_runs, demo):
     assert "IProgress" not in run.stderr and "TqdmWarning" not in run.stderr
 
 
+@pytest.mark.xdist_group("long_bone")
 def test_long_bone_notebook_prints_results(demo_runs):
     run, out = demo_runs["long_bone", 1]
     text = "".join(
@@ -257,6 +283,7 @@ def test_long_bone_notebook_prints_results(demo_runs):
     assert (out / "long_bone.png").stat().st_size > 10_000
 
 
+@pytest.mark.xdist_group("knee2d")
 def test_knee2d_force_balance_and_symmetry(demo_runs):
     """Knee demo: the contact carries the applied body weight (17.5 kN/m; the normal
     force is the sum of |λ| w over nodal normals tilted by at most ~a/R, hence 1 %), and
@@ -279,6 +306,7 @@ def test_knee2d_force_balance_and_symmetry(demo_runs):
     _check_png(out / "knee2d_von_mises.png", (1200, 900))  # pyvista window_size
 
 
+@pytest.mark.xdist_group("knee2d")
 def test_knee2d_gait_cycle_with_friction(demo_runs):
     """Knee demo, part 2 (dynamic gait cycle, Coulomb μ = 0.02): serial and 2 ranks give
     the same history; in swing (load held at 0.1 × body weight from t = 0.6 s) the contact
@@ -305,6 +333,7 @@ def test_knee2d_gait_cycle_with_friction(demo_runs):
     _check_png(o1 / "gait_contact.png")
 
 
+@pytest.mark.xdist_group("jaw_cyst")
 def test_jaw_cyst_growth_and_cavity(demo_runs):
     """Jaw-cyst demo: the keratocyst's radius follows the cyst ODE integrated in one go
     (bonecontact.neoplasm.cyst.grow_sphere, 2D) to 1e-8, the bone is analysed after 9, 18 and 27
@@ -357,29 +386,30 @@ def test_jaw_cyst_growth_and_cavity(demo_runs):
     _check_png(out / "jaw_cyst_radicular_von_mises.png", (1200, 700))
 
 
+@pytest.mark.xdist_group("jaw_cyst")
 def test_jaw_cyst_fracture_bite_force(demo_runs):
     """Jaw-cyst demo, fracture check: the risk is linear in the bite (twice the bite gives
     twice the risk to round-off), the bite force that fractures the cortical shell falls
-    as the keratocyst grows, and 2 ranks give the serial table."""
-    (r1, o1), (r2, o2) = demo_runs["jaw_cyst", 1], demo_runs["jaw_cyst", 2]
-    assert r1.returncode == 0 and r2.returncode == 0
+    as the keratocyst grows (2 ranks: test_demo_table_same_on_two_ranks)."""
+    r1, o1 = demo_runs["jaw_cyst", 1]
+    assert r1.returncode == 0
 
     def table(out):
         return np.genfromtxt(
             out / "fracture_bite.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
         )
 
-    one, two = table(o1), table(o2)
+    one = table(o1)
     assert len(one) == 4  # three keratocyst analyses and the radicular cyst
     np.testing.assert_allclose(one["risk_ratio_2F"], 2.0, rtol=1e-9)
     assert np.all(np.isfinite(one["fracture_bite_force_N"]) & (one["max_risk"] > 0))
     k = one[one["cyst"] == "keratocyst"]
     assert np.all(np.diff(k["radius_mm"]) > 0)
     assert np.all(np.diff(k["fracture_bite_force_N"]) < 0)
-    np.testing.assert_allclose(two["max_risk"], one["max_risk"], rtol=1e-8)
     _check_png(o1 / "jaw_cyst_fracture_force.png")
 
 
+@pytest.mark.xdist_group("knee_tumour")
 def test_knee_tumour_growth_and_loaded_bone(demo_runs):
     """Tumour demo: the tumour grows monotonically (R 4.8 -> 7.7 mm in 20 days); each of
     the contact analyses on the rebuilt mesh (two with BONECONTACT_DEMO_QUICK: days 10
@@ -410,6 +440,7 @@ def test_knee_tumour_growth_and_loaded_bone(demo_runs):
     _check_png(out / "knee_tumour_von_mises.png", (1200, 900))  # pyvista window_size
 
 
+@pytest.mark.xdist_group("contact_api")
 def test_contact_api_reproduces_hertz(demo_runs):
     """The API demo: Hertz's half-width and peak pressure within 2 %, same on 2 ranks."""
     results = {}
@@ -427,6 +458,7 @@ def test_contact_api_reproduces_hertz(demo_runs):
     _check_png(demo_runs["contact_api", 1][1] / "contact_pressure.png")
 
 
+@pytest.mark.xdist_group("vertebra_tumour")
 def test_vertebra_tumour_risk_and_fracture(demo_runs):
     """Vertebra demo: the largest risk of the bone rises as the tumour grows and reaches 1;
     with the crack faces open, K_I of the initial flaw is linear in the load (load step k
@@ -439,8 +471,8 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     slip), the mean face pressure the confined-body value νp/(1 − ν) within 15 % (the
     lesion and the tips perturb it; measured +5 %), 2 ranks the serial face forces (to
     1e-4, as the paths; measured 4e-6)."""
-    (r1, o1), (r2, o2) = demo_runs["vertebra_tumour", 1], demo_runs["vertebra_tumour", 2]
-    assert r1.returncode == 0 and r2.returncode == 0
+    r1, o1 = demo_runs["vertebra_tumour", 1]
+    assert r1.returncode == 0
     risk = np.genfromtxt(o1 / "risk.csv", delimiter=",", names=True)
     assert np.all(np.diff(risk["equivalent_radius"]) > 0)
     assert np.all(np.diff(risk["max_risk"]) > 0) and risk["max_risk"][0] < 1 <= risk["max_risk"][-1]
@@ -468,16 +500,11 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     t = np.clip(np.einsum("ij,ij->i", tip - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0, 1)
     dist = np.linalg.norm(a + t[:, None] * (b - a) - tip, axis=1).min()
     assert dist < prop["increment"], (dist, prop["increment"])
-    crack2 = json.loads((o2 / "crack" / "summary.json").read_text())["fracture"]["crack"]
-    np.testing.assert_allclose(crack2["points"], crack["points"], atol=1e-4 * prop["increment"])
     _check_png(o1 / "vertebra_risk.png")
     _check_png(o1 / "vertebra_crack.png")
     # after the fracture: the fragments in frictional contact
     mu, p_lift = 0.4, 4 * 0.5e6
-    forces = []
-    for out in (o1, o2):
-        hist = _named_table(out / "fragments" / "history.csv")
-        forces.append(hist[hist["pair"] == "split"][-1])
+    f1 = _split_forces(o1)
     faces = _named_table(o1 / "fragments" / "contact_split.csv")
     length = json.loads((o1 / "fragments" / "summary.json").read_text())["fracture"]["crack"][
         "length"
@@ -488,13 +515,59 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     slip = faces["status"] == "slip"
     assert slip.any() and (faces["status"] == "stick").any()
     np.testing.assert_allclose(lam_t[slip], mu * lam_n[slip], rtol=1e-6)
-    f1, f2 = forces
     assert f1["n_active"] == len(faces) and f1["n_slip"] == slip.sum()
     assert f1["normal_force"] / length == pytest.approx(p_lift / 3, rel=0.15)  # nu = 0.25
     assert f1["tangential_force"] <= mu * f1["normal_force"]
-    for key in ("normal_force", "tangential_force"):
-        assert f2[key] == pytest.approx(f1[key], rel=1e-4)  # the paths agree to 1e-4 da
     _check_png(o1 / "vertebra_fragments.png")
+
+
+def _split_forces(out: Path) -> np.ndarray:
+    """The last history row of the fragments' contact pair ``split``."""
+    hist = _named_table(out / "fragments" / "history.csv")
+    return hist[hist["pair"] == "split"][-1]
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("vertebra_tumour")
+def test_vertebra_tumour_same_on_two_ranks(demo_runs):
+    """2 ranks give the serial crack path (to 1e-4 of the increment) and the fragments'
+    face forces (to 1e-4, as the paths; measured 4e-6)."""
+    (r1, o1), (r2, o2) = demo_runs["vertebra_tumour", 1], demo_runs["vertebra_tumour", 2]
+    assert r1.returncode == 0 and r2.returncode == 0
+    crack = [
+        json.loads((o / "crack" / "summary.json").read_text())["fracture"]["crack"]
+        for o in (o1, o2)
+    ]
+    da = crack[0]["propagation"]["increment"]
+    np.testing.assert_allclose(crack[1]["points"], crack[0]["points"], atol=1e-4 * da)
+    f1, f2 = _split_forces(o1), _split_forces(o2)
+    for key in ("normal_force", "tangential_force"):
+        assert f2[key] == pytest.approx(f1[key], rel=1e-4)
+
+
+@pytest.mark.parametrize(
+    "demo, name, columns, rtol",
+    [
+        pytest.param(
+            "jaw_cyst", "fracture_bite.csv", ("max_risk",), 1e-8, marks=_marks("jaw_cyst", 2)
+        ),
+        pytest.param("jaw3d", "near_cyst.csv", None, 1e-6, marks=_marks("jaw3d", 2)),
+        pytest.param("spine3d", "subsidence.csv", None, 1e-6, marks=_marks("spine3d", 2)),
+    ],
+)
+def test_demo_table_same_on_two_ranks(demo_runs, demo, name, columns, rtol):
+    """A demo's own result table on 2 ranks equals the serial one (jaw_cyst: the
+    fracture risks; jaw3d: radii and stresses near the cyst; spine3d: subsidences,
+    stresses and risks)."""
+    (r1, o1), (r2, o2) = demo_runs[demo, 1], demo_runs[demo, 2]
+    assert r1.returncode == 0 and r2.returncode == 0, (r1.stderr[-2000:], r2.stderr[-2000:])
+    one, two = (_named_table(o / name) for o in (o1, o2))
+    assert len(one) >= 2 and len(two) == len(one)
+    for k in columns or one.dtype.names:
+        if one[k].dtype.kind == "f":
+            np.testing.assert_allclose(two[k], one[k], rtol=rtol, err_msg=k)
+        else:
+            assert list(two[k]) == list(one[k]), k
 
 
 def _named_table(path: Path) -> np.ndarray:
@@ -533,6 +606,7 @@ def _nodal_force(pvd: Path, msh: Path, group: str) -> np.ndarray:
     return _nodal_forces(pvd, msh, group)[1].sum(axis=0)
 
 
+@pytest.mark.xdist_group("jaw3d")
 def test_jaw3d_cyst_in_mandible_volume_and_bite_force(demo_runs):
     """3D jaw demo (mandible surface, cyst in the cancellous core, bite on the teeth): the
     cavity of every rebuilt mesh — the mandible surface's volume less the tetrahedra's —
@@ -541,13 +615,13 @@ def test_jaw3d_cyst_in_mandible_volume_and_bite_force(demo_runs):
     analysis the support reaction at the condyles balances the 300 N bite (within 1 %) —
     the reaction is computed here from the written cell stresses as the discrete nodal
     force ∫ σ : ∇(w e_k) dx, w the P1 function that is 1 on the condyle nodes, and the
-    same integral over the teeth nodes gives the applied bite force; the cyst grows, and
-    2 ranks give the serial radii and stresses."""
+    same integral over the teeth nodes gives the applied bite force; the cyst grows
+    (2 ranks: test_demo_table_same_on_two_ranks)."""
     from bonecontact.meshing import anatomy_surface
     from bonecontact.neoplasm.host3d import read_host_geometry3d
 
-    (r1, o1), (r2, o2) = demo_runs["jaw3d", 1], demo_runs["jaw3d", 2]
-    assert r1.returncode == 0 and r2.returncode == 0, (r1.stderr[-2000:], r2.stderr[-2000:])
+    r1, o1 = demo_runs["jaw3d", 1]
+    assert r1.returncode == 0, r1.stderr[-2000:]
     jaw_volume = anatomy_surface("mandible").volume  # meshed with its own triangles
     s = json.loads((o1 / "summary.json").read_text())
     g = np.genfromtxt(o1 / "growth.csv", delimiter=",", names=True)
@@ -572,15 +646,13 @@ def test_jaw3d_cyst_in_mandible_volume_and_bite_force(demo_runs):
         np.testing.assert_allclose(bite, [0.0, -300.0, 0.0], atol=3.0)
         np.testing.assert_allclose(reaction, [0.0, 300.0, 0.0], atol=3.0)
     near1 = np.genfromtxt(o1 / "near_cyst.csv", delimiter=",", names=True)
-    near2 = np.genfromtxt(o2 / "near_cyst.csv", delimiter=",", names=True)
     assert np.all(near1["max_von_mises_near_cyst"] > 0)
-    for k in near1.dtype.names:
-        np.testing.assert_allclose(near2[k], near1[k], rtol=1e-6)
     for name in ("jaw3d_growth.png", "jaw3d_von_mises_last.png", "jaw3d_von_mises_cyst_last.png"):
         _check_png(o1 / name)
 
 
-def test_spine3d_segment_balance_tumour_volume_and_ranks(demo_runs):
+@pytest.mark.xdist_group("spine3d")
+def test_spine3d_segment_balance_tumour_volume_and_risk(demo_runs):
     """3D spine demo (L3–disc–L4 from the shipped surfaces, tumour growing in the L4 body,
     500 N body weight and a 7.5 N·m flexion moment on the upper endplate of L3, L4 held at
     its base): in every analysis the support reactions at the base of L4 — computed here
@@ -591,12 +663,11 @@ def test_spine3d_segment_balance_tumour_volume_and_ranks(demo_runs):
     time within 1 %; the L4 endplate sinks further as the tumour grows; the bone's fracture
     risk (the written cell values and the demo's maxima) is max(σ₁, 0)/σ_t of the written
     cell stresses, below 1, and next to the tumour it rises as the tumour grows (the
-    tension at its upper pole); and 2 ranks give the serial subsidences, stresses and
-    risks."""
+    tension at its upper pole) (2 ranks: test_demo_table_same_on_two_ranks)."""
     from bonecontact.neoplasm.host3d import read_host_geometry3d
 
-    (r1, o1), (r2, o2) = demo_runs["spine3d", 1], demo_runs["spine3d", 2]
-    assert r1.returncode == 0 and r2.returncode == 0, (r1.stderr[-2000:], r2.stderr[-2000:])
+    r1, o1 = demo_runs["spine3d", 1]
+    assert r1.returncode == 0, r1.stderr[-2000:]
     s = json.loads((o1 / "summary.json").read_text())
     g = np.genfromtxt(o1 / "growth.csv", delimiter=",", names=True)
     an = s["coupling"]["analyses"]
@@ -631,11 +702,8 @@ def test_spine3d_segment_balance_tumour_volume_and_ranks(demo_runs):
     assert np.all((near > 0) & (sub1["max_risk_L4"] < 1))  # no fracture
     assert np.all(np.diff(near) > 0)  # the tension at the tumour's pole grows with it
     assert an[-1]["equivalent_radius"] > 1.1 * an[0]["equivalent_radius"]
-    sub2 = np.genfromtxt(o2 / "subsidence.csv", delimiter=",", names=True)
     assert np.all(np.diff(sub1["subsidence_L4_endplate"]) > 0)
     assert np.all(sub1["subsidence_L3_top"] > sub1["subsidence_L4_endplate"])
-    for k in sub1.dtype.names:
-        np.testing.assert_allclose(sub2[k], sub1[k], rtol=1e-6)
     for name in ("growth", "von_mises", "L4_body", "L4_risk"):
         _check_png(o1 / f"spine3d_{name}.png")
 
@@ -670,6 +738,7 @@ def _spine3d_bone_risk(directory: Path, geo, radius: float) -> tuple[float, floa
     return near, out["L4"], out["L3"]
 
 
+@pytest.mark.xdist_group("knee3d")
 def test_knee3d_contact_carries_body_weight_and_tumour_volume(demo_runs):
     """3D knee demo (the shipped femur posed on the shipped tibia by pose_on, cartilage
     layers in Coulomb contact, a tumour growing in the proximal tibia, 700 N on the

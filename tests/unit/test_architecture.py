@@ -19,6 +19,9 @@ from pathlib import Path
 
 import pytest
 
+#: source analysis: nothing collective, so it runs in the serial session only
+pytestmark = pytest.mark.serial
+
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "bonecontact"
 FORMS = ROOT / "forms"

@@ -206,7 +206,7 @@ def test_crack_is_inserted_at_the_kirsch_load_at_the_hole_edge(serial: Path) -> 
     assert abs(float(last["K_II"])) < 0.02 * float(last["K_I"])
 
 
-@pytest.mark.parametrize("n", [2, 3])
+@pytest.mark.parametrize("n", [2, pytest.param(3, marks=pytest.mark.slow)])
 def test_ranks_insert_the_same_crack(serial: Path, mesh: Path, tmp_path: Path, n: int) -> None:
     res = _run(_scene(tmp_path, mesh), tmp_path / "out", n)
     assert res.returncode == 0, res.stderr
@@ -247,6 +247,7 @@ def _assert_same_tables(ref: Path, out: Path) -> None:
                     assert y == pytest.approx(x, rel=1e-10, abs=1e-300), name
 
 
+@pytest.mark.slow
 def test_restart_before_and_after_the_initiation(mesh: Path, tmp_path: Path) -> None:
     """Checkpoints at t = 0.5 and 1 (``checkpoint_time = 0.5``); continued from step 2
     (before the crack; checkpoints now every step) the run inserts the same crack at

@@ -38,21 +38,30 @@ def _grow(
     return np.array(ts), np.array(rs), np.array(fs)
 
 
-@pytest.mark.parametrize("strain, f0", [("log", 0.0), ("engineering", 500.0)])
-def test_disc_reproduces_cylinder_ode(strain, f0):
-    """2D disc (h = R0/8), radicular set, 10 years in monthly steps, remeshed every step:
-    R_eq(t) = sqrt(A/pi) within 1 % of the cylinder ODE (measured 5.5e-4 log, 5.4e-4
-    engineering), the pressure within 1 % once the first-day transient is over, and the
-    wall still a circle."""
+@pytest.mark.parametrize(
+    "strain, f0, years, per_year",
+    [
+        ("log", 0.0, 3, 4),
+        ("engineering", 500.0, 3, 4),
+        pytest.param("log", 0.0, 10, 12, marks=pytest.mark.slow),
+        pytest.param("engineering", 500.0, 10, 12, marks=pytest.mark.slow),
+    ],
+)
+def test_disc_reproduces_cylinder_ode(strain, f0, years, per_year):
+    """2D disc (h = R0/8), radicular set, remeshed every step: R_eq(t) = sqrt(A/pi) within
+    1 % of the cylinder ODE, the pressure within 1 % once the first-day transient is over,
+    and the wall still a circle.  Default suite: 3 years in quarterly steps; `slow`: 10 years
+    in monthly steps (measured 5.5e-4 log, 5.4e-4 engineering)."""
     p = CystParameters(**RADICULAR, strain=strain, f0=f0)
     m = CystShapeModel.disc(MPI.COMM_WORLD, R0, p, h=R0 / 8)
-    ts, rs, fs = _grow(m, YEAR / 12, 10 * YEAR)
+    ts, rs, fs = _grow(m, YEAR / per_year, years * YEAR)
     ode = grow_sphere(p, rs[0], ts[-1], ts, dim=2)
     err = np.max(np.abs(rs / ode.R - 1))
     assert err < 0.01, err
-    assert rs[-1] > 5 * rs[0]  # ≈ 1 mm/year from 2 mm
+    assert rs[-1] / rs[0] == pytest.approx(ode.R[-1] / ode.R[0], rel=0.01)
+    assert ode.R[-1] > (1 + 0.4 * years) * ode.R[0]  # ≈ 1 mm/year from 2 mm: a real growth
     np.testing.assert_allclose(fs[1:], ode.f[1:], rtol=0.01)
-    assert m.steps == 120 and m.remeshes == 120
+    assert m.steps == years * per_year and m.remeshes == m.steps
     # the wall stays a circle, and the mesh measures agree with the wall's
     x = m.boundary().points
     assert np.ptp(np.linalg.norm(x, axis=1)) < 1e-3 * rs[-1]
@@ -160,17 +169,18 @@ def _run(directory: Path, name: str, **kw) -> tuple[np.ndarray, dict, Path]:
 def test_scene_shape_cyst_matches_sphere_model(shared):
     """A meshless 2D scene: model = "shape" (disc, h = radius/8) against model = "sphere"
     (the cylinder ODE): equivalent radius within 1 %, pressure within 1 % after the first
-    step; boundary.csv is the final (circular) wall."""
-    kw = dict(dim=2, mesh="", where="radius = 2.0e-3", t_end=5 * YEAR, dt=YEAR / 12, every=1)
+    step; boundary.csv is the final (circular) wall.  Three years in quarterly steps (the
+    model's own test takes ten years monthly, marked slow)."""
+    kw = dict(dim=2, mesh="", where="radius = 2.0e-3", t_end=3 * YEAR, dt=YEAR / 4, every=1)
     g_shape, s_shape, out = _run(shared, "shape", model="shape", **kw)
     g_ode, _, _ = _run(shared, "sphere", model="sphere", **kw)
-    assert g_shape.shape == g_ode.shape == (61, 5)
+    assert g_shape.shape == g_ode.shape == (13, 5)
     np.testing.assert_allclose(g_shape[:, 0], g_ode[:, 0], rtol=1e-15)
     np.testing.assert_allclose(g_shape[:, 3], g_ode[:, 3], rtol=0.01)
     np.testing.assert_allclose(g_shape[1:, 4], g_ode[1:, 4], rtol=0.01)
     np.testing.assert_allclose(g_shape[:, 3], np.sqrt(g_shape[:, 1] / np.pi), rtol=1e-14)
     gr = s_shape["growth"]
-    assert s_shape["status"] == "converged" and gr["steps"] == 60 and gr["remeshes"] == 60
+    assert s_shape["status"] == "converged" and gr["steps"] == 12 and gr["remeshes"] == 12
     assert gr["final_pressure_Pa"] == g_shape[-1, 4] and "moving wall" in gr["model"]
     b = np.loadtxt(out / "boundary.csv", delimiter=",", skiprows=1)
     assert np.max(np.abs(np.linalg.norm(b, axis=1) / g_shape[-1, 3] - 1)) < 0.01

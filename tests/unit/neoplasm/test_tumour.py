@@ -23,8 +23,12 @@ def _run(model, dt, t_end):
     return np.array(ts), np.array(rs)
 
 
+@pytest.mark.serial
 def test_radial_quasi_steady_2d():
-    """Byrne-Chaplain reduction: R(t) follows dR/dt = mu[I1/I0 - u~ R/2] within 1%."""
+    """Byrne-Chaplain reduction: R(t) follows dR/dt = mu[I1/I0 - u~ R/2] within 1%.
+
+    Serial session only (a long verification case): the growth on 2 and 3 ranks is
+    test_parallel_growth_matches_serial."""
     mu, ut = 1.0, 0.5
     p = TumourParameters(K_B=lambda c: mu * (c - ut), u_p0=1.0)
     m = TumourModel.disc(MPI.COMM_WORLD, 1.0, p, h=0.25)
@@ -50,8 +54,12 @@ def test_radial_quasi_steady_2d():
     assert np.allclose(m.u_p.x.array, 1.0, atol=1e-12)
 
 
+@pytest.mark.serial
 def test_uniform_densities_with_surface_tension():
-    """Constant rates, uniform data: u_p, u_q obey their ODEs and R = R0 exp(int h dt / 2)."""
+    """Constant rates, uniform data: u_p, u_q obey their ODEs and R = R0 exp(int h dt / 2).
+
+    Serial session only (a long verification case): the growth on 2 and 3 ranks is
+    test_parallel_growth_matches_serial."""
     rates = dict(K_B=1.0, K_Q=0.5, K_A=0.1, K_P=0.2, K_D=0.1, K_R=0.3)
     p = TumourParameters(**rates, gamma=0.02, u_p0=0.6, u_q0=0.2)
     m = TumourModel.disc(MPI.COMM_WORLD, 1.0, p, h=0.25)
@@ -74,6 +82,7 @@ def test_uniform_densities_with_surface_tension():
     assert np.all(up >= 0) and np.all(uq >= 0) and np.all(up + uq <= 1 + 1e-12)
 
 
+@pytest.mark.serial
 def test_radial_quasi_steady_3d():
     """3D Byrne-Chaplain reduction (docs/theory/growth.md#tumour-model): R(t) follows dR/dt = mu R
     [P(R) - u~/3],
@@ -84,7 +93,10 @@ def test_radial_quasi_steady_3d():
     0.60 % at radius ratio 2.01 (0.23 % with dt = 0.05: the rest is the explicit Euler step),
     about 10 s serial.  Before the volume-consistent vertex displacement of
     ``TumourModel._boundary_velocity`` the unit-normal motion lost 1.3 % of the volume rate
-    at this h and the error was 1.4 %."""
+    at this h and the error was 1.4 %.
+
+    Serial session only (a long verification case): the growth on 2 and 3 ranks is
+    test_parallel_growth_matches_serial."""
     mu, ut = 1.0, 0.0
     p = TumourParameters(K_B=lambda c: mu * (c - ut), u_p0=1.0)
     m = TumourModel.ball(MPI.COMM_WORLD, 1.0, p, h=0.3, remesh_every=2)

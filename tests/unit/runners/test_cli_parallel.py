@@ -176,7 +176,7 @@ def test_history_probes_identical_2d_dynamic(tmp_path):
     assert np.abs(p[:, 6]).max() > 1e-7  # u_y at the probes
 
 
-@pytest.mark.parametrize("linear", ["direct", "iterative"])
+@pytest.mark.parametrize("linear", ["direct", pytest.param("iterative", marks=pytest.mark.slow)])
 def test_history_probes_identical_3d_quasistatic(tmp_path, linear):
     from bonecontact.meshing import shapes as meshing
 

@@ -448,6 +448,7 @@ def test_coupled_3d_check_refuses_a_neoplasm_outside_its_group(ball_mesh, tmp_sh
 
 
 @pytest.mark.serial
+@pytest.mark.slow
 def test_coupled_3d_same_on_one_two_three_ranks(ball_mesh, tmp_path):
     """The command on 1, 2 and 3 ranks: growth.csv and history.csv agree to 1e-8."""
     scene = tmp_path / "cyst.toml"

@@ -13,8 +13,8 @@ docs/theory/fracture.md#3d-crack-fronts):
   −0.0 … −1.1 %), K_II, K_III below 3 % of it; displacement correlation, the P1
   cross-check, 15–35 % low (measured ≈ 25 %).
 * the same crack in compression (front a/6, 4 points): every face node closed (no
-  interpenetration), the contact pressure σ, K_I, K_II, K_III below 3 % of 2|σ|√(a/π) (measured 0.1 %: the
-  contact tractions enter the integral as the face term).
+  interpenetration), the contact pressure σ, K_I, K_II, K_III below 3 % of 2|σ|√(a/π)
+  (measured 0.1 %: the contact tractions enter the integral as the face term).
 * crack normal at β = 30° to the load, tension: σ_n = σcos²β, τ = σ sinβ cosβ;
   K_I = 2σ_n√(a/π), and the shear of a penny crack (Kassir & Sih 1966; Tada, Paris &
   Irwin, *The Stress Analysis of Cracks Handbook*, 3rd ed., penny-shaped crack under

@@ -301,7 +301,7 @@ def test_uninterrupted_runs_are_repeatable_and_remesh(case, tmp_path):
 @pytest.mark.parametrize(
     "name,n",
     [
-        ("tumour", 1),
+        pytest.param("tumour", 1, marks=pytest.mark.slow),
         ("tumour", 2),
         ("coupled", 1),
         pytest.param("coupled", 2, marks=pytest.mark.slow),
@@ -400,7 +400,7 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert len(_rows(out / "growth.csv")) == 5  # nothing changed
 
 
-@pytest.mark.parametrize("at", [1, 2])
+@pytest.mark.parametrize("at", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_signal_during_a_coupled_analysis(case, tmp_path, monkeypatch, at):
     """SIGTERM (sent to this process) during step ``at`` of the 2-step analysis after
     growth step 2 of the coupled scene, run in-process: the analysis's own run takes the

@@ -518,8 +518,12 @@ TUMOUR_STEP_PHASES = (
 )
 
 
+@pytest.mark.serial
 def test_tumour_growth_matches_radius_ode(shared_dir):
-    """Quasi-steady, u_p = 1, K_B = μ(u_c − ũ): dR/dt = μ[I1(R)/I0(R) − ũR/2] within 1 %."""
+    """Quasi-steady, u_p = 1, K_B = μ(u_c − ũ): dR/dt = μ[I1(R)/I0(R) − ũR/2] within 1 %.
+
+    Serial session only (a long verification case): the growth run on 2 ranks is
+    test_growth_csv_same_on_1_and_2_ranks."""
     import json
 
     out = shared_dir / "out-tumour"

@@ -97,7 +97,15 @@ def case(tmp_path_factory):
     return {"dir": tmp, "mesh": mesh, "full": full, "short": short, "refs": refs}
 
 
-@pytest.mark.parametrize("first,then", [(1, 1), (2, 2), (2, 1), (1, 3)])
+@pytest.mark.parametrize(
+    "first,then",
+    [
+        pytest.param(1, 1, marks=pytest.mark.slow),
+        pytest.param(2, 2, marks=pytest.mark.slow),
+        (2, 1),
+        (1, 3),
+    ],
+)
 def test_restart_equals_uninterrupted(case, tmp_path, first, then):
     out = tmp_path / "out"
     res = _run(case["short"], out, first)
@@ -132,7 +140,7 @@ def _stop_with_sigterm(scene: Path, out: Path, n: int):
     return finish(proc)
 
 
-@pytest.mark.parametrize("n", [1, 2])
+@pytest.mark.parametrize("n", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_sigterm_interrupts_with_checkpoint(case, tmp_path, n):
     """200 steps (the drag then a long hold), stopped by SIGTERM after step ≥ 2."""
     scene = tmp_path / "long.toml"
@@ -174,7 +182,7 @@ def test_restart_refused_with_a_message(case, tmp_path):
     assert hist[:, 0].tolist() == list(range(11))  # nothing changed
 
 
-@pytest.mark.parametrize("n", [1, 2])
+@pytest.mark.parametrize("n", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_one_rank_killed_no_hang_and_restart(case, tmp_path, n):
     """SIGKILL to one rank (serially the process, else rank 1 of 2) once history.csv has
     the row of a step drawn by a seeded generator from 2..17 (checkpoints every step):
