@@ -8,11 +8,15 @@ this folder on ``sys.path``).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from bonecontact.runners.cli import main
 
 BIN = Path(sys.executable).parent
 CLI = str(BIN / "bonecontact")
@@ -55,6 +59,16 @@ def run_scene(
 ) -> subprocess.CompletedProcess:
     """``bonecontact run SCENE -q -o OUT EXTRA...`` on ``n`` ranks, to completion."""
     return run_cli(scene_args(scene, out, *extra), n, timeout, env)
+
+
+def run_in_process(args: list[str]) -> subprocess.CompletedProcess:
+    """``bonecontact ARGS`` through its entry point in this process (collective; the exit
+    status is ``main``'s return value), stdout and stderr captured — for the refusals,
+    which need no process of their own."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(args)
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 def start_scene(scene: Path, out: Path, n: int = 1) -> subprocess.Popen:

@@ -1,11 +1,13 @@
 """The ``bonecontact`` command: input validation and failure handling (docs/scene_format.md).
 
-Every validation rule of the scene format is exercised through the real command
-(``bonecontact run``), serially and — for a representative subset — under
-``mpiexec -n 2``.  Each must give exit status 2, one message that names the file and
+Every validation rule of the scene format is exercised through the command's entry
+point (``bonecontact.runners.cli.main``, in this process), and a representative subset
+through the real command (``bonecontact run`` in a new process, serially and under
+``mpiexec -n 2``).  Each must give exit status 2, one message that names the file and
 the key (and the allowed values where there is a set), no traceback, and no results.
 
-These tests spawn their own processes, so they run only in the serial session.
+Most of these tests spawn their own processes, so the module runs only in the serial
+session.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ from pathlib import Path
 import pytest
 from cli_support import ENV as BASE_ENV
 from cli_support import run_cli
+
+from bonecontact.runners.cli import main
 
 pytestmark = pytest.mark.serial
 
@@ -185,7 +189,22 @@ def _check_input_error(
 
 
 @pytest.mark.parametrize("case", CASES + [CONTACT_NOT_YET], ids=lambda c: c[0])
-def test_invalid_input_exit_2(case, tmp_path, meshes):
+def test_invalid_input_exit_2(case, tmp_path, meshes, capsys):
+    """The entry point in this process: its return value is the exit status."""
+    _, edit, words = case
+    scene, out = _scene(tmp_path, meshes, edit)
+    code = main(["run", str(scene), "-q"])
+    captured = capsys.readouterr()
+    res = subprocess.CompletedProcess(["main"], code, captured.out, captured.err)
+    _check_input_error(res, words, out, 1)
+
+
+COMMAND_SUBSET = {"malformed_toml", "missing_mesh_file", "unknown_analysis_kind"}
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c[0] in COMMAND_SUBSET], ids=lambda c: c[0])
+def test_invalid_input_exit_2_command(case, tmp_path, meshes):
+    """The real command in a new process: exit status 2 from the interpreter."""
     _, edit, words = case
     scene, out = _scene(tmp_path, meshes, edit)
     _check_input_error(_run(["run", str(scene), "-q"]), words, out, 1)

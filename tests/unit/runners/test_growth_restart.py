@@ -54,6 +54,7 @@ from cli_support import (
     cli_command,
     finish,
     rank_pids,
+    run_in_process,
     run_scene,
     scene_args,
     wait_for_lines,
@@ -377,24 +378,29 @@ def test_sigterm_interrupts_growth_with_checkpoint(case, tmp_path, n):
 
 
 def test_restart_refused_with_a_message(case, tmp_path):
+    """Refused restarts (no checkpoint, another dt, another scene, a mechanics scene on a
+    growth checkpoint): exit 2 with the reason, nothing changed.  Through the entry point
+    in this process (the real command's exit status: the 1/2-rank restart tests)."""
     out = tmp_path / "out"
     scene = case["scenes"]["tumour", 1]
-    res = run_scene(scene, out, 1, "--restart")
+    res = run_in_process(scene_args(scene, out, "--restart"))
     assert res.returncode == 2 and "no intact checkpoint" in res.stderr
     short = tmp_path / "short.toml"
     short.write_text(scene.read_text().replace("t_end = 2.0", "t_end = 0.8"))
-    assert run_scene(short, out, 1).returncode == 0
+    assert run_in_process(scene_args(short, out)).returncode == 0
     other = tmp_path / "other_dt.toml"
     other.write_text(scene.read_text().replace("dt = 0.2", "dt = 0.1"))
-    res = run_scene(other, out, 1, "--restart")
+    res = run_in_process(scene_args(other, out, "--restart"))
     assert res.returncode == 2 and "dt = 0.2" in res.stderr, res.stderr
     assert "Traceback" not in res.stderr
-    res = run_scene(case["scenes"]["coupled", 1], out, 1, "--restart")  # another scene
+    res = run_in_process(
+        scene_args(case["scenes"]["coupled", 1], out, "--restart")
+    )  # another scene
     assert res.returncode == 2 and "scene = 'tumour'" in res.stderr, res.stderr
     plate = tmp_path / "plate_only.toml"  # the coupled scene without growth: mechanics
     text = case["scenes"]["coupled", 1].read_text()
     plate.write_text(text[: text.index("[neoplasm]")] + text[text.index("[output]") :])
-    res = run_scene(plate, out, 1, "--restart")
+    res = run_in_process(scene_args(plate, out, "--restart"))
     assert res.returncode == 2, res.stderr
     assert "'bonecontact growth checkpoint', not a mechanics run's" in res.stderr, res.stderr
     assert len(_rows(out / "growth.csv")) == 5  # nothing changed
