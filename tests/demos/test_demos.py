@@ -147,9 +147,11 @@ class _DemoRuns:
         return res, out
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def demo_runs(tmp_path_factory):
-    """Every demo as a notebook (1 rank) and as a script on 2 ranks, run on first use."""
+    """Every demo as a notebook (1 rank) and as a script on 2 ranks, run on first use.
+    Session scope: under pytest-xdist a worker runs other modules' tests between the tests
+    of one demo, and a module-scoped cache would be dropped (and the demo run again)."""
     return _DemoRuns(tmp_path_factory.mktemp("demos"))
 
 

@@ -42,7 +42,7 @@ def ran(tmp_path_factory):
 
 
 def test_page_has_the_examples():
-    assert len(_blocks()) == 6
+    assert len(_blocks()) == 7
 
 
 def test_disc_on_plate_groups_and_sizes(ran):
@@ -117,3 +117,17 @@ def test_surface_scan_and_ct_examples(ran):
     _, md = read_gmsh_mesh(d / "vertebra.msh", MPI.COMM_SELF, 2)
     assert {"vertebra", "vertebra_outer"} <= set(md.physical_groups)
     assert len(ns["regions"]) >= 1
+
+
+def test_knee_joint_example(ran):
+    """The knee of the page: the femur posed 4.5 mm above the plateau at both condyles
+    (within 0.05 mm), both bones with cortex, core and cartilage, the contact layers named."""
+    from bonecontact.meshing import read_gmsh_mesh
+
+    d, ns = ran
+    np.testing.assert_allclose(ns["pose"].gaps, 4.5e-3, atol=5e-5)
+    _, md = read_gmsh_mesh(d / "knee.msh", MPI.COMM_SELF, 3)
+    groups = set(md.physical_groups)
+    for bone in ("femur", "tibia"):
+        assert {f"{bone}_cartilage", f"{bone}_contact"} <= groups, groups
+    assert {"femur_top", "tibia_base"} <= groups
