@@ -146,13 +146,14 @@ notebooks: install
 	@echo "== notebooks: $(NB_DIR)/*.ipynb (open with jupyter lab), results in $(NB_DIR)/results/"
 
 # Serial suite: every selected test, including tests marked `serial` that spawn their own mpiexec.
-# pytest-xdist spreads it over SERIAL_WORKERS processes (--dist loadgroup: the tests of one
-# demo share a worker, so each demo runs once); SERIAL_WORKERS=0 runs it in this process.
+# pytest-xdist spreads it over SERIAL_WORKERS processes, a test module to a worker (--dist
+# loadscope: module-scoped fixtures such as the demo runs and restart references are made
+# once); SERIAL_WORKERS=0 runs it in this process.
 define run_serial
-@SHOW="timeout $(TEST_TIMEOUT) $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadgroup --durations=15 -m '$(SELECT)' $(PYTEST_ARGS)" \
+@SHOW="timeout $(TEST_TIMEOUT) $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadscope --durations=15 -m '$(SELECT)' $(PYTEST_ARGS)" \
   bash -c "$$RUN_PYTEST" run-pytest serial \
   timeout --kill-after=30 $(TEST_TIMEOUT) \
-  $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadgroup --durations=15 -m "$(SELECT)" $(PYTEST_ARGS)
+  $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadscope --durations=15 -m "$(SELECT)" $(PYTEST_ARGS)
 endef
 
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))

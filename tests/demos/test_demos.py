@@ -150,8 +150,7 @@ class _DemoRuns:
 @pytest.fixture(scope="session")
 def demo_runs(tmp_path_factory):
     """Every demo as a notebook (1 rank) and as a script on 2 ranks, run on first use.
-    Session scope: under pytest-xdist a worker runs other modules' tests between the tests
-    of one demo, and a module-scoped cache would be dropped (and the demo run again)."""
+    Session scope, so that the cache survives whatever order the tests run in."""
     return _DemoRuns(tmp_path_factory.mktemp("demos"))
 
 
@@ -165,12 +164,8 @@ TWO_RANKS_DEFAULT = {"knee2d", "long_bone", "contact_api"}
 
 
 def _marks(demo: str, nproc: int = 1) -> list:
-    """The tests of one demo share an xdist worker (each demo then runs once); its 2-rank
-    run is slow unless the demo is in TWO_RANKS_DEFAULT."""
-    marks = [pytest.mark.xdist_group(demo)]
-    if nproc == 2 and demo not in TWO_RANKS_DEFAULT:
-        marks.append(pytest.mark.slow)
-    return marks
+    """A demo's 2-rank run is slow unless the demo is in TWO_RANKS_DEFAULT."""
+    return [pytest.mark.slow] if nproc == 2 and demo not in TWO_RANKS_DEFAULT else []
 
 
 def _demo_params(nprocs: tuple[int, ...]) -> list:
@@ -213,7 +208,6 @@ def test_demo_same_on_two_ranks(demo_runs, demo):
         )
 
 
-@pytest.mark.xdist_group("long_bone")
 def test_long_bone_matches_kelvin_voigt_creep_of_static_solution(demo_runs, tmp_path):
     res, out = demo_runs["long_bone", 1]
     assert res.returncode == 0
@@ -275,7 +269,6 @@ def test_demo_as_notebook_shows_figures_inline(demo_runs, demo):
     assert "IProgress" not in run.stderr and "TqdmWarning" not in run.stderr
 
 
-@pytest.mark.xdist_group("long_bone")
 def test_long_bone_notebook_prints_results(demo_runs):
     run, out = demo_runs["long_bone", 1]
     text = "".join(
@@ -285,7 +278,6 @@ def test_long_bone_notebook_prints_results(demo_runs):
     assert (out / "long_bone.png").stat().st_size > 10_000
 
 
-@pytest.mark.xdist_group("knee2d")
 def test_knee2d_force_balance_and_symmetry(demo_runs):
     """Knee demo: the contact carries the applied body weight (17.5 kN/m; the normal
     force is the sum of |λ| w over nodal normals tilted by at most ~a/R, hence 1 %), and
@@ -308,7 +300,6 @@ def test_knee2d_force_balance_and_symmetry(demo_runs):
     _check_png(out / "knee2d_von_mises.png", (1200, 900))  # pyvista window_size
 
 
-@pytest.mark.xdist_group("knee2d")
 def test_knee2d_gait_cycle_with_friction(demo_runs):
     """Knee demo, part 2 (dynamic gait cycle, Coulomb μ = 0.02): serial and 2 ranks give
     the same history; in swing (load held at 0.1 × body weight from t = 0.6 s) the contact
@@ -335,7 +326,6 @@ def test_knee2d_gait_cycle_with_friction(demo_runs):
     _check_png(o1 / "gait_contact.png")
 
 
-@pytest.mark.xdist_group("jaw_cyst")
 def test_jaw_cyst_growth_and_cavity(demo_runs):
     """Jaw-cyst demo: the keratocyst's radius follows the cyst ODE integrated in one go
     (bonecontact.neoplasm.cyst.grow_sphere, 2D) to 1e-8, the bone is analysed after 9, 18 and 27
@@ -388,7 +378,6 @@ def test_jaw_cyst_growth_and_cavity(demo_runs):
     _check_png(out / "jaw_cyst_radicular_von_mises.png", (1200, 700))
 
 
-@pytest.mark.xdist_group("jaw_cyst")
 def test_jaw_cyst_fracture_bite_force(demo_runs):
     """Jaw-cyst demo, fracture check: the risk is linear in the bite (twice the bite gives
     twice the risk to round-off), the bite force that fractures the cortical shell falls
@@ -411,7 +400,6 @@ def test_jaw_cyst_fracture_bite_force(demo_runs):
     _check_png(o1 / "jaw_cyst_fracture_force.png")
 
 
-@pytest.mark.xdist_group("knee_tumour")
 def test_knee_tumour_growth_and_loaded_bone(demo_runs):
     """Tumour demo: the tumour grows monotonically (R 4.8 -> 7.7 mm in 20 days); each of
     the contact analyses on the rebuilt mesh (two with BONECONTACT_DEMO_QUICK: days 10
@@ -442,7 +430,6 @@ def test_knee_tumour_growth_and_loaded_bone(demo_runs):
     _check_png(out / "knee_tumour_von_mises.png", (1200, 900))  # pyvista window_size
 
 
-@pytest.mark.xdist_group("contact_api")
 def test_contact_api_reproduces_hertz(demo_runs):
     """The API demo: Hertz's half-width and peak pressure within 2 %, same on 2 ranks."""
     results = {}
@@ -460,7 +447,6 @@ def test_contact_api_reproduces_hertz(demo_runs):
     _check_png(demo_runs["contact_api", 1][1] / "contact_pressure.png")
 
 
-@pytest.mark.xdist_group("vertebra_tumour")
 def test_vertebra_tumour_risk_and_fracture(demo_runs):
     """Vertebra demo: the largest risk of the bone rises as the tumour grows and reaches 1;
     with the crack faces open, K_I of the initial flaw is linear in the load (load step k
@@ -530,7 +516,6 @@ def _split_forces(out: Path) -> np.ndarray:
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("vertebra_tumour")
 def test_vertebra_tumour_same_on_two_ranks(demo_runs):
     """2 ranks give the serial crack path (to 1e-4 of the increment) and the fragments'
     face forces (to 1e-4, as the paths; measured 4e-6)."""
@@ -608,7 +593,6 @@ def _nodal_force(pvd: Path, msh: Path, group: str) -> np.ndarray:
     return _nodal_forces(pvd, msh, group)[1].sum(axis=0)
 
 
-@pytest.mark.xdist_group("jaw3d")
 def test_jaw3d_cyst_in_mandible_volume_and_bite_force(demo_runs):
     """3D jaw demo (mandible surface, cyst in the cancellous core, bite on the teeth): the
     cavity of every rebuilt mesh — the mandible surface's volume less the tetrahedra's —
@@ -653,7 +637,6 @@ def test_jaw3d_cyst_in_mandible_volume_and_bite_force(demo_runs):
         _check_png(o1 / name)
 
 
-@pytest.mark.xdist_group("spine3d")
 def test_spine3d_segment_balance_tumour_volume_and_risk(demo_runs):
     """3D spine demo (L3–disc–L4 from the shipped surfaces, tumour growing in the L4 body,
     500 N body weight and a 7.5 N·m flexion moment on the upper endplate of L3, L4 held at
@@ -740,7 +723,6 @@ def _spine3d_bone_risk(directory: Path, geo, radius: float) -> tuple[float, floa
     return near, out["L4"], out["L3"]
 
 
-@pytest.mark.xdist_group("knee3d")
 def test_knee3d_contact_carries_body_weight_and_tumour_volume(demo_runs):
     """3D knee demo (the shipped femur posed on the shipped tibia by pose_on, cartilage
     layers in Coulomb contact, a tumour growing in the proximal tibia, 700 N on the
