@@ -32,13 +32,20 @@ peak resident memory of a rank (``ru_maxrss``: the process's peak so far; the si
 from small to large, so with one case per process, as ``run_all.sh`` runs them, it is the
 peak of that row's size).
 
+* ``knee``: the knee of ``demos/knee3d.py`` (``bonecontact.meshing.joint``: the femur
+  posed on the tibia, both cut 40 mm from the joint, 2 mm cortex and cartilage layers in
+  Coulomb contact), 700 N on the femur, a tumour in the proximal tibia; 8 days in 4-day
+  steps, an analysis at each.  Accuracy: the contact force of the last analysis on the
+  femur and on the tibia against the body weight (``force_err_femur``,
+  ``force_err_tibia``: F/W - 1 from the internal forces K u of the cartilage surfaces).
+
 Accuracy (``lame``): the cyst cavity of ``tests/unit/runners/test_coupled3d.py``, a cyst
 grown for one year at the centre of a ball of radius 20 mm clamped at its surface, mesh
 size ``h_in`` at the 2 mm core (so on the wall); the radial displacement of the wall
 vertices against Lamé's thick sphere: mean and largest |u_r / u_Lamé - 1|, next to the
 phases.
 
-Usage:  python benchmarks/bench_scene3d.py [--quick] [--cases jaw_block,mandible,...]
+Usage:  python benchmarks/bench_scene3d.py [--quick] [--cases jaw_block,mandible,...,knee]
         (appends to benchmarks/results/scene3d.csv)
 """
 
@@ -63,6 +70,13 @@ from dolfinx import fem
 
 from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.meshing import SurfaceRegion, anatomy_surface, bone_from_surface
+from bonecontact.meshing.joint import (
+    Cartilage,
+    JointBone,
+    clip_surface,
+    joint_from_surfaces,
+    pose_on,
+)
 from bonecontact.meshing.session import gmsh_session
 from bonecontact.neoplasm.host3d import build_host_mesh3d, read_host_geometry3d, sphere_surface
 from bonecontact.runners import RunResult, run_scene
@@ -80,7 +94,10 @@ SIZES = {
     "mandible": [(8.0e-3,), (3.0e-3,), (2.0e-3,)],  # (h,)
     "vertebra": [(5.0e-3,), (3.5e-3,), (2.5e-3,)],  # (h,)
     "lame": [(8.0e-4, 4.0e-3), (4.0e-4, 4.0e-3), (2.5e-4, 4.0e-3)],  # (h_in, h_out)
+    "knee": [(5.0e-3,), (4.5e-3,), (4.0e-3,)],  # (h,): 3.5 mm: gmsh refuses the tibia; 6 mm:
+    # the Coulomb active set cycles
 }
+W_KNEE = 700.0  # N, body weight on the knee
 
 #: the mechanics phases reported on their own (the rest: mech_other)
 MECH = {
@@ -249,10 +266,16 @@ def vertebra(work: Path, size: tuple) -> tuple[str, dict]:
         comm=COMM,
     )
     _, t_embed = timed(embed_ball, bone, l4, "tumour", "L4_cancellous", centre, r0, r0 / 3)
-    text = f"""format = 1
+    return vertebra_text(l4, "vertebra", 6, 2, 3), {"mesh_s": t_mesh, "embed_s": t_embed}
+
+
+def vertebra_text(msh: Path, name: str, days: int, dt: int, every: int) -> str:
+    """The vertebra's coupled scene (L4 groups) on ``msh``: ``days`` of growth in steps of
+    ``dt`` days, an analysis every ``every`` steps."""
+    return f"""format = 1
 [scene]
-name = "vertebra"
-mesh = "{l4}"
+name = "{name}"
+mesh = "{msh}"
 dimension = 3
 [analysis]
 kind = "static"
@@ -286,10 +309,10 @@ value = 0.35e6
 kind = "tumour"
 region = "tumour"
 host = ["L4_cancellous"]
-t_end = {6 * DAY:.9e}
-dt = {2 * DAY:.9e}
+t_end = {days * DAY:.9e}
+dt = {dt * DAY:.9e}
 remesh_every = 1
-mechanics_every = 3
+mechanics_every = {every}
 [neoplasm.tumour]
 D_c = 1.0e-9
 lambda = 1.0e-5
@@ -308,6 +331,75 @@ u_q0 = 0.0
 directory = "results"
 fields_every = 1
 """
+
+
+def knee(work: Path, size: tuple) -> tuple[str, dict]:
+    """demos/knee3d.py's knee: the shipped femur posed on the tibia (``pose_on``, 4.5 mm
+    for two 2 mm cartilage layers), both cut 40 mm from the joint, 2 mm cortex, the
+    demo's cartilage facet rules, Coulomb pair (mu 0.1, femur slave), 700 N on the
+    femur's cut (guided u_x = u_z = 0), tibia held at its cut; the 3 mm tumour 16 mm below
+    the plateau; 8 days in 4-day steps, an analysis at each (as the quick demo)."""
+    h, big, mm2 = size[0], 1.0, 2 * MM
+    posed, pose = pose_on(anatomy_surface("femur"), anatomy_surface("tibia"), 4.5 * MM)
+    y0 = float(pose.points[:, 1].mean())
+    femur = clip_surface(posed, (0.0, y0 + 40 * MM, 0.0), (0.0, 1.0, 0.0))
+    tibia = clip_surface(anatomy_surface("tibia"), (0.0, y0 - 40 * MM, 0.0), (0.0, -1.0, 0.0))
+    top_y = y0 - 15 * MM  # the plateau: the tibia's top 15 mm
+    top = tibia.points[tibia.points[:, 1] > top_y]
+    m = h + mm2  # the femur's cartilage one element and 2 mm inside the plateau's edge
+    over = ((top[:, 0].min() + m, -big, top[:, 2].min() + m),
+            (top[:, 0].max() - m, y0 + 10 * MM, top[:, 2].max() - m))  # fmt: skip
+    up, down = ((0, 1, 0), 10), ((0, -1, 0), 10)
+    femur_top = SurfaceRegion("femur_top", cone=up, box=((-big, y0 + 39 * MM, -big), (big,) * 3))
+    tibia_base = SurfaceRegion("tibia_base", cone=down, box=((-big,) * 3, (big, y0 - 39 * MM, big)))
+    condyles = SurfaceRegion("condyles", cone=((0, -1, 0), 40), box=over)
+    plateau = SurfaceRegion("plateau", cone=((0, 1, 0), 60), box=((-big, top_y, -big), (big,) * 3))
+    bones = [
+        JointBone("femur", femur, mm2, [femur_top],
+                  Cartilage("femur_cartilage", "femur_contact", (condyles,), mm2)),
+        JointBone("tibia", tibia, mm2, [tibia_base],
+                  Cartilage("tibia_cartilage", "tibia_contact", (plateau,), mm2)),
+    ]  # fmt: skip
+    bone, knee_msh = work / "bones.msh", work / "knee.msh"
+    _, t_mesh = timed(joint_from_surfaces, bones, h, comm=COMM, path=bone)
+    slab = tibia.points[np.abs(tibia.points[:, 1] - (y0 - 16 * MM)) < 3 * MM]
+    mid = 0.5 * (slab.min(axis=0) + slab.max(axis=0))
+    centre = np.array([mid[0], y0 - 16 * MM, mid[2]])
+    _, t_embed = timed(
+        embed_ball, bone, knee_msh, "tumour", "tibia_cancellous", centre, 3 * MM, 1.5 * MM
+    )
+    text = vertebra_text(knee_msh, "knee", 8, 4, 1)
+    for old, new in (
+        ('"L4_cortical"', '"femur_cortical", "tibia_cortical"'),
+        ('"L4_cancellous"]\nmodel', '"femur_cancellous", "tibia_cancellous"]\nmodel'),
+        ("E = 723.0e6", "E = 1.0e9"),
+        ("L4_cancellous", "tibia_cancellous"),
+        ("L4_base", "tibia_base"),
+    ):
+        text = text.replace(old, new)
+    pair = f"""[[material]]
+name = "cartilage"
+regions = ["femur_cartilage", "tibia_cartilage"]
+model = "isotropic"
+E = 10.0e6
+nu = 0.4
+[[contact]]
+name = "tibiofemoral"
+slave = "femur_contact"
+master = "tibia_contact"
+friction = "coulomb"
+coefficient = 0.1
+[[dirichlet]]
+boundary = "femur_top"
+value = [0.0, "free", 0.0]
+[[traction]]
+boundary = "femur_top"
+value = [0.0, {-W_KNEE / facet_area(knee_msh, "femur_top"):.9e}, 0.0]
+"""
+    text = text.replace('[[pressure]]\nboundary = "L4_top"\nvalue = 0.35e6\n', pair)
+    text = text.replace(
+        "load_steps = 1", 'load_steps = 2\n[solver]\nlinear = "direct"\nmax_iterations = 40'
+    )
     return text, {"mesh_s": t_mesh, "embed_s": t_embed}
 
 
@@ -401,7 +493,33 @@ def lame_wall_error(res: RunResult) -> tuple[float, float, float]:
     return float(ratio.mean()), float(err.mean()), float(err.max())
 
 
-CASES = {"jaw_block": jaw_block, "mandible": mandible, "vertebra": vertebra, "lame": lame}
+def knee_forces(res: RunResult) -> tuple[float, float]:
+    """The vertical force of the last analysis's contact on the femur and on the tibia
+    over the body weight, minus 1: the internal forces K u summed over the nodes of
+    ``femur_contact`` and of ``tibia_contact`` (collective).  The femur's must be W (its
+    guide takes no vertical force); the tibia receives what the mortar passes on."""
+    model, u = res.integrator.model, res.integrator.u
+    ku = model.K.createVecLeft()
+    model.K.mult(u.x.petsc_vec, ku)
+    msh = Path(res.summary["coupling"]["analyses"][-1]["directory"]) / "host_mesh.msh"
+    tags = read_host_geometry3d(msh).facets if COMM.rank == 0 else None
+    tags = COMM.bcast({k: tags[k][0] for k in ("femur_contact", "tibia_contact")} if tags else None)
+    out = []
+    for group, sign in (("femur_contact", 1.0), ("tibia_contact", -1.0)):
+        blocks = fem.locate_dofs_topological(model.V, 2, model.facets(tags[group]))
+        blocks = blocks[blocks < model.V.dofmap.index_map.size_local]
+        fy = COMM.allreduce(float(ku.array[3 * blocks + 1].sum()), op=MPI.SUM)
+        out.append(sign * fy / W_KNEE - 1.0)
+    return out[0], out[1]
+
+
+CASES = {
+    "jaw_block": jaw_block,
+    "mandible": mandible,
+    "vertebra": vertebra,
+    "lame": lame,
+    "knee": knee,
+}
 
 
 def mech_phases(res: RunResult) -> dict[str, float]:
@@ -439,11 +557,16 @@ def one(case: str, size: tuple) -> dict:
         "wall_ratio_mean": "",
         "wall_err_mean": "",
         "wall_err_max": "",
+        "force_err_femur": "",
+        "force_err_tibia": "",
     }
     if case == "lame":
         ratio, mean, worst = lame_wall_error(res)
         row["wall_ratio_mean"] = f"{ratio:.4f}"
         row["wall_err_mean"], row["wall_err_max"] = f"{mean:.4g}", f"{worst:.4g}"
+    if case == "knee":
+        femur, tibia = knee_forces(res)
+        row["force_err_femur"], row["force_err_tibia"] = f"{femur:.3e}", f"{tibia:.4g}"
     return row
 
 

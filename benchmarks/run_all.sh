@@ -76,7 +76,7 @@ echo "== 3D tumour growth: cost per step against cells, by phase"
 $PY benchmarks/bench_tumour.py --study3d $quick
 echo "== 3D coupled scenes: phases (meshing, growth, rebuild, mechanics) against mesh size; Lame cavity error"
 rm -f benchmarks/results/scene3d.csv
-for c in jaw_block mandible vertebra lame; do  # one process per case: its own peak memory
+for c in jaw_block mandible vertebra lame knee; do  # one process per case: its own peak memory
   $PY benchmarks/bench_scene3d.py --cases $c $quick
 done
 echo "== results in benchmarks/results/"
