@@ -19,8 +19,9 @@
 # `data/anatomy/README.md`) are meshed into one body of tetrahedra: each vertebra a 2 mm
 # cortical shell around a cancellous core, and between the two vertebral bodies an
 # **intervertebral disc**, a soft solid bonded to both endplates (it shares their
-# triangles).  A tumour, 3 mm in radius at the start, grows in the cancellous core of the
-# L4 vertebral body.  L4 is held at its lower endplate; the upper endplate of L3 carries
+# triangles), and behind them the two **facet joints**, L3's inferior articular facets
+# against L4's superior ones, as frictionless contact pairs.  A tumour, 3 mm in radius
+# at the start, grows in the cancellous core of the L4 vertebral body.  L4 is held at its lower endplate; the upper endplate of L3 carries
 # the body weight above the segment, 500 N, and a 7.5 N·m **flexion** moment (bending
 # forwards).  At intervals gmsh rebuilds the segment's tetrahedra around the current
 # tumour and the loaded segment is solved again.  We follow the tumour's volume, the
@@ -31,7 +32,9 @@
 # (days 6 and 12), with a coarser mesh, instead of 24 days
 # with four analyses.  Time on this 2-core machine, shared with other jobs (load 7–12):
 # quick 72–190 s, full 126–210 s wall on 1 rank, of which 32–37 s and 35–48 s of CPU
-# time (a quiet machine needs about the CPU time).
+# time (a quiet machine needs about the CPU time); with the facet contact pairs, at
+# load 4–5: quick 88 s (94 s without them in a run beside it), full 105 s.  The pairs
+# add about 3 s to each analysis (mortar set-up 0.8 s, the contact solve 1.5–2.2 s).
 # Units: SI.
 #
 # ## The tumour
@@ -51,8 +54,10 @@
 # $$-\nabla\cdot\mathbb C\,e(u) = 0 \ \text{in the segment}, \qquad u = 0 \ \text{on the
 # lower endplate of L4}, \qquad \sigma n = t \ \text{on the upper endplate of L3},$$
 #
-# the rest of the surface free (the ligaments, the muscles and the facet capsules are
-# not modelled).  Materials (data/materials.toml): cortical bone $E = 17$ GPa,
+# unilateral frictionless contact between the articular facets of L3 and L4 (dual mortar,
+# `docs/theory/contact.md`; no cartilage layer and no capsule: the facets of these
+# surfaces are bone on bone), the rest of the surface free (the ligaments and the
+# muscles are not modelled).  Materials (data/materials.toml): cortical bone $E = 17$ GPa,
 # $\nu = 0.3$; vertebral cancellous bone $E = 723$ MPa, $\nu = 0.25$; the disc as one
 # homogeneous soft solid, $E = 4.2$ MPa, $\nu = 0.45$ (`disc_homogeneous`: the annulus
 # matrix of a lumbar model; the nucleus' pressure and the annulus' fibres are not
@@ -87,10 +92,17 @@
 # of the loaded endplate of L3 (the whole segment's shortening) and of the upper
 # endplate of L4 (the tumour-bearing vertebra, under the disc).
 #
-# **Not in this demo.**  The facet joints (the small joints between the processes of L3
-# and L4) are not a contact pair here: on these low-resolution surfaces the joint
-# surfaces come within 1–2 mm of each other with crossing normals and no cartilage, and
-# a forward bend opens them in any case.  A crack (its insertion and growth) is 2D only
+# **The facet joints.**  On these surfaces each facet joint is two or three flat triangles
+# per side (5–10 mm edges, 20–63 mm²): L3's inferior facet faces outwards and a little
+# forwards, L4's superior facet inwards and up, their normals 27–30° from opposite, the
+# surfaces 0.15–3.5 mm apart (rays along the normals of L3's facet; half of its rays miss
+# L4's facet, which lies lower: the two overlap over about half their area).  The facet
+# groups (`L3_facet_zneg`, `L4_facet_zneg`, `_zpos` at z > 0; `facet_regions` below) are
+# refined twice like the disc's faces, and L3's facets are the slaves.  A forward bend
+# turns L3 about the disc, so its posterior arch rises and slides along L4's facets:
+# they open (see *What to expect*).
+#
+# **Not in this demo.**  A crack (its insertion and growth) is 2D only
 # in this version (`demos/vertebra_tumour.py`); here the fracture check gives the risk.
 
 # %%
@@ -138,6 +150,8 @@ H_BONE = 8 * MM if quick else 5 * MM  # largest tetrahedron
 days, every = (12, 3) if quick else (24, 3)  # growth time, growth steps between analyses
 N_BINS = 6  # facet groups of the loaded endplate
 DISC_LEVELS = 2  # refinements of the disc's faces (the endplate fans of the surfaces)
+FACET_LEVELS = 2  # refinements of the articular facets (the contact pairs' surfaces)
+FACET_PAIRS = ("facet_zneg", "facet_zpos")  # the facet joints (z < 0, z > 0)
 t0 = time.perf_counter()
 if comm.rank == 0:
     output.mkdir(parents=True, exist_ok=True)
@@ -151,7 +165,9 @@ comm.barrier()
 # these surfaces is a fan of 14 nearly horizontal triangles about one vertex; a facet
 # group takes the triangles whose outward normal is within 30° of $\pm y$ and whose
 # centroid lies in a box about the body (front of $x = -14$ mm and a slab of $y$):
-# `L3_top` (loaded), `L3_endplate_inf`, `L4_endplate` and `L4_base` (held).
+# `L3_top` (loaded), `L3_endplate_inf`, `L4_endplate` and `L4_base` (held).  The
+# facets of the two facet joints are groups too (normal cones and boxes:
+# `facet_regions`), one per side and vertebra, each two triangles of the surface.
 #
 # **The disc** is the solid between the two facing endplates: its bottom is the fan of
 # `L4_endplate`, its top the fan of `L3_endplate_inf` (the same triangles as the bone's,
@@ -271,16 +287,36 @@ def refine_patch(
     return np.array(x), np.array(out), np.array(lab)
 
 
+def facet_regions(prefix: str) -> list[SurfaceRegion]:
+    """The articular facets of the joint between L3 and L4, one group per side (z < 0:
+    ``<prefix>_facet_zneg``, s = -1; z > 0: ``_zpos``, s = 1): L3's inferior
+    facets face outwards (normal within 25° of (0.4, 0, 0.92 s)), L4's superior facets
+    inwards and up (within 25° of (−0.15, 0.48, −0.86 s)); centroids in a box behind the
+    vertebral body, at 8 mm ≤ |z| ≤ 18 mm."""
+    out = []
+    for side, sign in (("zneg", -1.0), ("zpos", 1.0)):
+        z = sorted((sign * 8 * MM, sign * 18 * MM))
+        if prefix == "L3":
+            cone, x, y = ((0.4, 0.0, 0.92 * sign), 25.0), (-35, -23), (33, 41)
+        else:
+            cone, x, y = ((-0.15, 0.48, -0.86 * sign), 25.0), (-31.5, -23), (30, 37)
+        box = ((x[0] * MM, y[0] * MM, z[0]), (x[1] * MM, y[1] * MM, z[1]))
+        out.append(SurfaceRegion(f"{prefix}_facet_{side}", cone=cone, box=box))
+    return out
+
+
 def segment_surfaces(h: float, cortex: float) -> dict:
     """Rank 0: the points, the named triangle patches and the cortical inner surfaces; the
-    facing endplates refined DISC_LEVELS times (the disc's faces)."""
+    facing endplates refined DISC_LEVELS times (the disc's faces), the facets
+    FACET_LEVELS times."""
     l4, l3 = anatomy_surface("L4"), anatomy_surface("L3")
     parts = []
     for s, prefix, top, bottom, face in (
         (l4, "L4", (24, 32), (-5, 6), "L4_top"),
         (l3, "L3", (60, 68), (35, 45), "L3_bottom"),
     ):
-        groups = select_triangles(s, fan_regions(prefix, top, bottom), f"{prefix}_surface")
+        regions = fan_regions(prefix, top, bottom) + facet_regions(prefix)
+        groups = select_triangles(s, regions, f"{prefix}_surface")
         names = list(groups)
         label = np.empty(len(s.triangles), int)
         for i, k in enumerate(names):
@@ -288,6 +324,10 @@ def segment_surfaces(h: float, cortex: float) -> dict:
         xs, ts = s.points, s.triangles
         for _ in range(DISC_LEVELS):
             xs, ts, label = refine_patch(xs, ts, label, names.index(face))
+        for _ in range(FACET_LEVELS):
+            for k in names:
+                if "_facet_" in k:
+                    xs, ts, label = refine_patch(xs, ts, label, names.index(k))
         parts.append((xs, {k: ts[label == i] for i, k in enumerate(names)}))
     (x4, g4), (x3, g3) = parts
     x = np.vstack([x4, x3])
@@ -455,6 +495,16 @@ sigma_t = 1.0e6
 [fracture]
 criterion = "tension"
 
+[[contact]]
+name = "facet_zneg"
+slave = "L3_facet_zneg"
+master = "L4_facet_zneg"
+
+[[contact]]
+name = "facet_zpos"
+slave = "L3_facet_zpos"
+master = "L4_facet_zpos"
+
 [[dirichlet]]
 boundary = "L4_base"
 value = [0.0, 0.0, 0.0]
@@ -519,11 +569,11 @@ if comm.rank == 0:
 #
 # What to expect: the disc is four thousand times softer than the cortex, so the
 # segment's shortening and tilt are the disc's (full run: L3 sinks 0.65 mm and tilts
-# 8.8–8.9° forwards, the L4 endplate sinks only 5.6–6.0 µm); the tumour softens the L4
-# body, so its endplate sinks a little more as it grows (5.63, 5.70, 5.79, 5.99 µm at
+# 8.7–8.9° forwards, the L4 endplate sinks only 5.6–6.0 µm); the tumour softens the L4
+# body, so its endplate sinks a little more as it grows (5.63, 5.69, 5.82, 6.01 µm at
 # R = 3.6, 4.3, 5.2, 6.3 mm) and the stress in the bone next to the tumour rises (0.77,
 # 0.80, 0.86, 0.88 MPa), highest on the side towards the loaded front of the endplate.
-# The shortening changes by less than 1 % (652–656 µm) and not smoothly: the disc is
+# The shortening changes by 1 % (649–656 µm) and not smoothly: the disc is
 # re-tetrahedralised at every rebuild, and its mesh, not the tumour, moves that number.
 # The largest fracture risk of L4 sits in the cancellous bone just above the tumour's
 # upper pole, between the tumour and the loaded endplate, and rises as the tumour grows
@@ -535,12 +585,18 @@ if comm.rank == 0:
 # risk next to the tumour is that of the full run (0.18, 0.21): the risk within 2 mm of
 # the tumour is the number to follow, a single cell's maximum elsewhere is a mesh value.
 #
+# The facet joints open: L3 turns forwards about the disc, its posterior arch rises and
+# slides 3–5 mm along L4's facets (`slip_t` of `contact_facet_*.csv`), and of the 8
+# slave nodes of each side that lie over the master none touches (quick and full runs:
+# gaps under load 0.50–3.5 mm, facet force 0 in every analysis; the run prints them).  The facets
+# would carry load in extension or under shear forwards, not modelled here.
+#
 # **A limit of this model.**  The disc carries the flexion by strains of 20–30 % at its
 # front and back (the run prints the largest strain of each analysis, summary.json
 # `max_strain`): beyond the range of the linear, small-strain model (bonecontact stops
 # at 50 %, a units check).  The disc's deformation and the segment's tilt are therefore
-# indicative only; without the ligaments, the facet joints and the muscles the segment
-# is also more flexible than a real one.  The bone's strains stay below 0.1 %, and the
+# indicative only; without the ligaments and the muscles the segment is also more
+# flexible than a real one (in flexion the facet joints open and hold nothing).  The bone's strains stay below 0.1 %, and the
 # load reaching L4 is fixed by equilibrium (the test checks the reaction), so the bone
 # stresses around the tumour are in the model's range; how the disc spreads that load
 # over the endplate is what the disc model affects.
@@ -591,6 +647,22 @@ def bone_risk(directory: Path, radius: float) -> tuple[float, float, float]:
     return float(risk[l4][near].max()), float(risk[l4].max()), float(risk[l3].max())
 
 
+def facet_state(directory: Path) -> dict[str, tuple[int, tuple[float, float], int, float]]:
+    """Per facet pair of an analysis: the slave nodes carrying a multiplier (over the
+    master), their smallest and largest gap under load (m), the nodes in contact and the
+    total normal force (N) of the last load step (contact_<pair>.csv, history.csv)."""
+    d = Path(directory)
+    hist = np.genfromtxt(d / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    out = {}
+    for pair in FACET_PAIRS:
+        t = np.genfromtxt(d / f"contact_{pair}.csv", delimiter=",", names=True, dtype=None,
+                          encoding="utf-8")  # fmt: skip
+        last = hist[hist["pair"] == pair][-1]
+        gap = (float(t["gap"].min()), float(t["gap"].max()))
+        out[pair] = (len(t), gap, int(last["n_active"]), float(last["normal_force"]))
+    return out
+
+
 if comm.rank == 0:
     import matplotlib
 
@@ -630,6 +702,13 @@ if comm.rank == 0:
             f"largest fracture risk of the bone: L4 ≤ 2 mm from the tumour {r[8]:.3f}, "
             f"L4 {r[9]:.3f}, L3 {r[10]:.3f}"
         )
+    for a, f in ((a, facet_state(Path(a["directory"]))) for a in analyses):
+        for pair, (n, gap, active, force) in f.items():
+            print(
+                f"day {a['time'] / DAY:.0f}: facet pair {pair}: {n} slave nodes over the master, "
+                f"gap under load {gap[0] / MM:.2f}–{gap[1] / MM:.2f} mm, {active} in contact, "
+                f"normal force {force:.2f} N"
+            )
     fig, ((a1, a2), (a3, a4), (a5, a6)) = plt.subplots(3, 2, figsize=(11, 11))
     a1.plot(growth["time"] / DAY, growth["volume"] * 1e9, "-", label="growth.csv")
     a1.plot(rows[:, 0] / DAY, rows[:, 2] * 1e9, "o", label="analyses (tumour cells)")

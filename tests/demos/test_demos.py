@@ -648,7 +648,12 @@ def test_spine3d_segment_balance_tumour_volume_and_risk(demo_runs):
     time within 1 %; the L4 endplate sinks further as the tumour grows; the bone's fracture
     risk (the written cell values and the demo's maxima) is max(σ₁, 0)/σ_t of the written
     cell stresses, below 1, and next to the tumour it rises as the tumour grows (the
-    tension at its upper pole) (2 ranks: test_demo_table_same_on_two_ranks)."""
+    tension at its upper pole).  The facet joints (frictionless pairs L3 → L4 on each
+    side): every slave node over the master has a pressure ≥ 0 and no penetration (gap
+    ≥ −1 µm), and the force the written stresses put on L4's facet nodes equals the
+    pair's total normal force of the multipliers (history.csv) within 1 % of the body
+    weight (in flexion the facets open: both are 0) (2 ranks:
+    test_demo_table_same_on_two_ranks)."""
     from bonecontact.neoplasm.host3d import read_host_geometry3d
 
     r1, o1 = demo_runs["spine3d", 1]
@@ -679,6 +684,15 @@ def test_spine3d_segment_balance_tumour_volume_and_risk(demo_runs):
         moment_z = ((x[:, 0] - xbar) * f[:, 1] - x[:, 1] * f[:, 0]).sum()
         assert moment_z == pytest.approx(7.5, rel=0.01)
         risks.append(_spine3d_bone_risk(d, geo, a["equivalent_radius"]))
+        hist = np.genfromtxt(
+            d / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+        )
+        for side in ("zneg", "zpos"):
+            t = np.genfromtxt(d / f"contact_facet_{side}.csv", delimiter=",", names=True)
+            assert t.size > 0 and np.all(t["pressure"] >= 0) and np.all(t["gap"] >= -1e-6)
+            normal = hist["normal_force"][hist["pair"] == f"facet_{side}"][-1]
+            f_facet = _nodal_force(d / "fields.pvd", d / "host_mesh.msh", f"L4_facet_{side}")
+            assert np.linalg.norm(f_facet) == pytest.approx(normal, abs=5.0)
     sub1 = np.genfromtxt(o1 / "subsidence.csv", delimiter=",", names=True)
     # the bone's fracture risk: max(σ₁, 0)/σ_t recomputed from the written cell stresses
     for k, name in enumerate(("max_risk_L4_near_tumour", "max_risk_L4", "max_risk_L3")):
