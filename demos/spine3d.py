@@ -588,8 +588,14 @@ if comm.rank == 0:
 # The facet joints open: L3 turns forwards about the disc, its posterior arch rises and
 # slides 3–5 mm along L4's facets (`slip_t` of `contact_facet_*.csv`), and of the 8
 # slave nodes of each side that lie over the master none touches (quick and full runs:
-# gaps under load 0.50–3.5 mm, facet force 0 in every analysis; the run prints them).  The facets
-# would carry load in extension or under shear forwards, not modelled here.
+# gaps under load 0.50–3.5 mm, facet force 0 in every analysis; the run prints them).
+# They carry load in extension: with a 15 N·m extension moment instead (a run of the
+# quick demo with `M_FLEX = -15`, day 6) one node of each side closes and each pair
+# carries 271–273 N, mostly sideways (the facets face across the joint); the force the
+# written stresses put on L4's facets equals the multipliers' to 1e-12, L3's is its
+# opposite, and the reaction at L4 still balances the 500 N.  Its peak pressure,
+# 149 MPa, is one node's on these two-triangle facets: a number of the data's
+# resolution, not of a joint.
 #
 # **A limit of this model.**  The disc carries the flexion by strains of 20–30 % at its
 # front and back (the run prints the largest strain of each analysis, summary.json
