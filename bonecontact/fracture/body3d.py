@@ -3,8 +3,8 @@
 The counterpart of :mod:`bonecontact.fracture.body` in 3D.  The boundary triangles of the
 scene's mesh (with their facet groups) are gathered on rank 0 and become discrete gmsh
 surfaces, one per facet group, which bound the volume; the crack (a
-:class:`~bonecontact.fracture.crack3d.PlanarCrack`: disc or ellipse) is a plane surface
-of the built-in kernel embedded in that volume.  The volume is meshed with tetrahedra
+:class:`~bonecontact.fracture.crack3d.PlanarCrack`: disc, ellipse or convex polygon) is a
+plane surface of the built-in kernel embedded in that volume.  The volume is meshed with tetrahedra
 graded towards the front, h = min(h_f + g·d, h_max) (d the distance to the front, h_max
 the largest boundary facet of the scene's mesh), and gmsh's ``Crack`` plugin duplicates
 the nodes of the crack surface except those of the front: the two faces become the facet
@@ -186,8 +186,13 @@ def _boundary_surfaces(body: BodySurface) -> list[int]:
 
 
 def _crack_surface(crack: PlanarCrack) -> tuple[int, list[int]]:
-    """The crack as a plane surface of the built-in kernel: its tag and the front curves."""
+    """The crack as a plane surface of the built-in kernel: its tag and the front curves
+    (four arcs, or a polygon's edges)."""
     geo = gmsh.model.geo
+    if crack.vertices is not None:
+        corners = [geo.addPoint(*p) for p in crack.vertices]
+        edges = [geo.addLine(p, q) for p, q in zip(corners, corners[1:] + corners[:1], strict=True)]
+        return geo.addPlaneSurface([geo.addCurveLoop(edges)]), edges
     c = np.asarray(crack.centre, dtype=float)
     R = crack.axes
     centre = geo.addPoint(*c)

@@ -1,8 +1,11 @@
-"""A planar crack in 3D: a disc (penny) or an ellipse (docs/theory/fracture.md#3d-crack-fronts).
+"""A planar crack in 3D: a disc (penny), an ellipse or a convex polygon
+(docs/theory/fracture.md#3d-crack-fronts).
 
 :class:`PlanarCrack` is the 3D ``[[crack]]`` of a scene: centre, unit normal, semi-axes and
-the in-plane direction of the first semi-axis.  Its front is an
-:class:`~bonecontact.fracture.front3d.EllipticalFront` (in the crack's frame), which gives
+the in-plane direction of the first semi-axis (a polygon: its vertices, the centroid, the
+circum- and inradius about it).  Its front is an
+:class:`~bonecontact.fracture.front3d.EllipticalFront` or a
+:class:`~bonecontact.fracture.front3d.PolygonFront` (in the crack's frame), which gives
 points, the local frame and arc length along the front for the stress intensity factors.
 :func:`planar_crack_from_table` parses and checks the table (errors name the key).
 """
@@ -17,9 +20,15 @@ import numpy as np
 import numpy.typing as npt
 
 from bonecontact.fracture.crack import FractureError
-from bonecontact.fracture.front3d import EllipticalFront
+from bonecontact.fracture.front3d import EllipticalFront, PolygonFront
 
-__all__ = ["CRACK3D_KEYS", "CRACK3D_SHAPES", "PlanarCrack", "planar_crack_from_table"]
+__all__ = [
+    "CORNER_FRACTION",
+    "CRACK3D_KEYS",
+    "CRACK3D_SHAPES",
+    "PlanarCrack",
+    "planar_crack_from_table",
+]
 
 #: Keys of a 3D ``[[crack]]`` table.
 CRACK3D_KEYS = (
@@ -33,29 +42,39 @@ CRACK3D_KEYS = (
     "region",
     "friction",
     "front_points",
+    "vertices",
 )
 #: Shapes of a 3D crack.
-CRACK3D_SHAPES = ("disc", "ellipse")
+CRACK3D_SHAPES = ("disc", "ellipse", "polygon")
 _UNIT_TOL = 1e-6
+_PLANE_TOL = 1e-6  # distance from the best-fit plane, relative to the polygon's size
+#: Front points on a polygon edge keep at least this fraction of the edge from its ends.
+CORNER_FRACTION = 0.15
 
 
 @dataclass(frozen=True)
 class PlanarCrack:
-    """A planar elliptical crack (a = b: a disc) with an interior front.
+    """A planar elliptical crack (a = b: a disc) or a convex polygon, with an interior
+    front.
 
     Parameters
     ----------
     centre
-        Centre (m).
+        Centre (m); of a polygon its centroid.
     normal
         Unit normal of the crack plane; the ``crack_upper`` face is on its side.
     a, b
-        Semi-axes (m), a ≥ b > 0.
+        Semi-axes (m), a ≥ b > 0; of a polygon the largest distance from the centroid to
+        a vertex and the smallest to an edge.
     axis
-        Unit in-plane direction of the semi-axis ``a`` (normal to ``normal``).
+        Unit in-plane direction of the semi-axis ``a`` (normal to ``normal``); of a
+        polygon towards its first vertex.
     shape
-        ``"disc"`` or ``"ellipse"`` (names the size key in messages: ``radius`` or
-        ``semi_axes``).
+        ``"disc"``, ``"ellipse"`` or ``"polygon"`` (names the size key in messages:
+        ``radius``, ``semi_axes`` or ``vertices``).
+    vertices
+        The polygon's corners, counter-clockwise about ``normal`` (``None``: not a
+        polygon).
     """
 
     centre: tuple[float, float, float]
@@ -64,11 +83,12 @@ class PlanarCrack:
     b: float
     axis: tuple[float, float, float]
     shape: str = "disc"
+    vertices: tuple[tuple[float, float, float], ...] | None = None
 
     @property
     def size_key(self) -> str:
         """The key that sets the crack's size."""
-        return "radius" if self.shape == "disc" else "semi_axes"
+        return {"disc": "radius", "ellipse": "semi_axes"}.get(self.shape, "vertices")
 
     @property
     def axes(self) -> npt.NDArray[np.float64]:
@@ -76,16 +96,30 @@ class PlanarCrack:
         n, u = np.asarray(self.normal, dtype=float), np.asarray(self.axis, dtype=float)
         return np.vstack([u, np.cross(n, u), n])
 
-    def front(self) -> EllipticalFront:
+    def front(self) -> EllipticalFront | PolygonFront:
         """The crack front."""
-        return EllipticalFront(
-            self.a, self.b, tuple(map(float, self.centre)), tuple(map(tuple, self.axes))
-        )
+        centre = tuple(map(float, self.centre))
+        axes = tuple(map(tuple, self.axes))
+        if self.vertices is not None:
+            return PolygonFront(self.vertices, centre, axes)
+        return EllipticalFront(self.a, self.b, centre, axes)
 
-    def front_parameters(self, n: int) -> npt.NDArray[np.float64]:
-        """``n`` front parameters φ equally spaced in arc length from φ = 0 (the end of the
-        semi-axis ``a``)."""
+    def front_parameters(self, n: int, margin: float = 0.0) -> npt.NDArray[np.float64]:
+        """Front parameters φ of the points where K is evaluated.
+
+        Disc, ellipse: ``n`` points equally spaced in arc length from φ = 0 (the end of
+        the semi-axis ``a``).  Polygon: ``n`` points on every edge, away from its ends —
+        one at the middle, several evenly from c to L − c, c = max(0.15 L, ``margin``)
+        (L the edge's length; ``margin`` e.g. two front elements).
+        """
         front = self.front()
+        if isinstance(front, PolygonFront):
+            out = []
+            for k, L in enumerate(front.edge_lengths):
+                c = min(max(CORNER_FRACTION * L, margin), 0.5 * L)
+                t = [0.5 * L] if n == 1 else np.linspace(c, L - c, n)
+                out.extend(float(np.sum(front.edge_lengths[:k])) + np.asarray(t))
+            return 2 * math.pi * np.asarray(out) / front.perimeter
         phi = np.linspace(0.0, 2.0 * math.pi, 4001)
         s = front.arc_length(phi)
         s = s - s[0]
@@ -93,14 +127,20 @@ class PlanarCrack:
         return np.interp(target, s, phi)
 
     def sample_points(self, rings: int = 8, per_ring: int = 48) -> npt.NDArray[np.float64]:
-        """Points covering the crack (its centre, ``rings`` ellipses out to the front
-        itself), shape (m, 3)."""
+        """Points covering the crack (its centre, ``rings`` ellipses or scaled polygons
+        out to the front itself, a polygon's vertices), shape (m, 3)."""
         t = np.linspace(0.0, 2.0 * math.pi, per_ring, endpoint=False)
+        c = np.asarray(self.centre, dtype=float)
         R = self.axes
         pts = [np.zeros((1, 3))]
+        if self.vertices is not None:
+            edge = self.front().point(t) - c
+            edge = np.concatenate([edge, np.asarray(self.vertices, dtype=float) - c])
+        else:
+            edge = np.column_stack([self.a * np.cos(t), self.b * np.sin(t), 0 * t]) @ R
         for f in np.linspace(1.0 / rings, 1.0, rings):
-            pts.append(np.column_stack([f * self.a * np.cos(t), f * self.b * np.sin(t), 0 * t]) @ R)
-        return np.asarray(self.centre, dtype=float) + np.concatenate(pts)
+            pts.append(f * edge)
+        return c + np.concatenate(pts)
 
 
 def _vector(table: Mapping, key: str) -> npt.NDArray[np.float64]:
@@ -139,17 +179,26 @@ def _default_axis(n: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
 def planar_crack_from_table(table: Mapping) -> PlanarCrack:
     """Parse the geometry of a 3D ``[[crack]]``: ``shape = "disc"`` (``radius``) or
     ``"ellipse"`` (``semi_axes = [a, b]``, a ≥ b, and ``axis``, the in-plane direction of
-    ``a``); ``centre`` and the unit ``normal`` always.
+    ``a``), with ``centre`` and the unit ``normal``; or ``"polygon"``: ``vertices``, a
+    convex polygon in one plane, counter-clockwise about ``normal`` (optional; default
+    the normal that makes them counter-clockwise).
 
     Raises
     ------
     FractureError
         Naming the key: a missing or malformed value, a non-unit normal or axis, an axis
-        not in the crack plane, a size ≤ 0, a key of the other shape.
+        not in the crack plane, a size ≤ 0, a key of another shape; a polygon with fewer
+        than 3 vertices, off one plane (more than 10⁻⁶ of its size from the best-fit
+        plane), of zero area, not convex or self-intersecting, or clockwise about the
+        given normal.
     """
     shape = table.get("shape", "disc")
     if shape not in CRACK3D_SHAPES:
         raise FractureError("shape", f"must be one of {', '.join(CRACK3D_SHAPES)}, got {shape!r}")
+    if shape == "polygon":
+        return _polygon_from_table(table)
+    if "vertices" in table:
+        raise FractureError("vertices", 'applies to shape = "polygon" only')
     for key in ("centre", "normal", "radius" if shape == "disc" else "semi_axes"):
         if key not in table:
             raise FractureError(key, f"is required (shape = {shape!r})")
@@ -179,4 +228,106 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack:
         u = u / np.linalg.norm(u)
     return PlanarCrack(
         tuple(map(float, centre)), tuple(map(float, n)), a, b, tuple(map(float, u)), shape
+    )
+
+
+def _polygon_vertices(table: Mapping) -> npt.NDArray[np.float64]:
+    v = table.get("vertices")
+    if not isinstance(v, (list, tuple)) or len(v) < 3:
+        raise FractureError("vertices", f"must be a list of at least 3 points [x, y, z], got {v!r}")
+    return np.array([_vector({"vertices": p}, "vertices") for p in v])
+
+
+def _polygon_normal(table: Mapping, V: npt.NDArray[np.float64], size: float) -> np.ndarray:
+    """The unit normal about which the vertices run counter-clockwise (checked against a
+    given ``normal``); refuses vertices off one plane and a zero area."""
+    c0 = V.mean(axis=0)
+    fit = np.linalg.svd(V - c0)[2][2]  # the best-fit plane's normal
+    dist = np.abs((V - c0) @ fit)
+    if dist.max() > _PLANE_TOL * size:
+        k = int(np.argmax(dist))
+        raise FractureError(
+            "vertices",
+            f"must lie in one plane: vertex {k + 1} is {dist[k]:.3g} m from the best-fit plane "
+            f"(tolerance {_PLANE_TOL:g} of the polygon's size, {size:.3g} m)",
+        )
+    area_vec = 0.5 * np.sum(np.cross(V - c0, np.roll(V, -1, axis=0) - c0), axis=0)
+    if float(np.linalg.norm(area_vec)) <= 1e-9 * size**2:
+        raise FractureError(
+            "vertices",
+            "the polygon has zero area (collinear vertices, or a boundary crossing itself)",
+        )
+    n = fit if area_vec @ fit > 0 else -fit
+    if "normal" in table:
+        given = _unit(table, "normal")
+        if abs(float(given @ n)) < 1.0 - _UNIT_TOL:
+            raise FractureError(
+                "normal", "must be normal to the plane of the vertices (or left out)"
+            )
+        if given @ n < 0:
+            raise FractureError(
+                "vertices",
+                "must run counter-clockwise about `normal` (they run clockwise: reverse "
+                "them, or flip or leave out the normal)",
+            )
+    return n
+
+
+def _check_convex(V: npt.NDArray[np.float64], n: np.ndarray, size: float) -> None:
+    """Refuse coincident vertices, a turn that is not to the left, and a boundary that
+    winds more than once (self-intersecting)."""
+    d = np.roll(V, -1, axis=0) - V
+    lengths = np.linalg.norm(d, axis=1)
+    if lengths.min() <= 1e-9 * size:
+        k = int(np.argmin(lengths))
+        raise FractureError("vertices", f"vertices {k + 1} and {(k + 1) % len(V) + 1} coincide")
+    d = d / lengths[:, None]
+    turn = np.cross(d, np.roll(d, -1, axis=0)) @ n  # sin of the turn at vertex k + 1
+    if turn.min() <= 1e-9:
+        k = int(np.argmin(turn))
+        raise FractureError(
+            "vertices",
+            f"must form a convex polygon (no turn to the right or straight on: vertex "
+            f"{(k + 1) % len(V) + 1}); concave and self-intersecting polygons are not "
+            "supported",
+        )
+    angles = np.arctan2(turn, np.sum(d * np.roll(d, -1, axis=0), axis=1))
+    if abs(float(angles.sum()) - 2 * math.pi) > 1e-6:
+        raise FractureError(
+            "vertices",
+            "the polygon intersects itself (its boundary turns "
+            f"{math.degrees(float(angles.sum())):.0f} deg, not 360)",
+        )
+
+
+def _polygon_from_table(table: Mapping) -> PlanarCrack:
+    """A ``shape = "polygon"`` crack: its vertices checked, centroid, circum/inradius."""
+    for key in ("centre", "radius", "semi_axes", "axis"):
+        if key in table:
+            raise FractureError(key, 'does not apply to shape = "polygon" (its vertices set it)')
+    if "vertices" not in table:
+        raise FractureError("vertices", 'is required (shape = "polygon")')
+    V = _polygon_vertices(table)
+    size = float(max(np.linalg.norm(V - p, axis=1).max() for p in V))
+    if size == 0.0:
+        raise FractureError("vertices", "the polygon has zero area (coincident vertices)")
+    n = _polygon_normal(table, V, size)
+    _check_convex(V, n, size)
+    tri = np.cross(V[1:-1] - V[0], V[2:] - V[0]) @ n  # twice the fan triangles' areas
+    centre = np.sum(tri[:, None] * (V[0] + V[1:-1] + V[2:]) / 3, axis=0) / tri.sum()
+    V = V - np.outer((V - centre) @ n, n)  # exactly in the plane
+    u = V[0] - centre
+    u = u / np.linalg.norm(u)
+    verts = tuple(tuple(map(float, p)) for p in V)
+    front = PolygonFront(
+        verts, tuple(map(float, centre)), (tuple(u), tuple(np.cross(n, u)), tuple(n))
+    )
+    return PlanarCrack(
+        tuple(map(float, centre)),
+        tuple(map(float, n)),
+        front.a,
+        front.b,
+        tuple(map(float, u)),
+        "polygon",
+        verts,
     )

@@ -1,7 +1,7 @@
 """The fracture tables of a scene, parsed and checked (docs/theory/fracture.md#scene-tables).
 
 ``[fracture]`` chooses the criteria and the propagation; each ``[[crack]]`` is an initial
-crack: a 2D polyline, or in 3D a planar disc or ellipse
+crack: a 2D polyline, or in 3D a planar disc, ellipse or convex polygon
 (:class:`~bonecontact.fracture.crack3d.PlanarCrack`).  The functions here take the tables
 as plain mappings (as read from TOML) and raise
 :class:`~bonecontact.fracture.crack.FractureError` naming the offending key; the scene
@@ -145,14 +145,16 @@ def fracture_from_table(table: Mapping) -> FractureSpec:
 
 def crack_from_table(table: Mapping, index: int = 1, dim: int = 2) -> CrackSpec:
     """Parse one ``[[crack]]``: in 2D a polyline ``points = [[x, y], …]``, in 3D a planar
-    disc or ellipse (:func:`~bonecontact.fracture.crack3d.planar_crack_from_table`)."""
+    disc, ellipse or convex polygon
+    (:func:`~bonecontact.fracture.crack3d.planar_crack_from_table`; ``front_points``: 8
+    along a disc or ellipse, 1 per polygon edge by default)."""
     if dim == 3:
         for key in ("points", "tips"):
             if key in table:
                 raise FractureError(
                     key,
                     "a 3D crack is a planar disc or ellipse (shape, centre, normal, radius or "
-                    "semi_axes and axis), not a polyline",
+                    "semi_axes and axis) or polygon (vertices), not a polyline",
                 )
     _unknown(table, CRACK3D_KEYS if dim == 3 else CRACK_KEYS)
     required = ("region",) if dim == 3 else ("points", "region")
@@ -164,7 +166,7 @@ def crack_from_table(table: Mapping, index: int = 1, dim: int = 2) -> CrackSpec:
     if isinstance(friction, bool) or not isinstance(friction, (int, float)) or friction < 0:
         raise FractureError("friction", f"must be a number >= 0, got {friction!r}")
     if dim == 3:
-        n = table.get("front_points", 8)
+        n = table.get("front_points", 1 if table.get("shape") == "polygon" else 8)
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise FractureError("front_points", f"must be a positive integer, got {n!r}")
         return CrackSpec(
@@ -209,7 +211,7 @@ def check_crack_region(
 ) -> None:
     """Refuse a crack that leaves its region (collective).
 
-    Points sampled along every segment (3D: over the disc, its front included) must each
+    Points sampled along every segment (3D: over the crack, its front included) must each
     lie in a cell tagged ``region_tag``;
     a point in a cell of another tag means the crack crosses another body, a point in no
     cell that it lies outside the mesh.  An ``increment`` must be shorter than the

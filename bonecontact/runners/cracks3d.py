@@ -1,19 +1,20 @@
 """3D mechanics scenes with a planar ``[[crack]]`` (docs/scene_format.md#fracture,
 docs/theory/fracture.md#3d-crack-fronts).
 
-The crack (a disc or an ellipse, :class:`~bonecontact.fracture.crack3d.PlanarCrack`) is cut
-into the scene's body (:mod:`bonecontact.fracture.body3d`: the body's boundary
-triangulation kept, the volume re-meshed by gmsh with the crack surface embedded, graded
-towards the front, the crack nodes split into the faces ``crack_upper`` and
-``crack_lower``).  The faces become a dual-mortar contact pair (``crack_upper`` slave;
-frictionless, or Coulomb with the crack's ``friction`` and the fixed-point bound) solved
-with the scene's other pairs by the PDAS, so an open crack is traction-free and a closed
-one carries compression and friction.  After every step K_I, K_II, K_III and G at
-``front_points`` points along the front come from the 3D domain interaction integral of
-:mod:`bonecontact.fracture.front3d` (traction-free faces: no face term), with
-displacement correlation as the cross-check; rows go to ``fracture.csv`` as the run goes,
-the largest K_I and G and their place to ``summary.json``, and the front with its K to
-``fields_crack_front.vtk``.
+The crack (a disc, an ellipse or a convex polygon,
+:class:`~bonecontact.fracture.crack3d.PlanarCrack`) is cut into the scene's body
+(:mod:`bonecontact.fracture.body3d`: the body's boundary triangulation kept, the volume
+re-meshed by gmsh with the crack surface embedded, graded towards the front, the crack nodes
+split into the faces ``crack_upper`` and ``crack_lower``).  The faces become a dual-mortar
+contact pair (``crack_upper`` slave; frictionless, or Coulomb with the crack's ``friction``
+and the fixed-point bound) solved with the scene's other pairs by the PDAS, so an open crack
+is traction-free and a closed one carries compression and friction.  After every step K_I,
+K_II, K_III and G at ``front_points`` points along the front (a polygon: on every edge, at
+least 15 % of the edge and two front elements from its ends) come from the 3D domain
+interaction integral of :mod:`bonecontact.fracture.front3d` (traction-free faces: no face
+term), with displacement correlation as the cross-check; rows go to ``fracture.csv`` as the
+run goes, the largest K_I and G and their place to ``summary.json``, and the front with its
+K to ``fields_crack_front.vtk``.
 
 Static and quasi-static analyses, one crack per scene, one cell group, an isotropic
 material around the front; no propagation and no checkpoints in 3D (refused with exit 2).
@@ -105,7 +106,8 @@ FRONT_COLUMNS = (
 @dataclasses.dataclass(frozen=True)
 class FrontRecord:
     """One row of ``fracture.csv``: K at a front point after a step (:data:`FRONT_COLUMNS`;
-    ``phi_deg`` the front parameter, ``s`` the arc length from φ = 0, m)."""
+    ``phi_deg`` the front parameter — of a polygon 360° × s/P, s from its first vertex, P
+    the perimeter —, ``s`` the arc length from φ = 0, m)."""
 
     step: int
     time: float
@@ -139,6 +141,7 @@ class Crack3DRun:
     tip_mesh: TipMesh
     r_out: float  # radius of the interaction-integral domain (m)
     groups: dict[str, tuple[int, int]]
+    length: float | None = None  # half-length along the front (m; None: r_out)
 
 
 def _pair_name(name: str) -> str:
@@ -175,15 +178,32 @@ def _refuse(scene: Scene) -> None:
         )
 
 
+def _evaluation_parameters(crack: PlanarCrack, n: int, h_tip: float) -> npt.NDArray[np.float64]:
+    """Front parameters of the K points (a polygon's: two front elements or 15 % of the
+    edge from its ends, whichever is more)."""
+    return crack.front_parameters(n, margin=2.0 * h_tip)
+
+
 def _domain_radius(crack: PlanarCrack, body: BodySurface, h_tip: float) -> float:
-    """Interaction-integral domain: 0.3 of the smaller semi-axis b or four front elements,
-    whichever is larger, but at most 0.6 of the smallest radius of curvature of the front
-    (b²/a) and half the distance from the front to the body's surface."""
+    """Interaction-integral domain: 0.3 of the smaller semi-axis b (a polygon: its
+    inradius) or four front elements, whichever is larger, but at most 0.6 of the smallest
+    radius of curvature of the front (b²/a; none on a polygon's straight edges) and half
+    the distance from the front to the body's surface."""
     front = crack.front()
     free = body.distance(front.point(np.linspace(0.0, 2 * math.pi, 64, endpoint=False)))
-    return min(
-        max(0.3 * crack.b, 4 * h_tip), 0.6 * crack.b**2 / crack.a, 0.5 * max(free - h_tip, 0.0)
-    )
+    bend = math.inf if crack.vertices is not None else 0.6 * crack.b**2 / crack.a
+    return min(max(0.3 * crack.b, 4 * h_tip), bend, 0.5 * max(free - h_tip, 0.0))
+
+
+def _domain_length(crack: PlanarCrack, r_out: float, h_tip: float, n: int) -> float:
+    """Half-length of the domain along the front: ``r_out``; on a polygon at most the
+    distance from the K points to the corners less a front element (the straight-edge
+    auxiliary field holds up to the corner; the ring may be wider)."""
+    if crack.vertices is None:
+        return r_out
+    front = crack.front()
+    phis = _evaluation_parameters(crack, n, h_tip)
+    return min(r_out, min(front.corner_distance(float(p)) for p in phis) - h_tip)
 
 
 def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
@@ -210,6 +230,16 @@ def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
     crack = spec.crack
     h_tip = fr.tip_size if fr.tip_size is not None else crack.b / 10
     r_out = _domain_radius(crack, body, h_tip)
+    length = _domain_length(crack, r_out, h_tip, spec.front_points)
+    if length < 2 * h_tip:
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "tip_size",
+            f"the integration domain along a polygon edge ({length:.3g} m: the distance from "
+            f"the K points to the corners less {h_tip:.3g} m) spans fewer than 2 front "
+            f"elements of {h_tip:.3g} m; choose a smaller tip_size (or fewer front_points)",
+        )
     if r_out < 3 * h_tip:
         raise SceneError(
             str(scene.path),
@@ -232,7 +262,7 @@ def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
     scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
     # the far field needs a finer grading in 3D: 0.3 left K_I 2 % low at every front size
     size = TipMesh(h_tip, fr.tip_grading if fr.tip_grading is not None else 0.12)
-    return Crack3DRun(scene2, spec, body, mat_spec.material, size, r_out, groups)
+    return Crack3DRun(scene2, spec, body, mat_spec.material, size, r_out, groups, length)
 
 
 def build_cracked3d(
@@ -292,12 +322,18 @@ def evaluate_front(
     and the displacement-correlation cross-check (collective)."""
     crack, block = run.spec.crack, cb.block()
     front = block.front
-    phis = crack.front_parameters(run.spec.front_points)
+    phis = _evaluation_parameters(crack, run.spec.front_points, run.tip_mesh.h_tip)
     s0 = front.arc_length(0.0)
     records = []
     for i, phi in enumerate(phis):
         k = front_interaction_integral(
-            u, block, float(phi), run.material, run.r_out, face_traction=traction
+            u,
+            block,
+            float(phi),
+            run.material,
+            run.r_out,
+            length=run.length,
+            face_traction=traction,
         )
         try:
             dc = front_displacement_correlation(
@@ -306,7 +342,7 @@ def evaluate_front(
                 float(phi),
                 run.material,
                 min(1.5 * run.r_out, 0.5 * crack.b),
-                0.5 * run.r_out,
+                0.5 * (run.length or run.r_out),
                 skip=1.5 * run.tip_mesh.h_tip,  # the front and its first ring: P1 opens least
             )
             kdc = (dc.K_I, dc.K_II, dc.K_III)
@@ -384,8 +420,10 @@ def _front_summary(run: Crack3DRun, records: list[FrontRecord]) -> dict[str, Any
         "normal": list(c.normal),
         "semi_axes": [c.a, c.b],
         "axis": list(c.axis),
+        "vertices": None if c.vertices is None else [list(v) for v in c.vertices],
         "front_size": run.tip_mesh.h_tip,
         "r_out": run.r_out,
+        "length": run.length,
         "front": [dataclasses.asdict(r) for r in records],
     }
     for name in ("K_I", "G"):

@@ -76,7 +76,7 @@ def test_ellipse_points_are_equally_spaced_in_arc_length() -> None:
         ({"radius": -1.0}, "radius", "positive"),
         ({"radius": None}, "radius", "required"),
         ({"centre": None}, "centre", "required"),
-        ({"shape": "square"}, "shape", "disc, ellipse"),
+        ({"shape": "square"}, "shape", "disc, ellipse, polygon"),
         ({"semi_axes": [1.0, 0.5]}, "semi_axes", "ellipse"),
         ({"points": [[0, 0], [1, 0]]}, "points", "planar disc"),
         ({"front_points": 0}, "front_points", "positive integer"),
@@ -107,3 +107,123 @@ def test_bad_ellipse_names_the_key(change: dict, key: str, text: str) -> None:
     with pytest.raises(FractureError) as err:
         crack_from_table(table, 1, dim=3)
     assert err.value.key == key and text in str(err.value), str(err.value)
+
+
+# --------------------------------------------------------------------------- polygon
+SQUARE = {
+    "shape": "polygon",
+    "vertices": [[1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0]],
+    "region": "bone",
+}
+
+
+def _tilted(points: list[list[float]]) -> list[list[float]]:
+    """``points`` rotated by 30° about x and shifted by (1, 2, 3)."""
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    R = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return (np.asarray(points) @ R.T + [1.0, 2.0, 3.0]).tolist()
+
+
+def test_polygon_frame_front_and_points() -> None:
+    """A tilted square of side 2: centroid, normal from the vertex order, circum- and
+    inradius, K points at the mid-sides with the straight-edge frame (e₁ the outward
+    normal of the side, e₂ the plane normal, e₃ along the side), nearest points."""
+    table = {**SQUARE, "vertices": _tilted(SQUARE["vertices"])}
+    spec = crack_from_table(table, 1, dim=3)
+    c = spec.crack
+    assert c.shape == "polygon" and c.size_key == "vertices" and spec.front_points == 1
+    n = np.array([0.0, -0.5, math.sqrt(0.75)])  # z turned by 30° about x
+    np.testing.assert_allclose(c.normal, n, atol=1e-14)
+    np.testing.assert_allclose(c.centre, [1.0, 2.0, 3.0], atol=1e-14)
+    assert c.a == pytest.approx(math.sqrt(2.0)) and c.b == pytest.approx(1.0)
+    front = c.front()
+    assert front.perimeter == pytest.approx(8.0)
+    assert front.radius_of_curvature(0.3) == math.inf
+    phi = c.front_parameters(1)
+    pts = front.point(phi)
+    corners = np.asarray(c.vertices)
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=0))
+    np.testing.assert_allclose(pts, mids, atol=1e-14)
+    for p, f in zip(pts, phi, strict=True):
+        e1, e2, e3 = front.frame(f)
+        np.testing.assert_allclose(e1, p - c.centre, atol=1e-14)  # |p − c| = 1: the side normal
+        np.testing.assert_allclose(e2, n, atol=1e-14)
+        np.testing.assert_allclose(e3, np.cross(e1, e2), atol=1e-15)
+        assert front.corner_distance(f) == pytest.approx(1.0)
+    probe = pts + 0.2 * np.array([front.frame(f)[0] for f in phi]) + 0.1 * n
+    np.testing.assert_allclose(front.nearest(probe), phi, atol=1e-12)
+    np.testing.assert_allclose(front.arc_length(phi), [1.0, 3.0, 5.0, 7.0], atol=1e-12)
+    samples = c.sample_points()
+    assert np.max(np.abs(front.local(samples)[:, 2])) < 1e-14  # in the plane
+    outward = np.array([front.frame(f)[0] for f in phi])
+    assert np.max((samples - c.centre) @ outward.T) <= 1 + 1e-12  # on the square
+
+
+def test_polygon_points_keep_away_from_the_corners() -> None:
+    """Three points per side of length 2: from c = max(0.15 L, margin) to L − c."""
+    c = crack_from_table({**SQUARE, "front_points": 3}, 1, dim=3).crack
+    s = c.front().arc_length(c.front_parameters(3))
+    np.testing.assert_allclose(s[:3], [0.3, 1.0, 1.7], atol=1e-12)
+    s = c.front().arc_length(c.front_parameters(3, margin=0.5))
+    np.testing.assert_allclose(s[3:6], [2.5, 3.0, 3.5], atol=1e-12)
+
+
+def test_regular_polygon_normal_given() -> None:
+    """A regular 24-gon: area, inradius and circumradius; the given normal accepted."""
+    t = 2 * math.pi * np.arange(24) / 24
+    v = np.column_stack([np.cos(t), np.sin(t), 0 * t]).tolist()
+    c = planar_crack_from_table({"shape": "polygon", "vertices": v, "normal": [0.0, 0.0, 1.0]})
+    assert c.a == pytest.approx(1.0) and c.b == pytest.approx(math.cos(math.pi / 24))
+    assert c.front().perimeter == pytest.approx(48 * math.sin(math.pi / 24))
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "text"),
+    [
+        ({"vertices": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]}, "vertices", "at least 3"),
+        ({"vertices": [[0.0, 0.0, 0.0], [1.0, 0.0], [0.0, 1.0, 0.0]]}, "vertices", "three"),
+        ({"vertices": None}, "vertices", "required"),
+        ({"vertices": [[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]]}, "vertices", "zero area"),
+        (  # one corner 2e-5 up: 5e-6 from the best-fit plane (tolerance 2.8e-6)
+            {"vertices": [[1.0, -1, 0], [1.0, 1, 0], [-1.0, 1, 2e-5], [-1.0, -1, 0]]},
+            "vertices",
+            "one plane",
+        ),
+        (  # an arrow head: concave at (0, 0)
+            {"vertices": [[0.0, 0, 0], [1.0, -1, 0], [0.0, 2, 0], [-1.0, -1, 0]]},
+            "vertices",
+            "convex",
+        ),
+        (  # a pentagram: every turn to the left, but it winds twice
+            {
+                "vertices": [
+                    [math.cos(4 * math.pi * k / 5), math.sin(4 * math.pi * k / 5), 0.0]
+                    for k in range(5)
+                ]
+            },
+            "vertices",
+            "intersects itself",
+        ),
+        (
+            {"vertices": [[1.0, -1, 0], [1.0, 1, 0], [1.0, 1, 0], [-1.0, -1, 0]]},
+            "vertices",
+            "coincide",
+        ),
+        ({"normal": [0.0, 0.0, -1.0]}, "vertices", "counter-clockwise"),
+        ({"normal": [0.0, 1.0, 0.0]}, "normal", "plane of the vertices"),
+        ({"centre": [0.0, 0.0, 0.0]}, "centre", "polygon"),
+        ({"radius": 1.0}, "radius", "polygon"),
+        ({"front_points": 0}, "front_points", "positive integer"),
+    ],
+)
+def test_bad_polygon_names_the_key(change: dict, key: str, text: str) -> None:
+    table = {k: v for k, v in {**SQUARE, **change}.items() if v is not None}
+    with pytest.raises(FractureError) as err:
+        crack_from_table(table, 1, dim=3)
+    assert err.value.key == key and text in str(err.value), str(err.value)
+
+
+def test_vertices_of_a_disc_are_refused() -> None:
+    with pytest.raises(FractureError) as err:
+        crack_from_table({**DISC, "vertices": SQUARE["vertices"]}, 1, dim=3)
+    assert err.value.key == "vertices" and "polygon" in str(err.value)
