@@ -730,9 +730,11 @@ def front_interaction_integral(
         The homogeneous isotropic material.
     r_out, r_in, length
         Domain sizes (m): ``r_in`` defaults to r_out/2, ``length`` (half-length along the
-        front) to r_out.  Keep them small against the radius of curvature of the front.
+        front) to r_out.  Keep them small against the radius of curvature of the front;
+        on a polygon ``length`` must not exceed the distance to the nearest corner (the
+        ring may be wider: a convex polygon's other edges lie beyond it).
     quadrature_degree
-        Quadrature of the ring cells.
+        Quadrature of the ring cells (Gauss–Jacobi on a straight front).
     face_traction
         Loaded faces (a model with both faces): the tractions (Pa) on ``crack_upper`` and
         ``crack_lower`` (UFL vectors, e.g. the contact tractions of
