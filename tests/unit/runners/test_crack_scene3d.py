@@ -315,7 +315,8 @@ def test_regular_24gon(block_dir: Path) -> None:
     2σ√(a_eff/π) with πa_eff² = 6a² sin 15° × 2 (a_eff = 0.9943a) within 3.5 % at every
     point (measured −3.0 … +0.9 %) and 1.5 % on average (measured −0.6 %).  The
     inscribed (0.9914a) and circumscribed (a) pennies are 0.14 % and 0.29 % away: the
-    mesh cannot tell them apart."""
+    mesh cannot tell them apart.  Its fast sibling is :func:`test_square_crack` (the same
+    code path at a/6, against the penny and tunnel-crack bounds)."""
     tab, _, _ = _run(block_dir, "24gon", geometry=_polygon(_regular(24, A)), h=A / 25, points=1)
     a_eff = math.sqrt(12 * math.sin(math.pi / 12) / math.pi) * A
     ref = 2 * SIGMA * math.sqrt(a_eff / math.pi)
