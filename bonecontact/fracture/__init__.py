@@ -8,7 +8,7 @@ the crack faces as a dual-mortar contact pair (:mod:`~bonecontact.fracture.faces
 the ``[fracture]``/``[[crack]]`` scene tables (:mod:`~bonecontact.fracture.scene_tables`),
 quasi-static propagation by remeshing (:mod:`~bonecontact.fracture.propagation`), the
 cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`), and in 3D K along a
-planar crack front (:mod:`~bonecontact.fracture.front3d`), the planar disc or ellipse crack
+planar crack front (:mod:`~bonecontact.fracture.front3d`), the planar disc, ellipse or polygon crack
 of a scene (:mod:`~bonecontact.fracture.crack3d`) and a body re-meshed around it with two
 faces (:mod:`~bonecontact.fracture.body3d`)."""
 
