@@ -15,6 +15,10 @@ from bonecontact.neoplasm.cyst import (
     long_time_rate,
 )
 
+#: growth tests: the 2-rank session and the serial one run them; the 3-rank session
+#: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
+pytestmark = pytest.mark.growth
+
 YEAR = SECONDS_PER_YEAR
 # radicular-cyst-like: β/C⁻ = 3.2e-11 m/s ≈ 1 mm of radius per year
 RADICULAR = dict(beta=3.2e-11, C_minus=1.0, temperature=310.0, E=1.0e6, viscosity=1.0e9)

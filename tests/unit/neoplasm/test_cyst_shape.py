@@ -22,6 +22,10 @@ from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
 from bonecontact.neoplasm.cyst_shape import CystShapeModel
 from bonecontact.runners.cli import main
 
+#: growth tests: the 2-rank session and the serial one run them; the 3-rank session
+#: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
+pytestmark = pytest.mark.growth
+
 RADICULAR = dict(beta=3.2e-11, C_minus=1.0, temperature=310.0, E=1.0e6, viscosity=1.0e9)
 R0 = 2.0e-3
 

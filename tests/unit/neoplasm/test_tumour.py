@@ -13,6 +13,10 @@ from scipy.special import iv
 
 from bonecontact.neoplasm.tumour import TumourError, TumourModel, TumourParameters
 
+#: growth tests: the 2-rank session and the serial one run them; the 3-rank session
+#: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
+pytestmark = pytest.mark.growth
+
 
 def _run(model, dt, t_end):
     ts, rs = [0.0], [model.equivalent_radius()]
@@ -204,7 +208,7 @@ if MPI.COMM_WORLD.rank == 0:
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("nproc", [2, 3])
+@pytest.mark.parametrize("nproc", [pytest.param(2, marks=pytest.mark.slow), 3])
 def test_parallel_growth_matches_serial(venv_bin, tmp_path, nproc):
     """R(t) of a non-symmetric growth on 2/3 ranks equals the serial one (rtol 1e-9)."""
     import json

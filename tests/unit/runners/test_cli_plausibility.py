@@ -103,7 +103,7 @@ def test_check_summary_of_the_knee():
     assert "warnings    none" in out
 
 
-@pytest.mark.parametrize("nproc", [1, 2])
+@pytest.mark.parametrize("nproc", [1, pytest.param(2, marks=pytest.mark.slow)])
 def test_gpa_slip_warns_and_strict_exits_2(tmp_path, meshes, nproc):
     path, out = _scene(tmp_path, meshes, E="17.0")
     r = _run(["check", str(path)], nproc)

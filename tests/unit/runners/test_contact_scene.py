@@ -171,7 +171,8 @@ probes = [[0.0, 0.005]]
 """
 
 
-@pytest.mark.parametrize("linear", ["direct", pytest.param("iterative", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("linear", ["direct", "iterative"])
 def test_hertz_scene_same_on_1_2_3_ranks(tmp_path, linear):
     from bonecontact.meshing import shapes as meshing
 

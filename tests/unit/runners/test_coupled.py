@@ -55,6 +55,10 @@ from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.neoplasm.cyst import CystParameters, grow_sphere
 from bonecontact.scene import SceneError
 
+#: growth tests: the 2-rank session and the serial one run them; the 3-rank session
+#: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
+pytestmark = pytest.mark.growth
+
 ROOT = Path(__file__).resolve().parents[3]
 ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
 YEAR = SECONDS_PER_YEAR
@@ -465,6 +469,7 @@ def test_coupled_scene_errors(disc_mesh, tmp_shared_path):
 
 
 @pytest.mark.serial
+@pytest.mark.slow
 def test_coupled_run_same_on_two_ranks(disc_mesh, tmp_path):
     """The command on 1 and 2 ranks: growth.csv and history.csv agree to 1e-8."""
     scene = tmp_path / "cyst.toml"

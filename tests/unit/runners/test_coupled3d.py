@@ -49,6 +49,10 @@ from bonecontact.neoplasm.host3d import (
 )
 from bonecontact.scene import SceneError, load_scene
 
+#: growth tests: the 2-rank session and the serial one run them; the 3-rank session
+#: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
+pytestmark = pytest.mark.growth
+
 ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
 YEAR = SECONDS_PER_YEAR
 E_BONE, NU_BONE = 1.0e9, 0.3
@@ -448,7 +452,6 @@ def test_coupled_3d_check_refuses_a_neoplasm_outside_its_group(ball_mesh, tmp_sh
 
 
 @pytest.mark.serial
-@pytest.mark.slow
 def test_coupled_3d_same_on_one_two_three_ranks(ball_mesh, tmp_path):
     """The command on 1, 2 and 3 ranks: growth.csv and history.csv agree to 1e-8."""
     scene = tmp_path / "cyst.toml"

@@ -365,15 +365,22 @@ def test_polygon_edges_too_short_for_the_front_size(block_dir: Path) -> None:
 
 
 @pytest.mark.serial
-def test_cli_exit_code_and_ranks(tmp_path: Path) -> None:
-    """``bonecontact check`` of a bad crack exits 2 naming the key; ``bonecontact run`` on
-    2 and 3 ranks gives the serial K (the same mesh: gmsh on rank 0 from the boundary in
-    a canonical order)."""
+def test_cli_exit_code(tmp_path: Path) -> None:
+    """``bonecontact check`` of a bad crack exits 2 naming the key."""
     gmsh_on_rank0(_block, tmp_path / "block.msh", 3)
     bad = tmp_path / "bad.toml"
     bad.write_text(_text("block.msh", normal="[0.0, 0.0, 0.5]"))
     proc = run_cli(["check", str(bad)])
     assert proc.returncode == 2 and 'key "normal"' in proc.stderr, proc.stderr
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_cli_same_on_one_two_three_ranks(tmp_path: Path) -> None:
+    """``bonecontact run`` on 2 and 3 ranks gives the serial K (the same mesh: gmsh on rank
+    0 from the boundary in a canonical order).  Slow: the MPI sessions run this file's
+    scene tests on 2 and 3 ranks against the same closed forms."""
+    gmsh_on_rank0(_block, tmp_path / "block.msh", 3)
     scene = tmp_path / "scene.toml"
     normal = f"[{math.sin(BETA)!r}, 0.0, {math.cos(BETA)!r}]"
     scene.write_text(_text("block.msh", normal=normal, h=A / 6, points=4))

@@ -26,6 +26,10 @@ from bonecontact.common.constants import R_GAS, SECONDS_PER_YEAR
 from bonecontact.runners.cli import main
 from bonecontact.scene.expressions import ExpressionError, parse_rate
 
+#: growth tests: the 2-rank session and the serial one run them; the 3-rank session
+#: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
+pytestmark = pytest.mark.growth
+
 ROOT = Path(__file__).resolve().parents[3]
 ENV = {**BASE_ENV, "PYTHONWARNINGS": "ignore"}
 YEAR = SECONDS_PER_YEAR
