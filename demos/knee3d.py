@@ -19,8 +19,8 @@
 # own body frames.  `bonecontact.meshing.joint.pose_on` places the femur on the tibia:
 # vertical rays through both surfaces find the smallest gap under each femoral condyle,
 # a rotation in the frontal plane levels the two condyles and a vertical shift leaves
-# a 5.5 mm gap at both: the two 2 mm cartilage layers and 1.5 mm between them, closed
-# by the load (why 1.5 mm: *The contact pair* below).  Both bones are cut
+# a 4.5 mm gap at both: the two 2 mm cartilage layers and 0.5 mm between them, closed
+# by the load (why a clearance: *The contact pair* below).  Both bones are cut
 # 40 mm from the joint (`clip_surface`: the distal femur, the proximal tibia, each
 # closed by a flat cap), remeshed and meshed into one body of tetrahedra
 # (`joint_from_surfaces`): each bone a 2 mm cortical shell around a cancellous core and a
@@ -35,7 +35,7 @@
 #
 # `python demos/knee3d.py [OUTPUT_DIR]`, `mpiexec -n 2 python demos/knee3d.py`, or as a
 # notebook.  `BONECONTACT_DEMO_QUICK=1` grows the tumour for 8 days with two analyses
-# (days 4 and 8) on a coarser mesh (6 mm), instead of 24 days with three analyses
+# (days 4 and 8) on a coarser mesh (5 mm), instead of 24 days with three analyses
 # (days 8, 16, 24) on a 4 mm mesh.  Time on this 2-core machine, shared with other jobs
 # (load 4–5): quick 25–50 s, full 107–135 s on 1 rank, 79 s on 2 ranks (the 2-rank
 # forces and pressures equal the serial ones to 9 digits).  Units: SI.
@@ -165,12 +165,13 @@ if comm.rank == 0:
 # master must cover every slave node's neighbourhood (a slave node only partly over the
 # master loses part of its force: the force on the tibia then differs from the body
 # weight by a few per cent, as measured with the roles swapped), and the plateau is
-# larger than the condyles' underside.  The 1.5 mm left between the layers: the
-# dual-mortar weighted gap of a slave node, $d_p/D_{pp}$ with the dual basis function
-# $\psi_p$ (negative over part of its support), comes out up to 1.2 mm below the
-# geometric gap where the gap grows by several mm across one element (the condyles'
-# flanks), and the solver refuses negative initial gaps.  The load closes the 1.5 mm by
-# a rigid approach of the femur (its guide leaves $u_y$ free), which changes no stress.
+# larger than the condyles' underside; the slave facets are kept one element inside the
+# plateau's edge (a slave node only partly over the master gets a dual-mortar weighted
+# gap $d_p/D_{pp}$ far from its geometric gap, and the solver would refuse it as an
+# initial interpenetration).  The 0.5 mm left between the layers: posed with no
+# clearance, the offset layers of these faceted surfaces cross each other and the mesh
+# is refused.  The load closes the 0.5 mm by a rigid approach of the femur (its guide
+# leaves $u_y$ free), which changes no stress.
 
 # %%
 t_mesh = time.perf_counter()
