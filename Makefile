@@ -24,6 +24,7 @@
 # Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=2700
 # (seconds, each pytest session)  SERIAL_WORKERS=2 (pytest-xdist processes of the serial
 # session; 0: none)  MPI3_SKIP=growth (marker left out on 3+ ranks by make test; empty: none)
+# MPI3_TESTS="tests/unit/contact ..." (what make test runs on 3+ ranks; empty: everything)
 # PYTEST_ARGS="-k hertz" (added to every pytest call).
 
 SHELL := /bin/bash
@@ -158,9 +159,19 @@ define run_serial
 endef
 
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
-# On 3 or more ranks make test leaves out the growth tests (2 cores oversubscribed; their
-# 3-rank runs are serial-session tests that spawn 3 ranks); make test-all keeps them.
-MPI3_SKIP ?= growth
+# On 3 or more ranks (2 cores oversubscribed) make test runs the tests of the code whose
+# results depend on the partition — contact, fracture, the runners (scenes, checkpoints,
+# restarts), the remesh input and the contact/fracture verification problems — and leaves
+# out the growth tests (their 3-rank runs are serial-session tests that spawn 3 ranks);
+# input parsing, materials, meshing, plotting and the mechanics-only verifications run on
+# 1 and 2 ranks.  make test-all runs everything on 3 ranks too.
+MPI3_SKIP  ?= growth
+MPI3_TESTS ?= tests/unit/contact tests/unit/fracture tests/unit/runners \
+  tests/unit/neoplasm/test_remesh.py tests/unit/neoplasm/test_remesh_determinism.py \
+  tests/verification/test_hertz.py tests/verification/test_friction.py \
+  tests/verification/test_impact.py tests/verification/test_energy.py \
+  tests/verification/test_load_driven.py tests/verification/test_load_driven_builder.py \
+  $(wildcard tests/verification/test_fracture_*.py)
 
 # MPI suites: each size runs under `timeout`; `python -m mpi4py` turns an exception or a
 # non-zero pytest exit on any rank into MPI_Abort, so one rank's failure stops all ranks
@@ -168,15 +179,16 @@ MPI3_SKIP ?= growth
 define run_parallel
 @mkdir -p "$(LOG_DIR)"
 @for n in $(MPI_SIZES); do \
-  sel="$(MPI_SELECT)"; \
+  sel="$(MPI_SELECT)"; paths=""; \
   if [ "$$n" -ge 3 ] && [ -n "$(strip $(MPI3_SKIP))" ]; then sel="$$sel and not $(MPI3_SKIP)"; fi; \
+  if [ "$$n" -ge 3 ]; then paths="$(strip $(MPI3_TESTS))"; fi; \
   rm -f "$(LOG_DIR)/mpi-$$n".rank*.log; \
   SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q --durations=15 -m '$$sel' \
-    -p no:cacheprovider $(PYTEST_ARGS)   # ranks > 0 write to $(LOG_DIR)/mpi-$$n.rank<r>.log" \
+    -p no:cacheprovider $(PYTEST_ARGS) $$paths   # ranks > 0 write to $(LOG_DIR)/mpi-$$n.rank<r>.log" \
   bash -c "$$RUN_PYTEST" run-pytest "mpi-$$n" \
     timeout --kill-after=30 $(TEST_TIMEOUT) $(MPIEXEC) -n $$n \
     $(RANK_LOG) "$(LOG_DIR)/mpi-$$n" \
-    $(PY) -m mpi4py -m pytest -x -q --durations=15 -m "$$sel" -p no:cacheprovider $(PYTEST_ARGS); \
+    $(PY) -m mpi4py -m pytest -x -q --durations=15 -m "$$sel" -p no:cacheprovider $(PYTEST_ARGS) $$paths; \
 done
 endef
 
@@ -205,6 +217,7 @@ test: install lint docs
 
 test-all: SELECT :=
 test-all: MPI3_SKIP :=
+test-all: MPI3_TESTS :=
 test-all: test
 
 test-serial: install

@@ -109,7 +109,7 @@ def test_patch_scene(tmp_path):
 
 
 def _assert_same_on_ranks(tables: dict) -> None:
-    """The contact table and history of 2 and 3 ranks equal the serial ones (rtol 1e-8;
+    """The contact table and history of 2 and/or 3 ranks equal the serial ones (rtol 1e-8;
     the per-column scale is floored at 1e-3 of the contact size so that columns that are
     zero up to round-off — slip, tangential traction of frictionless contact — compare),
     and the nodes' status (open/stick/slip) is the same."""
@@ -118,7 +118,7 @@ def _assert_same_on_ranks(tables: dict) -> None:
         h1, r1 = tables[1][name]
         a1 = np.array([[float(v) if v not in words else 0.0 for v in r] for r in r1])
         scale = np.maximum(np.abs(a1).max(axis=0), 1e-3 * A_REF)
-        for n in (2, 3):
+        for n in sorted(set(tables) - {1}):
             hn, rn = tables[n][name]
             assert hn == h1 and len(rn) == len(r1)
             if name.startswith("contact"):
@@ -290,11 +290,12 @@ def test_body_starting_apart_is_supported_from_the_first_solve(tmp_path):
     np.testing.assert_allclose(lams[0], lams[1], rtol=1e-8)
 
 
-def test_coulomb_friction_scene_same_on_1_2_3_ranks(tmp_path):
+def test_coulomb_friction_scene_same_on_1_and_3_ranks(tmp_path):
     """Coulomb friction (μ = 0.3, semi-implicit) through a scene: the Hertz cylinder is
     pressed down, then dragged sideways (partial slip).  contact_<pair>.csv and
-    history.csv agree on 1, 2 and 3 ranks (rtol 1e-8), the friction columns are filled
-    (stick and slip nodes, |q| ≤ μp) and the summary names the law."""
+    history.csv agree on 1 and 3 ranks (rtol 1e-8; 2 ranks: the MPI session's friction
+    tests), the friction columns are filled (stick and slip nodes, |q| ≤ μp) and the
+    summary names the law."""
     from bonecontact.meshing import shapes as meshing
 
     mesh = meshing.hertz_2d(
@@ -325,7 +326,7 @@ schedule = [[0.0, 0.0], [0.5, 0.0], [1.0, 1.0]]""",
     scene = tmp_path / "hertz.toml"
     scene.write_text(text)
     tables = {}
-    for n in (1, 2, 3):
+    for n in (1, 3):
         res = _run(scene, tmp_path / f"out{n}", n)
         assert res.returncode == 0, f"{n} ranks:\n{res.stderr}"
         tables[n] = {

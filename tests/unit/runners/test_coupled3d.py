@@ -452,8 +452,9 @@ def test_coupled_3d_check_refuses_a_neoplasm_outside_its_group(ball_mesh, tmp_sh
 
 
 @pytest.mark.serial
-def test_coupled_3d_same_on_one_two_three_ranks(ball_mesh, tmp_path):
-    """The command on 1, 2 and 3 ranks: growth.csv and history.csv agree to 1e-8."""
+def test_coupled_3d_same_on_one_and_three_ranks(ball_mesh, tmp_path):
+    """The command on 1 and 3 ranks: growth.csv and history.csv agree to 1e-8 (2 ranks: this
+    module's tests in the 2-rank session, against the same references)."""
     scene = tmp_path / "cyst.toml"
     scene.write_text(
         CYST_SCENE.format(
@@ -467,7 +468,7 @@ def test_coupled_3d_same_on_one_two_three_ranks(ball_mesh, tmp_path):
         )
     )
     outs = []
-    for n in (1, 2, 3):
+    for n in (1, 3):
         out = tmp_path / f"r{n}"
         r = run_cli_scene(scene, out, n, env=ENV)
         assert r.returncode == 0, r.stderr[-3000:]
