@@ -21,7 +21,7 @@
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
 #   make clean        remove caches, test logs, docs/api, build/ and demos/results;  make distclean  also removes .venv
 #
-# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=2700
+# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=1800
 # (seconds, each pytest session)  SERIAL_WORKERS=2 (pytest-xdist processes of the serial
 # session; 0: none)  MPI3_SKIP=growth (marker left out on 3+ ranks by make test; empty: none)
 # MPI3_TESTS="tests/unit/contact ..." (what make test runs on 3+ ranks; empty: everything)
@@ -40,7 +40,7 @@ LOG_DIR      := $(VENV)/test-logs
 DOCS_DIR     := docs/api
 MPI_SIZES    ?= 2 3
 SERIAL_WORKERS ?= 2
-TEST_TIMEOUT ?= 2700
+TEST_TIMEOUT ?= 1800
 PYTEST_ARGS  ?=
 
 # Keep MPI ranks from each starting a full set of BLAS/OpenMP threads.
