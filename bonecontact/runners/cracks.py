@@ -32,7 +32,6 @@ stored crack and continues.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import math
@@ -47,7 +46,6 @@ from mpi4py import MPI
 import numpy as np
 from tqdm import tqdm
 
-from bonecontact.common.formatting import format_cell
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_crack
@@ -85,39 +83,13 @@ from bonecontact.runners.mechanics import (
     run_info,
     scene_integrator,
 )
-from bonecontact.runners.results import RunResult
+from bonecontact.runners.results import RecordTable, RunResult
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.checks import check_cracks_in_mesh
 from bonecontact.scene.errors import table_label
 from bonecontact.scene.spec import ContactSpec
 
 __all__ = ["CrackRun", "check_cracked", "is_crack_scene", "run_cracked", "write_crack_path"]
-
-
-class FractureTable:
-    """``fracture.csv`` (:data:`~bonecontact.fracture.propagation.FRACTURE_COLUMNS`), rank 0
-    writes row by row (flushed) as the run goes."""
-
-    def __init__(self, comm: MPI.Comm, directory: Path, append: bool = False):
-        self.comm, self._file, self._w = comm, None, None
-        if comm.rank == 0:
-            Path(directory).mkdir(parents=True, exist_ok=True)
-            self._file = open(Path(directory) / "fracture.csv", "a" if append else "w", newline="")
-            self._w = csv.writer(self._file)
-            if not append:
-                self._w.writerow(FRACTURE_COLUMNS)
-        comm.barrier()
-
-    def rows(self, records: list[IncrementRecord]) -> None:
-        if self._w is not None:
-            for r in records:
-                self._w.writerow([format_cell(v) for v in r.row()])
-            self._file.flush()
-
-    def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
 
 
 @dataclasses.dataclass
@@ -564,7 +536,9 @@ def run_cracked(
     integ, rec = start(
         sm, run, first - 1, "fields" if resume is None else f"fields_restart{segment}", crack
     )
-    table = FractureTable(comm, outdir, append=resume is not None)
+    table = RecordTable(
+        comm, Path(outdir) / "fracture.csv", FRACTURE_COLUMNS, append=resume is not None
+    )
     every = scene.output.fields_every
     status, message = "converged", None
     increment, fractured_at, prop_status = 0, None, None

@@ -22,7 +22,6 @@ material around the front; no propagation and no checkpoints in 3D (refused with
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import re
@@ -37,7 +36,6 @@ import numpy.typing as npt
 from dolfinx import mesh
 from tqdm import tqdm
 
-from bonecontact.common.formatting import format_cell
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body3d import (
@@ -67,7 +65,7 @@ from bonecontact.runners.mechanics import (
     run_info,
     scene_integrator,
 )
-from bonecontact.runners.results import RunResult
+from bonecontact.runners.results import RecordTable, RunResult
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.checks import check_cracks_in_mesh
 from bonecontact.scene.errors import table_label
@@ -368,31 +366,6 @@ def _face_tractions(sm: SceneModel, result: Any, tips: np.ndarray) -> tuple | No
     return ft.plus, ft.minus
 
 
-class FrontTable:
-    """``fracture.csv`` of a 3D crack (:data:`FRONT_COLUMNS`), rank 0 writes as the run
-    goes."""
-
-    def __init__(self, comm: MPI.Comm, directory: Path):
-        self._file, self._w = None, None
-        if comm.rank == 0:
-            Path(directory).mkdir(parents=True, exist_ok=True)
-            self._file = open(Path(directory) / "fracture.csv", "w", newline="")
-            self._w = csv.writer(self._file)
-            self._w.writerow(FRONT_COLUMNS)
-        comm.barrier()
-
-    def rows(self, records: list[FrontRecord]) -> None:
-        if self._w is not None:
-            for r in records:
-                self._w.writerow([format_cell(v) for v in r.row()])
-            self._file.flush()
-
-    def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
-
-
 def write_front(path: Path, records: list[FrontRecord]) -> None:
     """The front as a legacy VTK file: POLYDATA, a closed line through the evaluation
     points, with K_I, K_II, K_III and G as point data (to show over the fields)."""
@@ -457,7 +430,7 @@ def run_cracked3d(
         integ.set_initial(None, sm.v0)
     with timer.phase("output"):
         rec = Recorder(run.scene, sm, integ, comm, outdir, False)
-    table = FrontTable(comm, outdir)
+    table = RecordTable(comm, Path(outdir) / "fracture.csv", FRONT_COLUMNS)
     every = scene.output.fields_every
     status, message, last = "converged", None, []
     with timer.phase("output"):

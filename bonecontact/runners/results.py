@@ -45,9 +45,11 @@ __all__ = [
     "HISTORY_COLUMNS",
     "MECHANICS_UNITS",
     "SUMMARY_FORMAT",
+    "CsvTable",
     "GrowthTable",
     "ProbeError",
     "Probes",
+    "RecordTable",
     "ResultsWriter",
     "RunResult",
     "StressFields",
@@ -295,44 +297,66 @@ def write_summary(comm: MPI.Comm, directory: Path, summary: dict[str, Any]) -> N
             json.dump(summary, f, indent=2, default=_json_default)
 
 
-class GrowthTable:
-    """``growth.csv``, written by rank 0 row by row (flushed) as a growth runs.
+class CsvTable:
+    """A CSV file that rank 0 writes row by row (each row flushed) as a run goes.
 
     Parameters
     ----------
     comm
         Communicator of the run (collective constructor: rank 0 creates the file).
-    directory
-        Output directory (created).
+    path
+        The file (its directory is created).
     columns
-        Header: ``time`` and the driver's columns.
+        Header row.
     append
-        Continue an existing growth.csv (a restart) instead of starting it.
+        Continue an existing file (a restart) instead of starting it (no header).
     """
 
     def __init__(
-        self, comm: MPI.Comm, directory: Path, columns: Sequence[str], append: bool = False
-    ):
+        self, comm: MPI.Comm, path: Path, columns: Sequence[str], append: bool = False
+    ) -> None:
         self.comm = comm
         self._file = self._writer = None
         if comm.rank == 0:
-            Path(directory).mkdir(parents=True, exist_ok=True)
-            self._file = open(Path(directory) / "growth.csv", "a" if append else "w", newline="")
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            self._file = open(path, "a" if append else "w", newline="")
             self._writer = csv.writer(self._file)
             if not append:
                 self._writer.writerow(columns)
         comm.barrier()
 
-    def row(self, t: float, values: Sequence[float]) -> None:
-        """Append ``t`` (printed as written: ``k*dt`` to 15 digits) and the values."""
+    def write(self, rows: Sequence[Sequence[str]]) -> None:
+        """Append already formatted rows (rank 0; a no-op elsewhere) and flush."""
         if self._writer is not None:
-            self._writer.writerow([f"{t:.15g}"] + [format_float(v) for v in values])
+            self._writer.writerows(rows)
             self._file.flush()
 
     def close(self) -> None:
         if self._file is not None:
             self._file.close()
             self._file = self._writer = None
+
+
+class GrowthTable(CsvTable):
+    """``growth.csv`` (directory ``directory``; header ``time`` and the driver's columns),
+    written by rank 0 row by row as a growth runs; ``append`` continues it (a restart)."""
+
+    def __init__(
+        self, comm: MPI.Comm, directory: Path, columns: Sequence[str], append: bool = False
+    ) -> None:
+        super().__init__(comm, Path(directory) / "growth.csv", columns, append)
+
+    def row(self, t: float, values: Sequence[float]) -> None:
+        """Append ``t`` (printed as written: ``k*dt`` to 15 digits) and the values."""
+        self.write([[f"{t:.15g}"] + [format_float(v) for v in values]])
+
+
+class RecordTable(CsvTable):
+    """A table of records, each giving its cells by ``row()`` (``fracture.csv`` of the 2D
+    and 3D crack scenes), written by rank 0 as the run goes."""
+
+    def rows(self, records: Sequence[Any]) -> None:
+        self.write([[format_cell(v) for v in r.row()] for r in records])
 
 
 def write_points(path: Path, columns: Sequence[str], points: npt.ArrayLike) -> None:
