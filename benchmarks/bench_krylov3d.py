@@ -18,7 +18,8 @@ Variants (``--variants``, comma-separated): ``tight`` (every Krylov solve to the
 tolerance), ``loose1e-2`` … (inexact PDAS with that loose tolerance), and suffixes
 ``+cheb1`` (one Chebyshev iteration per level), ``+v`` (V-cycles), ``+reuseP``
 (``pc_gamg_reuse_interpolation``), ``+agg1`` (one level of aggressive coarsening),
-``+th0.05`` (``pc_gamg_threshold``), e.g. ``loose1e-4+cheb1``.
+``+th0.05`` (``pc_gamg_threshold``), ``+cel<n>`` (a coarse grid of at most n
+equations; ``+cel50``: GAMG's default, the setting before 2026-11-27), e.g. ``loose1e-4+cheb1``.
 
 Usage (also under ``mpiexec -n 2``)::
 
@@ -45,6 +46,7 @@ import numpy as np
 from bench_contact3d import SIZES, linear_solve
 from common import machine, write_rows
 
+from bonecontact.contact.krylov import coarse_grid_limit
 from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
 COMM = MPI.COMM_WORLD
@@ -69,6 +71,9 @@ def parse_variant(name: str, tight: float) -> tuple[float, dict[str, object]]:
     loose = tight if base == "tight" else float(base.removeprefix("loose"))
     opts: dict[str, object] = {}
     for sfx in suffixes:
+        if sfx.startswith("cel") and sfx[3:].isdigit():  # coarse grid size, e.g. cel1000
+            opts["pc_gamg_coarse_eq_limit"] = int(sfx[3:])
+            continue
         if sfx not in SUFFIXES:
             raise SystemExit(f"unknown variant suffix {sfx!r}; allowed: {', '.join(SUFFIXES)}")
         opts.update(SUFFIXES[sfx])
@@ -82,11 +87,13 @@ def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
                 "pc_gamg_aggressive_coarsening"):  # fmt: skip
         if opts.hasName(PREFIX + key):
             opts.delValue(PREFIX + key)
-    for key, value in {**DEFAULTS, **popts}.items():
+    size = {"pc_gamg_coarse_eq_limit": coarse_grid_limit(solver.B.getSize()[0])}  # the solver's
+    for key, value in {**DEFAULTS, **size, **popts}.items():
         opts[PREFIX + key] = value
     pc = solver.ksp.getPC()
     pc.reset()
     solver.ksp.setFromOptions()
+    opts.delValue(PREFIX + "pc_gamg_coarse_eq_limit")
     solver.pc_reuse.forget()
     solver.loose_rtol = max(loose, solver.rtol)
 

@@ -56,6 +56,7 @@ __all__ = [
     "basis_transform",
     "build_interface",
     "rotation_matrix",
+    "transformed_operator",
 ]
 
 
@@ -717,6 +718,21 @@ def basis_transform(V: fem.FunctionSpace, interfaces: list[ContactInterface]) ->
     cols = np.concatenate([diag] + [i.qt_cols for i in interfaces])
     vals = np.concatenate([np.ones(n_local)] + [i.qt_vals for i in interfaces])
     return _csr_matrix(comm, n_local, n_global, start, rows, cols, vals)
+
+
+def transformed_operator(A: PETSc.Mat, Qt: PETSc.Mat, Tt: PETSc.Mat) -> PETSc.Mat:
+    """``T Q A Qᵀ Tᵀ``: the operator in the dual basis and the nodal frames.
+
+    One triple product with ``P = Qᵀ Tᵀ`` (both factors are the identity outside the
+    slave rows, so ``P`` costs little) instead of two: at 10⁶ dofs the second product of
+    the whole matrix and the intermediate ``Â = Q A Qᵀ`` held beside ``A`` were seconds
+    and a matrix's memory.
+    """
+    P = Qt.matMult(Tt)
+    try:
+        return A.PtAP(P)
+    finally:
+        P.destroy()
 
 
 def rotation_matrix(V: fem.FunctionSpace, interfaces: list[ContactInterface]) -> PETSc.Mat:

@@ -13,7 +13,7 @@ provides the three pieces the solver needs:
   bodies).  Without a near-nullspace GAMG sees only the constant vectors and CG needs
   4–5 times as many iterations; with one set of modes for the whole mesh 4 times.
 * :func:`configure_condensed_ksp` — the Krylov method and the GAMG options of the
-  condensed system.
+  condensed system (the size of its coarse grid: :func:`coarse_grid_limit`).
 * :class:`PreconditionerReuse` — when to keep the preconditioner of an earlier set
   (from an earlier PDAS iteration or time step) and when to rebuild it.
 
@@ -35,6 +35,7 @@ from bonecontact.common.linalg import configure_ksp, rigid_body_modes
 __all__ = [
     "PreconditionerReuse",
     "apply_inverse_transpose",
+    "coarse_grid_limit",
     "condensed_near_nullspace",
     "configure_condensed_ksp",
     "reduction_decades",
@@ -49,7 +50,25 @@ __all__ = [
 #: keeps the coarse operators sparse; the W-cycle (the small coarse levels visited
 #: more often) keeps the iterations nearly independent of the mesh (load-driven 3D
 #: Hertz, rtol 1e-12: 35 and 40 iterations at 25k and 65k dofs; V-cycles 48 and 71).
+#: The size of the coarse grid: :func:`coarse_grid_limit`.
 GAMG_OPTIONS: dict[str, object] = {"pc_gamg_agg_nsmooths": 0, "pc_mg_cycle_type": "w"}
+
+
+def coarse_grid_limit(num_equations: int) -> int:
+    """Largest coarse grid of the GAMG hierarchy (``pc_gamg_coarse_eq_limit``) for a
+    condensed system of ``num_equations``: ``N/16``, at most 5000 (at least GAMG's 50).
+
+    A W-cycle visits level ``k`` ``2^k`` times, so GAMG's default coarse grid (50
+    equations: 7–8 levels at 10⁵–10⁶ dofs) made each cycle hundreds of latency-bound
+    products with tiny matrices (200k dofs on 2 ranks: 576 matrix products per cycle).
+    Stopping the coarsening earlier and solving that grid directly removes them and
+    gives a better preconditioner, while a coarse grid too large for the problem costs
+    more in its factorisation and solves than it saves.  Measured on the load-driven 3D
+    Hertz problem (benchmarks/README.md, "Coarse grid"): 25k dofs best near 1600 (5000
+    costs 3.5 times the operations), 65k dofs 1600–5000 alike, 200k and 1M dofs best at
+    5000 (1M on 2 ranks: contact solve 183 → 87 s, CG iterations 100 → 83).
+    """
+    return int(min(5000, max(50, num_equations // 16)))
 
 
 def apply_inverse_transpose(
@@ -152,8 +171,9 @@ def configure_condensed_ksp(
 
     Sets the block size of ``B`` (the transformations lose it; GAMG aggregates nodes,
     not single rows, only with it), the near-nullspace of
-    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` (unless given on the command
-    line) and a nonzero initial guess (the previous PDAS iterate).
+    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` and the coarse grid of
+    :func:`coarse_grid_limit` (unless given on the command line) and a nonzero initial
+    guess (the previous PDAS iterate).
     """
     bs = V.dofmap.index_map_bs
     B.setBlockSize(bs)
@@ -166,6 +186,13 @@ def configure_condensed_ksp(
     for key, value in GAMG_OPTIONS.items():
         if not opts.hasName(f"{prefix}{key}"):
             opts[f"{prefix}{key}"] = value
+    key = f"{prefix}pc_gamg_coarse_eq_limit"
+    if not opts.hasName(key):  # this system's size: read once, not left in the options
+        opts[key] = coarse_grid_limit(B.getSize()[0])
+        try:
+            ksp.setFromOptions()
+        finally:
+            opts.delValue(key)
     if nonsymmetric:
         ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
     ksp.setInitialGuessNonzero(True)

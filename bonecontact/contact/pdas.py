@@ -119,7 +119,12 @@ from bonecontact.contact.friction import (
     update_edge_sets,
     with_normal_row,
 )
-from bonecontact.contact.interface import ContactInterface, basis_transform, rotation_matrix
+from bonecontact.contact.interface import (
+    ContactInterface,
+    basis_transform,
+    rotation_matrix,
+    transformed_operator,
+)
 from bonecontact.contact.krylov import (
     PreconditionerReuse,
     configure_condensed_ksp,
@@ -360,10 +365,9 @@ class ContactSolver:
         self.slip_3d = opts.slip_3d
         self.cold_start_fraction = float(opts.cold_start_fraction)
         self.Qt = basis_transform(V, self.interfaces)
-        self.Ahat = A.PtAP(self.Qt)
         self.T = rotation_matrix(V, self.interfaces)
         self.Tt = self.T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
-        self.At = self.Ahat.PtAP(self.Tt)  # T Â Tᵀ: unknowns in the nodal frames
+        self.At = transformed_operator(A, self.Qt, self.Tt)  # unknowns in the nodal frames
         start = bs * V.dofmap.index_map.local_range[0]
         self.bc_rows = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - start).astype(np.int32)
@@ -1159,7 +1163,6 @@ class ContactSolver:
             self.At,
             self.T,
             self.Tt,
-            self.Ahat,
             self.Qt,
             self.Uh,
             self._r0,
