@@ -161,17 +161,18 @@ endef
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 # On 3 or more ranks (2 cores oversubscribed) make test runs the tests of the code whose
 # results depend on the partition — contact, fracture, the runners (scenes, checkpoints,
-# restarts), the remesh input and the contact/fracture verification problems — and leaves
-# out the growth tests (their 3-rank runs are serial-session tests that spawn 3 ranks);
-# input parsing, materials, meshing, plotting and the mechanics-only verifications run on
-# 1 and 2 ranks.  make test-all runs everything on 3 ranks too.
+# restarts), the remesh input and the static contact/fracture verification problems — and
+# leaves out the growth tests (their 3-rank runs are serial-session tests that spawn 3
+# ranks); input parsing, materials, meshing, plotting, the mechanics-only and dynamic
+# verifications (impact, energy: the contact code they use is in the 3-rank set) and the
+# crack-path verification (re-meshing per increment; the fracture unit tests are in the
+# set) run on 1 and 2 ranks.  make test-all runs everything on 3 ranks too.
 MPI3_SKIP  ?= growth
 MPI3_TESTS ?= tests/unit/contact tests/unit/fracture tests/unit/runners \
   tests/unit/neoplasm/test_remesh.py tests/unit/neoplasm/test_remesh_determinism.py \
   tests/verification/test_hertz.py tests/verification/test_friction.py \
-  tests/verification/test_impact.py tests/verification/test_energy.py \
   tests/verification/test_load_driven.py tests/verification/test_load_driven_builder.py \
-  $(wildcard tests/verification/test_fracture_*.py)
+  $(filter-out %/test_fracture_propagation.py,$(wildcard tests/verification/test_fracture_*.py))
 
 # MPI suites: each size runs under `timeout`; `python -m mpi4py` turns an exception or a
 # non-zero pytest exit on any rank into MPI_Abort, so one rank's failure stops all ranks
