@@ -176,6 +176,13 @@ class RunCounters:
     fields_written: int = -1
     segment: int = 0  # how many restarts led to this run
 
+    def add(self, linear: int, pdas: int | None = None, bound_updates: int | None = None) -> None:
+        """Book a step's iteration counts (``pdas`` ``None``: a step without contact)."""
+        self.linear.append(int(linear))
+        if pdas is not None:
+            self.pdas.append(int(pdas))
+            self.bound_updates.append(int(bound_updates or 0))
+
 
 def _fields(integ: Integrator, st: dict) -> list[tuple[str, int, npt.NDArray]]:
     """(name, ncomp, owned values) of every per-node field of the state."""
@@ -809,11 +816,8 @@ class Checkpointer:
         self.last = path
 
     def count(self, linear: int, pdas: int | None = None, bound_updates: int | None = None) -> None:
-        """Book a step's iteration counts."""
-        self.counters.linear.append(int(linear))
-        if pdas is not None:
-            self.counters.pdas.append(int(pdas))
-            self.counters.bound_updates.append(int(bound_updates or 0))
+        """Book a step's iteration counts (:meth:`RunCounters.add`)."""
+        self.counters.add(linear, pdas, bound_updates)
 
     def after_step(self, last: bool = False) -> int:
         """Between steps (collective): write a checkpoint when one is due

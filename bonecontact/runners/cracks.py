@@ -78,10 +78,13 @@ from bonecontact.runners.mechanics import (
     Recorder,
     SceneModel,
     analysis_steps,
+    book_step,
     build_model,
+    finish_run,
     read_mesh,
     run_info,
     scene_integrator,
+    summary_header,
 )
 from bonecontact.runners.results import RecordTable, RunResult
 from bonecontact.scene import Scene, SceneError
@@ -597,11 +600,7 @@ def run_cracked(
                 with timer.phase("time_stepping"):
                     si = integ.step()
                 res = integ.last_contact
-                counts.linear.append(si.linear_iterations)
-                if res is not None:
-                    counts.pdas.append(res.iterations)
-                    counts.bound_updates.append(res.bound_updates)
-                    timer.add("contact_solve", res.wall_time)
+                book_step(counts, timer, si.linear_iterations, res)
                 if cm is None:  # no crack yet: does the risk reach 1?
                     with timer.phase("fracture"):
                         sm.model.update_nodal_volumetric(integ.u, integ.velocity)  # as record
@@ -692,13 +691,7 @@ def run_cracked(
         raise
     bar.close()
     table.close()
-    info: dict[str, Any] = {
-        "dofs": sm.model.num_dofs,
-        "analysis": scene.analysis.kind,
-        "dt": dt,
-        "setup_time_s": integ.setup_time,
-        "linear_solver": scene.solver.linear,
-    }
+    info = summary_header(scene, sm, integ, dt)
     info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
     info.update(ck.summary())
     info.update(rec.strain.summary())
@@ -711,12 +704,7 @@ def run_cracked(
         else _crack_summary(run, crack, tips_last, increment, prop_status, fractured_at)
     )
     info["fracture"] = frac
-    info["warnings"] = [str(i) for i in sm.issues]
-    info["phases_s"] = timer.summary(comm)
-    if message is not None:
-        info["message"] = message
-    summary = rec.writer.summary(status, **info)
-    rec.writer.close()
+    summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
     return RunResult(status, summary, integ, outdir)
 
 

@@ -27,7 +27,7 @@ from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.friction import FrictionLaw
 from bonecontact.contact.interface import ContactInputError, build_interface
 from bonecontact.contact.options import PDASOptions
-from bonecontact.contact.pdas import ContactSolver
+from bonecontact.contact.pdas import ContactSolver, PDASResult
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
@@ -51,7 +51,15 @@ from bonecontact.scene import Scene, SceneError, check_against_mesh
 from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
 from bonecontact.scene.mesh_checks import check_mesh
 
-__all__ = ["SceneModel", "build_model", "read_mesh", "run_mechanics"]
+__all__ = [
+    "SceneModel",
+    "book_step",
+    "build_model",
+    "finish_run",
+    "read_mesh",
+    "run_mechanics",
+    "summary_header",
+]
 
 
 @dataclass
@@ -412,12 +420,7 @@ def _step_through(
         for k in range(first, nsteps + 1):
             with timer.phase("time_stepping"):
                 si = integ.step()
-            res = integ.last_contact
-            ckpt.count(
-                si.linear_iterations, *(() if res is None else (res.iterations, res.bound_updates))
-            )
-            if res is not None:
-                timer.add("contact_solve", res.wall_time)
+            book_step(ckpt.counters, timer, si.linear_iterations, integ.last_contact)
             last = k == nsteps
             with timer.phase("output"):
                 rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
@@ -480,6 +483,53 @@ def run_info(
     return info
 
 
+def book_step(
+    counts: RunCounters, timer: PhaseTimer, linear_iterations: int, res: PDASResult | None
+) -> None:
+    """Count a step's linear (and, with contact, PDAS) iterations and add its contact
+    solve's time to the phase ``contact_solve``."""
+    if res is None:
+        counts.add(linear_iterations)
+        return
+    counts.add(linear_iterations, res.iterations, res.bound_updates)
+    timer.add("contact_solve", res.wall_time)
+
+
+def summary_header(scene: Scene, sm: SceneModel, integ: Integrator, dt: float) -> dict[str, Any]:
+    """The first entries of summary.json: dofs, analysis, time step, set-up time and
+    linear solver."""
+    return {
+        "dofs": sm.model.num_dofs,
+        "analysis": scene.analysis.kind,
+        "dt": dt,
+        "setup_time_s": integ.setup_time,
+        "linear_solver": scene.solver.linear,
+    }
+
+
+def finish_run(
+    scene: Scene,
+    sm: SceneModel,
+    rec: Recorder,
+    timer: PhaseTimer,
+    comm: MPI.Comm,
+    status: str,
+    message: str | None,
+    info: dict[str, Any],
+) -> dict[str, Any]:
+    """Complete ``info`` (the model's warnings, the phase times, the failure message),
+    write summary.json, close the writer and warn of strains beyond small-strain
+    validity (collective).  Returns the summary."""
+    info["warnings"] = [str(i) for i in sm.issues]
+    info["phases_s"] = timer.summary(comm)
+    if message is not None:
+        info["message"] = message
+    summary = rec.writer.summary(status, **info)
+    rec.writer.close()
+    _warn_large_strain(scene, rec.strain.max_strain)
+    return summary
+
+
 def _checkpoint_info(scene: Scene, sm: SceneModel, dt: float) -> dict[str, Any]:
     """What a checkpoint and the run continuing it must agree on."""
     return {"scene": scene.name, "analysis": scene.analysis.kind, "dt": dt}
@@ -537,13 +587,7 @@ def run_mechanics(
     with timer.phase("output"):
         rec = Recorder(scene, sm, integ, comm, outdir, dynamic, ckpt)
     e0 = ckpt.counters.e0
-    info = {
-        "dofs": sm.model.num_dofs,
-        "analysis": scene.analysis.kind,
-        "dt": dt,
-        "setup_time_s": integ.setup_time,
-        "linear_solver": scene.solver.linear,
-    }
+    info = summary_header(scene, sm, integ, dt)
     with ckpt.stop:
         status, message = _step_through(scene, comm, integ, rec, nsteps, dt, progress, timer, ckpt)
     info.update(run_info(scene, sm, integ, ckpt.counters, dynamic, e0, t_start))
@@ -553,13 +597,7 @@ def run_mechanics(
     info.update(rec.strain.summary())
     if rec.fracture is not None:
         info["fracture"] = rec.fracture.summary()
-    info["warnings"] = [str(i) for i in sm.issues]
-    info["phases_s"] = timer.summary(comm)
-    if message is not None:
-        info["message"] = message
-    summary = rec.writer.summary(status, **info)
-    rec.writer.close()
-    _warn_large_strain(scene, rec.strain.max_strain)
+    summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
     return RunResult(status, summary, integ, outdir)
 
 
