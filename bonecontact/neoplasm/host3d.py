@@ -344,11 +344,14 @@ def _distance_to_surface(
     rad = np.linalg.norm(x[tri] - cen[:, None, :], axis=2).max(axis=1)
     tree = cKDTree(cen)
     d0, _ = tree.query(pts)
-    out = np.empty(len(pts))
-    rmax = rad.max()
-    for i, p in enumerate(pts):
-        cand = np.asarray(tree.query_ball_point(p, d0[i] + rmax), dtype=np.int64)
-        out[i] = _point_triangle_distance(np.repeat(p[None], len(cand), 0), x[tri[cand]]).min()
+    out = np.full(len(pts), np.inf)
+    cands = tree.query_ball_point(pts, d0 + rad.max())  # every triangle that can be nearest
+    counts = np.fromiter((len(c) for c in cands), dtype=np.int64, count=len(pts))
+    point = np.repeat(np.arange(len(pts)), counts)
+    face = np.fromiter((f for c in cands for f in c), dtype=np.int64, count=int(counts.sum()))
+    for s in range(0, len(point), 1 << 18):  # all pairs at once, in chunks
+        i, f = point[s : s + (1 << 18)], face[s : s + (1 << 18)]
+        np.minimum.at(out, i, _point_triangle_distance(pts[i], x[tri[f]]))
     return out
 
 

@@ -160,7 +160,7 @@ def test_demos_exist():
 
 #: demos whose 2-rank script run is cheap enough for the default suite; the 2-rank runs of
 #: the others (10-90 s each) and the comparisons with them are marked slow (make test-all)
-TWO_RANKS_DEFAULT = {"knee2d", "long_bone", "contact_api"}
+TWO_RANKS_DEFAULT = {"long_bone", "contact_api"}
 
 
 def _marks(demo: str, nproc: int = 1) -> list:

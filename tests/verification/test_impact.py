@@ -263,10 +263,12 @@ fields_every = 0
 
 @pytest.mark.serial
 def test_dynamic_contact_scene_energy_columns(tmp_path):
-    """A dynamic contact scene through ``bonecontact run`` on 1, 2 and 3 ranks: the energy
+    """A dynamic contact scene through ``bonecontact run`` on 1 and 3 ranks: the energy
     columns of history.csv close the balance at every row (1e-9 of the energy), the
     closed (touching) contact does exactly no work, the load's work is positive, and
-    every rank count writes the same history (rtol 1e-8 with a 1e-8 column floor)."""
+    both rank counts write the same history (rtol 1e-8 with a 1e-8 column floor).  (This
+    module's other tests run in-process on 1 and 2 ranks; make test leaves them out of
+    its 3-rank session, so this is the dynamic contact's 3-rank run.)"""
     import csv
     import json
     import os
@@ -284,7 +286,7 @@ def test_dynamic_contact_scene_energy_columns(tmp_path):
     bin_ = Path(sys.executable).parent
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     tables = {}
-    for n in (1, 2, 3):
+    for n in (1, 3):
         out = tmp_path / f"out{n}"
         cmd = [str(bin_ / "bonecontact"), "run", str(scene), "-q", "-o", str(out)]
         if n > 1:
@@ -314,6 +316,6 @@ def test_dynamic_contact_scene_energy_columns(tmp_path):
     summary = json.loads((tmp_path / "out1" / "summary.json").read_text())
     assert summary["energy"]["final"] == pytest.approx(energy[-1], rel=1e-12)
     scale = np.abs(h).max(axis=0)
-    for n in (2, 3):
+    for n in (3,):
         assert tables[n].shape == h.shape
         assert np.all(np.abs(tables[n] - h) <= 1e-8 * (np.abs(h) + scale)), n

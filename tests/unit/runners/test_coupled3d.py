@@ -351,8 +351,12 @@ def _cyst_lame_run(mesh: Path, tmp: Path) -> np.ndarray:
     return _wall_ratio(res, R, f, B_BALL)
 
 
+@pytest.mark.serial
 def test_cyst_cavity_3d_matches_lame_sphere(ball_mesh, tmp_shared_path):
-    """Coarse: wall edge R/15 (the scene mesh's size at the cyst), 61k tetrahedra."""
+    """Coarse: wall edge R/15 (the scene mesh's size at the cyst), 61k tetrahedra.
+    Serial session only (a long verification case): the parallel 3D coupled run is
+    test_coupled_3d_same_on_one_and_three_ranks (a cyst scene on 1 and 3 ranks) and,
+    in-process on 2 ranks, test_growing_tumour_3d_is_embedded_at_its_volume."""
     ratio = _cyst_lame_run(ball_mesh, tmp_shared_path)
     assert len(ratio) > 500
     # P1 tetrahedra are too stiff at this size: measured mean 0.977 (0.958 ... 0.996)
@@ -372,7 +376,10 @@ def test_cyst_cavity_3d_matches_lame_sphere_fine(tmp_shared_path):
     assert np.abs(ratio - 1).max() < 0.015
 
 
+@pytest.mark.serial
 def test_soft_inclusion_3d_matches_eshelby(tmp_shared_path):
+    """Eshelby's soft sphere in a cube under uniaxial stress.  Serial session only (a long
+    verification case; its parallel coverage: test_cyst_cavity_3d_matches_lame_sphere)."""
     L, R, sigma0 = 0.02, 0.002, 1.0e6
     E_i, nu_i = E_BONE / 10, 0.3
     mesh, out = tmp_shared_path / "cube.msh", tmp_shared_path / "out"
