@@ -1,6 +1,6 @@
 """Every demo runs as a notebook (serially, in a Jupyter kernel, with its figures inline)
 and as a script under ``mpiexec -n 2``; both give the same results.  The default suite
-runs the 2-rank scripts of the cheap demos (``TWO_RANKS_DEFAULT``); the others' 2-rank
+runs the 2-rank script of the Python-API demo (``TWO_RANKS_DEFAULT``); the others' 2-rank
 runs and comparisons are marked ``slow`` (``make test-all``): their runners' parallel
 behaviour is tested on 2 and 3 ranks in the MPI sessions.
 
@@ -160,7 +160,7 @@ def test_demos_exist():
 
 #: demos whose 2-rank script run is cheap enough for the default suite; the 2-rank runs of
 #: the others (10-90 s each) and the comparisons with them are marked slow (make test-all)
-TWO_RANKS_DEFAULT = {"long_bone", "contact_api"}
+TWO_RANKS_DEFAULT = {"contact_api"}
 
 
 def _marks(demo: str, nproc: int = 1) -> list:

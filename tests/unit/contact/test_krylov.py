@@ -6,10 +6,12 @@ null vectors of the condensed operator); the direct solver (MUMPS LU, low-rank P
 the same load-driven problem; the reuse rule's definition.
 
 Measured on the load-driven 3D Hertz problem (hemisphere held in the load direction
-only by the contact, rtol 1e-12), Krylov iterations per PDAS iteration: serial 28–29 at
-4.6k dofs and 30–31 at 9.1k dofs, on 2 ranks 44–46 and 41–45; the iterative solution
-equals the direct one to 1e-12 (contrasts 1e3 and 1e4).  Without the condensed
-near-nullspace the same systems took 115–180 iterations.
+only by the contact, every solve to rtol 1e-12; coarse grid N/16), Krylov iterations
+per PDAS iteration: serial 24–28 at 4.6k dofs and 25–31 at 9.1k dofs, on 2 ranks 25–31
+and 27–34 (with GAMG's default coarse grid: serial 28–29 and 30–31, on 2 ranks 44–46
+and 41–45); with the default loose solves while the set changes 6–9 and then 24–26.
+The iterative solution equals the direct one to 1e-12 (contrasts 1e3 and 1e4).
+Without the condensed near-nullspace the same systems took 115–180 iterations.
 """
 
 from __future__ import annotations
