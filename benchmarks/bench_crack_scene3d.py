@@ -32,70 +32,20 @@ from common import machine, write_rows  # (benchmarks/ is the script directory)
 
 from bonecontact.runners.dispatch import run_scene
 from bonecontact.scene import load_scene
+from bonecontact.verification.problems import crack_block_model, crack_block_scene
 
 COMM = MPI.COMM_WORLD
 OUT = Path(__file__).resolve().parent / "results"
 A, W, E, NU, SIGMA = 1.0e-3, 4.0e-3, 17.0e9, 0.3, 1.0e6
 BETA = math.radians(30.0)
 
-SCENE = """format = 1
-[scene]
-name = "penny3d"
-mesh = "block.msh"
-dimension = 3
-[analysis]
-kind = "static"
-load_steps = 1
-[[material]]
-name = "bone"
-regions = ["block"]
-model = "isotropic"
-E = {E}
-nu = {nu}
-sigma_t = 133e6
-[[dirichlet]]
-boundary = "xmin"
-value = [0.0, "free", "free"]
-[[dirichlet]]
-boundary = "ymin"
-value = ["free", 0.0, "free"]
-[[dirichlet]]
-boundary = "zmin"
-value = ["free", "free", 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, 0.0, {sigma}]
-[fracture]
-tip_size = {h}
-tip_grading = 0.12
-[[crack]]
-name = "penny"
-centre = [0.0, 0.0, 0.0]
-normal = [{nx}, 0.0, {nz}]
-radius = {a}
-region = "block"
-front_points = 8
-[output]
-fields_every = 0
-"""
-
 
 def block_mesh(path: Path) -> None:
-    """The scene's block [−W, W]³ (cells "block"; faces xmin, ymin, zmin, top), rank 0."""
+    """The scene's block [−W, W]³ (``crack_block_model``), meshed on rank 0."""
     if COMM.rank == 0:
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
-        occ = gmsh.model.occ
-        box = occ.addBox(-W, -W, -W, 2 * W, 2 * W, 2 * W)
-        occ.synchronize()
-        gmsh.model.addPhysicalGroup(3, [box], 1, name="block")
-        com = {t: occ.getCenterOfMass(2, t) for _, t in gmsh.model.getEntities(2)}
-        for k, (name, ax, v) in enumerate(
-            [("xmin", 0, -W), ("ymin", 1, -W), ("zmin", 2, -W), ("top", 2, W)], start=2
-        ):
-            sel = [t for t, c in com.items() if abs(c[ax] - v) < 1e-9 * W]
-            gmsh.model.addPhysicalGroup(2, sel, k, name=name)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", W / 2)
+        crack_block_model(W)
         gmsh.model.mesh.generate(3)
         gmsh.write(str(path))
         gmsh.finalize()
@@ -127,8 +77,9 @@ def level(directory: Path, n: int) -> dict:
     if COMM.rank == 0:
         d.mkdir(parents=True, exist_ok=True)
         (d / "block.msh").symlink_to(directory / "block.msh")
-        text = SCENE.format(
-            E=E, nu=NU, sigma=SIGMA, h=A / n, nx=math.sin(BETA), nz=math.cos(BETA), a=A
+        shape = f"centre = [0.0, 0.0, 0.0]\nnormal = [{math.sin(BETA)}, 0.0, {math.cos(BETA)}]"
+        text = crack_block_scene(
+            "block.msh", f"{shape}\nradius = {A}", E=E, nu=NU, sigma=SIGMA, h=A / n
         )
         (d / "scene.toml").write_text(text)
     COMM.barrier()

@@ -1,13 +1,16 @@
 """Verification problems shared by the tests and the benchmarks.
 
 :func:`solve_hertz_3d`: a hemisphere pressed on a block, solved by the PDAS and
-compared with Hertz's solution.
+compared with Hertz's solution.  :func:`crack_block_model` and
+:func:`crack_block_scene`: a planar crack in a block under uniaxial stress, as a mesh
+and a scene (the 3D crack-scene tests and benchmark).
 """
 
 from __future__ import annotations
 
 from mpi4py import MPI
 
+import gmsh
 import numpy as np
 
 from bonecontact.contact.interface import build_interface
@@ -18,7 +21,14 @@ from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing import shapes as meshing
 from bonecontact.verification.analytic import hertz_3d
 
-__all__ = ["HERTZ_3D_NU", "HERTZ_3D_RADIUS", "solve_hertz_3d"]
+__all__ = [
+    "CRACK_BLOCK_SCENE",
+    "HERTZ_3D_NU",
+    "HERTZ_3D_RADIUS",
+    "crack_block_model",
+    "crack_block_scene",
+    "solve_hertz_3d",
+]
 
 #: Sphere radius (m) and Poisson ratio of :func:`solve_hertz_3d`.
 HERTZ_3D_RADIUS, HERTZ_3D_NU = 0.01, 0.3
@@ -82,3 +92,93 @@ def solve_hertz_3d(
     }
     integ.destroy()
     return out
+
+
+# ----------------------------------------------------------------------------- crack in a block
+#: Scene of a planar ``[[crack]]`` in the block of :func:`crack_block_model` (SI units):
+#: rollers on xmin, ymin, zmin, a normal traction ``sigma`` on top, K along the front.
+#: Placeholders: mesh, regions, E, nu, sigma, h (front element size), geometry (the
+#: crack's shape keys), points (front points).
+CRACK_BLOCK_SCENE = """format = 1
+[scene]
+name = "penny3d"
+mesh = "{mesh}"
+dimension = 3
+[analysis]
+kind = "static"
+load_steps = 1
+[[material]]
+name = "bone"
+regions = {regions}
+model = "isotropic"
+E = {E}
+nu = {nu}
+sigma_t = 133e6
+[[dirichlet]]
+boundary = "xmin"
+value = [0.0, "free", "free"]
+[[dirichlet]]
+boundary = "ymin"
+value = ["free", 0.0, "free"]
+[[dirichlet]]
+boundary = "zmin"
+value = ["free", "free", 0.0]
+[[traction]]
+boundary = "top"
+value = [0.0, 0.0, {sigma}]
+[fracture]
+tip_size = {h}
+tip_grading = 0.12
+[[crack]]
+name = "penny"
+{geometry}
+region = "block"
+front_points = {points}
+[output]
+fields_every = 0
+"""
+
+
+def crack_block_scene(
+    mesh: str,
+    geometry: str,
+    *,
+    E: float,
+    nu: float,
+    sigma: float,
+    h: float,
+    regions: str = '["block"]',
+    points: int = 8,
+) -> str:
+    """The text of :data:`CRACK_BLOCK_SCENE`; ``geometry`` is the crack's shape keys, e.g.
+    ``"centre = [0.0, 0.0, 0.0]\\nnormal = [0.0, 0.0, 1.0]\\nradius = 0.001"``."""
+    return CRACK_BLOCK_SCENE.format(
+        mesh=mesh, regions=regions, E=E, nu=nu, sigma=sigma, h=h, geometry=geometry, points=points
+    )
+
+
+def crack_block_model(half_width: float, insert: bool = False) -> None:
+    """The block ``[−W, W]³`` in the current gmsh model (``W = half_width``): cell group
+    "block" (with ``insert``: the slab ``z > W/2`` is the group "insert"), facet groups
+    xmin, ymin, zmin and top, largest element ``W/2`` (the crack's front sets the size
+    near it).  Call on the rank that builds the mesh, between ``gmsh.initialize`` and
+    ``gmsh.model.mesh.generate``."""
+    W = half_width
+    occ = gmsh.model.occ
+    box = occ.addBox(-W, -W, -W, 2 * W, 2 * W, 2 * W)
+    if insert:
+        occ.fragment([(3, box)], [(3, occ.addBox(-W, -W, W / 2, 2 * W, 2 * W, W / 2))])
+    occ.synchronize()
+    vols = [t for _, t in gmsh.model.getEntities(3)]
+    upper = [v for v in vols if occ.getCenterOfMass(3, v)[2] > W / 2]
+    gmsh.model.addPhysicalGroup(3, [v for v in vols if v not in upper], 1, name="block")
+    if insert:
+        gmsh.model.addPhysicalGroup(3, upper, 6, name="insert")
+    faces = [t for _, t in gmsh.model.getEntities(2)]
+    com = {f: occ.getCenterOfMass(2, f) for f in faces}
+    for k, (name, ax, v) in enumerate(
+        [("xmin", 0, -W), ("ymin", 1, -W), ("zmin", 2, -W), ("top", 2, W)], start=2
+    ):
+        sel = [f for f in faces if abs(com[f][ax] - v) < 1e-9 * W]
+        gmsh.model.addPhysicalGroup(2, sel, k, name=name)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", W / 2)

@@ -52,6 +52,7 @@ from coupled_support import gmsh_on_rank0, read_csv, run_text
 from bonecontact.fracture.front3d import irwin_k
 from bonecontact.runners.dispatch import check
 from bonecontact.scene import SceneError, load_scene
+from bonecontact.verification.problems import crack_block_model, crack_block_scene
 
 A = 1.0e-3  # crack radius, m
 W = 4 * A  # half-width of the block
@@ -59,67 +60,10 @@ E, NU, SIGMA = 17.0e9, 0.3, 1.0e6
 REF = 2 * SIGMA * math.sqrt(A / math.pi)
 BETA = math.radians(30.0)
 
-SCENE = """format = 1
-[scene]
-name = "penny3d"
-mesh = "{mesh}"
-dimension = 3
-[analysis]
-kind = "static"
-load_steps = 1
-[[material]]
-name = "bone"
-regions = {regions}
-model = "isotropic"
-E = {E}
-nu = {nu}
-sigma_t = 133e6
-[[dirichlet]]
-boundary = "xmin"
-value = [0.0, "free", "free"]
-[[dirichlet]]
-boundary = "ymin"
-value = ["free", 0.0, "free"]
-[[dirichlet]]
-boundary = "zmin"
-value = ["free", "free", 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, 0.0, {sigma}]
-[fracture]
-tip_size = {h}
-tip_grading = 0.12
-[[crack]]
-name = "penny"
-{geometry}
-region = "block"
-front_points = {points}
-[output]
-fields_every = 0
-"""
-
 
 def _block(gmsh, insert: bool = False) -> None:
-    """[−W, W]³, cell group "block" (with ``insert``: the slab z > W/2 is "insert"),
-    facet groups xmin, ymin, zmin, top."""
-    occ = gmsh.model.occ
-    box = occ.addBox(-W, -W, -W, 2 * W, 2 * W, 2 * W)
-    if insert:
-        occ.fragment([(3, box)], [(3, occ.addBox(-W, -W, W / 2, 2 * W, 2 * W, W / 2))])
-    occ.synchronize()
-    vols = [t for _, t in gmsh.model.getEntities(3)]
-    upper = [v for v in vols if occ.getCenterOfMass(3, v)[2] > W / 2]
-    gmsh.model.addPhysicalGroup(3, [v for v in vols if v not in upper], 1, name="block")
-    if insert:
-        gmsh.model.addPhysicalGroup(3, upper, 6, name="insert")
-    faces = [t for _, t in gmsh.model.getEntities(2)]
-    com = {f: occ.getCenterOfMass(2, f) for f in faces}
-    for k, (name, ax, v) in enumerate(
-        [("xmin", 0, -W), ("ymin", 1, -W), ("zmin", 2, -W), ("top", 2, W)], start=2
-    ):
-        sel = [f for f in faces if abs(com[f][ax] - v) < 1e-9 * W]
-        gmsh.model.addPhysicalGroup(2, sel, k, name=name)
-    gmsh.option.setNumber("Mesh.MeshSizeMax", W / 2)
+    """[−W, W]³ (``crack_block_model``; with ``insert``: the slab z > W/2 is "insert")."""
+    crack_block_model(W, insert)
 
 
 def _text(mesh: str, **kw) -> str:
@@ -138,7 +82,16 @@ def _text(mesh: str, **kw) -> str:
     values.update(kw)
     if "geometry" not in values:
         values["geometry"] = "centre = {centre}\nnormal = {normal}\n{size}".format(**values)
-    return SCENE.format(**values)
+    return crack_block_scene(
+        values["mesh"],
+        values["geometry"],
+        E=values["E"],
+        nu=values["nu"],
+        sigma=values["sigma"],
+        h=values["h"],
+        regions=values["regions"],
+        points=values["points"],
+    )
 
 
 @pytest.fixture(scope="module")
