@@ -815,10 +815,6 @@ class Checkpointer:
         }
         self.last = path
 
-    def count(self, linear: int, pdas: int | None = None, bound_updates: int | None = None) -> None:
-        """Book a step's iteration counts (:meth:`RunCounters.add`)."""
-        self.counters.add(linear, pdas, bound_updates)
-
     def after_step(self, last: bool = False) -> int:
         """Between steps (collective): write a checkpoint when one is due
         (:class:`CheckpointSchedule`) or a signal came.
