@@ -47,6 +47,7 @@ from bonecontact.scene.spec import (
     FRICTION_LAWS,
     LINEAR_SOLVERS,
     NEOPLASM_KINDS,
+    UNHELD_MOTION_CHOICES,
     Analysis,
     ContactSpec,
     CystSpec,
@@ -96,7 +97,7 @@ TOP_LEVEL_KEYS = (
     "crack",
 )
 SCENE_KEYS = ("name", "mesh", "dimension")
-ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps")
+ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps", "unheld_motion")
 SOLVER_KEYS = ("linear", "tolerance", "max_iterations")
 CONTACT_KEYS = (
     "name",
@@ -380,7 +381,8 @@ def _read_analysis(doc: Mapping[str, Any]) -> Analysis:
         raise tab.error("dt", f"must be <= t_end = {t_end!r}, got {dt!r}")
     load_steps = tab.integer("load_steps", default=1, minimum=1)
     assert load_steps is not None
-    return Analysis(kind=kind, t_end=t_end, dt=dt, load_steps=load_steps)  # type: ignore[arg-type]
+    unheld = tab.string("unheld_motion", default="error", choices=UNHELD_MOTION_CHOICES)
+    return Analysis(kind=kind, t_end=t_end, dt=dt, load_steps=load_steps, unheld_motion=unheld)  # type: ignore[arg-type]
 
 
 def _read_solver(doc: Mapping[str, Any]) -> SolverOptions:

@@ -45,6 +45,7 @@ __all__ = [
 ]
 
 ANALYSIS_KINDS = ("static", "quasistatic", "dynamic")
+UNHELD_MOTION_CHOICES = ("error", "warn")
 LINEAR_SOLVERS = ("direct", "iterative")
 FRICTION_LAWS = ("none", "tresca", "coulomb")
 COULOMB_UPDATES = ("previous_step", "fixed_point")
@@ -153,12 +154,17 @@ class Analysis:
         Time step (s), ``0 < dt <= t_end``; same rules as ``t_end``.
     load_steps
         Number of load increments of a static analysis (>= 1).
+    unheld_motion
+        What a rigid motion of a body that no support and no contact holds is
+        (docs/theory/rigid_motions.md): ``"error"`` (default: the scene is refused) or
+        ``"warn"``.
     """
 
     kind: Literal["static", "quasistatic", "dynamic"] = "static"
     t_end: float | None = None
     dt: float | None = None
     load_steps: int = 1
+    unheld_motion: Literal["error", "warn"] = "error"
 
     @property
     def n_steps(self) -> int:
