@@ -43,7 +43,7 @@
 # ## Mechanics
 # Each analysis solves, on the mesh rebuilt around the tumour, from an unstressed state,
 # linear elasticity in both bones with unilateral contact and Coulomb friction
-# ($\mu = 0.1$) between the cartilage layers (dual mortar, `docs/theory/contact.md`):
+# ($\mu = 0.1$) between the cartilage layers (dual mortar, `docs/theory/mortar.md`, `docs/theory/pdas.md`):
 #
 # $$-\nabla\cdot\mathbb C\,e(u) = 0, \qquad u = 0 \ \text{on the cut of the tibia},
 # \qquad \sigma n = -\frac{W}{A}\,e_y \ \text{on the cut of the femur},$$

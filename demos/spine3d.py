@@ -55,7 +55,7 @@
 # lower endplate of L4}, \qquad \sigma n = t \ \text{on the upper endplate of L3},$$
 #
 # unilateral frictionless contact between the articular facets of L3 and L4 (dual mortar,
-# `docs/theory/contact.md`; no cartilage layer and no capsule: the facets of these
+# `docs/theory/mortar.md`, `docs/theory/pdas.md`; no cartilage layer and no capsule: the facets of these
 # surfaces are bone on bone), the rest of the surface free (the ligaments and the
 # muscles are not modelled).  Materials (data/materials.toml): cortical bone $E = 17$ GPa,
 # $\nu = 0.3$; vertebral cancellous bone $E = 723$ MPa, $\nu = 0.25$; the disc as one
