@@ -233,6 +233,18 @@ def _counter_clockwise(
     return verts[::-1].copy(), np.roll(tags[::-1], -1).copy()
 
 
+def _canonical_start(
+    verts: npt.NDArray[np.float64], tags: npt.NDArray[np.int32]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
+    """The loop rotated to start at its lexicographically smallest vertex (x, then y).
+
+    The facets are gathered in rank order, so the chain starts wherever the first rank's
+    first facet lies; gmsh meshes a loop differently from another start point (3802 dofs
+    on one rank, 3804 on two).  Rotated, the loop is the same on any number of ranks."""
+    k = int(np.lexsort((verts[:, 1], verts[:, 0]))[0])
+    return np.roll(verts, -k, axis=0), np.roll(tags, -k)
+
+
 def body_outline(
     msh: mesh.Mesh,
     cell_tags: mesh.MeshTags,
@@ -265,8 +277,12 @@ def body_outline(
     edges, tags = _boundary_edges(msh, facet_tags)
     scale = float(np.ptp(edges.reshape(-1, 2), axis=0).max())
     loops = _chain_loops(edges, tags, 1e-9 * scale)
-    merged = [_counter_clockwise(*_merge_collinear(v, t)) for v, t in loops]
-    merged.sort(key=lambda vt: -abs(_signed_area(vt[0])))
+    merged = [_canonical_start(*_counter_clockwise(*_merge_collinear(v, t))) for v, t in loops]
+    # the outer loop first, the holes by their first vertex (ties in area cannot reorder)
+    outer = max(range(len(merged)), key=lambda i: abs(_signed_area(merged[i][0])))
+    holes = [vt for i, vt in enumerate(merged) if i != outer]
+    holes.sort(key=lambda vt: tuple(vt[0][0]))
+    merged = [merged[outer], *holes]
     h_max = float(np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1).max())
     names = {t: n for n, (d, t) in groups.items() if d == tdim - 1}
     return BodyOutline(
