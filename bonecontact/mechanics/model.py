@@ -33,6 +33,7 @@ from bonecontact.forms.mass import mass_form
 from bonecontact.forms.viscous import viscous_form
 from bonecontact.materials.constitutive import MaterialFields, material_fields
 from bonecontact.materials.laws import Material
+from bonecontact.mechanics.forces import FacetMeasures, facet_measures, force_traction
 
 __all__ = ["Mechanics", "Schedule", "constant_schedule"]
 
@@ -214,6 +215,32 @@ class Mechanics:
         self.add_load(
             traction_form(self._vector(value), self._v, self._measure("ds", tags)), schedule
         )
+
+    def group_measures(self, tags: int | Sequence[int]) -> FacetMeasures:
+        """Reference area (2D: length), centroid and second moments of the facets with
+        ``tags`` (collective; :func:`~bonecontact.mechanics.forces.facet_measures`)."""
+        return facet_measures(self.mesh, self._measure("ds", tags))
+
+    def add_force(
+        self,
+        tags: int | Sequence[int],
+        force: Sequence[float],
+        schedule: Schedule = constant_schedule,
+        moment: Sequence[float] | float | None = None,
+        point: Sequence[float] | None = None,
+    ) -> FacetMeasures:
+        """Total force (N; N/m in 2D) on the facets with ``tags``, spread as a uniform
+        traction over their reference area; with ``moment`` (N·m; 2D: a number, N·m/m)
+        a linearly varying traction is added so that the load's moment about ``point``
+        (default: the centroid) is ``moment`` (:mod:`bonecontact.mechanics.forces`).
+
+        Collective (the area is assembled).  Returns the group's measures; raises
+        ``ValueError`` for a group of zero area (on every rank).
+        """
+        measures = self.group_measures(tags)
+        traction = force_traction(self.mesh, measures, force, moment, point)
+        self.add_load(traction_form(traction, self._v, self._measure("ds", tags)), schedule)
+        return measures
 
     def add_pressure(
         self, tags: int | Sequence[int], value, schedule: Schedule = constant_schedule

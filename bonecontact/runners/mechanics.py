@@ -50,6 +50,7 @@ from bonecontact.runners.results import (
 from bonecontact.scene import Scene, SceneError, check_against_mesh
 from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
 from bonecontact.scene.mesh_checks import check_mesh
+from bonecontact.scene.spec import LoadSpec
 
 __all__ = [
     "SceneModel",
@@ -188,14 +189,29 @@ def _add_dirichlet(scene: Scene, model: Mechanics, tag: dict[str, int]) -> None:
 
 
 def _add_loads(scene: Scene, model: Mechanics, tag: dict[str, int]) -> None:
+    counters: dict[str, int] = {}
     for ld in scene.loads:
         tags = [tag[n] for n in ld.target]
+        counters[ld.kind] = counters.get(ld.kind, 0) + 1
         if ld.kind == "traction":
             model.add_traction(tags, ld.value, ld.schedule)
+        elif ld.kind == "force":
+            _add_force(scene, model, tags, ld, counters[ld.kind])
         elif ld.kind == "pressure":
             model.add_pressure(tags, float(ld.value), ld.schedule)
         else:
             model.add_body_force(ld.value, tags, ld.schedule)
+
+
+def _add_force(scene: Scene, model: Mechanics, tags: list[int], ld: LoadSpec, number: int) -> None:
+    """One ``[[force]]`` (collective); a group that cannot carry it is a SceneError."""
+    try:
+        model.add_force(tags, ld.value, ld.schedule, ld.moment, ld.point)
+    except ValueError as exc:
+        key = "moment" if ld.moment is not None and "line" in str(exc) else "boundary"
+        raise SceneError(
+            str(scene.path), f"[[force]] #{number}", key, f'group "{ld.target[0]}": {exc}'
+        ) from None
 
 
 def _initial_velocity(scene: Scene, model: Mechanics, tag: dict[str, int]) -> fem.Function | None:

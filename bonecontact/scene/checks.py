@@ -318,7 +318,7 @@ def check_load_targets(
                 mesh.cell(r, label, "regions")
             continue
         tag = mesh.facet(load.target[0], label, "boundary")
-        if load.kind == "traction":
+        if load.kind in ("traction", "force"):
             assert isinstance(load.value, tuple)
             for comp, v in enumerate(load.value):
                 if v != 0.0 and (tag, comp) in fixed:
@@ -594,6 +594,8 @@ def _load_strains(
         label = table_label(load.kind, counters[load.kind])
         counters[load.kind] += 1
         peak = _peak(load.schedule.factors)
+        if load.kind == "force":  # N, not Pa: its traction needs the group's area (the model)
+            continue
         if load.kind == "body_force":
             regions = [r for r in load.target if r in scene.cell_regions]
             E, name = _soft(scene, [scene.material_of(r).name for r in regions])

@@ -90,6 +90,7 @@ TOP_LEVEL_KEYS = (
     "traction",
     "pressure",
     "body_force",
+    "force",
     "initial_velocity",
     "output",
     "neoplasm",
@@ -114,6 +115,7 @@ DIRICHLET_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 TRACTION_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 PRESSURE_KEYS = ("boundary", "value") + SCHEDULE_KEYS
 BODY_FORCE_KEYS = ("regions", "value") + SCHEDULE_KEYS
+FORCE_KEYS = ("boundary", "value", "moment", "point") + SCHEDULE_KEYS
 INITIAL_VELOCITY_KEYS = ("regions", "value")
 OUTPUT_KEYS = ("directory", "fields_every", "probes", "checkpoint_every", "checkpoint_time")
 
@@ -149,6 +151,7 @@ MECHANICS_TABLES = (
     "traction",
     "pressure",
     "body_force",
+    "force",
     "initial_velocity",
     "fracture",
     "crack",
@@ -599,16 +602,44 @@ def _read_dirichlet(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[Dir
     return tuple(specs)
 
 
+def _read_moment(tab: _Table, dim: int) -> tuple[tuple[float, ...] | float | None, Any]:
+    """``[[force]]`` ``moment`` and ``point``: ``(moment, point)``, ``(None, None)`` without."""
+    if not tab.has("moment"):
+        if tab.has("point"):
+            raise tab.error(
+                "point",
+                "is the point the moment is taken about, but no moment is given "
+                "(add moment = ..., or remove point)",
+            )
+        return None, None
+    moment: tuple[float, ...] | float
+    if dim == 2:
+        raw = tab.raw("moment", True)
+        if isinstance(raw, list):
+            raise tab.error(
+                "moment",
+                "must be a single number in 2D (the moment about the z axis, N·m per m of "
+                f"thickness), got an array of {len(raw)}",
+            )
+        moment = tab._as_number("moment", raw)
+    else:
+        moment = tab.vector("moment", 3)
+    point = tab.vector("point", dim) if tab.has("point") else None
+    return moment, point
+
+
 def _read_loads(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[LoadSpec, ...]:
     specs: list[LoadSpec] = []
     for kind, keys in (
         ("traction", TRACTION_KEYS),
         ("pressure", PRESSURE_KEYS),
         ("body_force", BODY_FORCE_KEYS),
+        ("force", FORCE_KEYS),
     ):
         for i, entry in enumerate(_array_of_tables(doc, kind)):
             tab = _Table(entry, table_label(kind, i))
             tab.check_keys(keys)
+            moment, point = _read_moment(tab, dim) if kind == "force" else (None, None)
             target: tuple[str, ...]
             value: tuple[float, ...] | float
             if kind == "body_force":
@@ -628,7 +659,16 @@ def _read_loads(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[LoadSpe
                 else:
                     value = tab.vector("value", dim)
             sched = tab.schedule() or _default_schedule(static)
-            specs.append(LoadSpec(kind=kind, target=target, value=value, schedule=sched))  # type: ignore[arg-type]
+            specs.append(
+                LoadSpec(
+                    kind=kind,  # type: ignore[arg-type]
+                    target=target,
+                    value=value,
+                    schedule=sched,
+                    moment=moment,
+                    point=point,
+                )
+            )
     return tuple(specs)
 
 

@@ -49,7 +49,7 @@ UNHELD_MOTION_CHOICES = ("error", "warn")
 LINEAR_SOLVERS = ("direct", "iterative")
 FRICTION_LAWS = ("none", "tresca", "coulomb")
 COULOMB_UPDATES = ("previous_step", "fixed_point")
-LOAD_KINDS = ("traction", "pressure", "body_force")
+LOAD_KINDS = ("traction", "pressure", "body_force", "force")
 NEOPLASM_KINDS = ("tumour", "cyst")
 CYST_MODELS = ("sphere", "shape")
 
@@ -298,26 +298,36 @@ class DirichletSpec:
 
 @dataclass(frozen=True)
 class LoadSpec:
-    """One ``[[traction]]``, ``[[pressure]]`` or ``[[body_force]]`` entry.
+    """One ``[[traction]]``, ``[[pressure]]``, ``[[body_force]]`` or ``[[force]]`` entry.
 
     Parameters
     ----------
     kind
-        ``"traction"``, ``"pressure"`` or ``"body_force"``.
+        ``"traction"``, ``"pressure"``, ``"body_force"`` or ``"force"``.
     target
-        ``(boundary,)`` for traction and pressure (a facet group), the cell
+        ``(boundary,)`` for traction, pressure and force (a facet group), the cell
         regions for a body force.
     value
         Traction vector (Pa), scalar pressure (Pa, positive pushes into the
-        body) or body-force vector (N/m³).
+        body), body-force vector (N/m³) or total force vector (N; N/m in 2D plane
+        strain), spread uniformly over the boundary's reference area.
     schedule
-        Time factor of ``value``.
+        Time factor of ``value`` (and of ``moment``).
+    moment
+        ``[[force]]`` only: total moment of the load about ``point`` (N·m; 2D: the
+        z-component, a number, in N·m/m), given by a linearly varying traction added to
+        the uniform one (docs/scene_format.md#force); ``None``: no moment prescribed.
+    point
+        ``[[force]]`` only: the point ``moment`` is taken about (m); ``None``: the
+        centroid of the boundary.
     """
 
-    kind: Literal["traction", "pressure", "body_force"]
+    kind: Literal["traction", "pressure", "body_force", "force"]
     target: tuple[str, ...]
     value: tuple[float, ...] | float
     schedule: Schedule = field(default_factory=Schedule)
+    moment: tuple[float, ...] | float | None = None
+    point: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -461,7 +471,7 @@ class Scene:
     materials, contacts, dirichlet, initial_velocities
         The entries of the arrays of tables, in file order.
     loads
-        Tractions, then pressures, then body forces, each in file order.
+        Tractions, then pressures, then body forces, then forces, each in file order.
     output
         ``[output]``.
     raw
