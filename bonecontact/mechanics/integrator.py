@@ -275,13 +275,7 @@ class Integrator:
         self.t = 0.0
         self.step_count = 0
         t0 = _time.perf_counter()
-        has_visc = model.fields.has_viscosity
-        if kind == "static":
-            coeffs = (0.0, 1.0, 0.0)
-        elif kind == "quasistatic":
-            coeffs = (0.0, self.dt, 1.0 if has_visc else 0.0)
-        else:
-            coeffs = (1.0, self.dt**2, self.dt if has_visc else 0.0)
+        coeffs, force_scale = self.scheme_coefficients()
         if kind == "dynamic":
             _ = model.M  # raises a clear error without density
         self.A = model.combined_operator(*coeffs)
@@ -307,7 +301,7 @@ class Integrator:
         if contact is not None:
             self.ksp = None
             contact.setup(
-                self.A_bc, self._bc_rows, force_scale=1.0 / coeffs[1], linear=linear, rtol=rtol
+                self.A_bc, self._bc_rows, force_scale=force_scale, linear=linear, rtol=rtol
             )
         else:
             nns = rigid_body_modes(V) if linear == "iterative" else None
@@ -325,6 +319,20 @@ class Integrator:
             self._reset_balance()
 
     # -------------------------------------------------------------- set-up
+    def scheme_coefficients(self) -> tuple[tuple[float, float, float], float]:
+        """``(c_M, c_K, c_V)`` of the step operator c_M M + c_K K + c_V Kv (module
+        docstring) and the factor turning its forces into physical ones (1/c_K).  A
+        scheme in a subclass (:class:`~bonecontact.mechanics.newmark.StabilizedNewmark`)
+        overrides it."""
+        has_visc = self.model.fields.has_viscosity
+        if self.kind == "static":
+            coeffs = (0.0, 1.0, 0.0)
+        elif self.kind == "quasistatic":
+            coeffs = (0.0, self.dt, 1.0 if has_visc else 0.0)
+        else:
+            coeffs = (1.0, self.dt**2, self.dt if has_visc else 0.0)
+        return coeffs, 1.0 / coeffs[1]
+
     def set_initial(self, u0: fem.Function | None = None, v0: fem.Function | None = None) -> None:
         """Initial displacement u⁰ and velocity u¹ (u⁻¹ = u⁰ − Δt u¹)."""
         self.u_n.x.array[:] = 0.0 if u0 is None else u0.x.array
