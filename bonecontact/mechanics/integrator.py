@@ -309,6 +309,14 @@ class Integrator:
         self.setup_time = _time.perf_counter() - t0
         self._b, self._w = self.A.createVecs()
         self._F = self._b.duplicate()
+        self._rhs0 = self._b.duplicate()
+        #: force residual r of the last step (owned entries): the support and contact forces
+        self.residual = self._b.duplicate()
+        self.residual.zeroEntries()
+        #: inertial force M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt² of the last step (dynamic only)
+        self.inertia = self._b.duplicate() if kind == "dynamic" else None
+        if self.inertia is not None:
+            self.inertia.zeroEntries()
         self._coeffs = coeffs
         self.energy_balance = bool(energy_balance)
         self.last_balance: EnergyBalance | None = None
@@ -424,6 +432,7 @@ class Integrator:
         t = (self.step_count + 1) * self.dt  # not a running sum: no round-off drift in t
         t0 = _time.perf_counter()
         b = self.rhs(t)
+        b.copy(self._rhs0)
         self.apply_dirichlet(t, b)
         if self.contact is not None:
             self.last_contact = self.contact.solve(b, self.u)
@@ -431,11 +440,33 @@ class Integrator:
         else:
             its = self.solve_linear(b, self.u)
         self._check_finite(t)
+        self._residual_force()
         if self.energy_balance:
             self.last_balance = self._balance_step()
             self.balance.accumulate(self.last_balance)
         self._advance(t)
         return StepInfo(self.step_count, t, its, _time.perf_counter() - t0)
+
+    @property
+    def load(self) -> PETSc.Vec:
+        """The external load vector F(t) of the last step (owned entries; N, N/m in 2D)."""
+        return self._F
+
+    def _residual_force(self) -> None:
+        """r = M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt² + K uⁿ⁺¹ + Kv vⁿ⁺¹ − Fⁿ⁺¹ of the step just solved, as
+        ``(A uⁿ⁺¹ − b)/c_K`` with ``b`` the right-hand side before Dirichlet lifting; nonzero
+        only where supports and contact act (elsewhere: solver tolerance).  Dynamic runs
+        also get the inertial term ``M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt²``."""
+        r = self.residual
+        self.A.mult(self.u.x.petsc_vec, r)
+        r.axpy(-1.0, self._rhs0)
+        r.scale(1.0 / self._coeffs[1])
+        if self.inertia is not None:
+            w = self._w
+            w.waxpy(-2.0, self.u_n.x.petsc_vec, self.u.x.petsc_vec)
+            w.axpy(1.0, self.u_nm1.x.petsc_vec)
+            self.M.mult(w, self.inertia)
+            self.inertia.scale(1.0 / self.dt**2)
 
     def _check_finite(self, t: float) -> None:
         """Raise (on every rank) if the step's solution holds a NaN or an infinity."""
@@ -559,6 +590,9 @@ class Integrator:
         if self._dM is not None:
             for obj in (self._dM, self.M):
                 obj.destroy()
-        for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F):
+        for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F, self._rhs0):
+            if obj is not None:
+                obj.destroy()
+        for obj in (self.residual, self.inertia):
             if obj is not None:
                 obj.destroy()

@@ -30,6 +30,7 @@ from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver, PDASResult
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
+from bonecontact.mechanics.reactions import ForceMoment, SupportReactions, moment_components
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
 from bonecontact.runners.fracture_check import FractureMonitor, fracture_history_columns
@@ -75,6 +76,7 @@ class SceneModel:
     probes: Probes
     interfaces: list = None  # mortar.ContactInterface per [[contact]] pair
     issues: list = None  # PlausibilityIssue per implausible value (emitted as warnings)
+    supports: list = None  # (group, local facets, fixed components) per [[dirichlet]]
 
 
 # ----------------------------------------------------------------------------- set-up
@@ -146,7 +148,7 @@ def build_model(
     tag = {name: t for name, (d, t) in groups.items()}
     with timer.phase("model"):
         model = _mechanics(scene, md, tag)
-        _add_dirichlet(scene, model, tag)
+        supports = _add_dirichlet(scene, model, tag)
         _add_loads(scene, model, tag)
         v0 = _initial_velocity(scene, model, tag)
         try:
@@ -155,7 +157,7 @@ def build_model(
             raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
     with timer.phase("mortar_geometry"):
         interfaces = _contact_interfaces(scene, model, md, tag)
-    return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues)
+    return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues, supports)
 
 
 def _refuse_fracture_not_run(scene: Scene) -> None:
@@ -180,12 +182,18 @@ def _mechanics(scene: Scene, md: Any, tag: dict[str, int]) -> Mechanics:
     return Mechanics(md.mesh, materials, md.cell_tags, md.facet_tags)
 
 
-def _add_dirichlet(scene: Scene, model: Mechanics, tag: dict[str, int]) -> None:
+def _add_dirichlet(
+    scene: Scene, model: Mechanics, tag: dict[str, int]
+) -> list[tuple[str, np.ndarray, tuple[int, ...]]]:
+    """The scene's supports; returns (group, local facets, fixed components) of each."""
+    supports = []
     for d in scene.dirichlet:
         facets = model.facets(tag[d.boundary])
         for comp, val in enumerate(d.value):
             if val is not None:
                 model.add_dirichlet(facets, comp, float(val), d.schedule)
+        supports.append((d.boundary, facets, d.components))
+    return supports
 
 
 def _add_loads(scene: Scene, model: Mechanics, tag: dict[str, int]) -> None:
@@ -316,8 +324,13 @@ class Recorder:
                 ckpt.extra["fracture"] = self.fracture.checkpoint_state
                 if "fracture" in ckpt.resumed:
                     self.fracture.restore(ckpt.resumed["fracture"])
-        extra = (tuple(ENERGY_COLUMNS) if dynamic else ()) + (
-            fracture_history_columns(sm.model.dim) if self.fracture is not None else ()
+        self.reactions = SupportReactions(sm.model, sm.supports or [])
+        self.last_reactions = self.reactions.zero_record(dynamic)
+        self.max_defect = 0.0
+        extra = (
+            (tuple(ENERGY_COLUMNS) if dynamic else ())
+            + (fracture_history_columns(sm.model.dim) if self.fracture is not None else ())
+            + tuple(self.reactions.columns(dynamic))
         )
         self.writer = ResultsWriter(
             comm,
@@ -350,11 +363,47 @@ class Recorder:
                 self._write_fields(t)
             return
         self.strain.update()
-        self.writer.history([row + risk for row in self._history_rows(step, t)])
+        forces = self._reaction_values(step)
+        self.writer.history([row + risk + forces for row in self._history_rows(step, t)])
         self.writer.probe_rows(step, t, integ.u, integ.velocity, self.stress)
         if write_fields:
             self._write_fields(t)
             self.fields_written = step
+
+    def _reaction_values(self, step: int) -> list[float]:
+        """The reactions, load (and inertia) of the state just solved as history values
+        (zeros for the initial state); books the largest force-balance defect."""
+        integ = self.integ
+        if step == 0 or integ.step_count == 0:
+            rec = self.reactions.zero_record(self.dynamic)
+        else:
+            rec = self.reactions.record(integ.residual, integ.load, integ.inertia)
+            self.max_defect = max(self.max_defect, rec.defect())
+        self.last_reactions = rec
+        values = [v for g in rec.groups.values() for v in g.values()] + rec.load.values()
+        return values + (rec.inertia.values() if rec.inertia is not None else [])
+
+    def reaction_summary(self) -> dict[str, Any]:
+        """The ``reactions`` entry of summary.json: the last step's reaction of every
+        supported group, the load (and inertia) resultants and the largest relative
+        force-balance defect of the run."""
+        rec = self.last_reactions
+        gdim = self.sm.model.dim
+
+        def entry(fm: ForceMoment) -> dict[str, list[float]]:
+            return {"force": fm.force.tolist(), "moment": fm.moment.tolist()}
+
+        out: dict[str, Any] = {
+            "units": "N and N·m about the origin"
+            + (" (2D plane strain: per metre of thickness, N/m and N·m/m)" if gdim == 2 else ""),
+            "moment_components": list(moment_components(gdim)),
+            "groups": {name: entry(fm) for name, fm in rec.groups.items()},
+            "load": entry(rec.load),
+        }
+        if rec.inertia is not None:
+            out["inertia"] = entry(rec.inertia)
+        out["balance_defect_max"] = self.max_defect
+        return out
 
     def _history_rows(self, step: int, t: float) -> list[list]:
         """One history row per contact pair (one row without pairs); rewrites the contact tables."""
@@ -537,6 +586,7 @@ def finish_run(
     write summary.json, close the writer and warn of strains beyond small-strain
     validity (collective).  Returns the summary."""
     info["warnings"] = [str(i) for i in sm.issues]
+    info.setdefault("reactions", rec.reaction_summary())
     info["phases_s"] = timer.summary(comm)
     if message is not None:
         info["message"] = message
