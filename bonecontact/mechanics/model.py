@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
@@ -260,6 +261,27 @@ class Mechanics:
         self.add_load(
             body_force_form(self._vector(value), self._v, self._measure("dx", tags)), schedule
         )
+
+    def load_resultants(self, t: float = 0.0) -> list[npt.NDArray[np.float64]]:
+        """Total force (N; N/m in 2D) of each load without its schedule factor: the
+        component sums of its assembled vector (the model's time constant set to ``t``
+        for time-dependent forms).  Collective (one reduction)."""
+        self.t.value = t
+        bs = self.V.dofmap.index_map_bs
+        parts = np.zeros((len(self.loads), self.dim))
+        for k, ld in enumerate(self.loads):
+            vec = fem_petsc.assemble_vector(ld.form)
+            vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            parts[k] = vec.array_r.reshape(-1, bs)[:, : self.dim].sum(axis=0)
+            vec.destroy()
+        total = self.mesh.comm.allreduce(parts, op=MPI.SUM)
+        return [row for row in total]
+
+    def cell_measure(self, tags: int | Sequence[int] | None) -> float:
+        """Volume (2D: area) of the cells with ``tags`` (all for ``None``; collective)."""
+        one = fem.Constant(self.mesh, default_scalar_type(1.0))
+        local = fem.assemble_scalar(fem.form(one * self._measure("dx", tags)))
+        return float(self.mesh.comm.allreduce(local, op=MPI.SUM))
 
     def load_vector(self, t: float, b: PETSc.Vec) -> PETSc.Vec:
         """Assemble F(t) = Σ schedule_k(t) F_k into ``b`` (owned entries, ghosts accumulated)."""

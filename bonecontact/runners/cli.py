@@ -35,7 +35,7 @@ from bonecontact.meshing.stl import main as mesh_surface
 from bonecontact.runners.checkpoint import CheckpointError
 from bonecontact.runners.cracks import check_cracked, is_crack_scene
 from bonecontact.runners.dispatch import check, run_kind, run_scene
-from bonecontact.runners.mechanics import SceneModel, build_model
+from bonecontact.runners.mechanics import SceneModel, build_model, force_summary_lines
 from bonecontact.runners.plausibility import count_bodies, mesh_extent
 from bonecontact.scene import Scene, SceneError, format_error, load_scene
 from bonecontact.scene.checks import PlausibilityWarning
@@ -144,6 +144,8 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
     )
     rows.append(("groups used", f"cells: {', '.join(scene.cell_regions) or '-'}"))
     rows.append(("", f"facets: {', '.join(facets) or '-'}"))
+    if sm is not None:  # areas of the supported and loaded groups, total force of each load
+        rows += force_summary_lines(scene, sm)
     for c in scene.contacts:
         fr = "frictionless" if c.friction == "none" else c.friction
         rows.append(("contact", f"{c.name}: {c.slave} (slave) on {c.master} (master), {fr}"))

@@ -58,6 +58,7 @@ __all__ = [
     "book_step",
     "build_model",
     "finish_run",
+    "force_summary_lines",
     "read_mesh",
     "run_mechanics",
     "summary_header",
@@ -220,6 +221,47 @@ def _add_force(scene: Scene, model: Mechanics, tags: list[int], ld: LoadSpec, nu
         raise SceneError(
             str(scene.path), f"[[force]] #{number}", key, f'group "{ld.target[0]}": {exc}'
         ) from None
+
+
+def _vector_text(v: Any) -> str:
+    return "(" + ", ".join(f"{x:.6g}" for x in np.atleast_1d(v)) + ")"
+
+
+def force_summary_lines(scene: Scene, sm: SceneModel) -> list[tuple[str, str]]:
+    """(label, text) rows for ``bonecontact check``: the reference area (2D: length) of
+    every supported and loaded facet group (volume or area of body-force regions) and
+    the total force each load applies at schedule factor 1 (collective)."""
+    model, tag = sm.model, {name: t for name, (d, t) in sm.groups.items()}
+    two_d = scene.dimension == 2
+    size, unit = ("length", "m") if two_d else ("area", "m²")
+    rows: list[tuple[str, str]] = []
+    for name in dict.fromkeys(d.boundary for d in scene.dirichlet):
+        fixed = sorted({c for d in scene.dirichlet if d.boundary == name for c in d.components})
+        area = model.group_measures(tag[name]).area
+        comps = ", ".join("xyz"[c] for c in fixed)
+        rows.append(("supports", f"{name}: {size} {area:.6g} {unit}, fixes {comps}"))
+    resultants = model.load_resultants()
+    counters: dict[str, int] = {}
+    force_unit = "N/m" if two_d else "N"
+    for ld, total in zip(scene.loads, resultants, strict=True):
+        counters[ld.kind] = counters.get(ld.kind, 0) + 1
+        where = f"[[{ld.kind}]] #{counters[ld.kind]} on {', '.join(ld.target)}"
+        if ld.kind == "body_force":
+            vol = model.cell_measure([tag[r] for r in ld.target])
+            measure = f"{'area' if two_d else 'volume'} {vol:.6g} {'m²' if two_d else 'm³'}"
+        else:
+            measure = f"{size} {model.group_measures(tag[ld.target[0]]).area:.6g} {unit}"
+        peak = max(abs(f) for f in ld.schedule.factors)
+        rows.append(
+            (
+                "loads",
+                f"{where} ({measure}): total force {_vector_text(total)} {force_unit} "
+                f"at factor 1 (schedule peak {peak:.4g})",
+            )
+        )
+    if rows and two_d:
+        rows.append(("", "2D plane strain: forces are per metre of thickness (N/m)"))
+    return rows
 
 
 def _initial_velocity(scene: Scene, model: Mechanics, tag: dict[str, int]) -> fem.Function | None:
