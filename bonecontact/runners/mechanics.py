@@ -30,6 +30,7 @@ from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver, PDASResult
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
+from bonecontact.mechanics.newmark import make_integrator
 from bonecontact.mechanics.reactions import ForceMoment, SupportReactions, moment_components
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
@@ -51,6 +52,7 @@ from bonecontact.runners.results import (
 from bonecontact.scene import Scene, SceneError, check_against_mesh
 from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
 from bonecontact.scene.mesh_checks import check_mesh
+from bonecontact.scene.rigid_motions import check_rigid_motions
 from bonecontact.scene.spec import LoadSpec
 
 __all__ = [
@@ -78,6 +80,7 @@ class SceneModel:
     interfaces: list = None  # mortar.ContactInterface per [[contact]] pair
     issues: list = None  # PlausibilityIssue per implausible value (emitted as warnings)
     supports: list = None  # (group, local facets, fixed components) per [[dirichlet]]
+    unheld: list = None  # rigid motions nothing holds (scene.rigid_motions; warned about)
 
 
 # ----------------------------------------------------------------------------- set-up
@@ -146,6 +149,7 @@ def build_model(
             md, groups = mesh
         issues = scene_issues(scene, md, groups, comm)
     emit(issues)
+    unheld = check_rigid_motions(scene, md, groups, comm)  # docs/theory/rigid_motions.md
     tag = {name: t for name, (d, t) in groups.items()}
     with timer.phase("model"):
         model = _mechanics(scene, md, tag)
@@ -158,7 +162,7 @@ def build_model(
             raise SceneError(str(scene.path), "[output]", "probes", str(exc)) from None
     with timer.phase("mortar_geometry"):
         interfaces = _contact_interfaces(scene, model, md, tag)
-    return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues, supports)
+    return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues, supports, unheld)
 
 
 def _refuse_fracture_not_run(scene: Scene) -> None:
@@ -328,7 +332,8 @@ def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> 
             ],
         )
         contact = ContactSolver(model.V, sm.interfaces, options)
-    integ = Integrator(
+    integ = make_integrator(
+        scene.analysis.scheme,
         model,
         scene.analysis.kind,
         dt,

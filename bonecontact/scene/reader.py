@@ -47,6 +47,7 @@ from bonecontact.scene.spec import (
     FRICTION_LAWS,
     LINEAR_SOLVERS,
     NEOPLASM_KINDS,
+    SCHEME_CHOICES,
     UNHELD_MOTION_CHOICES,
     Analysis,
     ContactSpec,
@@ -98,7 +99,7 @@ TOP_LEVEL_KEYS = (
     "crack",
 )
 SCENE_KEYS = ("name", "mesh", "dimension")
-ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps", "unheld_motion")
+ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps", "unheld_motion", "scheme")
 SOLVER_KEYS = ("linear", "tolerance", "max_iterations")
 CONTACT_KEYS = (
     "name",
@@ -385,7 +386,15 @@ def _read_analysis(doc: Mapping[str, Any]) -> Analysis:
     load_steps = tab.integer("load_steps", default=1, minimum=1)
     assert load_steps is not None
     unheld = tab.string("unheld_motion", default="error", choices=UNHELD_MOTION_CHOICES)
-    return Analysis(kind=kind, t_end=t_end, dt=dt, load_steps=load_steps, unheld_motion=unheld)  # type: ignore[arg-type]
+    scheme = tab.string("scheme", default="backward-difference", choices=SCHEME_CHOICES)
+    return Analysis(
+        kind=kind,  # type: ignore[arg-type]
+        t_end=t_end,
+        dt=dt,
+        load_steps=load_steps,
+        unheld_motion=unheld,  # type: ignore[arg-type]
+        scheme=scheme,  # type: ignore[arg-type]
+    )
 
 
 def _read_solver(doc: Mapping[str, Any]) -> SolverOptions:

@@ -46,6 +46,8 @@ __all__ = [
 
 ANALYSIS_KINDS = ("static", "quasistatic", "dynamic")
 UNHELD_MOTION_CHOICES = ("error", "warn")
+#: ``[analysis] scheme``: the time scheme of a dynamic analysis (bonecontact.mechanics.newmark)
+SCHEME_CHOICES = ("backward-difference", "stabilized-newmark")
 LINEAR_SOLVERS = ("direct", "iterative")
 FRICTION_LAWS = ("none", "tresca", "coulomb")
 COULOMB_UPDATES = ("previous_step", "fixed_point")
@@ -158,6 +160,9 @@ class Analysis:
         What a rigid motion of a body that no support and no contact holds is
         (docs/theory/rigid_motions.md): ``"error"`` (default: the scene is refused) or
         ``"warn"``.
+    scheme
+        Time scheme of a dynamic analysis: ``"backward-difference"`` (default) or
+        ``"stabilized-newmark"`` (docs/theory/mechanics.md#contact-stabilised-newmark).
     """
 
     kind: Literal["static", "quasistatic", "dynamic"] = "static"
@@ -165,6 +170,7 @@ class Analysis:
     dt: float | None = None
     load_steps: int = 1
     unheld_motion: Literal["error", "warn"] = "error"
+    scheme: Literal["backward-difference", "stabilized-newmark"] = "backward-difference"
 
     @property
     def n_steps(self) -> int:

@@ -44,8 +44,9 @@ from dolfinx import fem, mesh
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.integrator import EnergyBalance, Integrator
+from bonecontact.mechanics.integrator import EnergyBalance
 from bonecontact.mechanics.model import Mechanics
+from bonecontact.mechanics.newmark import make_integrator
 
 __all__ = [
     "STRIKER",
@@ -264,6 +265,7 @@ def run_bar_impact(
     comm: MPI.Comm = MPI.COMM_WORLD,
     linear: str = "direct",
     integrator_options: dict | None = None,
+    scheme: str = "backward-difference",
 ) -> ImpactResult:
     """Run the two-bar impact with the dynamic
     :class:`~bonecontact.mechanics.integrator.Integrator`.
@@ -282,6 +284,8 @@ def run_bar_impact(
         ``"direct"`` or ``"iterative"``.
     integrator_options
         Extra keyword arguments for the Integrator (e.g. ``mass_redistribution``).
+    scheme
+        Time scheme (:data:`bonecontact.mechanics.newmark.SCHEMES`).
 
     Returns
     -------
@@ -292,7 +296,8 @@ def run_bar_impact(
     model = Mechanics(msh, {STRIKER: mat, STRUCK: mat}, ct, ft)
     itf = build_interface(model.V, ft, STRUCK_END, STRIKER_END, name="impact")
     t0 = time.perf_counter()
-    integ = Integrator(
+    integ = make_integrator(
+        scheme,
         model,
         "dynamic",
         dt,
