@@ -30,6 +30,7 @@ from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver, PDASResult
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
+from bonecontact.mechanics.newmark import make_integrator
 from bonecontact.mechanics.reactions import ForceMoment, SupportReactions, moment_components
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
@@ -331,7 +332,8 @@ def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> 
             ],
         )
         contact = ContactSolver(model.V, sm.interfaces, options)
-    integ = Integrator(
+    integ = make_integrator(
+        scene.analysis.scheme,
         model,
         scene.analysis.kind,
         dt,
