@@ -39,6 +39,7 @@ __all__ = [
     "crack_face_solver",
     "face_interface",
     "face_traction",
+    "recovered_traction",
 ]
 
 #: Facet tags of the contact pair (in the interface's own facet markers).
@@ -103,12 +104,87 @@ class FaceTraction(NamedTuple):
     minus: fem.Function
 
 
+def recovered_traction(
+    x: npt.NDArray[np.float64],
+    t: npt.NDArray[np.float64],
+    weight: npt.NDArray[np.float64],
+    closed: npt.NDArray[np.bool_],
+    tips: npt.NDArray[np.float64],
+    radius: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Face tractions near the tips recovered by weighted linear least squares.
+
+    Every face node within ``radius`` of a tip (and every tip) takes the value at its own
+    position of the linear fit ``t ≈ a + B (x − x_i)`` to the nodes within ``2·radius`` of
+    it, weighted by ``weight`` (∫ψ_p), when all those nodes are closed and they are at
+    least ``2·gdim``; otherwise it keeps its multiplier (a tip: the nearest node's).  The
+    fit reaches twice as far as the zone it replaces, so that the scattered nodes next to
+    the tip cannot tilt it (a fit within ``radius``: |K_I| up to 0.8 %, within
+    ``2·radius``: 0.35 %; a weighted mean instead of the linear fit would be biased by
+    the gradient of the traction at a one-sided tip).
+
+    Why: the nodal multipliers next to a tip scatter by ±20 % about the smooth traction
+    of a closed crack (the P1 field cannot follow the sliding singularity on an
+    unstructured mesh), and the face term weighs them by 1/√r: |K_I| reached 1.5–3 % of
+    |σ|√(πa) at one tip of a closed 45° crack.  A closed crack's face traction is
+    bounded and smooth up to the tip, so the fit loses nothing there; an open node in
+    the fit's reach keeps the raw values (the traction jumps to zero at the open part).
+
+    Parameters
+    ----------
+    x, t, weight, closed
+        Face nodes: coordinates (n, gdim), tractions (n, gdim), weights (n,), closed (n,).
+    tips
+        Tip (2D) or front (3D) node coordinates (m, gdim): no multiplier there.
+    radius
+        Reach of the recovery around the tips (m): the integration domain's radius.
+
+    Returns
+    -------
+    (t_nodes, t_tips)
+        The tractions of the nodes and of the tips.
+    """
+    from scipy.spatial import cKDTree
+
+    gdim = x.shape[1]
+    t_new = t.copy()
+    if len(x) == 0:
+        return t_new, np.zeros((len(tips), gdim))
+    tree = cKDTree(x)
+    tip_t = t[tree.query(tips)[1]] if len(tips) else np.zeros((0, gdim))
+    near_tip = (
+        np.unique(np.concatenate(tree.query_ball_point(tips, radius)).astype(np.int64))
+        if len(tips)
+        else np.zeros(0, np.int64)
+    )
+
+    def fit(p: npt.NDArray[np.float64]) -> npt.NDArray[np.float64] | None:
+        nb = np.sort(np.asarray(tree.query_ball_point(p, 2.0 * radius), dtype=np.int64))
+        if len(nb) < 2 * gdim or not closed[nb].all():
+            return None
+        X = np.column_stack([np.ones(len(nb)), (x[nb] - p) / (2.0 * radius)])
+        sw = np.sqrt(weight[nb])[:, None]
+        coef = np.linalg.lstsq(sw * X, sw * t[nb], rcond=1e-8)[0]
+        return coef[0]
+
+    for i in near_tip:
+        v = fit(x[i])
+        if v is not None:
+            t_new[i] = v
+    for j, p in enumerate(tips):
+        v = fit(p)
+        if v is not None:
+            tip_t[j] = v
+    return t_new, tip_t
+
+
 def face_traction(
     V: fem.FunctionSpace,
     itf: ContactInterface,
     result: PDASResult,
     k: int = 0,
     tips: npt.ArrayLike = (),
+    radius: float | None = None,
 ) -> FaceTraction:
     """P1 traction on the two crack faces from the multipliers of pair ``k`` (Pa).
 
@@ -117,20 +193,33 @@ def face_traction(
     At a tip (``tips``: their coordinates) the node carries no multiplier; the modified
     dual basis of its neighbour is 1 on the whole tip facet, so the multiplier there is
     the neighbour's: the tip node gets the traction of the nearest slave node (in
-    ``plus``) and its opposite (in ``minus``).  The slave data are gathered (a face is
-    small), so every rank fills its owned and ghost dofs without a scatter.
+    ``plus``) and its opposite (in ``minus``).  With ``radius``, the tractions within it
+    of a tip, and the tips', are recovered by :func:`recovered_traction` (the scatter of
+    the multipliers next to a closed tip would show as K_I).  The slave data are
+    gathered (a face is small) and sorted by coordinates, so every rank fills its owned
+    and ghost dofs without a scatter, the same on any number of ranks.
     """
     comm = V.mesh.comm
     bs = V.dofmap.index_map_bs
     lam_n = result.pressure[k]
     lam_t = result.traction_t[k] if result.traction_t else np.zeros((lam_n.size, bs - 1))
     t = -(lam_n[:, None] * itf.normals + np.einsum("nk,nkd->nd", lam_t, itf.tangents))
-    rows = np.column_stack([itf.global_blocks.astype(float), itf.coords[:, :bs], t])
-    rows = np.concatenate(comm.allgather(rows))
+    closed = (np.asarray(result.active[k], dtype=bool) & (lam_n > 0)).astype(float)
+    rows = np.column_stack(
+        [itf.global_blocks.astype(float), itf.coords[:, :bs], t, itf.weight, closed]
+    )
+    rows = np.concatenate(comm.allgather(rows)).reshape(-1, 3 + 2 * bs)
     plus = fem.Function(V, name="crack_face_traction_plus")
     minus = fem.Function(V, name="crack_face_traction_minus")
     if rows.size == 0:
         return FaceTraction(plus, minus)
+    rows = rows[np.lexsort(rows[:, 1 : 1 + bs].T[::-1])]
+    tips = np.asarray(tips, dtype=float).reshape(-1, bs)
+    xs, ts = rows[:, 1 : 1 + bs], rows[:, 1 + bs : 1 + 2 * bs]
+    if radius is not None:
+        ts, tip_t = recovered_traction(xs, ts, rows[:, -2], rows[:, -1] > 0, tips, radius)
+    else:
+        tip_t = ts[[int(np.argmin(np.linalg.norm(xs - p, axis=1))) for p in tips]]
     im = V.dofmap.index_map
     n_local = im.size_local + im.num_ghosts
     gblocks = im.local_to_global(np.arange(n_local, dtype=np.int32))
@@ -139,18 +228,17 @@ def face_traction(
     is_slave = np.isin(gblocks, slave_g)
     pos = {g: i for i, g in enumerate(slave_g)}
     for b in np.flatnonzero(is_slave):
-        vp[b] = rows[pos[int(gblocks[b])], 1 + bs :]
+        vp[b] = ts[pos[int(gblocks[b])]]
     # master nodes: the other node at the same point
     x = V.tabulate_dof_coordinates()[:, :bs]
-    scale = float(np.ptp(rows[:, 1 : 1 + bs], axis=0).max()) or 1.0
+    scale = float(np.ptp(xs, axis=0).max()) or 1.0
     key = lambda p: tuple(np.round(p / (1e-9 * scale)).astype(np.int64))  # noqa: E731
-    at = {key(r[1 : 1 + bs]): r[1 + bs :] for r in rows}
+    at = {key(p): tr for p, tr in zip(xs, ts, strict=True)}
     for b in np.flatnonzero(~is_slave):
         tr = at.get(key(x[b]))
         if tr is not None:
             vm[b] = -tr
-    for tip in np.asarray(tips, dtype=float).reshape(-1, bs):
-        nearest = rows[np.argmin(np.linalg.norm(rows[:, 1 : 1 + bs] - tip, axis=1)), 1 + bs :]
+    for tip, tr in zip(tips, tip_t, strict=True):
         for b in np.flatnonzero(np.linalg.norm(x - tip, axis=1) <= 1e-9 * scale):
-            vp[b], vm[b] = nearest, -nearest
+            vp[b], vm[b] = tr, -tr
     return FaceTraction(plus, minus)

@@ -311,7 +311,8 @@ def evaluate_tips(
     face = None
     if result is not None:
         tips = [crack.tip(e) for e in crack.tip_ends]
-        face = face_traction(sm.model.V, sm.interfaces[k_pair], result, k_pair, tips)
+        reach = max(_radius(crack, e, run) for e in crack.tip_ends)  # the integrals' domains
+        face = face_traction(sm.model.V, sm.interfaces[k_pair], result, k_pair, tips, reach)
     records = []
     for end in crack.tip_ends:
         r_out = _radius(crack, end, run)

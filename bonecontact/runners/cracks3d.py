@@ -359,13 +359,16 @@ def evaluate_front(
     return records
 
 
-def _face_tractions(sm: SceneModel, result: Any, tips: np.ndarray) -> tuple | None:
+def _face_tractions(
+    sm: SceneModel, result: Any, tips: np.ndarray, reach: float | None = None
+) -> tuple | None:
     """The contact tractions on (crack_upper, crack_lower) when the pair (the last one)
-    has active nodes, else ``None`` (open: traction-free)."""
+    has active nodes, else ``None`` (open: traction-free); within ``reach`` of the front
+    recovered by a linear fit (:func:`~bonecontact.fracture.faces.recovered_traction`)."""
     k = len(sm.interfaces) - 1
     if result is None or int(result.n_active[k]) == 0:
         return None
-    ft = face_traction(sm.model.V, sm.interfaces[k], result, k, tips)
+    ft = face_traction(sm.model.V, sm.interfaces[k], result, k, tips, reach)
     return ft.plus, ft.minus
 
 
@@ -447,7 +450,7 @@ def run_cracked3d(
             res = integ.last_contact
             book_step(counts, timer, si.linear_iterations, res)
             with timer.phase("fracture"):
-                traction = _face_tractions(sm, res, tips)
+                traction = _face_tractions(sm, res, tips, run.r_out)
                 last = evaluate_front(integ.u, cb, run, k, integ.t, traction)
             table.rows(last)
             with timer.phase("output"):
