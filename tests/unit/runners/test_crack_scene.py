@@ -167,14 +167,33 @@ def feddersen(a: float) -> float:
     return SIGMA * math.sqrt(math.pi * a / math.cos(math.pi * a / (2 * W)))
 
 
-@pytest.fixture(scope="module")
-def centre(mesh: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
-    tmp = tmp_path_factory.mktemp("centre")
+def _clamped(scene: Path) -> Path:
+    """The scene with its bottom edge clamped (u = 0) instead of loaded by −σ."""
+    text = scene.read_text()
+    loaded = f'[[traction]]\nboundary = "bottom"\nvalue = [0.0, {-SIGMA}]\n'
+    assert loaded in text
+    scene.write_text(
+        text.replace(loaded, '[[dirichlet]]\nboundary = "bottom"\nvalue = [0.0, 0.0]\n')
+    )
+    return scene
+
+
+@pytest.fixture(scope="module", params=["free", "clamped"])
+def centre(
+    mesh: Path, tmp_path_factory: pytest.TempPathFactory, request: pytest.FixtureRequest
+) -> dict:
+    """The centre-cracked plate on 1, 2 and 3 ranks (the outputs by rank count, and
+    ``"support"``): bottom edge loaded (free) or clamped."""
+    tmp = tmp_path_factory.mktemp(f"centre_{request.param}")
     scene = _scene(tmp, mesh, "centre", CENTRE)
-    return {n: _run(scene, tmp / f"out{n}", n) for n in (1, 2, 3)}
+    if request.param == "clamped":
+        _clamped(scene)
+    return {"support": request.param} | {n: _run(scene, tmp / f"out{n}", n) for n in (1, 2, 3)}
 
 
-def test_centre_crack_in_tension_gives_feddersen(centre: dict[int, Path]) -> None:
+def test_centre_crack_in_tension_gives_feddersen(centre: dict) -> None:
+    if centre["support"] == "clamped":
+        pytest.skip("Feddersen's plate is loaded on both edges (the clamped one: ranks only)")
     rows = _rows(centre[1])
     assert [r["tip"] for r in rows] == ["0", "-1"]
     k_ref = feddersen(A_CENTRE)
@@ -195,20 +214,39 @@ def test_centre_crack_in_tension_gives_feddersen(centre: dict[int, Path]) -> Non
 
 
 @pytest.mark.parametrize("n", [2, 3])
-def test_centre_crack_ranks_give_the_serial_k(centre: dict[int, Path], n: int) -> None:
+def test_centre_crack_ranks_give_the_serial_k(centre: dict, n: int) -> None:
+    """The same mesh on every number of ranks (the outline's loops start at their smallest
+    vertex: before, 3802 dofs on 1 rank and 3804 on 2, K_I 7.6e-6 apart, 1.5e-3 with the
+    bottom clamped), so the same dof count and K to 1e-10 (measured 5e-14)."""
+    s1, sn = (json.loads((centre[k] / "summary.json").read_text()) for k in (1, n))
+    assert sn["dofs"] == s1["dofs"] and sn["ranks"] == n
+    k_scale = SIGMA * math.sqrt(math.pi * A_CENTRE)
     for a, b in zip(_rows(centre[1]), _rows(centre[n]), strict=True):
         for key in ("K_I", "K_II", "J", "K_I_dc"):
-            assert _f(b, key) == pytest.approx(_f(a, key), rel=1e-6, abs=1e-6 * SIGMA)
+            assert _f(b, key) == pytest.approx(_f(a, key), rel=1e-10, abs=1e-10 * k_scale), key
 
 
-def test_closed_inclined_crack_with_friction(mesh: Path, tmp_path: Path) -> None:
-    mu = 0.3
-    scene = _scene(tmp_path, mesh, "closed", INCLINED, sigma=-SIGMA, friction=mu)
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+@pytest.mark.parametrize("beta", [30.0, 45.0, 60.0])
+def test_closed_inclined_crack(mesh: Path, tmp_path: Path, beta: float, mu: float) -> None:
+    """A crack at β to the x axis (a/W = 0.1, default tip mesh) closed by uniaxial
+    compression, frictionless or Coulomb faces: at both tips |K_I| ≤ 1 % of |σ|√(πa) and
+    |K_II| = √(πa)(|τ| − μ|σ_n|) within 3 %, σ_n = |σ|cos²β, τ = |σ| sinβ cosβ.  (The
+    raw nodal multipliers in the face term gave |K_I| up to 1.5 % at one tip; the face
+    tractions near the tips are now recovered by a linear fit: measured ≤ 0.5 %.)"""
+    b = math.radians(beta)
+    points = [
+        [-A_INCL * math.cos(b), -A_INCL * math.sin(b)],
+        [A_INCL * math.cos(b), A_INCL * math.sin(b)],
+    ]
+    scene = _scene(tmp_path, mesh, "closed", points, sigma=-SIGMA, friction=mu)
     out = _run(scene, tmp_path / "out")
     k0 = SIGMA * math.sqrt(math.pi * A_INCL)
-    expected = k0 * (0.5 - mu * 0.5)  # |tau| - mu |sigma_n| at 45 degrees
-    for r in _rows(out):
-        assert abs(_f(r, "K_I")) < 3e-2 * k0
+    expected = k0 * (math.sin(b) * math.cos(b) - mu * math.cos(b) ** 2)
+    rows = _rows(out)
+    assert [r["tip"] for r in rows] == ["0", "-1"]
+    for r in rows:
+        assert abs(_f(r, "K_I")) <= 1e-2 * k0, (r["tip"], _f(r, "K_I") / k0)
         assert abs(_f(r, "K_II")) == pytest.approx(expected, rel=3e-2)
     nodes = list(csv.DictReader(open(out / "contact_c.csv")))
     assert len(nodes) > 10
