@@ -1,6 +1,7 @@
 """What the runner tests share: the ``bonecontact`` command run in a subprocess (serially
-or under ``mpiexec``) and the dynamic Coulomb contact scene of the checkpoint and restart
-tests.
+or under ``mpiexec``; every converged run is checked for reactions that balance the
+loads), the dynamic Coulomb contact scene of the checkpoint and restart tests and the
+reaction-balance check itself.
 
 Not a test module (no ``test_`` prefix); the runner tests import it by name (pytest puts
 this folder on ``sys.path``).
@@ -9,12 +10,16 @@ this folder on ``sys.path``).
 from __future__ import annotations
 
 import contextlib
+import csv
 import io
 import os
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
+
+import numpy as np
 
 from bonecontact.runners.cli import main
 
@@ -33,8 +38,10 @@ def run_cli(
     args: list[str], n: int = 1, timeout: float = 600, env: dict[str, str] | None = None
 ) -> subprocess.CompletedProcess:
     """Run ``bonecontact ARGS`` on ``n`` ranks (environment ``env``, default ``ENV``);
-    stdout and stderr captured as text."""
-    return subprocess.run(
+    stdout and stderr captured as text.  A converged ``run`` with ``-o OUT`` must show
+    reactions that balance the loads in every row of ``OUT/history.csv``
+    (:func:`check_reaction_balance`)."""
+    res = subprocess.run(
         cli_command(args, n),
         capture_output=True,
         text=True,
@@ -42,6 +49,9 @@ def run_cli(
         env=ENV if env is None else env,
         stdin=subprocess.DEVNULL,
     )
+    if res.returncode == 0 and args[:1] == ["run"] and "-o" in args:
+        check_reaction_balance(Path(args[args.index("-o") + 1]))
+    return res
 
 
 def scene_args(scene: Path, out: Path | None, *extra: str) -> list[str]:
@@ -184,3 +194,49 @@ def impact_scene(
     if probes:
         text += f"probes = {[list(p) for p in probes]}\n"
     return text
+
+
+# ----------------------------------------------------------------------------- reactions
+#: Largest relative force-balance defect a converged run's history.csv may show.
+BALANCE_TOLERANCE = 1e-6
+
+
+def reaction_balance(history: dict[str, Sequence[str]], dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of a history table (column → values): the relative defects of the force
+    and of the moment balance, ``|Σ_groups R + load − inertia|`` over the largest of
+    those terms (0 where all vanish), from the ``reaction_<group>_<c>``, ``load_<c>`` and
+    ``inertia_<c>`` columns."""
+    parts: dict[str, list[np.ndarray]] = {}
+    for name, values in history.items():
+        kind, comp = name.partition("_")[0], name.rsplit("_", 1)[-1]
+        if kind not in ("reaction", "load", "inertia"):
+            continue
+        sign = -1.0 if kind == "inertia" else 1.0
+        parts.setdefault(comp, []).append(sign * np.asarray(values, dtype=float))
+    forces, moments = list("xyz"[:dim]), ["mz"] if dim == 2 else ["mx", "my", "mz"]
+
+    def defect(comps: list[str]) -> np.ndarray:
+        terms = np.array([parts[c] for c in comps])  # (component, term, row)
+        total = np.linalg.norm(terms.sum(axis=1), axis=0)
+        scale = np.linalg.norm(terms, axis=0).max(axis=0)
+        return np.where(scale > 0, total / np.where(scale > 0, scale, 1.0), 0.0)
+
+    return defect(forces), defect(moments)
+
+
+def check_reaction_balance(out: Path, tolerance: float = BALANCE_TOLERANCE) -> None:
+    """Assert that the supports' reactions in ``out/history.csv`` balance the applied loads
+    (and the inertia of a dynamic run) in every row; contact forces are internal."""
+    table = out / "history.csv"
+    if not table.is_file():
+        return
+    rows = list(csv.reader(open(table)))
+    if not rows or "load_x" not in rows[0]:
+        return
+    history = {c: [r[k] for r in rows[1:]] for k, c in enumerate(rows[0])}
+    dim = 3 if "load_z" in history else 2
+    force, _ = reaction_balance(history, dim)
+    assert (force <= tolerance).all(), (
+        f"{table}: the reactions do not balance the loads (relative defect up to "
+        f"{force.max():.3g} > {tolerance:g})"
+    )
