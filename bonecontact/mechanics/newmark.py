@@ -134,7 +134,7 @@ class StabilizedNewmark(Integrator):
         self._K_mat = model.K
         self._C_mat = model.Kv if model.fields.has_viscosity else None
         self._rhs, self._wk = self.A.createVecs()
-        names = ("F_old", "F_new", "delta", "du", "dv", "r", "tmp")
+        names = ("F_old", "F_new", "F_bar", "delta", "du", "dv", "v_new", "tmp")
         self._vec = {k: self._rhs.duplicate() for k in names}
         self._z = fem.Function(model.V, name="predictor")
         bc = model.bc_dofs()
@@ -197,6 +197,8 @@ class StabilizedNewmark(Integrator):
         self.model.load_vector(t, vec["F_new"])
         self._stabilised_predictor()
         b.waxpy(1.0, vec["F_old"], vec["F_new"])
+        b.copy(vec["F_bar"])
+        vec["F_bar"].scale(0.5)
         self._K_mat.mult(self.u_n.x.petsc_vec, w)
         b.axpy(-1.0, w)
         b.scale(0.25 * tau * tau)
@@ -223,6 +225,7 @@ class StabilizedNewmark(Integrator):
                 f"the solver returned a non-finite displacement (NaN or inf) at t = {t:.6g} s"
             )
         self._new_velocity()
+        self._mean_forces()
         if self.energy_balance:
             self.last_balance = self._newmark_balance()
             self.balance.accumulate(self.last_balance)
@@ -248,43 +251,56 @@ class StabilizedNewmark(Integrator):
         self.t = t
         self.step_count += 1
 
+    @property
+    def load(self) -> PETSc.Vec:
+        """The mean external load (Fⁿ + Fⁿ⁺¹)/2 of the last step (owned entries; N, N/m
+        in 2D): the load the trapezoidal rule balances."""
+        return self._vec["F_bar"]
+
+    def _mean_forces(self) -> None:
+        """``inertia = M (vⁿ⁺¹ − vⁿ)/τ`` and ``residual = inertia + K(uⁿ + uⁿ⁺¹)/2 + C Δu/τ
+        − F̄`` of the step just solved: the mean force of supports and contact over the
+        step (elsewhere: solver tolerance); ``self.residual`` / ``self.inertia`` as in
+        :class:`~bonecontact.mechanics.integrator.Integrator`."""
+        vec, tau, r, tmp = self._vec, self.dt, self.residual, self._vec["tmp"]
+        self.M.mult(vec["dv"], self.inertia)
+        self.inertia.scale(1.0 / tau)
+        tmp.waxpy(1.0, self.u_n.x.petsc_vec, self.u.x.petsc_vec)
+        self._K_mat.mult(tmp, r)
+        r.scale(0.5)
+        r.axpy(-1.0, vec["F_bar"])
+        r.axpy(1.0, self.inertia)
+        if self._C_mat is not None:
+            self._C_mat.mult(vec["du"], tmp)
+            r.axpy(1.0 / tau, tmp)
+
     # ------------------------------------------------------- energy balance
     def _newmark_balance(self) -> EnergyBalance:
-        """Energy balance of the step just solved (module docstring); history not shifted.
-
-        Local dot products and one collective reduction."""
-        m, vec, tau = self.model, self._vec, self.dt
-        du, dv, r, tmp, delta = vec["du"], vec["dv"], vec["r"], vec["tmp"], vec["delta"]
-        v_new = vec["F_old"]  # reused: the loads are summed into F_new first
-        vec["F_new"].axpy(1.0, vec["F_old"])
-        vec["F_new"].scale(0.5)  # F̄
-        v_new.waxpy(1.0, self.velocity.x.petsc_vec, dv)
+        """Energy balance of the step just solved (module docstring), from the vectors of
+        :meth:`_mean_forces`; history not shifted.  Local dot products and one
+        collective reduction."""
+        vec, tau = self._vec, self.dt
+        du, tmp, delta, v_new = vec["du"], vec["tmp"], vec["delta"], vec["v_new"]
+        v_new.waxpy(1.0, self.velocity.x.petsc_vec, vec["dv"])
         part = np.zeros(8)  # kinetic, strain, W_ext, W_dir, W_res, W_c, D_visc, D_stab
         self.M.mult(v_new, tmp)
         part[0] = 0.5 * _ldot(tmp, v_new)
         self._K_mat.mult(self.u.x.petsc_vec, tmp)
         part[1] = 0.5 * _ldot(tmp, self.u.x.petsc_vec)
-        # r = M Δv/τ + K(uⁿ + uⁿ⁺¹)/2 + C Δu/τ − F̄
-        r.waxpy(1.0, self.u_n.x.petsc_vec, self.u.x.petsc_vec)
-        self._K_mat.mult(r, tmp)
-        tmp.copy(r)
-        r.scale(0.5)
-        r.axpy(-1.0, vec["F_new"])
-        self.M.mult(dv, tmp)
-        r.axpy(1.0 / tau, tmp)
-        part[7] = _ldot(delta, tmp) / tau
+        part[7] = _ldot(delta, self.inertia)  # δᵀ M (vⁿ⁺¹ − vⁿ)/τ
         if self._C_mat is not None:
             self._C_mat.mult(du, tmp)
-            r.axpy(1.0 / tau, tmp)
             part[6] = _ldot(tmp, du) / tau
-        part[2] = _ldot(vec["F_new"], du)
-        rdu = r.array_r * du.array_r
+        part[2] = _ldot(vec["F_bar"], du)
+        rdu = self.residual.array_r * du.array_r
         bc = self._bc_owned
         part[3] = float(rdu[bc].sum()) if bc.size else 0.0
         part[4] = float(rdu.sum()) - part[3]
         if self.contact is not None:
             part[5] = self.contact.contact_work(self.u)
-        kin, strain, w_ext, w_dir, w_res, w_c, visc, stab = m.mesh.comm.allreduce(part, op=MPI.SUM)
+        kin, strain, w_ext, w_dir, w_res, w_c, visc, stab = self.model.mesh.comm.allreduce(
+            part, op=MPI.SUM
+        )
         defect = (kin + strain) - self.balance.total - (w_ext + w_dir + w_c - visc - stab)
         return EnergyBalance(
             kinetic=kin,
