@@ -206,6 +206,10 @@ class Config:
         failures filed in issue #23), or ``None``."""
         if self.drive == "load" and self.gap > 0 and self.analysis == "static":
             return "issue #23 item 2: a load-driven body that starts apart (h1-contact)"
+        if self.gap < 0:
+            return "issue #23: an initial overlap is refused as interpenetration (F2 in the notes)"
+        if self.dim == 3 and self.shape == "wide_slave" and self.analysis == "static":
+            return "issue #23: 3D slave wider than its master, reactions off by 3-4 % (F1)"
         return None
 
 
@@ -633,9 +637,9 @@ def _vector(dim: int, y: float | str, tangential: float | str = 0.0) -> str:
     return "[" + ", ".join(f'"{c}"' if isinstance(c, str) else f"{c!r}" for c in comps) + "]"
 
 
-def scene_text(cfg: Config, d: Design, mesh: str, top_area: float) -> str:
-    """The scene of ``cfg`` (docs/scene_format.md); ``top_area``: the meshed size of the
-    slave's top face (the traction is ``load / top_area``)."""
+def scene_text(cfg: Config, d: Design, mesh: str) -> str:
+    """The scene of ``cfg`` (docs/scene_format.md): a load-driven slave body carries a
+    ``[[force]]`` (the total load, spread uniformly over its top face)."""
     nu_s = NU_CURVED if cfg.curved else NU_FLAT
     nu_m = NU_CURVED if cfg.shape != "flat_flat" and cfg.shape != "wide_slave" else NU_FLAT
     dyn = cfg.analysis == "dynamic"
@@ -669,8 +673,8 @@ def scene_text(cfg: Config, d: Design, mesh: str, top_area: float) -> str:
         if cfg.supported:
             value = _vector(cfg.dim, "free", 0.0)
             lines += ["[[dirichlet]]", 'boundary = "slave_top"', f"value = {value}"]
-        value = _vector(cfg.dim, -d.load / top_area)
-        lines += ["[[traction]]", 'boundary = "slave_top"', f"value = {value}", *ramp]
+        value = _vector(cfg.dim, -d.load)
+        lines += ["[[force]]", 'boundary = "slave_top"', f"value = {value}", *ramp]
     lines += ["[output]", "fields_every = 0"]
     return "\n".join(lines) + "\n"
 
@@ -768,8 +772,7 @@ def run_config(cfg: Config, folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD)
     mesh, scene, out = folder / "mesh.msh", folder / "scene.toml", folder / "results"
     d = build_mesh(cfg, mesh, comm)
     if comm.rank == 0:
-        area = read_surface(mesh, "slave_top", cfg.dim).size
-        scene.write_text(scene_text(cfg, d, mesh.name, area))
+        scene.write_text(scene_text(cfg, d, mesh.name))
     comm.barrier()
     status, message = "refused", ""
     with warnings.catch_warnings():
@@ -995,8 +998,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0 if rec.outcome == "pass" or rec.outcome.startswith("ill-posed") else 1
     d = build_mesh(cfg, folder / "mesh.msh", comm)
     if comm.rank == 0:
-        area = read_surface(folder / "mesh.msh", "slave_top", cfg.dim).size
-        (folder / "scene.toml").write_text(scene_text(cfg, d, "mesh.msh", area))
+        (folder / "scene.toml").write_text(scene_text(cfg, d, "mesh.msh"))
         print(f"bonecontact run {folder / 'scene.toml'}")
     return 0
 

@@ -72,7 +72,7 @@ SAMPLE_LEVELS = {
 }
 SAMPLE_3D = (
     Config(3, "curved_flat", "node", 0.0, "load", 1.0e4, 1.0, "none", "static"),
-    Config(3, "curved_curved", "between", -0.1, "displacement", 1.0, 1.0, "coulomb", "static"),
+    Config(3, "curved_curved", "between", 0.0, "displacement", 1.0, 1.0, "coulomb", "static"),
     Config(3, "flat_flat", "node", 1.0, "displacement", 1.0e2, 4.0, "tresca", "static"),
 )
 
