@@ -312,6 +312,11 @@ class ContactSolver:
         self.comm = V.mesh.comm
         self.bs = V.dofmap.index_map_bs
         self.last_result: PDASResult | None = None
+        #: ``on_singular(active, stick)`` (per interface, over its owned slave nodes;
+        #: collective) → the bodies the sets leave without support, in words, added to
+        #: the message of a singular system; set by the runner
+        #: (:func:`bonecontact.scene.rigid_motions.singular_diagnosis`), or ``None``.
+        self.on_singular = None
         self.Qt = None
         self._gap_vecs: tuple[PETSc.Vec, PETSc.Vec] | None = None
         self._work_gaps: list[npt.NDArray[np.float64]] = []
@@ -491,6 +496,13 @@ class ContactSolver:
     def _gn(self, local: npt.NDArray) -> npt.NDArray:
         """Local per-node (or per-row) values → the replicated array, identical on all ranks."""
         return np.concatenate(self.comm.allgather(np.ascontiguousarray(local)), axis=0)
+
+    def _unsupported(self, st: _PDASState) -> str:
+        """What :attr:`on_singular` says about the sets of ``st`` (empty without it)."""
+        if self.on_singular is None:
+            return ""
+        text = self.on_singular(self._own(st.an), self._own(st.an & st.stick))
+        return f"; with this active set: {text}" if text else ""
 
     def _own(self, rep: npt.NDArray) -> list[npt.NDArray]:
         """Replicated per-node array → this rank's nodes, split by interface."""
@@ -753,7 +765,7 @@ class ContactSolver:
                 )
             except SingularActiveSetError as exc:
                 raise ContactConvergenceError(
-                    f"contact: {exc} (first PDAS iteration)", st.history
+                    f"contact: {exc} (first PDAS iteration){self._unsupported(st)}", st.history
                 ) from None
         return st
 
@@ -801,7 +813,7 @@ class ContactSolver:
                 extra = {}
         except SingularActiveSetError as exc:
             raise ContactConvergenceError(
-                f"contact: {exc} (PDAS iteration {k})", st.history
+                f"contact: {exc} (PDAS iteration {k}){self._unsupported(st)}", st.history
             ) from None
         st.lin_total += its
         return x, w, its, extra

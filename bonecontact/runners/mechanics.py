@@ -52,7 +52,7 @@ from bonecontact.runners.results import (
 from bonecontact.scene import Scene, SceneError, check_against_mesh
 from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
 from bonecontact.scene.mesh_checks import check_mesh
-from bonecontact.scene.rigid_motions import check_rigid_motions
+from bonecontact.scene.rigid_motions import check_rigid_motions, singular_diagnosis
 from bonecontact.scene.spec import LoadSpec
 
 __all__ = [
@@ -332,6 +332,9 @@ def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> 
             ],
         )
         contact = ContactSolver(model.V, sm.interfaces, options)
+        contact.on_singular = singular_diagnosis(  # which body a singular set leaves free
+            scene, sm.mesh_data, sm.groups, model.V, sm.interfaces, model.mesh.comm
+        )
     integ = make_integrator(
         scene.analysis.scheme,
         model,

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -63,6 +63,7 @@ __all__ = [
     "dirichlet_sets",
     "find_bodies",
     "mode_values",
+    "singular_diagnosis",
     "unheld_motions",
     "unheld_subspace",
 ]
@@ -671,11 +672,16 @@ def unheld_motions(
     geo = body_geometry(msh, bodies, comm)
     sets = dirichlet_sets(scene, msh, md.facet_tags, tags, bodies, geo, comm)
     sets += contact_sets(scene, msh, md.facet_tags, tags, bodies, geo, comm)
+    return describe_motions(unheld_subspace(sets, _metric(bodies, geo)), bodies, geo)
+
+
+def _metric(bodies: Bodies, geo: BodyGeometry) -> npt.NDArray[np.float64]:
+    """The block-diagonal metric of all bodies' rigid modes."""
     metric = np.zeros((bodies.count * geo.modes,) * 2)
     for k in range(bodies.count):
         sl = slice(k * geo.modes, (k + 1) * geo.modes)
         metric[sl, sl] = geo.metric[k]
-    return describe_motions(unheld_subspace(sets, metric), bodies, geo)
+    return metric
 
 
 def unheld_message(scene: Scene, motions: Sequence[UnheldMotion]) -> str:
@@ -721,3 +727,109 @@ def check_rigid_motions(
         else:
             raise SceneError(str(scene.path), "[analysis]", "unheld_motion", text)
     return motions
+
+
+# --------------------------------------------------------------------------------------
+# a singular system during the contact iterations
+# --------------------------------------------------------------------------------------
+def _block_bodies(V: Any, bodies: Bodies) -> npt.NDArray[np.int64]:
+    """Body of every local block (node) of the vector space ``V``."""
+    imap = V.dofmap.index_map
+    out = np.full(imap.size_local + imap.num_ghosts, -1, dtype=np.int64)
+    cells = np.asarray(V.dofmap.list)
+    out[cells] = bodies.cell_body[: len(cells), None]
+    return out
+
+
+def _active_set(
+    itf: Any,
+    on: npt.NDArray,
+    full: npt.NDArray,
+    body: npt.NDArray,
+    masters: Sequence[int],
+    geo: BodyGeometry,
+    n: int,
+    comm: MPI.Comm,
+) -> ConstraintSet:
+    """What the active nodes ``on`` of one interface hold: the normal relative velocity
+    (the whole relative velocity at the sticking nodes ``full``), weighted by ``∫ψ_p``."""
+    G, W = np.zeros((n, n)), np.zeros((n, n))
+    sel = np.flatnonzero(on)
+    if len(sel):
+        x, slave = itf.coords[sel], body[itf.blocks[sel]]
+        phi = _block_modes(x, slave, geo)
+        for m in masters:
+            other = slave != m
+            rel = phi[other] - _block_modes(x[other], np.full(other.sum(), m), geo)
+            w = np.abs(itf.weight[sel][other])
+            W += np.einsum("n,nci,ncj->ij", w, rel, rel)
+            rn = np.einsum("nc,nci->ni", itf.normals[sel][other], rel)
+            G += np.einsum("n,ni,nj->ij", w, rn, rn)
+            stuck = full[sel][other]
+            G += np.einsum("n,nci,ncj->ij", w * stuck, rel, rel)
+            G -= np.einsum("n,ni,nj->ij", w * stuck, rn, rn)
+    G, W = comm.allreduce(G, op=MPI.SUM), comm.allreduce(W, op=MPI.SUM)
+    return ConstraintSet(f'contact "{itf.name}"', G, W, CONTACT_SHARE)
+
+
+def singular_diagnosis(
+    scene: Scene,
+    md: Any,
+    groups: Mapping[str, tuple[int, int]],
+    V: Any,
+    interfaces: Sequence[Any],
+    comm: MPI.Comm,
+) -> Callable[[Sequence[npt.NDArray], Sequence[npt.NDArray]], str]:
+    """Which bodies an active set leaves without support (for the contact solver).
+
+    Parameters
+    ----------
+    scene, md, groups
+        The scene, its mesh data and physical groups.
+    V
+        The displacement space the interfaces' nodes (``blocks``) belong to.
+    interfaces
+        The mortar interfaces, one per ``[[contact]]`` pair in scene order.
+    comm
+        The mesh's communicator.
+
+    Returns
+    -------
+    callable
+        ``diagnose(active, stick)`` (per interface, booleans over its owned slave nodes;
+        collective) → the motions that the supports and the active nodes (sticking
+        nodes holding every direction, the other active nodes the normal one) leave
+        free, in words (empty when there is none).
+    """
+    cache: dict[str, Any] = {}
+
+    def prepare() -> dict[str, Any]:  # on the first call only: a run that never fails pays nothing
+        msh = md.mesh
+        tdim = msh.topology.dim
+        names = {t: n for n, (d, t) in groups.items() if d == tdim}
+        tags = {n: t for n, (d, t) in groups.items()}
+        bodies = find_bodies(msh, md.cell_tags, names, comm)
+        geo = body_geometry(msh, bodies, comm)
+        return {
+            "bodies": bodies,
+            "geo": geo,
+            "supports": dirichlet_sets(scene, msh, md.facet_tags, tags, bodies, geo, comm),
+            "masters": [
+                _present(msh, md.facet_tags, tags[c.master], bodies, comm) for c in scene.contacts
+            ],
+            "body": _block_bodies(V, bodies),
+            "metric": _metric(bodies, geo),
+        }
+
+    def diagnose(active: Sequence[npt.NDArray], stick: Sequence[npt.NDArray]) -> str:
+        if not cache:
+            cache.update(prepare())
+        c = cache
+        n = c["metric"].shape[0]
+        sets = list(c["supports"])
+        for itf, on, full, m in zip(interfaces, active, stick, c["masters"], strict=False):
+            sets.append(_active_set(itf, on, full & on, c["body"], m, c["geo"], n, comm))
+        N = unheld_subspace(sets, c["metric"])
+        return "; ".join(str(m) for m in describe_motions(N, c["bodies"], c["geo"]))
+
+    return diagnose
