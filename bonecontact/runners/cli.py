@@ -1,8 +1,9 @@
 """Command line: ``bonecontact run SCENE.toml`` (also under ``mpiexec -n K``).
 
 ``bonecontact check SCENE.toml`` validates a scene and its mesh without running it and prints
-a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, dofs) to
-stdout.  Implausible values (likely unit slips, :mod:`bonecontact.runners.plausibility`) are
+a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, dofs,
+whether every rigid motion of every body is held: :mod:`bonecontact.scene.rigid_motions`)
+to stdout.  Implausible values (likely unit slips, :mod:`bonecontact.runners.plausibility`) are
 printed as warnings before anything is solved; ``--strict`` makes them errors (exit status 2).
 
 ``bonecontact mesh-surface SURFACE.stl OUT.msh --size H [--cortical T]`` meshes a closed
@@ -161,12 +162,23 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
         rows.append(("contact", "none"))
     if sm is not None:
         rows.append(("dofs", f"{sm.model.num_dofs} (P1 displacement)"))
+        rows += _motion_lines(scene, sm)
         rows.append(("warnings", str(len(sm.issues)) if sm.issues else "none"))
     elif scene.growth_only:
         rows.append(("dofs", "no mechanics (growth only)"))
     else:
         rows.append(("dofs", "set by the host mesh rebuilt around the neoplasm during the run"))
     return rows
+
+
+def _motion_lines(scene: Scene, sm: SceneModel) -> list[tuple[str, str]]:
+    """The ``motions`` rows: every body held, the motions left free (``unheld_motion =
+    "warn"``), or not checked (dynamic: the mass holds a free body)."""
+    if scene.analysis is None or scene.analysis.kind == "dynamic":
+        return [("motions", "not checked (dynamic analysis: inertia holds a free body)")]
+    if not sm.unheld:
+        return [("motions", "every rigid motion of every body is held")]
+    return [("motions", f"{m} (warning)") for m in sm.unheld]
 
 
 def _check(scene: Scene, shown: Path, comm: MPI.Comm) -> int:

@@ -685,16 +685,23 @@ def _metric(bodies: Bodies, geo: BodyGeometry) -> npt.NDArray[np.float64]:
 
 
 def unheld_message(scene: Scene, motions: Sequence[UnheldMotion]) -> str:
-    """The report of :func:`check_rigid_motions`: every unheld motion, one a line."""
+    """The report of :func:`check_rigid_motions`: every unheld motion, one a line, and
+    what to do about them."""
     lines = "\n".join(f"  - {m}" for m in motions)
-    return (
-        f"{len(motions)} rigid motion{'s' if len(motions) > 1 else ''} of the bodies "
-        f"{'are' if len(motions) > 1 else 'is'} held by no [[dirichlet]] support and no "
-        f"[[contact]] (a frictionless contact holds only motion normal to its surface), so "
-        f"the displacement is not determined:\n{lines}\n"
-        f"Fix the motion (a [[dirichlet]] component), or set [analysis] unheld_motion = "
-        f'"warn" to run anyway'
+    n = len(motions)
+    head = (
+        f"{n} rigid motion{'s' if n > 1 else ''} of the bodies {'are' if n > 1 else 'is'} "
+        "held by no [[dirichlet]] support and no [[contact]] (a frictionless contact holds "
+        "only motion normal to its surface), so the displacement is not determined"
     )
+    if scene.analysis is not None and scene.analysis.unheld_motion == "warn":
+        tail = 'the run goes on ([analysis] unheld_motion = "warn")'
+    else:
+        tail = (
+            "fix the motion (a [[dirichlet]] component on a group of that body), or set "
+            '[analysis] unheld_motion = "warn" to run anyway'
+        )
+    return f"{head}:\n{lines}\n{tail}"
 
 
 def check_rigid_motions(
