@@ -73,6 +73,7 @@ import gmsh
 import numpy as np
 
 from bonecontact.meshing.builder import PhysicalGroups, generate
+from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.meshing.session import gmsh_session
 from bonecontact.runners.dispatch import run_scene
 from bonecontact.scene import SceneError, load_scene
@@ -95,6 +96,7 @@ __all__ = [
     "run_matrix",
     "same_answer",
     "scene_text",
+    "touch_ranks",
 ]
 
 #: Radius of the curved slave body (m); the master cap has radius 2R.
@@ -204,8 +206,6 @@ class Config:
     def known_issue(self) -> str | None:
         """The reason a well-posed configuration is expected to fail at present (the
         failures filed in issue #23), or ``None``."""
-        if self.drive == "load" and self.gap > 0 and self.analysis == "static":
-            return "issue #23 item 2: a load-driven body that starts apart (h1-contact)"
         if self.gap < 0:
             return "issue #23: an initial overlap is refused as interpenetration (F2 in the notes)"
         if self.dim == 3 and self.shape == "wide_slave" and self.analysis == "static":
@@ -696,7 +696,7 @@ def _contact_lines(cfg: Config, d: Design) -> list[str]:
 #: Tolerances of the checks: force balance (static, relative), energy balance (dynamic,
 #: relative to the largest energy), uniform pressure (flat), Hertz (curved; 2D, 3D).
 BALANCE_TOL, ENERGY_TOL, UNIFORM_TOL = 1.0e-8, 1.0e-8, 1.0e-6
-HERTZ_TOL = {2: 0.08, 3: 0.25}
+HERTZ_TOL = {2: 0.08, 3: 0.3}
 
 
 @dataclass
@@ -725,6 +725,8 @@ class Record:
         or ``ill-posed (ran)``.
     message
         The run's message (failed or refused runs).
+    touch_ranks
+        :func:`touch_ranks`: on how many ranks the first-touch node lies (1 serially).
     pressures
         The slave nodes' coordinates and pressures, rows sorted by coordinates
         (columns x, y(, z), pressure).
@@ -741,6 +743,7 @@ class Record:
     closed_form: float = math.nan
     outcome: str = ""
     message: str = ""
+    touch_ranks: int = 1
     pressures: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     def row(self) -> dict:
@@ -757,6 +760,7 @@ class Record:
             "balance": f"{self.balance:.2e}",
             "closed_form": f"{self.closed_form:.2e}",
             "outcome": self.outcome,
+            "touch_ranks": self.touch_ranks,
             "message": self.message.replace("\n", " ")[:200],
         }
         return out
@@ -786,7 +790,24 @@ def run_config(cfg: Config, folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD)
     rec = None
     if comm.rank == 0:
         rec = _record(cfg, d, mesh, out, comm.size, status, message)
-    return comm.bcast(rec, root=0)
+    rec = comm.bcast(rec, root=0)
+    rec.touch_ranks = touch_ranks(cfg, mesh, comm) if comm.size > 1 else 1
+    return rec
+
+
+def touch_ranks(cfg: Config, mesh: Path, comm: MPI.Comm) -> int:
+    """On how many ranks the first-touch slave node (the lowest; flat slaves: any node
+    of the face) lies when ``mesh`` is distributed over ``comm`` as a run distributes it
+    (collective): 2 or more means a partition boundary runs through it."""
+    pts = None
+    if comm.rank == 0:
+        X = read_surface(mesh, "slave_contact", cfg.dim).coords
+        pts = X[X[:, 1] <= X[:, 1].min() + 1e-9 * RADIUS]
+    pts = comm.bcast(pts, root=0)
+    _, md = read_gmsh_mesh(mesh, comm, cfg.dim)
+    x = md.mesh.geometry.x[:, : cfg.dim]
+    here = np.array([bool((np.linalg.norm(x - p, axis=1) < 1e-12).any()) for p in pts], int)
+    return int(comm.allreduce(here, op=MPI.SUM).max())
 
 
 def _record(
