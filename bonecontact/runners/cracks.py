@@ -369,6 +369,19 @@ def evaluate_tips(
     return records
 
 
+def _snapped(crack: Crack2D, end: int, run: CrackRun) -> Crack2D:
+    """The crack with its tip ``end`` rounded to a grid of spacing 2^(⌊log₂ extent⌋ − 32)
+    of the body (about 1e-11 m for a 40 mm body), as the growth remeshes round their
+    boundaries (:func:`bonecontact.neoplasm.remesh.snap_to_grid`): the kink angle comes
+    from K, whose round-off differs with the number of ranks, and gmsh turns a tip 1e-19 m
+    away into another mesh (the path on 2 ranks drifted by 7e-8 of Δa)."""
+    q = 2.0 ** (math.floor(math.log2(run.body.scale)) - 32)
+    pts = crack.points.copy()
+    k = 0 if end == 0 else len(pts) - 1
+    pts[k] = np.round(pts[k] / q) * q
+    return Crack2D(pts, crack.tips)
+
+
 def _grow(crack: Crack2D, records: list[IncrementRecord], run: CrackRun) -> tuple[Crack2D, bool]:
     """The crack grown at every tip that grows; whether a grown tip is within Δa of the
     free surface (then marked ``fractured``)."""
@@ -377,7 +390,7 @@ def _grow(crack: Crack2D, records: list[IncrementRecord], run: CrackRun) -> tupl
     for i, r in enumerate(records):
         if r.status != "grows":
             continue
-        crack = crack.extended(r.tip, da, math.radians(r.angle_deg))
+        crack = _snapped(crack.extended(r.tip, da, math.radians(r.angle_deg)), r.tip, run)
         if run.body.distance(crack.tip(r.tip)) < da:
             fractured = True
             records[i] = dataclasses.replace(r, status="fractured")
