@@ -18,6 +18,10 @@
 #                     `.venv/bin/ruff check --fix . && .venv/bin/ruff format .` applies the fixes)
 #   make docs         API reference generated from the docstrings (pdoc) into docs/api/;
 #                     fails on any import error or warning
+#   make wheel-check  build the wheel from a clean export of HEAD, install it with its
+#                     dependencies into a fresh venv in a temporary directory and run a shipped
+#                     scene, a 2D crack scene and the contact_api demo from outside the
+#                     checkout (.ci/wheel_check.sh; CI runs it; needs no .venv)
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
 #   make clean        remove caches, test logs, docs/api, build/ and demos/results;  make distclean  also removes .venv
 #
@@ -102,14 +106,14 @@ RANK_LOG := bash -c 'r=$${PMI_RANK:-$${OMPI_COMM_WORLD_RANK:-0}}; \
   if [ "$$r" != 0 ]; then exec >"$$0.rank$$r.log" 2>&1; fi; exec "$$@"'
 
 .PHONY: help install demo notebooks lint docs test test-all test-serial test-parallel benchmarks \
-	clean distclean
+	wheel-check clean distclean
 
 help:
 	@sed -n 's/^#   //p' $(firstword $(MAKEFILE_LIST))
 
 install: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml setup.py
 	@if [ -x "$(PY)" ] && ! "$(PY)" -c 'import sys; sys.exit(sys.version_info < (3, 12))' 2>/dev/null; then \
 	  echo "+ rm -rf $(VENV)   # existing venv is unusable or older than Python 3.12"; rm -rf "$(VENV)"; \
 	fi
@@ -230,12 +234,19 @@ test-serial: install
 test-parallel: install
 	$(run_parallel)
 
+# The package as a user gets it: a wheel built from HEAD (uncommitted changes are not in it),
+# installed outside the checkout (.ci/wheel_check.sh; KEEP=1 keeps its temporary directory).
+wheel-check:
+	@py=$$(bash -c "$$FIND_PYTHON") || exit 1; \
+	echo "+ PYTHON=$$py bash .ci/wheel_check.sh"; \
+	PYTHON="$$py" bash .ci/wheel_check.sh
+
 benchmarks: install
 	@test -f benchmarks/run_all.sh || { echo "error: benchmarks/run_all.sh does not exist yet" >&2; exit 1; }
 	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" bash benchmarks/run_all.sh
 
 clean:
-	rm -rf .pytest_cache "$(LOG_DIR)" build *.egg-info "$(DOCS_DIR)" demos/results
+	rm -rf .pytest_cache "$(LOG_DIR)" build dist *.egg-info "$(DOCS_DIR)" demos/results
 	find . -path ./$(VENV) -prune -o -type d -name __pycache__ -print0 | xargs -0 rm -rf
 
 distclean: clean

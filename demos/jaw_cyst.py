@@ -92,6 +92,7 @@ import numpy as np
 
 import bonecontact.plot as bp
 from bonecontact.common.constants import SECONDS_PER_YEAR
+from bonecontact.common.resources import data_file
 from bonecontact.fracture import cell_stresses, risk_field
 from bonecontact.materials.laws import Isotropic
 from bonecontact.materials.library import load_strengths
@@ -103,7 +104,6 @@ from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir())  # the repository
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/jaw_cyst, else demos/results/jaw_cyst
 output = bp.output_dir("jaw_cyst", here, args)
@@ -115,7 +115,7 @@ XC, YC, R0 = 30 * MM, 12.5 * MM, 1.5 * MM  # cyst centre and initial radius
 PATCH = (25 * MM, 35 * MM)  # occlusal patch under the bite
 h = (1.0 if quick else 0.6) * MM  # mesh size (finer near the cyst)
 dt_months = 3 if quick else 1
-cysts = tomllib.loads((root / "data" / "neoplasms.toml").read_text())["cyst"]
+cysts = tomllib.loads(data_file("neoplasms.toml").read_text())["cyst"]
 if comm.rank == 0:
     output.mkdir(parents=True, exist_ok=True)
 comm.barrier()

@@ -104,13 +104,13 @@ from mpi4py import MPI  # before dolfinx
 import numpy as np
 
 import bonecontact.plot as bp
+from bonecontact.common.resources import data_file
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 from bonecontact.verification.analytic import hertz_2d
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir())  # the repository
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/knee2d, else demos/results/knee2d
 output = bp.output_dir("knee2d", here, args)
@@ -119,7 +119,7 @@ output = bp.output_dir("knee2d", here, args)
 # ## Run the scene
 
 # %%
-scene = load_scene(root / "data" / "scenes" / "knee2d.toml")
+scene = load_scene(data_file("scenes", "knee2d.toml"))
 result = run_scene(scene, comm, output=output, progress=True)
 if result.status != "converged":
     raise SystemExit(f"run failed: {result.summary.get('message')}")
@@ -272,7 +272,7 @@ comm.barrier()
 # the "balance defect" printed below is what is left over.
 
 # %%
-gait_scene = load_scene(root / "data" / "scenes" / "knee2d_gait.toml")
+gait_scene = load_scene(data_file("scenes", "knee2d_gait.toml"))
 gait_out = output / "gait"
 gait = run_scene(gait_scene, comm, output=gait_out, progress=True)
 if gait.status != "converged":

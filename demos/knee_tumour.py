@@ -91,12 +91,12 @@ import numpy as np
 
 import bonecontact.plot as bp
 from bonecontact.common.constants import SECONDS_PER_DAY
+from bonecontact.common.resources import data_file
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir())  # the repository
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/knee_tumour, else demos/results/knee_tumour
 output = bp.output_dir("knee_tumour", here, args)
@@ -105,7 +105,7 @@ output = bp.output_dir("knee_tumour", here, args)
 # ## Grow the tumour and load the knee
 
 # %%
-scene = load_scene(root / "data" / "scenes" / "knee2d_tumour.toml")
+scene = load_scene(data_file("scenes", "knee2d_tumour.toml"))
 if bp.quick_mode():  # analyses at days 10, 20
     scene = dataclasses.replace(
         scene, neoplasm=dataclasses.replace(scene.neoplasm, mechanics_every=5)

@@ -68,12 +68,12 @@ from mpi4py import MPI  # before dolfinx
 import numpy as np
 
 import bonecontact.plot as bp
+from bonecontact.common.resources import data_file
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
 comm = MPI.COMM_WORLD
 here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-root = next(p for p in (here, *here.parents) if (p / "data" / "scenes").is_dir())  # the repository
 args = [a for a in sys.argv[1:] if not a.startswith("-")] if "__file__" in globals() else []
 # results: the first argument, else $BONECONTACT_OUTPUT/long_bone, else demos/results/long_bone
 output = bp.output_dir("long_bone", here, args)
@@ -83,7 +83,7 @@ output = bp.output_dir("long_bone", here, args)
 # Materials, boundary conditions, the load ramp and the probes are all in the scene file.
 
 # %%
-scene = load_scene(root / "data" / "scenes" / "long_bone.toml")
+scene = load_scene(data_file("scenes", "long_bone.toml"))
 if comm.rank == 0:
     print(
         f"scene {scene.name}: {scene.analysis.kind}, t_end = {scene.analysis.t_end} s, "

@@ -1,16 +1,19 @@
-"""Reference data shipped in the repository's ``data/`` directory.
+"""The material library shipped with the package (``data/materials.toml``).
 
-``data/materials.toml`` holds starting material constants (docs/theory/mechanics.md#material-data),
-each with the
-published ``source`` it comes from.  The package is installed editable, so the data are
-read from the source tree.
+``materials.toml`` holds starting material constants and strengths
+(docs/theory/mechanics.md#material-data), each with the published ``source`` it comes
+from.  It is package data of ``bonecontact.data`` (the repository's ``data/`` folder),
+read through :mod:`importlib.resources` (:mod:`bonecontact.common.resources`).
 """
 
 from __future__ import annotations
 
 import tomllib
+from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
+
+from bonecontact.common.resources import data_dir
 
 __all__ = [
     "DATA_DIR",
@@ -23,8 +26,10 @@ __all__ = [
     "material_strength",
 ]
 
-DATA_DIR = Path(__file__).resolve().parents[2] / "data"
-MATERIALS_FILE = DATA_DIR / "materials.toml"
+#: the folder of the shipped data (package ``bonecontact.data``; a Path on disk)
+DATA_DIR: Traversable = data_dir()
+#: the shipped material library
+MATERIALS_FILE: Traversable = DATA_DIR / "materials.toml"
 
 #: Keys of a library entry that are documentation, not scene-file material keys.
 METADATA_KEYS = ("source", "notes")
@@ -34,7 +39,7 @@ STRENGTH_KEYS = ("sigma_t", "sigma_c", "K_Ic")
 
 
 def _load(path: str | Path | None, section: str) -> dict[str, dict[str, Any]]:
-    path = Path(MATERIALS_FILE if path is None else path)
+    path = MATERIALS_FILE if path is None else Path(path)
     with path.open("rb") as f:
         doc = tomllib.load(f)
     entries = doc.get(section, {})
@@ -52,7 +57,7 @@ def load_material_library(
     Parameters
     ----------
     path
-        TOML file to read (default ``data/materials.toml``).
+        TOML file to read (default: the shipped ``materials.toml``).
     metadata
         Keep the ``source`` and ``notes`` keys.  With ``False`` each entry holds only
         scene-file material keys (``model``, moduli, ``rho``, ``tau_v``), ready to be
@@ -83,7 +88,7 @@ def load_reference_values(path: str | Path | None = None) -> dict[str, dict[str,
     Parameters
     ----------
     path
-        TOML file to read (default ``data/materials.toml``).
+        TOML file to read (default: the shipped ``materials.toml``).
 
     Returns
     -------
@@ -117,7 +122,7 @@ def material_strength(
     keys
         The keys the check needs (a subset of :data:`STRENGTH_KEYS`).
     path
-        TOML file to read (default ``data/materials.toml``).
+        TOML file to read (default: the shipped ``materials.toml``).
 
     Raises
     ------

@@ -5,18 +5,22 @@ version 0.2.3, Apache-2.0; ``data/anatomy/NOTICE`` and ``README.md``): the lumba
 L3 and L4 (placed as a pair, L3 on L4), a right femur, a right tibia and a mandible.  They
 are visualisation meshes of a few hundred to a few thousand triangles: good for meshing
 tests, demonstrations and coarse 3D scenes, not for patient-specific stresses.
+
+They are package data of ``bonecontact.data`` (the repository's ``data/`` folder), read
+through :mod:`importlib.resources` (:mod:`bonecontact.common.resources`).
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+from importlib.resources.abc import Traversable
 
+from bonecontact.common.resources import data_dir, data_path
 from bonecontact.meshing.surface_repair import MeshInputError, Surface, prepare_surface
 
 __all__ = ["ANATOMY_DIR", "ANATOMY_SURFACES", "anatomy_surface"]
 
 #: the folder of the shipped surfaces
-ANATOMY_DIR = Path(__file__).resolve().parents[2] / "data" / "anatomy"
+ANATOMY_DIR: Traversable = data_dir() / "anatomy"
 
 #: name -> (file, what it is)
 ANATOMY_SURFACES = {
@@ -50,4 +54,5 @@ def anatomy_surface(name: str, size: float | None = None) -> Surface:
         raise MeshInputError(
             f"no shipped anatomy surface {name!r}; available: {', '.join(ANATOMY_SURFACES)}"
         )
-    return prepare_surface(ANATOMY_DIR / ANATOMY_SURFACES[key][0], size=size)
+    with data_path("anatomy", ANATOMY_SURFACES[key][0]) as path:
+        return prepare_surface(path, size=size)
