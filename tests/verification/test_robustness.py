@@ -146,7 +146,7 @@ def test_full_matrix(cfg, tmp_shared_path):
     "cfg",
     [
         Config(2, "curved_flat", "between", 0.0, "load", 1.0e4, 1.0, "none", "static"),
-        Config(2, "flat_flat", "node", -0.1, "displacement", 1.0e2, 0.25, "coulomb", "static"),
+        Config(2, "flat_flat", "node", 0.0, "displacement", 1.0e2, 0.25, "coulomb", "static"),
     ],
     ids=lambda c: c.name,
 )
@@ -158,6 +158,6 @@ def test_cli_three_ranks(cfg, tmp_path):
     proc = cli_support.run_scene(tmp_path / "scene.toml", tmp_path / "three", 3)
     assert proc.returncode == 0, proc.stderr
     three = contact_table(tmp_path / "three" / "contact_pair.csv", cfg.dim)
-    assert (three[:, : cfg.dim] == rec.pressures[:, : cfg.dim]).all()
+    assert abs(three[:, : cfg.dim] - rec.pressures[:, : cfg.dim]).max() < 1e-12
     peak = rec.pressures[:, cfg.dim].max()
     assert abs(three[:, cfg.dim] - rec.pressures[:, cfg.dim]).max() <= 1e-8 * peak
