@@ -68,6 +68,13 @@ rm -f benchmarks/results/checkpoint.csv
 $PY benchmarks/bench_checkpoint.py $quick
 $MPIEXEC -n 2 $PY benchmarks/bench_checkpoint.py $quick
 
+echo "== contact robustness matrix: every configuration of the covering design on 1, 2 and 3 ranks (outcome, PDAS iterations, time; ranks compared)"
+rm -rf benchmarks/results/robustness.csv "${TMPDIR:-/tmp}/bonecontact-robustness"
+$PY benchmarks/bench_robustness.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_robustness.py --compare $quick
+$MPIEXEC -n 3 $PY benchmarks/bench_robustness.py --compare $quick
+$PY benchmarks/bench_robustness.py --table
+
 # further studies (growth) add their scripts here
 for extra in benchmarks/bench_tumour.py benchmarks/bench_cyst.py; do
   if [ -f "$extra" ]; then echo "== $extra"; $PY "$extra" $quick; fi
