@@ -27,8 +27,6 @@ sessions) with the same expected report, and each shipped scene passes ``check``
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 import tempfile
 import warnings
 from pathlib import Path
@@ -39,6 +37,7 @@ import numpy as np
 import pytest
 
 from bonecontact.meshing import shapes
+from bonecontact.runners.cli import main as cli_main
 from bonecontact.runners.dispatch import run_scene
 from bonecontact.runners.mechanics import build_model, read_mesh
 from bonecontact.scene import SceneError, load_scene
@@ -403,28 +402,34 @@ def test_chain_of_contacts(meshes, case):
     _assert_motions(got, expected, atol=ATOL.get(case, 1e-9))
 
 
-@pytest.mark.serial
-def test_command_exit_status(meshes, tmp_path):
+def test_command_exit_status(meshes, tmp_shared_path, capsys):
     """``bonecontact check``: exit 2 with the report on an ill-posed scene, 0 with
-    ``unheld_motion = "warn"`` (the report then a warning)."""
+    ``unheld_motion = "warn"`` (the report then a warning, and a ``motions`` row)."""
+    comm = MPI.COMM_WORLD
     supports, contacts, _ = HALF_DISC_CASES["loaded edge x fixed"]
-    exe = Path(sys.executable).parent / "bonecontact"
+    line = 'body "cylinder": rotation about the point (0, 0.01) is not held'
     for mode, status in (("error", 2), ("warn", 0)):
-        path = tmp_path / f"{mode}.toml"
-        path.write_text(
-            _scene_text(
-                meshes["half_disc"],
-                2,
-                DISC,
-                supports,
-                contacts,
-                extra=f'unheld_motion = "{mode}"',
+        path = tmp_shared_path / f"{mode}.toml"
+        if comm.rank == 0:
+            path.write_text(
+                _scene_text(
+                    meshes["half_disc"],
+                    2,
+                    DISC,
+                    supports,
+                    contacts,
+                    extra=f'unheld_motion = "{mode}"',
+                )
             )
-        )
-        out = subprocess.run([str(exe), "check", str(path)], capture_output=True, text=True)
-        assert out.returncode == status, out.stderr
-        assert 'body "cylinder": rotation about the point (0, 0.01) is not held' in out.stderr
-        assert str(path) in out.stderr if mode == "error" else "warning:" in out.stderr
+        comm.barrier()
+        assert cli_main(["check", str(path)]) == status
+        out = capsys.readouterr()
+        if comm.rank == 0:
+            assert line in out.err
+            if mode == "error":
+                assert f"error: {path}" in out.err and 'unheld_motion = "warn"' in out.err
+            else:
+                assert "warning:" in out.err and f"motions     {line} (warning)" in out.out
 
 
 #: active set → the motions the half disc's supports and these active nodes leave free
