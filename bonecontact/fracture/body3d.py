@@ -115,6 +115,24 @@ class CrackedBody3D:
         )
 
 
+def _outward_triangles(msh: mesh.Mesh, ext: npt.NDArray[np.int32]) -> npt.NDArray[np.float64]:
+    """Vertex coordinates (n, 3, 3) of the exterior facets ``ext``, each turned so that its
+    normal points out of its cell.  The vertex order of a facet follows the local
+    numbering, which changes with the partition; so would the orientation that gmsh's
+    discrete surfaces were given."""
+    if not ext.size:
+        return np.zeros((0, 3, 3))
+    tdim = msh.topology.dim
+    tri = msh.geometry.x[mesh.entities_to_geometry(msh, tdim - 1, ext)].copy()
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    cells = np.array([f2c.links(f)[0] for f in ext], dtype=np.int32)
+    centre = mesh.compute_midpoints(msh, tdim, cells)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    flip = np.einsum("ij,ij->i", normal, tri.mean(axis=1) - centre) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return tri
+
+
 def body_surface(
     msh: mesh.Mesh,
     cell_tags: mesh.MeshTags,
@@ -144,8 +162,7 @@ def body_surface(
     msh.topology.create_connectivity(tdim - 1, tdim)
     ext = mesh.exterior_facet_indices(msh.topology)
     ext = ext[ext < msh.topology.index_map(tdim - 1).size_local]
-    geom = mesh.entities_to_geometry(msh, tdim - 1, ext)
-    tri = msh.geometry.x[geom] if ext.size else np.zeros((0, 3, 3))
+    tri = _outward_triangles(msh, ext)
     tag_of = dict(zip(facet_tags.indices.tolist(), facet_tags.values.tolist(), strict=True))
     tags = np.array([tag_of.get(int(f), 0) for f in ext], dtype=np.int32)
     parts = comm.allgather((tri, tags))

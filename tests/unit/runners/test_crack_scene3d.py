@@ -346,4 +346,4 @@ def test_cli_same_on_one_two_three_ranks(tmp_path: Path) -> None:
         assert summary["status"] == "converged"
     for tab in tabs[1:]:
         for key in ("K_I", "K_II", "K_III", "K_I_dc"):
-            np.testing.assert_allclose(tab[key], tabs[0][key], rtol=1e-6, atol=1e-6 * REF)
+            np.testing.assert_allclose(tab[key], tabs[0][key], rtol=1e-10, atol=1e-10 * REF)
