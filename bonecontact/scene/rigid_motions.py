@@ -70,10 +70,11 @@ __all__ = [
 
 #: A frictionless contact holds a motion when more than this share of the motion's mean
 #: squared relative velocity on the slave surface is normal to it.  The faceted normals of
-#: a curved surface leave about ``(h / R)²`` / 10 of a rotation about its centre of
-#: curvature normal (h the facet size, R the radius: below 3e-4 for h < R / 5, measured
-#: in docs/theory/rigid_motions.md); a real hold is of order 1 (a flat face tilting, a
-#: cap translating sideways: ``sin²`` of its half-angle / 3, 1e-2 for 10°).
+#: a curved surface leave a little of a rotation about its centre of curvature normal:
+#: 1.5e-5 of it for facets of size h = R / 10, 7e-5 for R / 5, 5e-4 for 0.3 R, 1.4e-3 for
+#: 0.4 R (docs/theory/rigid_motions.md).  A real hold is of order 1: a flat face tilting
+#: about 1, a hemisphere sliding sideways 1/3, a cap of half-angle α about α²/4 (8e-3
+#: for 10°).
 CONTACT_SHARE = 1.0e-3
 #: A Dirichlet condition is exact: it holds a motion when more than this share of the
 #: motion's velocity on its facets lies in the fixed components (round-off otherwise).
