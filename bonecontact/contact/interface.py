@@ -39,6 +39,7 @@ from petsc4py import PETSc
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
+from scipy.spatial import cKDTree
 
 from bonecontact.contact.dual_basis import (
     element_mass_matrices,
@@ -58,6 +59,11 @@ __all__ = [
     "rotation_matrix",
     "transformed_operator",
 ]
+
+
+#: Initial interpenetration accepted by default, as a fraction of the local slave facet
+#: size (docs/theory/mortar.md#candidate-search): deeper overlaps are refused.
+PENETRATION_FRACTION = 0.5
 
 
 class ContactInputError(ValueError):
@@ -338,14 +344,79 @@ def _rigid_plane_mortar(
     )
 
 
-def _slave_search_radius(surf: _SlaveSurface, search_radius: float | None) -> np.ndarray:
+def _slave_search_radius(
+    surf: _SlaveSurface, search_radius: float | None, extension: float = 0.0
+) -> np.ndarray:
     """Search distance of every slave facet this rank integrates: ``search_radius``, or by
-    default three times the facet's size (its length in 2D, ``sqrt(2 |facet|)`` in 3D)."""
+    default three times the facet's size (its length in 2D, ``sqrt(2 |facet|)`` in 3D)
+    plus ``extension``, the separation of surfaces that start apart
+    (:func:`_search_extension`)."""
     measure = surf.measure[surf.mine]
     if search_radius is not None:
         return np.full(measure.shape, float(search_radius))
-    gdim = surf.x.shape[1]
-    return 3.0 * (measure if gdim == 2 else np.sqrt(2.0 * measure))
+    return 3.0 * _facet_sizes(surf.x.shape[1], measure) + extension
+
+
+def _facet_sizes(gdim: int, measure: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Size of facets of the given measures: the length in 2D, ``sqrt(2 |facet|)`` in 3D."""
+    return measure if gdim == 2 else np.sqrt(2.0 * measure)
+
+
+@dataclass(frozen=True)
+class Separation:
+    """Where a slave and a master surface come closest (node to node).
+
+    Attributes
+    ----------
+    distance
+        Smallest distance between a slave node and a master node (m).
+    slave_point
+        That slave node's coordinates.
+    facet_size
+        The larger of the two facet sizes there (m): node-to-node distances of
+        touching surfaces are up to about this.
+    """
+
+    distance: float
+    slave_point: npt.NDArray[np.float64]
+    facet_size: float
+
+
+def surface_separation(
+    comm: MPI.Comm,
+    slave_x: npt.NDArray[np.float64],
+    slave_facets: npt.NDArray[np.int64],
+    slave_measure: npt.NDArray[np.float64],
+    master_coords: npt.NDArray[np.float64],
+) -> Separation:
+    """The closest slave/master node pair of two surfaces (collective).
+
+    ``slave_x``, ``slave_facets`` and ``slave_measure`` describe the slave surface
+    (replicated on every rank); ``master_coords`` ``(f, gdim, gdim)`` the vertices of
+    this rank's master facets.  Nearest slave node of every master vertex (k-d tree),
+    the smallest over all ranks; the same on every rank and for every partition.
+    """
+    gdim = slave_x.shape[1]
+    size_s = np.zeros(slave_x.shape[0])
+    np.maximum.at(size_s, slave_facets, _facet_sizes(gdim, slave_measure)[:, None])
+    best = (np.inf, 0, 0.0)
+    if master_coords.shape[0] and slave_x.shape[0]:
+        mx = master_coords.reshape(-1, gdim)
+        dist, j = cKDTree(slave_x).query(mx, k=1)
+        i = int(np.argmin(dist))
+        _, m_measure = facet_normals(master_coords[i // gdim], np.arange(gdim)[None, :])
+        h_m = float(_facet_sizes(gdim, m_measure)[0])
+        best = (float(dist[i]), int(j[i]), max(h_m, float(size_s[j[i]])))
+    dist, node, h = min(comm.allgather(best), key=lambda b: (b[0], b[1]))
+    return Separation(dist, slave_x[node].copy(), h)
+
+
+def _search_extension(sep: Separation) -> float:
+    """How much farther than the default the slave facets search: the separation of
+    surfaces that start apart, less one facet size (0 for touching surfaces, whose
+    closest nodes may be up to a facet size apart), so the default search reaches three
+    facet sizes beyond the first contact (docs/theory/mortar.md#candidate-search)."""
+    return max(sep.distance - sep.facet_size, 0.0) if np.isfinite(sep.distance) else 0.0
 
 
 def _master_near_slave(
@@ -379,35 +450,54 @@ def _master_near_slave(
     return gids, node_x, facets
 
 
+@dataclass(frozen=True)
+class _PairLabels:
+    """How messages name a pair: its name and its two groups (physical-group names when
+    known, else the tags)."""
+
+    name: str
+    slave: str
+    master: str
+
+    @classmethod
+    def of(cls, name: str, slave: int, master: int, groups: tuple[str, str] | None):
+        if groups is None:
+            return cls(name, f"group {slave}", f"group {master}")
+        return cls(name, f'"{groups[0]}" (tag {slave})', f'"{groups[1]}" (tag {master})')
+
+
+def _nothing_opposite(labels: _PairLabels, r_max: float, sep: Separation) -> ContactInputError:
+    """The error for a slave surface with no master facet within the search distance."""
+    where = ", ".join(f"{c:.4g}" for c in sep.slave_point)
+    return ContactInputError(
+        f"contact {labels.name!r}: no master facet of {labels.master} lies opposite the "
+        f"slave surface {labels.slave} within the search distance {r_max:.3g} m (along "
+        f"the slave normals); the smallest distance between the two surfaces is "
+        f"{sep.distance:.3g} m (at the slave node ({where})). The key [[contact]] "
+        f"search_distance sets how far the slave facets search (default: three slave "
+        f"facet sizes beyond the closest distance); check that the master surface faces "
+        f"the slave one"
+    )
+
+
 def _master_surface_mortar(
     V: fem.FunctionSpace,
-    facet_tags,
-    master: int,
-    slave: int,
     surf: _SlaveSurface,
     mask: npt.NDArray[np.bool_],
-    search_radius: float | None,
-    name: str,
+    radius: npt.NDArray[np.float64],
     stats: dict[str, float],
     local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
-    shared: npt.NDArray[np.bool_],
+    shift: npt.NDArray[np.float64] | None = None,
 ) -> _MortarData:
     """Gather the master facets near each rank's slave facets and integrate the owned slave
-    facets against them; phase times and counts are added to ``stats``.  ``shared``: the
-    slave nodes that are master nodes too and may not be (refused)."""
+    facets (moved by ``shift``, if given) against them within the search distances
+    ``radius``; phase times and counts are added to ``stats``."""
     comm, gdim = V.mesh.comm, V.mesh.geometry.dim
     t0 = time.perf_counter()
-    if comm.allreduce(local_master[0].shape[0], op=MPI.SUM) == 0:
-        raise ContactInputError(f"contact {name!r}: the master facet group {master} is empty")
-    if shared.any():
-        raise ContactInputError(
-            f"contact {name!r}: slave and master surfaces share nodes; the bodies "
-            "must be meshed separately (no shared interface nodes)"
-        )
+    xs = surf.x if shift is None else surf.x + shift
     own_f = surf.facets[surf.mine]
-    radius = _slave_search_radius(surf, search_radius)
     normals = surf.normals if gdim == 2 else None
-    lower, upper = swept_facet_boxes(surf.x, own_f, radius, normals)
+    lower, upper = swept_facet_boxes(xs, own_f, radius, normals)
     box = (
         (lower.min(axis=0), upper.max(axis=0))
         if own_f.size
@@ -416,7 +506,7 @@ def _master_surface_mortar(
     m_gids, m_x, m_f = _master_near_slave(comm, local_master, box)
     stats["t_gather"] = stats.get("t_gather", 0.0) + time.perf_counter() - t0
     contrib = assemble_mortar(
-        surf.x,
+        xs,
         own_f,
         surf.normals,
         m_x,
@@ -433,12 +523,6 @@ def _master_surface_mortar(
     d = _allreduce(comm, contrib.d, MPI.SUM)
     wgap = _allreduce(comm, contrib.gap, MPI.SUM)
     covered = comm.allreduce(float(contrib.covered_area.sum()), op=MPI.SUM)
-    if covered <= 0.0:
-        r_max = comm.allreduce(float(radius.max(initial=0.0)), op=MPI.MAX)
-        raise ContactInputError(
-            f"contact {name!r}: no master facet (group {master}) lies opposite the "
-            f"slave surface (group {slave}) within {r_max:.3g} m"
-        )
     return _MortarData(
         d=d,
         wgap=wgap,
@@ -452,6 +536,56 @@ def _master_surface_mortar(
         off_v=contrib.d_off_vals,
         covered=covered,
     )
+
+
+def _check_master(
+    comm: MPI.Comm,
+    labels: _PairLabels,
+    local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
+    shared: npt.NDArray[np.bool_],
+) -> None:
+    """Refuse an empty master group and surfaces that share nodes (collective)."""
+    if comm.allreduce(local_master[0].shape[0], op=MPI.SUM) == 0:
+        raise ContactInputError(
+            f"contact {labels.name!r}: the master facet group {labels.master} is empty"
+        )
+    if shared.any():
+        raise ContactInputError(
+            f"contact {labels.name!r}: slave and master surfaces share nodes; the bodies "
+            "must be meshed separately (no shared interface nodes)"
+        )
+
+
+def approach_vector(
+    normals: npt.NDArray[np.float64],
+    gap: npt.NDArray[np.float64],
+    tol: float,
+) -> npt.NDArray[np.float64]:
+    """The rigid translation of the slave surface that closes the smallest gap
+    (docs/theory/pdas.md#bodies-that-start-apart).
+
+    The direction is the mean normal of the closest nodes (gap within ``tol`` of the
+    smallest; the mean, not one node's normal, so that nodes with equal gaps — a
+    symmetric contact — give the same direction whatever their numbering); the
+    distance is the smallest gap along it, ``min_p g_p / (n_p · e)`` over the nodes
+    facing that way (``n_p · e > 1/2``).  Zero if the surfaces touch or interpenetrate.
+
+    Parameters
+    ----------
+    normals, gap
+        Unit nodal normals and nodal gaps of the slave nodes that carry a multiplier.
+    tol
+        Gaps within ``tol`` of the smallest count as equal.
+    """
+    gdim = normals.shape[1] if normals.ndim == 2 else 2
+    if gap.size == 0 or float(gap.min()) <= tol:
+        return np.zeros(gdim)
+    closest = gap <= float(gap.min()) + tol
+    e = normals[closest].sum(axis=0)
+    e = e / np.linalg.norm(e)
+    ne = normals @ e
+    facing = ne > 0.5
+    return float(np.min(gap[facing] / ne[facing])) * e
 
 
 def _multiplier_nodes(surf: _SlaveSurface, d: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
@@ -477,15 +611,30 @@ def _check_initial_gap(
     max_penetration: float | None,
     name: str,
 ) -> None:
-    """Reject an initial interpenetration deeper than ``max_penetration`` (collective)."""
+    """Reject an initial interpenetration deeper than ``max_penetration``, by default
+    :data:`PENETRATION_FRACTION` of the size of the slave facets at the node (collective).
+
+    A slighter overlap (a segmentation voxel between two scanned bones) is a negative
+    initial gap that the contact solve pushes apart; a deeper one is taken as a mistake
+    in the meshes.
+    """
     d, wgap = mortar.d, mortar.wgap
     gap_all = np.where(carries, wgap / np.where(carries, d, 1.0), np.inf)
-    tol = max_penetration if max_penetration is not None else 1e-6 * surf.size
-    worst = comm.allreduce(float(gap_all[carries].min()) if carries.any() else np.inf, op=MPI.MIN)
-    if worst < -tol:
+    if max_penetration is not None:
+        tol = np.full(gap_all.shape, float(max_penetration))
+    else:
+        size = np.zeros(surf.x.shape[0])
+        np.maximum.at(size, surf.facets, _facet_sizes(surf.x.shape[1], surf.measure)[:, None])
+        tol = PENETRATION_FRACTION * size
+    excess = np.where(carries, gap_all + tol, np.inf)
+    worst = int(np.argmin(excess)) if excess.size else 0
+    if excess.size and excess[worst] < 0.0:
+        where = ", ".join(f"{c:.4g}" for c in surf.x[worst])
         raise ContactInputError(
             f"contact {name!r}: the bodies interpenetrate initially (nodal gap "
-            f"{worst:.3e} m < -{tol:.1e} m); move them apart or fix the meshes"
+            f"{gap_all[worst]:.3e} m at the slave node ({where}), deeper than the "
+            f"{tol[worst]:.1e} m accepted there: {PENETRATION_FRACTION:g} of the slave "
+            f"facet size); move them apart or fix the meshes"
         )
 
 
@@ -551,6 +700,44 @@ def _send_rows_to_owners(
     return q_rows, q_cols, q_vals
 
 
+def _surface_pair_mortar(
+    V: fem.FunctionSpace,
+    surf: _SlaveSurface,
+    mask: npt.NDArray[np.bool_],
+    search_radius: float | None,
+    stats: dict[str, float],
+    local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
+    labels: _PairLabels,
+    approach: bool,
+) -> _MortarData:
+    """The mortar integrals of a slave surface against a master surface: searched from
+    where the surfaces are closest, and (``approach``) evaluated after the rigid
+    approach that closes the smallest gap (collective)."""
+    comm = V.mesh.comm
+    sep = surface_separation(comm, surf.x, surf.facets, surf.measure, local_master[1])
+    radius = _slave_search_radius(surf, search_radius, _search_extension(sep))
+    mortar = _master_surface_mortar(V, surf, mask, radius, stats, local_master)
+    if mortar.covered <= 0.0:
+        r_max = comm.allreduce(float(radius.max(initial=0.0)), op=MPI.MAX)
+        raise _nothing_opposite(labels, r_max, sep)
+    if not approach:
+        return mortar
+    carries = _multiplier_nodes(surf, mortar.d)
+    gap = mortar.wgap[carries] / mortar.d[carries]
+    shift = approach_vector(surf.normals[carries], gap, 1e-9 * surf.size)
+    stats["approach"] = float(np.linalg.norm(shift))
+    if not shift.any():
+        return mortar
+    moved = _master_surface_mortar(
+        V, surf, mask, _slave_search_radius(surf, search_radius), stats, local_master, shift
+    )
+    if moved.covered <= 0.0:  # (the approach brings the surfaces closer: never seen)
+        return mortar
+    # gaps measured from the initial position: g = g' + n_p · shift (D biorthogonal)
+    moved.wgap += moved.d * (surf.normals @ shift)
+    return moved
+
+
 def build_interface(
     V: fem.FunctionSpace,
     facet_tags,
@@ -562,6 +749,8 @@ def build_interface(
     search_radius: float | None = None,
     max_penetration: float | None = None,
     shared_nodes: str = "refuse",
+    groups: tuple[str, str] | None = None,
+    approach: bool = False,
 ) -> ContactInterface:
     """Build a contact interface (collective).
 
@@ -587,7 +776,7 @@ def build_interface(
         times the size of each slave facet (docs/theory/mortar.md#candidate-search).
     max_penetration
         Initial interpenetration (negative nodal gap) beyond which the input is
-        rejected; default 1e-6 × the size of the slave surface.
+        rejected (m); default half the size of the slave facets at each node.
     shared_nodes
         Nodes that belong to both surfaces (the tip of a crack whose two faces are the
         pair): ``"refuse"`` (default; bodies must be meshed separately) or
@@ -595,6 +784,14 @@ def build_interface(
         modified there as at a Dirichlet node, so its neighbour's multiplier covers the
         whole facet) and acts as a master node only; the jump across the pair vanishes
         there identically (docs/theory/fracture.md#crack-faces-in-contact).
+    groups
+        Names of the slave and master groups (physical-group names), used in messages.
+    approach
+        For surfaces that start apart (static and quasi-static analyses): evaluate the
+        mortar geometry after a rigid approach of the slave surface that closes the
+        smallest gap (:func:`approach_vector`), the gaps corrected by that translation
+        so that they still measure from the initial position
+        (docs/theory/pdas.md#bodies-that-start-apart).
 
     Raises
     ------
@@ -626,18 +823,10 @@ def build_interface(
         ).astype(bool)
         if shared_nodes == "no_multiplier":
             mask, shared = mask | shared, np.zeros_like(shared)
-        mortar = _master_surface_mortar(
-            V,
-            facet_tags,
-            master,
-            slave,
-            surf,
-            mask,
-            search_radius,
-            name,
-            stats,
-            local_master,
-            shared,
+        labels = _PairLabels.of(name, slave, master, groups)
+        _check_master(comm, labels, local_master, shared)
+        mortar = _surface_pair_mortar(
+            V, surf, mask, search_radius, stats, local_master, labels, approach
         )
     # nodes carrying a multiplier, initial interpenetration
     carries = _multiplier_nodes(surf, mortar.d)

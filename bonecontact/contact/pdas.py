@@ -867,7 +867,10 @@ class ContactSolver:
         ``cold_start_fraction`` of the deepest penetration.
         """
         an = st.an
-        new_an = it.ind_n > it.eps
+        # an indicator within ±ε of zero keeps the node's state: an active node whose
+        # multiplier is zero to round-off (λ ≈ −ε, a degenerate node at the edge of the
+        # zone) stays active instead of toggling (docs/theory/pdas.md#active-set-rule)
+        new_an = (it.ind_n > it.eps) | (an & (it.ind_n >= -it.eps))
         if k == 1 and self._cold and self.bs == 3 and self.options.cold_start_3d == "compliance":
             new_an = cold_start.predicted_set(self, st, it)
         elif k == 1 and self._cold and self.cold_start_fraction > 0 and (new_an & ~an).any():

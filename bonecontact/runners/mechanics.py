@@ -297,6 +297,8 @@ def _contact_interfaces(scene: Scene, model: Mechanics, md: Any, tag: dict[str, 
                         dirichlet_dofs=bc,
                         name=c.name,
                         search_radius=c.search_distance,
+                        groups=(c.slave, c.master),
+                        approach=scene.analysis.kind != "dynamic",
                     )
                 )
             except ContactInputError as exc:

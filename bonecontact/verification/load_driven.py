@@ -48,6 +48,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import gmsh
 import numpy as np
 from dolfinx import fem
 from dolfinx.io.gmsh import MeshData
@@ -59,6 +60,7 @@ from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing import shapes
+from bonecontact.meshing.builder import PhysicalGroups, generate
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.verification.analytic import hertz_2d, hertz_3d
 
@@ -68,6 +70,7 @@ __all__ = [
     "LOAD_DRIVEN_RADIUS",
     "LOAD_DRIVEN_STIFFNESS_RATIO",
     "LoadDrivenHertz",
+    "half_disc_apart_2d",
     "half_disc_on_block_2d",
     "hertz_errors",
     "sphere_on_block_3d",
@@ -306,6 +309,112 @@ def half_disc_on_block_2d(
     )
 
 
+def half_disc_apart_2d(
+    comm: MPI.Comm,
+    *,
+    offset: float = 0.5,
+    gap: float = 0.0,
+    contrast: float = LOAD_DRIVEN_STIFFNESS_RATIO,
+    a_over_h: float = 5.0,
+    a_over_R: float = 0.02,
+    radius: float = 0.05,
+    options: PDASOptions | None = None,
+    approach: bool = True,
+) -> LoadDrivenHertz:
+    """A half disc pressed by a traction onto a stiffer block, held only by contact,
+    its apex anywhere relative to the nodes and its surface apart from the block
+    (issue #23's configurations; docs/theory/pdas.md#bodies-that-start-apart).
+
+    Half disc: radius ``radius`` (default 50 mm), E = 2 GPa, ν = 0.3, centred at
+    ``(0, radius + gap)``; block ``[-2R, 2R] x [-R, 0]``, E = ``contrast`` × 2 GPa, fixed
+    at its bottom.  Around the apex the arc is meshed uniformly with ``h = a/a_over_h``
+    (``a = a_over_R R``, the Hertz half-width the load is chosen for) so that the
+    nearest node lies ``offset h`` from the apex (0: a node at the apex, 0.5: two nodes
+    with equal gaps ``≈ h²/(8R)``, as in the issue).  ``u_x = 0`` on the axis segment
+    ``support`` inside the disc removes the horizontal translation and the rotation
+    about the centre, which the frictionless contact cannot; nothing holds the disc
+    vertically but the contact.  ``approach``: build the interface after the rigid
+    approach (:func:`bonecontact.contact.interface.build_interface`).
+    """
+    timings: dict[str, float] = {}
+    R, E1, nu = radius, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
+    E2 = contrast * E1
+    a_t = a_over_R * R
+    h = a_t / a_over_h
+
+    def build(path: Path | None):
+        return generate(
+            "half_disc_apart", 2, lambda: _half_disc_apart_geometry(R, gap, h, offset), comm, path
+        )
+
+    md = _mesh(comm, build, None, 2, timings)
+    P = hertz_2d.load_for_half_width(a_t, R, E1, nu, E2, nu)
+    return _assemble_problem(
+        md,
+        ("disc", "block", "disc_top", "disc_contact", "block_contact"),
+        (("support", 0),),
+        (0.0, -P / (2.0 * R)),
+        (R, E1, E2, nu, a_t),
+        "direct",
+        1e-12,
+        options,
+        timings,
+        approach=approach,
+    )
+
+
+def _half_disc_apart_geometry(R: float, gap: float, h: float, offset: float) -> None:
+    """gmsh geometry, sizes and groups of :func:`half_disc_apart_2d` (current model)."""
+    geo = gmsh.model.geo
+    yc = R + gap
+    dth = h / R
+    k = 12  # uniform elements on each side of the apex
+    th0, th1 = -(k + offset) * dth, (k + 1 - offset) * dth  # from the apex direction
+    c = geo.addPoint(0, yc, 0)
+    pl, pr = geo.addPoint(-R, yc, 0), geo.addPoint(R, yc, 0)
+    q0 = geo.addPoint(R * np.sin(th0), yc - R * np.cos(th0), 0)
+    q1 = geo.addPoint(R * np.sin(th1), yc - R * np.cos(th1), 0)
+    left, mid, right = (
+        geo.addCircleArc(pl, c, q0),
+        geo.addCircleArc(q0, c, q1),
+        geo.addCircleArc(q1, c, pr),
+    )
+    top = geo.addLine(pr, pl)
+    disc = geo.addPlaneSurface([geo.addCurveLoop([left, mid, right, top])])
+    s0, s1 = geo.addPoint(0, yc - 0.6 * R, 0), geo.addPoint(0, yc - 0.1 * R, 0)
+    support = geo.addLine(s0, s1)
+    b = [geo.addPoint(x, y, 0) for x, y in ((-2 * R, -R), (2 * R, -R), (2 * R, 0), (-2 * R, 0))]
+    bottom, side_r = geo.addLine(b[0], b[1]), geo.addLine(b[1], b[2])
+    btop, side_l = geo.addLine(b[2], b[3]), geo.addLine(b[3], b[0])
+    block = geo.addPlaneSurface([geo.addCurveLoop([bottom, side_r, btop, side_l])])
+    geo.synchronize()
+    gmsh.model.mesh.embed(1, [support], 2, disc)
+    gmsh.model.mesh.setTransfiniteCurve(mid, 2 * k + 2)
+    h_far = 0.1 * R
+    fld = gmsh.model.mesh.field
+    dist = fld.add("MathEval")
+    fld.setString(
+        dist,
+        "F",
+        f"{h} + 0.3 * Max(0, Sqrt(x*x + Min((y-({gap}))*(y-({gap})), y*y)) - {(k + 1) * h})",
+    )
+    cap = fld.add("MathEval")
+    fld.setString(cap, "F", f"{h_far}")
+    fmin = fld.add("Min")
+    fld.setNumbers(fmin, "FieldsList", [dist, cap])
+    fld.setAsBackgroundMesh(fmin)
+    for option in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{option}", 0)
+    groups = PhysicalGroups()
+    groups(2, [disc], "disc")
+    groups(2, [block], "block")
+    groups(1, [left, mid, right], "disc_contact")
+    groups(1, [top], "disc_top")
+    groups(1, [support], "support")
+    groups(1, [btop], "block_contact")
+    groups(1, [bottom], "block_bottom")
+
+
 def _mesh(
     comm: MPI.Comm,
     build: Callable[[Path | None], MeshData | Path],
@@ -337,6 +446,7 @@ def _assemble_problem(
     rtol: float,
     options: PDASOptions | None,
     timings: dict[str, float],
+    approach: bool = False,
 ) -> LoadDrivenHertz:
     """Model, interface and integrator of a load-driven problem, timed phase by phase."""
     body, block, top, slave, master = names
@@ -359,7 +469,15 @@ def _assemble_problem(
         F = m.load_vector(1.0, f.x.petsc_vec)
         P = -comm.allreduce(float(F.array_r[1 :: m.dim].sum()), op=MPI.SUM)
     with _timed(comm, timings, "mortar"):
-        itf = build_interface(m.V, md.facet_tags, pg[slave], pg[master], dirichlet_dofs=m.bc_dofs())
+        itf = build_interface(
+            m.V,
+            md.facet_tags,
+            pg[slave],
+            pg[master],
+            dirichlet_dofs=m.bc_dofs(),
+            groups=(slave, master),
+            approach=approach,
+        )
     comm.barrier()
     t0 = time.perf_counter()
     solver = ContactSolver(m.V, [itf], options)

@@ -149,10 +149,13 @@ def test_degenerate_slave_facet_is_an_input_error():
         build_interface(V, ft, 2, 1, name="sliver")
 
 
-def test_bodies_apart_need_a_search_distance():
+@pytest.mark.parametrize("approach", [False, True])
+def test_bodies_apart_are_searched_from_their_closest_distance(approach):
     """The upper block lifted by 5 of its slave element sizes: the default search (three
-    facet sizes along the normal) finds no master and says so; with a search distance above
-    the gap every slave node is covered and its nodal gap is the lift."""
+    facet sizes beyond the closest distance) covers every slave node, and its nodal gap is
+    the lift, with or without the rigid approach (flat surfaces: the approach changes no
+    gap).  A search distance below the lift finds nothing and the error names the pair,
+    both groups, the smallest distance and the key that sets the search distance."""
     from bonecontact.contact.interface import ContactInputError
 
     h_upper = 0.02 / 11
@@ -164,11 +167,65 @@ def test_bodies_apart_need_a_search_distance():
     nodes = np.unique(msh.geometry.dofmaps[0][upper])
     msh.geometry.x[nodes, 1] += lift
     V = fem.functionspace(msh, basix.ufl.element("Lagrange", msh.basix_cell(), 1, shape=(2,)))
-    with pytest.raises(ContactInputError, match="no master facet"):
-        build_interface(V, md.facet_tags, pg["upper_contact"], pg["lower_contact"])
     itf = build_interface(
-        V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], search_radius=1.5 * lift
+        V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], approach=approach
     )
     assert COMM.allreduce(float(itf.D.sum())) == pytest.approx(0.02, rel=1e-12)
     assert itf.covered_area == pytest.approx(0.02, rel=1e-10)
     np.testing.assert_allclose(itf.gap, lift, rtol=1e-10)
+    with pytest.raises(ContactInputError) as err:
+        build_interface(
+            V,
+            md.facet_tags,
+            pg["upper_contact"],
+            pg["lower_contact"],
+            name="joint",
+            search_radius=0.5 * lift,
+            groups=("upper_contact", "lower_contact"),
+        )
+    msg = str(err.value)
+    assert "'joint'" in msg and '"upper_contact"' in msg and '"lower_contact"' in msg
+    assert "search_distance" in msg and f"{0.5 * lift:.3g} m" in msg
+    # the smallest node-to-node distance: the lift (nodes above each other at the ends)
+    assert f"is {lift:.3g} m" in msg
+
+
+def test_surface_separation_is_the_smallest_node_distance():
+    """surface_separation against brute force on random surfaces, the same on every rank."""
+    from bonecontact.contact.interface import surface_separation
+
+    rng = np.random.default_rng(7)
+    xs = rng.random((40, 2))
+    facets = np.c_[np.arange(39), np.arange(1, 40)]
+    measure = np.linalg.norm(xs[facets[:, 1]] - xs[facets[:, 0]], axis=1)
+    mine = rng.random((5 + COMM.rank, 2, 2)) + 0.3 * (COMM.rank + 1)
+    sep = surface_separation(COMM, xs, facets, measure, mine)
+    allm = np.concatenate(COMM.allgather(mine.reshape(-1, 2)))
+    brute = np.linalg.norm(allm[:, None, :] - xs[None, :, :], axis=2).min()
+    assert sep.distance == pytest.approx(brute, rel=1e-14)
+    assert COMM.allgather(sep.distance) == [sep.distance] * COMM.size
+
+
+@pytest.mark.parametrize(
+    ("gaps", "expected"),
+    [((0.0, 0.1, 0.3), 0.0), ((-0.1, 0.2), 0.0), ((0.2, 0.2, 0.5), 0.2)],
+)
+def test_approach_vector_closes_the_smallest_gap(gaps, expected):
+    """The approach: zero for touching or interpenetrating surfaces; otherwise the smallest
+    gap along the mean normal of the closest nodes — for two symmetric closest nodes the
+    symmetric direction, whatever their order."""
+    from bonecontact.contact.interface import approach_vector
+
+    g = np.asarray(gaps, float)
+    s = 0.1
+    n = np.array([[s, -1.0], [-s, -1.0], [0.0, -1.0]])[: g.size]
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    a = approach_vector(n, g, 1e-12)
+    if expected == 0.0:
+        assert not a.any()
+        return
+    assert a[0] == pytest.approx(0.0, abs=1e-15)
+    # along -y: the closest nodes' gap along the normal, divided by n·e
+    assert a[1] == pytest.approx(-expected / (1.0 / np.hypot(s, 1.0)), rel=1e-12)
+    b = approach_vector(n[[1, 0, 2]], g[[1, 0, 2]], 1e-12)
+    np.testing.assert_array_equal(a, b)
