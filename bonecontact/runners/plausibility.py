@@ -24,11 +24,10 @@ from mpi4py import MPI
 import numpy as np
 import ufl
 from dolfinx import fem
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from bonecontact.scene import Scene
 from bonecontact.scene.checks import PlausibilityIssue, PlausibilityWarning, check_plausibility
+from bonecontact.scene.rigid_motions import find_bodies
 
 __all__ = [
     "SMALL_STRAIN_LIMIT",
@@ -101,56 +100,10 @@ def emit(issues: Sequence[PlausibilityIssue]) -> None:
 
 
 def count_bodies(mesh: Any, comm: MPI.Comm) -> int:
-    """The number of connected pieces of a mesh (cells sharing a vertex are connected).
-
-    Each rank finds the pieces of its cells (owned and ghost); the pieces are then joined
-    across ranks through the global indices of the vertices on the partition boundary, which
-    are the only data gathered.
-    """
-    tdim = mesh.topology.dim
-    mesh.topology.create_connectivity(tdim, 0)
-    c2v = mesh.topology.connectivity(tdim, 0)
-    nv = mesh.topology.index_map(0).size_local + mesh.topology.index_map(0).num_ghosts
-    nc = len(c2v.offsets) - 1
-    cells = np.repeat(np.arange(nc), np.diff(c2v.offsets))
-    graph = coo_matrix((np.ones(len(cells)), (cells, c2v.array)), shape=(nc, nv)).tocsr()
-    n_local, label = connected_components(
-        coo_matrix(graph @ graph.T), directed=False, return_labels=True
-    )
-    if comm.size == 1:
-        return int(n_local)
-    # a vertex's piece: the piece of any of its cells
-    vertex_piece = np.full(nv, -1, dtype=np.int64)
-    vertex_piece[c2v.array] = label[cells]
-    imap = mesh.topology.index_map(0)
-    shared = _shared_vertices(imap, nv)
-    glob = imap.local_to_global(shared.astype(np.int32))
-    links = comm.gather((n_local, glob, vertex_piece[shared]), root=0)
-    total = _join_pieces(links) if comm.rank == 0 else None
-    return int(comm.bcast(total, root=0))
-
-
-def _shared_vertices(imap: Any, nv: int) -> np.ndarray:
-    """Local indices of the vertices another rank also has (ghosts and owned shared ones)."""
-    ghosts = np.arange(imap.size_local, nv)
-    dest = imap.index_to_dest_ranks(0)
-    owned = np.flatnonzero(np.diff(dest.offsets)[: imap.size_local] > 0)
-    return np.union1d(owned, ghosts).astype(np.int64)
-
-
-def _join_pieces(links: Sequence[tuple[int, np.ndarray, np.ndarray]]) -> int:
-    """Pieces of all ranks joined by shared global vertices: the number of connected sets."""
-    offsets = np.cumsum([0] + [n for n, _, _ in links])
-    rows, cols = [], []
-    for r, (_, glob, piece) in enumerate(links):
-        rows.append(offsets[r] + piece)
-        cols.append(glob)
-    rows_a, cols_a = np.concatenate(rows), np.concatenate(cols)
-    nglob = int(cols_a.max()) + 1 if len(cols_a) else 0
-    npieces = int(offsets[-1])
-    graph = coo_matrix((np.ones(len(rows_a)), (rows_a, cols_a)), shape=(npieces, nglob)).tocsr()
-    n, _ = connected_components(coo_matrix(graph @ graph.T), directed=False)
-    return int(n)
+    """The number of connected pieces of a mesh (cells sharing a vertex are connected;
+    :func:`bonecontact.scene.rigid_motions.find_bodies`, which joins the pieces of the
+    ranks through the vertices on the partition boundary only)."""
+    return find_bodies(mesh, None, {}, comm).count
 
 
 class StrainMonitor:
