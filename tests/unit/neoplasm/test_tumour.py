@@ -210,7 +210,7 @@ if MPI.COMM_WORLD.rank == 0:
 @pytest.mark.serial
 @pytest.mark.parametrize("nproc", [pytest.param(2, marks=pytest.mark.slow), 3])
 def test_parallel_growth_matches_serial(venv_bin, tmp_path, nproc):
-    """R(t) of a non-symmetric growth on 2/3 ranks equals the serial one (rtol 1e-9)."""
+    """R(t) of a non-symmetric growth on 2/3 ranks equals the serial one (rtol 1e-10)."""
     import json
     import subprocess
     import sys
@@ -229,7 +229,7 @@ def test_parallel_growth_matches_serial(venv_bin, tmp_path, nproc):
         timeout=600,
     )
     assert par.returncode == 0, par.stderr[-2000:]
-    np.testing.assert_allclose(json.loads(par.stdout), serial, rtol=1e-9)
+    np.testing.assert_allclose(json.loads(par.stdout), serial, rtol=1e-10)
 
 
 def _mode2_rate(mu, gamma, h, dt, t_end, remesh_every):

@@ -471,7 +471,8 @@ def test_coupled_scene_errors(disc_mesh, tmp_shared_path):
 @pytest.mark.serial
 @pytest.mark.slow
 def test_coupled_run_same_on_two_ranks(disc_mesh, tmp_path):
-    """The command on 1 and 2 ranks: growth.csv and history.csv agree to 1e-8."""
+    """The command on 1 and 2 ranks: growth.csv and history.csv agree to 1e-10 (measured
+    7.9e-15)."""
     scene = tmp_path / "cyst.toml"
     scene.write_text(
         CYST_SCENE.format(
@@ -496,7 +497,7 @@ def test_coupled_run_same_on_two_ranks(disc_mesh, tmp_path):
             np.testing.assert_allclose(
                 a[k],
                 b[k],
-                rtol=1e-8,
+                rtol=1e-10,
                 atol=1e-14 * np.nan_to_num(np.abs(a[k])).max(),
                 equal_nan=True,
                 err_msg=f"{name}:{k}",

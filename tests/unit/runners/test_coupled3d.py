@@ -460,8 +460,9 @@ def test_coupled_3d_check_refuses_a_neoplasm_outside_its_group(ball_mesh, tmp_sh
 
 @pytest.mark.serial
 def test_coupled_3d_same_on_one_and_three_ranks(ball_mesh, tmp_path):
-    """The command on 1 and 3 ranks: growth.csv and history.csv agree to 1e-8 (2 ranks: this
-    module's tests in the 2-rank session, against the same references)."""
+    """The command on 1 and 3 ranks: growth.csv and history.csv agree to 1e-10 (measured
+    2.6e-13: the host mesh is rebuilt from rank-independent input; 2 ranks: this module's
+    tests in the 2-rank session, against the same references)."""
     scene = tmp_path / "cyst.toml"
     scene.write_text(
         CYST_SCENE.format(
@@ -487,7 +488,7 @@ def test_coupled_3d_same_on_one_and_three_ranks(ball_mesh, tmp_path):
                 np.testing.assert_allclose(
                     a[k],
                     b[k],
-                    rtol=1e-8,
+                    rtol=1e-10,
                     atol=1e-14 * np.nan_to_num(np.abs(a[k])).max(),
                     equal_nan=True,
                     err_msg=f"{name}:{k}",
