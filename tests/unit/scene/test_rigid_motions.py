@@ -271,17 +271,23 @@ def test_report_in_words(meshes):
         assert all(line in text for line in lines)
 
 
-def test_dynamic_analysis_is_not_checked(meshes):
-    """A dynamic scene holds a free body by its mass: no check."""
+@pytest.mark.parametrize("kind", ["dynamic", "quasistatic"])
+def test_analysis_kinds(meshes, kind):
+    """A dynamic scene holds a free body by its mass: not checked; a quasi-static one (the
+    viscous term has the same rigid modes as the elastic one) is refused."""
     comm = MPI.COMM_WORLD
-    text = _scene_text(meshes["half_disc"], 2, ["cylinder", "block"], {}, [], kind="dynamic")
-    path = meshes["half_disc"].parent / "dynamic.toml"
+    text = _scene_text(meshes["half_disc"], 2, ["cylinder", "block"], CLAMP2, [], kind=kind)
+    path = meshes["half_disc"].parent / f"{kind}.toml"
     if comm.rank == 0:
         path.write_text(text)
     comm.barrier()
     scene = load_scene(path)
     md, groups = read_mesh(scene, comm)
-    assert check_rigid_motions(scene, md, groups, comm) == []
+    if kind == "dynamic":
+        assert check_rigid_motions(scene, md, groups, comm) == []
+    else:
+        with pytest.raises(SceneError, match='body "cylinder": translation along x'):
+            check_rigid_motions(scene, md, groups, comm)
 
 
 DISC = ["cylinder", "block"]
