@@ -64,7 +64,7 @@ say "built $(basename "$wheel") ($(du -k "$wheel" | cut -f1) kB)"
 step="wheel contents"
 # Every package of the source tree (a folder with __init__.py under bonecontact/, forms/,
 # data/) and the reference data the code reads must be in the wheel.
-"$vpy" - "$wheel" "$work/src" <<'PY'
+"$vpy" - "$wheel" "$work/src" <<'PY' || fail "the wheel is incomplete (listed above): a package or data file is not shipped (setup.py, pyproject.toml [tool.setuptools.package-data])"
 import sys, zipfile
 from pathlib import Path
 
@@ -93,7 +93,7 @@ bin="$work/venv/bin"
 
 cd "$work/run"   # outside the checkout from here on
 step="import from the installation"
-"$bin/python" - "$work/venv" <<'PY'
+"$bin/python" - "$work/venv" <<'PY' || fail "the installed package cannot be imported, or is not the one in the venv (see above)"
 import dolfinx_solver  # noqa: F401  (first, as everywhere)
 import sys
 from pathlib import Path
@@ -133,7 +133,7 @@ check_summary out_knee2d
 
 step="run a 2D crack scene"
 mkdir -p crack
-"$bin/python" - crack/plate.msh <<'PY'
+"$bin/python" - crack/plate.msh <<'PY' || fail "gmsh could not write the crack scene's mesh"
 # A plate [-W, W] x [-H, H] with its edge groups; rigid-body motion removed on two short
 # edge pieces at the bottom-left corner (as tests/unit/runners/test_crack_scene.py).
 import sys
