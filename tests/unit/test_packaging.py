@@ -160,9 +160,11 @@ def test_a_missing_data_file_is_a_clear_error() -> None:
 
 
 def _uses_file_location(path: Path) -> bool:
-    return any(
+    """Whether the module's code names ``__file__`` (in its code, not in text)."""
+    text = path.read_text()
+    return "__file__" in text and any(
         isinstance(node, ast.Name) and node.id == "__file__"
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path)))
+        for node in ast.walk(ast.parse(text, filename=str(path)))
     )
 
 
