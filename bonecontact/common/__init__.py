@@ -4,7 +4,8 @@
 body labels; ``constants``: physical constants and time units (SI); ``formatting``: the
 text of numbers in result tables; ``geometry``: small 2D geometry helpers; ``profiling``:
 wall time per phase and peak memory (summary.json); ``version``: the package version from
-its metadata.
+its metadata; ``resources``: the shipped data files (package ``bonecontact.data``) through
+importlib.resources.
 """
 
 from bonecontact.common.constants import R_GAS, SECONDS_PER_DAY, SECONDS_PER_YEAR
