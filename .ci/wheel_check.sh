@@ -4,7 +4,7 @@
 # dependencies into a fresh venv in a temporary directory, and from a directory outside the
 # checkout (nothing of the repository is reachable there but copies of the inputs) run
 #   * bonecontact --version (must be pyproject.toml's version);
-#   * the shipped scene data/scenes/knee2d.toml (copied with its mesh);
+#   * the shipped scene data/scenes/knee2d.toml (copied with its mesh), on 1 and 2 ranks;
 #   * a 2D crack scene written here (a plate with a centre crack in tension; its K_I is
 #     compared with Feddersen's formula, 5 %);
 #   * the quickest demo, demos/contact_api.py (copied alone).
@@ -130,6 +130,10 @@ cp "$work/src/data/scenes/knee2d.toml" "$work/src/data/scenes/knee2d.msh" scene/
 say "bonecontact run scene/knee2d.toml"
 "$bin/bonecontact" run -q scene/knee2d.toml -o out_knee2d || fail "bonecontact run knee2d.toml failed"
 check_summary out_knee2d
+say "mpiexec -n 2 bonecontact run scene/knee2d.toml   # the venv's MPICH"
+"$bin/mpiexec" -n 2 "$bin/bonecontact" run -q scene/knee2d.toml -o out_knee2d_2 \
+  || fail "bonecontact run knee2d.toml on 2 ranks (the venv's mpiexec) failed"
+check_summary out_knee2d_2
 
 step="run a 2D crack scene"
 mkdir -p crack
