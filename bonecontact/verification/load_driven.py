@@ -71,6 +71,7 @@ __all__ = [
     "LOAD_DRIVEN_STIFFNESS_RATIO",
     "LoadDrivenHertz",
     "half_disc_apart_2d",
+    "half_disc_apart_mesh",
     "half_disc_on_block_2d",
     "hertz_errors",
     "sphere_on_block_3d",
@@ -343,9 +344,7 @@ def half_disc_apart_2d(
     h = a_t / a_over_h
 
     def build(path: Path | None):
-        return generate(
-            "half_disc_apart", 2, lambda: _half_disc_apart_geometry(R, gap, h, offset), comm, path
-        )
+        return half_disc_apart_mesh(comm, path, radius=R, gap=gap, h=h, offset=offset)
 
     md = _mesh(comm, build, None, 2, timings)
     P = hertz_2d.load_for_half_width(a_t, R, E1, nu, E2, nu)
@@ -360,6 +359,32 @@ def half_disc_apart_2d(
         options,
         timings,
         approach=approach,
+    )
+
+
+def half_disc_apart_mesh(
+    comm: MPI.Comm | None = None,
+    path: str | Path | None = None,
+    *,
+    radius: float = 0.05,
+    gap: float = 0.0,
+    h: float = 2.0e-4,
+    offset: float = 0.5,
+) -> MeshData | Path:
+    """The mesh of :func:`half_disc_apart_2d` (written to ``path`` if given).
+
+    Cell groups ``disc``, ``block``; facet groups ``disc_contact`` (the arc, slave),
+    ``disc_top`` (the flat face), ``support`` (the axis segment inside the disc),
+    ``block_contact`` (master), ``block_bottom``.  ``h``: element size at the apex (m);
+    ``offset``: distance of the nearest node from the apex in elements; ``gap``: lift
+    of the disc above the block (m; negative: overlap).
+    """
+    return generate(
+        "half_disc_apart",
+        2,
+        lambda: _half_disc_apart_geometry(radius, gap, h, offset),
+        comm,
+        path,
     )
 
 
