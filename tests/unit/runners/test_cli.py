@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 from cli_support import ENV as BASE_ENV
-from cli_support import run_cli
+from cli_support import check_reaction_balance, run_cli
 
 from bonecontact.runners.cli import main
 
@@ -240,8 +240,11 @@ def test_valid_scene_runs_and_energy_is_plausible(tmp_path, meshes):
     assert header == (
         "step,time,pair,normal_force,tangential_force,n_active,n_stick,n_slip,"
         "pdas_iterations,kinetic_energy,strain_energy,external_work,dirichlet_work,"
-        "contact_work,viscous_dissipation,numerical_dissipation"
+        "contact_work,viscous_dissipation,numerical_dissipation,"
+        "reaction_left_x,reaction_left_y,reaction_left_mz,load_x,load_y,load_mz,"
+        "inertia_x,inertia_y,inertia_mz"
     )
+    check_reaction_balance(out)  # the support's reaction, the loads and the inertia balance
     # dynamic run: the energy balance closes (E = W_ext + W_dir + W_c - D_visc - D_num from rest)
     last = [float(x) for x in (out / "history.csv").read_text().splitlines()[-1].split(",")[3:]]
     e, works = last[6] + last[7], last[8] + last[9] + last[10] - last[11] - last[12]
