@@ -374,14 +374,45 @@ def _facet_points(msh: Any, facets: npt.NDArray[np.int32]) -> tuple:
     return x, measure, cells, normal
 
 
-def _block_modes(x: npt.NDArray, body: npt.NDArray, geo: BodyGeometry) -> npt.NDArray[np.float64]:
-    """``(n, gdim, nb·nm)``: the modes of each point's body, zero in the other blocks."""
-    nm, nb = geo.modes, len(geo.size)
-    out = np.zeros((len(x), x.shape[1], nb * nm))
-    for k in np.unique(body):
-        sel = body == k
-        out[sel, :, k * nm : (k + 1) * nm] = mode_values(x[sel], geo.centre[k], geo.size[k])
-    return out
+def _relative_modes(
+    x: npt.NDArray, body: int, other: int | None, geo: BodyGeometry
+) -> tuple[list[int], npt.NDArray[np.float64]]:
+    """The bodies and the modes ``(n, gdim, k)`` of the velocity of body ``body`` at points
+    ``x`` — relative to body ``other`` when given (its modes with a minus sign)."""
+    phi = mode_values(x, geo.centre[body], geo.size[body])
+    if other is None:
+        return [body], phi
+    return [body, other], np.concatenate(
+        [phi, -mode_values(x, geo.centre[other], geo.size[other])], axis=2
+    )
+
+
+def _add(A: npt.NDArray, bodies: Sequence[int], nm: int, Q: npt.NDArray) -> None:
+    """Add ``Q`` (over the modes of ``bodies``) into ``A`` (over every body's modes)."""
+    idx = np.concatenate([np.arange(b * nm, (b + 1) * nm) for b in bodies])
+    A[np.ix_(idx, idx)] += Q
+
+
+def _accumulate(
+    G: npt.NDArray,
+    W: npt.NDArray,
+    bodies: Sequence[int],
+    nm: int,
+    phi: npt.NDArray,
+    w: npt.NDArray,
+    normal: npt.NDArray,
+    full: npt.NDArray | None = None,
+) -> None:
+    """``W += Σ w Φᵀ Φ``; ``G += Σ w rrᵀ`` with ``r = Φᵀ n`` (the normal rows), the whole
+    ``Φᵀ Φ`` where ``full`` (sticking nodes)."""
+    whole = np.einsum("n,nci,ncj->ij", w, phi, phi)
+    _add(W, bodies, nm, whole)
+    rn = np.einsum("nc,nci->ni", normal, phi)
+    _add(G, bodies, nm, np.einsum("n,ni,nj->ij", w, rn, rn))
+    if full is not None and full.any():
+        f = full.astype(float) * w
+        _add(G, bodies, nm, np.einsum("n,nci,ncj->ij", f, phi, phi))
+        _add(G, bodies, nm, -np.einsum("n,ni,nj->ij", f, rn, rn))
 
 
 def dirichlet_sets(
@@ -400,14 +431,16 @@ def dirichlet_sets(
     for i, bc in enumerate(scene.dirichlet):
         G, W = np.zeros((n, n)), np.zeros((n, n))
         x, measure, cells, _ = _facet_points(msh, facet_tags.find(tags[bc.boundary]))
-        if len(x):
-            k = x.shape[1]
-            pts = x.reshape(-1, x.shape[2])
-            w = np.repeat(measure / k, k)
-            phi = _block_modes(pts, np.repeat(bodies.cell_body[cells], k), geo)
-            W = np.einsum("n,nci,ncj->ij", w, phi, phi)
+        k = x.shape[1]
+        pts = x.reshape(-1, x.shape[2])
+        w = np.repeat(measure / k, k)
+        owner = np.repeat(bodies.cell_body[cells], k)
+        for b in np.unique(owner):
+            sel = owner == b
+            body, phi = _relative_modes(pts[sel], int(b), None, geo)
+            _add(W, body, geo.modes, np.einsum("n,nci,ncj->ij", w[sel], phi, phi))
             fixed = phi[:, list(bc.components), :]
-            G = np.einsum("n,nci,ncj->ij", w, fixed, fixed)
+            _add(G, body, geo.modes, np.einsum("n,nci,ncj->ij", w[sel], fixed, fixed))
         G, W = comm.allreduce(G, op=MPI.SUM), comm.allreduce(W, op=MPI.SUM)
         out.append(ConstraintSet(f"[[dirichlet]] #{i + 1}", G, W, DIRICHLET_SHARE))
     return out
@@ -439,17 +472,13 @@ def contact_sets(
         masters = _present(msh, facet_tags, tags[c.master], bodies, comm)
         x, measure, cells, normal = _facet_points(msh, facet_tags.find(tags[c.slave]))
         G, W = np.zeros((n, n)), np.zeros((n, n))
-        if len(x):
-            mid = x.mean(axis=1)
-            slave = bodies.cell_body[cells]
-            phi = _block_modes(mid, slave, geo)
+        mid, slave = x.mean(axis=1), bodies.cell_body[cells]
+        for b in np.unique(slave):
             for m in masters:
-                other = slave != m  # a pair within one body (crack faces) holds nothing
-                rel = phi[other] - _block_modes(mid[other], np.full(other.sum(), m), geo)
-                w = measure[other]
-                W += np.einsum("n,nci,ncj->ij", w, rel, rel)
-                rn = np.einsum("nc,nci->ni", normal[other], rel)
-                G += np.einsum("n,ni,nj->ij", w, rn, rn)
+                sel = slave == b
+                if m != b:  # a pair within one body (crack faces) holds nothing
+                    pair, rel = _relative_modes(mid[sel], int(b), m, geo)
+                    _accumulate(G, W, pair, geo.modes, rel, measure[sel], normal[sel])
         G, W = comm.allreduce(G, op=MPI.SUM), comm.allreduce(W, op=MPI.SUM)
         if c.friction != "none":
             G = W.copy()
@@ -763,19 +792,14 @@ def _active_set(
     (the whole relative velocity at the sticking nodes ``full``), weighted by ``∫ψ_p``."""
     G, W = np.zeros((n, n)), np.zeros((n, n))
     sel = np.flatnonzero(on)
-    if len(sel):
-        x, slave = itf.coords[sel], body[itf.blocks[sel]]
-        phi = _block_modes(x, slave, geo)
+    slave = body[itf.blocks[sel]]
+    for b in np.unique(slave):
         for m in masters:
-            other = slave != m
-            rel = phi[other] - _block_modes(x[other], np.full(other.sum(), m), geo)
-            w = np.abs(itf.weight[sel][other])
-            W += np.einsum("n,nci,ncj->ij", w, rel, rel)
-            rn = np.einsum("nc,nci->ni", itf.normals[sel][other], rel)
-            G += np.einsum("n,ni,nj->ij", w, rn, rn)
-            stuck = full[sel][other]
-            G += np.einsum("n,nci,ncj->ij", w * stuck, rel, rel)
-            G -= np.einsum("n,ni,nj->ij", w * stuck, rn, rn)
+            if m != b:
+                k = sel[slave == b]
+                pair, rel = _relative_modes(itf.coords[k], int(b), m, geo)
+                w = np.abs(itf.weight[k])
+                _accumulate(G, W, pair, geo.modes, rel, w, itf.normals[k], full[k])
     G, W = comm.allreduce(G, op=MPI.SUM), comm.allreduce(W, op=MPI.SUM)
     return ConstraintSet(f'contact "{itf.name}"', G, W, CONTACT_SHARE)
 
