@@ -3,8 +3,9 @@ of the covering design (pairwise cover of the parameters, hard corners, ill-pose
 configurations), generated as a gmsh mesh and a scene, run through ``run_scene`` (what
 ``bonecontact run`` calls) on the ranks of this process, and recorded: status, PDAS
 iterations, wall time, force-balance and closed-form errors, outcome.  Run it on 1, 2
-and 3 ranks; ``--compare`` then adds, on rank counts > 1, whether the pressures equal
-those of the 1-rank rows of the CSV (1e-8 of the peak) with the same PDAS iterations.
+and 3 ranks; the 1-rank run keeps its pressures in ``$TMPDIR/bonecontact-robustness``,
+and ``--compare`` adds, on rank counts > 1, whether the pressures equal those (1e-8 of
+the peak; column ``ranks_agree``).
 
 Usage:
     python benchmarks/bench_robustness.py [--quick] [--out benchmarks/results/robustness.csv]
@@ -19,6 +20,7 @@ import dolfinx_solver  # noqa: F401
 import argparse
 import csv
 import math
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -54,7 +56,7 @@ def _agreement(name: str, rec, store: Path) -> str:
 
 def run(args) -> None:
     configs = [c for c in matrix() if not args.quick or c.dim == 2]
-    store = Path(args.out).with_suffix("")  # 1-rank pressures, for --compare
+    store = Path(tempfile.gettempdir()) / "bonecontact-robustness"  # 1-rank pressures
     if COMM.rank == 0:
         store.mkdir(parents=True, exist_ok=True)
     folder = Path(COMM.bcast(tempfile.mkdtemp(prefix="robustness-") if COMM.rank == 0 else None))
@@ -77,6 +79,9 @@ def run(args) -> None:
                 flush=True,
             )
         write_rows(Path(args.out).parent, Path(args.out).stem, [row], {"machine": machine()})
+    COMM.barrier()
+    if COMM.rank == 0:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def table(path: Path) -> str:
@@ -97,7 +102,8 @@ def table(path: Path) -> str:
                 cells.append("–")
                 continue
             agree = f", {r['ranks_agree']}" if r.get("ranks_agree") else ""
-            cells.append(f"{r['iterations']} its, {float(r['time_s']):.1f} s{agree}")
+            touch = f", touch on {r['touch_ranks']}" if int(r.get("touch_ranks") or 1) > 1 else ""
+            cells.append(f"{r['iterations']} its, {_time(r['time_s'])}{agree}{touch}")
         first = by.get((name, ranks[0]))
         outcomes = sorted({by[(name, n)]["outcome"] for n in ranks if (name, n) in by})
         lines.append(
@@ -108,6 +114,11 @@ def table(path: Path) -> str:
             + " |"
         )
     return "\n".join(lines)
+
+
+def _time(text: str) -> str:
+    v = float(text)
+    return "–" if math.isnan(v) else f"{v:.1f} s"
 
 
 def _num(text: str) -> str:
