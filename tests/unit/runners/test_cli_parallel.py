@@ -141,11 +141,24 @@ def _run_all(scene: Path, tmp: Path) -> dict[int, Path]:
     return outs
 
 
+def _resultant(column: str) -> bool:
+    return column.startswith(("reaction_", "load_", "inertia_"))
+
+
+def _is_moment(column: str) -> bool:
+    return column.rsplit("_", 1)[-1] in ("mx", "my", "mz")
+
+
 def _compare(outs: dict[int, Path]) -> None:
     for name in ("history.csv", "probes.csv"):
         h1, a1 = _read(outs[1] / name)
         assert len(a1) > 1
         scale = np.abs(np.nan_to_num(a1)).max(axis=0)  # per column
+        # reaction/load/inertia columns on the scale of the run's largest force (moment)
+        for moment in (False, True):
+            force = [j for j, c in enumerate(h1) if _resultant(c) and _is_moment(c) == moment]
+            if force:
+                scale[force] = scale[force].max()
         for n in (2, 3):
             hn, an = _read(outs[n] / name)
             assert hn == h1 and an.shape == a1.shape, f"{name}: {n} ranks differ in shape/header"
