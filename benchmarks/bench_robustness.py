@@ -12,7 +12,8 @@ Usage:
     mpiexec -n 2 python benchmarks/bench_robustness.py --compare
     python benchmarks/bench_robustness.py --table    # the Markdown table of the CSV
 
-``--quick``: the 2D configurations only.
+``--quick``: the 2D configurations only; ``--only TEXT``: the configurations whose name
+contains TEXT (the table keeps the last row of each configuration and rank count).
 """
 
 import dolfinx_solver  # noqa: F401
@@ -56,6 +57,7 @@ def _agreement(name: str, rec, store: Path) -> str:
 
 def run(args) -> None:
     configs = [c for c in matrix() if not args.quick or c.dim == 2]
+    configs = [c for c in configs if args.only is None or args.only in c.name]
     store = Path(tempfile.gettempdir()) / "bonecontact-robustness"  # 1-rank pressures
     if COMM.rank == 0:
         store.mkdir(parents=True, exist_ok=True)
@@ -131,6 +133,7 @@ def main() -> None:
     p.add_argument("--quick", action="store_true")
     p.add_argument("--compare", action="store_true")
     p.add_argument("--table", action="store_true")
+    p.add_argument("--only", help="run only the configurations whose name contains this")
     p.add_argument("--out", default=str(ROOT / "benchmarks/results/robustness.csv"))
     args = p.parse_args()
     if args.table:

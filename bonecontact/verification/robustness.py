@@ -70,7 +70,7 @@ import json
 import math
 import time
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -404,7 +404,7 @@ def _flat_top_area(cfg: Config) -> float:
 
 
 # ----------------------------------------------------------------------------- geometry
-def _classify(dim: int, tag: int, rules: dict[str, callable]) -> dict[str, list[int]]:
+def _classify(dim: int, tag: int, rules: dict[str, Callable]) -> dict[str, list[int]]:
     """The boundary entities of (dim, tag) sorted into groups by the first rule
     (name -> predicate on (entity tag, centre of mass, gmsh type)) they satisfy."""
     out: dict[str, list[int]] = {k: [] for k in rules}
@@ -872,11 +872,14 @@ def _csv(path: Path) -> list[dict[str, str]]:
 
 
 def contact_table(path: Path, dim: int) -> np.ndarray:
-    """Coordinates and pressure of every slave node (last step), sorted by coordinates."""
+    """Coordinates and pressure of every slave node (last step), sorted by coordinates
+    rounded to 1e-9 R (the written coordinates of one node may differ by round-off,
+    e.g. 1e-19 m against 0, between runs on different numbers of ranks)."""
     rows = _csv(path)
     keys = ["x", "y", "z"][:dim] + ["pressure"]
     a = np.array([[float(r[k]) for k in keys] for r in rows])
-    return a[np.lexsort(a[:, :dim].T[::-1])]
+    key = np.round(a[:, :dim] / RADIUS, 9)
+    return a[np.lexsort(key.T[::-1])]
 
 
 def _resultant(surf: Surface, table: np.ndarray, dim: int) -> np.ndarray:
