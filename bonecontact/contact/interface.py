@@ -375,11 +375,15 @@ class Separation:
     facet_size
         The larger of the two facet sizes there (m): node-to-node distances of
         touching surfaces are up to about this.
+    ahead
+        Whether that master node lies on the side the slave normal points to (else the
+        master is behind the slave surface: a wrong group, or a thin slave body).
     """
 
     distance: float
     slave_point: npt.NDArray[np.float64]
     facet_size: float
+    ahead: bool = True
 
 
 def surface_separation(
@@ -388,27 +392,31 @@ def surface_separation(
     slave_facets: npt.NDArray[np.int64],
     slave_measure: npt.NDArray[np.float64],
     master_coords: npt.NDArray[np.float64],
+    slave_normals: npt.NDArray[np.float64] | None = None,
 ) -> Separation:
     """The closest slave/master node pair of two surfaces (collective).
 
     ``slave_x``, ``slave_facets`` and ``slave_measure`` describe the slave surface
     (replicated on every rank); ``master_coords`` ``(f, gdim, gdim)`` the vertices of
-    this rank's master facets.  Nearest slave node of every master vertex (k-d tree),
-    the smallest over all ranks; the same on every rank and for every partition.
+    this rank's master facets; ``slave_normals`` (optional) the slave nodal normals,
+    which tell whether that master node lies ahead of the slave surface.  Nearest slave
+    node of every master vertex (k-d tree), the smallest over all ranks; the same on
+    every rank and for every partition.
     """
     gdim = slave_x.shape[1]
     size_s = np.zeros(slave_x.shape[0])
     np.maximum.at(size_s, slave_facets, _facet_sizes(gdim, slave_measure)[:, None])
-    best = (np.inf, 0, 0.0)
+    best = (np.inf, 0, 0.0, True)
     if master_coords.shape[0] and slave_x.shape[0]:
         mx = master_coords.reshape(-1, gdim)
         dist, j = cKDTree(slave_x).query(mx, k=1)
         i = int(np.argmin(dist))
         _, m_measure = facet_normals(master_coords[i // gdim], np.arange(gdim)[None, :])
         h_m = float(_facet_sizes(gdim, m_measure)[0])
-        best = (float(dist[i]), int(j[i]), max(h_m, float(size_s[j[i]])))
-    dist, node, h = min(comm.allgather(best), key=lambda b: (b[0], b[1]))
-    return Separation(dist, slave_x[node].copy(), h)
+        ahead = slave_normals is None or float((mx[i] - slave_x[j[i]]) @ slave_normals[j[i]]) >= 0
+        best = (float(dist[i]), int(j[i]), max(h_m, float(size_s[j[i]])), bool(ahead))
+    dist, node, h, ahead = min(comm.allgather(best), key=lambda b: (b[0], b[1]))
+    return Separation(dist, slave_x[node].copy(), h, ahead)
 
 
 def _search_extension(sep: Separation) -> float:
@@ -416,7 +424,9 @@ def _search_extension(sep: Separation) -> float:
     surfaces that start apart, less one facet size (0 for touching surfaces, whose
     closest nodes may be up to a facet size apart), so the default search reaches three
     facet sizes beyond the first contact (docs/theory/mortar.md#candidate-search)."""
-    return max(sep.distance - sep.facet_size, 0.0) if np.isfinite(sep.distance) else 0.0
+    if not (np.isfinite(sep.distance) and sep.ahead):
+        return 0.0  # (a master behind the slave surface is not searched for)
+    return max(sep.distance - sep.facet_size, 0.0)
 
 
 def _master_near_slave(
@@ -469,6 +479,12 @@ class _PairLabels:
 def _nothing_opposite(labels: _PairLabels, r_max: float, sep: Separation) -> ContactInputError:
     """The error for a slave surface with no master facet within the search distance."""
     where = ", ".join(f"{c:.4g}" for c in sep.slave_point)
+    behind = (
+        ""
+        if sep.ahead
+        else " The closest master node lies behind the slave surface (against its normal):"
+        " is the slave group the surface that faces the other body?"
+    )
     return ContactInputError(
         f"contact {labels.name!r}: no master facet of {labels.master} lies opposite the "
         f"slave surface {labels.slave} within the search distance {r_max:.3g} m (along "
@@ -476,7 +492,7 @@ def _nothing_opposite(labels: _PairLabels, r_max: float, sep: Separation) -> Con
         f"{sep.distance:.3g} m (at the slave node ({where})). The key [[contact]] "
         f"search_distance sets how far the slave facets search (default: three slave "
         f"facet sizes beyond the closest distance); check that the master surface faces "
-        f"the slave one"
+        f"the slave one.{behind}"
     )
 
 
@@ -714,7 +730,7 @@ def _surface_pair_mortar(
     where the surfaces are closest, and (``approach``) evaluated after the rigid
     approach that closes the smallest gap (collective)."""
     comm = V.mesh.comm
-    sep = surface_separation(comm, surf.x, surf.facets, surf.measure, local_master[1])
+    sep = surface_separation(comm, surf.x, surf.facets, surf.measure, local_master[1], surf.normals)
     radius = _slave_search_radius(surf, search_radius, _search_extension(sep))
     mortar = _master_surface_mortar(V, surf, mask, radius, stats, local_master)
     if mortar.covered <= 0.0:

@@ -256,11 +256,20 @@ def _overlapping_blocks(path: Path, overlap: float) -> Path:
 
 @pytest.mark.parametrize("case", ["interpenetration", "uncovered"])
 def test_contact_input_errors_exit_2(tmp_path, case):
-    mesh = _overlapping_blocks(tmp_path / "m.msh", 1e-4 if case == "interpenetration" else 0.0)
+    # an overlap of one element (2 mm): deeper than the half slave facet accepted as a
+    # negative initial gap (docs/theory/mortar.md#slave-and-master-surfaces)
+    mesh = _overlapping_blocks(tmp_path / "m.msh", 2e-3 if case == "interpenetration" else 0.0)
     text = PATCH.format(mesh=mesh, mp=-P).replace(
         '[[dirichlet]]\nboundary = "lower_left"\nvalue = [0.0, "free"]\n', ""
     )
-    text = text.replace('[[dirichlet]]\nboundary = "upper_left"\nvalue = [0.0, "free"]\n', "")
+    text = text.replace(
+        '[[dirichlet]]\nboundary = "upper_left"\nvalue = [0.0, "free"]\n',
+        '[[dirichlet]]\nboundary = "top"\nvalue = [0.0, "free"]\n',
+    )
+    # (these blocks have no side groups: bottom and top hold them sideways)
+    text = text.replace(
+        'boundary = "bottom"\nvalue = ["free", 0.0]', 'boundary = "bottom"\nvalue = [0.0, 0.0]'
+    )
     if case == "uncovered":
         text = text.replace('slave = "upper_contact"', 'slave = "top"')
     scene = tmp_path / "bad.toml"
