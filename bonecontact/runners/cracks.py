@@ -369,16 +369,21 @@ def evaluate_tips(
     return records
 
 
-def _snapped(crack: Crack2D, end: int, run: CrackRun) -> Crack2D:
-    """The crack with its tip ``end`` rounded to a grid of spacing 2^(⌊log₂ extent⌋ − 32)
-    of the body (about 1e-11 m for a 40 mm body), as the growth remeshes round their
-    boundaries (:func:`bonecontact.neoplasm.remesh.snap_to_grid`): the kink angle comes
-    from K, whose round-off differs with the number of ranks, and gmsh turns a tip 1e-19 m
-    away into another mesh (the path on 2 ranks drifted by 7e-8 of Δa)."""
+def _snapped(crack: Crack2D, ends: tuple[int, ...], run: CrackRun) -> Crack2D:
+    """The crack with its points at ``ends`` rounded to a grid of spacing
+    2^(⌊log₂ extent⌋ − 32) of the body (about 1e-11 m for a 40 mm body), as the growth
+    remeshes round their boundaries (:func:`bonecontact.neoplasm.remesh.snap_to_grid`); a
+    mouth is then put back on the outline (its nearest point).  A grown tip's kink angle
+    and an inserted crack's place come from solves whose round-off differs with the
+    number of ranks, and gmsh turns a point 1e-19 m away into another mesh (the path on 2
+    ranks drifted by 7e-8 of Δa)."""
     q = 2.0 ** (math.floor(math.log2(run.body.scale)) - 32)
     pts = crack.points.copy()
-    k = 0 if end == 0 else len(pts) - 1
-    pts[k] = np.round(pts[k] / q) * q
+    for e in ends:
+        k = 0 if e == 0 else len(pts) - 1
+        pts[k] = np.round(pts[k] / q) * q
+        if e in crack.mouth_ends:
+            pts[k] = run.body.nearest(pts[k])[0]
     return Crack2D(pts, crack.tips)
 
 
@@ -390,7 +395,7 @@ def _grow(crack: Crack2D, records: list[IncrementRecord], run: CrackRun) -> tupl
     for i, r in enumerate(records):
         if r.status != "grows":
             continue
-        crack = _snapped(crack.extended(r.tip, da, math.radians(r.angle_deg)), r.tip, run)
+        crack = _snapped(crack.extended(r.tip, da, math.radians(r.angle_deg)), (r.tip,), run)
         if run.body.distance(crack.tip(r.tip)) < da:
             fractured = True
             records[i] = dataclasses.replace(r, status="fractured")
@@ -431,6 +436,10 @@ def _initiate(
     )
     try:
         ini = initiation_crack(run.body, centre, direction, length, h)
+        snapped = _snapped(ini.crack, (0, -1), run)
+        mouth = snapped.points[snapped.mouth_ends[0]] if snapped.mouth_ends else ini.point
+        ini = dataclasses.replace(ini, crack=snapped, point=tuple(float(v) for v in mouth))
+        run.body.check_crack(ini.crack)
     except FractureError as exc:
         raise _scene_error(scene, 0, None, exc, "initiation_length") from None
     record = {

@@ -185,7 +185,8 @@ def test_crack_is_inserted_at_the_kirsch_load_at_the_hole_edge(serial: Path) -> 
     assert ini["length"] == pytest.approx(4 * h, rel=1e-12)
     crack = fr["crack"]
     assert crack["name"] == "initiated" and crack["points"][0] == pytest.approx([x, y], abs=1e-15)
-    assert crack["length"] == pytest.approx(ini["length"], rel=1e-9)
+    # its ends rounded to the grid of the re-meshing (2^-36 m for this 80 mm body)
+    assert crack["length"] == pytest.approx(ini["length"], rel=0, abs=2 * 2.0**-36)
     # the new crack solved from the same step on: history and fracture.csv go on
     assert [int(r["step"]) for r in rows] == [0, 1, 2, 3, 4]
     tips = list(csv.DictReader(open(serial / "fracture.csv")))
@@ -212,12 +213,12 @@ def test_ranks_insert_the_same_crack(serial: Path, mesh: Path, tmp_path: Path, n
     assert res.returncode == 0, res.stderr
     a, b = _initiation(serial)["initiation"], _initiation(tmp_path / "out")["initiation"]
     assert b["step"] == a["step"]
-    assert b["load_factor"] == pytest.approx(a["load_factor"], rel=1e-8)
+    assert b["load_factor"] == pytest.approx(a["load_factor"], rel=1e-10)
     flat = [x for p in a["points"] for x in p]
     assert [x for p in b["points"] for x in p] == pytest.approx(flat, abs=1e-12)
     ka = [float(r["K_I"]) for r in csv.DictReader(open(serial / "fracture.csv"))]
     kb = [float(r["K_I"]) for r in csv.DictReader(open(tmp_path / "out" / "fracture.csv"))]
-    assert kb == pytest.approx(ka, rel=1e-6)
+    assert kb == pytest.approx(ka, rel=1e-10)
 
 
 def _numbers(path: Path) -> list[list[float | str]]:
