@@ -66,18 +66,22 @@ class ReactionRecord:
         Resultant of the applied loads at the step.
     inertia
         Total inertial force ``Σ M a`` (and its moment); ``None`` outside dynamic runs.
+    load_gross
+        ``Σ_nodes |F_node|``, the size of the applied loads however they cancel (a
+        pressure in a closed cavity has resultant 0): a scale of :meth:`defect`.
     """
 
     groups: dict[str, ForceMoment]
     load: ForceMoment
     inertia: ForceMoment | None
+    load_gross: float = 0.0
 
     def defect(self) -> float:
-        """``|Σ R + F − I|`` relative to the largest of ``|F|``, ``Σ |R|``, ``|I|``: the
-        force balance (zero up to solver tolerance without contact; with contact the
-        mismatch of the contact forces between bodies)."""
+        """``|Σ R + F − I|`` relative to the largest of ``|F|``, each ``|R|``, ``|I|`` and
+        ``load_gross``: the force balance (zero up to solver tolerance without contact;
+        with contact the mismatch of the contact forces between bodies)."""
         total = self.load.force.copy()
-        scale = float(np.linalg.norm(self.load.force))
+        scale = max(float(np.linalg.norm(self.load.force)), self.load_gross)
         for r in self.groups.values():
             total += r.force
             scale = max(scale, float(np.linalg.norm(r.force)))
@@ -159,6 +163,9 @@ class SupportReactions:
         parts.append(self._resultant(load.array_r, None))
         if inertia is not None:
             parts.append(self._resultant(inertia.array_r, None))
+        gross = np.zeros_like(parts[-1])
+        gross[0] = np.linalg.norm(load.array_r.reshape(-1, self.bs)[:, : self.gdim], axis=1).sum()
+        parts.append(gross)
         total = self.comm.allreduce(np.array(parts), op=MPI.SUM)
         g = self.gdim
 
@@ -167,9 +174,8 @@ class SupportReactions:
 
         groups = {n: fm(total[k]) for k, n in enumerate(self.names)}
         k = len(self.names)
-        return ReactionRecord(
-            groups, fm(total[k]), fm(total[k + 1]) if inertia is not None else None
-        )
+        inert = fm(total[k + 1]) if inertia is not None else None
+        return ReactionRecord(groups, fm(total[k]), inert, float(total[-1][0]))
 
     def columns(self, dynamic: bool) -> list[str]:
         """history.csv columns: ``reaction_<group>_<c>`` per group, then ``load_<c>`` (and

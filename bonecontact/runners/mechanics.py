@@ -379,6 +379,7 @@ class Recorder:
         self.reactions = SupportReactions(sm.model, sm.supports or [])
         self.last_reactions = self.reactions.zero_record(dynamic)
         self.max_defect = 0.0
+        self.max_gross = 0.0
         extra = (
             (tuple(ENERGY_COLUMNS) if dynamic else ())
             + (fracture_history_columns(sm.model.dim) if self.fracture is not None else ())
@@ -431,6 +432,7 @@ class Recorder:
         else:
             rec = self.reactions.record(integ.residual, integ.load, integ.inertia)
             self.max_defect = max(self.max_defect, rec.defect())
+            self.max_gross = max(self.max_gross, rec.load_gross)
         self.last_reactions = rec
         values = [v for g in rec.groups.values() for v in g.values()] + rec.load.values()
         return values + (rec.inertia.values() if rec.inertia is not None else [])
@@ -454,6 +456,7 @@ class Recorder:
         }
         if rec.inertia is not None:
             out["inertia"] = entry(rec.inertia)
+        out["load_gross_max"] = self.max_gross
         out["balance_defect_max"] = self.max_defect
         return out
 

@@ -14,6 +14,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import numpy as np
+from cli_support import check_reaction_balance
 
 from bonecontact.runners import RunResult, run_scene
 from bonecontact.scene import load_scene
@@ -100,9 +101,14 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
 
 def run_text(text: str, path: Path, out: Path) -> RunResult:
     """Write the scene ``text`` to ``path/scene.toml`` (rank 0) and run it into ``out``
-    (collective, in-process)."""
+    (collective, in-process); a converged run's analyses must show reactions that
+    balance their loads (``cli_support.check_reaction_balance``)."""
     scene_file = path / "scene.toml"
     if MPI.COMM_WORLD.rank == 0:
         scene_file.write_text(text)
     MPI.COMM_WORLD.barrier()
-    return run_scene(load_scene(scene_file), MPI.COMM_WORLD, output=out, progress=False)
+    res = run_scene(load_scene(scene_file), MPI.COMM_WORLD, output=out, progress=False)
+    if res.status == "converged":
+        for table in (out, *sorted(Path(out).glob("mechanics_*"))):
+            check_reaction_balance(table)
+    return res
