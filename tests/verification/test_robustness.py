@@ -11,7 +11,7 @@ independent of the PDAS (see the module's docstring):
 * a closed form: the uniform pressure of flat-on-flat (ν = 0: a uniaxial stress, exact
   for P1 and any friction law) to 1e-6, Hertz's half-width/radius and peak pressure of
   curved bodies for the transmitted force within 8 % (2D, a/h = 4) and 30 % (3D,
-  a/h = 2);
+  a/h = 2), when frictionless or of one material (Hertz's solution is frictionless);
 * the same answer on every number of ranks: on 2 or 3 ranks (the MPI sessions of
   ``make test``) every test also solves the configuration on each rank alone and
   compares the pressures (1e-8 of the peak) and the PDAS iterations; the serial-session
