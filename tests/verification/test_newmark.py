@@ -360,9 +360,7 @@ def test_scene_stabilized_newmark_restart(tmp_shared_path):
     from bonecontact.scene import load_scene
 
     mesh = tmp_shared_path / "blocks.msh"
-    if COMM.rank == 0:
-        meshing.two_blocks_2d(None, path=mesh, h_lower=0.02 / 7, h_upper=0.02 / 11)
-    COMM.barrier()
+    meshing.two_blocks_2d(COMM, path=mesh, h_lower=0.02 / 7, h_upper=0.02 / 11)  # collective
     runs = {}
     for name, t_end in (("full", 2e-4), ("stopped", 1.2e-4)):
         toml = tmp_shared_path / f"{name}.toml"
