@@ -364,11 +364,13 @@ def _face_tractions(
 ) -> tuple | None:
     """The contact tractions on (crack_upper, crack_lower) when the pair (the last one)
     has active nodes, else ``None`` (open: traction-free); within ``reach`` of the front
-    recovered by a linear fit (:func:`~bonecontact.fracture.faces.recovered_traction`)."""
+    recovered by linear fits over 6·``reach`` (the planar face's multipliers scatter more
+    than a 2D crack's, and the face is flat: a fit over most of it loses nothing;
+    :func:`~bonecontact.fracture.faces.recovered_traction`)."""
     k = len(sm.interfaces) - 1
     if result is None or int(result.n_active[k]) == 0:
         return None
-    ft = face_traction(sm.model.V, sm.interfaces[k], result, k, tips, reach)
+    ft = face_traction(sm.model.V, sm.interfaces[k], result, k, tips, reach, 6.0)
     return ft.plus, ft.minus
 
 
