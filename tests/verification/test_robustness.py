@@ -145,10 +145,16 @@ def test_full_matrix(cfg, tmp_shared_path):
 @pytest.mark.parametrize(
     "cfg",
     [
-        Config(2, "curved_flat", "between", 0.0, "load", 1.0e4, 1.0, "none", "static"),
-        Config(2, "flat_flat", "node", 0.0, "displacement", 1.0e2, 0.25, "coulomb", "static"),
+        pytest.param(
+            Config(2, "curved_flat", "between", 0.0, "load", 1.0e4, 1.0, "none", "static"),
+            id="issue23_half_disc",
+        ),
+        pytest.param(
+            Config(2, "flat_flat", "node", 0.0, "displacement", 1.0e2, 0.25, "coulomb", "static"),
+            id="flat_coulomb",
+            marks=pytest.mark.slow,  # a second 3-rank process: make test-all
+        ),
     ],
-    ids=lambda c: c.name,
 )
 def test_cli_three_ranks(cfg, tmp_path):
     """``bonecontact run`` under ``mpiexec -n 3`` on the generated scene: exit 0 and the
