@@ -13,7 +13,9 @@ vanishes at the tip by construction.
 
 :func:`face_traction` turns the multipliers of a solve into P1 traction fields on the two
 faces, the input of the face term of
-:func:`~bonecontact.fracture.sif.interaction_integral`.
+:func:`~bonecontact.fracture.sif.interaction_integral`; near a closed tip it replaces the
+multipliers, which scatter there, by a linear least-squares fit
+(:func:`recovered_traction`).
 """
 
 from __future__ import annotations
