@@ -1119,6 +1119,33 @@ class ContactSolver:
         )
 
     # ------------------------------------------------------------------ energy balance
+    def contact_force(self, out: PETSc.Vec) -> None:
+        """The contact forces of the last solve on the nodes of the original basis (N; N/m
+        in 2D; collective; ``out``: a vector of the original space).
+
+        The contact rows carry ``w = T F̂ − Ã Ũ`` (force ``−w``); a virtual displacement
+        ``δU = Qᵀ Tᵀ δŨ`` gives the force ``−Q⁻¹ Tᵀ w`` in the original basis, and
+        ``Q⁻¹ = 2I − Q`` (``Q − I`` maps slave rows to master nodes and to the slave nodes
+        without a multiplier only, so its square vanishes).  Besides the slave and master
+        nodes, a slave node without a multiplier (a Dirichlet node at the edge of the slave
+        surface) receives its share ``(D_pq/D_pp) w_p`` of its neighbour's multiplier: there
+        the residual of the assembled system is that share plus the support's reaction
+        (docs/theory/mortar.md#boundary-modification-of-the-dual-basis).
+        """
+        self.At.mult(self.Uh, self._w)
+        self._w.aypx(-1.0, self._r0)
+        wv = self.At.createVecLeft()
+        wv.set(0.0)
+        wv.array[self._L] = self._w.array_r[self._L]
+        tw = self.Tt.createVecLeft()
+        self.Tt.mult(wv, tw)
+        self.Qt.multTranspose(tw, out)
+        out.aypx(-1.0, tw)  # Q⁻¹ Tᵀ w = 2 Tᵀ w − Q Tᵀ w
+        out.axpy(1.0, tw)
+        out.scale(-self.force_scale)
+        wv.destroy()
+        tw.destroy()
+
     def contact_gaps(self, u: fem.Function) -> list[npt.NDArray[np.float64]]:
         """Nodal normal gaps g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) of every pair for the
         displacement ``u``, in the order of ``interface.blocks`` (owned slave nodes)."""
