@@ -103,13 +103,16 @@ def table(path: Path) -> str:
             if r is None:
                 cells.append("–")
                 continue
+            if r["status"] == "refused":
+                cells.append("refused (exit 2)")
+                continue
             agree = f", {r['ranks_agree']}" if r.get("ranks_agree") else ""
             touch = f", touch on {r['touch_ranks']}" if int(r.get("touch_ranks") or 1) > 1 else ""
             cells.append(f"{r['iterations']} its, {_time(r['time_s'])}{agree}{touch}")
         first = by.get((name, ranks[0]))
         outcomes = sorted({by[(name, n)]["outcome"] for n in ranks if (name, n) in by})
         lines.append(
-            f"| `{name}` | {first['dofs']} | "
+            f"| `{name}` | {first['dofs'] if int(first['dofs']) else '–'} | "
             + " | ".join(cells)
             + f" | {_num(first['balance'])} | {_num(first['closed_form'])} | "
             + "; ".join(outcomes)
