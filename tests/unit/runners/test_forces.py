@@ -110,6 +110,16 @@ def _blocks2d_coulomb(path: Path, analysis: str) -> str:
     )
 
 
+def _blocks2d_guided_stick(path: Path, analysis: str) -> str:
+    """The two blocks with Coulomb friction and the guide on the upper block's side, so
+    the slave surface's end node carries a support; a lateral force (stick)."""
+    text = _blocks2d(path, analysis).replace("value = [0.0, -2.0e3]", "value = [3.0e2, -2.0e3]")
+    return text.replace(
+        'master = "lower_contact"\n',
+        'master = "lower_contact"\nfriction = "coulomb"\ncoefficient = 0.5\n',
+    )
+
+
 def _boxes3d(path: Path, analysis: str) -> str:
     """Two boxes in Coulomb contact, the upper one pressed by a force and dragged sideways by
     its top (stick, then slip)."""
@@ -140,6 +150,7 @@ CASES = {
     "contact2d-static": (_blocks2d, STATIC, True),
     "contact2d-dynamic": (_blocks2d, DYNAMIC, True),
     "contact2d-coulomb": (_blocks2d_coulomb, STATIC, True),
+    "contact2d-coulomb-guided": (_blocks2d_guided_stick, STATIC, True),
     "contact3d-coulomb": (_boxes3d, STATIC, True),
 }
 
