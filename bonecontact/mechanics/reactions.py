@@ -1,4 +1,4 @@
-"""Support reactions from the assembled residual (docs/theory/mechanics.md#reactions).
+"""Support reactions from the assembled residual (docs/theory/mechanics.md#forces-and-reactions).
 
 After a step the integrator holds the force residual
 
@@ -7,7 +7,9 @@ After a step the integrator holds the force residual
 which vanishes at every free dof (to solver tolerance) and equals the force that the
 supports exert at the constrained dofs (and the contact forces at the contact nodes).
 The reaction of a ``[[dirichlet]]`` group is the sum of ``r`` over the group's
-constrained dofs, per component, and its moment about the origin
+constrained dofs, per component (with contact, the runner passes ``r`` less the contact
+forces: a node on both a support and a slave surface carries a share of the contact
+force that is not the support's reaction), and its moment about the origin
 ``Σ xᵢ × rᵢ`` (reference coordinates).  A dof constrained by several groups (a node
 where two supported boundaries meet) counts for the first of them in file order, so the
 reactions of all groups add up to the total support force.  Nothing is taken from the
