@@ -105,6 +105,29 @@ def test_cracked_body_with_a_hole_uses_every_node(reverse_hole: bool) -> None:
         assert comm.allreduce(length, op=MPI.SUM) == pytest.approx(a, rel=1e-9), name
 
 
+@pytest.mark.parametrize("reverse_hole", [False, True])
+def test_outline_and_cracked_mesh_do_not_depend_on_the_partition(reverse_hole: bool) -> None:
+    """The outline gathered from the distributed mesh equals, bit for bit, the one of the
+    same mesh on one rank (each loop from its smallest vertex, holes sorted), and so the
+    cracked body has the same nodes: before, a loop started at the first rank's first
+    facet and gmsh meshed it differently (1410 nodes on one rank, 1411 on two)."""
+    bodies, nodes = {}, {}
+    for name, comm in (("world", MPI.COMM_WORLD), ("self", MPI.COMM_SELF)):
+        md, groups = _plate_with_hole(comm, reverse_hole)
+        bodies[name] = body_outline(md.mesh, md.cell_tags, md.facet_tags, groups, "plate")
+        crack = Crack2D(np.array([[0.45, 0.0], [0.75, 0.0]]))
+        cm, _ = mesh_body_with_crack(bodies[name], crack, TipMesh(h_tip=0.03), comm)
+        n_owned = cm.mesh.geometry.index_map().size_local
+        x = np.concatenate(comm.allgather(cm.mesh.geometry.x[:n_owned, :2]))
+        nodes[name] = x[np.lexsort(x.T[::-1])]
+    for a, b in zip(bodies["world"].loops, bodies["self"].loops, strict=True):
+        np.testing.assert_array_equal(a, b)
+        assert tuple(a[0]) == min(map(tuple, a))  # from its smallest vertex
+    for a, b in zip(bodies["world"].loop_tags, bodies["self"].loop_tags, strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(nodes["world"], nodes["self"])
+
+
 def test_crack_mouths_on_either_loop_and_what_is_refused() -> None:
     comm = MPI.COMM_WORLD
     md, groups = _plate_with_hole(comm, False)
