@@ -66,6 +66,7 @@ configuration can be run on any number of ranks; :func:`same_answer` compares tw
 
 from __future__ import annotations
 
+import csv
 import itertools
 import json
 import math
@@ -74,6 +75,7 @@ import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from types import SimpleNamespace
 
 from mpi4py import MPI
 
@@ -254,7 +256,7 @@ def pairwise(levels: dict[str, Sequence]) -> list[dict]:
     return rows
 
 
-def _gain(row: dict, k: str, v, uncovered: set, keys: list[str]) -> int:
+def _gain(row: dict, k: str, v: object, uncovered: set, keys: list[str]) -> int:
     """How many uncovered pairs setting ``row[k] = v`` covers."""
     n = 0
     for p, pv in row.items():
@@ -334,7 +336,8 @@ class Design:
     approach: float
 
 
-def _hertz(dim: int):
+def _hertz(dim: int) -> SimpleNamespace:
+    """The Hertz formulas of the dimension (plane strain or 3D)."""
     return hertz_3d if dim == 3 else hertz_2d
 
 
@@ -864,8 +867,7 @@ def _pdas_iterations(out: Path) -> int:
 
 
 def _csv(path: Path) -> list[dict[str, str]]:
-    import csv
-
+    """The rows of a CSV table with a header."""
     with path.open() as fh:
         return list(csv.DictReader(fh))
 

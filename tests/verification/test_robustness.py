@@ -77,7 +77,7 @@ SAMPLE_3D = (
 )
 
 
-def _unique(configs) -> list[Config]:
+def _unique(configs: list[Config]) -> list[Config]:
     out: list[Config] = []
     for cfg in map(normalised, configs):
         if cfg not in out:
@@ -89,7 +89,7 @@ SAMPLE = _unique([*(Config(**r) for r in pairwise(SAMPLE_LEVELS)), *SAMPLE_3D])
 FULL = [c for c in matrix() if c not in SAMPLE]
 
 
-def _param(cfg: Config, *marks):
+def _param(cfg: Config, *marks: pytest.MarkDecorator):
     issue = cfg.known_issue()
     if issue is not None:
         marks = (*marks, pytest.mark.xfail(reason=issue, strict=False))
