@@ -178,6 +178,7 @@ def sphere_on_block_3d(
     options: PDASOptions | None = None,
     mesh_file: str | Path | None = None,
     algorithm_3d: str = "delaunay",
+    lift: float = 0.0,
 ) -> LoadDrivenHertz:
     """The 3D load-driven Hertz problem: a hemisphere on a block, held only by contact.
 
@@ -217,6 +218,10 @@ def sphere_on_block_3d(
     algorithm_3d
         gmsh's volume mesher, ``"delaunay"`` or ``"hxt"`` (fast; large meshes), see
         :func:`bonecontact.meshing.shapes.hertz_3d`.
+    lift
+        The hemisphere's mesh moved up by ``lift`` (m) before anything is built: it
+        starts apart from the block, and the interface is built after the rigid approach
+        (docs/theory/pdas.md#bodies-that-start-apart).
 
     Returns
     -------
@@ -238,6 +243,8 @@ def sphere_on_block_3d(
         )
 
     md = _mesh(comm, build, mesh_file, 3, timings)
+    if lift:
+        _lift_body(md, "sphere", lift)
     R, E1, nu = LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
     E2 = LOAD_DRIVEN_STIFFNESS_RATIO * E1
     a_t = a_over_R * R
@@ -254,7 +261,16 @@ def sphere_on_block_3d(
         rtol,
         options,
         timings,
+        approach=bool(lift),
     )
+
+
+def _lift_body(md: MeshData, body: str, lift: float) -> None:
+    """Move the geometry nodes of the cells of ``body`` (a cell group) up by ``lift``;
+    the other bodies share no nodes with it (non-matching meshes)."""
+    cells = md.cell_tags.find(md.physical_groups[body].tag)
+    nodes = np.unique(md.mesh.geometry.dofmaps[0][cells])
+    md.mesh.geometry.x[nodes, 1] += lift
 
 
 def half_disc_on_block_2d(
