@@ -354,7 +354,8 @@ def test_scene_stabilized_newmark_restart(tmp_shared_path):
     in every row (1e-9 of the energy) with no stabilisation loss (redistributed mass) and
     positive viscous dissipation; a run stopped after 6 steps and restarted from its
     step-4 checkpoint writes the history of the uninterrupted 10-step run (1e-10 of each
-    value plus its column's magnitude)."""
+    value plus its column's magnitude); the support reactions balance the mean load and
+    the inertia (1e-9; measured 2e-15)."""
     from bonecontact.meshing import shapes as meshing
     from bonecontact.runners.mechanics import run_mechanics
     from bonecontact.scene import load_scene
@@ -390,6 +391,11 @@ def test_scene_stabilized_newmark_restart(tmp_shared_path):
     assert np.abs(energy - works).max() < 1e-9 * energy.max()
     assert np.abs(c["numerical_dissipation"]).max() < 1e-12 * energy.max()
     assert c["viscous_dissipation"][-1] > 0.0 and c["external_work"][-1] > 0.0
+    for comp in ("x", "y"):  # supports balance the mean load and the inertia M Δv/Δt
+        terms = [c[k] for k in cols if k.startswith("reaction_") and k.endswith(f"_{comp}")]
+        terms += [c[f"load_{comp}"], -c[f"inertia_{comp}"]]
+        scale = np.abs(np.array(terms)).max()
+        assert np.abs(np.sum(terms, axis=0)).max() < 1e-9 * scale, comp
     cols2, h2 = _history(runs["stopped"][1] / "history.csv")
     assert cols2 == cols and h2.shape == h.shape
     scale = np.abs(h).max(axis=0)
