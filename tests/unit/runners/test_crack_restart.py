@@ -220,8 +220,16 @@ def _restart_equals_uninterrupted(
     _, hist, _ = _table(out / "history.csv")
     assert hist[:, 0].tolist() == [0, 1, 2, 3, 4]  # every step once
     r = json.loads((ref / "summary.json").read_text())
-    if rtol == 1e-10:
-        assert s["fracture"]["crack"] == r["fracture"]["crack"]
+    a, b = s["fracture"]["crack"], r["fracture"]["crack"]
+    if n == 1:  # serial runs repeat bit for bit
+        assert a == b
+    else:  # the same path (the tips on the grid), the K of the summary to round-off
+        assert a["points"] == b["points"]
+        for ta, tb in zip(a["tips"], b["tips"], strict=True):
+            assert ta.keys() == tb.keys()
+            for k, v in tb.items():
+                want = pytest.approx(v, rel=rtol, nan_ok=True) if isinstance(v, float) else v
+                assert ta[k] == want, k
     print(f"crack restart on {n} rank(s): largest relative difference {worst:.2e}")
 
 
