@@ -31,6 +31,7 @@ from bonecontact.contact.clipping import (
 )
 from bonecontact.contact.dual_basis import (
     GAUSS_SEGMENT,
+    dual_coefficients_from_mass,
     modify_dual_coefficients,
     reference_dual_coefficients,
     shape_segment,
@@ -66,8 +67,8 @@ class PairIntegrals:
     area : ndarray, shape (P,)
         Measure of the overlap (mortar segment) on the slave facet.
     d : ndarray, shape (P, nv, nv)
-        ``int psi_j phi_k`` (slave x slave).  Diagonal (``d_diag``) on fully
-        covered unmodified facets once summed over the facet's pairs.
+        ``int psi_j phi_k`` (slave x slave).  Diagonal (``d_diag``) on unmodified
+        facets once summed over the facet's pairs (dual basis of the covered part).
     m : ndarray, shape (P, nv, nv)
         ``int psi_j (phi^m_k o Pi)`` (slave x master).
     gap : ndarray, shape (P, nv)
@@ -530,7 +531,7 @@ class MortarContributions:
     m_vals : ndarray of float
     d : ndarray, shape (n_slave_vertices,)
         Diagonal ``D[p, p] = int psi_p phi_p`` over the covered part of the slave
-        surface (``= int phi_p`` on fully covered nodes).
+        surface (``= int phi_p`` over the covered part for unmasked nodes).
     gap : ndarray, shape (n_slave_vertices,)
         Weighted gap ``d_p = int psi_p g``.
     covered_area : ndarray, shape (n_slave_facets,)
@@ -539,7 +540,8 @@ class MortarContributions:
         Measure of each slave facet.
     d_off_rows, d_off_cols, d_off_vals : ndarray
         Off-diagonal ``D`` entries (slave node, slave node), only from facets that
-        are partially covered or carry masked (boundary-modified) nodes.  With a
+        carry masked (boundary-modified) nodes: elsewhere, fully or partly covered,
+        the dual basis is biorthogonal on the covered part and they vanish.  With a
         node mask, ``d_off`` couples free nodes to masked nodes; a caller that
         treats masked nodes like master nodes subtracts these into ``M``.
     pairs : MortarPairs
@@ -582,6 +584,94 @@ def _sum_duplicates(
     return uniq // max(n_cols, 1), uniq % max(n_cols, 1), np.bincount(inv, weights=vals)
 
 
+#: Partly covered slave facets whose covered part is smaller than this fraction of the
+#: facet, or whose covered mass matrix is this ill-conditioned (after diagonal scaling),
+#: are left out of the mortar integrals altogether (docs/theory/mortar.md#partly-covered-facets).
+MIN_COVERED_FRACTION = 1e-12
+MAX_COVERED_MASS_CONDITION = 1e10
+
+
+def _facet_sums(slave_facet: IntArray, values: FloatArray, n_facets: int) -> FloatArray:
+    """Sum per-pair arrays (P, ...) over the pairs of each slave facet."""
+    out = np.zeros((n_facets, *values.shape[1:]))
+    np.add.at(out, slave_facet, values)
+    return out
+
+
+def _scaled_condition(mass: FloatArray) -> FloatArray:
+    """2-norm condition numbers of mass matrices scaled to a unit diagonal."""
+    diag = np.sqrt(np.maximum(np.diagonal(mass, axis1=1, axis2=2), 0.0))
+    ok = np.all(diag > 0.0, axis=1)
+    inv = np.divide(1.0, diag, out=np.zeros_like(diag), where=diag > 0.0)
+    scaled = mass * inv[:, :, None] * inv[:, None, :]
+    cond = np.full(len(mass), np.inf)
+    if ok.any():
+        cond[ok] = np.linalg.cond(scaled[ok])
+    return cond
+
+
+def _covered_dual_coefficients(
+    raw: MortarPairs,
+    n_facets: int,
+    facet_area: FloatArray,
+    dual_coeffs: npt.ArrayLike | None,
+    coverage_rtol: float,
+) -> tuple[MortarPairs, FloatArray, FloatArray]:
+    """Dual coefficients of every slave facet, built on its covered part.
+
+    ``raw`` holds the primal integrals (identity coefficients).  A fully covered facet
+    keeps ``dual_coeffs`` (default the closed form); a partly covered one gets
+    ``A_e = D_e M_e^{-1}`` from its mass matrix over the covered part only, so that
+    ``int_cov psi_j phi_k = delta_jk int_cov phi_k`` (biorthogonal where the mortar
+    integrals live; docs/theory/mortar.md#partly-covered-facets).  Facets covered too
+    little for that (:data:`MIN_COVERED_FRACTION`, :data:`MAX_COVERED_MASS_CONDITION`)
+    lose their pairs.
+
+    Returns
+    -------
+    pairs : MortarPairs
+        ``raw`` without the pairs of dropped facets.
+    covered : (n_facets,) covered measure of each facet.
+    coeffs : (n_facets, nv, nv) dual coefficients before any boundary modification.
+    """
+    nv = raw.integrals.d.shape[1]
+    sf = raw.slave_facet
+    base = reference_dual_coefficients(nv) if dual_coeffs is None else dual_coeffs
+    coeffs = np.array(np.broadcast_to(np.asarray(base, dtype=float), (n_facets, nv, nv)))
+    covered = np.bincount(sf, weights=raw.integrals.area, minlength=n_facets)
+    partial = np.flatnonzero((covered > 0.0) & (covered < (1.0 - coverage_rtol) * facet_area))
+    if partial.size == 0:
+        return raw, covered, coeffs
+    mass = _facet_sums(sf, raw.integrals.d, n_facets)[partial]
+    usable = (covered[partial] >= MIN_COVERED_FRACTION * facet_area[partial]) & (
+        _scaled_condition(mass) <= MAX_COVERED_MASS_CONDITION
+    )
+    coeffs[partial[usable]] = dual_coefficients_from_mass(mass[usable])
+    dropped = partial[~usable]
+    if dropped.size == 0:
+        return raw, covered, coeffs
+    covered[dropped] = 0.0
+    keep = ~np.isin(sf, dropped)
+    integ = raw.integrals
+    kept = PairIntegrals(integ.area[keep], integ.d[keep], integ.m[keep], integ.gap[keep])
+    pairs = MortarPairs(sf[keep], raw.master_facet[keep], kept, raw.timings, raw.candidates)
+    return pairs, covered, coeffs
+
+
+def _apply_dual_coefficients(raw: MortarPairs, coeffs: FloatArray) -> MortarPairs:
+    """Pair integrals with the dual basis ``psi = A phi`` of each slave facet from the
+    primal ones (``D``, ``M`` and the weighted gap are linear in ``A``)."""
+    a = coeffs[raw.slave_facet]
+    integ = raw.integrals
+    dual = PairIntegrals(
+        area=integ.area,
+        d=np.matmul(a, integ.d),
+        m=np.matmul(a, integ.m),
+        gap=np.matmul(a, integ.gap[:, :, None])[:, :, 0],
+    )
+    return MortarPairs(raw.slave_facet, raw.master_facet, dual, raw.timings, raw.candidates)
+
+
 def assemble_mortar(
     slave_coords: npt.ArrayLike,
     slave_facets: npt.ArrayLike,
@@ -611,7 +701,11 @@ def assemble_mortar(
         Slave nodes where the multiplier must vanish; the dual basis is modified
         accordingly (:func:`modify_dual_coefficients`).
     dual_coeffs : array_like, shape (f_s, nv, nv) or (nv, nv), optional
-        Dual coefficients before the mask is applied (default: closed form).
+        Dual coefficients of the fully covered facets before the mask is applied
+        (default: closed form).  A partly covered facet gets its dual basis from its
+        mass matrix over the covered part (:func:`_covered_dual_coefficients`), so that
+        ``sum_q M[p, q] = D[p, p]`` on every unmasked node and the slave and master
+        receive equal and opposite forces (docs/theory/mortar.md#partly-covered-facets).
     coverage_rtol : float
         Relative tolerance deciding that a slave facet is fully covered.
 
@@ -627,18 +721,27 @@ def assemble_mortar(
     n_m = np.asarray(master_coords).shape[0]
     nv = gdim
 
-    coeffs = None
-    facet_mask = np.zeros(fs.shape, dtype=bool)
-    if dual_coeffs is not None:
-        coeffs = np.broadcast_to(np.asarray(dual_coeffs, dtype=float), (len(fs), nv, nv))
-    if slave_node_mask is not None:
-        facet_mask = np.asarray(slave_node_mask, dtype=bool)[fs]
-        base = coeffs if coeffs is not None else reference_dual_coefficients(nv)
-        coeffs = modify_dual_coefficients(base, facet_mask)
-
-    pairs = compute_mortar_pairs(
-        xs, fs, slave_normals, master_coords, fm, search_radius=search_radius, dual_coeffs=coeffs
+    facet_mask = (
+        np.asarray(slave_node_mask, dtype=bool)[fs]
+        if slave_node_mask is not None
+        else np.zeros(fs.shape, dtype=bool)
     )
+    # primal integrals (identity coefficients): the dual basis depends on the coverage
+    raw = compute_mortar_pairs(
+        xs,
+        fs,
+        slave_normals,
+        master_coords,
+        fm,
+        search_radius=search_radius,
+        dual_coeffs=np.eye(nv),
+    )
+    facet_area = simplex_measure(xs[fs]) if len(fs) else np.zeros(0)
+    raw, covered, base = _covered_dual_coefficients(
+        raw, len(fs), facet_area, dual_coeffs, coverage_rtol
+    )
+    coeffs = modify_dual_coefficients(base, facet_mask) if facet_mask.any() else base
+    pairs = _apply_dual_coefficients(raw, coeffs)
     t0 = time.perf_counter()
     integ = pairs.integrals
     sf, mf = pairs.slave_facet, pairs.master_facet
@@ -650,13 +753,11 @@ def assemble_mortar(
 
     d = np.bincount(srows.ravel(), weights=integ.d_diag.ravel(), minlength=n_s)
     gap = np.bincount(srows.ravel(), weights=integ.gap.ravel(), minlength=n_s)
-    covered = np.bincount(sf, weights=integ.area, minlength=len(fs))
-    facet_area = simplex_measure(xs[fs]) if len(fs) else np.zeros(0)
 
-    # off-diagonal D on partially covered or boundary-modified facets
-    d_facet = np.zeros((len(fs), nv, nv))
-    np.add.at(d_facet, sf, integ.d)
-    special = (covered < (1.0 - coverage_rtol) * facet_area) | facet_mask.any(axis=1)
+    # off-diagonal D on boundary-modified facets (elsewhere the dual basis is
+    # biorthogonal on the covered part: zero up to round-off)
+    d_facet = _facet_sums(sf, integ.d, len(fs))
+    special = facet_mask.any(axis=1)
     off = ~np.eye(nv, dtype=bool)
     sel = special[:, None, None] & off[None] & (d_facet != 0.0)
     f_idx, j_idx, k_idx = np.nonzero(sel)
