@@ -608,8 +608,8 @@ def _multiplier_nodes(surf: _SlaveSurface, d: npt.NDArray[np.float64]) -> npt.ND
     """Slave nodes that carry a multiplier.
 
     A node carries a multiplier when at least a tenth of its support is covered by the
-    master: barely covered nodes (D_pp → 0, or < 0 for the dual basis) would give
-    M̂ = D⁻¹M and d_p/D_pp without bound.  Such nodes only occur where the master
+    master: barely covered nodes (D_pp = ∫_cov φ_p → 0) would give an ill-determined
+    M̂ = D⁻¹M and d_p/D_pp.  Such nodes only occur where the master
     ends (far from any contact zone when the master is sized as it should be).
     """
     gdim = surf.x.shape[1]
