@@ -105,7 +105,7 @@ def test_cracked_body_with_a_hole_uses_every_node(reverse_hole: bool) -> None:
         assert comm.allreduce(length, op=MPI.SUM) == pytest.approx(a, rel=1e-9), name
 
 
-@pytest.mark.parametrize("reverse_hole", [False, True])
+@pytest.mark.parametrize("reverse_hole", [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_outline_and_cracked_mesh_do_not_depend_on_the_partition(reverse_hole: bool) -> None:
     """The outline gathered from the distributed mesh equals, bit for bit, the one of the
     same mesh on one rank (each loop from its smallest vertex, holes sorted), and so the
