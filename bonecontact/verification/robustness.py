@@ -216,8 +216,6 @@ class Config:
     def known_issue(self) -> str | None:
         """The reason a well-posed configuration is expected to fail at present (the
         failures filed in issue #23), or ``None``."""
-        if self.dim == 3 and self.shape == "wide_slave" and self.analysis == "static":
-            return "issue #23: 3D slave wider than its master, reactions off by 3-4 % (F1)"
         return None
 
 
