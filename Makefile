@@ -166,8 +166,9 @@ endef
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 # On 3 or more ranks (2 cores oversubscribed) make test runs the tests of the code whose
 # results depend on the partition — contact, fracture, the runners (scenes, checkpoints,
-# restarts), the remesh input, the load-driven contact problems (bodies held only by
-# contact, the first touching node on a partition boundary) and the fracture
+# restarts, reactions), the remesh input, the rigid-motion check (bodies joined across
+# ranks), the contact robustness sample, the load-driven contact problems (bodies held
+# only by contact, the first touching node on a partition boundary) and the fracture
 # verification problems — and leaves out the tests marked growth (their 3-rank runs are
 # serial-session tests that spawn 3 ranks) or two_ranks (refinements of a case that
 # runs here).  Input parsing, materials, meshing, plotting, the mechanics-only
@@ -178,6 +179,7 @@ MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 MPI3_SKIP  ?= growth or two_ranks
 MPI3_TESTS ?= tests/unit/contact tests/unit/fracture tests/unit/runners \
   tests/unit/neoplasm/test_remesh.py tests/unit/neoplasm/test_remesh_determinism.py \
+  tests/unit/scene/test_rigid_motions.py tests/verification/test_robustness.py \
   tests/verification/test_load_driven.py tests/verification/test_load_driven_builder.py \
   $(filter-out %/test_fracture_propagation.py,$(wildcard tests/verification/test_fracture_*.py))
 
