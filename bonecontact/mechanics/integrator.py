@@ -118,6 +118,25 @@ class EnergyBalance:
         """Kinetic plus strain energy."""
         return self.kinetic + self.strain
 
+    @classmethod
+    def of_step(cls, part: np.ndarray, comm: MPI.Comm, before: float) -> EnergyBalance:
+        """The balance of a step from this rank's parts — kinetic, strain, external,
+        Dirichlet, residual contact, multiplier contact work, viscous and numerical
+        dissipation, in that order — summed over the ranks (collective); ``before`` is the
+        total energy before the step."""
+        kin, strain, w_ext, w_dir, w_res, w_c, visc, num = comm.allreduce(part, op=MPI.SUM)
+        return cls(
+            kinetic=kin,
+            strain=strain,
+            external_work=w_ext,
+            dirichlet_work=w_dir,
+            contact_work=w_c,
+            contact_work_residual=w_res,
+            viscous_dissipation=visc,
+            numerical_dissipation=num,
+            defect=(kin + strain) - before - (w_ext + w_dir + w_c - visc - num),
+        )
+
     def accumulate(self, step: EnergyBalance) -> None:
         """Add the works of ``step`` and take its energies (running totals)."""
         for f in fields(self):
@@ -564,22 +583,7 @@ class Integrator:
         if self.contact is not None:
             # from the multipliers and the gaps the contact solver returned
             part[5] = self.contact.contact_work(self.u)
-        kinetic, strain, w_ext, w_dir, w_res, w_c, visc, num = self.model.mesh.comm.allreduce(
-            part, op=MPI.SUM
-        )
-        before = self.balance.total
-        defect = (kinetic + strain) - before - (w_ext + w_dir + w_c - visc - num)
-        return EnergyBalance(
-            kinetic=kinetic,
-            strain=strain,
-            external_work=w_ext,
-            dirichlet_work=w_dir,
-            contact_work=w_c,
-            contact_work_residual=w_res,
-            viscous_dissipation=visc,
-            numerical_dissipation=num,
-            defect=defect,
-        )
+        return EnergyBalance.of_step(part, self.model.mesh.comm, self.balance.total)
 
     def destroy(self) -> None:
         """Free the PETSc objects."""

@@ -298,21 +298,8 @@ class StabilizedNewmark(Integrator):
         part[4] = float(rdu.sum()) - part[3]
         if self.contact is not None:
             part[5] = self.contact.contact_work(self.u)
-        kin, strain, w_ext, w_dir, w_res, w_c, visc, stab = self.model.mesh.comm.allreduce(
-            part, op=MPI.SUM
-        )
-        defect = (kin + strain) - self.balance.total - (w_ext + w_dir + w_c - visc - stab)
-        return EnergyBalance(
-            kinetic=kin,
-            strain=strain,
-            external_work=w_ext,
-            dirichlet_work=w_dir,
-            contact_work=w_c,
-            contact_work_residual=w_res,
-            viscous_dissipation=visc,
-            numerical_dissipation=stab,
-            defect=defect,
-        )
+        # the stabilisation's dissipation is booked as the numerical dissipation
+        return EnergyBalance.of_step(part, self.model.mesh.comm, self.balance.total)
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
