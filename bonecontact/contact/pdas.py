@@ -249,6 +249,7 @@ class _PDASState:
     edges: EdgeSets | None = None  # edge of the contact zone (docs/theory/pdas.md)
     history: list[dict] = field(default_factory=list)
     seen: set = field(default_factory=set)
+    switches: npt.NDArray[np.int_] | None = None  # stick <-> slip switches in this solve
     lin_total: int = 0
     n_bound: int = 0
     f0: int = 0  # low-rank counters at the start of the solve
@@ -755,6 +756,7 @@ class ContactSolver:
             values=values,
             x_prev=xold,
             edges=EdgeSets.empty(self.NS),
+            switches=np.zeros(self.NS, dtype=int),
         )
         lr = self.lowrank
         if lr is not None:
@@ -903,16 +905,17 @@ class ContactSolver:
         settled and ``λ_t = ĝ s`` on the slip nodes (ĝ > 0).  3D fixed point: directions
         converge (linearly, Aitken-accelerated) to a fixed point.
         """
-        fric, g, dirs, new_an = self._fric, st.g, st.dirs, it.new_an
+        fric, g, dirs = self._fric, st.g, st.dirs
         slip = st.an & fric & ~st.stick
+        held = self._hold_reversed_releases(st, it, slip)
+        new_an = it.new_an
         new_slip, new_dirs = slip_directions(
             slip_set(new_an, fric, it.zn, g, it.eps), slip, it.z, it.zn, g, dirs
         )
+        new_slip &= ~held
         new_stick = new_an & fric & ~new_slip
-        changed_t = int(((new_stick != st.stick) & new_an & fric).sum())
         both = new_slip & slip
         if self.bs == 2:
-            changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
             turned = 0
         elif self._newton_3d:
             bg = both & (g > 0.0)
@@ -925,12 +928,54 @@ class ContactSolver:
                 > self.direction_tol * gs
             )
             turned += int(off.sum())
+            if turned:
+                self._hold_switches(st, new_an, new_stick, new_dirs)
         else:
             turned = int(
                 (np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum()
             )
-            aitken_directions(both, dirs, new_dirs, it.changed_sets + changed_t != 0, st.aitken)
+            stick_changes = int(((new_stick != st.stick) & new_an & fric).sum())
+            aitken_directions(both, dirs, new_dirs, it.changed_sets + stick_changes != 0, st.aitken)
+        changed_t = int(((new_stick != st.stick) & new_an & fric).sum())
+        if self.bs == 2:
+            changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
+        st.switches += (new_stick != st.stick) & new_an & st.an & fric
         it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned
+
+    def _hold_reversed_releases(
+        self, st: _PDASState, it: _Iterate, slip: npt.NDArray[np.bool_]
+    ) -> npt.NDArray[np.bool_]:
+        """Slip nodes that the solve released (``λ_n < 0``) while they slipped against
+        the direction of their traction (``Δu_t · s < 0``) stay active and stick
+        (docs/theory/pdas.md#active-set-rule): their pressure was computed with a
+        friction traction outside the law, so their normal indicator is not trusted.
+
+        ``it.new_an`` and ``it.changed_sets`` are updated; returns the nodes held.
+        """
+        back = (it.dut * st.dirs).sum(axis=1)
+        tol = 1e-12 * max(float(np.abs(it.dut).max()) if self.NS else 0.0, 1e-300)
+        held = slip & ~it.new_an & (st.g > 0.0) & (back < -tol)
+        if held.any():
+            it.new_an = it.new_an | held
+            it.changed_sets = int((it.new_an != st.an).sum())
+        return held
+
+    def _hold_switches(
+        self,
+        st: _PDASState,
+        new_an: npt.NDArray[np.bool_],
+        new_stick: npt.NDArray[np.bool_],
+        new_dirs: npt.NDArray[np.float64],
+    ) -> None:
+        """3D Newton slip rows, while slip directions still turn: a node that already
+        switched between stick and slip in this solve keeps its state (``new_stick``,
+        ``new_dirs`` in place) until the directions have settled
+        (docs/theory/pdas.md#active-set-rule).  Its indicator is taken on a linearisation
+        point that is still moving; deciding on it toggles the node at the rim of the
+        friction disc.  Once no direction turns, the plain rule decides again."""
+        hold = (new_stick != st.stick) & new_an & st.an & self._fric & (st.switches >= 1)
+        new_stick[hold] = st.stick[hold]
+        new_dirs[hold] = st.dirs[hold]
 
     def _with_edge_rows(self, st: _PDASState, fixed: np.ndarray, coupled: tuple | None):
         """Step 3, edge nodes (docs/theory/pdas.md#edge-of-the-contact-zone): their normal
