@@ -378,10 +378,13 @@ def update_edge_sets(
       penetrates again (in ``new_an``, not in ``an``) becomes an edge node, slipping
       along ``ξ/|ξ|``;
     * an edge node whose friction traction ``β = λ_t · s`` exceeds the bound
-      (``β > ĝ``) returns to the active set (slip); with ``β < 0`` it opens; otherwise
-      it stays and its direction follows ``ξ``.  When an edge node leaves, the other
-      nodes keep their sets for one iteration: the traction of that solve is outside
-      the friction law, and the sets it suggests elsewhere are not to be trusted.
+      (``β > ĝ``) returns to the active set (slip); one that slipped against ``s``
+      (``(ξ − λ_t) · s = c_t Δu_t · s < 0``) returns to the active set and sticks; with
+      ``β < 0`` it opens; otherwise it stays and its direction follows ``ξ``.  When an
+      edge node leaves, the other nodes keep their sets for one iteration: the traction
+      of that solve is outside the friction law, and the sets it suggests elsewhere are
+      not to be trusted.  When a node enters the edge state, the other nodes keep their
+      sets for one iteration too (their indicators were computed with it open).
     """
     edge, releases = sets.edge, sets.releases.copy()
     releases += (an & ~new_an & rigid & (g > 0.0) & ~edge).astype(int)
@@ -390,9 +393,11 @@ def update_edge_sets(
     new_dirs[turn] = z[turn] / zn[turn, None]
     beta = (lam_t * new_dirs).sum(axis=1)
     up = edge & (beta > g + tol)
-    down = edge & (beta < -tol)
-    stay = edge & ~up & ~down
-    if (up | down).any():
+    # slipped against the direction of its traction (c_t Δu_t · s < 0): sticks
+    back = edge & ~up & (((z - lam_t) * dirs).sum(axis=1) < -tol)
+    down = edge & ~back & (beta < -tol)
+    stay = edge & ~up & ~down & ~back
+    if (up | down | back).any():
         # the solve gave an edge node a traction outside [0, ĝ]: only the edge nodes
         # change in this iteration (the other nodes' indicators were computed with it)
         others = ~edge
@@ -400,8 +405,16 @@ def update_edge_sets(
         new_dirs[others] = dirs[others]
         releases = sets.releases.copy()
         enter[:] = False
+    elif enter.any():
+        # a node enters the edge state: the others keep their sets for this iteration
+        # (their indicators were computed with the entering node open)
+        others = ~(edge | enter)
+        new_an[others], new_stick[others] = an[others], stick[others]
+        new_dirs[others] = dirs[others]
+        releases = sets.releases.copy()
     new_edge = enter | stay
     new_an[new_edge | down] = False
-    new_an[up] = True
+    new_an[up | back] = True
     new_stick[new_edge | up] = False
+    new_stick[back] = True
     return EdgeSets(new_edge, releases)

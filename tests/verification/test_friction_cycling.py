@@ -16,11 +16,13 @@ Two families, both checked against references independent of the PDAS:
   1e4 with E_slave = 1 GPa and Tresca cycled at step 1 (a node toggling stick <-> slip
   with |λ_t| = 1.007 ĝ in stick and a reversed slip of 1.3e-8 m in slip).
 * 2D clamped bars struck once per period with the redistributed mass (the slave nodes
-  carry no inertia): Tresca/Coulomb at 20 and 30 steps per wave, 600 steps; the energy
+  carry no inertia): Tresca/Coulomb at 20, 30 and 40 steps per wave, 600 steps; the energy
   never grows (1e-12 of the initial energy), the balance closes to 1e-9 and the
   contact work is never positive.  Before the rule that keeps a slip node active when it
   was released while slipping against its traction, Coulomb at 20 steps per wave cycled
-  open <-> slip in step 66.
+  open <-> slip in step 66; before the edge rule's reversal (an edge node slipping
+  against its traction sticks) and its entry holding the other nodes, Tresca at 40
+  steps per wave cycled (docs/theory/pdas.md#edge-of-the-contact-zone).
 """
 
 from __future__ import annotations
@@ -42,8 +44,9 @@ from test_newmark import _check_no_growth, clamped_bars
 
 COMM = MPI.COMM_WORLD
 
-#: (contrast, E_slave, friction) run by default; the others are ``slow``.
-DEFAULT = {(1.0e4, 1.0e9, "tresca"), (1.0e2, 1.0e7, "coulomb")}
+#: (contrast, E_slave, friction) run by default (F3 of the robustness matrix); the others
+#: are ``slow`` (each 10-15 s serially on a busy machine).
+DEFAULT = {(1.0e4, 1.0e9, "tresca")}
 
 
 def _cases():
@@ -79,7 +82,7 @@ def test_3d_impact_converges(contrast, e_slave, friction, tmp_shared_path, monke
 
 
 @pytest.mark.parametrize("friction", ["tresca", "coulomb"])
-@pytest.mark.parametrize("per_wave", [20, 30])
+@pytest.mark.parametrize("per_wave", [20, 30, 40])
 def test_clamped_bars_redistributed_mass(friction, per_wave):
     """600 steps of repeated impacts with mass-free slave nodes: no step cycles, the
     energy never grows and the balance closes."""
