@@ -82,7 +82,7 @@ def test_3d_impact_converges(contrast, e_slave, friction, tmp_shared_path, monke
 
 
 @pytest.mark.parametrize("friction", ["tresca", "coulomb"])
-@pytest.mark.parametrize("per_wave", [20, 30, 40])
+@pytest.mark.parametrize("per_wave", [20, pytest.param(30, marks=pytest.mark.slow), 40])
 def test_clamped_bars_redistributed_mass(friction, per_wave):
     """600 steps of repeated impacts with mass-free slave nodes: no step cycles, the
     energy never grows and the balance closes."""
