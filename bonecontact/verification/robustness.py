@@ -650,7 +650,8 @@ def scene_text(cfg: Config, d: Design, mesh: str) -> str:
     nu_s = NU_CURVED if cfg.curved else NU_FLAT
     nu_m = NU_CURVED if cfg.shape != "flat_flat" and cfg.shape != "wide_slave" else NU_FLAT
     dyn = cfg.analysis == "dynamic"
-    dt, t_end = 1.0e-4, 4.0e-4
+    t_end = dynamic_duration(cfg, d)
+    dt = t_end / 4
     lines = [
         "format = 1",
         "[scene]",
@@ -682,8 +683,24 @@ def scene_text(cfg: Config, d: Design, mesh: str) -> str:
             lines += ["[[dirichlet]]", 'boundary = "slave_top"', f"value = {value}"]
         value = _vector(cfg.dim, -d.load)
         lines += ["[[force]]", 'boundary = "slave_top"', f"value = {value}", *ramp]
+        if dyn and d.gap > 0.0:
+            # an impact: the slave closes the gap by mid-run (a force alone would not
+            # move it that far in the run's time)
+            velocity = _vector(cfg.dim, -2.0 * d.gap / t_end)
+            lines += ["[[initial_velocity]]", 'regions = ["slave_body"]', f"value = {velocity}"]
     lines += ["[output]", "fields_every = 0"]
     return "\n".join(lines) + "\n"
+
+
+#: Impact speed of a dynamic load-driven row that starts apart, at most (m/s).
+IMPACT_SPEED = 1.0
+
+
+def dynamic_duration(cfg: Config, d: Design) -> float:
+    """Simulated time of a dynamic row (s; 4 steps): 0.4 ms, longer where the slave
+    must cross a gap — it is given the speed that closes the gap at mid-run, at most
+    :data:`IMPACT_SPEED`."""
+    return max(4.0e-4, 2.0 * max(d.gap, 0.0) / IMPACT_SPEED)
 
 
 def _contact_lines(cfg: Config, d: Design) -> list[str]:
@@ -734,6 +751,9 @@ class Record:
         The run's message (failed or refused runs).
     touch_ranks
         :func:`touch_ranks`: on how many ranks the first-touch node lies (1 serially).
+    contact_force
+        The largest normal contact force over the steps (``history.csv``): a run that
+        never touches tests no contact and fails.
     pressures
         The slave nodes' coordinates and pressures, rows sorted by coordinates
         (columns x, y(, z), pressure).
@@ -751,6 +771,7 @@ class Record:
     outcome: str = ""
     message: str = ""
     touch_ranks: int = 1
+    contact_force: float = math.nan
     pressures: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     def row(self) -> dict:
@@ -835,6 +856,7 @@ def _record(
         table = contact_table(out / "contact_pair.csv", cfg.dim)
         last = _csv(out / "history.csv")[-1]
         rec.pressures = table
+        rec.contact_force = max(float(r["normal_force"]) for r in _csv(out / "history.csv"))
         rec.balance = _balance(cfg, d, table, summary, last)
         vertical = float(last.get("reaction_master_bottom_y", "nan"))
         if math.isnan(vertical):
@@ -849,6 +871,8 @@ def _outcome(rec: Record) -> str:
     cfg = rec.config
     if rec.status != "converged":
         return f"FAIL ({rec.status})"
+    if not rec.contact_force > 0.0:
+        return "FAIL (no contact)"
     tol = ENERGY_TOL if cfg.analysis == "dynamic" else BALANCE_TOL
     if not rec.balance <= tol and not math.isnan(rec.balance):
         return f"FAIL (balance {rec.balance:.1e})"
