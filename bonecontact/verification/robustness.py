@@ -213,11 +213,6 @@ class Config:
             return False, "the slave body's sliding and rotation are held by nothing"
         return True, ""
 
-    def known_issue(self) -> str | None:
-        """The reason a well-posed configuration is expected to fail at present (the
-        failures filed in issue #23), or ``None``."""
-        return None
-
 
 def normalised(cfg: Config) -> Config:
     """The same configuration with the parameters that do not apply to it set to a

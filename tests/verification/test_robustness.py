@@ -21,9 +21,9 @@ The default suite runs a pairwise cover of the important parameters in 2D (every
 of values of shape, touch, gap, drive, contrast, size ratio, friction and analysis at
 least once) and a few 3D configurations; the whole matrix
 (:func:`~bonecontact.verification.robustness.matrix`: the pairwise cover of every
-parameter, 2D and 3D, plus the hard corners) is marked ``slow``.  Configurations that
-fail for a reason filed in issue #23 are ``xfail`` with that reason; configurations that
-are ill-posed by construction must be recognised as such.
+parameter, 2D and 3D, plus the hard corners) is marked ``slow``.  Every well-posed
+configuration must pass (none is expected to fail); configurations that are ill-posed by
+construction must be recognised as such.
 """
 
 from __future__ import annotations
@@ -90,9 +90,6 @@ FULL = [c for c in matrix() if c not in SAMPLE]
 
 
 def _param(cfg: Config, *marks: pytest.MarkDecorator):
-    issue = cfg.known_issue()
-    if issue is not None:
-        marks = (*marks, pytest.mark.xfail(reason=issue, strict=False))
     return pytest.param(cfg, id=cfg.name, marks=marks)
 
 
