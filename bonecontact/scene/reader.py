@@ -99,7 +99,15 @@ TOP_LEVEL_KEYS = (
     "crack",
 )
 SCENE_KEYS = ("name", "mesh", "dimension")
-ANALYSIS_KEYS = ("kind", "t_end", "dt", "load_steps", "unheld_motion", "scheme")
+ANALYSIS_KEYS = (
+    "kind",
+    "t_end",
+    "dt",
+    "load_steps",
+    "unheld_motion",
+    "scheme",
+    "allow_large_strain",
+)
 SOLVER_KEYS = ("linear", "tolerance", "max_iterations")
 CONTACT_KEYS = (
     "name",
@@ -263,6 +271,14 @@ class _Table:
             raise self.error(key, "must be a non-empty string")
         return value
 
+    def boolean(self, key: str, *, default: bool = False) -> bool:
+        value = self.raw(key, False)
+        if value is _MISSING:
+            return default
+        if not isinstance(value, bool):
+            raise self.error(key, f"must be true or false, got {describe_value(value)}")
+        return value
+
     def names(self, key: str, *, required: bool = True) -> tuple[str, ...]:
         """A non-empty array of distinct physical-group names."""
         value = self.raw(key, required)
@@ -387,6 +403,7 @@ def _read_analysis(doc: Mapping[str, Any]) -> Analysis:
     assert load_steps is not None
     unheld = tab.string("unheld_motion", default="error", choices=UNHELD_MOTION_CHOICES)
     scheme = tab.string("scheme", default="backward-difference", choices=SCHEME_CHOICES)
+    allow_large_strain = tab.boolean("allow_large_strain", default=False)
     return Analysis(
         kind=kind,  # type: ignore[arg-type]
         t_end=t_end,
@@ -394,6 +411,7 @@ def _read_analysis(doc: Mapping[str, Any]) -> Analysis:
         load_steps=load_steps,
         unheld_motion=unheld,  # type: ignore[arg-type]
         scheme=scheme,  # type: ignore[arg-type]
+        allow_large_strain=allow_large_strain,
     )
 
 

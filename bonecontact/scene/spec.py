@@ -163,6 +163,9 @@ class Analysis:
     scheme
         Time scheme of a dynamic analysis: ``"backward-difference"`` (default) or
         ``"stabilized-newmark"`` (docs/theory/mechanics.md#contact-stabilised-newmark).
+    allow_large_strain
+        Accept a run whose strain exceeds the small-strain range (default ``False``: such
+        a run is reported invalid; bonecontact.runners.plausibility).
     """
 
     kind: Literal["static", "quasistatic", "dynamic"] = "static"
@@ -171,6 +174,7 @@ class Analysis:
     load_steps: int = 1
     unheld_motion: Literal["error", "warn"] = "error"
     scheme: Literal["backward-difference", "stabilized-newmark"] = "backward-difference"
+    allow_large_strain: bool = False
 
     @property
     def n_steps(self) -> int:

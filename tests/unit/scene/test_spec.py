@@ -310,6 +310,20 @@ CASES: list[tuple[str, list[tuple], str | None, str | None, str]] = [
     ("analysis-dt-positive", [("set", ("analysis", "dt"), -0.1)], "dt", "[analysis]", "> 0"),
     ("analysis-dt-le-t_end", [("set", ("analysis", "dt"), 2.0)], "dt", "[analysis]", "<= t_end"),
     (
+        "analysis-allow_large_strain-string",
+        [("set", ("analysis", "allow_large_strain"), "yes")],
+        "allow_large_strain",
+        "[analysis]",
+        'must be true or false, got string "yes"',
+    ),
+    (
+        "analysis-allow_large_strain-integer",
+        [("set", ("analysis", "allow_large_strain"), 1)],
+        "allow_large_strain",
+        "[analysis]",
+        "must be true or false, got integer 1",
+    ),
+    (
         "analysis-t_end-bool",
         [("set", ("analysis", "t_end"), True)],
         "t_end",
@@ -1643,3 +1657,14 @@ def test_mesh_traction_on_fixed_component(tmp_path):
     check_against_mesh(
         load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True), GROUPS, 2, 2
     )
+
+
+@pytest.mark.parametrize("value", [None, False, True])
+def test_allow_large_strain(tmp_path, value):
+    """``[analysis] allow_large_strain``: absent is false; a given boolean is kept."""
+    doc = copy.deepcopy(BASE)
+    if value is not None:
+        doc["analysis"]["allow_large_strain"] = value
+    scene = load_scene(write(tmp_path, doc))
+    assert scene.analysis.allow_large_strain is bool(value)
+    assert Analysis().allow_large_strain is False
