@@ -3,8 +3,10 @@
 ``bonecontact check SCENE.toml`` validates a scene and its mesh without running it and prints
 a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, dofs,
 whether every rigid motion of every body is held: :mod:`bonecontact.scene.rigid_motions`)
-to stdout.  Implausible values (likely unit slips, :mod:`bonecontact.runners.plausibility`) are
+to stdout.  Implausible values (likely unit slips, :mod:`bonecontact.scene.checks`) are
 printed as warnings before anything is solved; ``--strict`` makes them errors (exit status 2).
+A unit slip beyond doubt (a mesh more than 2 m or less than 0.1 mm across, a modulus below
+1 kPa) is an error (exit status 2) unless ``--allow-implausible``.
 
 ``bonecontact mesh-surface SURFACE.stl OUT.msh --size H [--cortical T]`` meshes a closed
 bone surface (:func:`bonecontact.meshing.stl.main`; exit status 2 for a broken surface).
@@ -14,7 +16,9 @@ newest (or the named) checkpoint (docs/checkpoint.md).
 
 Exit status: 0 converged; 1 the run failed (solver did not converge — see
 ``summary.json``) or an internal error; 2 invalid input (message names the file,
-table and key; nothing is written) or no usable checkpoint to restart from; 128 + signal
+table and key; nothing is written) or no usable checkpoint to restart from; 3 the run
+finished but its result is invalid (``"status": "invalid"``: the strain measure exceeds the
+small-strain limit, :mod:`bonecontact.scene.validity`; results written); 128 + signal
 (130 Ctrl-C, 143 SIGTERM) stopped by a signal after writing a checkpoint.  Under MPI an
 input error is detected on every rank (collective checks) and an unexpected error on one
 rank aborts all ranks.
@@ -34,14 +38,18 @@ from mpi4py import MPI
 from bonecontact.common.version import __version__
 from bonecontact.meshing.stl import main as mesh_surface
 from bonecontact.runners.checkpoint import CheckpointError
-from bonecontact.runners.cracks import check_cracked, is_crack_scene
 from bonecontact.runners.dispatch import check, run_kind, run_scene
-from bonecontact.runners.mechanics import SceneModel, build_model, force_summary_lines
-from bonecontact.runners.plausibility import count_bodies, mesh_extent
+from bonecontact.runners.mechanics import SceneModel, force_summary_lines
 from bonecontact.scene import Scene, SceneError, format_error, load_scene
-from bonecontact.scene.checks import PlausibilityWarning
+from bonecontact.scene.checks import PlausibilityWarning, implausible_allowed
+from bonecontact.scene.mesh_checks import count_bodies, mesh_extent
 
 __all__ = ["main"]
+
+ALLOW_HELP = (
+    "run a scene with a unit slip beyond doubt (a mesh more than 2 m or less than 0.1 mm "
+    "across, a modulus below 1 kPa) with a warning instead of refusing it (exit status 2)"
+)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -66,6 +74,7 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="treat implausible values (likely unit slips) as errors (exit status 2)",
     )
+    r.add_argument("--allow-implausible", action="store_true", help=ALLOW_HELP)
     r.add_argument(
         "--restart",
         nargs="?",
@@ -88,6 +97,7 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="treat implausible values (likely unit slips) as errors (exit status 2)",
     )
+    c.add_argument("--allow-implausible", action="store_true", help=ALLOW_HELP)
     return p
 
 
@@ -183,11 +193,7 @@ def _motion_lines(scene: Scene, sm: SceneModel) -> list[tuple[str, str]]:
 
 def _check(scene: Scene, shown: Path, comm: MPI.Comm) -> int:
     """``bonecontact check``: every check, then the summary on stdout (rank 0)."""
-    sm = None
-    if run_kind(scene) == "mechanics":  # a crack: the model on the body meshed around it
-        sm = check_cracked(scene, comm) if is_crack_scene(scene) else build_model(scene, comm)
-    if sm is None:
-        check(scene, comm)
+    sm = check(scene, comm)  # mechanics, crack: the model (on the cracked body); else None
     rows = _summary_lines(scene, sm, comm)
     if comm.rank == 0:
         print(f"{scene.name}: ok ({shown})")
@@ -214,7 +220,8 @@ def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("error" if args.strict else "always", PlausibilityWarning)
         warnings.showwarning = _warning_printer(comm)
-        return _command(args, comm)
+        with implausible_allowed(args.allow_implausible):
+            return _command(args, comm)
 
 
 def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
@@ -255,6 +262,9 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
             comm,
         )
         return 128 + _signal_number(result.summary.get("signal", "SIGINT"))
+    if result.status == "invalid":  # finished, results written, outside the model's range
+        _say(f"invalid result: {result.summary.get('message', '')}", comm)
+        return 3  # ExitCode.INVALID of bonecontact.scene.errors (K's table)
     if result.status != "converged":
         _say(
             f"run failed: {result.summary.get('message', '')} "

@@ -1,6 +1,11 @@
 """Run a scene: choose the run kind, then run it or only check it (docs/scene_format.md).
 
-* ``[analysis]`` without ``[neoplasm]``: mechanics (:mod:`bonecontact.runners.mechanics`);
+The kind comes from the one table :data:`bonecontact.runners.kinds.KINDS` (chosen by
+:func:`bonecontact.runners.kinds.choose_kind`; docs/run_loop.md):
+
+* ``[analysis]`` without ``[neoplasm]``: mechanics (:mod:`bonecontact.runners.mechanics`),
+  or a crack run with a ``[[crack]]`` or ``[fracture] initiate``
+  (:mod:`bonecontact.runners.cracks`);
 * ``[neoplasm]`` without ``[analysis]``: growth only (:mod:`bonecontact.runners.growth`);
 * both: growth coupled to the loaded bone (:mod:`bonecontact.runners.coupled`).
 
@@ -15,24 +20,19 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from bonecontact.runners.coupled import check_coupled, run_coupled
-from bonecontact.runners.cracks import check_cracked, is_crack_scene, run_cracked
-from bonecontact.runners.growth import build_growth, run_growth
-from bonecontact.runners.mechanics import build_model, run_mechanics
+from bonecontact.runners.kinds import choose_kind, kind_name
+from bonecontact.runners.mechanics import SceneModel
 from bonecontact.runners.results import RunResult
-from bonecontact.scene import Scene, SceneError
+from bonecontact.scene import Scene
 
 __all__ = ["check", "run", "run_kind", "run_scene"]
 
 
 def run_kind(scene: Scene) -> str:
-    """``"growth"`` (``[neoplasm]`` only), ``"coupled"`` (``[neoplasm]`` and ``[analysis]``) or
-    ``"mechanics"``."""
-    if scene.growth_only:
-        return "growth"
-    if scene.neoplasm is not None:
-        return "coupled"
-    return "mechanics"
+    """The name of the scene's run kind: ``"growth"`` (``[neoplasm]`` only), ``"coupled"``
+    (``[neoplasm]`` and ``[analysis]``), ``"crack"`` (a ``[[crack]]`` or ``[fracture]
+    initiate``) or ``"mechanics"`` (:data:`bonecontact.runners.kinds.KINDS`)."""
+    return kind_name(scene)
 
 
 def run_scene(
@@ -65,48 +65,26 @@ def run_scene(
         says why; the last good state is in the output files).
     """
     output = None if output is None else Path(output)
-    kind = run_kind(scene)
-    if kind == "growth":  # [neoplasm] without [analysis]: growth.csv
-        return run_growth(scene, comm, output, progress, restart)
-    _refuse_initiation(scene, kind)
-    if kind == "coupled":  # [neoplasm] with [analysis]: growth + rebuilt host mesh + analysis
-        return run_coupled(scene, comm, output, progress, restart)
-    if is_crack_scene(scene):  # a given or initiated crack: re-meshed body, face pair, fracture.csv
-        return run_cracked(scene, comm, output, progress, restart)
-    return run_mechanics(scene, comm, output, progress, restart)
-
-
-def _refuse_initiation(scene: Scene, kind: str) -> None:
-    """Crack initiation runs in mechanics scenes only."""
-    if kind == "coupled" and scene.fracture is not None and scene.fracture.initiate:
-        raise SceneError(
-            scene.path,
-            "[fracture]",
-            "initiate",
-            "a coupled [neoplasm] scene computes the risk and the growth time of initiation; "
-            "inserting the crack runs in a static mechanics scene",
-        )
+    return choose_kind(scene).run(scene, comm, output, progress, restart)
 
 
 #: :func:`run_scene` under its short name
 run = run_scene
 
 
-def check(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+def check(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel | None:
     """Every check of a scene without running it (collective; nothing written).
+
+    Returns
+    -------
+    SceneModel or None
+        The mechanics model a mechanics or crack scene builds (on the first cracked mesh
+        of a crack scene; on the uncracked mesh of one that initiates its crack); ``None``
+        for growth and coupled scenes (their mechanics mesh is rebuilt during the run).
 
     Raises
     ------
     SceneError
         On every rank.
     """
-    kind = run_kind(scene)
-    _refuse_initiation(scene, kind)
-    if kind == "growth":
-        build_growth(scene, comm)
-    elif kind == "coupled":  # growth model, host mesh at t = 0, mechanics
-        check_coupled(scene, comm)
-    elif is_crack_scene(scene):
-        check_cracked(scene, comm)
-    else:
-        build_model(scene, comm)
+    return choose_kind(scene).check(scene, comm)

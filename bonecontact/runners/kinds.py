@@ -1,0 +1,117 @@
+"""The table of run kinds: what a scene runs as, chosen in one place (docs/run_loop.md).
+
+Every entry names the kind, says what it runs, and gives the two callables a scene of that
+kind needs: ``check`` (every check of the scene, nothing written; returns the mechanics
+model when the kind has one on the scene's own mesh, else ``None``) and ``run`` (validate,
+build and run, writing results).  :func:`choose_kind` is the only place that looks at a
+scene to choose its kind; :func:`bonecontact.runners.dispatch.run_scene`,
+:func:`bonecontact.runners.dispatch.check` and ``bonecontact check`` all go through it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from mpi4py import MPI
+
+from bonecontact.runners.coupled import check_coupled, run_coupled
+from bonecontact.runners.cracks import check_cracked, is_crack_scene, run_cracked
+from bonecontact.runners.growth import build_growth, run_growth
+from bonecontact.runners.mechanics import SceneModel, build_model, run_mechanics
+from bonecontact.runners.results import RunResult
+from bonecontact.scene import Scene, SceneError
+
+__all__ = ["KINDS", "RunKind", "choose_kind"]
+
+Restart = str | Path | bool | None
+CheckFn = Callable[[Scene, MPI.Comm], SceneModel | None]
+RunFn = Callable[[Scene, MPI.Comm, Path | None, bool, Restart], RunResult]
+
+
+@dataclass(frozen=True)
+class RunKind:
+    """One row of the run-kind table."""
+
+    name: str
+    what: str  # one line: what the scene has and what the run does
+    check: CheckFn
+    run: RunFn
+
+
+def _check_growth(scene: Scene, comm: MPI.Comm) -> None:
+    """A growth-only scene: the growth model built against its mesh (no mechanics model)."""
+    build_growth(scene, comm)
+    return None
+
+
+def _refuse_initiation(scene: Scene) -> None:
+    """Crack initiation runs in mechanics scenes only."""
+    if scene.fracture is not None and scene.fracture.initiate:
+        raise SceneError(
+            scene.path,
+            "[fracture]",
+            "initiate",
+            "a coupled [neoplasm] scene computes the risk and the growth time of initiation; "
+            "inserting the crack runs in a static mechanics scene",
+        )
+
+
+def _check_coupled(scene: Scene, comm: MPI.Comm) -> None:
+    """A coupled scene: the growth model, the host mesh at t = 0 and the mechanics on it."""
+    _refuse_initiation(scene)
+    check_coupled(scene, comm)
+    return None
+
+
+def _run_coupled(
+    scene: Scene, comm: MPI.Comm, output: Path | None, progress: bool, restart: Restart
+) -> RunResult:
+    _refuse_initiation(scene)
+    return run_coupled(scene, comm, output, progress, restart)
+
+
+#: The run kinds, in the order :func:`choose_kind` tries them.
+KINDS: dict[str, RunKind] = {
+    "growth": RunKind(
+        "growth",
+        "[neoplasm] without [analysis]: the neoplasm grows alone (growth.csv)",
+        _check_growth,
+        run_growth,
+    ),
+    "coupled": RunKind(
+        "coupled",
+        "[neoplasm] and [analysis]: growth, the host mesh rebuilt, the analysis run on it",
+        _check_coupled,
+        _run_coupled,
+    ),
+    "crack": RunKind(
+        "crack",
+        "[analysis] with a [[crack]] or [fracture] initiate: the body meshed around the crack",
+        check_cracked,
+        run_cracked,
+    ),
+    "mechanics": RunKind(
+        "mechanics",
+        "[analysis] without [neoplasm] or crack: the scene's mesh, steps, results",
+        build_model,
+        run_mechanics,
+    ),
+}
+
+
+def kind_name(scene: Scene) -> str:
+    """The name of the scene's run kind (a key of :data:`KINDS`)."""
+    if scene.growth_only:
+        return "growth"
+    if scene.neoplasm is not None:
+        return "coupled"
+    if is_crack_scene(scene):
+        return "crack"
+    return "mechanics"
+
+
+def choose_kind(scene: Scene) -> RunKind:
+    """The row of :data:`KINDS` the scene runs as (the only place a kind is chosen)."""
+    return KINDS[kind_name(scene)]
