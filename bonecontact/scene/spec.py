@@ -165,7 +165,7 @@ class Analysis:
         ``"stabilized-newmark"`` (docs/theory/mechanics.md#contact-stabilised-newmark).
     allow_large_strain
         Accept a run whose strain exceeds the small-strain range (default ``False``: such
-        a run is reported invalid; bonecontact.runners.plausibility).
+        a run ends with status ``"invalid"``; :mod:`bonecontact.scene.validity`).
     """
 
     kind: Literal["static", "quasistatic", "dynamic"] = "static"
