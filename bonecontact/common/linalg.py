@@ -6,6 +6,9 @@ displacement block size, vectors share the DOLFINx layout.
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -16,12 +19,16 @@ import numpy.typing as npt
 from dolfinx import fem, la
 
 __all__ = [
+    "ITERATIVE_OPTIONS",
     "LinearSolverInfo",
+    "SolverOptions",
     "body_labels",
     "configure_ksp",
     "create_solver",
     "owned_global_rows",
     "rigid_body_modes",
+    "set_solver_options",
+    "solver_options",
 ]
 
 
@@ -138,29 +145,152 @@ class LinearSolverInfo:
     setup_time: float = 0.0
 
 
+_OPTIONS_ATTR = "bonecontact_solver_options"
+_COUNTER = itertools.count()
+
+
+class SolverOptions:
+    """The PETSc options of one KSP, under a prefix of its own, in PETSc's global options
+    database only while the KSP sets up or solves.
+
+    PETSc reads a solver's options from one global database, and not all at
+    ``setFromOptions``: GAMG creates its level smoothers and coarse solver, and MUMPS its
+    factor, at every preconditioner set-up, and reads their options (``mg_levels_*``,
+    ``mg_coarse_*``, ``mat_mumps_*``) then.  So the options are kept here, and
+    :meth:`applied` puts them into the database under the KSP's unique prefix
+    (``<prefix><n>_``) and takes them out again; it wraps every ``KSPSolve`` of the KSP
+    (its pre- and post-solve hooks) and its configuration.  Two solvers in one process
+    thus never see each other's options, and none of ours is left in the database.
+
+    The user's options under the documented ``prefix`` (the command line, e.g.
+    ``-bc_contact_pc_gamg_threshold 0.05``) are read at every application and win over
+    ours; they are the user's and stay in the database.
+
+    Parameters
+    ----------
+    ksp
+        The solver; its options prefix is set to the unique prefix.
+    prefix
+        The prefix under which the user overrides the options.
+    """
+
+    def __init__(self, ksp: PETSc.KSP, prefix: str):
+        self.prefix = prefix
+        self.unique = f"{prefix}{next(_COUNTER)}_"
+        self.options: dict[str, object] = {}
+        self._inserted: list[str] = []
+        ksp.setOptionsPrefix(self.unique)
+        ksp.setPreSolve(lambda _ksp, _b, _x: self._insert())
+        ksp.setPostSolve(lambda _ksp, _b, _x: self._remove())
+
+    @classmethod
+    def of(cls, ksp: PETSc.KSP, prefix: str) -> SolverOptions:
+        """The options object of ``ksp`` (made, and the KSP given its prefix, at the first call)."""
+        found = ksp.getAttr(_OPTIONS_ATTR)
+        if found is None:
+            found = cls(ksp, prefix)
+            ksp.setAttr(_OPTIONS_ATTR, found)
+        return found
+
+    def user_options(self) -> dict[str, str]:
+        """The options in the database under the user's prefix (not under another
+        solver's unique prefix), keys without the prefix."""
+        n = len(self.prefix)
+        return {
+            k[n:]: v
+            for k, v in PETSc.Options().getAll().items()
+            if k.startswith(self.prefix) and not k[n:].split("_", 1)[0].isdigit()
+        }
+
+    def _insert(self) -> None:
+        self._remove()
+        opts = PETSc.Options()
+        for key, value in {**self.options, **self.user_options()}.items():
+            name = f"{self.unique}{key}"
+            opts[name] = value
+            self._inserted.append(name)
+
+    def _remove(self) -> None:
+        opts = PETSc.Options()
+        for name in self._inserted:
+            if opts.hasName(name):
+                opts.delValue(name)
+        self._inserted = []
+
+    @contextmanager
+    def applied(self) -> Iterator[None]:
+        """The options in the database for the body of the ``with`` block (e.g. an
+        explicit ``ksp.setUp()`` or ``ksp.setFromOptions()``)."""
+        self._insert()
+        try:
+            yield
+        finally:
+            self._remove()
+
+
+def set_solver_options(
+    ksp: PETSc.KSP, options: dict[str, object], prefix: str = "bc_"
+) -> SolverOptions:
+    """Add ``options`` (PETSc option names without a prefix) to the options of ``ksp``
+    (:class:`SolverOptions`), then apply them (``ksp.setFromOptions``).
+
+    A value ``None`` removes the option."""
+    so = SolverOptions.of(ksp, prefix)
+    for key, value in options.items():
+        if value is None:
+            so.options.pop(key, None)
+        else:
+            so.options[key] = value
+    with so.applied():
+        ksp.setFromOptions()
+    return so
+
+
+def solver_options(ksp: PETSc.KSP) -> SolverOptions | None:
+    """The :class:`SolverOptions` of ``ksp`` (``None`` if it has none)."""
+    return ksp.getAttr(_OPTIONS_ATTR)
+
+
+#: PETSc options of the package's iterative solver (CG set by ``configure_ksp``).
+ITERATIVE_OPTIONS: dict[str, object] = {
+    "pc_gamg_type": "agg",
+    "pc_gamg_threshold": 0.01,
+    "mg_levels_ksp_type": "chebyshev",
+    "mg_levels_pc_type": "jacobi",
+    "mg_levels_ksp_chebyshev_esteig_steps": 20,
+}
+
+
 def configure_ksp(
-    ksp: PETSc.KSP, kind: str, rtol: float = 1e-12, prefix: str = "bc_", max_it: int = 2000
-) -> None:
+    ksp: PETSc.KSP,
+    kind: str,
+    rtol: float = 1e-12,
+    prefix: str = "bc_",
+    max_it: int = 2000,
+    options: dict[str, object] | None = None,
+) -> SolverOptions:
     """Set a KSP up as the package's direct (MUMPS LU) or iterative (CG + smoothed-
-    aggregation GAMG, Chebyshev/Jacobi smoothing) solver; the options can be overridden
-    on the command line under ``prefix``."""
+    aggregation GAMG, Chebyshev/Jacobi smoothing) solver.
+
+    The options live under a prefix of the KSP's own and are in PETSc's options
+    database only while it sets up or solves (:class:`SolverOptions`); the user
+    overrides them on the command line under ``prefix``.  ``options``: further PETSc
+    options of this solver (e.g. ``{"mat_mumps_icntl_24": 1}``).
+    """
     pc = ksp.getPC()
     if kind == "direct":
         ksp.setType("preonly")
         pc.setType("lu")
         pc.setFactorSolverType("mumps")
+        base: dict[str, object] = {}
     elif kind == "iterative":
         ksp.setType("cg")
         ksp.setTolerances(rtol=rtol, atol=1e-300, max_it=max_it)
         pc.setType("gamg")
-        opts = PETSc.Options()
-        opts[f"{prefix}pc_gamg_type"] = "agg"
-        opts[f"{prefix}pc_gamg_threshold"] = 0.01
-        opts[f"{prefix}mg_levels_ksp_type"] = "chebyshev"
-        opts[f"{prefix}mg_levels_pc_type"] = "jacobi"
-        opts[f"{prefix}mg_levels_ksp_chebyshev_esteig_steps"] = 20
+        base = dict(ITERATIVE_OPTIONS)
     else:
         raise ValueError(f"linear solver kind must be 'direct' or 'iterative', got {kind!r}")
+    return set_solver_options(ksp, {**base, **(options or {})}, prefix)
 
 
 def create_solver(
@@ -169,6 +299,7 @@ def create_solver(
     near_nullspace: PETSc.NullSpace | None = None,
     rtol: float = 1e-12,
     prefix: str = "bc_",
+    options: dict[str, object] | None = None,
 ) -> PETSc.KSP:
     """A KSP for the (symmetric positive definite) operator ``A``.
 
@@ -185,16 +316,18 @@ def create_solver(
     rtol
         Relative tolerance of the Krylov solver.
     prefix
-        PETSc options prefix, so users can override from the command line.
+        PETSc options prefix under which users override the options from the command
+        line (the KSP's own prefix is unique: :class:`SolverOptions`).
+    options
+        Further PETSc options of this solver.
     """
     ksp = PETSc.KSP().create(A.getComm())
-    ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
     if kind == "iterative":
         if near_nullspace is not None:
             A.setNearNullSpace(near_nullspace)
         A.setOption(PETSc.Mat.Option.SPD, True)
-    configure_ksp(ksp, kind, rtol=rtol, prefix=prefix, max_it=2000)
-    ksp.setFromOptions()
-    ksp.setUp()
+    so = configure_ksp(ksp, kind, rtol=rtol, prefix=prefix, max_it=2000, options=options)
+    with so.applied():
+        ksp.setUp()
     return ksp

@@ -41,8 +41,9 @@ __all__ = [
     "reduction_decades",
 ]
 
-#: GAMG options of the condensed system (under the solver's prefix; the command line
-#: overrides them): plain (unsmoothed) aggregation, W-cycles.  The condensation couples
+#: GAMG options of the condensed system (:class:`~bonecontact.common.linalg.SolverOptions`:
+#: under the solver's own prefix; the command line overrides them under ``prefix``):
+#: plain (unsmoothed) aggregation, W-cycles.  The condensation couples
 #: every master interface node with the master nodes of all slave nodes around it (rows
 #: of up to ~400 entries against ~50 in elasticity), and a smoothed prolongator spreads
 #: these rows through the whole hierarchy: coarse operators 3–5 times denser than those
@@ -172,8 +173,9 @@ def configure_condensed_ksp(
     Sets the block size of ``B`` (the transformations lose it; GAMG aggregates nodes,
     not single rows, only with it), the near-nullspace of
     :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` and the coarse grid of
-    :func:`coarse_grid_limit` (unless given on the command line) and a nonzero initial
-    guess (the previous PDAS iterate).
+    :func:`coarse_grid_limit` (options under the KSP's own prefix, in the options
+    database only while it sets up or solves; the command line overrides them under
+    ``prefix``) and a nonzero initial guess (the previous PDAS iterate).
     """
     bs = V.dofmap.index_map_bs
     B.setBlockSize(bs)
@@ -181,18 +183,8 @@ def configure_condensed_ksp(
     B.setNearNullSpace(nns)
     nns.destroy()
     B.setOption(PETSc.Mat.Option.SPD, not nonsymmetric)
-    configure_ksp(ksp, "iterative", rtol=rtol, prefix=prefix, max_it=max_it)
-    opts = PETSc.Options()
-    for key, value in GAMG_OPTIONS.items():
-        if not opts.hasName(f"{prefix}{key}"):
-            opts[f"{prefix}{key}"] = value
-    key = f"{prefix}pc_gamg_coarse_eq_limit"
-    if not opts.hasName(key):  # this system's size: read once, not left in the options
-        opts[key] = coarse_grid_limit(B.getSize()[0])
-        try:
-            ksp.setFromOptions()
-        finally:
-            opts.delValue(key)
+    gamg = {**GAMG_OPTIONS, "pc_gamg_coarse_eq_limit": coarse_grid_limit(B.getSize()[0])}
+    configure_ksp(ksp, "iterative", rtol=rtol, prefix=prefix, max_it=max_it, options=gamg)
     if nonsymmetric:
         ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
     ksp.setInitialGuessNonzero(True)

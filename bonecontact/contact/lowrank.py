@@ -58,7 +58,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg import lapack
 
-from bonecontact.common.linalg import configure_ksp
+from bonecontact.common.linalg import configure_ksp, solver_options
 
 __all__ = [
     "DENSE_BLOCKS",
@@ -318,10 +318,8 @@ class LowRankActiveSetSolver:
 
     def _make_ksp(self) -> PETSc.KSP:
         ksp = PETSc.KSP().create(self.comm)
-        ksp.setOptionsPrefix(self.prefix)
-        configure_ksp(ksp, "direct", prefix=self.prefix)
-        PETSc.Options()[f"{self.prefix}mat_mumps_icntl_24"] = 1  # detect null pivots
-        ksp.setFromOptions()
+        # (icntl 24: detect null pivots)
+        configure_ksp(ksp, "direct", prefix=self.prefix, options={"mat_mumps_icntl_24": 1})
         return ksp
 
     # ------------------------------------------------------------------ small utilities
@@ -366,7 +364,8 @@ class LowRankActiveSetSolver:
         self.B0.zeroRowsColumns(rows, diag=self.diag_value)
         self.ksp.setOperators(self.B0)
         try:
-            self.ksp.setUp()
+            with solver_options(self.ksp).applied():  # (the MUMPS options are read here)
+                self.ksp.setUp()
         except PETSc.Error as exc:
             raise SingularActiveSetError(
                 f"LU factorisation failed (PETSc error {exc.ierr})"
