@@ -728,7 +728,7 @@ def run_cracked(
     )
     info["fracture"] = frac
     summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
-    return RunResult(status, summary, integ, outdir)
+    return RunResult(summary["status"], summary, integ, outdir)
 
 
 def _crack_summary(

@@ -472,4 +472,4 @@ def run_cracked3d(
     frac["crack"] = _front_summary(run, last)
     info["fracture"] = frac
     summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
-    return RunResult(status, summary, integ, outdir)
+    return RunResult(summary["status"], summary, integ, outdir)

@@ -36,12 +36,6 @@ from bonecontact.mechanics.reactions import ForceMoment, SupportReactions, momen
 from bonecontact.meshing.io import read_gmsh_mesh
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
 from bonecontact.runners.fracture_check import FractureMonitor, fracture_history_columns
-from bonecontact.runners.plausibility import (
-    SMALL_STRAIN_LIMIT,
-    StrainMonitor,
-    emit,
-    scene_issues,
-)
 from bonecontact.runners.results import (
     ENERGY_COLUMNS,
     ProbeError,
@@ -51,10 +45,16 @@ from bonecontact.runners.results import (
     StressFields,
 )
 from bonecontact.scene import Scene, SceneError, check_against_mesh
-from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh
-from bonecontact.scene.mesh_checks import check_mesh
+from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh, emit
+from bonecontact.scene.mesh_checks import check_mesh, scene_issues
 from bonecontact.scene.rigid_motions import check_rigid_motions, singular_diagnosis
 from bonecontact.scene.spec import LoadSpec
+from bonecontact.scene.validity import (
+    SMALL_STRAIN_LIMIT,
+    StrainMonitor,
+    judge_run,
+    material_cells,
+)
 
 __all__ = [
     "SceneModel",
@@ -127,9 +127,10 @@ def build_model(
 
     ``timer`` (optional) records the phases ``mesh_read``, ``model`` (spaces, materials,
     boundary conditions, loads, probes) and ``mortar_geometry`` (the contact interfaces).
-    Implausible values (unit slips, :func:`bonecontact.runners.plausibility.scene_issues`)
+    Implausible values (unit slips, :func:`bonecontact.scene.mesh_checks.scene_issues`)
     are emitted as one :class:`~bonecontact.scene.checks.PlausibilityWarning` on every rank
-    and kept in ``SceneModel.issues``.
+    and kept in ``SceneModel.issues``; a unit slip beyond doubt is a SceneError unless
+    allowed (:func:`bonecontact.scene.checks.implausible_allowed`).
 
     ``mesh`` (``(mesh_data, groups)``): a mesh already read and checked, instead of the
     scene's file (a scene with a crack: the body re-meshed around it,
@@ -149,7 +150,7 @@ def build_model(
         else:
             md, groups = mesh
         issues = scene_issues(scene, md, groups, comm)
-    emit(issues)
+    emit(issues, scene.path)
     unheld = check_rigid_motions(scene, md, groups, comm)  # docs/theory/rigid_motions.md
     tag = {name: t for name, (d, t) in groups.items()}
     with timer.phase("model"):
@@ -410,7 +411,8 @@ class Recorder:
             fields_stem=ckpt.fields_stem if ckpt is not None else "fields",
         )
         self.fields_written = -1
-        self.strain = StrainMonitor(integ.u)
+        cells = material_cells(scene, sm.mesh_data.cell_tags, sm.groups)
+        self.strain = StrainMonitor(integ.u, cells)
 
     def _write_fields(self, t: float) -> None:
         integ, stress = self.integ, self.stress
@@ -655,8 +657,11 @@ def finish_run(
     info: dict[str, Any],
 ) -> dict[str, Any]:
     """Complete ``info`` (the model's warnings, the phase times, the failure message),
-    write summary.json, close the writer and warn of strains beyond small-strain
-    validity (collective).  Returns the summary."""
+    judge the strain (a converged run beyond small-strain validity becomes ``"invalid"``,
+    :func:`bonecontact.scene.validity.judge_run`), write summary.json, close the writer and
+    warn of an allowed large strain (collective).  Returns the summary (its ``"status"``
+    is the run's)."""
+    status, message = judge_run(scene, status, message, info)
     info["warnings"] = [str(i) for i in sm.issues]
     info.setdefault("reactions", rec.reaction_summary())
     info["phases_s"] = timer.summary(comm)
@@ -664,7 +669,8 @@ def finish_run(
         info["message"] = message
     summary = rec.writer.summary(status, **info)
     rec.writer.close()
-    _warn_large_strain(scene, rec.strain.max_strain)
+    if status != "invalid":
+        _warn_large_strain(scene, rec.strain.measure)
     return summary
 
 
@@ -736,18 +742,19 @@ def run_mechanics(
     if rec.fracture is not None:
         info["fracture"] = rec.fracture.summary()
     summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
-    return RunResult(status, summary, integ, outdir)
+    return RunResult(summary["status"], summary, integ, outdir)
 
 
-def _warn_large_strain(scene: Scene, max_strain: float) -> None:
-    """A computed strain beyond the small-strain model's validity (after the results are
-    written; summary.json says ``"small_strain_valid": false``)."""
-    if max_strain > SMALL_STRAIN_LIMIT:
+def _warn_large_strain(scene: Scene, measure: float) -> None:
+    """A strain beyond the small-strain model's validity that the scene accepts
+    (``allow_large_strain``; after the results are written, summary.json says
+    ``"small_strain_valid": false``)."""
+    if measure > SMALL_STRAIN_LIMIT:
         warnings.warn(
-            f"{scene.name}: the computed strain reaches {max_strain:.3g} (> "
+            f"{scene.name}: the strain measure reaches {measure:.3g} (> "
             f"{SMALL_STRAIN_LIMIT:.0%}): the result is outside the validity of the small-strain "
-            "model (summary.json: small_strain_valid = false); check the units of the loads, "
-            "the moduli and the mesh",
+            "model (summary.json: small_strain_valid = false), accepted by [analysis] "
+            "allow_large_strain = true",
             PlausibilityWarning,
             stacklevel=3,
         )

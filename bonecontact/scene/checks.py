@@ -18,22 +18,27 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from bonecontact.common.resources import data_dir
 from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.scene_tables import check_crack_region
 from bonecontact.materials.laws import Isotropic, Material, Orthotropic, TransverselyIsotropic
-from bonecontact.materials.library import DATA_DIR
 from bonecontact.scene.errors import SceneError, table_label
 from bonecontact.scene.spec import LOAD_KINDS, MaterialSpec, Scene
 
 __all__ = [
     "LOAD_STRAIN_LIMIT",
     "MESH_SIZE_RANGE",
+    "MODULUS_FLOOR",
     "PLAUSIBILITY_FILE",
+    "SMALL_STRAIN_LIMIT",
     "MeshGroups",
     "PlausibilityIssue",
     "PlausibilityWarning",
@@ -45,6 +50,8 @@ __all__ = [
     "check_material_ranges",
     "check_mesh_scale",
     "check_plausibility",
+    "emit",
+    "implausible_allowed",
     "load_plausibility_ranges",
     "material_class",
     "unit_slip_hint",
@@ -343,12 +350,21 @@ def check_initial_velocity_regions(scene: Scene, mesh: MeshGroups) -> None:
 # ======================================================================================
 # plausibility (unit slips): warnings, not errors
 # ======================================================================================
-#: The table of plausible material ranges, with their sources.
-PLAUSIBILITY_FILE = DATA_DIR / "plausibility.toml"
-#: Smallest and largest extent (m) of a mesh that can be a bone or a piece of one.
+#: The table of plausible material ranges, with their sources (package data).
+PLAUSIBILITY_FILE = data_dir() / "plausibility.toml"
+#: Smallest and largest extent (m) of a mesh that can be a bone or a piece of one; a mesh
+#: outside is a unit slip beyond doubt (an error unless implausible values are allowed).
 MESH_SIZE_RANGE = (1.0e-4, 2.0)
+#: A Young's or shear modulus below this (Pa) is a unit slip beyond doubt (softer than
+#: any tissue a bone model holds: bone marrow and fat are ~1-10 kPa and above).
+MODULUS_FLOOR = 1.0e3
+#: The small-strain model's limit on the principal strain: the error of the linear strain
+#: against the Green-Lagrange strain is ε/2 relative, 5 % here (bonecontact.scene.validity;
+#: docs/scene_format.md, "Validity of the model").  The same limit before the run
+#: (:data:`LOAD_STRAIN_LIMIT`, an elastic estimate) and after it (the computed strain).
+SMALL_STRAIN_LIMIT = 0.10
 #: An elastic strain estimate above this warns before solving (the model is small-strain).
-LOAD_STRAIN_LIMIT = 0.10
+LOAD_STRAIN_LIMIT = SMALL_STRAIN_LIMIT
 
 _PREFIXES = {1e3: "k", 1e6: "M", 1e9: "G"}
 #: Strength keys of a material table (Pa), as in data/materials.toml [strength.*].
@@ -371,11 +387,15 @@ class PlausibilityIssue:
         The key, or ``None``.
     message
         What is implausible and the likely slip.
+    certain
+        A unit slip beyond doubt (:data:`MESH_SIZE_RANGE`, :data:`MODULUS_FLOOR`): an error
+        (:func:`emit`) unless implausible values are allowed (:func:`implausible_allowed`).
     """
 
     table: str
     key: str | None
     message: str
+    certain: bool = False  # a unit slip beyond doubt: an error unless allowed
 
     def __str__(self) -> str:
         where = self.table if self.key is None else f"{self.table} {self.key}"
@@ -417,7 +437,8 @@ def load_plausibility_ranges(
     path: str | Path | None = None,
 ) -> tuple[tuple[RangeClass, ...], RangeClass]:
     """The material classes of ``data/plausibility.toml`` (file order) and the envelope."""
-    with open(PLAUSIBILITY_FILE if path is None else path, "rb") as f:
+    source = PLAUSIBILITY_FILE if path is None else Path(path)
+    with source.open("rb") as f:
         doc = tomllib.load(f)
     classes = tuple(RangeClass.from_table(n, t) for n, t in doc["class"].items())
     return classes, RangeClass.from_table("any", doc["any"])
@@ -495,11 +516,19 @@ def unit_slip_hint(value: float, low: float, high: float, unit: str) -> str:
 
 
 def _range_issue(
-    label: str, key: str, value: float, bounds: tuple[float, float], unit: str, cls: RangeClass
+    label: str,
+    key: str,
+    value: float,
+    bounds: tuple[float, float],
+    unit: str,
+    cls: RangeClass,
+    certain: bool = False,
 ) -> PlausibilityIssue | None:
+    """The finding of ``value`` outside ``bounds`` (``certain``: a modulus below the floor,
+    reported even inside the class's range)."""
     low, high = bounds
     if low <= value <= high:
-        return None
+        return _floor_issue(label, key, value) if certain else None
     kind = "materials" if cls.name == "any" else cls.name.replace("_", " ")
     hint = unit_slip_hint(value, low, high, unit)
     msg = (
@@ -508,7 +537,16 @@ def _range_issue(
         f"{_fmt(low)}-{_fmt(high)} {unit}; data/plausibility.toml [{cls.name}], "
         f"{cls.source.split(';')[0]})"
     )
-    return PlausibilityIssue(label, key, msg)
+    return PlausibilityIssue(label, key, msg, certain)
+
+
+def _floor_issue(label: str, key: str, value: float) -> PlausibilityIssue:
+    """A modulus below :data:`MODULUS_FLOOR` that its class's range lets through."""
+    msg = (
+        f"{key} = {_fmt(value)} Pa is below {_fmt(MODULUS_FLOOR / 1e3)} kPa, softer than any "
+        f"tissue of a bone model: is it in the unit you meant? The scene is in SI units (Pa)"
+    )
+    return PlausibilityIssue(label, key, msg, True)
 
 
 def check_material_ranges(
@@ -537,8 +575,10 @@ def check_material_ranges(
         if spec.material.rho is not None:
             values.append(("rho", float(spec.material.rho), cls.rho, "kg/m³"))
         values += [(k, v, cls.strength, "Pa") for k, v in _strengths(scene, spec).items()]
+        moduli = _moduli(spec.material)
         for key, value, bounds, unit in values:
-            issue = _range_issue(label, key, value, bounds, unit, cls)
+            floor = key in moduli and value < MODULUS_FLOOR  # a slip beyond doubt
+            issue = _range_issue(label, key, value, bounds, unit, cls, floor)
             if issue is not None:
                 issues.append(issue)
     return issues
@@ -570,7 +610,7 @@ def check_mesh_scale(scene: Scene, extent: Sequence[float]) -> list[Plausibility
         )
     else:
         return []
-    return [PlausibilityIssue("[scene]", "mesh", msg)]
+    return [PlausibilityIssue("[scene]", "mesh", msg, certain=True)]
 
 
 def _soft(scene: Scene, names: Sequence[str]) -> tuple[float, str]:
@@ -689,3 +729,54 @@ def check_plausibility(
         issues += check_mesh_scale(scene, extent)
         issues += check_load_strains(scene, extent, adjacent or {})
     return issues
+
+
+#: Whether unit slips beyond doubt are allowed (:func:`implausible_allowed`).
+_ALLOW_IMPLAUSIBLE: ContextVar[bool] = ContextVar("allow_implausible", default=False)
+
+
+@contextmanager
+def implausible_allowed(allow: bool = True) -> Iterator[None]:
+    """Within this context, unit slips beyond doubt only warn (``bonecontact run
+    --allow-implausible``); outside it, :func:`emit` raises them as a :class:`SceneError`.
+
+    Examples
+    --------
+    >>> with implausible_allowed():  # doctest: +SKIP
+    ...     run_scene(load_scene("scene_with_E_in_GPa_numbers.toml"))
+    """
+    token = _ALLOW_IMPLAUSIBLE.set(allow)
+    try:
+        yield
+    finally:
+        _ALLOW_IMPLAUSIBLE.reset(token)
+
+
+def _refuse_certain(file: str | Path | None, certain: Sequence[PlausibilityIssue]) -> None:
+    """One :class:`SceneError` for the unit slips beyond doubt."""
+    advice = "a unit slip beyond doubt; --allow-implausible runs it anyway"
+    if len(certain) == 1:
+        c = certain[0]
+        raise SceneError(file, c.table, c.key, f"{c.message} ({advice})")
+    listed = "\n".join(f"  - {c}" for c in certain)
+    raise SceneError(file, None, None, f"{len(certain)} implausible values ({advice}):\n{listed}")
+
+
+def emit(issues: Sequence[PlausibilityIssue], file: str | Path | None = None) -> None:
+    """Report a scene's findings on every rank (they are the same on every rank).
+
+    The unit slips beyond doubt (``certain``) raise a :class:`SceneError` naming ``file``,
+    unless :func:`implausible_allowed`; the other findings (and the allowed certain ones)
+    make one :class:`PlausibilityWarning` listing them all (so that an ``"error"`` warnings
+    filter, ``--strict``, raises on every rank at the same point).
+    """
+    certain = [i for i in issues if i.certain]
+    if certain and not _ALLOW_IMPLAUSIBLE.get():
+        _refuse_certain(file, certain)
+    if not issues:
+        return
+    if len(issues) == 1:
+        text = f"implausible value: {issues[0]}"
+    else:
+        text = f"{len(issues)} implausible values:\n" + "\n".join(f"  - {i}" for i in issues)
+    warnings.warn(text, PlausibilityWarning, stacklevel=3)

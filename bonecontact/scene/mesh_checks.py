@@ -22,6 +22,11 @@ rank waits for another.  The checks, in order:
   with a facet between two cells.
 
 Each message names the group and a location (coordinates in m).
+
+The plausibility checks of :mod:`bonecontact.scene.checks` need two things from the mesh:
+its size (:func:`mesh_extent`) and the materials next to each facet group
+(:func:`facet_materials`); :func:`scene_issues` measures both and runs them.
+:func:`count_bodies` counts the connected pieces of a mesh (for ``bonecontact check``).
 """
 
 from __future__ import annotations
@@ -38,10 +43,21 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from bonecontact.scene.checks import PlausibilityIssue, check_plausibility
 from bonecontact.scene.errors import SceneError
+from bonecontact.scene.rigid_motions import find_bodies
 from bonecontact.scene.spec import Scene
 
-__all__ = ["DEGENERATE_RATIO", "DUPLICATE_TOLERANCE", "check_mesh", "mesh_findings"]
+__all__ = [
+    "DEGENERATE_RATIO",
+    "DUPLICATE_TOLERANCE",
+    "check_mesh",
+    "count_bodies",
+    "facet_materials",
+    "mesh_extent",
+    "mesh_findings",
+    "scene_issues",
+]
 
 #: A cell is degenerate when ``|det J| ≤ DEGENERATE_RATIO · ℓ^d`` (ℓ its longest edge).
 DEGENERATE_RATIO = 1e-10
@@ -379,3 +395,55 @@ def check_mesh(
         raise SceneError(
             str(scene.path), "[scene]", "mesh", f"{scene.mesh_path.name}: {found[0]}{more}"
         )
+
+
+# ----------------------------------------------------------------------------- plausibility
+def mesh_extent(mesh: Any, comm: MPI.Comm) -> list[float]:
+    """Size of the mesh's bounding box along each axis (m), over all ranks."""
+    gdim = mesh.geometry.dim
+    x = mesh.geometry.x[:, :gdim]
+    lo = x.min(axis=0) if len(x) else np.full(gdim, np.inf)
+    hi = x.max(axis=0) if len(x) else np.full(gdim, -np.inf)
+    glo, ghi = np.empty(gdim), np.empty(gdim)
+    comm.Allreduce(np.ascontiguousarray(lo, dtype=np.float64), glo, op=MPI.MIN)
+    comm.Allreduce(np.ascontiguousarray(hi, dtype=np.float64), ghi, op=MPI.MAX)
+    return [float(v) for v in ghi - glo]
+
+
+def facet_materials(
+    scene: Scene, md: Any, groups: Mapping[str, tuple[int, int]], comm: MPI.Comm
+) -> dict[str, tuple[str, ...]]:
+    """Facet group → names of the materials of the cells next to it (all ranks)."""
+    mesh = md.mesh
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    n_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
+    cell_tag = np.full(n_cells, -1, dtype=np.int64)
+    cell_tag[md.cell_tags.indices] = md.cell_tags.values
+    material = {groups[r][1]: m.name for m in scene.materials for r in m.regions if r in groups}
+    out: dict[str, tuple[str, ...]] = {}
+    for name, (dim, tag) in sorted(groups.items()):
+        if dim != tdim - 1:
+            continue
+        facets = md.facet_tags.find(tag)
+        cells = np.concatenate([f2c.links(f) for f in facets]) if len(facets) else []
+        tags = {int(t) for t in np.unique(cell_tag[np.asarray(cells, dtype=np.int64)])}
+        tags = set().union(*comm.allgather(tags))
+        out[name] = tuple(sorted({material[t] for t in tags if t in material}))
+    return out
+
+
+def scene_issues(
+    scene: Scene, md: Any, groups: Mapping[str, tuple[int, int]], comm: MPI.Comm
+) -> list[PlausibilityIssue]:
+    """Every plausibility finding of a scene on its mesh (collective)."""
+    extent = mesh_extent(md.mesh, comm)
+    return check_plausibility(scene, extent, facet_materials(scene, md, groups, comm))
+
+
+def count_bodies(mesh: Any, comm: MPI.Comm) -> int:
+    """The number of connected pieces of a mesh (cells sharing a vertex are connected;
+    :func:`bonecontact.scene.rigid_motions.find_bodies`, which joins the pieces of the
+    ranks through the vertices on the partition boundary only)."""
+    return find_bodies(mesh, None, {}, comm).count
