@@ -15,14 +15,18 @@ from pathlib import Path
 import pytest
 
 from bonecontact.materials.library import load_material_library, load_strengths
-from bonecontact.scene import load_scene
+from bonecontact.scene import SceneError, load_scene
 from bonecontact.scene.checks import (
     LOAD_STRAIN_LIMIT,
     MESH_SIZE_RANGE,
+    MODULUS_FLOOR,
+    PlausibilityWarning,
     check_load_strains,
     check_material_ranges,
     check_mesh_scale,
     check_plausibility,
+    emit,
+    implausible_allowed,
     load_plausibility_ranges,
     material_class,
     unit_slip_hint,
@@ -183,3 +187,63 @@ def test_material_class_by_name_then_region(tmp_path):
         "cartilage": "cartilage",
     }
     assert math.isclose(default.modulus[1], 450e9)
+
+
+@pytest.mark.parametrize(
+    "name, E, finding, certain",
+    [
+        ("cartilage", "17.0", True, True),  # GPa (or MPa) meant
+        ("cartilage", "999.0", True, True),  # just below the floor, below the class
+        ("cartilage", "1001.0", True, False),  # just above the floor: only doubtful
+        ("soft", "500.0", True, True),  # inside the soft-tissue range, below the floor
+        ("soft", "2000.0", False, False),  # a soft tissue: plausible
+        ("cartilage", "10.0e6", False, False),  # the shipped value
+        ("cartilage", "10.0e15", True, False),  # too large: a slip, but only warned
+    ],
+)
+def test_modulus_below_the_floor_is_beyond_doubt(tmp_path, name, E, finding, certain):
+    """A modulus below 1 kPa is a slip beyond doubt whatever its class; other findings only
+    warn."""
+    scene = _knee(tmp_path, ('name = "cartilage"', f'name = "{name}"'), ("E = 10.0e6", f"E = {E}"))
+    issues = [i for i in check_material_ranges(scene) if i.table.startswith("[[material]] #3")]
+    assert len(issues) == finding
+    assert [i.certain for i in issues] == ([certain] if finding else [])
+    if certain and float(E) > 100.0:  # inside the [any] envelope: the floor's own message
+        assert f"below {MODULUS_FLOOR / 1e3:g} kPa" in issues[0].message or "did you mean" in (
+            issues[0].message
+        )
+
+
+@pytest.mark.parametrize(
+    "size, certain", [(20.0, True), (2.5, True), (1.9, None), (0.11, None), (5.0e-5, True)]
+)
+def test_mesh_size_beyond_doubt(tmp_path, size, certain):
+    """Larger than 2 m or smaller than 0.1 mm: a slip beyond doubt (no finding between)."""
+    issues = check_mesh_scale(_knee(tmp_path), [size, 0.5 * size])
+    assert [i.certain for i in issues] == ([] if certain is None else [certain])
+
+
+@pytest.mark.parametrize("allowed", [False, True])
+def test_emit_refuses_a_certain_slip_unless_allowed(tmp_path, allowed):
+    """Certain: a SceneError naming the file, table and key (unless allowed: a warning);
+    a doubtful finding alone: a warning."""
+    scene = _knee(tmp_path, ("E = 17.0e9", "E = 17.0"))
+    issues = check_material_ranges(scene)
+    with implausible_allowed(allowed), pytest.warns(PlausibilityWarning) as caught:
+        if not allowed:
+            with pytest.raises(SceneError) as err:
+                emit(issues, scene.path)
+            assert (err.value.table, err.value.key) == ('[[material]] #1 "cortical"', "E")
+            assert str(scene.path) in str(err.value) and "--allow-implausible" in str(err.value)
+            emit([], scene.path)
+            _emit_doubtful(scene, tmp_path)
+        else:
+            emit(issues, scene.path)
+    assert len(caught) == 1 and "did you mean" in str(caught[0].message)
+
+
+def _emit_doubtful(scene, tmp_path) -> None:
+    """A doubtful finding (cortical E in MPa range) is emitted as a warning."""
+    doubtful = check_material_ranges(_knee(tmp_path, ("E = 17.0e9", "E = 17.0e6")))
+    assert [i.certain for i in doubtful] == [False]
+    emit(doubtful, scene.path)
