@@ -297,6 +297,10 @@ dimension = 3
 [analysis]
 kind = "static"
 load_steps = 2
+# the cartilage strain exceeds the small-strain limit (10 %): strain measure 42 % (principal
+# strain exceeded in 1 % of the cartilage volume, quick run 2026-11-27); accepted so that the
+# demo runs until the knee is rebuilt with conforming cartilage (see "A limit of this model")
+allow_large_strain = true
 
 [solver]
 linear = "direct"
@@ -423,9 +427,12 @@ analyses = res.summary["coupling"]["analyses"]
 # the changes are the rebuilt meshes', not the tumour's).
 #
 # **A limit of this model.**  The cartilage under the contact nodes is compressed by
-# up to 56 % (9 MPa on a layer of $E$ = 10 MPa; the run warns that the strain exceeds
-# the small-strain model's 50 %): on these incongruent surfaces the load goes through
-# a few nodes instead of a patch of several cm².  The bone's strains stay
+# up to 50 % (9 MPa on a layer of $E$ = 10 MPa), and 1 % of the cartilage's volume by
+# more than 42 % (summary.json `strain_measure`), far beyond the small-strain limit of
+# 10 % (docs/scene_format.md, "Validity of the model"): the scene accepts it explicitly
+# (`allow_large_strain = true`; without it the run ends `"invalid"`, exit status 3).  On
+# these incongruent surfaces the load goes through a few nodes instead of a patch of
+# several cm².  The bone's strains stay
 # below 2 %.  The pressure's peak and the cartilage's deformation are therefore
 # indicative; the load each bone carries is fixed by equilibrium.
 

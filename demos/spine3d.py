@@ -458,6 +458,10 @@ dimension = 3
 [analysis]
 kind = "static"
 load_steps = 1
+# the disc's strain exceeds the small-strain limit (10 %): strain measure 24 % (principal
+# strain exceeded in 1 % of the disc's volume, quick run 2026-11-27); accepted so that the
+# demo runs (see "A limit of this model")
+allow_large_strain = true
 
 [[material]]
 name = "cortical"
@@ -599,8 +603,10 @@ if comm.rank == 0:
 #
 # **A limit of this model.**  The disc carries the flexion by strains of 20–30 % at its
 # front and back (the run prints the largest strain of each analysis, summary.json
-# `max_strain`): beyond the range of the linear, small-strain model (bonecontact stops
-# at 50 %, a units check).  The disc's deformation and the segment's tilt are therefore
+# `max_strain`; 1 % of the disc's volume is strained by more than 24 %, `strain_measure`):
+# beyond the small-strain limit of 10 % (docs/scene_format.md, "Validity of the model"),
+# which the scene accepts explicitly (`allow_large_strain = true`; without it the run ends
+# `"invalid"`, exit status 3).  The disc's deformation and the segment's tilt are therefore
 # indicative only; without the ligaments and the muscles the segment is also more
 # flexible than a real one (in flexion the facet joints open and hold nothing).  The bone's strains stay below 0.1 %, and the
 # load reaching L4 is fixed by equilibrium (the test checks the reaction), so the bone
