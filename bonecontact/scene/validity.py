@@ -143,6 +143,7 @@ class StrainMonitor:
         self.max_strain = 0.0
         self.measure = 0.0
         self.measure_material: str | None = None
+        self.above_limit = dict.fromkeys(self._regions, 0.0)
 
     def update(self) -> float:
         """Evaluate the current state; return the strain measure so far (collective)."""
@@ -155,19 +156,33 @@ class StrainMonitor:
             q = volume_quantile(e[cells], self._volume[cells], VOLUME_FRACTION, self._comm)
             if self.measure_material is None or q > self.measure:
                 self.measure, self.measure_material = q, name
+            share = _volume_share(e[cells] > SMALL_STRAIN_LIMIT, self._volume[cells], self._comm)
+            self.above_limit[name] = max(self.above_limit[name], share)
         return self.measure
 
     def summary(self) -> dict[str, Any]:
         """The summary.json entries: ``max_strain`` (the largest cell value),
         ``strain_measure`` (the volume quantile), ``strain_measure_material``,
-        ``small_strain_limit`` and ``small_strain_valid``."""
+        ``volume_above_strain_limit`` (material → the largest share of its volume strained
+        beyond the limit at one state), ``small_strain_limit`` and ``small_strain_valid``."""
         return {
             "max_strain": self.max_strain,
             "strain_measure": self.measure,
             "strain_measure_material": self.measure_material,
+            "volume_above_strain_limit": dict(self.above_limit),
             "small_strain_limit": SMALL_STRAIN_LIMIT,
             "small_strain_valid": bool(self.measure <= SMALL_STRAIN_LIMIT),
         }
+
+
+def _volume_share(
+    mask: npt.NDArray[np.bool_], volumes: npt.NDArray[np.float64], comm: MPI.Comm
+) -> float:
+    """The share of the total volume of the cells where ``mask`` holds (collective)."""
+    part = np.array([volumes[mask].sum(), volumes.sum()])
+    total = np.zeros(2)
+    comm.Allreduce(part, total, op=MPI.SUM)
+    return float(total[0] / total[1]) if total[1] > 0 else 0.0
 
 
 def _cell_volumes(mesh: Any) -> npt.NDArray[np.float64]:

@@ -105,6 +105,7 @@ def test_a_strip_below_one_percent_of_the_volume_is_ignored(
     expected = background if cells_in_strip / n <= VOLUME_FRACTION else peak
     assert s["strain_measure"] == pytest.approx(expected, rel=1e-9)
     assert s["small_strain_valid"] is valid
+    assert s["volume_above_strain_limit"] == {"all": pytest.approx(cells_in_strip / n)}
 
 
 @pytest.mark.parametrize("allow", [False, True])
