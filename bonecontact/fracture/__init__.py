@@ -5,7 +5,6 @@ near-tip fields (:mod:`~bonecontact.fracture.williams`), stress intensity factor
 domain interaction integral and displacement correlation (:mod:`~bonecontact.fracture.sif`),
 the initiation risk and the direction criteria (:mod:`~bonecontact.fracture.criteria`),
 the crack faces as a dual-mortar contact pair (:mod:`~bonecontact.fracture.faces`),
-the ``[fracture]``/``[[crack]]`` scene tables (:mod:`~bonecontact.fracture.scene_tables`),
 quasi-static propagation by remeshing (:mod:`~bonecontact.fracture.propagation`), the
 cracked-plate reference problems (:mod:`~bonecontact.fracture.plates`), and in 3D K along a
 planar crack front (:mod:`~bonecontact.fracture.front3d`), the planar disc, ellipse or polygon crack
@@ -55,16 +54,6 @@ from bonecontact.fracture.propagation import (
     propagate,
     write_fracture_table,
 )
-from bonecontact.fracture.scene_tables import (
-    CRACK_KEYS,
-    FRACTURE_KEYS,
-    CrackSpec,
-    FractureSpec,
-    check_crack_region,
-    check_strengths,
-    crack_from_table,
-    fracture_from_table,
-)
 from bonecontact.fracture.sif import (
     SIFResult,
     displacement_correlation,
@@ -81,17 +70,13 @@ from bonecontact.fracture.williams import (
 )
 
 __all__ = [
-    "CRACK_KEYS",
     "FRACTURE_COLUMNS",
-    "FRACTURE_KEYS",
     "RISK_CRITERIA",
     "CellStresses",
     "Crack2D",
-    "CrackSpec",
     "CrackedMesh",
     "FaceTraction",
     "FractureError",
-    "FractureSpec",
     "Hole",
     "IncrementRecord",
     "PlaneState",
@@ -103,18 +88,14 @@ __all__ = [
     "TipMesh",
     "cell_stresses",
     "centre_crack",
-    "check_crack_region",
-    "check_strengths",
     "contact_tags",
     "crack_face_solver",
-    "crack_from_table",
     "displacement_correlation",
     "edge_crack",
     "elastic_constants",
     "energy_release_rate",
     "face_interface",
     "face_traction",
-    "fracture_from_table",
     "interaction_integral",
     "mesh_cracked_body",
     "mesh_plate",

@@ -16,23 +16,30 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
-from bonecontact.materials.laws import Material
+from bonecontact.contact.friction import FrictionLaw
+from bonecontact.fracture.crack import Crack2D
+from bonecontact.fracture.crack3d import CRACK3D_SHAPES, PlanarCrack
+from bonecontact.fracture.criteria import RISK_CRITERIA
+from bonecontact.materials.laws import FORMULATIONS, Material
 from bonecontact.neoplasm.cyst import CystParameters
 from bonecontact.neoplasm.tumour import TumourParameters
+from bonecontact.scene.keys import REQUIRED, Key, Table
 
 __all__ = [
+    "TABLES",
     "Analysis",
     "ContactSpec",
+    "CrackSpec",
     "CystSpec",
     "DirichletSpec",
+    "FractureSpec",
     "InitialVelocitySpec",
     "LoadSpec",
     "MaterialSpec",
@@ -54,6 +61,15 @@ COULOMB_UPDATES = ("previous_step", "fixed_point")
 LOAD_KINDS = ("traction", "pressure", "body_force", "force")
 NEOPLASM_KINDS = ("tumour", "cyst")
 CYST_MODELS = ("sphere", "shape")
+MATERIAL_MODELS = ("isotropic", "transversely_isotropic", "orthotropic")
+CRACK_DIRECTIONS = ("mts", "principal")
+CRACK_TIPS = ("both", "start", "end")
+
+#: A ``ramp`` or ``schedule`` of a load or prescribed displacement (docs: *Schedules*).
+SCHEDULE_KEYS = (
+    Key("ramp", "number", unit="s", minimum=0, doc_default="none (static: `1.0`)"),
+    Key("schedule", "schedule", doc_default="none (static: `ramp = 1`)"),
+)
 
 
 # --------------------------------------------------------------------------------------
@@ -140,6 +156,45 @@ class Schedule:
 # --------------------------------------------------------------------------------------
 # scene objects
 # --------------------------------------------------------------------------------------
+#: The top level of a scene file: ``format`` and the tables (docs: *Top level*).
+TOP_LEVEL = Table(
+    "",
+    (
+        Key("format", "integer", REQUIRED),
+        *(
+            Key(name, "table")
+            for name in (
+                "scene",
+                "analysis",
+                "solver",
+                "material",
+                "contact",
+                "dirichlet",
+                "traction",
+                "pressure",
+                "body_force",
+                "force",
+                "initial_velocity",
+                "output",
+                "neoplasm",
+                "fracture",
+                "crack",
+            )
+        ),
+    ),
+)
+
+#: ``[scene]``.
+SCENE_TABLE = Table(
+    "scene",
+    (
+        Key("name", "string", doc_default="file name without suffix"),
+        Key("mesh", "string", REQUIRED),
+        Key("dimension", "integer", REQUIRED),
+    ),
+)
+
+
 @dataclass(frozen=True)
 class Analysis:
     """``[analysis]``: what kind of problem is solved over which (pseudo-)time.
@@ -198,6 +253,35 @@ class Analysis:
         return t
 
 
+#: ``[analysis]``.
+ANALYSIS_TABLE = Table(
+    "analysis",
+    (
+        Key("kind", "string", REQUIRED, choices=ANALYSIS_KINDS),
+        Key(
+            "t_end",
+            "number",
+            unit="s",
+            minimum=0,
+            exclusive=True,
+            doc_default="required for quasistatic/dynamic",
+        ),
+        Key(
+            "dt",
+            "number",
+            unit="s",
+            minimum=0,
+            exclusive=True,
+            doc_default="required for quasistatic/dynamic",
+        ),
+        Key("load_steps", "integer", 1, minimum=1),
+        Key("unheld_motion", "string", "error", choices=UNHELD_MOTION_CHOICES),
+        Key("scheme", "string", "backward-difference", choices=SCHEME_CHOICES),
+        Key("allow_large_strain", "boolean", False),
+    ),
+)
+
+
 @dataclass(frozen=True)
 class SolverOptions:
     """``[solver]``.
@@ -215,6 +299,17 @@ class SolverOptions:
     linear: Literal["direct", "iterative"] = "direct"
     tolerance: float = 1e-10
     max_iterations: int = 50
+
+
+#: ``[solver]``.
+SOLVER_TABLE = Table(
+    "solver",
+    (
+        Key("linear", "string", "direct", choices=LINEAR_SOLVERS),
+        Key("tolerance", "number", 1e-10, minimum=0, exclusive=True),
+        Key("max_iterations", "integer", 50, minimum=1),
+    ),
+)
 
 
 def default_solver_options() -> SolverOptions:
@@ -246,6 +341,53 @@ class MaterialSpec:
     material: Material
     index: int
     strengths: dict[str, float] = field(default_factory=dict, compare=False)
+
+
+#: ``[[material]]``: the keys of every material (the constants of its model:
+#: :data:`MODEL_CONSTANTS`).
+MATERIAL_TABLE = Table(
+    "material",
+    (
+        Key("name", "string", REQUIRED),
+        Key("regions", "names", REQUIRED),
+        Key("model", "string", REQUIRED, choices=MATERIAL_MODELS),
+        Key("rho", "number", unit="kg/m³", minimum=0, exclusive=True),
+        Key("tau_v", "number", 0.0, unit="s", minimum=0),
+        Key("formulation", "string", "displacement", choices=FORMULATIONS),
+        Key("sigma_t", "number", unit="Pa", minimum=0, exclusive=True),
+        Key("sigma_c", "number", unit="Pa", minimum=0, exclusive=True),
+        Key("K_Ic", "number", unit="Pa·√m", minimum=0, exclusive=True),
+    ),
+    array=True,
+)
+#: The strength keys of a ``[[material]]`` (needed by a ``[fracture]`` check).
+MATERIAL_STRENGTH_KEYS = ("sigma_t", "sigma_c", "K_Ic")
+
+
+def _moduli(*names: str) -> tuple[Key, ...]:
+    return tuple(Key(n, "number", REQUIRED, unit="Pa") for n in names)
+
+
+def _ratios(*names: str) -> tuple[Key, ...]:
+    return tuple(Key(n, "number", REQUIRED) for n in names)
+
+
+#: The engineering constants of each material model (all required).
+MODEL_CONSTANTS: dict[str, tuple[Key, ...]] = {
+    "isotropic": (*_moduli("E"), *_ratios("nu")),
+    "transversely_isotropic": (
+        *_moduli("E_p", "E_a"),
+        *_ratios("nu_p", "nu_pa"),
+        *_moduli("G_pa"),
+        Key("axis", "vector", REQUIRED),
+    ),
+    "orthotropic": (
+        *_moduli("E1", "E2", "E3"),
+        *_ratios("nu12", "nu13", "nu23"),
+        *_moduli("G12", "G13", "G23"),
+        Key("axes", "array", REQUIRED),
+    ),
+}
 
 
 @dataclass(frozen=True)
@@ -281,6 +423,36 @@ class ContactSpec:
     coulomb_update: Literal["previous_step", "fixed_point"] = "previous_step"
     search_distance: float | None = None
 
+    def friction_law(self) -> FrictionLaw:
+        """The :class:`~bonecontact.contact.friction.FrictionLaw` of this pair (the one
+        place a scene's friction becomes the solver's)."""
+        return FrictionLaw(self.friction, self.coefficient, self.bound, self.coulomb_update)
+
+
+#: ``[[contact]]``.
+CONTACT_TABLE = Table(
+    "contact",
+    (
+        Key("name", "string", REQUIRED),
+        Key("slave", "string", REQUIRED),
+        Key("master", "string", REQUIRED),
+        Key("friction", "string", "none", choices=FRICTION_LAWS),
+        Key("coefficient", "number", 0.0, minimum=0),
+        Key("bound", "number", 0.0, unit="Pa", minimum=0),
+        Key("coulomb_update", "string", "previous_step", choices=COULOMB_UPDATES),
+        Key(
+            "search_distance",
+            "number",
+            unit="m",
+            minimum=0,
+            exclusive=True,
+            doc_default="3 × each slave facet's size beyond the closest distance of the two "
+            "surfaces",
+        ),
+    ),
+    array=True,
+)
+
 
 @dataclass(frozen=True)
 class DirichletSpec:
@@ -304,6 +476,15 @@ class DirichletSpec:
     def components(self) -> tuple[int, ...]:
         """Indices of the fixed components."""
         return tuple(i for i, v in enumerate(self.value) if v is not None)
+
+
+#: ``[[dirichlet]]``.
+DIRICHLET_TABLE = Table(
+    "dirichlet",
+    (Key("boundary", "string", REQUIRED), Key("value", "array", REQUIRED, unit="m"))
+    + SCHEDULE_KEYS,
+    array=True,
+)
 
 
 @dataclass(frozen=True)
@@ -340,6 +521,40 @@ class LoadSpec:
     point: tuple[float, ...] | None = None
 
 
+#: ``[[traction]]``, ``[[pressure]]``, ``[[body_force]]`` and ``[[force]]``.
+LOAD_TABLES = {
+    "traction": Table(
+        "traction",
+        (Key("boundary", "string", REQUIRED), Key("value", "vector", REQUIRED, unit="Pa"))
+        + SCHEDULE_KEYS,
+        array=True,
+    ),
+    "pressure": Table(
+        "pressure",
+        (Key("boundary", "string", REQUIRED), Key("value", "number", REQUIRED, unit="Pa"))
+        + SCHEDULE_KEYS,
+        array=True,
+    ),
+    "body_force": Table(
+        "body_force",
+        (Key("regions", "names", REQUIRED), Key("value", "vector", REQUIRED, unit="N/m³"))
+        + SCHEDULE_KEYS,
+        array=True,
+    ),
+    "force": Table(
+        "force",
+        (
+            Key("boundary", "string", REQUIRED),
+            Key("value", "vector", REQUIRED, unit="N"),
+            Key("moment", "number or array", unit="N·m"),
+            Key("point", "vector", unit="m", doc_default="centroid of the group"),
+        )
+        + SCHEDULE_KEYS,
+        array=True,
+    ),
+}
+
+
 @dataclass(frozen=True)
 class InitialVelocitySpec:
     """One ``[[initial_velocity]]`` entry (used by dynamic analyses).
@@ -354,6 +569,14 @@ class InitialVelocitySpec:
 
     regions: tuple[str, ...]
     value: tuple[float, ...]
+
+
+#: ``[[initial_velocity]]``.
+INITIAL_VELOCITY_TABLE = Table(
+    "initial_velocity",
+    (Key("regions", "names", REQUIRED), Key("value", "vector", REQUIRED, unit="m/s")),
+    array=True,
+)
 
 
 @dataclass(frozen=True)
@@ -388,6 +611,19 @@ class OutputSpec:
         """Whether periodic checkpoints are asked for (``checkpoint_every`` or
         ``checkpoint_time``)."""
         return self.checkpoint_every > 0 or self.checkpoint_time > 0
+
+
+#: ``[output]``.
+OUTPUT_TABLE = Table(
+    "output",
+    (
+        Key("directory", "string", "results"),
+        Key("fields_every", "integer", 1, minimum=0),
+        Key("probes", "points", [], unit="m"),
+        Key("checkpoint_every", "integer", 0, minimum=0),
+        Key("checkpoint_time", "number", 0.0, unit="s", minimum=0),
+    ),
+)
 
 
 @dataclass(frozen=True)
@@ -461,6 +697,226 @@ class NeoplasmSpec:
         return t
 
 
+#: ``[neoplasm]`` (docs/neoplasm_format.md); ``radius`` and ``h`` are an extension.
+NEOPLASM_TABLE = Table(
+    "neoplasm",
+    (
+        Key("kind", "string", REQUIRED, choices=NEOPLASM_KINDS),
+        Key("region", "string", doc_default="required with a mesh; not allowed without"),
+        Key("host", "names", []),
+        Key("t_end", "number", REQUIRED, unit="s", minimum=0, exclusive=True),
+        Key("dt", "number", REQUIRED, unit="s", minimum=0, exclusive=True),
+        Key("remesh_every", "integer", 1, minimum=0),
+        Key("mechanics_every", "integer", 0, minimum=0),
+        Key(
+            "radius",
+            "number",
+            unit="m",
+            minimum=0,
+            exclusive=True,
+            doc_default="required without a mesh; not allowed with one",
+        ),
+        Key("h", "number", unit="m", minimum=0, exclusive=True, doc_default="tumour only"),
+        Key("tumour", "table"),
+        Key("cyst", "table"),
+    ),
+)
+
+_TUMOUR_UNITS = {
+    "D_c": "m²/s",
+    "lambda": "1/s",
+    "K_R": "1/s",
+    "gamma": "m³/s",
+    **{k: "1/s" for k in TumourParameters.RATES},
+}
+
+#: ``[neoplasm.tumour]``: the fields of TumourParameters (``lambda`` for ``lambda_``); the
+#: rates ``K_B`` ... ``K_D`` are a number or an expression of ``u_c``.
+TUMOUR_TABLE = Table(
+    "neoplasm.tumour",
+    tuple(
+        Key(
+            key,
+            "number or expression" if name in TumourParameters.RATES else "number",
+            getattr(TumourParameters(), name),
+            unit=_TUMOUR_UNITS.get(key, ""),
+        )
+        for name, key in zip(
+            (f.name for f in fields(TumourParameters)), TumourParameters.keys(), strict=True
+        )
+    ),
+)
+
+#: ``[neoplasm.cyst]``: the scene's ``model``, then the fields of CystParameters.
+CYST_TABLE = Table(
+    "neoplasm.cyst",
+    (
+        Key("model", "string", "sphere", choices=CYST_MODELS),
+        Key("strain", "string", "log", choices=CystParameters.STRAINS),
+        Key("beta", "number", REQUIRED, unit="mol m⁻² s⁻¹"),
+        Key("C_minus", "number", REQUIRED, unit="mol/m³"),
+        Key("temperature", "number", CystParameters.temperature, unit="K"),
+        Key("E", "number", CystParameters.E, unit="Pa"),
+        Key("viscosity", "number", CystParameters.viscosity, unit="Pa s"),
+        Key("f0", "number", CystParameters.f0, unit="Pa"),
+    ),
+)
+
+
+@dataclass(frozen=True)
+class FractureSpec:
+    """``[fracture]``: the initiation check, the direction method, propagation, and the
+    automatic insertion of a crack where the risk reaches 1 (docs/theory/fracture.md).
+
+    Parameters
+    ----------
+    criterion
+        Initiation risk: ``"tension"`` or ``"tension_compression"``.
+    direction
+        Crack direction: ``"mts"`` or ``"principal"``.
+    propagate
+        Grow the cracks (2D).
+    increment
+        Δa (m), required with ``propagate``.
+    max_increments
+        Upper bound on the increments.
+    tip_size, tip_grading
+        Element size at the tips (m) and its growth per unit distance; ``None``: the
+        defaults of the run (``tip_grading`` 0.25 at a 2D tip, 0.12 along a 3D front).
+    initiate
+        Insert a crack where the risk first reaches 1.
+    initiation_length
+        Length of the inserted crack (m); ``None``: the default of
+        :func:`bonecontact.fracture.initiation.default_length`.
+    coefficient
+        Coulomb coefficient of the inserted crack's face pair (0: frictionless).
+    """
+
+    criterion: str = "tension"
+    direction: str = "mts"
+    propagate: bool = False
+    increment: float | None = None
+    max_increments: int = 10
+    tip_size: float | None = None
+    tip_grading: float | None = None
+    initiate: bool = False
+    initiation_length: float | None = None
+    coefficient: float = 0.0
+
+    @property
+    def friction(self) -> float:
+        """Deprecated: the old name of :attr:`coefficient` (it is the Coulomb coefficient,
+        not a law); kept until the runners read ``coefficient``."""
+        return self.coefficient
+
+
+@dataclass(frozen=True)
+class CrackSpec:
+    """One ``[[crack]]``: the crack, the cell group it lies in, the Coulomb coefficient of
+    its face pair (0: frictionless) and, in 3D, the number of front points at which K is
+    evaluated."""
+
+    name: str
+    crack: Crack2D | PlanarCrack
+    region: str
+    coefficient: float = 0.0
+    front_points: int = 8
+
+    @property
+    def friction(self) -> float:
+        """Deprecated: the old name of :attr:`coefficient` (it is the Coulomb coefficient,
+        not a law); kept until the runners read ``coefficient``."""
+        return self.coefficient
+
+    def face_pair(self, name: str, slave: str, master: str) -> ContactSpec:
+        """The contact pair of the crack's faces: frictionless, or Coulomb with
+        :attr:`coefficient` and the fixed-point bound (so that a single static step is
+        frictional; docs/theory/fracture.md)."""
+        mu = float(self.coefficient)
+        if mu > 0:
+            return ContactSpec(name, slave, master, "coulomb", mu, 0.0, "fixed_point")
+        return ContactSpec(name, slave, master, "none", mu, 0.0, "previous_step")
+
+
+_COEFFICIENT = Key("coefficient", "number", 0.0, minimum=0)
+#: The old name of the Coulomb coefficient in ``[fracture]`` and ``[[crack]]``.
+_OLD_COEFFICIENT = {"friction": "coefficient"}
+
+#: ``[fracture]``.
+FRACTURE_TABLE = Table(
+    "fracture",
+    (
+        Key("criterion", "string", "tension", choices=RISK_CRITERIA),
+        Key("direction", "string", "mts", choices=CRACK_DIRECTIONS),
+        Key("propagate", "boolean", False),
+        Key("increment", "number", unit="m", minimum=0, exclusive=True),
+        Key("max_increments", "integer", 10, minimum=1),
+        Key(
+            "tip_size",
+            "number",
+            unit="m",
+            minimum=0,
+            exclusive=True,
+            doc_default="Δa/8 with `propagate`, else 1/100 of the shortest tip segment (3D: b/10)",
+        ),
+        Key(
+            "tip_grading",
+            "number",
+            minimum=0,
+            exclusive=True,
+            doc_default="`0.25` (3D: `0.12`)",
+        ),
+        Key("initiate", "boolean", False),
+        Key(
+            "initiation_length",
+            "number",
+            unit="m",
+            minimum=0,
+            exclusive=True,
+            doc_default="Δa with `propagate`, else four cells of the mesh at the risk maximum",
+        ),
+        _COEFFICIENT,
+    ),
+    renamed=_OLD_COEFFICIENT,
+)
+
+_CRACK_NAME = Key("name", "string", doc_default='`"crack<n>"`')
+
+#: ``[[crack]]`` in a 2D scene: a polyline.
+CRACK_TABLE = Table(
+    "crack",
+    (
+        _CRACK_NAME,
+        Key("points", "array", REQUIRED, unit="m"),
+        Key("tips", "string", "both", choices=CRACK_TIPS),
+        Key("region", "string", REQUIRED),
+        _COEFFICIENT,
+    ),
+    array=True,
+    renamed=_OLD_COEFFICIENT,
+)
+
+#: ``[[crack]]`` in a 3D scene: a planar disc, ellipse or convex polygon.
+CRACK3D_TABLE = Table(
+    "crack",
+    (
+        _CRACK_NAME,
+        Key("shape", "string", "disc", choices=CRACK3D_SHAPES),
+        Key("centre", "vector", unit="m", doc_default="required (not for a polygon)"),
+        Key("normal", "vector", doc_default="required (polygon: optional)"),
+        Key("radius", "number", unit="m", doc_default="required for a disc"),
+        Key("semi_axes", "array", unit="m", doc_default="required for an ellipse"),
+        Key("axis", "vector", doc_default="required for an ellipse"),
+        Key("region", "string", REQUIRED),
+        _COEFFICIENT,
+        Key("front_points", "integer", 8, minimum=1, doc_default="`8` (polygon: `1`)"),
+        Key("vertices", "points", unit="m", doc_default="required for a polygon"),
+    ),
+    array=True,
+    renamed=_OLD_COEFFICIENT,
+)
+
+
 @dataclass(frozen=True)
 class Scene:
     """A validated scene.
@@ -528,3 +984,24 @@ class Scene:
             if region in m.regions:
                 return m
         raise KeyError(region)
+
+
+#: Every table declaration, by the name the docs' tests and messages use.
+TABLES: dict[str, Table] = {
+    "top level": TOP_LEVEL,
+    "scene": SCENE_TABLE,
+    "analysis": ANALYSIS_TABLE,
+    "solver": SOLVER_TABLE,
+    "material": MATERIAL_TABLE,
+    "contact": CONTACT_TABLE,
+    "dirichlet": DIRICHLET_TABLE,
+    **LOAD_TABLES,
+    "initial_velocity": INITIAL_VELOCITY_TABLE,
+    "output": OUTPUT_TABLE,
+    "fracture": FRACTURE_TABLE,
+    "crack": CRACK_TABLE,
+    "crack (3D)": CRACK3D_TABLE,
+    "neoplasm": NEOPLASM_TABLE,
+    "neoplasm.tumour": TUMOUR_TABLE,
+    "neoplasm.cyst": CYST_TABLE,
+}

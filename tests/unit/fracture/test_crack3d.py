@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.crack3d import PlanarCrack, planar_crack_from_table
-from bonecontact.fracture.scene_tables import crack_from_table
+from bonecontact.scene.errors import SceneError
+from bonecontact.scene.fracture_tables import crack_from_table
 
 S = math.sqrt(0.5)
 DISC = {"centre": [1.0, 2.0, 3.0], "normal": [0.0, S, S], "radius": 0.5, "region": "bone"}
@@ -76,18 +76,18 @@ def test_ellipse_points_are_equally_spaced_in_arc_length() -> None:
         ({"radius": -1.0}, "radius", "positive"),
         ({"radius": None}, "radius", "required"),
         ({"centre": None}, "centre", "required"),
-        ({"shape": "square"}, "shape", "disc, ellipse, polygon"),
+        ({"shape": "square"}, "shape", '"disc", "ellipse", "polygon"'),
         ({"semi_axes": [1.0, 0.5]}, "semi_axes", "ellipse"),
         ({"points": [[0, 0], [1, 0]]}, "points", "planar disc"),
         ({"front_points": 0}, "front_points", "positive integer"),
-        ({"friction": -0.1}, "friction", ">= 0"),
+        ({"coefficient": -0.1}, "coefficient", ">= 0"),
         ({"colour": "red"}, "colour", "unknown key"),
     ],
 )
 def test_bad_disc_names_the_key(change: dict, key: str, text: str) -> None:
     table = {**DISC, **change}
     table = {k: v for k, v in table.items() if v is not None}
-    with pytest.raises(FractureError) as err:
+    with pytest.raises(SceneError) as err:
         crack_from_table(table, 1, dim=3)
     assert err.value.key == key and text in str(err.value), str(err.value)
 
@@ -104,7 +104,7 @@ def test_bad_disc_names_the_key(change: dict, key: str, text: str) -> None:
 )
 def test_bad_ellipse_names_the_key(change: dict, key: str, text: str) -> None:
     table = {k: v for k, v in {**ELLIPSE, **change}.items() if v is not None}
-    with pytest.raises(FractureError) as err:
+    with pytest.raises(SceneError) as err:
         crack_from_table(table, 1, dim=3)
     assert err.value.key == key and text in str(err.value), str(err.value)
 
@@ -218,12 +218,12 @@ def test_regular_polygon_normal_given() -> None:
 )
 def test_bad_polygon_names_the_key(change: dict, key: str, text: str) -> None:
     table = {k: v for k, v in {**SQUARE, **change}.items() if v is not None}
-    with pytest.raises(FractureError) as err:
+    with pytest.raises(SceneError) as err:
         crack_from_table(table, 1, dim=3)
     assert err.value.key == key and text in str(err.value), str(err.value)
 
 
 def test_vertices_of_a_disc_are_refused() -> None:
-    with pytest.raises(FractureError) as err:
+    with pytest.raises(SceneError) as err:
         crack_from_table({**DISC, "vertices": SQUARE["vertices"]}, 1, dim=3)
     assert err.value.key == "vertices" and "polygon" in str(err.value)

@@ -1,18 +1,19 @@
 """Tests of the ``[fracture]`` and ``[[crack]]`` tables of bonecontact.scene.reader: the
-parsed values (FractureSpec / CrackSpec of bonecontact.fracture.scene_tables, the material
+parsed values (FractureSpec / CrackSpec of bonecontact.scene.spec, the material
 strengths) and every bad value reported as a SceneError naming file, table and key (the
 CLI's exit status 2).  Pure Python: also runs under mpiexec (each rank its own tmp_path).
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from bonecontact.fracture import CrackSpec, FractureSpec
 from bonecontact.scene import SceneError, load_scene
+from bonecontact.scene.spec import CrackSpec, FractureSpec
 
 HEAD = """format = 1
 [scene]
@@ -54,7 +55,7 @@ name = "c1"
 points = [[0.0, 0.0], [1.0e-3, 5.0e-4]]
 tips = "end"
 region = "plate"
-friction = 0.4
+coefficient = 0.4
 """
 
 
@@ -84,7 +85,7 @@ def test_valid_tables_are_read(tmp_path: Path) -> None:
     )
     (crack,) = scene.cracks
     assert isinstance(crack, CrackSpec)
-    assert (crack.name, crack.region, crack.friction) == ("c1", "plate", 0.4)
+    assert (crack.name, crack.region, crack.coefficient) == ("c1", "plate", 0.4)
     np.testing.assert_array_equal(crack.crack.points, [[0.0, 0.0], [1.0e-3, 5.0e-4]])
     assert crack.crack.length == pytest.approx(np.hypot(1.0e-3, 5.0e-4), rel=1e-14)
     assert scene.materials[0].strengths == {"sigma_t": 133.0e6, "sigma_c": 193.0e6, "K_Ic": 4.0e6}
@@ -101,21 +102,47 @@ def test_defaults_and_no_fracture(tmp_path: Path) -> None:
 BAD = [
     # (fracture tail, table, key, message part)
     ('\n[fracture]\ncriterion = "brittle"\n', "[fracture]", "criterion", "must be one of"),
-    ('\n[fracture]\ndirection = "north"\n', "[fracture]", "direction", "'mts' or 'principal'"),
+    ('\n[fracture]\ndirection = "north"\n', "[fracture]", "direction", '"mts", "principal"'),
     ("\n[fracture]\npropagate = 1\n", "[fracture]", "propagate", "true or false"),
     ("\n[fracture]\npropagate = true\n", "[fracture]", "increment", "is required"),
     ("\n[fracture]\nincrement = -1.0\n", "[fracture]", "increment", "positive number"),
-    ("\n[fracture]\nmax_increments = 0\n", "[fracture]", "max_increments", "positive integer"),
+    ("\n[fracture]\nmax_increments = 0\n", "[fracture]", "max_increments", "(an integer >= 1)"),
     ("\n[fracture]\ntip_size = 0.0\n", "[fracture]", "tip_size", "positive number"),
     ("\n[fracture]\nlength = 1.0\n", "[fracture]", "length", "unknown key"),
-    ('\n[[crack]]\nregion = "plate"\n', "[[crack]] #1", "points", "is required"),
-    ("\n[[crack]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\n", "[[crack]] #1", "region", "is required"),
+    ('\n[[crack]]\nregion = "plate"\n', "[[crack]] #1", "points", "missing required key"),
+    (
+        "\n[[crack]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\n",
+        "[[crack]] #1",
+        "region",
+        "missing required key",
+    ),
     (
         '\n[[crack]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\nregion = "plate"\nfriction = -0.1\n',
         "[[crack]] #1",
         "friction",
-        ">= 0",
+        '>= 0, got -0.1 ("friction" is the old name of "coefficient")',
     ),
+    (
+        '\n[[crack]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\nregion = "plate"\ncoefficient = -0.1\n',
+        "[[crack]] #1",
+        "coefficient",
+        "must be >= 0, got -0.1",
+    ),
+    (
+        '\n[[crack]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\nregion = "plate"\n'
+        "friction = 0.1\ncoefficient = 0.2\n",
+        "[[crack]] #1",
+        "friction",
+        'is the old name of "coefficient"; give coefficient only',
+    ),
+    (
+        "\n[fracture]\ninitiate = true\nfriction = 0.1\ncoefficient = 0.2\n",
+        "[fracture]",
+        "friction",
+        'is the old name of "coefficient"; give coefficient only',
+    ),
+    ("\n[fracture]\ncoefficient = 0.2\n", "[fracture]", "coefficient", "set initiate = true"),
+    ("\n[fracture]\nfriction = 0.2\n", "[fracture]", "friction", "set initiate = true"),
     (
         '\n[[crack]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\nregion = "plate"\ndepth = 1\n',
         "[[crack]] #1",
@@ -173,3 +200,59 @@ def test_bad_strength_and_what_3d_refuses(tmp_path: Path) -> None:
     exc = _error(tmp_path, text3d.replace("[fracture]", crack2d + "\n[fracture]"))  # a polyline
     assert exc.table.startswith("[[crack]]") and exc.key == "points", str(exc)
     assert "planar disc or ellipse" in exc.message
+
+
+# --------------------------------------------------------------------------------------
+# the old spelling of the Coulomb coefficient: friction = <number> (one name per meaning)
+# --------------------------------------------------------------------------------------
+CRACK3D = """
+[[crack]]
+name = "disc"
+shape = "disc"
+centre = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+radius = 1.0e-3
+region = "plate"
+{mu}
+"""
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.25, 1])
+@pytest.mark.parametrize(
+    "dim, tail, table",
+    [
+        (2, FRACTURE.replace("coefficient = 0.4", "{mu}"), '[[crack]] #1 "c1"'),
+        (3, CRACK3D, '[[crack]] #1 "disc"'),
+        (2, "\n[fracture]\ninitiate = true\n{mu}\n", "[fracture]"),
+    ],
+    ids=["crack2d", "crack3d", "fracture"],
+)
+def test_old_friction_key_reads_as_coefficient(
+    tmp_path: Path, dim: int, tail: str, table: str, mu: float
+) -> None:
+    """``friction = mu`` (old) gives the same scene as ``coefficient = mu`` (new), with one
+    SceneDeprecationWarning naming the file, the table, the old and the new key; the new
+    spelling warns of nothing."""
+    from bonecontact.scene.keys import SceneDeprecationWarning
+
+    def text(line: str) -> str:
+        body = _scene(dim=dim, tail=tail.replace("{mu}", line))
+        return body.replace("[0.0, 0.0]", "[0.0, 0.0, 0.0]") if dim == 3 else body
+
+    new_dir, old_dir = tmp_path / "new", tmp_path / "old"
+    new_dir.mkdir(), old_dir.mkdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = load_scene(_write(new_dir, text(f"coefficient = {mu}")))
+    path = _write(old_dir, text(f"friction = {mu}"))
+    with pytest.warns(SceneDeprecationWarning) as record:
+        old = load_scene(path)
+    messages = [str(w.message) for w in record]
+    assert len(messages) == 1, messages
+    assert messages[0].startswith(f'{path}: {table}, key "friction": ')
+    assert 'is the old name of "coefficient"' in messages[0]
+    assert f"write coefficient = {mu!r}" in messages[0]
+    assert old.fracture == new.fracture and repr(old.cracks) == repr(new.cracks)
+    got = [c.coefficient for c in new.cracks] or [new.fracture.coefficient]
+    assert got == [float(mu)]
+    assert all(isinstance(c.coefficient, float) for c in new.cracks)

@@ -1,10 +1,13 @@
-"""The [fracture] and [[crack]] tables (bonecontact.fracture.scene_tables): defaults, every
-bad input named by its key, and cracks checked against the regions of a two-region mesh.
+"""The [fracture] and [[crack]] tables read as mappings (bonecontact.scene.fracture_tables):
+defaults, every bad input named by its key, and cracks checked against the regions of a
+two-region mesh (bonecontact.scene.crack_region).
 
 Runs serially and under ``mpiexec -n 2/3``.
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
+
+import warnings
 
 from mpi4py import MPI
 
@@ -15,13 +18,15 @@ from dolfinx import mesh
 from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.plates import mesh_plate
-from bonecontact.fracture.scene_tables import (
-    FractureSpec,
-    check_crack_region,
-    check_strengths,
+from bonecontact.scene.crack_region import check_crack_region
+from bonecontact.scene.errors import SceneError
+from bonecontact.scene.fracture_tables import (
     crack_from_table,
     fracture_from_table,
+    missing_strength,
 )
+from bonecontact.scene.keys import SceneDeprecationWarning
+from bonecontact.scene.spec import FractureSpec
 
 COMM = MPI.COMM_WORLD
 
@@ -40,11 +45,11 @@ def test_defaults_and_a_full_table():
         }
     )
     assert spec.propagate and spec.increment == 1e-3 and spec.max_increments == 5
-    ini = fracture_from_table({"initiate": True, "initiation_length": 2e-4, "friction": 0.3})
-    assert (ini.initiate, ini.initiation_length, ini.friction) == (True, 2e-4, 0.3)
+    ini = fracture_from_table({"initiate": True, "initiation_length": 2e-4, "coefficient": 0.3})
+    assert (ini.initiate, ini.initiation_length, ini.coefficient) == (True, 2e-4, 0.3)
     assert fracture_from_table({"initiate": True}).initiation_length is None
-    c = crack_from_table({"points": [[0, 0], [1e-3, 0]], "region": "cortex", "friction": 0.4})
-    assert c.name == "crack1" and c.friction == 0.4 and c.crack.length == pytest.approx(1e-3)
+    c = crack_from_table({"points": [[0, 0], [1e-3, 0]], "region": "cortex", "coefficient": 0.4})
+    assert c.name == "crack1" and c.coefficient == 0.4 and c.crack.length == pytest.approx(1e-3)
 
 
 @pytest.mark.parametrize(
@@ -60,16 +65,19 @@ def test_defaults_and_a_full_table():
         ({"speed": 1}, "speed"),
         ({"initiate": 1}, "initiate"),
         ({"initiation_length": 1e-3}, "initiation_length"),
-        ({"friction": 0.3}, "friction"),
+        ({"coefficient": 0.3}, "coefficient"),
         ({"initiate": True, "initiation_length": 0.0}, "initiation_length"),
-        ({"initiate": True, "friction": -0.1}, "friction"),
+        ({"initiate": True, "coefficient": -0.1}, "coefficient"),
+        ({"initiate": True, "coefficient": True}, "coefficient"),
+        ({"initiate": True, "friction": -0.1}, "friction"),  # the old name is named
         ({"initiate": True, "friction": True}, "friction"),
     ],
 )
 def test_bad_fracture_tables(table, key):
-    with pytest.raises(FractureError) as err:
+    with pytest.raises(SceneError) as err, warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneDeprecationWarning)
         fracture_from_table(table)
-    assert err.value.key == key
+    assert (err.value.table, err.value.key) == ("[fracture]", key)
 
 
 @pytest.mark.parametrize(
@@ -79,29 +87,28 @@ def test_bad_fracture_tables(table, key):
         ({"points": [[0, 0], [1, 0]]}, "region"),
         ({"points": [[0, 0]], "region": "a"}, "points"),
         ({"points": "here", "region": "a"}, "points"),
+        ({"points": [[0, 0], [1, 0]], "region": "a", "coefficient": -0.1}, "coefficient"),
         ({"points": [[0, 0], [1, 0]], "region": "a", "friction": -0.1}, "friction"),
         ({"points": [[0, 0], [1, 0]], "region": "a", "tips": "middle"}, "tips"),
     ],
 )
 def test_bad_crack_tables(table, key):
-    with pytest.raises(FractureError) as err:
+    with pytest.raises(SceneError) as err, warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneDeprecationWarning)
         crack_from_table(table)
-    assert err.value.key == key
+    assert (err.value.table, err.value.key) == ("[[crack]] #1", key)
 
 
 def test_missing_strengths_are_named():
     spec = fracture_from_table({"propagate": True, "increment": 1e-3})
-    ok = {"cortex": {"sigma_t": 1.3e8, "K_Ic": 4e6}}
-    check_strengths(spec, ok, ["cortex"])
-    with pytest.raises(FractureError, match="'marrow' has no sigma_t"):
-        check_strengths(spec, ok, ["cortex", "marrow"])
-    with pytest.raises(FractureError) as err:
-        check_strengths(spec, {"cortex": {"sigma_t": 1.3e8}}, ["cortex"])
-    assert err.value.key == "K_Ic"
+    ok = {"sigma_t": 1.3e8, "K_Ic": 4e6}
+    assert missing_strength(spec, ok) is None
+    assert missing_strength(spec, {}) == "sigma_t"
+    assert missing_strength(spec, {"sigma_t": 1.3e8}) == "K_Ic"
+    assert missing_strength(spec, {"sigma_t": 0.0, "K_Ic": 4e6}) == "sigma_t"
     risk_only = fracture_from_table({"criterion": "tension_compression"})
-    with pytest.raises(FractureError) as err:
-        check_strengths(risk_only, ok, ["cortex"])
-    assert err.value.key == "sigma_c"
+    assert missing_strength(risk_only, ok) == "sigma_c"
+    assert missing_strength(risk_only, {"sigma_t": 1.3e8, "sigma_c": 1.9e8}) is None
 
 
 @pytest.fixture(scope="module")

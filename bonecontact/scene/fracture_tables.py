@@ -1,0 +1,196 @@
+"""Reading ``[fracture]`` and ``[[crack]]`` (docs/scene_format.md, *Fracture*).
+
+The keys are declared in :mod:`bonecontact.scene.spec` (:data:`FRACTURE_TABLE`,
+:data:`CRACK_TABLE`, :data:`CRACK3D_TABLE`) and read like every other table; the crack
+geometry is built and checked by the fracture physics
+(:class:`~bonecontact.fracture.crack.Crack2D`,
+:func:`~bonecontact.fracture.crack3d.planar_crack_from_table`), whose
+:class:`~bonecontact.fracture.crack.FractureError` is reported as a
+:class:`~bonecontact.scene.errors.SceneError` naming the table and the key.  The old
+spelling ``friction = <number>`` of the Coulomb coefficient is read as ``coefficient``
+with a deprecation warning.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.fracture.crack3d import planar_crack_from_table
+from bonecontact.scene.errors import SceneError, table_label
+from bonecontact.scene.spec import (
+    CRACK3D_TABLE,
+    CRACK_TABLE,
+    FRACTURE_TABLE,
+    CrackSpec,
+    FractureSpec,
+    MaterialSpec,
+)
+from bonecontact.scene.tables import TableReader, array_of_tables, table_of
+
+__all__ = ["crack_from_table", "fracture_from_table", "missing_strength", "read_fracture"]
+
+
+def _fracture_error(tab: TableReader, exc: FractureError) -> SceneError:
+    """A FractureError of the physics as a SceneError on ``tab`` (without its ``key:``)."""
+    text = str(exc)
+    prefix = f"{exc.key}: "
+    return tab.error(exc.key, text[len(prefix) :] if text.startswith(prefix) else text)
+
+
+def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> FractureSpec:
+    """``[fracture]``; ``increment`` is required when ``propagate = true``,
+    ``initiation_length`` and ``coefficient`` apply with ``initiate = true`` only.
+
+    Raises
+    ------
+    SceneError
+        Naming the table and the key (the file is added by ``load_scene``).
+    """
+    tab = TableReader(table, label)
+    tab.check_keys(FRACTURE_TABLE)
+    values = {k: tab.get(FRACTURE_TABLE[k]) for k in ("criterion", "direction", "propagate")}
+    values["increment"] = tab.get(FRACTURE_TABLE["increment"])
+    if values["propagate"] and values["increment"] is None:
+        raise tab.error("increment", "is required when propagate = true")
+    values["max_increments"] = tab.get(FRACTURE_TABLE["max_increments"])
+    values["initiate"] = tab.get(FRACTURE_TABLE["initiate"])
+    for key in ("initiation_length", "coefficient"):
+        if tab.has(key) and not values["initiate"]:
+            raise tab.error(key, "applies to an initiated crack only: set initiate = true")
+    for key in ("tip_size", "tip_grading", "initiation_length", "coefficient"):
+        values[key] = tab.get(FRACTURE_TABLE[key])
+    return FractureSpec(**values)
+
+
+def _crack3d(tab: TableReader, name: str) -> CrackSpec:
+    """A planar 3D crack (disc, ellipse, polygon)."""
+    for key in ("points", "tips"):
+        if tab.has(key):
+            raise tab.error(
+                key,
+                "a 3D crack is a planar disc or ellipse (shape, centre, normal, radius or "
+                "semi_axes and axis) or polygon (vertices), not a polyline",
+            )
+    tab.check_keys(CRACK3D_TABLE)
+    region = tab.get(CRACK3D_TABLE["region"])
+    coefficient = tab.get(CRACK3D_TABLE["coefficient"])
+    shape = tab.get(CRACK3D_TABLE["shape"])
+    front_points = tab.get(CRACK3D_TABLE["front_points"])
+    if not tab.has("front_points") and shape == "polygon":
+        front_points = 1  # one K point per polygon edge
+    try:
+        crack = planar_crack_from_table(tab.data)
+    except FractureError as exc:
+        raise _fracture_error(tab, exc) from None
+    return CrackSpec(name, crack, region, coefficient, front_points)
+
+
+def _crack2d(tab: TableReader, name: str) -> CrackSpec:
+    """A 2D polyline crack."""
+    tab.check_keys(CRACK_TABLE)
+    points = tab.raw("points", True)
+    region = tab.get(CRACK_TABLE["region"])
+    coefficient = tab.get(CRACK_TABLE["coefficient"])
+    tips = tab.get(CRACK_TABLE["tips"])
+    try:
+        arr = np.asarray(points, dtype=float)
+    except (TypeError, ValueError):
+        raise tab.error("points", "must be an array of [x, y] pairs (m)") from None
+    try:
+        crack = Crack2D(arr, tips)
+    except FractureError as exc:
+        raise _fracture_error(tab, exc) from None
+    return CrackSpec(name, crack, region, coefficient)
+
+
+def crack_from_table(
+    table: Mapping[str, Any], index: int = 1, dim: int = 2, label: str | None = None
+) -> CrackSpec:
+    """One ``[[crack]]`` (entry ``index`` counting from 1): in 2D a polyline ``points``,
+    in 3D a planar disc, ellipse or convex polygon (``front_points``: 8 along a disc or
+    ellipse, 1 per polygon edge by default).
+
+    Raises
+    ------
+    SceneError
+        Naming the table (``label``, default ``[[crack]] #index "name"``) and the key.
+    """
+    if label is None:
+        label = table_label("crack", index - 1, table.get("name"))
+    tab = TableReader(table, label)
+    name = tab.get(CRACK_TABLE["name"]) or f"crack{index}"
+    return _crack3d(tab, name) if dim == 3 else _crack2d(tab, name)
+
+
+def missing_strength(spec: FractureSpec, strengths: Mapping[str, float]) -> str | None:
+    """The first strength a material lacks for the check ``spec`` (``None``: none):
+    σ_t always, σ_c with ``tension_compression``, K_Ic with propagation."""
+    needed = ["sigma_t"]
+    if spec.criterion == "tension_compression":
+        needed.append("sigma_c")
+    if spec.propagate:
+        needed.append("K_Ic")
+    for key in needed:
+        v = strengths.get(key)
+        if not isinstance(v, (int, float)) or not v > 0:
+            return key
+    return None
+
+
+def _check_dimension(spec: FractureSpec, dim: int) -> None:
+    """Propagation and automatic insertion run in 2D only."""
+    for key in ("propagate", "initiate"):
+        if dim != 2 and getattr(spec, key):
+            raise SceneError(
+                None,
+                "[fracture]",
+                key,
+                "runs in 2D scenes in this version (3D: the risk, and K along the front of a "
+                "given planar [[crack]]; 3D propagation is planned, docs/theory/fracture.md)",
+            )
+
+
+def _check_materials(spec: FractureSpec, materials: Sequence[MaterialSpec]) -> None:
+    """Every material has the strengths the check needs."""
+    for m in materials:
+        key = missing_strength(spec, m.strengths)
+        if key is not None:
+            raise SceneError(
+                None,
+                table_label("material", m.index, m.name),
+                key,
+                f"missing: the [fracture] check needs {key} (a positive number) of every "
+                "material (values with sources: data/materials.toml [strength.*])",
+            )
+
+
+def read_fracture(
+    doc: Mapping[str, Any], dim: int, materials: Sequence[MaterialSpec], has_neoplasm: bool
+) -> tuple[FractureSpec | None, tuple[CrackSpec, ...]]:
+    """``[fracture]`` (``None`` when absent and there is no crack) and the ``[[crack]]``
+    entries of a mechanics scene."""
+    tab = table_of(doc, "fracture", required=False)
+    entries = array_of_tables(doc, "crack")
+    if tab is None and not entries:
+        return None, ()
+    if has_neoplasm and entries:
+        raise SceneError(
+            None,
+            "[[crack]]",
+            None,
+            "a crack in a coupled [neoplasm] scene is not supported yet (a [fracture] "
+            "initiation check is: it runs at every analysis of the growth)",
+        )
+    spec = fracture_from_table(tab.data if tab is not None else {})
+    _check_dimension(spec, dim)
+    cracks = [crack_from_table(entry, i + 1, dim) for i, entry in enumerate(entries)]
+    _check_materials(spec, materials)
+    names = [c.name for c in cracks]
+    for i, c in enumerate(cracks):
+        if names.index(c.name) != i:
+            raise SceneError(None, table_label("crack", i, c.name), "name", "is not unique")
+    return spec, tuple(cracks)
