@@ -508,7 +508,7 @@ name = "split"
 points = {crack0.tolist()}
 tips = "both"
 region = "vertebral_body"
-friction = 0.4
+coefficient = 0.4
 
 [output]
 directory = "results"
@@ -704,7 +704,7 @@ name = "split"
 points = {path_final.tolist()}
 tips = "both"
 region = "vertebral_body"
-friction = {MU}
+coefficient = {MU}
 
 [output]
 directory = "results"
