@@ -1,10 +1,13 @@
-"""Running scenes: the ``bonecontact`` command, the dispatcher and one module per run kind.
+"""Running scenes: the ``bonecontact`` command, the table of run kinds, the step loop and one
+module per run kind (docs/run_loop.md).
 
 :mod:`~bonecontact.runners.cli` (the command) calls :mod:`~bonecontact.runners.dispatch`, which
-chooses the run kind: :mod:`~bonecontact.runners.mechanics` (an analysis),
-:mod:`~bonecontact.runners.growth` (a neoplasm grown alone) or
-:mod:`~bonecontact.runners.coupled` (growth with the analysis on a rebuilt host mesh); every
-kind writes its files through :mod:`~bonecontact.runners.results`.
+takes the scene's row of :data:`bonecontact.runners.kinds.KINDS`:
+:mod:`~bonecontact.runners.mechanics` (an analysis), :mod:`~bonecontact.runners.cracks` (an
+analysis with a crack), :mod:`~bonecontact.runners.growth` (a neoplasm grown alone) or
+:mod:`~bonecontact.runners.coupled` (growth with the analysis on a rebuilt host mesh).  Every
+kind builds its model and runs it through :func:`bonecontact.runners.loop.run_steps` with its
+own hooks, and writes its files through :mod:`~bonecontact.runners.results`.
 """
 
 from bonecontact.runners.cli import main

@@ -65,7 +65,6 @@ from mpi4py import MPI
 
 import numpy as np
 import numpy.typing as npt
-from tqdm import tqdm
 
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm.host import (
@@ -76,9 +75,14 @@ from bonecontact.neoplasm.host import (
     read_host_geometry,
 )
 from bonecontact.neoplasm.host3d import build_host_mesh3d, read_host_geometry3d, sphere_surface
-from bonecontact.runners.checkpoint import CheckpointError
-from bonecontact.runners.growth import build_growth, growth_checkpointer, growth_times
+from bonecontact.runners.growth import (
+    GrowthSteps,
+    build_growth,
+    growth_checkpointer,
+    growth_times,
+)
 from bonecontact.runners.growth_checkpoint import GrowthCheckpointer
+from bonecontact.runners.loop import RunStopped, Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import (
     SUMMARY_FORMAT,
@@ -287,10 +291,18 @@ def run_coupled(
         analyses.records = list(resumed["records"])
         analyses.last_summary = resumed["last_summary"]
     table = GrowthTable(comm, outdir, cp.driver.columns, append=resumed is not None)
+    hooks = CoupledSteps(cp, table, analyses, times, ckpt, resumed)
+    first = cp.driver.steps if hooks.pending else cp.driver.steps + 1
     with ckpt.stop:
-        status, message, first, last, t_done = _grow_and_analyse(
-            scene, comm, cp, table, analyses, times, progress, ckpt, resumed
-        )
+        bar = progress_bar(comm, scene.name, len(times) - 1, first - 1, progress)
+        try:
+            end = run_steps(hooks, first, len(times) - 1, bar, resumed is None)
+        finally:
+            table.close()
+    status, message = end.status, end.message
+    if status == "converged" and analyses.invalid:  # an analysis beyond small strain
+        status = "invalid"
+    first, last, t_done = hooks.first, hooks.last, hooks.t_done
     summary = _coupled_summary(
         scene, comm, cp, analyses, status, message, (first, last, t_done), t_start
     )
@@ -320,6 +332,7 @@ class _Analyses:
         self.records: list[dict[str, Any]] = []
         self.result: RunResult | None = None
         self.last_summary: dict[str, Any] | None = None  # the last analysis's summary
+        self.invalid = False  # an analysis ended "invalid" (beyond small strain)
 
     def due(self, step: int) -> bool:
         """An analysis follows the last growth step and every ``mechanics_every`` steps."""
@@ -366,7 +379,8 @@ class _Analyses:
         self.records.append(rec)
         self.result = res
         self.last_summary = res.summary
-        return res.status == "converged"
+        self.invalid = self.invalid or res.status == "invalid"  # the growth goes on
+        return res.status in ("converged", "invalid")
 
 
 def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:
@@ -404,98 +418,78 @@ def _risk_over_growth(records: list[dict[str, Any]], criterion: str) -> dict[str
     }
 
 
-def _grow_and_analyse(
-    scene: Scene,
-    comm: MPI.Comm,
-    cp: _Coupled,
-    table: GrowthTable,
-    analyses: _Analyses,
-    times: np.ndarray,
-    progress: bool,
-    ckpt: GrowthCheckpointer,
-    resumed: dict[str, Any] | None,
-) -> tuple[str, str | None, list[float], list[float], float]:
-    """Step the growth (one growth.csv row per step), with the analyses when due, and a
-    checkpoint after a step and its analysis when one is due or a signal came.  A restarted
-    run (``resumed``: the checkpoint's meta.json) starts after the checkpoint's step (with
-    that step's analysis if a signal stopped it).
+class CoupledSteps(GrowthSteps):
+    """The hooks of a coupled run: a growth step and its growth.csv row, then the analysis
+    on the rebuilt host mesh when due (:class:`_Analyses`), a checkpoint after the step and
+    its analysis.  A restarted run whose checkpoint has its analysis still to run
+    (``analysis_pending``: a signal stopped it) runs that analysis first, without a
+    growth step."""
 
-    Returns ``(status, message, first row, last row, time of the last row)``.
-    """
-    driver, nsteps = cp.driver, len(times) - 1
+    def __init__(
+        self,
+        cp: _Coupled,
+        table: GrowthTable,
+        analyses: _Analyses,
+        times: np.ndarray,
+        ckpt: GrowthCheckpointer,
+        resumed: dict[str, Any] | None,
+    ):
+        super().__init__(cp.driver, table, times, analyses.timer, ckpt, resumed)
+        self.analyses = analyses
+        self.pending = resumed is not None and bool(resumed["analysis_pending"])
+        self.analysing = False
 
-    def record(t: float) -> list[float]:
-        vals = driver.row()
-        table.row(t, vals)
+    def row(self, t: float) -> list[float]:
+        """The growth.csv row at time ``t`` (collective; no phase of its own: the coupled
+        run's phases are set-up, check, growth steps, host rebuilds and analyses)."""
+        vals = self.driver.row()
+        self.table.row(t, vals)
         return vals
 
-    status, message = "converged", None
-    if resumed is None:
-        first = record(0.0)
-        last, t_done, pending = first, 0.0, False
-    else:
-        first, last = resumed["first_row"], resumed["last_row"]
-        t_done, pending = float(times[driver.steps]), bool(resumed["analysis_pending"])
-    bar = tqdm(
-        total=nsteps,
-        initial=driver.steps,
-        desc=scene.name,
-        unit="step",
-        disable=(comm.rank != 0) or not progress,
-        dynamic_ncols=True,
-    )
+    def advance(self, k: int) -> None:
+        if self.pending:  # the analysis of the checkpoint's step runs again
+            self.pending = False
+            return
+        self.grow(k)
+        self.last, self.t_done = self.row(float(self.times[k])), float(self.times[k])
 
-    def content(pending: bool) -> dict[str, Any]:
+    def record(self, k: int, last: bool) -> None:
+        """The row is written right after the growth step (before its analysis)."""
+
+    def after(self, k: int) -> Verdict:
+        analyses = self.analyses
+        self.analysing = analyses.due(k)
+        if self.analysing and not analyses.run(k, self.t_done, self.last):
+            if analyses.signal:  # stopped during the analysis: it runs again on restart
+                self.ckpt.signum = analyses.signal
+                self.ckpt.after_step(k == self.nsteps, self.content(True))
+                raise RunStopped(
+                    "interrupted", f"stopped in the analysis after growth step {k} by a signal"
+                )
+            raise RunStopped(
+                "failed",
+                f"analysis after growth step {k} (t = {self.t_done:.6g} s): "
+                f"{analyses.records[-1].get('message')}",
+            )
+        self.analysing = False
+        return Verdict.NEXT
+
+    def content(self, pending: bool = False) -> dict[str, Any]:
         return {
-            "first_row": first,
-            "last_row": last,
-            "records": analyses.records,
-            "last_summary": analyses.last_summary,
+            "first_row": self.first,
+            "last_row": self.last,
+            "records": self.analyses.records,
+            "last_summary": self.analyses.last_summary,
             "analysis_pending": pending,
         }
 
-    k, analysing = driver.steps, False
-    try:
-        while k <= nsteps:
-            if not pending:
-                if k == nsteps:
-                    break
-                k += 1
-                with analyses.timer.phase("growth_steps"):
-                    driver.step(float(times[k] - times[k - 1]))
-                last, t_done = record(float(times[k])), float(times[k])
-                bar.update(1)
-            pending, analysing = False, analyses.due(k)
-            if analysing and not analyses.run(k, t_done, last):
-                if analyses.signal:  # stopped during the analysis: it runs again on restart
-                    ckpt.signum = analyses.signal
-                    ckpt.after_step(k == nsteps, content(True))
-                    status = "interrupted"
-                    message = f"stopped in the analysis after growth step {k} by a signal"
-                    break
-                status = "failed"
-                message = (
-                    f"analysis after growth step {k} (t = {t_done:.6g} s): "
-                    f"{analyses.records[-1].get('message')}"
-                )
-                break
-            analysing = False
-            if ckpt.after_step(k == nsteps, content(False)) and k < nsteps:
-                status, message = "interrupted", f"stopped after growth step {k} by a signal"
-                break
-    except CheckpointError as exc:
-        status, message = "failed", str(exc)
-    except (RuntimeError, CouplingError) as exc:  # a growth step, or an analysis's host mesh
-        status = "failed"
-        if analysing:
-            message = f"analysis after growth step {k} (t = {t_done:.6g} s): {exc}"
-        else:
-            t_fail = times[min(driver.steps + 1, nsteps)]
-            message = f"growth step {driver.steps + 1} (t = {t_fail:.6g} s): {exc}"
-    finally:
-        bar.close()
-        table.close()
-    return status, message, first, last, t_done
+    def failure(self, k: int, exc: BaseException) -> str:
+        # a growth step, or an analysis's host mesh (CouplingError)
+        if self.analysing:
+            return f"analysis after growth step {k} (t = {self.t_done:.6g} s): {exc}"
+        steps = self.driver.steps
+        t_fail = self.times[min(steps + 1, self.nsteps)]
+        return f"growth step {steps + 1} (t = {t_fail:.6g} s): {exc}"
 
 
 def _coupled_summary(

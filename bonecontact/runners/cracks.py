@@ -74,11 +74,12 @@ from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import CheckpointError, RunCounters, read_checkpoint
 from bonecontact.runners.crack_checkpoint import CrackCheckpoints
 from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
+from bonecontact.runners.loop import Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import (
+    MechanicsSteps,
     Recorder,
     SceneModel,
     analysis_steps,
-    book_step,
     build_model,
     finish_run,
     read_mesh,
@@ -476,6 +477,245 @@ def _initiated_spec(run: CrackRun, initiation: dict[str, Any]) -> CrackSpec:
     return CrackSpec("initiated", crack, run.body.region[0], run.fracture.friction)
 
 
+@dataclasses.dataclass
+class CrackProgress:
+    """Where a crack run stands: what its checkpoints store and its summary reports."""
+
+    increment: int = 0  # crack increments made
+    status: str | None = None  # propagation: grows, arrested, max_increments, fractured
+    fractured_at: tuple[float, int] | None = None  # (time, step) the crack cut through
+    tips_last: list[IncrementRecord] = dataclasses.field(default_factory=list)
+    initiation: dict[str, Any] | None = None  # the record of an initiated crack
+    risk_before: dict[str, Any] | None = None  # the initiation check on the uncracked body
+    prev: tuple[float, float] = (0.0, 0.0)  # (time, largest risk) of the last step recorded
+
+
+class CrackSteps(MechanicsSteps):
+    """The hooks of a 2D crack run (:func:`bonecontact.runners.loop.run_steps`).
+
+    After a step solved on the uncracked body: the initiation check, and the crack
+    inserted where the risk reaches 1 (the same step again on the cracked body).  After a
+    step on the cracked body: K at every tip (fracture.csv), the crack grown where K
+    reaches K_Ic (the same step again on the longer crack) until it arrests or cuts
+    through (the last step).  Checkpoints hold the crack with the mechanics state
+    (:mod:`bonecontact.runners.crack_checkpoint`).
+    """
+
+    errors = (RuntimeError, FractureError)  # a solver failure; a tip K cannot be had
+
+    def __init__(
+        self,
+        scene: Scene,
+        run: CrackRun,
+        comm: MPI.Comm,
+        outdir: Path,
+        timer: PhaseTimer,
+        ck: CrackCheckpoints,
+        resume: tuple[Path, dict[str, Any]] | None,
+        progress: bool,
+    ):
+        self.scene, self.comm, self.outdir, self.ck, self.resume = scene, comm, outdir, ck, resume
+        self.progress, self.table = progress, None
+        self.saved = resume[1]["crack_run"] if resume is not None else None
+        dt = analysis_steps(scene)[1]
+        super().__init__(None, None, timer, scene.output.fields_every, RunCounters(), dt)
+        self.state = CrackProgress()
+        self.run, self.crack, self.cm = run, None, None
+
+    # ------------------------------------------------------------- models
+    def build_first(self, scene: Scene) -> int:
+        """The model the run starts on (the uncracked body, the crack of the scene or the
+        crack of the checkpoint) with its integrator and recorder; returns the first step."""
+        run, saved, resume = self.run, self.saved, self.resume
+        if saved is not None and saved["initiated"]:
+            self.run = run = with_crack(run, _initiated_spec(run, saved["initiation"]), True)
+        if run.spec is None:  # no crack yet: the scene's own mesh until the risk reaches 1
+            self.sm = build_model(scene, self.comm, self.timer, mesh=(run.mesh, run.groups))
+        else:
+            crack = run.spec.crack
+            if saved is not None:  # the crack as it had grown
+                crack = Crack2D(np.asarray(saved["points"], dtype=float), saved["tips"])
+            self.crack = crack
+            self.sm, self.cm = build_cracked(scene, run, crack, self.comm, self.timer)
+        if resume is None:
+            self.start_model(0, "fields")
+            return 1
+        segment = int(resume[1]["counters"]["segment"]) + 1
+        self.start_model(int(resume[1]["step"]), f"fields_restart{segment}")
+        self.restore(saved)
+        return int(resume[1]["step"]) + 1
+
+    def restore(self, saved: dict[str, Any]) -> None:
+        """The crack run's progress from a checkpoint's ``crack_run`` entry."""
+        self.state = CrackProgress(
+            int(saved["increment"]),
+            saved["propagation"],
+            None,
+            [IncrementRecord(**r) for r in saved["tips_last"]],
+            saved["initiation"],
+            saved["risk_before"],
+            tuple(saved["prev"]),
+        )
+
+    def start_model(self, step: int, stem: str) -> None:
+        """The integrator (at ``step``) and recorder of the current model; after a
+        re-meshing or a restart history.csv continues and the fields go to new files."""
+        with self.timer.phase("solver_setup"):
+            integ = scene_integrator(self.run.scene, self.sm, self.dt, False)
+            integ.set_initial(None, self.sm.v0)
+            integ.step_count, integ.t = step, step * self.dt
+        resumed = {}
+        if stem.startswith("fields_restart"):  # the state and counters of the checkpoint
+            with self.timer.phase("checkpoint"):
+                self.counters = read_checkpoint(self.resume[0], self.resume[1], integ)
+                self.counters.segment += 1
+                self.ck.resumed(*self.resume)
+            if self.saved["monitor"] is not None:
+                resumed["fracture"] = self.saved["monitor"]
+        files = SimpleNamespace(
+            restarted_from="increment" if stem != "fields" else None,
+            fields_stem=stem,
+            extra={},
+            resumed=resumed,
+        )
+        with self.timer.phase("output"):
+            self.rec = Recorder(
+                self.run.scene, self.sm, integ, self.comm, self.outdir, False, files
+            )
+            if self.crack is not None and self.comm.rank == 0:
+                write_crack_path(self.outdir / f"{stem}_crack.vtk", self.crack)
+        self.integ = integ
+
+    def remesh(self, k: int, stem: str) -> Verdict:
+        """The body meshed around the current crack, the model rebuilt on it at the state
+        before step ``k``: the same step again."""
+        self.integ.destroy()
+        self.rec.writer.close()
+        self.sm, self.cm = build_cracked(self.scene, self.run, self.crack, self.comm, self.timer)
+        self.start_model(k - 1, stem)
+        return Verdict.AGAIN
+
+    # ------------------------------------------------------------- hooks
+    def start(self) -> None:
+        super().start()
+        fracture = self.rec.fracture
+        self.state.prev = (0.0, fracture.current.value if fracture is not None else 0.0)
+
+    def after(self, k: int) -> Verdict:
+        if self.cm is None:
+            return self.check_initiation(k)
+        return self.evaluate_and_grow(k)
+
+    def check_initiation(self, k: int) -> Verdict:
+        """No crack yet: the initiation check of step ``k``; at risk 1 the crack inserted."""
+        integ, rec = self.integ, self.rec
+        with self.timer.phase("fracture"):
+            self.sm.model.update_nodal_volumetric(integ.u, integ.velocity)  # as record does
+            rec.fracture.update(k, integ.t)
+        if rec.fracture.current.value < 1.0:
+            return Verdict.NEXT
+        with self.timer.phase("fracture"):
+            ini, initiation = _initiate(
+                self.scene, self.run, self.sm, rec, self.state.prev, integ.t
+            )
+        self.state.initiation, self.state.risk_before = initiation, rec.fracture.summary()
+        self.run = with_crack(self.run, _initiated_spec(self.run, initiation), initiated=True)
+        self.crack = self.run.spec.crack
+        where = "at the surface point" if ini.on_surface else "centred at"
+        self.say(
+            f"{self.scene.name}: risk {rec.fracture.current.value:.4g} >= 1 at t = "
+            f"{integ.t:.6g} (step {k}; 1 reached at {initiation['load_factor']:.6g}): crack of "
+            f"{ini.length:.4g} m inserted {where} ({ini.point[0]:.6g}, {ini.point[1]:.6g}) "
+            f"along ({ini.direction[0]:.4f}, {ini.direction[1]:.4f})"
+        )
+        return self.remesh(k, "fields_initiated")  # the same load on the cracked body
+
+    def evaluate_and_grow(self, k: int) -> Verdict:
+        """K at every tip after step ``k``; the crack grown where it reaches K_Ic."""
+        integ, st = self.integ, self.state
+        with self.timer.phase("fracture"):
+            records = evaluate_tips(
+                self.sm, self.cm, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
+            )
+        grows = any(r.status == "grows" for r in records)
+        if grows and st.increment >= self.run.fracture.max_increments:
+            records = [_spent(r) for r in records]
+            grows, st.status = False, "max_increments"
+        fractured = False
+        if grows:
+            self.crack, fractured = _grow(self.crack, records, self.run)
+        self.table.rows(records)
+        st.tips_last = records
+        if fractured:
+            st.increment, st.fractured_at, st.status = st.increment + 1, (integ.t, k), "fractured"
+            self.say(
+                f"{self.scene.name}: fractured at t = {integ.t:.6g} "
+                f"(step {k}, after {st.increment} crack increments)"
+            )
+            return Verdict.LAST
+        if grows:
+            st.increment, st.status = st.increment + 1, "grows"
+            return self.remesh(k, f"fields_increment{st.increment}")  # the longer crack
+        if st.status == "grows":
+            st.status = "arrested"
+        return Verdict.NEXT
+
+    def record(self, k: int, last: bool) -> None:
+        super().record(k, last)
+        if self.cm is None:
+            self.state.prev = (self.integ.t, self.rec.fracture.current.value)
+
+    def checkpoint(self, k: int, last: bool) -> bool:
+        with self.timer.phase("checkpoint"):
+            signum = self.ck.after_step(self.integ, self.counters, self.crack_state(), last)
+        return bool(signum)
+
+    def failure(self, k: int, exc: BaseException) -> str:
+        return f"step {k} (t = {k * self.dt:.6g}): {exc}"
+
+    # ------------------------------------------------------------- reports
+    def say(self, text: str) -> None:
+        """A line on the console (rank 0)."""
+        _console(self.comm, self.progress, text)
+
+    def crack_state(self) -> dict[str, Any]:
+        """The ``crack_run`` entry of a checkpoint's meta.json."""
+        st, crack, fracture = self.state, self.crack, self.rec.fracture
+        state = {
+            "initiated": self.run.initiated,
+            "points": None if crack is None else crack.points,
+            "tips": None if crack is None else crack.tips,
+            "increment": st.increment,
+            "propagation": st.status,
+            "tips_last": [dataclasses.asdict(r) for r in st.tips_last],
+            "initiation": st.initiation,
+            "risk_before": st.risk_before,
+            "prev": list(st.prev),
+            "monitor": fracture.checkpoint_state() if fracture is not None else None,
+        }
+        return json.loads(json.dumps(state, default=_plain))
+
+    def fracture_summary(self) -> dict[str, Any]:
+        """The ``fracture`` entry of summary.json."""
+        st, run, fracture = self.state, self.run, self.rec.fracture
+        frac = st.risk_before or (fracture.summary() if fracture is not None else {})
+        if run.fracture.initiate:
+            frac["initiation"] = st.initiation
+        frac["crack"] = (
+            None
+            if run.spec is None
+            else _crack_summary(
+                run, self.crack, st.tips_last, st.increment, st.status, st.fractured_at
+            )
+        )
+        return frac
+
+
+def _spent(r: IncrementRecord) -> IncrementRecord:
+    """A tip that would grow when the increments are spent."""
+    return dataclasses.replace(r, status="max_increments") if r.status == "grows" else r
+
+
 def run_cracked(
     scene: Scene,
     comm: MPI.Comm = MPI.COMM_WORLD,
@@ -509,7 +749,6 @@ def run_cracked(
     run = prepare(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = analysis_steps(scene)
-    counts = RunCounters()
     ck = CrackCheckpoints(
         outdir,
         comm,
@@ -518,216 +757,24 @@ def run_cracked(
         {"scene": scene.name, "analysis": scene.analysis.kind, "dt": dt},
     )
     resume = ck.find(restart) if restart else None
-    saved = resume[1]["crack_run"] if resume is not None else None
-    crack, cm = None, None
-    if saved is not None and saved["initiated"]:
-        run = with_crack(run, _initiated_spec(run, saved["initiation"]), initiated=True)
-    if run.spec is None:  # no crack yet: the scene's own mesh until the risk reaches 1
-        sm = build_model(scene, comm, timer, mesh=(run.mesh, run.groups))
-    else:
-        crack = run.spec.crack
-        if saved is not None:  # the crack as it had grown
-            crack = Crack2D(np.asarray(saved["points"], dtype=float), saved["tips"])
-        sm, cm = build_cracked(scene, run, crack, comm, timer)
-
-    def start(sm: SceneModel, run: CrackRun, step: int, stem: str, crack: Crack2D | None):
-        nonlocal counts
-        with timer.phase("solver_setup"):
-            integ = scene_integrator(run.scene, sm, dt, False)
-            integ.set_initial(None, sm.v0)
-            integ.step_count, integ.t = step, step * dt
-        resumed = {}
-        if stem.startswith("fields_restart"):  # the state and counters of the checkpoint
-            with timer.phase("checkpoint"):
-                counts = read_checkpoint(resume[0], resume[1], integ)
-                counts.segment += 1
-                ck.resumed(*resume)
-            if saved["monitor"] is not None:
-                resumed["fracture"] = saved["monitor"]
-        # after a re-meshing or a restart: history.csv continues, the fields go to new files
-        files = SimpleNamespace(
-            restarted_from="increment" if stem != "fields" else None,
-            fields_stem=stem,
-            extra={},
-            resumed=resumed,
-        )
-        with timer.phase("output"):
-            rec = Recorder(run.scene, sm, integ, comm, outdir, False, files)
-            if crack is not None and comm.rank == 0:
-                write_crack_path(outdir / f"{stem}_crack.vtk", crack)
-        return integ, rec
-
-    first = 1 if resume is None else int(resume[1]["step"]) + 1
-    segment = 0 if resume is None else int(resume[1]["counters"]["segment"]) + 1
-    integ, rec = start(
-        sm, run, first - 1, "fields" if resume is None else f"fields_restart{segment}", crack
-    )
-    table = RecordTable(
+    hooks = CrackSteps(scene, run, comm, outdir, timer, ck, resume, progress)
+    first = hooks.build_first(scene)
+    hooks.table = RecordTable(
         comm, Path(outdir) / "fracture.csv", FRACTURE_COLUMNS, append=resume is not None
     )
-    every = scene.output.fields_every
-    status, message = "converged", None
-    increment, fractured_at, prop_status = 0, None, None
-    tips_last: list[IncrementRecord] = []
-    initiation: dict[str, Any] | None = None
-    risk_before: dict[str, Any] | None = None  # the initiation check on the uncracked body
-    if saved is None:
-        with timer.phase("output"):
-            rec.record(0, 0.0, every > 0)
-        prev = (0.0, rec.fracture.current.value if rec.fracture is not None else 0.0)
-    else:
-        increment, prop_status = int(saved["increment"]), saved["propagation"]
-        tips_last = [IncrementRecord(**r) for r in saved["tips_last"]]
-        initiation, risk_before = saved["initiation"], saved["risk_before"]
-        prev = tuple(saved["prev"])
-
-    def crack_state() -> dict[str, Any]:
-        """The ``crack_run`` entry of a checkpoint's meta.json."""
-        state = {
-            "initiated": run.initiated,
-            "points": None if crack is None else crack.points,
-            "tips": None if crack is None else crack.tips,
-            "increment": increment,
-            "propagation": prop_status,
-            "tips_last": [dataclasses.asdict(r) for r in tips_last],
-            "initiation": initiation,
-            "risk_before": risk_before,
-            "prev": list(prev),
-            "monitor": rec.fracture.checkpoint_state() if rec.fracture is not None else None,
-        }
-        return json.loads(json.dumps(state, default=_plain))
-
-    def stopped(k: int) -> bool:
-        """After load step k (collective): a checkpoint when due or asked for by a signal;
-        whether a signal stops the run here."""
-        last = k == nsteps
-        with timer.phase("checkpoint"):
-            signum = ck.after_step(integ, counts, crack_state(), last)
-        if signum and not last:
-            with timer.phase("output"):  # the fields of the last state
-                rec.record(k, integ.t, True, tables=False)
-        return bool(signum) and not last
-
-    bar = tqdm(
-        total=nsteps,
-        initial=first - 1,
-        desc=scene.name,
-        unit="step",
-        disable=(comm.rank != 0) or not progress,
-        dynamic_ncols=True,
-    )
-    k = first
     try:
         with ck.stop:
-            while k <= nsteps:
-                with timer.phase("time_stepping"):
-                    si = integ.step()
-                res = integ.last_contact
-                book_step(counts, timer, si.linear_iterations, res)
-                if cm is None:  # no crack yet: does the risk reach 1?
-                    with timer.phase("fracture"):
-                        sm.model.update_nodal_volumetric(integ.u, integ.velocity)  # as record
-                        rec.fracture.update(k, integ.t)
-                    if rec.fracture.current.value < 1.0:
-                        with timer.phase("output"):
-                            rec.record(k, integ.t, (every > 0 and k % every == 0) or k == nsteps)
-                        prev = (integ.t, rec.fracture.current.value)
-                        bar.update(1)
-                        if stopped(k):
-                            status, message = "interrupted", f"stopped after step {k} by a signal"
-                            break
-                        k += 1
-                        continue
-                    with timer.phase("fracture"):
-                        ini, initiation = _initiate(scene, run, sm, rec, prev, integ.t)
-                    risk_before = rec.fracture.summary()
-                    run = with_crack(run, _initiated_spec(run, initiation), initiated=True)
-                    crack = run.spec.crack
-                    where = "at the surface point" if ini.on_surface else "centred at"
-                    _console(
-                        comm,
-                        progress,
-                        f"{scene.name}: risk {rec.fracture.current.value:.4g} >= 1 at t = "
-                        f"{integ.t:.6g} (step {k}; 1 reached at "
-                        f"{initiation['load_factor']:.6g}): crack of {ini.length:.4g} m "
-                        f"inserted {where} ({ini.point[0]:.6g}, {ini.point[1]:.6g}) along "
-                        f"({ini.direction[0]:.4f}, {ini.direction[1]:.4f})",
-                    )
-                    integ.destroy()
-                    rec.writer.close()
-                    sm, cm = build_cracked(scene, run, crack, comm, timer)
-                    integ, rec = start(sm, run, k - 1, "fields_initiated", crack)
-                    continue  # the same load on the cracked body
-                with timer.phase("fracture"):
-                    records = evaluate_tips(sm, cm, integ.u, res, run, increment, k, integ.t)
-                grows = any(r.status == "grows" for r in records)
-                if grows and increment >= run.fracture.max_increments:
-                    records = [
-                        dataclasses.replace(r, status="max_increments")
-                        if r.status == "grows"
-                        else r
-                        for r in records
-                    ]
-                    grows, prop_status = False, "max_increments"
-                fractured = False
-                if grows:
-                    crack, fractured = _grow(crack, records, run)
-                table.rows(records)
-                tips_last = records
-                last = k == nsteps or fractured
-                if not grows or fractured:
-                    with timer.phase("output"):
-                        rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
-                    bar.update(1)
-                if fractured:
-                    increment += 1
-                    fractured_at = (integ.t, k)
-                    prop_status = "fractured"
-                    _console(
-                        comm,
-                        progress,
-                        f"{scene.name}: fractured at t = {integ.t:.6g} "
-                        f"(step {k}, after {increment} crack increments)",
-                    )
-                    break
-                if grows:
-                    increment += 1
-                    prop_status = "grows"
-                    integ.destroy()
-                    rec.writer.close()
-                    sm, cm = build_cracked(scene, run, crack, comm, timer)
-                    integ, rec = start(sm, run, k - 1, f"fields_increment{increment}", crack)
-                    continue  # the same load on the longer crack
-                if prop_status == "grows":
-                    prop_status = "arrested"
-                if stopped(k):
-                    status, message = "interrupted", f"stopped after step {k} by a signal"
-                    break
-                k += 1
-    except CheckpointError as exc:  # a checkpoint that cannot be written
-        status, message = "failed", str(exc)
-    except (RuntimeError, FractureError) as exc:  # a solver failure; a tip K cannot be had
-        status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
-    except SceneError:
-        bar.close()
-        table.close()
-        raise
-    bar.close()
-    table.close()
+            bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)
+            end = run_steps(hooks, first, nsteps, bar)
+    finally:
+        hooks.table.close()
+    sm, integ, rec = hooks.sm, hooks.integ, hooks.rec
     info = summary_header(scene, sm, integ, dt)
-    info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
+    info.update(run_info(hooks.run.scene, sm, integ, hooks.counters, False, 0.0, t_start))
     info.update(ck.summary())
     info.update(rec.strain.summary())
-    frac = risk_before or (rec.fracture.summary() if rec.fracture is not None else {})
-    if run.fracture.initiate:
-        frac["initiation"] = initiation
-    frac["crack"] = (
-        None
-        if run.spec is None
-        else _crack_summary(run, crack, tips_last, increment, prop_status, fractured_at)
-    )
-    info["fracture"] = frac
-    summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
+    info["fracture"] = hooks.fracture_summary()
+    summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)
     return RunResult(summary["status"], summary, integ, outdir)
 
 

@@ -34,7 +34,6 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 from dolfinx import mesh
-from tqdm import tqdm
 
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
@@ -56,11 +55,12 @@ from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import RunCounters
+from bonecontact.runners.loop import Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import (
+    MechanicsSteps,
     Recorder,
     SceneModel,
     analysis_steps,
-    book_step,
     build_model,
     finish_run,
     read_mesh,
@@ -416,6 +416,45 @@ def _front_summary(run: Crack3DRun, records: list[FrontRecord]) -> dict[str, Any
     return out
 
 
+class FrontSteps(MechanicsSteps):
+    """The hooks of a 3D crack run: after every step K along the front (phase
+    ``fracture``; fracture.csv rows), the front with its K written with the fields; no
+    checkpoints."""
+
+    errors = (RuntimeError, FractureError)  # a solver failure; K cannot be had
+
+    def __init__(
+        self,
+        base: MechanicsSteps,
+        sm: SceneModel,
+        cb: CrackedBody3D,
+        run: Crack3DRun,
+        table: RecordTable,
+        outdir: Path,
+    ):
+        super().__init__(base.integ, base.rec, base.timer, base.every, base.counters, base.dt)
+        self.sm, self.cb, self.run, self.table, self.outdir = sm, cb, run, table, outdir
+        self.tips = front_nodes(cb)
+        self.last: list[FrontRecord] = []
+
+    def after(self, k: int) -> Verdict:
+        integ = self.integ
+        with self.timer.phase("fracture"):
+            traction = _face_tractions(self.sm, integ.last_contact, self.tips, self.run.r_out)
+            self.last = evaluate_front(integ.u, self.cb, self.run, k, integ.t, traction)
+        self.table.rows(self.last)
+        return Verdict.NEXT
+
+    def record(self, k: int, last: bool) -> None:
+        with self.timer.phase("output"):
+            self.rec.record(k, self.integ.t, self.fields_due(k) or last)
+            if self.sm.model.mesh.comm.rank == 0:
+                write_front(self.outdir / "fields_crack_front.vtk", self.last)
+
+    def failure(self, k: int, exc: BaseException) -> str:
+        return f"step {k} (t = {k * self.dt:.6g}): {exc}"
+
+
 def run_cracked3d(
     scene: Scene,
     comm: MPI.Comm = MPI.COMM_WORLD,
@@ -432,44 +471,22 @@ def run_cracked3d(
     nsteps, dt = analysis_steps(scene)
     counts = RunCounters()
     sm, cb = build_cracked3d(scene, run, comm, timer)
-    tips = front_nodes(cb)
     with timer.phase("solver_setup"):
         integ = scene_integrator(run.scene, sm, dt, False)
         integ.set_initial(None, sm.v0)
     with timer.phase("output"):
         rec = Recorder(run.scene, sm, integ, comm, outdir, False)
     table = RecordTable(comm, Path(outdir) / "fracture.csv", FRONT_COLUMNS)
-    every = scene.output.fields_every
-    status, message, last = "converged", None, []
-    with timer.phase("output"):
-        rec.record(0, 0.0, every > 0)
-    bar = tqdm(total=nsteps, desc=scene.name, unit="step", disable=(comm.rank != 0) or not progress)
-    k = 1
-    try:
-        while k <= nsteps:
-            with timer.phase("time_stepping"):
-                si = integ.step()
-            res = integ.last_contact
-            book_step(counts, timer, si.linear_iterations, res)
-            with timer.phase("fracture"):
-                traction = _face_tractions(sm, res, tips, run.r_out)
-                last = evaluate_front(integ.u, cb, run, k, integ.t, traction)
-            table.rows(last)
-            with timer.phase("output"):
-                rec.record(k, integ.t, (every > 0 and k % every == 0) or k == nsteps)
-                if comm.rank == 0:
-                    write_front(outdir / "fields_crack_front.vtk", last)
-            bar.update(1)
-            k += 1
-    except (RuntimeError, FractureError) as exc:  # a solver failure; K cannot be had
-        status, message = "failed", f"step {k} (t = {k * dt:.6g}): {exc}"
-    bar.close()
+    base = MechanicsSteps(integ, rec, timer, scene.output.fields_every, counts, dt)
+    hooks = FrontSteps(base, sm, cb, run, table, outdir)
+    bar = progress_bar(comm, scene.name, nsteps, 0, progress)
+    end = run_steps(hooks, 1, nsteps, bar)
     table.close()
     info = summary_header(scene, sm, integ, dt)
     info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
     info.update(rec.strain.summary())
     frac = rec.fracture.summary() if rec.fracture is not None else {}
-    frac["crack"] = _front_summary(run, last)
+    frac["crack"] = _front_summary(run, hooks.last)
     info["fracture"] = frac
-    summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
+    summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)
     return RunResult(summary["status"], summary, integ, outdir)

@@ -55,7 +55,6 @@ from typing import Any
 from mpi4py import MPI
 
 import numpy as np
-from tqdm import tqdm
 
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm.growth import (
@@ -71,8 +70,8 @@ from bonecontact.neoplasm.growth import (
     tumour_growth,
 )
 from bonecontact.neoplasm.remesh import Boundary, RemeshError
-from bonecontact.runners.checkpoint import CheckpointError
 from bonecontact.runners.growth_checkpoint import GrowthCheckpointer
+from bonecontact.runners.loop import StepHooks, progress_bar, run_steps
 from bonecontact.runners.mechanics import read_mesh
 from bonecontact.runners.results import (
     GROWTH_UNITS,
@@ -84,7 +83,7 @@ from bonecontact.runners.results import (
 )
 from bonecontact.scene import Scene, SceneError
 
-__all__ = ["build_growth", "growth_checkpointer", "growth_times", "run_growth"]
+__all__ = ["GrowthSteps", "build_growth", "growth_checkpointer", "growth_times", "run_growth"]
 
 Driver = CystSphereGrowth | CystShapeGrowth | TumourGrowth
 
@@ -267,10 +266,15 @@ def run_growth(
             resumed = ckpt.resume(None if restart is True else restart)
     with timer.phase("output"):
         table = GrowthTable(comm, outdir, driver.columns, append=resumed is not None)
+    hooks = GrowthSteps(driver, table, times, timer, ckpt, resumed)
     with ckpt.stop:
-        status, message, first, last, t_done = _grow(
-            scene, comm, driver, table, times, progress, timer, ckpt, resumed
-        )
+        bar = progress_bar(comm, scene.name, len(times) - 1, driver.steps, progress)
+        try:
+            end = run_steps(hooks, driver.steps + 1, len(times) - 1, bar, resumed is None)
+        finally:
+            table.close()
+    status, message = end.status, end.message
+    first, last, t_done = hooks.first, hooks.last, hooks.t_done
     with timer.phase("output"):
         _write_boundary(driver, comm, outdir)
     if ckpt.time_s:
@@ -303,67 +307,62 @@ def _phases(driver: Driver, timer: PhaseTimer, comm: MPI.Comm) -> dict[str, floa
     return timer.summary(comm)
 
 
-def _grow(
-    scene: Scene,
-    comm: MPI.Comm,
-    driver: Driver,
-    table: GrowthTable,
-    times: np.ndarray,
-    progress: bool,
-    timer: PhaseTimer,
-    ckpt: GrowthCheckpointer,
-    resumed: dict[str, Any] | None,
-) -> tuple[str, str | None, list[float], list[float], float]:
-    """Step the driver through ``times``, one growth.csv row per step; a failed step ends the
-    run, a signal too (after a checkpoint).  A restarted run (``resumed``: the checkpoint's
-    meta.json) starts after the checkpoint's step.
+class GrowthSteps(StepHooks):
+    """The hooks of a growth run (:func:`bonecontact.runners.loop.run_steps`): a growth step
+    of the driver (phase ``growth_steps``), its growth.csv row (phase ``output``), a
+    checkpoint when due or asked for by a signal.  ``first`` and ``last`` are the first
+    and last rows written, ``t_done`` the time of the last."""
 
-    ``timer`` gets the phases ``growth_steps`` (the steps) and ``output`` (the rows).
-    Returns ``(status, message, first row, last row, time of the last row)``.
-    """
+    noun = "growth step"
 
-    def record(t: float) -> list[float]:
-        with timer.phase("output"):
-            vals = driver.row()  # collective (tumour, shape cyst)
-            table.row(t, vals)
+    def __init__(
+        self,
+        driver: Driver,
+        table: GrowthTable,
+        times: np.ndarray,
+        timer: PhaseTimer,
+        ckpt: GrowthCheckpointer,
+        resumed: dict[str, Any] | None,
+    ):
+        self.driver, self.table, self.times = driver, table, times
+        self.timer, self.ckpt = timer, ckpt
+        self.nsteps = len(times) - 1
+        self.first: list[float] = [] if resumed is None else resumed["first_row"]
+        self.last: list[float] = [] if resumed is None else resumed["last_row"]
+        self.t_done = 0.0 if resumed is None else float(times[driver.steps])
+
+    def row(self, t: float) -> list[float]:
+        """The growth.csv row of the driver's state at time ``t`` (collective)."""
+        with self.timer.phase("output"):
+            vals = self.driver.row()  # collective (tumour, shape cyst)
+            self.table.row(t, vals)
         return vals
 
-    status, message = "converged", None
-    nsteps = len(times) - 1
-    if resumed is None:
-        first = record(0.0)
-        last, t_done = first, 0.0
-    else:
-        first, last = resumed["first_row"], resumed["last_row"]
-        t_done = float(times[driver.steps])
-    bar = tqdm(
-        total=nsteps,
-        initial=driver.steps,
-        desc=scene.name,
-        unit="step",
-        disable=(comm.rank != 0) or not progress,
-        dynamic_ncols=True,
-    )
-    try:
-        for k in range(driver.steps + 1, nsteps + 1):
-            with timer.phase("growth_steps"):
-                driver.step(float(times[k] - times[k - 1]))
-            last, t_done = record(float(times[k])), float(times[k])
-            bar.update(1)
-            if ckpt.after_step(k == nsteps, {"first_row": first, "last_row": last}) and k < nsteps:
-                status, message = "interrupted", f"stopped after growth step {k} by a signal"
-                break
-    except CheckpointError as exc:
-        status, message = "failed", str(exc)
-    except (
-        RuntimeError
-    ) as exc:  # TumourError, RemeshError, CoverageError, PETSc errors, ODE failure
-        status = "failed"
-        message = f"growth step {driver.steps + 1} (t = {times[driver.steps + 1]:.6g} s): {exc}"
-    finally:
-        bar.close()
-        table.close()
-    return status, message, first, last, t_done
+    def start(self) -> None:
+        self.first = self.last = self.row(0.0)
+
+    def grow(self, k: int) -> None:
+        """Growth step ``k`` (from ``times[k - 1]`` to ``times[k]``)."""
+        with self.timer.phase("growth_steps"):
+            self.driver.step(float(self.times[k] - self.times[k - 1]))
+
+    def advance(self, k: int) -> None:
+        self.grow(k)
+
+    def record(self, k: int, last: bool) -> None:
+        self.last, self.t_done = self.row(float(self.times[k])), float(self.times[k])
+
+    def content(self) -> dict[str, Any]:
+        """What a checkpoint's meta.json holds besides the driver's state."""
+        return {"first_row": self.first, "last_row": self.last}
+
+    def checkpoint(self, k: int, last: bool) -> bool:
+        return bool(self.ckpt.after_step(last, self.content()))
+
+    def failure(self, k: int, exc: BaseException) -> str:
+        # TumourError, RemeshError, CoverageError, PETSc errors, ODE failure
+        steps = self.driver.steps
+        return f"growth step {steps + 1} (t = {self.times[steps + 1]:.6g} s): {exc}"
 
 
 def _write_boundary(driver: Driver, comm: MPI.Comm, outdir: Path) -> None:

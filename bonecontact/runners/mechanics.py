@@ -22,7 +22,6 @@ from petsc4py import PETSc
 
 import numpy as np
 from dolfinx import fem
-from tqdm import tqdm
 
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.friction import FrictionLaw
@@ -34,8 +33,9 @@ from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.newmark import make_integrator
 from bonecontact.mechanics.reactions import ForceMoment, SupportReactions, moment_components
 from bonecontact.meshing.io import read_gmsh_mesh
-from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, RunCounters
+from bonecontact.runners.checkpoint import Checkpointer, RunCounters
 from bonecontact.runners.fracture_check import FractureMonitor, fracture_history_columns
+from bonecontact.runners.loop import StepHooks, progress_bar, run_steps
 from bonecontact.runners.results import (
     ENERGY_COLUMNS,
     ProbeError,
@@ -64,6 +64,7 @@ __all__ = [
     "force_summary_lines",
     "read_mesh",
     "run_mechanics",
+    "run_model",
     "summary_header",
 ]
 
@@ -521,63 +522,57 @@ class Recorder:
         return rows
 
 
-def _step_through(
-    scene: Scene,
-    comm: MPI.Comm,
-    integ: Integrator,
-    rec: Recorder,
-    nsteps: int,
-    dt: float,
-    progress: bool,
-    timer: PhaseTimer,
-    ckpt: Checkpointer,
-) -> tuple[str, str | None]:
-    """Record the initial state, then step and record; a failed step ends the run.
+class MechanicsSteps(StepHooks):
+    """The hooks of a mechanics run (:func:`bonecontact.runners.loop.run_steps`): a load or
+    time step solved (phase ``time_stepping``, its PDAS part ``contact_solve``), its rows
+    and fields recorded (phase ``output``), a checkpoint when due or asked for by a signal
+    (``ckpt``; ``None``: no checkpoints).  A failed step leaves the last good state's
+    fields."""
 
-    ``timer`` gets the phases ``time_stepping`` (the steps' solves, contact included),
-    ``contact_solve`` (the part of it in the PDAS), ``output`` (tables and fields) and
-    ``checkpoint``.  A restarted run starts after the checkpoint's step; a signal
-    (``ckpt.stop``) ends the run after a step with a checkpoint (``"interrupted"``).
+    def __init__(
+        self,
+        integ: Integrator,
+        rec: Recorder,
+        timer: PhaseTimer,
+        every: int,
+        counters: RunCounters,
+        dt: float,
+        ckpt: Checkpointer | None = None,
+    ):
+        self.integ, self.rec, self.timer, self.every = integ, rec, timer, every
+        self.counters, self.dt, self.ckpt = counters, dt, ckpt
 
-    Returns ``(status, message)``.
-    """
-    every = scene.output.fields_every
-    status, message = "converged", None
-    first = integ.step_count + 1
-    try:
-        if first == 1:
-            with timer.phase("output"):
-                rec.record(0, 0.0, every > 0)
-        bar = tqdm(
-            total=nsteps,
-            initial=first - 1,
-            desc=scene.name,
-            unit="step",
-            disable=(comm.rank != 0) or not progress,
-            dynamic_ncols=True,
-        )
-        for k in range(first, nsteps + 1):
-            with timer.phase("time_stepping"):
-                si = integ.step()
-            book_step(ckpt.counters, timer, si.linear_iterations, integ.last_contact)
-            last = k == nsteps
-            with timer.phase("output"):
-                rec.record(k, integ.t, (every > 0 and k % every == 0) or last)
-            bar.update(1)
-            if ckpt.after_step(last) and not last:  # a signal: checkpoint written, fields too
-                status, message = "interrupted", f"stopped after step {k} by a signal"
-                with timer.phase("output"):
-                    rec.record(k, integ.t, True, tables=False)
-                break
-        bar.close()
-    except CheckpointError as exc:
-        status, message = "failed", str(exc)
-    except RuntimeError as exc:
-        status, message = "failed", f"step {integ.step_count + 1} (t = {integ.t + dt:.6g} s): {exc}"
+    def start(self) -> None:
+        with self.timer.phase("output"):
+            self.rec.record(0, 0.0, self.every > 0)
+
+    def advance(self, k: int) -> None:
+        with self.timer.phase("time_stepping"):
+            si = self.integ.step()
+        book_step(self.counters, self.timer, si.linear_iterations, self.integ.last_contact)
+
+    def fields_due(self, k: int) -> bool:
+        """Whether ``[output] fields_every`` asks for the fields of step ``k``."""
+        return self.every > 0 and k % self.every == 0
+
+    def record(self, k: int, last: bool) -> None:
+        with self.timer.phase("output"):
+            self.rec.record(k, self.integ.t, self.fields_due(k) or last)
+
+    def checkpoint(self, k: int, last: bool) -> bool:
+        return self.ckpt is not None and bool(self.ckpt.after_step(last))
+
+    def interrupted(self, k: int) -> None:
+        with self.timer.phase("output"):  # the fields of the last state
+            self.rec.record(k, self.integ.t, True, tables=False)
+
+    def failure(self, k: int, exc: BaseException) -> str:
+        integ = self.integ
+        message = f"step {integ.step_count + 1} (t = {integ.t + self.dt:.6g} s): {exc}"
         integ.u.x.array[:] = integ.u_n.x.array  # the failed step may have left NaN there
-        with timer.phase("output"):  # the last good state (its rows are written)
-            rec.record(integ.step_count, integ.t, True, tables=False)
-    return status, message
+        with self.timer.phase("output"):  # the last good state (its rows are written)
+            self.rec.record(integ.step_count, integ.t, True, tables=False)
+        return message
 
 
 def run_info(
@@ -711,19 +706,35 @@ def run_mechanics(
     timer = PhaseTimer()
     sm = build_model(scene, comm, timer)
     outdir = Path(output) if output is not None else scene.output.directory
+    return run_model(sm, comm, outdir, progress, restart, checkpoint_on_signal, timer, t_start)
+
+
+def run_model(
+    sm: SceneModel,
+    comm: MPI.Comm,
+    outdir: Path,
+    progress: bool = True,
+    restart: str | Path | bool | None = None,
+    checkpoint_on_signal: bool = True,
+    timer: PhaseTimer | None = None,
+    t_start: float | None = None,
+) -> RunResult:
+    """Run a built mechanics model (``sm.scene``'s analysis) through the step loop of
+    :mod:`bonecontact.runners.loop`, writing into ``outdir`` (collective; nothing is read
+    from a scene file or checked again).  The arguments as :func:`run_mechanics`'s;
+    ``timer`` and ``t_start``: the phases and start time of the set-up already done."""
+    t_start = time.perf_counter() if t_start is None else t_start
+    timer = PhaseTimer() if timer is None else timer
+    scene = sm.scene
     nsteps, dt = analysis_steps(scene)
     dynamic = scene.analysis.kind == "dynamic"  # dynamic runs book the energy balance
     with timer.phase("solver_setup"):  # assembly, factorisation or preconditioner
         integ = scene_integrator(scene, sm, dt, dynamic)
         integ.set_initial(None, sm.v0)
     out = scene.output
+    info = _checkpoint_info(scene, sm, dt)
     ckpt = Checkpointer(
-        outdir,
-        integ,
-        out.checkpoint_every,
-        _checkpoint_info(scene, sm, dt),
-        out.checkpoint_time,
-        checkpoint_on_signal,
+        outdir, integ, out.checkpoint_every, info, out.checkpoint_time, checkpoint_on_signal
     )
     if restart:
         with timer.phase("checkpoint"):
@@ -732,8 +743,11 @@ def run_mechanics(
         rec = Recorder(scene, sm, integ, comm, outdir, dynamic, ckpt)
     e0 = ckpt.counters.e0
     info = summary_header(scene, sm, integ, dt)
+    hooks = MechanicsSteps(integ, rec, timer, out.fields_every, ckpt.counters, dt, ckpt)
+    first = integ.step_count + 1
     with ckpt.stop:
-        status, message = _step_through(scene, comm, integ, rec, nsteps, dt, progress, timer, ckpt)
+        bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)
+        end = run_steps(hooks, first, nsteps, bar)
     info.update(run_info(scene, sm, integ, ckpt.counters, dynamic, e0, t_start))
     info.update(ckpt.summary())
     if ckpt.time_s:
@@ -741,7 +755,7 @@ def run_mechanics(
     info.update(rec.strain.summary())
     if rec.fracture is not None:
         info["fracture"] = rec.fracture.summary()
-    summary = finish_run(scene, sm, rec, timer, comm, status, message, info)
+    summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)
     return RunResult(summary["status"], summary, integ, outdir)
 
 
