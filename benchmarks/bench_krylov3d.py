@@ -46,6 +46,7 @@ import numpy as np
 from bench_contact3d import SIZES, linear_solve
 from common import machine, write_rows
 
+from bonecontact.common.linalg import set_solver_options
 from bonecontact.contact.krylov import coarse_grid_limit
 from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
@@ -81,19 +82,13 @@ def parse_variant(name: str, tight: float) -> tuple[float, dict[str, object]]:
 
 
 def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
-    """Set the variant's options and drop the preconditioner (rebuilt at the next solve)."""
-    opts = PETSc.Options()
-    for key in ("mg_levels_ksp_max_it", "pc_gamg_reuse_interpolation",
-                "pc_gamg_aggressive_coarsening"):  # fmt: skip
-        if opts.hasName(PREFIX + key):
-            opts.delValue(PREFIX + key)
+    """Set the variant's options (the solver's own, :func:`set_solver_options`: options
+    of an earlier variant are reset to the defaults) and drop the preconditioner
+    (rebuilt at the next solve)."""
+    reset = {"mg_levels_ksp_max_it": 2, "pc_gamg_reuse_interpolation": False}
     size = {"pc_gamg_coarse_eq_limit": coarse_grid_limit(solver.B.getSize()[0])}  # the solver's
-    for key, value in {**DEFAULTS, **size, **popts}.items():
-        opts[PREFIX + key] = value
-    pc = solver.ksp.getPC()
-    pc.reset()
-    solver.ksp.setFromOptions()
-    opts.delValue(PREFIX + "pc_gamg_coarse_eq_limit")
+    solver.ksp.getPC().reset()
+    set_solver_options(solver.ksp, {**reset, **DEFAULTS, **size, **popts}, PREFIX)
     solver.pc_reuse.forget()
     solver.loose_rtol = max(loose, solver.rtol)
 

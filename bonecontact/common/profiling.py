@@ -1,9 +1,12 @@
 """Where a run spends its time and memory: wall time per phase, peak memory per rank.
 
 :class:`PhaseTimer` accumulates the wall time of named phases (mesh read, mortar geometry,
-solver set-up, time stepping, output, ...); :func:`peak_memory_mb` reads the peak resident
-memory of every rank.  Both end up in ``summary.json`` (``phases_s``, ``peak_memory_mb``)
-so a user can see where a run spends its time.  Times are in seconds, memory in MiB.
+solver set-up, time stepping, output, ...) and the resident memory at the end of each and
+the peak reached by its end (:meth:`PhaseTimer.memory_per_dof`: bytes per owned dof per
+rank); :func:`peak_memory_mb` reads the peak resident memory of every rank.  They end up
+in ``summary.json`` (``phases_s``, ``peak_memory_mb``, ``memory_bytes_per_dof``) so a user
+can see where a run spends its time and memory.  Times are in seconds, memory in MiB
+(bytes per dof in bytes).
 """
 
 from __future__ import annotations
@@ -18,7 +21,26 @@ from mpi4py import MPI
 
 import numpy as np
 
-__all__ = ["PhaseTimer", "peak_memory_mb"]
+__all__ = ["PhaseTimer", "peak_memory_mb", "resident_mib"]
+
+
+def resident_mib() -> tuple[float, float]:
+    """This process's resident set now and its high-water mark so far (MiB; Linux
+    ``/proc/self/status`` VmRSS and VmHWM, else ``ru_maxrss`` for both)."""
+    now = peak = -1.0
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    now = int(line.split()[1]) / 1024.0
+                elif line.startswith("VmHWM:"):
+                    peak = int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    if now < 0 or peak < 0:
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        now = peak = rss / (1024.0 * 1024.0) if sys.platform == "darwin" else rss / 1024.0
+    return now, peak
 
 
 class PhaseTimer:
@@ -35,15 +57,49 @@ class PhaseTimer:
 
     def __init__(self) -> None:
         self.times: dict[str, float] = {}
+        #: per phase: (resident MiB at its end, high-water mark MiB at its end), the
+        #: largest over repeated entries
+        self.memory: dict[str, tuple[float, float]] = {}
 
     @contextmanager
     def phase(self, name: str) -> Iterator[None]:
-        """Time the body of the ``with`` block and add it to phase ``name``."""
+        """Time the body of the ``with`` block and add it to phase ``name``; record the
+        resident memory at its end and the peak so far."""
         t0 = time.perf_counter()
         try:
             yield
         finally:
             self.add(name, time.perf_counter() - t0)
+            now, peak = resident_mib()
+            old = self.memory.get(name, (0.0, 0.0))
+            self.memory[name] = (max(old[0], now), max(old[1], peak))
+
+    def memory_per_dof(self, comm: MPI.Comm, owned_dofs: int) -> dict[str, dict[str, float]]:
+        """Bytes per owned dof per rank at the end of each timed phase (collective).
+
+        Parameters
+        ----------
+        comm
+            The run's communicator (every rank must have the same phase names).
+        owned_dofs
+            The dofs (unknowns, all components) this rank owns.
+
+        Returns
+        -------
+        dict
+            Phase → ``resident``: the memory held at the end of the phase, and ``peak``:
+            the high-water mark reached by then (both the largest rank's, in bytes per
+            owned dof of that rank; the process's libraries included).
+        """
+        names = list(self.memory)
+        local = np.array([self.memory[n] for n in names], dtype=np.float64).reshape(-1, 2)
+        local *= 2.0**20 / max(int(owned_dofs), 1)
+        worst = np.empty_like(local)
+        comm.Allreduce(local, worst, op=MPI.MAX)
+        return {
+            n: {"resident": round(float(w[0]), 1), "peak": round(float(w[1]), 1)}
+            for n, w in zip(names, worst)
+        }
 
     def add(self, name: str, seconds: float) -> None:
         """Add ``seconds`` to phase ``name`` (measured elsewhere, e.g. inside a solver)."""

@@ -43,3 +43,31 @@ def test_peak_memory_sees_an_allocation():
     assert after["total"] >= sum(128.0 + 40.0 * (r + 1) for r in range(comm.size))
     assert after["total"] >= before["total"] and after["max_rank"] <= after["total"]
     del block
+
+
+@pytest.mark.parametrize("owned", [1, 1000, 123457])
+def test_memory_per_dof_sees_an_allocation_and_its_release(owned):
+    """Bytes per dof by phase: a phase that allocates and touches 96 MiB (+8 MiB per rank)
+    ends with that much more resident memory than the phase before (the peak so far at
+    least as high); after freeing it, the resident memory falls back while the peak
+    stays.  Reference: the size of the allocation, per owned dof of the rank."""
+    comm = MPI.COMM_WORLD
+    timer = PhaseTimer()
+    nbytes = (96 + 8 * comm.rank) * 2**20
+    with timer.phase("before"):
+        pass
+    with timer.phase("allocate"):
+        block = np.ones(nbytes // 8)
+        block[::512] += 1.0  # touch every page
+    with timer.phase("release"):
+        del block
+    before, alloc, rel = (timer.memory[n] for n in ("before", "allocate", "release"))
+    assert alloc[0] - before[0] >= 0.95 * nbytes / 2**20
+    assert alloc[1] >= alloc[0]  # the peak so far holds the allocation
+    assert rel[0] <= alloc[0] - 0.9 * nbytes / 2**20  # freed (large blocks go back to the OS)
+    assert rel[1] >= alloc[1]
+    per = timer.memory_per_dof(comm, owned)
+    assert list(per) == ["before", "allocate", "release"]
+    want = max(comm.allgather(alloc[0] * 2**20 / owned))  # the largest rank's
+    assert per["allocate"]["resident"] == pytest.approx(want, rel=1e-6, abs=0.1)
+    assert per["allocate"]["peak"] >= per["allocate"]["resident"] - 0.1
