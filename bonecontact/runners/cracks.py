@@ -67,7 +67,6 @@ from bonecontact.fracture.initiation import (
 )
 from bonecontact.fracture.meshing import CrackedMesh, TipMesh
 from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
-from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
 from bonecontact.fracture.sif import displacement_correlation, interaction_integral
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
@@ -91,7 +90,7 @@ from bonecontact.runners.results import RecordTable, RunResult
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.checks import check_cracks_in_mesh
 from bonecontact.scene.errors import table_label
-from bonecontact.scene.spec import ContactSpec
+from bonecontact.scene.spec import CrackSpec, FractureSpec
 
 __all__ = ["CrackRun", "check_cracked", "is_crack_scene", "run_cracked", "write_crack_path"]
 
@@ -236,16 +235,7 @@ def with_crack(run: CrackRun, spec: CrackSpec, initiated: bool = False) -> Crack
         h_tip = fr.increment / 8 if not initiated else min(fr.increment, spec.crack.length) / 8
     else:
         h_tip = seg / 100
-    mu = spec.friction
-    pair = ContactSpec(
-        _pair_name(spec.name),
-        "crack_plus",
-        "crack_minus",
-        "coulomb" if mu > 0 else "none",
-        float(mu),
-        0.0,
-        "fixed_point" if mu > 0 else "previous_step",
-    )
+    pair = spec.face_pair(_pair_name(spec.name), "crack_plus", "crack_minus")
     return dataclasses.replace(
         run,
         scene=dataclasses.replace(run.scene, contacts=tuple(run.scene.contacts) + (pair,)),
@@ -474,7 +464,7 @@ def _plain(o: object) -> Any:
 def _initiated_spec(run: CrackRun, initiation: dict[str, Any]) -> CrackSpec:
     """The ``[[crack]]`` of an initiated crack, from its initiation record."""
     crack = Crack2D(np.asarray(initiation["points"], dtype=float), initiation["tips"])
-    return CrackSpec("initiated", crack, run.body.region[0], run.fracture.friction)
+    return CrackSpec("initiated", crack, run.body.region[0], run.fracture.coefficient)
 
 
 @dataclasses.dataclass
@@ -790,7 +780,7 @@ def _crack_summary(
     out: dict[str, Any] = {
         "name": run.spec.name,
         "pair": _pair_name(run.spec.name),
-        "friction": run.spec.friction,
+        "friction": run.spec.coefficient,
         "points": crack.points.tolist(),
         "length": crack.length,
         "tips": [

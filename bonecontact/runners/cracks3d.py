@@ -51,7 +51,6 @@ from bonecontact.fracture.front3d import (
     front_interaction_integral,
 )
 from bonecontact.fracture.meshing import TipMesh
-from bonecontact.fracture.scene_tables import CrackSpec, FractureSpec
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import RunCounters
@@ -72,7 +71,7 @@ from bonecontact.runners.results import RecordTable, RunResult
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.checks import check_cracks_in_mesh
 from bonecontact.scene.errors import table_label
-from bonecontact.scene.spec import ContactSpec
+from bonecontact.scene.spec import CrackSpec, FractureSpec
 
 __all__ = [
     "FRONT_COLUMNS",
@@ -250,16 +249,7 @@ def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
             f"and half the distance to the surface) spans fewer than 3 front elements of "
             f"{h_tip:.3g} m; choose a smaller tip_size (or a crack farther from the surface)",
         )
-    mu = spec.friction
-    pair = ContactSpec(
-        _pair_name(spec.name),
-        "crack_upper",
-        "crack_lower",
-        "coulomb" if mu > 0 else "none",
-        float(mu),
-        0.0,
-        "fixed_point" if mu > 0 else "previous_step",
-    )
+    pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
     scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
     # the far field needs a finer grading in 3D: 0.3 left K_I 2 % low at every front size
     size = TipMesh(h_tip, fr.tip_grading if fr.tip_grading is not None else 0.12)
@@ -395,7 +385,7 @@ def _front_summary(run: Crack3DRun, records: list[FrontRecord]) -> dict[str, Any
     out: dict[str, Any] = {
         "name": run.spec.name,
         "pair": _pair_name(run.spec.name),
-        "friction": run.spec.friction,
+        "friction": run.spec.coefficient,
         "shape": c.shape,
         "centre": list(c.centre),
         "normal": list(c.normal),

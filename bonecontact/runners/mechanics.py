@@ -24,7 +24,6 @@ import numpy as np
 from dolfinx import fem
 
 from bonecontact.common.profiling import PhaseTimer
-from bonecontact.contact.friction import FrictionLaw
 from bonecontact.contact.interface import ContactInputError, build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver, PDASResult
@@ -345,10 +344,7 @@ def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> 
     if sm.interfaces:
         options = PDASOptions(
             max_iterations=scene.solver.max_iterations,
-            friction=[
-                FrictionLaw(c.friction, c.coefficient, c.bound, c.coulomb_update)
-                for c in scene.contacts
-            ],
+            friction=[c.friction_law() for c in scene.contacts],
         )
         contact = ContactSolver(model.V, sm.interfaces, options)
         contact.on_singular = singular_diagnosis(  # which body a singular set leaves free
