@@ -91,11 +91,36 @@ def material_fields(
         If a cell has no material (collective check).
     """
     dim = msh.geometry.dim
-    nv = 3 if dim == 2 else 6
-    tdim = msh.topology.dim
-    imap = msh.topology.index_map(tdim)
+    imap = msh.topology.index_map(msh.topology.dim)
     ncells = imap.size_local + imap.num_ghosts
+    fields = _zero_fields(msh, dim)
+    tagged, cell_mat = _cell_materials(cell_tags, materials, ncells)
+    missing = int(np.sum(cell_mat[: imap.size_local] < 0))
+    missing = msh.comm.allreduce(missing)
+    if missing:
+        raise ValueError(
+            f"{missing} cells have no material (tags with materials: {sorted(tagged)})"
+        )
+    has_visc = has_anp = False
+    has_rho = True
+    for tag, mat in tagged.items():
+        _set_material(fields, np.flatnonzero(cell_mat == tag), mat, ncells)
+        has_visc |= mat.tau_v > 0
+        has_anp |= mat.formulation == "nodal_pressure"
+        has_rho &= mat.rho is not None
+    comm = msh.comm
+    fields.has_viscosity = bool(comm.allreduce(has_visc, op=_mpi_lor()))
+    fields.has_nodal_pressure = bool(comm.allreduce(has_anp, op=_mpi_lor()))
+    fields.has_density = bool(comm.allreduce(has_rho, op=_mpi_land()))
+    f = fields
+    for u in (f.C, f.C_v, f.rho, f.kappa, f.kappa_v, f.chi) + ((f.C_zz,) if dim == 2 else ()):
+        u.x.scatter_forward()
+    return fields
 
+
+def _zero_fields(msh: mesh.Mesh, dim: int) -> MaterialFields:
+    """The DG0 fields of :func:`material_fields`, all zero, flags false."""
+    nv = 3 if dim == 2 else 6
     T0 = fem.functionspace(msh, ("DG", 0, (nv, nv)))
     S0 = fem.functionspace(msh, ("DG", 0))
     C = fem.Function(T0, name="C")
@@ -107,61 +132,48 @@ def material_fields(
     Czz = None
     if dim == 2:
         Czz = fem.Function(fem.functionspace(msh, ("DG", 0, (2, 3))), name="C_zz")
+    return MaterialFields(dim, C, Cv, rho, kap, kapv, chi, Czz, False, False, False)
 
+
+def _cell_materials(
+    cell_tags: mesh.MeshTags | None, materials: Mapping[int, Material] | Material, ncells: int
+) -> tuple[dict[int, Material], npt.NDArray[np.int64]]:
+    """``(tag -> material, tag of each local cell)``; -1 for a cell without a material
+    (one material: tag 0 everywhere)."""
     if not isinstance(materials, Mapping):
-        tagged = {0: materials}
-        cell_mat = np.zeros(ncells, dtype=np.int64)
-    else:
-        tagged = dict(materials)
-        cell_mat = np.full(ncells, -1, dtype=np.int64)
-        if cell_tags is not None:
-            for tag in tagged:
-                cell_mat[cell_tags.indices[cell_tags.values == tag]] = tag
-    missing = int(np.sum(cell_mat[: imap.size_local] < 0))
-    missing = msh.comm.allreduce(missing)
-    if missing:
-        raise ValueError(
-            f"{missing} cells have no material (tags with materials: {sorted(tagged)})"
-        )
+        return {0: materials}, np.zeros(ncells, dtype=np.int64)
+    tagged = dict(materials)
+    cell_mat = np.full(ncells, -1, dtype=np.int64)
+    if cell_tags is not None:
+        for tag in tagged:
+            cell_mat[cell_tags.indices[cell_tags.values == tag]] = tag
+    return tagged, cell_mat
 
-    tdofs = _cell_dofs(T0, ncells)
-    zdofs = _cell_dofs(Czz.function_space, ncells) if Czz is not None else None
-    sdofs = _cell_dofs(S0, ncells)
-    Ca = C.x.array.reshape(-1, nv * nv)
-    Cva = Cv.x.array.reshape(-1, nv * nv)
-    has_visc = has_anp = False
-    has_rho = True
-    for tag, mat in tagged.items():
-        cells = np.flatnonzero(cell_mat == tag)
-        full = mat.voigt()
-        if mat.formulation == "nodal_pressure":
-            has_anp = True
-            Cfull = deviatoric_block(mat.mu, dim)
-            kap.x.array[sdofs[cells]] = mat.kappa
-            kapv.x.array[sdofs[cells]] = mat.tau_v * mat.kappa
-            chi.x.array[sdofs[cells]] = 1.0
-        else:
-            Cfull = full
-        Cd = plane_strain_block(Cfull) if dim == 2 else Cfull
-        Ca[tdofs[cells]] = Cd.ravel()
-        Cva[tdofs[cells]] = mat.tau_v * Cd.ravel()
-        if mat.tau_v > 0:
-            has_visc = True
-        if mat.rho is None:
-            has_rho = False
-        else:
-            rho.x.array[sdofs[cells]] = mat.rho
-        if Czz is not None:
-            row = Cfull[2, [0, 1, 5]]
-            za = Czz.x.array.reshape(-1, 6)
-            za[zdofs[cells]] = np.concatenate([row, mat.tau_v * row])
-    comm = msh.comm
-    has_visc = bool(comm.allreduce(has_visc, op=_mpi_lor()))
-    has_anp = bool(comm.allreduce(has_anp, op=_mpi_lor()))
-    has_rho = bool(comm.allreduce(has_rho, op=_mpi_land()))
-    for f in (C, Cv, rho, kap, kapv, chi) + ((Czz,) if Czz is not None else ()):
-        f.x.scatter_forward()
-    return MaterialFields(dim, C, Cv, rho, kap, kapv, chi, Czz, has_visc, has_anp, has_rho)
+
+def _set_material(
+    f: MaterialFields, cells: npt.NDArray[np.int64], mat: Material, ncells: int
+) -> None:
+    """Write the coefficients of ``mat`` into the local ``cells`` of the fields (the
+    deviatoric stiffness and the bulk moduli in nodal-pressure cells)."""
+    dim = f.dim
+    nv = 3 if dim == 2 else 6
+    sdofs = _cell_dofs(f.rho.function_space, ncells)[cells]
+    tdofs = _cell_dofs(f.C.function_space, ncells)[cells]
+    Cfull = mat.voigt()
+    if mat.formulation == "nodal_pressure":
+        Cfull = deviatoric_block(mat.mu, dim)
+        f.kappa.x.array[sdofs] = mat.kappa
+        f.kappa_v.x.array[sdofs] = mat.tau_v * mat.kappa
+        f.chi.x.array[sdofs] = 1.0
+    Cd = plane_strain_block(Cfull) if dim == 2 else Cfull
+    f.C.x.array.reshape(-1, nv * nv)[tdofs] = Cd.ravel()
+    f.C_v.x.array.reshape(-1, nv * nv)[tdofs] = mat.tau_v * Cd.ravel()
+    if mat.rho is not None:
+        f.rho.x.array[sdofs] = mat.rho
+    if f.C_zz is not None:
+        row = Cfull[2, [0, 1, 5]]
+        zdofs = _cell_dofs(f.C_zz.function_space, ncells)[cells]
+        f.C_zz.x.array.reshape(-1, 6)[zdofs] = np.concatenate([row, mat.tau_v * row])
 
 
 def _mpi_lor():

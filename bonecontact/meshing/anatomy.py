@@ -73,6 +73,31 @@ def long_bone_2d(
         Cell groups ``"cortical"`` and ``"cancellous"``; facet groups ``"distal"``
         (y = 0), ``"proximal"`` (y = length) and ``"periosteum"`` (the outer sides).
     """
+    _check_long_bone(h, length, width, cortical_thickness, flare, flare_length)
+    shape = (width, length, flare, flare_length)
+
+    def build() -> None:
+        outer = _long_bone_polygon(shape, 0.0)
+        core = _long_bone_polygon(shape, cortical_thickness)
+        gmsh.model.occ.fragment([(2, outer)], [(2, core)])
+        gmsh.model.occ.synchronize()
+        surfaces = [t for _, t in gmsh.model.getEntities(2)]
+        cortical, cancellous = _long_bone_parts(surfaces, width)
+        set_size([(2, s) for s in surfaces], h)
+        _long_bone_groups(cortical, cancellous, length)
+
+    return generate("long_bone_2d", 2, build, comm, path)
+
+
+def _check_long_bone(
+    h: float,
+    length: float,
+    width: float,
+    cortical_thickness: float,
+    flare: float,
+    flare_length: float,
+) -> None:
+    """Refuse a geometry :func:`long_bone_2d` cannot build (ValueError naming the key)."""
     check_positive(
         h=h,
         length=length,
@@ -89,53 +114,59 @@ def long_bone_2d(
     if 2 * flare_length >= length:
         raise ValueError(f"2*flare_length ({2 * flare_length}) must be below length ({length})")
 
-    def half_profile(offset: float) -> list[tuple[float, float]]:
-        """(x, y) of the right-hand contour, shifted inwards by ``offset``, bottom to top."""
-        w = width / 2 - offset
-        if flare == 0:
-            return [(w, 0.0), (w, length)]
-        return [
-            (w + flare, 0.0),
-            (w, flare_length),
-            (w, length - flare_length),
-            (w + flare, length),
-        ]
 
-    def polygon(offset: float) -> int:
-        right = half_profile(offset)
-        ring = right + [(-x, y) for x, y in reversed(right)]
-        occ = gmsh.model.occ
-        pts = [occ.addPoint(x, y, 0) for x, y in ring]
-        lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
-        return occ.addPlaneSurface([occ.addCurveLoop(lines)])
+def _long_bone_half_profile(
+    shape: tuple[float, float, float, float], offset: float
+) -> list[tuple[float, float]]:
+    """(x, y) of the right-hand contour of :func:`long_bone_2d` (``shape`` = width,
+    length, flare, flare_length), shifted inwards by ``offset``, bottom to top."""
+    width, length, flare, flare_length = shape
+    w = width / 2 - offset
+    if flare == 0:
+        return [(w, 0.0), (w, length)]
+    return [
+        (w + flare, 0.0),
+        (w, flare_length),
+        (w, length - flare_length),
+        (w + flare, length),
+    ]
 
-    def build() -> None:
-        outer = polygon(0.0)
-        core = polygon(cortical_thickness)
-        gmsh.model.occ.fragment([(2, outer)], [(2, core)])
-        gmsh.model.occ.synchronize()
-        surfaces = [t for _, t in gmsh.model.getEntities(2)]
-        cancellous = [
-            s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[0]) < EPS * width
-        ]
-        cortical = [s for s in surfaces if s not in cancellous]
-        if len(cancellous) != 1 or len(cortical) != 2:
-            raise MeshingError(
-                f"expected 1 core and 2 cortical strips, got {len(cancellous)} and {len(cortical)}"
-            )
-        set_size([(2, s) for s in surfaces], h)
-        groups = PhysicalGroups()
-        groups(2, cortical, "cortical")
-        groups(2, cancellous, "cancellous")
-        curves = [t for _, t in gmsh.model.getEntities(1)]
-        exterior = [c for c in curves if len(gmsh.model.getAdjacencies(1, c)[0]) == 1]
-        distal = entities_at(exterior, 1, 1, 0.0, length)
-        proximal = entities_at(exterior, 1, 1, length, length)
-        groups(1, distal, "distal")
-        groups(1, proximal, "proximal")
-        groups(1, [c for c in exterior if c not in distal + proximal], "periosteum")
 
-    return generate("long_bone_2d", 2, build, comm, path)
+def _long_bone_polygon(shape: tuple[float, float, float, float], offset: float) -> int:
+    """The plane surface inside the contour, mirrored about x = 0 (gmsh OCC tag)."""
+    right = _long_bone_half_profile(shape, offset)
+    ring = right + [(-x, y) for x, y in reversed(right)]
+    occ = gmsh.model.occ
+    pts = [occ.addPoint(x, y, 0) for x, y in ring]
+    lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+    return occ.addPlaneSurface([occ.addCurveLoop(lines)])
+
+
+def _long_bone_parts(surfaces: list[int], width: float) -> tuple[list[int], list[int]]:
+    """``(cortical, cancellous)``: the core is the surface centred on x = 0, the other
+    two are the cortical strips (MeshingError otherwise)."""
+    cancellous = [s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[0]) < EPS * width]
+    cortical = [s for s in surfaces if s not in cancellous]
+    if len(cancellous) != 1 or len(cortical) != 2:
+        raise MeshingError(
+            f"expected 1 core and 2 cortical strips, got {len(cancellous)} and {len(cortical)}"
+        )
+    return cortical, cancellous
+
+
+def _long_bone_groups(cortical: list[int], cancellous: list[int], length: float) -> None:
+    """Cell groups cortical/cancellous; facet groups distal (y = 0), proximal
+    (y = length) and periosteum (the rest of the exterior)."""
+    groups = PhysicalGroups()
+    groups(2, cortical, "cortical")
+    groups(2, cancellous, "cancellous")
+    curves = [t for _, t in gmsh.model.getEntities(1)]
+    exterior = [c for c in curves if len(gmsh.model.getAdjacencies(1, c)[0]) == 1]
+    distal = entities_at(exterior, 1, 1, 0.0, length)
+    proximal = entities_at(exterior, 1, 1, length, length)
+    groups(1, distal, "distal")
+    groups(1, proximal, "proximal")
+    groups(1, [c for c in exterior if c not in distal + proximal], "periosteum")
 
 
 def knee_2d(

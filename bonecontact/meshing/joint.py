@@ -255,45 +255,17 @@ def pose_on(
     if not (math.isfinite(gap) and gap >= 0):
         raise ValueError(f"gap must be >= 0 (m), got {gap!r}")
     check_positive(spacing=spacing, tolerance=tolerance)
-    lat = np.asarray(lateral, float)
-    lat = lat - (lat @ UP) * UP
-    if np.linalg.norm(lat) == 0:
-        raise ValueError(f"lateral must be a horizontal direction, got {lateral!r}")
-    lat /= np.linalg.norm(lat)
+    lat = _horizontal_unit(lateral)
     axis = np.cross(UP, lat)
-    # first vertical approach: the lowest point of upper `gap` above the top of lower
-    lo, hi = upper.points.min(axis=0), upper.points.max(axis=0)
-    under = np.all(
-        (lower.points[:, [0, 2]] >= lo[[0, 2]]) & (lower.points[:, [0, 2]] <= hi[[0, 2]]), 1
-    )
-    top = lower.points[under, 1].max() if under.any() else lower.points[:, 1].max()
-    rot, centre, shift = np.eye(3), np.zeros(3), np.array([0.0, top + gap - lo[1], 0.0])
-
-    def current() -> Surface:
-        pts = (upper.points - centre) @ rot.T + centre + shift
-        return Surface(pts, upper.triangles, upper.source, upper.repairs)
-
-    gaps, pts, split = _two_gaps(current(), lower, lat, split, spacing)
+    t = _Transform(np.eye(3), np.zeros(3), _first_approach(upper, lower, gap))
+    gaps, pts, split = _two_gaps(t.surface(upper), lower, lat, split, spacing)
     before = (gaps[0], gaps[1])
     iterations = 0
     for iterations in range(1, max_iterations + 1):  # noqa: B007 (the count is reported)
-        s = [p @ lat for p in pts]
-        if abs(s[0] - s[1]) < 2 * spacing:
-            raise MeshInputError(
-                f"{upper.source} on {lower.source}: the two contact points are not on either "
-                f"side of the split (lateral coordinates {s[0]:.4g}, {s[1]:.4g} m)"
-            )
-        # levelling: rotate the posed upper surface about `axis` through the midpoint
-        angle = (gaps[0] - gaps[1]) / (s[0] - s[1])
-        mid = 0.5 * (pts[0] + pts[1])
-        r = _rotation(axis, angle)
-        # compose: x -> r (T(x) - mid) + mid with T(x) = rot (x - centre) + centre + shift
-        new_rot = r @ rot
-        new_off = r @ (centre + shift - rot @ centre - mid) + mid
-        rot, centre, shift = new_rot, np.zeros(3), new_off
-        gaps, pts, _ = _two_gaps(current(), lower, lat, split, spacing)
-        shift = shift + UP * (gap - min(gaps))
-        gaps, pts, _ = _two_gaps(current(), lower, lat, split, spacing)
+        t = _level(t, pts, gaps, lat, axis, spacing, (upper, lower))
+        gaps, pts, _ = _two_gaps(t.surface(upper), lower, lat, split, spacing)
+        t = _Transform(t.rot, t.centre, t.shift + UP * (gap - min(gaps)))
+        gaps, pts, _ = _two_gaps(t.surface(upper), lower, lat, split, spacing)
         if max(abs(g - gap) for g in gaps) < tolerance:
             break
     else:
@@ -301,21 +273,84 @@ def pose_on(
             f"{upper.source} on {lower.source}: the pose did not converge in {max_iterations} "
             f"iterations (gaps {gaps[0]:.4g}, {gaps[1]:.4g} m, wanted {gap:.4g} m)"
         )
-    # rot is a rotation about `axis` by construction: its angle from the skew part
-    skew = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
-    angle = math.degrees(math.atan2(0.5 * skew @ axis, 0.5 * (np.trace(rot) - 1)))
     pose = Pose(
-        rotation=rot,
-        centre=centre,
-        shift=shift,
+        rotation=t.rot,
+        centre=t.centre,
+        shift=t.shift,
         axis=axis,
-        angle=float(angle),
+        angle=_rotation_angle(t.rot, axis),
         gaps=(gaps[0], gaps[1]),
         points=np.array(pts),
         gaps_before=before,
         iterations=iterations,
     )
-    return current(), pose
+    return t.surface(upper), pose
+
+
+@dataclass(frozen=True)
+class _Transform:
+    """``x -> rot (x - centre) + centre + shift`` while :func:`pose_on` iterates."""
+
+    rot: np.ndarray
+    centre: np.ndarray
+    shift: np.ndarray
+
+    def surface(self, upper: Surface) -> Surface:
+        """``upper`` transformed."""
+        pts = (upper.points - self.centre) @ self.rot.T + self.centre + self.shift
+        return Surface(pts, upper.triangles, upper.source, upper.repairs)
+
+
+def _horizontal_unit(lateral: Sequence[float]) -> np.ndarray:
+    """The horizontal part of ``lateral``, normalised (refused if vertical)."""
+    lat = np.asarray(lateral, float)
+    lat = lat - (lat @ UP) * UP
+    if np.linalg.norm(lat) == 0:
+        raise ValueError(f"lateral must be a horizontal direction, got {lateral!r}")
+    lat /= np.linalg.norm(lat)
+    return lat
+
+
+def _first_approach(upper: Surface, lower: Surface, gap: float) -> np.ndarray:
+    """The vertical shift that puts the lowest point of ``upper`` ``gap`` above the
+    highest point of ``lower`` within the horizontal extent of ``upper``."""
+    lo, hi = upper.points.min(axis=0), upper.points.max(axis=0)
+    under = np.all(
+        (lower.points[:, [0, 2]] >= lo[[0, 2]]) & (lower.points[:, [0, 2]] <= hi[[0, 2]]), 1
+    )
+    top = lower.points[under, 1].max() if under.any() else lower.points[:, 1].max()
+    return np.array([0.0, top + gap - lo[1], 0.0])
+
+
+def _level(
+    t: _Transform,
+    pts: list[np.ndarray],
+    gaps: list[float],
+    lat: np.ndarray,
+    axis: np.ndarray,
+    spacing: float,
+    bones: tuple[Surface, Surface],
+) -> _Transform:
+    """``t`` followed by the levelling rotation about ``axis`` through the midpoint of the
+    two contact points ``pts`` (angle: the gap difference over their lateral distance)."""
+    s = [p @ lat for p in pts]
+    if abs(s[0] - s[1]) < 2 * spacing:
+        raise MeshInputError(
+            f"{bones[0].source} on {bones[1].source}: the two contact points are not on "
+            f"either side of the split (lateral coordinates {s[0]:.4g}, {s[1]:.4g} m)"
+        )
+    angle = (gaps[0] - gaps[1]) / (s[0] - s[1])
+    mid = 0.5 * (pts[0] + pts[1])
+    r = _rotation(axis, angle)
+    # compose: x -> r (T(x) - mid) + mid with T(x) = rot (x - centre) + centre + shift
+    new_off = r @ (t.centre + t.shift - t.rot @ t.centre - mid) + mid
+    return _Transform(r @ t.rot, np.zeros(3), new_off)
+
+
+def _rotation_angle(rot: np.ndarray, axis: np.ndarray) -> float:
+    """The angle (degrees) of ``rot``, a rotation about ``axis``, from its skew part."""
+    skew = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+    return float(math.degrees(math.atan2(0.5 * skew @ axis, 0.5 * (np.trace(rot) - 1))))
 
 
 # ------------------------------------------------------------------------- clipping

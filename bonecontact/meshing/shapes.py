@@ -22,6 +22,7 @@ raised as :class:`~bonecontact.meshing.builder.MeshingError` on every rank.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from mpi4py import MPI
@@ -469,71 +470,125 @@ def hertz_2d(
         zone=zone,
         block_ratio=block_ratio,
     )
-    R, w, hb = radius, block_half_width, block_height
 
     def build() -> None:
-        occ = gmsh.model.occ
-        c = occ.addPoint(0, R, 0)
-        pl, p0, pr = occ.addPoint(-R, R, 0), occ.addPoint(0, 0, 0), occ.addPoint(R, R, 0)
-        a1, a2 = occ.addCircleArc(pl, c, p0), occ.addCircleArc(p0, c, pr)
-        top = occ.addLine(pr, pl)
-        cyl = occ.addPlaneSurface([occ.addCurveLoop([a1, a2, top])])
-        q = [
-            occ.addPoint(-w, -hb, 0),
-            occ.addPoint(w, -hb, 0),
-            occ.addPoint(w, 0, 0),
-            occ.addPoint(0, 0, 0),
-            occ.addPoint(-w, 0, 0),
+        e = _half_disc_on_block(radius, block_half_width, block_height, lateral_support)
+        cyl_curves = e.arc + e.support + [e.top]
+        block_curves = e.block_top + [e.bottom, e.right, e.left]
+        dist_max = zone + 20 * h_far
+        sizes = [
+            (e.disc, cyl_curves, h_contact),
+            (e.block, block_curves, block_ratio * h_contact),
         ]
-        bottom, right = occ.addLine(q[0], q[1]), occ.addLine(q[1], q[2])
-        t1, t2 = occ.addLine(q[2], q[3]), occ.addLine(q[3], q[4])
-        left = occ.addLine(q[4], q[0])
-        block = occ.addPlaneSurface([occ.addCurveLoop([bottom, right, t1, t2, left])])
-        support = []
-        if lateral_support:
-            support = [occ.addLine(occ.addPoint(0, 0.4 * R, 0), occ.addPoint(0, 0.9 * R, 0))]
-        occ.synchronize()
-        if support:
-            gmsh.model.mesh.embed(1, support, 2, cyl)
-        f = gmsh.model.mesh.field
-        fields = []
-        for surf, curves, h in (
-            (cyl, [a1, a2] + support, h_contact),
-            (block, [t1, t2], block_ratio * h_contact),
-        ):
-            dist = f.add("Distance")
-            f.setNumbers(dist, "PointsList", [p0, q[3]])
-            thr = f.add("Threshold")
-            f.setNumber(thr, "InField", dist)
-            f.setNumber(thr, "SizeMin", h)
-            f.setNumber(thr, "SizeMax", h_far)
-            f.setNumber(thr, "DistMin", zone)
-            f.setNumber(thr, "DistMax", zone + 20 * h_far)
-            res = f.add("Restrict")
-            f.setNumber(res, "InField", thr)
-            f.setNumbers(res, "SurfacesList", [surf])
-            f.setNumbers(
-                res, "CurvesList", curves + ([top] if surf == cyl else [bottom, right, left])
+        fields = [
+            _restricted_size(
+                e.touching, h, h_far, zone, dist_max, {"SurfacesList": [s], "CurvesList": c}
             )
-            fields.append(res)
-        fmin = f.add("Min")
-        f.setNumbers(fmin, "FieldsList", fields)
-        f.setAsBackgroundMesh(fmin)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        groups = PhysicalGroups()
-        groups(2, [cyl], "cylinder")
-        groups(2, [block], "block")
-        groups(1, [a1, a2], "cyl_contact")
-        groups(1, [t1, t2], "block_contact")
-        groups(1, [top], "cyl_top")
-        groups(1, [bottom], "block_bottom")
-        groups(1, [left, right], "block_sides")
-        if support:
-            groups(1, support, "cyl_support")
+            for s, c, h in sizes
+        ]
+        _background_size(fields)
+        _hertz_2d_groups(e)
 
     return generate("hertz_2d", 2, build, comm, path)
+
+
+@dataclass(frozen=True)
+class _HalfDiscBlock:
+    """gmsh tags of :func:`hertz_2d`'s geometry."""
+
+    disc: int
+    block: int
+    arc: list[int]  # the half circle (two arcs)
+    top: int  # the disc's flat face
+    block_top: list[int]  # the block's top (two lines meeting at the origin)
+    bottom: int
+    right: int
+    left: int
+    support: list[int]  # the embedded axis segment (or none)
+    touching: list[int]  # the two points at the origin (disc, block)
+
+
+def _half_disc_on_block(R: float, w: float, hb: float, lateral_support: bool) -> _HalfDiscBlock:
+    """The half disc of radius ``R`` on the block ``[-w, w] x [-hb, 0]`` (two separate
+    surfaces touching at the origin), with the axis segment embedded if asked."""
+    occ = gmsh.model.occ
+    c = occ.addPoint(0, R, 0)
+    pl, p0, pr = occ.addPoint(-R, R, 0), occ.addPoint(0, 0, 0), occ.addPoint(R, R, 0)
+    a1, a2 = occ.addCircleArc(pl, c, p0), occ.addCircleArc(p0, c, pr)
+    top = occ.addLine(pr, pl)
+    cyl = occ.addPlaneSurface([occ.addCurveLoop([a1, a2, top])])
+    q = [
+        occ.addPoint(-w, -hb, 0),
+        occ.addPoint(w, -hb, 0),
+        occ.addPoint(w, 0, 0),
+        occ.addPoint(0, 0, 0),
+        occ.addPoint(-w, 0, 0),
+    ]
+    bottom, right = occ.addLine(q[0], q[1]), occ.addLine(q[1], q[2])
+    t1, t2 = occ.addLine(q[2], q[3]), occ.addLine(q[3], q[4])
+    left = occ.addLine(q[4], q[0])
+    block = occ.addPlaneSurface([occ.addCurveLoop([bottom, right, t1, t2, left])])
+    support = []
+    if lateral_support:
+        support = [occ.addLine(occ.addPoint(0, 0.4 * R, 0), occ.addPoint(0, 0.9 * R, 0))]
+    occ.synchronize()
+    if support:
+        gmsh.model.mesh.embed(1, support, 2, cyl)
+    return _HalfDiscBlock(
+        cyl, block, [a1, a2], top, [t1, t2], bottom, right, left, support, [p0, q[3]]
+    )
+
+
+def _hertz_2d_groups(e: _HalfDiscBlock) -> None:
+    """The physical groups of :func:`hertz_2d`."""
+    groups = PhysicalGroups()
+    groups(2, [e.disc], "cylinder")
+    groups(2, [e.block], "block")
+    groups(1, e.arc, "cyl_contact")
+    groups(1, e.block_top, "block_contact")
+    groups(1, [e.top], "cyl_top")
+    groups(1, [e.bottom], "block_bottom")
+    groups(1, [e.left, e.right], "block_sides")
+    if e.support:
+        groups(1, e.support, "cyl_support")
+
+
+def _restricted_size(
+    points: list[int],
+    h: float,
+    h_far: float,
+    zone: float,
+    dist_max: float,
+    restrict: dict[str, list[int]],
+) -> int:
+    """A gmsh size field: ``h`` within ``zone`` of the ``points``, growing linearly to
+    ``h_far`` at the distance ``dist_max``, restricted to the entities of ``restrict``
+    (gmsh list name, e.g. ``"SurfacesList"``, to tags).  Returns the field's tag."""
+    f = gmsh.model.mesh.field
+    dist = f.add("Distance")
+    f.setNumbers(dist, "PointsList", points)
+    thr = f.add("Threshold")
+    f.setNumber(thr, "InField", dist)
+    f.setNumber(thr, "SizeMin", h)
+    f.setNumber(thr, "SizeMax", h_far)
+    f.setNumber(thr, "DistMin", zone)
+    f.setNumber(thr, "DistMax", dist_max)
+    res = f.add("Restrict")
+    f.setNumber(res, "InField", thr)
+    for key, tags in restrict.items():
+        f.setNumbers(res, key, tags)
+    return res
+
+
+def _background_size(fields: list[int]) -> None:
+    """The smallest of the size ``fields`` as the only source of element sizes."""
+    f = gmsh.model.mesh.field
+    fmin = f.add("Min")
+    f.setNumbers(fmin, "FieldsList", fields)
+    f.setAsBackgroundMesh(fmin)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
 
 
 #: gmsh's volume meshers by name (the value of its ``Mesh.Algorithm3D`` option).
@@ -598,74 +653,81 @@ def hertz_3d(
         raise ValueError(
             f"hertz_3d: algorithm_3d must be one of {sorted(VOLUME_MESHERS)}, got {algorithm_3d!r}"
         )
-    R, w, hb = radius, block_half_width, block_height
 
     def build() -> None:
-        occ = gmsh.model.occ
-        ball = occ.addSphere(0, R, 0, R)
-        cut, _ = occ.cut([(3, ball)], [(3, occ.addBox(-2 * R, R, -2 * R, 4 * R, 2 * R, 4 * R))])
-        sph = cut[0][1]
-        block = occ.addBox(-w, -hb, -w, 2 * w, hb, 2 * w)
-        occ.synchronize()
-        s_faces = [t for _, t in gmsh.model.getBoundary([(3, sph)], oriented=False)]
-        b_faces = [t for _, t in gmsh.model.getBoundary([(3, block)], oriented=False)]
-        com = {t: gmsh.model.occ.getCenterOfMass(2, t) for t in s_faces + b_faces}
-        tol = 1e-7 * R
-        s_top = [t for t in s_faces if abs(com[t][1] - R) < tol]
-        s_contact = [t for t in s_faces if t not in s_top]
-        b_top = [t for t in b_faces if abs(com[t][1]) < tol]
-        b_bottom = [t for t in b_faces if abs(com[t][1] + hb) < tol]
-        supports = _sphere_supports(R, sph) if lateral_support else []
-        f = gmsh.model.mesh.field
+        e = _hemisphere_on_block(radius, block_half_width, block_height, lateral_support)
+        dist_max = zone + dist_max_factor * h_far
         fields = []
-        origin = occ.addPoint(0, 0, 0)
-        occ.synchronize()
-        for vol, h in ((sph, h_contact), (block, block_ratio * h_contact)):
-            dist = f.add("Distance")
-            f.setNumbers(dist, "PointsList", [origin])
-            thr = f.add("Threshold")
-            f.setNumber(thr, "InField", dist)
-            f.setNumber(thr, "SizeMin", h)
-            f.setNumber(thr, "SizeMax", h_far)
-            f.setNumber(thr, "DistMin", zone)
-            f.setNumber(thr, "DistMax", zone + dist_max_factor * h_far)
-            res = f.add("Restrict")
-            f.setNumber(res, "InField", thr)
-            f.setNumbers(res, "VolumesList", [vol])
-            faces = s_faces + supports if vol == sph else b_faces
-            f.setNumbers(res, "SurfacesList", faces)
-            f.setNumbers(
-                res,
-                "CurvesList",
-                sorted(
-                    {
-                        abs(c)
-                        for _, c in gmsh.model.getBoundary(
-                            [(2, t) for t in faces], combined=False, oriented=False
-                        )
-                    }
-                ),
-            )
-            fields.append(res)
-        fmin = f.add("Min")
-        f.setNumbers(fmin, "FieldsList", fields)
-        f.setAsBackgroundMesh(fmin)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        for vol, h in ((e.sphere, h_contact), (e.block, block_ratio * h_contact)):
+            faces = e.sphere_faces + e.supports if vol == e.sphere else e.block_faces
+            restrict = {"VolumesList": [vol], "SurfacesList": faces, "CurvesList": _curves(faces)}
+            fields.append(_restricted_size([e.origin], h, h_far, zone, dist_max, restrict))
+        _background_size(fields)
         gmsh.option.setNumber("Mesh.Algorithm3D", VOLUME_MESHERS[algorithm_3d])
-        groups = PhysicalGroups()
-        groups(3, [sph], "sphere")
-        groups(3, [block], "block")
-        groups(2, s_contact, "sphere_contact")
-        groups(2, b_top, "block_contact")
-        groups(2, s_top, "sphere_top")
-        groups(2, b_bottom, "block_bottom")
-        if supports:
-            groups(2, supports[:1], "sphere_support_x")
-            groups(2, supports[1:], "sphere_support_z")
+        _hertz_3d_groups(e)
 
     return generate("hertz_3d", 3, build, comm, path)
+
+
+@dataclass(frozen=True)
+class _HemisphereBlock:
+    """gmsh tags of :func:`hertz_3d`'s geometry."""
+
+    sphere: int
+    block: int
+    sphere_faces: list[int]
+    block_faces: list[int]
+    sphere_top: list[int]  # the flat face y = R
+    sphere_contact: list[int]  # the curved surface
+    block_top: list[int]
+    block_bottom: list[int]
+    supports: list[int]  # the embedded rectangles (x = 0 first), or none
+    origin: int  # a point at the touching point
+
+
+def _hemisphere_on_block(R: float, w: float, hb: float, lateral_support: bool) -> _HemisphereBlock:
+    """The hemisphere of radius ``R`` on the block ``[-w, w] x [-hb, 0] x [-w, w]`` (two
+    separate volumes touching at the origin), its faces sorted, supports embedded if asked."""
+    occ = gmsh.model.occ
+    ball = occ.addSphere(0, R, 0, R)
+    cut, _ = occ.cut([(3, ball)], [(3, occ.addBox(-2 * R, R, -2 * R, 4 * R, 2 * R, 4 * R))])
+    sph = cut[0][1]
+    block = occ.addBox(-w, -hb, -w, 2 * w, hb, 2 * w)
+    occ.synchronize()
+    s_faces = [t for _, t in gmsh.model.getBoundary([(3, sph)], oriented=False)]
+    b_faces = [t for _, t in gmsh.model.getBoundary([(3, block)], oriented=False)]
+    com = {t: gmsh.model.occ.getCenterOfMass(2, t) for t in s_faces + b_faces}
+    tol = 1e-7 * R
+    s_top = [t for t in s_faces if abs(com[t][1] - R) < tol]
+    s_contact = [t for t in s_faces if t not in s_top]
+    b_top = [t for t in b_faces if abs(com[t][1]) < tol]
+    b_bottom = [t for t in b_faces if abs(com[t][1] + hb) < tol]
+    supports = _sphere_supports(R, sph) if lateral_support else []
+    origin = occ.addPoint(0, 0, 0)
+    occ.synchronize()
+    return _HemisphereBlock(
+        sph, block, s_faces, b_faces, s_top, s_contact, b_top, b_bottom, supports, origin
+    )
+
+
+def _curves(faces: list[int]) -> list[int]:
+    """The curves bounding the surfaces ``faces`` (sorted tags)."""
+    boundary = gmsh.model.getBoundary([(2, t) for t in faces], combined=False, oriented=False)
+    return sorted({abs(c) for _, c in boundary})
+
+
+def _hertz_3d_groups(e: _HemisphereBlock) -> None:
+    """The physical groups of :func:`hertz_3d`."""
+    groups = PhysicalGroups()
+    groups(3, [e.sphere], "sphere")
+    groups(3, [e.block], "block")
+    groups(2, e.sphere_contact, "sphere_contact")
+    groups(2, e.block_top, "block_contact")
+    groups(2, e.sphere_top, "sphere_top")
+    groups(2, e.block_bottom, "block_bottom")
+    if e.supports:
+        groups(2, e.supports[:1], "sphere_support_x")
+        groups(2, e.supports[1:], "sphere_support_z")
 
 
 def _sphere_supports(R: float, sphere: int) -> list[int]:

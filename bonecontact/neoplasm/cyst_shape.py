@@ -272,6 +272,10 @@ class CystShapeModel:
         """Mean wall normal velocity δ/Δt of the last step (m/s); ``nan`` before the first step."""
         return self._vn
 
+    def restore_normal_velocity(self, vn: float) -> None:
+        """Set the wall velocity of the last step (a restart: :meth:`normal_velocity`)."""
+        self._vn = float(vn)
+
     def mesh_size(self) -> float:
         """The mesh size used at the next remesh (m)."""
         return self.h0 * (self.equivalent_radius() / self.R_eq0 if self.scale_h else 1.0)
@@ -359,7 +363,12 @@ class CystShapeModel:
             msh, _ = remesh.moved_curve_mesh(b.points, h, self.comm)
         else:
             msh, _ = remesh.moved_surface_mesh(b.points, b.facets, h, self.comm)
+        self.replace_mesh(msh)
+        self.remeshes += 1
+
+    def replace_mesh(self, msh: dmesh.Mesh) -> None:
+        """Continue on ``msh`` (a remesh, or a restart's copy of a checkpoint's mesh;
+        collective) and release the replaced mesh's solvers."""
         old_motion = self.motion
         self._setup(msh)
         remesh.release_replaced_meshes(old_motion)
-        self.remeshes += 1

@@ -183,7 +183,8 @@ class CystShapeGrowth:
         """Continue from :meth:`checkpoint_state` (after :meth:`replace_mesh`)."""
         m = self.model
         m.t, m.steps, m.remeshes = float(state["t"]), int(state["steps"]), int(state["remeshes"])
-        m.f, m._vn = float(state["f"]), float(state["vn"])
+        m.f = float(state["f"])
+        m.restore_normal_velocity(float(state["vn"]))
         m.R_eq0, m.L0, m.h0 = float(state["R_eq0"]), float(state["L0"]), float(state["h0"])
 
     def fields(self) -> dict[str, fem.Function]:
@@ -192,9 +193,7 @@ class CystShapeGrowth:
 
     def replace_mesh(self, msh: dmesh.Mesh) -> None:
         """Continue on ``msh`` (a restart's copy of the checkpoint's mesh; collective)."""
-        old = self.model.motion
-        self.model._setup(msh)
-        remesh.release_replaced_meshes(old)
+        self.model.replace_mesh(msh)
 
     def row(self) -> list[float]:
         """``volume, surface_area, equivalent_radius, pressure`` of the current cyst mesh."""
@@ -266,14 +265,11 @@ class TumourGrowth:
         m = self.model
         if m.degree != 1:
             raise ValueError("checkpoints of a tumour need degree = 1")
-        return {"u_p": m.u_p, "u_q": m.u_q, "u_c": m.u_c, "w": m._w}
+        return {"u_p": m.u_p, "u_q": m.u_q, "u_c": m.u_c, "w": m.mesh_displacement}
 
     def replace_mesh(self, msh: dmesh.Mesh) -> None:
         """Continue on ``msh`` (a restart's copy of the checkpoint's mesh; collective)."""
-        m = self.model
-        old = (m.motion, m._laplacian)
-        m._setup(msh)
-        remesh.release_replaced_meshes(*old)
+        self.model.replace_mesh(msh)
 
     def row(self) -> list[float]:
         m = self.model

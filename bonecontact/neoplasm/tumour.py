@@ -292,10 +292,21 @@ class TumourModel:
 
     # ------------------------------------------------------------------ set-up per mesh
     def _setup(self, msh: dmesh.Mesh) -> None:
+        """Spaces, fields, solvers and forms on ``msh`` (the fields zero, ``w`` too)."""
         self.mesh = msh
-        p = self.params
-        tdim = msh.topology.dim
-        self.dim = tdim
+        self.dim = msh.topology.dim
+        self._spaces_and_fields(msh)
+        self._nutrient_problem(msh)
+        self._pressure_forms(msh)
+        self._transport_forms(msh)
+        self._one = fem.form(fem.Constant(msh, 1.0) * ufl.dx)
+        self._area = fem.form(fem.Constant(msh, 1.0) * ufl.ds)
+        self._vertex_keys(msh)
+
+    def _spaces_and_fields(self, msh: dmesh.Mesh) -> None:
+        """P1 (``degree``) and DG0 spaces, the boundary dofs, the factorised Laplacian, the
+        mesh motion and the fields."""
+        tdim = self.dim
         fdim = tdim - 1
         msh.topology.create_connectivity(fdim, tdim)
         msh.topology.create_connectivity(tdim, 0)
@@ -316,9 +327,12 @@ class TumourModel:
         self._sigma_bc = self._laplacian.g  # boundary values of the pressure solve
         self._w = fem.Function(self.motion.V)  # mesh displacement of the last step
         self._dt = fem.Constant(msh, 1.0)
+
+    def _nutrient_problem(self, msh: dmesh.Mesh) -> None:
+        """The nutrient solve (quasi-steady, or backward Euler in the ALE frame), MUMPS LU."""
+        p = self.params
         u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
-        dx, ds = ufl.dx, ufl.ds
-        # nutrient
+        dx = ufl.dx
         D, lam, eps0 = p.D_c, p.lambda_, p.eps0
         uc_bc = fem.Function(self.V)
         uc_bc.x.array[:] = p.u_c1
@@ -336,21 +350,27 @@ class TumourModel:
             petsc_options=opts,
             petsc_options_prefix=f"bc_tumour_c_{id(self)}_",
         )
-        # rates as UFL expressions of u_c
+
+    def _pressure_forms(self, msh: dmesh.Mesh) -> None:
+        """The rates as UFL expressions of u_c, the pressure source h, and the forms of the
+        flux recovery and of the boundary normals."""
+        p = self.params
+        v = ufl.TestFunction(self.V)
         self.rates = {name: self._rate(getattr(p, name)) for name in p.RATES}
         K_R = fem.Constant(msh, float(p.K_R))
         self.h_expr = (self.rates["K_B"] + K_R) * self.u_p + K_R * self.u_q - K_R
-        L_s = self.h_expr * v * dx
+        L_s = self.h_expr * v * ufl.dx
         self._pressure_rhs = fem.form(L_s)
-        # flux recovery and boundary normals
-        self._residual = fem.form(ufl.inner(ufl.grad(self.sigma), ufl.grad(v)) * dx - L_s)
-        self._bmass = fem.form(v * ds)
+        self._residual = fem.form(ufl.inner(ufl.grad(self.sigma), ufl.grad(v)) * ufl.dx - L_s)
+        self._bmass = fem.form(v * ufl.ds)
         n = ufl.FacetNormal(msh)
-        self._bnormal = fem.form(ufl.inner(n, ufl.TestFunction(self.motion.V)) * ds)
-        # DG0 upwind transport
+        self._bnormal = fem.form(ufl.inner(n, ufl.TestFunction(self.motion.V)) * ufl.ds)
+
+    def _transport_forms(self, msh: dmesh.Mesh) -> None:
+        """The DG0 upwind transport forms and the cell-wise rate expressions."""
         phi = ufl.TestFunction(self.W)
         self._vel = -ufl.grad(self.sigma) - self._w / self._dt
-        nplus = n("+")
+        nplus = ufl.FacetNormal(msh)("+")
         vn = ufl.dot(ufl.avg(self._vel), nplus)
         self._tr_u = fem.Function(self.W)
         uu = self._tr_u
@@ -364,27 +384,42 @@ class TumourModel:
         self._inflow = fem.form(
             (-ufl.min_value(vn, 0) * phi("+") + ufl.max_value(vn, 0) * phi("-")) * ufl.dS
         )
-        self._cellvol = fem.form(phi * dx)
+        self._cellvol = fem.form(phi * ufl.dx)
         self._rate_exprs = {}
         for name, expr in self.rates.items():
             if not isinstance(expr, fem.Constant):
                 self._rate_exprs[name] = fem.Expression(expr, self.W.element.interpolation_points)
-        self._one = fem.form(fem.Constant(msh, 1.0) * dx)
-        self._area = fem.form(fem.Constant(msh, 1.0) * ds)
-        # key (input node index) of each local P1 vertex dof, for the boundary geometry
+
+    def _vertex_keys(self, msh: dmesh.Mesh) -> None:
+        """The key (input node index) of each local P1 vertex dof, for the boundary
+        geometry."""
+        tdim = self.dim
         v2g = remesh.vertex_to_geometry(msh)
         c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
         keys_of_vertex = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[v2g]
         V1dofs = np.asarray(self.motion.V.dofmap.list)[: c2v.shape[0]]
-        self._key_of_p1dof = np.empty(
-            self.motion.V.dofmap.index_map.size_local + self.motion.V.dofmap.index_map.num_ghosts,
-            dtype=np.int64,
-        )
+        im = self.motion.V.dofmap.index_map
+        self._key_of_p1dof = np.empty(im.size_local + im.num_ghosts, dtype=np.int64)
         self._key_of_p1dof[V1dofs.ravel()] = keys_of_vertex[c2v.ravel()]
         if self.degree == 1:
             Vdofs = np.asarray(self.V.dofmap.list)[: c2v.shape[0]]
             self._key_of_dof = np.empty_like(self._key_of_p1dof)
             self._key_of_dof[Vdofs.ravel()] = keys_of_vertex[c2v.ravel()]
+
+    def replace_mesh(self, msh: dmesh.Mesh) -> None:
+        """Continue on ``msh`` (e.g. a restart's copy of a checkpoint's mesh; collective):
+        everything is set up anew on it, the fields zero until the caller fills them
+        (:attr:`u_p`, :attr:`u_q`, :attr:`u_c`, :attr:`mesh_displacement`), and the
+        replaced mesh's solvers are released."""
+        old = (self.motion, self._laplacian)
+        self._setup(msh)
+        remesh.release_replaced_meshes(*old)
+
+    @property
+    def mesh_displacement(self) -> fem.Function:
+        """The mesh displacement ``w`` of the last step (P1 vector; the ALE term of the
+        nutrient with ``eps0 > 0``)."""
+        return self._w
 
     def _rate(self, value: Rate):
         if callable(value):

@@ -322,15 +322,12 @@ def field_view(
         Project a cell field to the vertices for display (:func:`smooth_cell_data`).
     displacement, warp
         Point vector field and the factor of the deformed shape; the factor is stated.
-    contact_points
-        Points (m) to mark (e.g. the slave nodes in contact), with ``contact_label`` in a
-        legend.
+    contact_points, contact_label
+        Points (m) to mark (e.g. the slave nodes in contact) and their legend label.
     outline, outline_label
         Points (m) of a polyline to draw (e.g. a tumour boundary), with its legend label.
-    title
-        Text at the top.
-    cmap
-        Colour map.
+    title, cmap
+        Text at the top, and the colour map.
     window_size, zoom
         Picture size in pixels and camera zoom.
     up
@@ -351,21 +348,68 @@ def field_view(
     """
     if view not in (None, "xy", "xz", "yz"):
         raise ValueError(f"field_view: view must be None, 'xy', 'xz' or 'yz', not {view!r}")
-    pv = _pyvista()
     scale = LENGTH_UNITS[length_unit]
     factor = UNIT_FACTORS.get(unit, 1.0)
+    moved = (grid, displacement, warp) if displacement is not None and warp else None
+    g = _display_grid(grid, name, smooth, moved, scale, factor)
+    cr = _clipped_range(grid, name, factor, upper_percentile, clim)
+    pl = _pyvista().Plotter(off_screen=True, window_size=list(window_size))
+    label = f"{quantity} ({unit})" if unit else quantity
+    _add_field(pl, g, cmap, cr, label, lit=view is None)  # a plane seen face-on: unlit
+    _add_markers(pl, moved, scale, (contact_points, contact_label), (outline, outline_label))
+    _axes(pl, g, length_unit, up, view, axis_titles or {})
+    foot = [f"deformed shape, displacement × {warp:g}"] if moved is not None else []
+    _add_notes(pl, title, foot + ([cr.note(unit)] if cr.clipped else []))
+    pl.camera.zoom(zoom)
+    return _screenshot(pl, path)
+
+
+#: Name of the display copy of the field on the grid of :func:`field_view`.
+_DISPLAY_KEY = "_display"
+
+
+def _display_grid(
+    grid: Any, name: str, smooth: bool, moved: tuple | None, scale: float, factor: float
+) -> Any:
+    """A copy of ``grid`` for display: deformed (``moved``), in display lengths (``scale``),
+    with the field in display units (``factor``) as :data:`_DISPLAY_KEY`."""
     g = grid.copy()
     values = _field_values(g, name, smooth)
-    if displacement is not None and warp:
+    if moved is not None:
+        _, displacement, warp = moved
         u = np.asarray(grid.point_data[displacement])
         g.points = g.points + warp * np.pad(u, ((0, 0), (0, 3 - u.shape[1])))
     g.points = g.points * scale
-    label = f"{quantity} ({unit})" if unit else quantity
-    key = "_display"
     if len(values) == g.n_points:
-        g.point_data[key] = values * factor
+        g.point_data[_DISPLAY_KEY] = values * factor
     else:
-        g.cell_data[key] = values * factor
+        g.cell_data[_DISPLAY_KEY] = values * factor
+    return g
+
+
+def _add_field(pl: Any, g: Any, cmap: str, cr: ColorRange, label: str, lit: bool) -> None:
+    """The display field of ``g`` on a white background, with its colour bar titled
+    ``label`` (``lit = False``: unlit, so that its colours are the colour bar's)."""
+    pl.set_background("white")
+    pl.add_mesh(
+        g,
+        scalars=_DISPLAY_KEY,
+        cmap=cmap,
+        clim=(cr.vmin, cr.vmax),
+        scalar_bar_args=_scalar_bar_args(label),
+        lighting=lit,
+    )
+
+
+def _clipped_range(
+    grid: Any,
+    name: str,
+    factor: float,
+    upper_percentile: float,
+    clim: tuple[float, float] | None,
+) -> ColorRange:
+    """The colour range of :func:`field_view` (``clim``, else the area percentile of the
+    unsmoothed field) and the share of the area above it."""
     cell_vals = _field_values(grid, name, False) * factor
     is_cell = len(cell_vals) == grid.n_cells
     measure = _cell_measures(grid) if is_cell else np.ones(len(cell_vals))  # points: by count
@@ -373,44 +417,44 @@ def field_view(
     if clim is None:
         clim = (cr.vmin, cr.vmax)
     above = float(measure[cell_vals > clim[1]].sum() / measure.sum())
-    cr = ColorRange(clim[0], clim[1], float(cell_vals.max()), above)
-    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
-    pl.set_background("white")
-    # a plane seen face-on: unlit, so that its colours are the colour bar's
-    pl.add_mesh(
-        g,
-        scalars=key,
-        cmap=cmap,
-        clim=clim,
-        scalar_bar_args=_scalar_bar_args(label),
-        lighting=view is None,
-    )
+    return ColorRange(clim[0], clim[1], float(cell_vals.max()), above)
+
+
+def _add_markers(
+    pl: Any,
+    moved: tuple | None,
+    scale: float,
+    contact: tuple[npt.ArrayLike | None, str],
+    outline: tuple[npt.ArrayLike | None, str],
+) -> None:
+    """The contact points and the outline polyline of :func:`field_view`, with a legend."""
     legend = []
-    moved = (grid, displacement, warp) if displacement is not None and warp else None
-    if contact_points is not None and len(np.asarray(contact_points)):
-        pts = _moved(_points3(contact_points), moved) * scale
+    points, label = contact
+    if points is not None and len(np.asarray(points)):
+        pts = _moved(_points3(points), moved) * scale
         pl.add_points(pts, color="deepskyblue", point_size=10, render_points_as_spheres=True)
-        legend.append([contact_label, "deepskyblue"])
-    if outline is not None and len(np.asarray(outline)):
-        pts = _moved(_points3(outline), moved) * scale
+        legend.append([label, "deepskyblue"])
+    points, label = outline
+    if points is not None and len(np.asarray(points)):
+        pts = _moved(_points3(points), moved) * scale
         pl.add_lines(np.vstack([pts, pts[:1]]), color="cyan", width=3, connected=True)
-        legend.append([outline_label or "outline", "cyan"])
+        legend.append([label or "outline", "cyan"])
     if legend:
         pl.add_legend(
             legend, bcolor="white", border=True, loc="upper left", size=(0.28, 0.04 * len(legend))
         )
-    _axes(pl, g, length_unit, up, view, axis_titles or {})
-    notes = [title] if title else []
-    foot = []
-    if displacement is not None and warp:
-        foot.append(f"deformed shape, displacement × {warp:g}")
-    if cr.clipped:
-        foot.append(cr.note(unit))
-    if notes:
-        pl.add_text(notes[0], position="upper_edge", font_size=12, color="black")
+
+
+def _add_notes(pl: Any, title: str, foot: list[str]) -> None:
+    """The title at the top and the notes (deformation scale, clipping) at the bottom."""
+    if title:
+        pl.add_text(title, position="upper_edge", font_size=12, color="black")
     if foot:
         pl.add_text("\n".join(foot), position="lower_left", font_size=10, color="black")
-    pl.camera.zoom(zoom)
+
+
+def _screenshot(pl: Any, path: str | Path) -> Path:
+    """Write the picture to ``path`` (PNG, its folder made) and close the plotter."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     pl.screenshot(str(path))

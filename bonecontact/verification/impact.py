@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 from mpi4py import MPI
 
@@ -291,6 +292,21 @@ def run_bar_impact(
     -------
     ImpactResult
     """
+    integ, setup = _impact_integrator(p, dt, comm, linear, integrator_options or {}, scheme)
+    momentum = _BarMomentum(integ, p.length + 0.5 * p.gap, comm)
+    t_end = p.t_contact + 1.1 * p.duration if t_end is None else t_end
+    res = _run_steps(integ, p, dt, int(np.ceil(t_end / dt - 1e-9)), momentum)
+    integ.destroy()
+    res.setup_time = setup
+    _contact_figures(res)
+    return res
+
+
+def _impact_integrator(
+    p: BarImpact, dt: float, comm: MPI.Comm, linear: str, options: dict, scheme: str
+) -> tuple[Any, float]:
+    """The bars' model with their contact pair, the integrator with the striker moving
+    at ``v₀``, and the seconds of the integrator's set-up."""
     msh, ct, ft = two_bars_2d(comm, p)
     mat = Isotropic(E=p.E, nu=0.0, rho=p.rho)
     model = Mechanics(msh, {STRIKER: mat, STRUCK: mat}, ct, ft)
@@ -304,37 +320,54 @@ def run_bar_impact(
         linear=linear,
         contact=ContactSolver(model.V, [itf]),
         energy_balance=True,
-        **(integrator_options or {}),
+        **options,
     )
     setup = time.perf_counter() - t0
     split = p.length + 0.5 * p.gap
     v0 = fem.Function(model.V)
     v0.interpolate(lambda X: np.vstack([np.where(X[0] < split, p.v0, 0.0), 0.0 * X[1]]))
     integ.set_initial(None, v0)
-    ind = []
-    for side in (1.0, 0.0):
-        e = fem.Function(model.V)
-        e.interpolate(
-            lambda X, s=side: np.vstack([np.where((X[0] < split) == bool(s), 1.0, 0.0), 0.0 * X[1]])
+    return integ, setup
+
+
+class _BarMomentum:
+    """The mean velocities of the two bars: momentum ``(M e)ᵀ v`` over mass ``(M e)ᵀ e``,
+    ``e`` the x-indicator of a bar and ``M`` the scheme's mass matrix (collective)."""
+
+    def __init__(self, integ: Any, split: float, comm: MPI.Comm):
+        model = integ.model
+        ind = []
+        for side in (1.0, 0.0):
+            e = fem.Function(model.V)
+            e.interpolate(
+                lambda X, s=side: np.vstack(
+                    [np.where((X[0] < split) == bool(s), 1.0, 0.0), 0.0 * X[1]]
+                )
+            )
+            ind.append(e)
+        self.Me = np.empty((2, model.num_owned))
+        w = integ.M.createVecLeft()
+        for k, e in enumerate(ind):
+            integ.M.mult(e.x.petsc_vec, w)
+            self.Me[k] = w.array_r
+        w.destroy()
+        mass = comm.allreduce(
+            self.Me @ np.concatenate([e.x.array[: model.num_owned][None] for e in ind]).T,
+            op=MPI.SUM,
         )
-        ind.append(e)
-    # momentum of a bar = (M e)ᵀ v with e its x-indicator (M: the scheme's mass matrix)
-    Me = np.empty((2, model.num_owned))
-    w = integ.M.createVecLeft()
-    for k, e in enumerate(ind):
-        integ.M.mult(e.x.petsc_vec, w)
-        Me[k] = w.array_r
-    w.destroy()
-    mass = comm.allreduce(
-        Me @ np.concatenate([e.x.array[: model.num_owned][None] for e in ind]).T, op=MPI.SUM
-    )
-    mass = np.diag(mass)
+        self.mass = np.diag(mass)
+        self.comm, self.integ, self.n = comm, integ, model.num_owned
 
-    def mean_velocities() -> npt.NDArray[np.float64]:
-        return comm.allreduce(Me @ integ.velocity.x.array[: model.num_owned], op=MPI.SUM) / mass
+    def __call__(self) -> npt.NDArray[np.float64]:
+        """``(v_striker, v_struck)`` now (m/s)."""
+        v = self.integ.velocity.x.array[: self.n]
+        return self.comm.allreduce(self.Me @ v, op=MPI.SUM) / self.mass
 
-    t_end = p.t_contact + 1.1 * p.duration if t_end is None else t_end
-    nsteps = int(np.ceil(t_end / dt - 1e-9))
+
+def _run_steps(
+    integ: Any, p: BarImpact, dt: float, nsteps: int, momentum: _BarMomentum
+) -> ImpactResult:
+    """``nsteps`` steps of ``integ``, recorded (force, active nodes, velocities, energies)."""
     times, forces, n_act, vs, vt, bal = [], [], [], [], [], []
     kin, strain = [integ.balance.kinetic], [integ.balance.strain]
     pdas = 0
@@ -346,21 +379,18 @@ def run_bar_impact(
         times.append(integ.t)
         forces.append(r.normal_force[0])
         n_act.append(r.n_active[0])
-        a, b = mean_velocities()
+        a, b = momentum()
         vs.append(a)
         vt.append(b)
         bal.append(integ.last_balance)
         kin.append(integ.last_balance.kinetic)
         strain.append(integ.last_balance.strain)
     wall = time.perf_counter() - t1
-    integ.destroy()
-    force = np.asarray(forces)
-    on = np.asarray(n_act) > 0
-    res = ImpactResult(
+    return ImpactResult(
         p,
         dt,
         np.asarray(times),
-        force,
+        np.asarray(forces),
         np.asarray(n_act),
         np.asarray(vs),
         np.asarray(vt),
@@ -368,12 +398,16 @@ def run_bar_impact(
         np.asarray(strain),
         bal,
         wall_time=wall,
-        setup_time=setup,
         pdas_iterations=pdas,
     )
+
+
+def _contact_figures(res: ImpactResult) -> None:
+    """Start, duration, number of episodes and mean force of the contact, from the
+    steps with active nodes (left as NaN / 0 without contact)."""
+    on = np.asarray(res.n_active) > 0
     if on.any():
         res.t_start = float(res.time[np.argmax(on)])
-        res.duration = float(on.sum() * dt)
+        res.duration = float(on.sum() * res.dt)
         res.episodes = int(on[0]) + int(np.count_nonzero(on[1:] & ~on[:-1]))
-        res.mean_force = float(force[on].sum() * dt / res.duration)
-    return res
+        res.mean_force = float(res.force[on].sum() * res.dt / res.duration)

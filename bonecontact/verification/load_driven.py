@@ -44,6 +44,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 from mpi4py import MPI
@@ -228,41 +229,52 @@ def sphere_on_block_3d(
     LoadDrivenHertz
     """
     timings: dict[str, float] = {}
+    sizes = dict(h_contact=h_contact, h_far=h_far, zone=zone, dist_max_factor=dist_max_factor)
+    md = _hemisphere_mesh(comm, mesh_file, timings, lift, algorithm_3d, sizes)
+    params, traction = _sphere_load(a_over_R)
+    names = ("sphere", "block", "sphere_top", "sphere_contact", "block_contact")
+    supports = (("sphere_support_x", 0), ("sphere_support_z", 2))
+    return _assemble_problem(
+        md, names, supports, traction, params, linear, rtol, options, timings, approach=bool(lift)
+    )
 
-    def build(path: Path | None):
-        return shapes.hertz_3d(
-            comm,
-            path,
-            radius=LOAD_DRIVEN_RADIUS,
-            h_contact=h_contact,
-            h_far=h_far,
-            zone=zone,
-            dist_max_factor=dist_max_factor,
-            lateral_support=True,
-            algorithm_3d=algorithm_3d,
-        )
 
+def _hemisphere_mesh(
+    comm: MPI.Comm,
+    mesh_file: str | Path | None,
+    timings: dict[str, float],
+    lift: float,
+    algorithm_3d: str,
+    sizes: dict[str, float],
+) -> MeshData:
+    """The mesh of :func:`sphere_on_block_3d` (:func:`bonecontact.meshing.shapes.hertz_3d`
+    with the lateral supports), its hemisphere moved up by ``lift``."""
+    build = partial(
+        shapes.hertz_3d,
+        comm,
+        radius=LOAD_DRIVEN_RADIUS,
+        lateral_support=True,
+        algorithm_3d=algorithm_3d,
+        **sizes,
+    )
     md = _mesh(comm, build, mesh_file, 3, timings)
     if lift:
         _lift_body(md, "sphere", lift)
-    R, E1, nu = LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, LOAD_DRIVEN_NU
-    E2 = LOAD_DRIVEN_STIFFNESS_RATIO * E1
-    a_t = a_over_R * R
+    return md
+
+
+def _sphere_load(a_over_R: float) -> tuple[tuple[float, ...], tuple[float, float, float]]:
+    """``(R, E1, E2, nu, a_target)`` and the traction on the hemisphere's flat face whose
+    resultant gives the Hertz contact radius ``a_over_R * R``."""
+    R, E1, E2, nu, a_t = params = _load_driven_parameters(a_over_R)
     P = hertz_3d.load_for_radius(a_t, R, E1, nu, E2, nu)
-    supports = (("sphere_support_x", 0), ("sphere_support_z", 2))
-    traction = (0.0, -P / (np.pi * R**2), 0.0)
-    return _assemble_problem(
-        md,
-        ("sphere", "block", "sphere_top", "sphere_contact", "block_contact"),
-        supports,
-        traction,
-        (R, E1, E2, nu, a_t),
-        linear,
-        rtol,
-        options,
-        timings,
-        approach=bool(lift),
-    )
+    return params, (0.0, -P / (np.pi * R**2), 0.0)
+
+
+def _load_driven_parameters(a_over_R: float) -> tuple[float, float, float, float, float]:
+    """``(R, E1, E2, nu, a_target)`` of the load-driven problems for ``a_over_R``."""
+    E2 = LOAD_DRIVEN_STIFFNESS_RATIO * LOAD_DRIVEN_E
+    return LOAD_DRIVEN_RADIUS, LOAD_DRIVEN_E, E2, LOAD_DRIVEN_NU, a_over_R * LOAD_DRIVEN_RADIUS
 
 
 def _lift_body(md: MeshData, body: str, lift: float) -> None:
