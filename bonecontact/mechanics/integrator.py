@@ -1,44 +1,10 @@
-"""Static, quasi-static and dynamic (semi-implicit, docs/theory/mechanics.md#time-discretisation)
-integrators.
+"""Static, quasi-static and dynamic integrators with the semi-implicit (backward-difference)
+scheme (docs/theory/mechanics.md#time-discretisation).
 
 Each integrator assembles and factorises (or sets up the preconditioner of) its
-time-independent operator once; a step costs one right-hand side (a few
-matrix–vector products and scaled, pre-assembled load vectors) and one solve.
-
-=============  ======================================  ===================================
-kind           operator A                              right-hand side
-=============  ======================================  ===================================
-static         K                                       F(t)
-quasistatic    Δt K + Kv                               Δt F(t) + Kv uⁿ
-dynamic        M + Δt² K + Δt Kv                       Δt² F(t) + M(2uⁿ − uⁿ⁻¹) + Δt Kv uⁿ
-=============  ======================================  ===================================
-
-Dirichlet conditions are imposed by symmetric elimination on the fixed operator
-(rows and columns of A replaced by the identity, prescribed values lifted into the
-right-hand side with the unmodified operator).
-
-Energy balance (``Integrator(..., energy_balance=True)``)
-----------------------------------------------------------
-With Eⁿ = ½ vⁿᵀ M vⁿ + ½ uⁿᵀ K uⁿ (kinetic only in dynamic runs), vⁿ = (uⁿ − uⁿ⁻¹)/Δt,
-Δu = uⁿ⁺¹ − uⁿ and the physical residual of the step
-r = M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt² + K uⁿ⁺¹ + Kv vⁿ⁺¹ − Fⁿ⁺¹ (the force that contact and
-Dirichlet supports exert), testing the scheme with Δu gives exactly
-
-    Eⁿ⁺¹ − Eⁿ = W_ext + W_dir + W_c − D_visc − D_num,
-    W_ext = Fⁿ⁺¹·Δu,   W_dir = Σ_{Dirichlet dofs} r_i Δu_i,   W_c = Σ_{other dofs} r_i Δu_i,
-    D_visc = Δt |vⁿ⁺¹|²_Kv,   D_num = ½|vⁿ⁺¹ − vⁿ|²_M + ½|Δu|²_K   (both ≥ 0).
-
-The contact work is computed independently of the residual, from the mortar
-multipliers and gaps: W_c = Σ_p D_pp λ_p (g_pⁿ⁺¹ − g_pⁿ) over the slave nodes
-(λ_p ≥ 0 the pressure, g_p = d_p/D_pp − n_p·(U_p − Σ_q M̂_pq U_q) the nodal gap, as
-the PDAS returns it after each step, and from :meth:`Integrator.contact_gaps` for the
-initial state).
-With λ_p gⁿ⁺¹_p = 0 (complementarity) it equals −Σ D λ gⁿ ≤ 0: contact only dissipates.
-The residual-based value is kept as ``contact_work_residual``; their difference, and
-the balance defect ``Eⁿ⁺¹ − Eⁿ − (W_ext + W_dir + W_c − D_visc − D_num)``, measure how
-well the discrete contact forces are those of the multipliers (solver tolerance).
-Quasi-static and static steps obey the same identity without the kinetic and mass
-terms (``D_visc = |Δu|²_Kv/Δt``; static: no viscous term).
+time-independent operator once; a step costs one right-hand side and one solve.
+Dirichlet conditions are eliminated symmetrically; the discrete energy balance
+(``energy_balance=True``) is that of docs/theory/mechanics.md#energy-balance.
 """
 
 from __future__ import annotations
@@ -78,9 +44,9 @@ class Energy:
 class EnergyBalance:
     """Energy balance of one step, or of a run (cumulative), in J (J/m in 2D).
 
-    See the module docstring: ``kinetic + strain`` after the step(s) equals the value
-    before plus ``external_work + dirichlet_work + contact_work − viscous_dissipation
-    − numerical_dissipation`` up to ``defect``.
+    See docs/theory/mechanics.md#energy-balance: ``kinetic + strain`` after the step(s)
+    equals the value before plus ``external_work + dirichlet_work + contact_work −
+    viscous_dissipation − numerical_dissipation`` up to ``defect``.
 
     Attributes
     ----------
@@ -258,7 +224,7 @@ class Integrator:
         :mod:`bonecontact.contact`).  The integrator destroys the solver in
         :meth:`destroy`.
     energy_balance
-        Compute the energy balance of every step (module docstring; a few
+        Compute the energy balance of every step (docs/theory/mechanics.md; a few
         matrix–vector products per step): ``self.last_balance`` holds the last
         step's :class:`EnergyBalance`, ``self.balance`` the running totals since
         :meth:`set_initial`.

@@ -1,46 +1,8 @@
-"""Contact-stabilised Newmark scheme (docs/theory/mechanics.md#contact-stabilised-newmark).
+"""The contact-stabilised Newmark scheme (``[analysis] scheme = "stabilized-newmark"``).
 
-The second time scheme of a dynamic analysis (``[analysis] scheme =
-"stabilized-newmark"``), beside the backward-difference scheme of
-:class:`~bonecontact.mechanics.integrator.Integrator`: the contact-stabilised Newmark
-method of Deuflhard, Krause & Ertel (IJNME 73, 2008) — average acceleration
-(β = 1/4, γ = 1/2, the trapezoidal rule) in the interior, with the predictor projected
-onto the admissible set at the contact nodes before the step.  With τ = Δt, C = Kv:
-
-1. predictor ``p = uⁿ + τ vⁿ``; stabilised predictor ``z = p + δ``, where ``δ`` moves
-   every slave contact node whose predicted gap is negative back onto the master
-   surface along its normal (``U_p ← U_p + g_p n_p``): the projection onto
-   ``{g ≥ 0}`` in the mass norm lumped on the contact boundary (master side held);
-2. the contact problem of the step, solved by the step solver (the PDAS)::
-
-       (M + τ²/4 K + τ/2 C) uⁿ⁺¹ = M z + τ²/4 (Fⁿ + Fⁿ⁺¹ − K uⁿ) + τ/2 C uⁿ + τ²/2 F_c
-
-   (``F_c`` the mean contact force of the step: the solver's force scale is 2/τ²);
-3. ``vⁿ⁺¹ = vⁿ + 2/τ (uⁿ⁺¹ − z)``.
-
-The acceleration of uⁿ is the contact-free one, M⁻¹(Fⁿ − K uⁿ − C vⁿ): the old contact
-force is not carried over (it is what makes plain Newmark chatter and gain energy at
-contact), so the state of a step is (t, uⁿ, vⁿ) and a restart is exact.  Away from
-contact (δ = 0, F_c = 0) the scheme is the trapezoidal rule: second order, no
-numerical dissipation.
-
-Energy balance (``energy_balance=True``), with Δu = uⁿ⁺¹ − uⁿ, F̄ = (Fⁿ + Fⁿ⁺¹)/2 and
-the step residual r = M(vⁿ⁺¹ − vⁿ)/τ + K(uⁿ + uⁿ⁺¹)/2 + C Δu/τ − F̄ (the mean force of
-supports and contact), testing the momentum equation with (vⁿ + vⁿ⁺¹)/2 = (Δu − δ)/τ
-gives exactly
-
-    Eⁿ⁺¹ − Eⁿ = W_ext + W_dir + W_c − D_visc − D_stab,
-    W_ext = F̄·Δu,  W_dir / W_c = r·Δu on the Dirichlet / other dofs,
-    D_visc = |Δu|²_C / τ,   D_stab = δᵀ M (vⁿ⁺¹ − vⁿ) / τ,
-
-E = ½ vᵀMv + ½ uᵀKu.  ``D_stab`` (the ``numerical_dissipation`` column) is the energy
-the stabilisation takes; it vanishes unless the predictor penetrates.  ``W_c`` is again
-computed from the multipliers and gaps (Σ D_pp λ_p Δg_p with λ the mean pressure).
-
-With contact the scheme runs by default with the redistributed mass matrix (no inertia
-at the slave contact nodes, :func:`~bonecontact.mechanics.integrator.redistributed_mass`):
-then ``M δ = 0``, the stabilisation costs no energy and ``Eⁿ⁺¹ − Eⁿ = W_c ≤ 0`` without
-loads and moving supports (``StabilizedNewmark``).
+Average acceleration in the interior, the predictor projected onto the admissible set at
+the contact nodes before the step, and by default the redistributed mass with contact:
+docs/theory/mechanics.md#contact-stabilised-newmark (its energy balance too).
 """
 
 from __future__ import annotations
@@ -88,7 +50,8 @@ def _all_finite(u: fem.Function) -> bool:
 
 
 class StabilizedNewmark(Integrator):
-    """Contact-stabilised Newmark integrator (module docstring); dynamic analyses only.
+    """Contact-stabilised Newmark integrator (docs/theory/mechanics.md#contact-stabilised-newmark);
+    dynamic analyses only.
 
     The constructor takes the arguments of
     :class:`~bonecontact.mechanics.integrator.Integrator` (``kind`` must be
@@ -122,7 +85,7 @@ class StabilizedNewmark(Integrator):
         mass_redistribution: bool | None = None,
         **kwargs,
     ):
-        if mass_redistribution is None:  # default: on with contact (module docstring)
+        if mass_redistribution is None:  # default: on with contact (docs/theory)
             mass_redistribution = kwargs.get("contact") is not None
         kwargs["mass_redistribution"] = bool(mass_redistribution)
         if kind != "dynamic":
@@ -276,7 +239,7 @@ class StabilizedNewmark(Integrator):
 
     # ------------------------------------------------------- energy balance
     def _newmark_balance(self) -> EnergyBalance:
-        """Energy balance of the step just solved (module docstring), from the vectors of
+        """Energy balance of the step just solved (docs/theory/mechanics.md), from the vectors of
         :meth:`_mean_forces`; history not shifted.  Local dot products and one
         collective reduction."""
         vec, tau = self._vec, self.dt

@@ -1,29 +1,8 @@
-"""A joint from two bone surfaces: posing one bone on the other, cartilage layers, one mesh.
+"""A joint from bone surfaces: one bone posed on another (:func:`pose_on`), a bone cut by a
+plane (:func:`clip_surface`), cartilage layers (:func:`cartilage_layer`) and one
+tetrahedral mesh of several bones (:func:`joint_from_surfaces`).
 
-The shipped femur and tibia (``data/anatomy/``) are each in their own body frame; a knee
-built from them needs the femur placed on the tibia.  :func:`pose_on` does that from the
-surfaces alone: vertical rays through both surfaces (:func:`vertical_gaps`) give the gap
-between the upper bone's underside and the lower bone's top in every column of a grid;
-the smallest gap on each side of the joint (the two condyles of a knee, split by the
-lateral coordinate) is levelled by a rotation of the upper bone about the horizontal axis
-normal to the lateral direction (the frontal plane of a knee), and a vertical shift
-leaves the requested gap at both.  The rigid transform is reported (:class:`Pose`).
-
-:func:`clip_surface` cuts a bone surface by a plane and closes the cut (a flat cap, for
-a support or a load), so a scene can keep only the ends of two long bones that meet.
-
-:func:`joint_from_surfaces` meshes several bones into one body of tetrahedra, each bone a
-cortical shell around a cancellous core (as :func:`~bonecontact.meshing.stl.bone_from_surface`)
-with an optional **cartilage layer** (:class:`Cartilage`): the articular facets of the
-bone surface, selected by a :class:`~bonecontact.meshing.stl.SurfaceRegion` (a box, a
-side of a plane, a cone of normals), offset outward by the cartilage thickness along the
-vertices' normals; the layer is the solid between the facets and their offset, tapering
-to nothing over the ring of facets at its rim.  The facets become the bone–cartilage interface
-(the layer is bonded: it shares their triangles), the offset its free, articular surface:
-a facet group to pair in ``[[contact]]``.  The bones are not connected: they are separate
-bodies, meshed independently (non-matching where they meet).
-
-Units: m.  Axes: y up (gravity along −y), as everywhere in bonecontact.
+How each step works: docs/meshing.md (two bones in a joint).  Units: m; y up.
 """
 
 from __future__ import annotations

@@ -1,32 +1,10 @@
-"""Osmotic growth of an odontogenic cyst in a Maxwell visco-elastic surrounding
-(docs/theory/growth.md#cyst-model).
+"""Osmotic growth of an odontogenic cyst in a Maxwell visco-elastic surrounding: the closed
+ODE of a sphere (3D) or of a cylinder per unit length (2D).
 
-After Ward et al. (2004), as used by Nedoma (2015), Section 2: osmotic material is
-supplied through the cyst lining, the osmotic excess pressure pushes the wall out, and
-the surrounding tissue responds as a Maxwell body:
-
-    ds/dt = β S_c                  s: osmotic material in the lumen (mol), S_c: lining area
-    C⁺ = s / v_c                   v_c: cyst volume
-    f = P_h⁺ − P_h⁻ = α (C⁺ − C⁻)   α = R_g T (van 't Hoff)
-    τ df/dt + f = ν dε/dt,  τ = ν/E   (Maxwell; ν: viscosity, E: modulus)
-
-For a sphere (v_c = 4πR³/3, S_c = 4πR²) with logarithmic strain dε = dR/R this closes to
-
-    dR/dt = (R f + 3 τ α β) / (ν + 3 τ (α C⁻ + f))
-    df/dt = (3/R) [α β − (α C⁻ + f) dR/dt]
-
-and with engineering strain (dε = dR/R₀) ν becomes ν R/R₀ in the first denominator.
-The 2D analogue (a cylinder per unit length: v_c = πR², S_c = 2πR, so d(ln v_c) = 2 dR/R)
-has 2 in place of 3 throughout.  Closed-form limits used to verify the integration:
-
-* β = 0: R → R₀ (1 + f₀/(αC⁻))^{1/d} (the osmotic excess is spent; d = 3 or 2);
-* logarithmic strain, long times: dR/dt → β/C⁻ (linear growth);
-* engineering strain, long times: dR/dt → f* R₀/ν with
-  f* = [−αC⁻ + √((αC⁻)² + 4αβν/R₀)]/2 (the same in 2D);
-* viscous limit τ → 0: dR/dt = R f/ν.
-
-Units: SI — R in m, t in s, f in Pa, β in mol m⁻² s⁻¹, C⁻ in mol m⁻³, T in K, ν in Pa s,
-E in Pa.  1 mm of radius per year needs β/C⁻ ≈ 3.2·10⁻¹¹ m/s.
+Model, closed ODE and its limits: docs/theory/growth.md#cyst-model,
+docs/theory/growth.md#closed-cyst-ode and docs/theory/verification.md#cyst-limits.
+Units SI: R in m, t in s, f in Pa, β in mol m⁻² s⁻¹, C⁻ in mol m⁻³, T in K, ν in Pa s,
+E in Pa.
 """
 
 from __future__ import annotations
@@ -175,7 +153,7 @@ def radius_rate(
     Returns
     -------
     callable
-        ``rate(t, [R, f]) -> [dR/dt, df/dt]`` (see the module docstring).
+        ``rate(t, [R, f]) -> [dR/dt, df/dt]`` (docs/theory/growth.md#closed-cyst-ode).
     """
     a, C, b, nu, tau = p.alpha, p.C_minus, p.beta, p.viscosity, p.tau
 

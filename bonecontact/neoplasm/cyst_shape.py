@@ -1,66 +1,8 @@
-"""The general-shape (moving-wall) odontogenic cyst of docs/theory/growth.md#cyst-model on a
-remeshed cyst mesh.
+"""The moving-wall odontogenic cyst on a cyst mesh remeshed by gmsh.
 
-The closed sphere/cylinder ODE of :mod:`bonecontact.neoplasm.cyst` assumes v_c = 4πR³/3 and
-S_c = 4πR².  Here the cyst is a mesh (2D: a polygon-bounded disc mesh, per unit
-thickness; 3D: a tetrahedral mesh inside a closed triangulated surface), and the volume
-v_c and lining (wall) area S_c are taken from the current mesh every step.
-
-Model (docs/theory/growth.md#cyst-model with v_c, S_c from the geometry)
--------------------------------------------------
-    ds/dt = β S_c,   f = α (s/v_c − C⁻),   τ df/dt + f = ν_eff dε/dt
-
-The strain of the surrounding tissue is the volumetric one, d·dε = dv_c/v_c (d = 2 or 3),
-which is dε = dR/R for a sphere or a disc (logarithmic strain).  For engineering strain
-(dε = dR/R₀ for a sphere) the viscosity becomes ν_eff = ν L/L₀ with the mean-radius
-length L = d v_c / S_c (L = R for a sphere or a disc) and L₀ its initial value.  With
-g = (dv_c/dt)/v_c this closes to
-
-    g     = (f + τ α β S_c/v_c) / (ν_eff/d + τ (α C⁻ + f))
-    df/dt = α β S_c/v_c − (α C⁻ + f) g
-
-(for a sphere, g = 3 Ṙ/R and this is exactly the ODE of :mod:`bonecontact.neoplasm.cyst`).  The
-pressure f is uniform in the lumen, so the strain rate is the same all along the wall:
-the wall moves with a **uniform normal velocity** V_n = g v_c / S_c (= Ṙ for a sphere),
-that is, the wall at t + Δt is the parallel surface at distance δ = ∫V_n dt.  In the long
-run (log strain) V_n → β/C⁻ for any shape.
-
-Discretisation (one step t → t + Δt)
-------------------------------------
-1. The boundary of the current mesh is gathered on every rank
-(:func:`bonecontact.neoplasm.remesh.gather_boundary`,
-   keyed by gmsh node, partition independent), and the vertex offset directions m_i
-   (:func:`offset_directions`): 2D the miter vectors, so that every edge moves parallel to
-   itself by δ (the discrete parallel curve, dv/dδ = S_c exactly); 3D the area-weighted
-   normals scaled so that dv/dδ = S_c at δ = 0.
-2. The boundary vertices move to x_i + δ m_i.  The enclosed volume of the moved polygon /
-   polyhedron is an exact polynomial v(δ) (quadratic in 2D, cubic in 3D, fitted exactly
-   from d + 1 evaluations), and the wall area S(δ) (perimeter / sum of triangle areas) is
-   evaluated directly.  The system (δ, f) with dδ/dt = g v(δ) / v′(δ) is integrated over
-   Δt with Radau (rtol 1e-10), so v_c and S_c follow the discrete wall within the step.
-3. The boundary is displaced by δ m_i, extended harmonically into the mesh
-   (:class:`bonecontact.neoplasm.remesh.MeshMotion`); the mesh volume then equals v(δ) to round-off.
-4. Every ``remesh_every`` steps the cyst is re-meshed by gmsh: 2D the boundary is
-   re-sampled by arclength (periodic spline) and the disc re-meshed, 3D the volume is
-   re-tetrahedralised inside the moved surface triangulation (kept, not re-sampled, as
-   for the tumour).  The mesh size follows the growth, h(t) = h₀ R_eq(t)/R_eq(0), unless
-   ``scale_h=False``.  Nothing but the geometry lives on the cyst mesh, so nothing is
-   transferred; f is a single number.
-
-For a disc or a sphere the wall stays a circle or sphere (vertices on a circle move
-radially), and R_eq(t) reproduces the ODE up to the polygonal/polyhedral approximation of
-S_c/v_c, O(h²/R²) (measured in ``tests/test_cyst_shape.py``).
-
-Public API
-----------
-``CystShapeModel(comm, geometry, params, h, *, remesh_every=1, scale_h=True)``
-    ``geometry``: a DOLFINx mesh of the cyst or an ``(N, 2)`` array of polygon nodes (2D).
-    ``CystShapeModel.disc(comm, R, params, h)`` / ``.ball(comm, R, params, h)``.
-    ``.step(dt)``, ``.remesh()``, ``.t``, ``.steps``, ``.remeshes``, ``.f`` (osmotic excess
-    pressure, Pa), ``.solute()`` (s, mol; per unit thickness in 2D), ``.volume()``,
-    ``.surface_area()``, ``.equivalent_radius()``, ``.boundary()``, ``.normal_velocity()``
-    (mean V_n of the last step), ``.mesh`` (a NEW object after each remesh).  All methods
-    are collective.
+The osmotic/Maxwell balance of :mod:`bonecontact.neoplasm.cyst` with the volume and the
+lining area taken from the current mesh; the wall moves by a uniform normal offset each
+step (docs/theory/growth.md#moving-wall-cyst).
 """
 
 from __future__ import annotations
@@ -144,7 +86,7 @@ def offset_directions(b: remesh.Boundary) -> npt.NDArray[np.float64]:
 
 
 class CystShapeModel:
-    """Moving-wall cyst (see the module docstring).
+    """Moving-wall cyst (docs/theory/growth.md#moving-wall-cyst).
 
     Parameters
     ----------

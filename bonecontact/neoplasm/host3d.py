@@ -1,31 +1,11 @@
 """The 3D host mechanics mesh rebuilt around a neoplasm by gmsh (coupled runs).
 
-The 3D counterpart of :mod:`bonecontact.neoplasm.host`.  There is no boolean geometry
-here: the scene mesh's surfaces are handed to gmsh as they are, as *discrete* surfaces,
-and only the volumes are meshed again.
-
-:func:`build_host_mesh3d` (gmsh on rank 0, the result broadcast)
-
-1. reads the scene's tetrahedra per cell group (:func:`read_host_geometry3d`); the cells
-   of ``region`` (the neoplasm at t = 0) join ``host[0]`` (with ``host = []`` they stay
-   ``region``): call the result the *host group*;
-2. recovers every surface of the cell groups: a tetrahedron face on the outer boundary
-   or between two groups; faces with the same pair of groups and the same facet groups,
-   and edge-connected, become one gmsh discrete surface (its triangles and nodes kept
-   exactly);
-3. checks that the neoplasm's closed triangulated surface lies **strictly inside** one
-   body of the host group (every vertex inside, and a clearance of at least a quarter
-   of the neoplasm's mesh size from the body's surface); otherwise a
-   :class:`~bonecontact.neoplasm.host.CouplingError` names the group and the distance
-   (the neoplasm crossing an interface or the outer surface is not supported in 3D);
-4. adds the neoplasm surface as a discrete surface, builds one volume per body (its
-   surface loops: the outer shell first, then its holes, the neoplasm among them) and,
-   for a tumour, the neoplasm's own volume; meshes in 3D with a size that grows
-   linearly with the distance from the neoplasm (its mesh size on the wall);
-5. names the groups: every cell group and facet group keeps its name and tag (a facet
-   group lying only between ``region`` and ``host[0]`` disappears with that interface);
-   a tumour's volume takes the name and tag of ``region``; a cyst leaves a cavity; the
-   neoplasm surface is the facet group ``"<region>_wall"`` with a new tag.
+The 3D counterpart of :mod:`bonecontact.neoplasm.host`, without boolean geometry: the
+scene mesh's surfaces go to gmsh as discrete surfaces (kept node for node), the
+neoplasm's surface becomes a hole of the body it lies strictly inside (and, for a tumour,
+the boundary of a volume of its own), and only the volumes are meshed again
+(:func:`build_host_mesh3d`).  Method, group names and accuracy:
+docs/theory/growth.md#coupling-in-3d.
 """
 
 from __future__ import annotations

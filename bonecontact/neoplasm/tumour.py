@@ -1,79 +1,11 @@
-"""Avascular tumour growth, Problem P_T of docs/theory/growth.md#tumour-model, on a moving and
-remeshed domain.
+"""Avascular tumour growth (Problem P_T) on a moving mesh remeshed by gmsh.
 
-Public API (for the growth-scene driver)
-----------------------------------------
-``TumourParameters``
-    Dataclass mirroring ``[neoplasm.tumour]``: ``D_c, lambda_ (key "lambda"), eps0, u_c1,
-    K_B, K_Q, K_A, K_P, K_D, K_R, gamma, u_p0, u_q0``.  ``K_B ... K_D`` are numbers or
-    callables ``K(u_c)`` built from arithmetic and UFL functions (they are called with a
-    UFL expression of the nutrient; e.g. ``lambda c: 2.0 * (c - 0.7)`` or
-    ``lambda c: ufl.max_value(0.5 - c, 0)``); ``K_R`` is a number.
-    ``TumourParameters.from_dict(table)`` takes the TOML table (numbers or callables).
-``TumourModel(comm, geometry, params, h, *, remesh_every=1, degree=1)``
-    ``geometry``: a DOLFINx mesh of the tumour (2D triangles / 3D tetrahedra, its exterior
-    boundary is the tumour surface), or an ``(N, 2)`` array of polygon nodes (2D).
-    ``TumourModel.disc(comm, R, params, h)`` / ``TumourModel.ball(comm, R, params, h)``
-    start from a circle / sphere.
-    ``.step(dt)`` advances by one growth step (remeshing every ``remesh_every`` steps),
-    ``.remesh()`` remeshes now, ``.t``, ``.mesh`` (the current DOLFINx mesh - a NEW object
-    after each remesh), ``.fields`` (dict ``u_c, u_p, u_q, sigma`` of ``fem.Function``),
-    ``.volume()`` (area in 2D), ``.surface_area()`` (perimeter in 2D),
-    ``.equivalent_radius()`` (sqrt(A/pi) in 2D, (3V/4pi)^(1/3) in 3D),
-    ``.boundary()`` (the surface, replicated: :class:`bonecontact.neoplasm.remesh.Boundary`),
-    ``.normal_velocity()`` (last V_n at the boundary points of ``.boundary()``).
-    All methods are collective.
-
-Discretisation (one step t -> t + dt)
--------------------------------------
-1. Nutrient u_c (P1 by default): quasi-steady ``-D_c Δu + λu = 0`` when ``eps0 = 0``,
-   else backward Euler in the moving (ALE) frame; ``u_c = u_c1`` on ∂ω.
-2. Pressure σ (same space): ``-Δσ = h(u_c, u_p, u_q)``, ``σ = γκ`` on ∂ω, κ the mean
-   curvature of the boundary (:mod:`bonecontact.neoplasm.curvature`: κ = div n, 1/R for a circle,
-   2/R for a sphere).  Both solved with MUMPS LU; the pressure's factorised Laplacian also
-   serves the harmonic extension of step 4 (same matrix, one solve per component).
-3. Normal velocity V_n = -∂σ/∂n at the boundary vertices by variationally consistent flux
-   recovery: the residual ``r_i = a(σ, φ_i) - (h, φ_i)`` of boundary test functions is
-   ``∫ ∂σ/∂n φ_i ds``, divided by the lumped boundary mass ``∫ φ_i ds``.  The nodal normal
-   is ``∫ n φ_i ds`` normalised.
-4. Boundary displacement (explicit Euler) along the nodal normal N_i = ∫ n φ_i ds: in 2D
-   ``d_i = dt V_n,i N_i/|N_i|`` (the boundary is then re-sampled by arclength); in 3D
-   ``d_i = dt V_n,i (∫φ_i ds) N_i/|N_i|²``, scaled so that the volume swept by the moved
-   vertex, d_i·N_i, equals the flux dt V_n,i ∫φ_i ds through its patch (the unit normal
-   alone grows the volume too slowly by 1 − |N_i|/∫φ_i ds = O((h/R)²): 1.3 % on a gmsh
-   ball at h = 0.3R, where the surface is not re-sampled).  Extended harmonically to the
-   mesh (mesh velocity w = d / dt).
-5. Densities u_p, u_q are DG0 (cell averages): upwind finite volumes for
-   ``∂_t u + (v - w)·∇u = 0`` in the ALE frame (v = -∇σ, non-conservative form, face
-   velocity = average of the two cells, no flux through ∂ω where w·n = v·n), explicit with
-   CFL-limited sub-steps: each sub-step is a convex combination, so ``0 ≤ u_p, u_q`` and
-   ``u_p + u_q ≤ 1`` are kept exactly.  Then the reactions ``u_p' = f, u_q' = g`` per cell
-   (rates evaluated at the cell midpoints, classical RK4 over dt) - Lie splitting.
-6. The mesh is moved by the extension (the fields ride along with their cells/nodes).
-7. Every ``remesh_every`` steps: the boundary is gathered, re-sampled by arclength to the
-   target spacing h (2D, periodic spline), the tumour is re-meshed by gmsh and u_p, u_q
-   (and u_c when eps0 > 0) are transferred with a coverage check
-   (:func:`bonecontact.neoplasm.remesh.transfer`, extrapolation band h).  3D: the volume is
-   re-meshed
-   inside the moved surface triangulation, which is not re-sampled (good for near-spherical
-   growth; a strongly distorted surface would need surface re-meshing - not done).
-
-Limitations
------------
-* Surface tension enters the boundary motion explicitly: stable only for
-  dt ≲ 2 R³ / (γ l_max³), l_max ≈ π R / h (capillary time-step limit); no automatic
-  sub-stepping yet - a violated limit shows as a saw-tooth boundary within a few steps.
-* 3D (tests/test_tumour.py): radial growth within 0.6 % of the ODE while a ball of h = 0.3R
-  doubles (dt = 0.1, remeshed every 2 steps), uniform densities with γ = 0.02 within 4e-4
-  (mesh moved, not remeshed).  The nodal V_n scatters by about ±20 % on such a coarse
-  ball, which roughens the kept surface until gmsh can no longer tetrahedralise it ("PLC
-  Error: A segment and a facet intersect", from the third remesh of that test on).  Such
-  a surface is Taubin-smoothed (no shrinkage) and tetrahedralised again
-  (:func:`bonecontact.neoplasm.remesh.moved_surface_mesh`; counted in ``smoothed_remeshes``): the
-  uniform-density test then stays within 0.4 % of the ODE while remeshing every 2 steps.
-  Surface re-sampling (new surface vertices) in 3D is not done.
-* degree > 1 is accepted for the nutrient/pressure solves but boundary motion and surface
-  tension need degree = 1.
+:class:`TumourParameters` mirrors the scene table ``[neoplasm.tumour]``;
+:class:`TumourModel` advances the nutrient, the pressure, the boundary motion, the
+transport and the reactions of the cell fractions one growth step at a time.  The model,
+its discretisation and the step-size limit of surface tension:
+docs/theory/growth.md#tumour-model (remeshing and field transfer:
+docs/theory/remeshing.md).
 """
 
 from __future__ import annotations
@@ -146,7 +78,8 @@ class TumourParameters:
         Nutrient concentration on the tumour boundary (reference units), >= 0.
     K_B, K_Q, K_A, K_P, K_D
         Birth, quiescence, apoptosis, proliferation-recovery and death rates (1/s):
-        numbers or callables ``K(u_c)`` (e.g. a parsed scene expression).
+        numbers or callables ``K(u_c)``, called with the UFL nutrient (a parsed scene
+        expression, or e.g. ``lambda c: ufl.max_value(0.5 - c, 0)``).
     K_R
         Removal rate (1/s), a number.
     gamma
@@ -240,7 +173,30 @@ class TumourParameters:
 
 
 class TumourModel:
-    """Tumour growth on a moving, remeshed mesh (see the module docstring)."""
+    """Tumour growth on a moving, remeshed mesh (docs/theory/growth.md#tumour-discretisation).
+
+    Parameters
+    ----------
+    comm
+        Communicator of the tumour mesh.
+    geometry
+        The initial tumour: a DOLFINx mesh (2D triangles / 3D tetrahedra; its exterior
+        boundary is the tumour surface) or ``(N, 2)`` polygon nodes (2D).
+        :meth:`disc` and :meth:`ball` start from a circle or a sphere.
+    params
+        :class:`TumourParameters`.
+    h
+        Mesh size (m, or the units of ``params``): interior size and boundary spacing.
+    remesh_every
+        Growth steps between remeshes, >= 0 (0: never, the mesh only moves).
+    degree
+        Degree of the nutrient and pressure; boundary motion and surface tension need 1.
+
+    :meth:`step` advances one growth step; ``t``, ``mesh`` (a new object after each
+    remesh) and :attr:`fields` give the state; :meth:`volume`, :meth:`surface_area`,
+    :meth:`equivalent_radius`, :meth:`boundary` and :meth:`normal_velocity` measure it.
+    All methods are collective.
+    """
 
     def __init__(
         self,

@@ -1,31 +1,7 @@
-"""Longitudinal impact of two identical elastic bars (docs/theory/verification.md#two-bar-impact):
-set-up and run.
-
-A bar (the *striker*, ``0 ≤ x ≤ L``) moving at ``v₀`` hits an identical bar at rest
-(the *struck* bar, ``L + gap ≤ x ≤ 2L + gap``) across a small gap; frictionless dual
-mortar contact (slave: the struck bar's end face), no supports, no load.  With ν = 0
-the plane-strain strip carries the one-dimensional bar wave (no lateral stress), with
-``c = √(E/ρ)``.  Reference (elementary wave theory, e.g. Graff, *Wave Motion in Elastic
-Solids*, §2.1; Johnson, *Impact Strength of Materials*):
-
-* contact starts at ``t₀ = gap / v₀``;
-* compressive waves ``σ = −ρ c v₀/2`` run into both bars, reflect at the free ends as
-  unloading waves and meet again at the interface at ``t₀ + 2L/c``: contact lasts
-  ``2L/c`` with constant force ``F = ρ c v₀ A / 2`` (A = the strip height per unit
-  thickness in 2D);
-* afterwards the striker is at rest and the struck bar moves at ``v₀`` (velocities
-  exchanged; kinetic energy conserved).
-
-The mesh is structured: ``nx`` columns of ``ny`` (even) rows of right triangles per bar,
-the diagonals mirrored about the mid-line ``y = H/2`` so that the discrete problem is
-symmetric and the bars do not rotate.  Both end faces have the same nodes (the
-meshes match across the gap, but the mortar treats them as non-matching surfaces).
-
-The semi-implicit scheme of docs/theory/mechanics.md#time-discretisation damps a mode of frequency ω
-by the factor
-``(1 + ω²Δt²)^(−1/2)`` per step: the wave fronts are smeared over ~``√(2L Δt / c)``
-in time, which sets the accuracy of the exchanged velocities and of the contact
-duration (see :func:`run_bar_impact` and ``benchmarks/bench_impact.py``).
+"""Longitudinal impact of two identical elastic bars: the structured mesh
+(:func:`two_bars_2d`), the run (:func:`run_bar_impact`) and its figures against
+elementary wave theory, with the smearing of the wave fronts by the time scheme
+(docs/theory/verification.md#two-bar-impact).
 """
 
 from __future__ import annotations
@@ -118,7 +94,13 @@ class BarImpact:
 
 
 def two_bars_2d(comm: MPI.Comm, p: BarImpact) -> tuple[mesh.Mesh, mesh.MeshTags, mesh.MeshTags]:
-    """Structured mesh of the two bars (see the module docstring).
+    """Structured mesh of the two bars: the striker ``0 ≤ x ≤ L``, the struck bar
+    ``L + gap ≤ x ≤ 2L + gap``.
+
+    ``nx`` columns of ``ny`` (even) rows of right triangles per bar, the diagonals mirrored
+    about the mid-line ``y = H/2`` so that the discrete problem is symmetric and the bars
+    do not rotate.  Both end faces have the same nodes (the meshes match across the gap;
+    the mortar treats them as non-matching surfaces).
 
     Returns
     -------
@@ -247,7 +229,8 @@ class ImpactResult:
         return float(1.0 - self.energy[-1] / self.energy[0])
 
     def errors(self) -> dict[str, float]:
-        """Relative errors against the references of the module docstring."""
+        """Relative errors against the references of
+        docs/theory/verification.md#two-bar-impact."""
         p = self.params
         return {
             "start": (self.t_start - p.t_contact) / p.duration,

@@ -1,42 +1,11 @@
-"""Load-driven Hertz problems: a body held in the load direction only by the contact.
+"""Load-driven Hertz problems: a curved body held in the load direction only by the contact.
 
-:func:`sphere_on_block_3d` — a hemisphere (radius R = 10 mm, E = 2 GPa, ν = 0.3) on a
-block a thousand times stiffer; :func:`half_disc_on_block_2d` — its plane-strain twin
-(a half disc on a block).  The flat face of the curved body is loaded by a uniform
-traction whose resultant P gives a Hertz contact radius (half-width) a = ``a_over_R`` R
-(default a/R = 0.1).  Nothing holds the curved body in the load direction but the
-contact: it starts touching the block at (or, in 3D, next to) one node and must find
-its contact zone from there, as a bone under body weight does.
-
-What is fixed
--------------
-* the bottom face of the block, every component;
-* of the curved body, only the rigid modes that a frictionless contact cannot remove
-  (the sliding translations and the rotations about the centre of the circle/sphere,
-  which leave the gap unchanged), by Dirichlet conditions *normal to the load*:
-
-  - 3D: ``u_x = 0`` on a rectangle of the plane x = 0 and ``u_z = 0`` on a rectangle
-    of the plane z = 0 inside the hemisphere (``0.4 R <= y <= 0.9 R``, facet groups
-    ``sphere_support_x`` / ``sphere_support_z`` of
-    :func:`bonecontact.meshing.shapes.hertz_3d` with ``lateral_support=True``) —
-    x- and z-translation, and the rotations about x, y and z;
-  - 2D: ``u_x = 0`` on a segment of the axis x = 0 inside the half disc
-    (``cyl_support``) — the x-translation and the rotation.
-
-  The axisymmetric (symmetric) solution has exactly these displacements there, so
-  the conditions carry no load in the exact solution, and none of them acts in the
-  load direction: the vertical contact resultant equals the applied load (checked
-  by :func:`hertz_errors`).
-
-The mesh is refined within ``zone`` of the touching point (element size
-``h_contact`` on the curved body, ``block_ratio * h_contact`` on the block) and grows
-to ``h_far``.  The builders return a :class:`LoadDrivenHertz` with the pieces
-(mesh data, :class:`~bonecontact.mechanics.model.Mechanics` model, contact interface,
-:class:`~bonecontact.mechanics.integrator.Integrator`) and the wall time of each
-set-up phase, so that benchmarks can time mesh, assembly, mortar geometry and solver
-set-up separately; :meth:`LoadDrivenHertz.solve` runs the contact solve and
-:func:`hertz_errors` compares the result with Hertz's solution
-(docs/theory/verification.md#hertz-contact).
+:func:`sphere_on_block_3d` (a hemisphere on a block a thousand times stiffer), its
+plane-strain twin :func:`half_disc_on_block_2d`, and the half disc that starts apart.
+The builders return a :class:`LoadDrivenHertz` with its pieces and the wall time of each
+set-up phase; :func:`hertz_errors` compares a solve with Hertz's solution.  Set-up (load,
+the rigid modes fixed and why): docs/theory/verification.md#load-driven-hertz-problems;
+reference: docs/theory/verification.md#hertz-contact.
 """
 
 from __future__ import annotations
@@ -86,7 +55,7 @@ LOAD_DRIVEN_STIFFNESS_RATIO = 1000.0
 
 @dataclass
 class LoadDrivenHertz:
-    """A built load-driven Hertz problem (see the module docstring).
+    """A built load-driven Hertz problem (docs/theory/verification.md#load-driven-hertz-problems).
 
     Attributes
     ----------
@@ -187,7 +156,8 @@ def sphere_on_block_3d(
     E = 2 GPa, ν = 0.3; block ``[-20, 20] x [-20, 0] x [-20, 20]`` mm, E = 2 TPa,
     ν = 0.3, fixed at its bottom.  The flat face y = R carries the uniform traction
     ``(0, -P/(πR²), 0)`` with ``P = hertz_3d.load_for_radius(a_over_R R, ...)``; the
-    hemisphere's lateral rigid modes are fixed as the module docstring says.
+    hemisphere's lateral rigid modes are fixed as
+    docs/theory/verification.md#load-driven-hertz-problems says.
 
     Parameters
     ----------

@@ -1,67 +1,11 @@
 """The contact robustness matrix: contact configurations generated from a few parameters,
 each built as a gmsh mesh and a scene file and run through the documented user path.
 
-A :class:`Config` names one configuration: the dimension, the shapes in contact
-(curved-on-flat, flat-on-flat, curved-on-curved, a slave surface wider than its master),
-where the first touch falls (at a slave node or between two), the initial gap in slave
-element sizes (touching, apart, slightly interpenetrating), what drives the slave body
-(a total force, ``[[force]]``, on its top face with nothing but the contact to hold it
-in the load direction, or a prescribed displacement of that face), the stiffness contrast
-E_master / E_slave, the ratio of the slave and master element sizes at the contact, the
-friction law and the analysis (static or dynamic).  :func:`run_config` writes the mesh
-(:func:`build_mesh`) and the scene (:func:`scene_text`, docs/scene_format.md), runs the
-scene with :func:`bonecontact.runners.dispatch.run_scene` (the function that
-``bonecontact run`` calls) and turns what the run wrote (``summary.json``,
-``history.csv``, ``contact_<pair>.csv``) into a :class:`Record`.
-
-The geometry (SI units, R = 10 mm)
-----------------------------------
-* the slave body is on top: a *punch* (the lower half of a disc/ball of radius R under
-  a rectangle/cylinder of height R/2, so that its flat top face lies above the centre
-  of curvature) or a block; the master body is below: a block, or (curved-on-curved) a
-  block whose top is a circular/spherical cap of radius 2R;
-* element sizes: the coarser side at the contact has a/4 (2D) or a/2 (3D) for curved
-  bodies (a = 0.1 R in 2D, 0.15 R in 3D: the Hertz half-width/radius the load is chosen
-  for), R/5 or R/3 for flat ones; the other side is ``size_ratio`` times finer or
-  coarser; ``fine`` refines both;
-* the slave body's top face is fixed in the tangential directions (``u_x`` and, in 3D,
-  ``u_z``), the master's bottom face in every direction.  These rollers hold the
-  slave's sliding translations and every rotation (the top face lies above the centre
-  of curvature), and none acts in the load direction: under a force the slave body is
-  held vertically only by the contact;
-* flat blocks have ν = 0, so the exact solution of flat-on-flat is a uniform uniaxial
-  stress whatever the friction law and contrast; curved bodies have ν = 0.3.
-
-References (the record's checks)
---------------------------------
-* ``balance``: static runs: the largest of the global equilibrium of the vertical
-  reactions of the two supports and the applied load (``history.csv``: the reactions
-  come from the assembled residual), the master's reaction against the load of the
-  design (load-driven: the slave body is held vertically only by the contact), and,
-  flat on flat, the pair's ``normal_force`` (Σ D λ) against the master's reaction —
-  each relative to the load (tolerance 1e-8); dynamic runs: the energy-balance defect
-  of ``summary.json`` over the largest energy of the run;
-* ``closed_form``: flat-on-flat: the largest deviation of the active nodes' pressure
-  from the uniform pressure (the force over the face, or δ / Σ(H/E) of the two blocks
-  in series for a prescribed approach δ) relative to it (tolerance 1e-6); curved
-  bodies: the larger of the relative errors of the Hertz half-width/radius and peak
-  pressure fitted from the pressures (λ² = p₀²(1 − r²/a²) over r < 0.8 a), against
-  Hertz's values for the measured vertical force (the master's reaction) and the
-  relative radius 1/R = 1/R₁ + 1/R₂ (tolerance 8 % in 2D at a/h = 4, 30 % in 3D at
-  a/h = 2: reduced meshes; the refinement studies are in
-  tests/verification/test_hertz.py); wide slave, dynamic runs and friction between
-  curved bodies of different materials (Hertz's solution is frictionless): none.
-
-The matrix
-----------
-The Cartesian product of :data:`LEVELS` is far too large to run, so :func:`matrix`
-returns a *covering design*: every pair of values of any two parameters occurs in at
-least one configuration (a greedy all-pairs cover, :func:`pairwise`), plus the hard
-corners (:data:`HARD_CORNERS`: the largest gap, contrast and size ratio together, the
-issue-23 half disc, ...), plus configurations that are ill-posed by construction
-(``supported=False``: nothing holds the slave body sideways, frictionless), which
-:meth:`Config.well_posed` recognises and which are not counted as failures.  Each
-configuration can be run on any number of ranks; :func:`same_answer` compares two runs.
+:class:`Config` is one configuration, :data:`LEVELS` the parameter values, :func:`matrix`
+the covering design that is run, :func:`run_config` one run (mesh, scene, ``run_scene``)
+turned into a :class:`Record` with its checks, :func:`same_answer` the comparison of two
+runs.  Geometry, checks and the choice of configurations:
+docs/theory/verification.md#contact-robustness-matrix.
 """
 
 from __future__ import annotations
@@ -136,7 +80,7 @@ LEVELS: dict[str, tuple] = {
 
 @dataclass(frozen=True)
 class Config:
-    """One contact configuration (see the module docstring).
+    """One contact configuration (docs/theory/verification.md#contact-robustness-matrix).
 
     Attributes
     ----------
@@ -738,7 +682,8 @@ class Record:
     time
         Wall time of the run (s; ``summary.json`` ``wall_time_s``).
     balance, closed_form
-        The errors of the module docstring (NaN where none applies).
+        The checks of docs/theory/verification.md#contact-robustness-matrix (NaN where
+        none applies).
     outcome
         ``pass``, ``FAIL (...)`` naming the check that failed, ``ill-posed (refused)``
         or ``ill-posed (ran)``.
