@@ -803,12 +803,6 @@ class FractureSpec:
     initiation_length: float | None = None
     coefficient: float = 0.0
 
-    @property
-    def friction(self) -> float:
-        """Deprecated: the old name of :attr:`coefficient` (it is the Coulomb coefficient,
-        not a law); kept until the runners read ``coefficient``."""
-        return self.coefficient
-
 
 @dataclass(frozen=True)
 class CrackSpec:
@@ -821,12 +815,6 @@ class CrackSpec:
     region: str
     coefficient: float = 0.0
     front_points: int = 8
-
-    @property
-    def friction(self) -> float:
-        """Deprecated: the old name of :attr:`coefficient` (it is the Coulomb coefficient,
-        not a law); kept until the runners read ``coefficient``."""
-        return self.coefficient
 
     def face_pair(self, name: str, slave: str, master: str) -> ContactSpec:
         """The contact pair of the crack's faces: frictionless, or Coulomb with

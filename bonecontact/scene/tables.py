@@ -204,8 +204,8 @@ class TableReader:
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(key, f"must be an integer, got {describe_value(value)}")
         if minimum is not None and value < minimum:
-            what = "a positive integer" if minimum == 1 else "an integer"
-            raise self.error(key, f"must be {what} (an integer >= {minimum}), got {value}")
+            what = "a positive integer (>= 1)" if minimum == 1 else f"an integer >= {minimum}"
+            raise self.error(key, f"must be {what}, got {value}")
         return value
 
     def string(

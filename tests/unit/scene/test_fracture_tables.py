@@ -106,7 +106,12 @@ BAD = [
     ("\n[fracture]\npropagate = 1\n", "[fracture]", "propagate", "true or false"),
     ("\n[fracture]\npropagate = true\n", "[fracture]", "increment", "is required"),
     ("\n[fracture]\nincrement = -1.0\n", "[fracture]", "increment", "positive number"),
-    ("\n[fracture]\nmax_increments = 0\n", "[fracture]", "max_increments", "(an integer >= 1)"),
+    (
+        "\n[fracture]\nmax_increments = 0\n",
+        "[fracture]",
+        "max_increments",
+        "a positive integer (>= 1)",
+    ),
     ("\n[fracture]\ntip_size = 0.0\n", "[fracture]", "tip_size", "positive number"),
     ("\n[fracture]\nlength = 1.0\n", "[fracture]", "length", "unknown key"),
     ('\n[[crack]]\nregion = "plate"\n', "[[crack]] #1", "points", "missing required key"),
