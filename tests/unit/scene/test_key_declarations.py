@@ -373,3 +373,94 @@ def test_key_and_table_declarations_refuse_mistakes() -> None:
         Table("t", (Key("x", "number"), Key("x", "string")))
     with pytest.raises(ValueError, match="is not a key"):
         Table("t", (Key("x", "number"),), renamed={"y": "z"})
+
+
+# --------------------------------------------------------------------------------------
+# one name per meaning: friction is a law, coefficient a number; FrictionLaw in one place
+# --------------------------------------------------------------------------------------
+CONTACT_LAWS = [
+    ("none", {}),
+    ("tresca", {"bound": 2.5e5}),
+    ("coulomb", {"coefficient": 0.3}),
+    ("coulomb", {"coefficient": 0.3, "coulomb_update": "fixed_point"}),
+    ("coulomb", {"coefficient": 0.0}),
+]
+
+
+@pytest.mark.parametrize(
+    "law, values",
+    CONTACT_LAWS,
+    ids=[f"{law}-{len(v)}-{i}" for i, (law, v) in enumerate(CONTACT_LAWS)],
+)
+def test_contact_friction_law_is_built_from_the_file(tmp_path: Path, law: str, values) -> None:
+    """``[[contact]] friction`` names the law and ``coefficient`` / ``bound`` its numbers:
+    ContactSpec.friction_law() is the solver's law with the file's values and the declared
+    defaults for the rest."""
+    from bonecontact.contact.friction import FrictionLaw
+
+    entry = {"name": "pair", "slave": "a", "master": "b", "friction": law, **values}
+    doc = copy.deepcopy(MESH_SCENE) | {"contact": [entry]}
+    pair = load_scene(_write(tmp_path, doc)).contacts[0]
+    got = pair.friction_law()
+    expected = FrictionLaw(
+        law,
+        values.get("coefficient", S.CONTACT_TABLE.default("coefficient")),
+        values.get("bound", S.CONTACT_TABLE.default("bound")),
+        values.get("coulomb_update", S.CONTACT_TABLE.default("coulomb_update")),
+    )
+    assert got == expected
+    assert (got.kind, got.coefficient, got.bound) == (
+        law,
+        float(values.get("coefficient", 0.0)),
+        float(values.get("bound", 0.0)),
+    )
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.2, 1.5])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_crack_face_pair_follows_its_coefficient(tmp_path: Path, mu: float, dim: int) -> None:
+    """A crack's face pair: Coulomb with the fixed-point bound and the crack's coefficient
+    when it is > 0, else frictionless (the same ContactSpec a [[contact]] with these values
+    gives)."""
+    crack = (
+        {"name": "c", "points": [[0.0, 0.0], [1e-3, 0.0]], "region": "plate"}
+        if dim == 2
+        else {"name": "c", "centre": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0]}
+        | {"radius": 1e-3, "region": "plate"}
+    )
+    doc = copy.deepcopy(MESH_SCENE) | {"crack": [crack | {"coefficient": mu}]}
+    doc["scene"]["dimension"] = dim
+    if dim == 3:
+        doc = {k: v for k, v in doc.items() if k in ("format", "scene", "analysis", "material")}
+        doc |= {"crack": [crack | {"coefficient": mu}], "fracture": {}}
+    spec = load_scene(_write(tmp_path, doc)).cracks[0]
+    assert spec.coefficient == mu
+    pair = spec.face_pair("c", "crack_plus", "crack_minus")
+    law = pair.friction_law()
+    if mu > 0:
+        assert (law.kind, law.coefficient, law.update) == ("coulomb", mu, "fixed_point")
+    else:
+        assert (law.kind, law.coefficient, law.update) == ("none", 0.0, "previous_step")
+    assert (pair.name, pair.slave, pair.master, pair.bound) == (
+        "c",
+        "crack_plus",
+        "crack_minus",
+        0.0,
+    )
+
+
+def test_friction_is_a_law_and_coefficient_a_number_in_every_table() -> None:
+    """Across the declarations, ``friction`` is only ever a string key (a law) and
+    ``coefficient`` only ever a number; the old ``friction = <number>`` of the crack tables
+    is a declared rename to ``coefficient``."""
+    kinds = {
+        (key.name, key.type)
+        for table in S.TABLES.values()
+        for key in table.keys
+        if key.name in ("friction", "coefficient")
+    }
+    assert kinds == {("friction", "string"), ("coefficient", "number")}
+    assert S.CONTACT_TABLE["friction"].choices == ("none", "tresca", "coulomb")
+    renamed = {name for name, t in S.TABLES.items() if t.renamed}
+    assert renamed == {"fracture", "crack", "crack (3D)"}
+    assert all(S.TABLES[n].renamed == {"friction": "coefficient"} for n in renamed)
