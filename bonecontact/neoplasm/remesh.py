@@ -76,6 +76,7 @@ from dolfinx.fem import petsc as fem_petsc
 from dolfinx.io import gmsh as gmsh_io
 
 from bonecontact.common.geometry import signed_polygon_area
+from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
 
 __all__ = [
@@ -121,8 +122,9 @@ def release_replaced_meshes(*holders: DirichletLaplacian | MeshMotion | None) ->
     gc.collect()
 
 
-class RemeshError(RuntimeError):
-    """gmsh failed to mesh a moved boundary, or the boundary is not a simple closed curve."""
+#: gmsh failed to mesh a moved boundary, or the boundary is not a simple closed curve: the
+#: one meshing failure type of the package (the former name, kept for its users).
+RemeshError = MeshingError
 
 
 class CoverageError(RuntimeError):

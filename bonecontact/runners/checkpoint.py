@@ -1,19 +1,23 @@
-"""Restart checkpoints of mechanics runs, and the clean stop on SIGINT/SIGTERM (docs/checkpoint.md).
+"""Restart checkpoints of every run kind, and the clean stop on SIGINT/SIGTERM (docs/checkpoint.md).
 
-A checkpoint is a directory ``<output>/checkpoints/step_<k>`` (k: 8 digits) holding
+One protocol for every run kind.  What a run kind saves is a :class:`RunState`: its fields
+(``state.h5``), a small dict of scalars (``meta.json``) and the result tables it continues;
+:class:`MechanicsState` (mechanics runs), :class:`CrackState` (crack scenes: a mechanics
+state on the cracked mesh, with fracture.csv) and :class:`GrowthState` (growth-only and
+coupled runs).  One :class:`Checkpointer` writes, finds, validates and resumes them:
 
-* ``state.h5``: HDF5 written collectively by PETSc's HDF5 viewer; every field is a
-  dataset in *input order*: entry ``ncomp·i + c`` belongs to node ``i`` of the mesh file
-  (``mesh.geometry.input_global_indices``), so the file does not depend on the partition
-  and a restart may use another number of ranks;
-* ``mesh.vtkhdf``: the mesh of the run (:func:`dolfinx.io.vtkhdf.write_mesh`);
-* ``meta.json``: format number, step, time, counters, running energy balance, the
-  contact solver's scalar state, and the size and SHA-256 of ``state.h5`` (written last).
-
-It is written under a temporary name (``.step_<k>.tmp``), every file is flushed to disk
-(fsync), then the directory is renamed: a checkpoint that exists under its final name is
-complete.  The last :data:`KEEP` checkpoints are kept.  On restart, the newest checkpoint
-whose ``state.h5`` matches its checksum is used; a damaged one is skipped with a warning.
+* a checkpoint is a directory ``<output>/checkpoints/step_<k>`` (k: 8 digits) with
+  ``state.h5`` (HDF5 written collectively by PETSc's HDF5 viewer, every field a dataset in
+  the *input order* of :class:`InputOrder`, so a restart may use another number of ranks),
+  ``mesh.vtkhdf`` (the mesh, for viewing) and ``meta.json`` (format number, kind, step,
+  time, ranks, the state's scalars, the run's entries, size and SHA-256 of ``state.h5``);
+* it is written under a temporary name (``.step_<k>.tmp``), every file is flushed to disk,
+  ``meta.json`` is written last and the directory renamed: a checkpoint under its final
+  name is complete (:func:`save_checkpoint`); the last :data:`KEEP` are kept;
+* a restart takes the named checkpoint, or the newest whose ``state.h5`` matches its
+  checksum (a damaged one is skipped with a warning; :func:`find_checkpoint`), checks its
+  kind and the entries the scene must agree on, restores the state and cuts the tables
+  after the checkpoint's step (:meth:`Checkpointer.resume`).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, Protocol
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -41,30 +45,45 @@ from petsc4py import PETSc
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 from dolfinx.io import vtkhdf
 
+from bonecontact.common.errors import CheckpointError
 from bonecontact.common.version import __version__
+from bonecontact.fracture.propagation import FRACTURE_COLUMNS
 from bonecontact.mechanics.integrator import Integrator
+from bonecontact.neoplasm.growth import CystShapeGrowth, CystSphereGrowth, TumourGrowth
+from bonecontact.neoplasm.remesh import mesh_from_cells
 
 __all__ = [
+    "CRACK_KIND",
     "FORMAT_VERSION",
+    "GROWTH_KIND",
     "KEEP",
     "KIND",
     "CheckpointError",
     "CheckpointSchedule",
     "Checkpointer",
+    "CrackState",
+    "GrowthState",
     "InputOrder",
+    "MechanicsState",
     "RunCounters",
+    "RunState",
     "StopRequest",
     "checkpoint_dir",
     "checkpoint_summary",
     "find_checkpoint",
     "on_root",
     "read_checkpoint",
+    "read_growth_state",
     "save_checkpoint",
+    "signal_name",
+    "trim_fracture_table",
     "trim_rows",
     "trim_tables",
     "write_checkpoint",
+    "write_growth_checkpoint",
 ]
 
 #: Format number of a checkpoint (meta.json ``format``); a restart refuses any other.
@@ -73,17 +92,33 @@ FORMAT_VERSION = 1
 KEEP = 2
 #: The ``kind`` of a mechanics checkpoint's meta.json.
 KIND = "bonecontact mechanics checkpoint"
+#: The ``kind`` of a crack scene's checkpoint.
+CRACK_KIND = "bonecontact crack checkpoint"
+#: The ``kind`` of a growth-only or coupled run's checkpoint.
+GROWTH_KIND = "bonecontact growth checkpoint"
 _NAME = re.compile(r"^step_(\d{8})$")
 _TABLES = ("history.csv", "probes.csv")
 
-
-class CheckpointError(Exception):
-    """A checkpoint cannot be written, found or read (the message says which and why)."""
+Driver = CystSphereGrowth | CystShapeGrowth | TumourGrowth
 
 
 # ----------------------------------------------------------------------------- ordering
+def _space_keys(V: fem.FunctionSpace) -> npt.NDArray[np.int64]:
+    """The input (mesh file) number of every owned dof block of the P1 space ``V``."""
+    msh = V.mesh
+    cells = V.dofmap.list
+    gnodes = msh.geometry.dofmaps[0]
+    if cells.shape != gnodes.shape:
+        raise CheckpointError("checkpoints need a P1 space on a P1 mesh")
+    nblocks = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+    keys = np.full(nblocks, -1, dtype=np.int64)
+    inp = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)
+    keys[cells.ravel()] = inp[gnodes.ravel()]
+    return keys[: V.dofmap.index_map.size_local]
+
+
 class InputOrder:
-    """Moves per-node arrays between this rank's owned nodes and the input order.
+    """Moves per-entity arrays between this rank's owned entities and the input order.
 
     The input order numbers the nodes as the mesh file does
     (``mesh.geometry.input_global_indices``); it is the same for any partition.
@@ -91,25 +126,24 @@ class InputOrder:
     Parameters
     ----------
     V
-        A P1 vector space on a mesh with P1 geometry (node = dof block).
+        A P1 vector space on a mesh with P1 geometry (node = dof block); or ``None`` with
+        ``comm`` and ``keys`` (:meth:`of_keys`).
+    comm, keys
+        The communicator and the position in the file of each owned entity.
     """
 
-    def __init__(self, V: fem.FunctionSpace):
-        msh = V.mesh
-        cells = V.dofmap.list
-        gnodes = msh.geometry.dofmaps[0]
-        if cells.shape != gnodes.shape:
-            raise CheckpointError("checkpoints need a P1 space on a P1 mesh")
-        nblocks = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
-        keys = np.full(nblocks, -1, dtype=np.int64)
-        inp = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)
-        keys[cells.ravel()] = inp[gnodes.ravel()]
-        self._init(msh.comm, keys[: V.dofmap.index_map.size_local])
-
-    def _init(self, comm: MPI.Comm, keys: npt.NDArray[np.int64]) -> None:
+    def __init__(
+        self,
+        V: fem.FunctionSpace | None = None,
+        *,
+        comm: MPI.Comm | None = None,
+        keys: npt.ArrayLike | None = None,
+    ):
+        if V is not None:
+            comm, keys = V.mesh.comm, _space_keys(V)
         self.comm = comm
-        self.n_owned = len(keys)
         self.keys = np.asarray(keys, dtype=np.int64)
+        self.n_owned = len(self.keys)
         self.num_nodes = int(self.comm.allreduce(int(self.keys.max(initial=-1)), op=MPI.MAX)) + 1
         self._scatters: dict[int, tuple[PETSc.Scatter, PETSc.Vec, PETSc.Vec]] = {}
 
@@ -117,9 +151,7 @@ class InputOrder:
     def of_keys(cls, comm: MPI.Comm, keys: npt.ArrayLike) -> InputOrder:
         """The order given by ``keys``: the position in the file of each owned entity
         (e.g. the original index of each owned cell); keys are unique over the ranks."""
-        order = cls.__new__(cls)
-        order._init(comm, np.asarray(keys, dtype=np.int64))
-        return order
+        return cls(comm=comm, keys=keys)
 
     def _scatter(self, ncomp: int) -> tuple[PETSc.Scatter, PETSc.Vec, PETSc.Vec]:
         if ncomp not in self._scatters:
@@ -136,7 +168,7 @@ class InputOrder:
         return self._scatters[ncomp]
 
     def to_input(self, owned: npt.ArrayLike, ncomp: int, name: str) -> PETSc.Vec:
-        """A vector in input order (named ``name``) from the owned nodes' values."""
+        """A vector in input order (named ``name``) from the owned entities' values."""
         sc, x, y = self._scatter(ncomp)
         x.array[:] = np.asarray(owned, dtype=float).ravel()
         out = y.duplicate()
@@ -146,7 +178,7 @@ class InputOrder:
         return out
 
     def from_input(self, vec: PETSc.Vec, ncomp: int) -> npt.NDArray[np.float64]:
-        """The owned nodes' values, ``(n_owned, ncomp)``, of a vector in input order."""
+        """The owned entities' values, ``(n_owned, ncomp)``, of a vector in input order."""
         sc, x, _ = self._scatter(ncomp)
         sc.scatter(vec, x, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.REVERSE)
         return x.array.reshape(self.n_owned, ncomp).copy()
@@ -157,6 +189,20 @@ class InputOrder:
         vec.setName(name)
         return vec
 
+    def write(self, viewer: PETSc.Viewer, name: str, ncomp: int, owned: npt.ArrayLike) -> None:
+        """Write the owned values as the dataset ``name`` in input order (collective)."""
+        vec = self.to_input(owned, ncomp, name)
+        vec.view(viewer)
+        vec.destroy()
+
+    def read(self, viewer: PETSc.Viewer, name: str, ncomp: int) -> npt.NDArray[np.float64]:
+        """The owned values, ``(n_owned, ncomp)``, of the dataset ``name`` (collective)."""
+        vec = self.empty(ncomp, name)
+        vec.load(viewer)
+        out = self.from_input(vec, ncomp)
+        vec.destroy()
+        return out
+
     def destroy(self) -> None:
         for sc, x, y in self._scatters.values():
             for obj in (sc, x, y):
@@ -164,52 +210,8 @@ class InputOrder:
         self._scatters.clear()
 
 
-# ----------------------------------------------------------------------------- content
-@dataclass
-class RunCounters:
-    """What a mechanics run counts besides the integrator (kept across a restart)."""
-
-    linear: list[int] = field(default_factory=list)
-    pdas: list[int] = field(default_factory=list)
-    bound_updates: list[int] = field(default_factory=list)
-    e0: float = 0.0
-    fields_written: int = -1
-    segment: int = 0  # how many restarts led to this run
-
-    def add(self, linear: int, pdas: int | None = None, bound_updates: int | None = None) -> None:
-        """Book a step's iteration counts (``pdas`` ``None``: a step without contact)."""
-        self.linear.append(int(linear))
-        if pdas is not None:
-            self.pdas.append(int(pdas))
-            self.bound_updates.append(int(bound_updates or 0))
-
-
-def _fields(integ: Integrator, st: dict) -> list[tuple[str, int, npt.NDArray]]:
-    """(name, ncomp, owned values) of every per-node field of the state."""
-    bs = integ.model.V.dofmap.index_map_bs
-    n = integ.model.V.dofmap.index_map.size_local
-    out = [(name, bs, st[name]) for name in ("u_n", "u_nm1", "velocity")]
-    c = st.get("contact")
-    if c is not None:
-        out.append(("Uh", bs, c["Uh"]))
-        for k, itf in enumerate(integ.contact.interfaces):
-            for key, ncomp in (("active", 1), ("directions", bs - 1), ("lam_n_prev", 1)):
-                arr = np.zeros((n, ncomp))
-                arr[itf.blocks] = np.asarray(c[key][k], dtype=float).reshape(-1, ncomp)
-                out.append((f"contact{k}_{key}", ncomp, arr))
-            if c["work_gaps"]:
-                arr = np.zeros((n, 1))
-                arr[itf.blocks, 0] = c["work_gaps"][k]
-                out.append((f"contact{k}_work_gaps", 1, arr))
-            mark = np.zeros((n, 1))
-            mark[itf.blocks] = 1.0
-            out.append((f"contact{k}_slave", 1, mark))
-    return out
-
-
-def _coordinates(integ: Integrator) -> npt.NDArray[np.float64]:
-    """Coordinates of the owned nodes (by dof block), ``(n_owned, gdim)``."""
-    V = integ.model.V
+def _owned_coordinates(V: fem.FunctionSpace) -> npt.NDArray[np.float64]:
+    """Coordinates of the owned dof blocks of the P1 space ``V``, ``(n_owned, gdim)``."""
     msh = V.mesh
     gdim = msh.geometry.dim
     n = V.dofmap.index_map.size_local
@@ -218,7 +220,7 @@ def _coordinates(integ: Integrator) -> npt.NDArray[np.float64]:
     return xy[:n]
 
 
-# ----------------------------------------------------------------------------- writing
+# ----------------------------------------------------------------------------- files
 def _fsync(path: Path) -> None:
     fd = os.open(path, os.O_RDONLY)
     try:
@@ -233,6 +235,22 @@ def _sha256(path: Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+def _jsonable(o: object) -> Any:
+    """meta.json of NumPy scalars and arrays and of paths."""
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"cannot store {type(o).__name__} in a checkpoint")
+
+
+def _plain(entries: dict[str, Any]) -> dict[str, Any]:
+    """``entries`` as plain JSON values (what meta.json reads back)."""
+    return json.loads(json.dumps(entries, default=_jsonable))
 
 
 def on_root(comm: MPI.Comm, action: Callable[[], Any]) -> Any:
@@ -254,62 +272,38 @@ def checkpoint_dir(output: Path) -> Path:
     return Path(output) / "checkpoints"
 
 
-def write_checkpoint(
-    output: Path, integ: Integrator, counters: RunCounters, info: dict[str, Any]
-) -> Path:
-    """Write the state after step ``integ.step_count`` atomically (collective).
-
-    Parameters
-    ----------
-    output
-        The run's output directory.
-    integ
-        The integrator (its state, with the contact solver's warm start).
-    counters
-        The run's counters.
-    info
-        Further entries of meta.json (scene name, analysis kind, dt...).
-
-    Returns
-    -------
-    Path
-        The checkpoint directory.
-
-    Raises
-    ------
-    CheckpointError
-        On every rank, if any part cannot be written (the temporary directory is
-        removed; earlier checkpoints are untouched).
-    """
-    comm = integ.model.mesh.comm
-
-    def files(tmp: Path) -> None:
-        _write_state(tmp / "state.h5", integ)
-        vtkhdf.write_mesh(str(tmp / "mesh.vtkhdf"), integ.model.mesh)
-
-    st = integ.state()
-    meta = {
+# ----------------------------------------------------------------------------- writing
+def _header(kind: str, step: int, t: float, comm: MPI.Comm) -> dict[str, Any]:
+    """The meta.json entries every checkpoint has."""
+    return {
         "format": FORMAT_VERSION,
-        "kind": KIND,
+        "kind": kind,
         "bonecontact_version": __version__,
-        "step": integ.step_count,
-        "time": integ.t,
+        "step": int(step),
+        "time": float(t),
         "ranks": comm.size,
-        "nodes": integ.model.V.dofmap.index_map.size_global,
-        "pairs": [itf.name for itf in integ.contact.interfaces] if integ.contact else [],
-        "contact_cold": st["contact"]["cold"] if st["contact"] is not None else None,
-        "balance": st["balance"],
-        "counters": {
-            "linear": counters.linear,
-            "pdas": counters.pdas,
-            "bound_updates": counters.bound_updates,
-            "e0": counters.e0,
-            "fields_written": counters.fields_written,
-            "segment": counters.segment,
-        },
-        **info,
     }
-    return save_checkpoint(output, integ.step_count, comm, files, meta)
+
+
+def _publish(tmp: Path, final: Path, meta: dict[str, Any]) -> str:
+    """Rank 0: flush the files of ``tmp``, write meta.json with the checksum of state.h5,
+    rename ``tmp`` to ``final`` and prune the older checkpoints."""
+    for f in tmp.iterdir():
+        _fsync(f)
+    h5 = tmp / "state.h5"
+    meta["state_size"] = h5.stat().st_size
+    meta["state_sha256"] = _sha256(h5)
+    with open(tmp / "meta.json", "w") as f:
+        json.dump(meta, f, indent=1)
+        f.flush()
+        os.fsync(f.fileno())
+    _fsync(tmp)
+    if final.exists():
+        shutil.rmtree(final)
+    os.rename(tmp, final)
+    _fsync(final.parent)
+    _prune(final.parent)
+    return str(final)
 
 
 def save_checkpoint(
@@ -348,48 +342,11 @@ def save_checkpoint(
     except Exception as exc:  # collective writes fail on every rank
         on_root(comm, lambda: shutil.rmtree(tmp, ignore_errors=True))
         raise CheckpointError(f"cannot write checkpoint {final}: {exc}") from None
-
-    def publish() -> str:
-        for f in tmp.iterdir():
-            _fsync(f)
-        h5 = tmp / "state.h5"
-        meta["state_size"] = h5.stat().st_size
-        meta["state_sha256"] = _sha256(h5)
-        with open(tmp / "meta.json", "w") as f:
-            json.dump(meta, f, indent=1)
-            f.flush()
-            os.fsync(f.fileno())
-        _fsync(tmp)
-        if final.exists():
-            shutil.rmtree(final)
-        os.rename(tmp, final)
-        _fsync(root)
-        _prune(root)
-        return str(final)
-
     try:
-        return Path(on_root(comm, publish))
+        return Path(on_root(comm, lambda: _publish(tmp, final, meta)))
     except CheckpointError as exc:
         on_root(comm, lambda: shutil.rmtree(tmp, ignore_errors=True))
         raise CheckpointError(f"cannot write checkpoint {final}: {exc}") from None
-
-
-def _write_state(path: Path, integ: Integrator) -> None:
-    """The per-node fields of the state, in input order, into ``path`` (collective)."""
-    order = InputOrder(integ.model.V)
-    st = integ.state()
-    gdim = integ.model.mesh.geometry.dim
-    viewer = PETSc.Viewer().createHDF5(str(path), "w", comm=integ.model.mesh.comm)
-    try:
-        for name, ncomp, values in [("coordinates", gdim, _coordinates(integ))] + _fields(
-            integ, st
-        ):
-            vec = order.to_input(values, ncomp, name)
-            vec.view(viewer)
-            vec.destroy()
-    finally:
-        viewer.destroy()
-        order.destroy()
 
 
 def _prune(root: Path) -> None:
@@ -402,7 +359,7 @@ def _prune(root: Path) -> None:
             shutil.rmtree(p, ignore_errors=True)
 
 
-# ----------------------------------------------------------------------------- reading
+# ----------------------------------------------------------------------------- finding
 def _read_meta(path: Path) -> dict[str, Any]:
     """meta.json of a checkpoint, checked (rank 0); raises CheckpointError."""
     try:
@@ -430,6 +387,25 @@ def _verify(path: Path) -> dict[str, Any]:
     return meta
 
 
+def _newest_intact(root: Path) -> tuple[str, dict, list[str]]:
+    """Rank 0: the newest intact checkpoint in ``root``, its meta.json and the messages of
+    the damaged newer ones (another format number is an error at once)."""
+    cands = sorted(
+        (p for p in root.iterdir() if _NAME.match(p.name)) if root.is_dir() else [],
+        reverse=True,
+    )
+    skipped = []
+    for p in cands:
+        try:
+            return str(p), _verify(p), skipped
+        except CheckpointError as exc:
+            if "format" in str(exc) and "reads format" in str(exc):
+                raise
+            skipped.append(str(exc))
+    why = f" ({'; '.join(skipped)})" if skipped else ""
+    raise CheckpointError(f"no intact checkpoint in {root}{why}")
+
+
 def find_checkpoint(
     output: Path, comm: MPI.Comm, named: Path | None = None
 ) -> tuple[Path, dict[str, Any]]:
@@ -447,30 +423,270 @@ def find_checkpoint(
 
     def search() -> tuple[str, dict, list[str]]:
         if named is not None:
-            p = Path(named)
-            return str(p), _verify(p), []
-        root = checkpoint_dir(output)
-        cands = (
-            sorted((p for p in root.iterdir() if _NAME.match(p.name)), reverse=True)
-            if root.is_dir()
-            else []
-        )
-        skipped = []
-        for p in cands:
-            try:
-                return str(p), _verify(p), skipped
-            except CheckpointError as exc:
-                if "format" in str(exc) and "reads format" in str(exc):
-                    raise
-                skipped.append(str(exc))
-        why = f" ({'; '.join(skipped)})" if skipped else ""
-        raise CheckpointError(f"no intact checkpoint in {root}{why}")
+            return str(named), _verify(Path(named)), []
+        return _newest_intact(checkpoint_dir(output))
 
     path, meta, skipped = on_root(comm, search)
     if comm.rank == 0:
         for msg in skipped:
             warnings.warn(f"{msg}; using an older checkpoint", UserWarning, stacklevel=2)
     return Path(path), meta
+
+
+# ----------------------------------------------------------------------------- tables
+def _cut_table(path: Path, keep: Callable[[list[list[str]]], list[list[str]]]) -> None:
+    """Rank 0: replace the table ``path`` by ``keep(rows)`` (header included), atomically."""
+    if not path.is_file():
+        raise CheckpointError(f"{path} is missing: cannot append to it")
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    kept = keep(rows)
+    tmp = path.with_suffix(".csv.tmp")
+    with open(tmp, "w", newline="") as f:
+        csv.writer(f).writerows(kept)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _upto_step(path: Path, step: int, col: int, exact: bool) -> Callable:
+    """The rows of steps ≤ ``step`` (column ``col``); ``exact``: the table must reach it."""
+
+    def keep(rows: list[list[str]]) -> list[list[str]]:
+        kept = [rows[0]] + [r for r in rows[1:] if r and int(r[col]) <= step]
+        if exact and int(kept[-1][col] if len(kept) > 1 else -1) != step:
+            raise CheckpointError(
+                f"{path} has no rows of step {step} (the checkpoint is newer than the "
+                "table): cannot continue it without missing rows"
+            )
+        return kept
+
+    return keep
+
+
+def trim_tables(output: Path, step: int, comm: MPI.Comm) -> None:
+    """Cut history.csv and probes.csv after the rows of ``step`` (rank 0; collective).
+
+    A run that went on after its last checkpoint wrote rows the restart writes again.
+
+    Raises
+    ------
+    CheckpointError
+        If history.csv is missing or ends before ``step`` (rows would be missing).
+    """
+
+    def trim() -> None:
+        for name in _TABLES:
+            path = Path(output) / name
+            if path.is_file() or name == "history.csv":
+                _cut_table(path, _upto_step(path, step, 0, exact=True))
+
+    on_root(comm, trim)
+
+
+def trim_fracture_table(output: Path, step: int, comm: MPI.Comm) -> None:
+    """Cut fracture.csv after the rows of ``step`` (rank 0; collective).
+
+    Raises
+    ------
+    CheckpointError
+        If fracture.csv is missing.
+    """
+    path = Path(output) / "fracture.csv"
+    col = FRACTURE_COLUMNS.index("step")
+    on_root(comm, lambda: _cut_table(path, _upto_step(path, step, col, exact=False)))
+
+
+def trim_rows(path: Path, rows: int, comm: MPI.Comm) -> None:
+    """Keep the header and the first ``rows`` rows of the table ``path`` (rank 0; collective).
+
+    For tables with one row per step and no step column (growth.csv: row k is step k).
+
+    Raises
+    ------
+    CheckpointError
+        If the table is missing or has fewer rows (rows would be missing).
+    """
+
+    def keep(table: list[list[str]]) -> list[list[str]]:
+        if len(table) - 1 < rows:
+            raise CheckpointError(
+                f"{path} has {len(table) - 1} rows, the checkpoint needs {rows} (the checkpoint "
+                "is newer than the table): cannot continue it without missing rows"
+            )
+        return table[: rows + 1]
+
+    on_root(comm, lambda: _cut_table(Path(path), keep))
+
+
+# ----------------------------------------------------------------------------- the protocol
+class RunState(Protocol):
+    """What a run kind saves in a checkpoint and restores from one.
+
+    ``kind`` goes into meta.json and must match on restart (``label`` words the refusal:
+    ``"a mechanics run's"``); ``comm`` is the run's communicator.
+    """
+
+    kind: str
+    label: str
+    comm: MPI.Comm
+
+    def position(self) -> tuple[int, float]:
+        """The step and time the state is at."""
+        ...
+
+    def write(self, tmp: Path) -> None:
+        """Write ``state.h5`` (and ``mesh.vtkhdf``) into ``tmp`` (collective)."""
+        ...
+
+    def scalars(self) -> dict[str, Any]:
+        """The state's meta.json entries (plain JSON values)."""
+        ...
+
+    def read(self, path: Path, meta: dict[str, Any]) -> None:
+        """Restore the state from the checkpoint ``path`` (collective)."""
+        ...
+
+    def trim(self, output: Path, step: int) -> None:
+        """Cut the run's tables after ``step`` (collective)."""
+        ...
+
+
+@dataclass
+class RunCounters:
+    """What a mechanics run counts besides the integrator (kept across a restart)."""
+
+    linear: list[int] = field(default_factory=list)
+    pdas: list[int] = field(default_factory=list)
+    bound_updates: list[int] = field(default_factory=list)
+    e0: float = 0.0
+    fields_written: int = -1
+    segment: int = 0  # how many restarts led to this run
+
+    def add(self, linear: int, pdas: int | None = None, bound_updates: int | None = None) -> None:
+        """Book a step's iteration counts (``pdas`` ``None``: a step without contact)."""
+        self.linear.append(int(linear))
+        if pdas is not None:
+            self.pdas.append(int(pdas))
+            self.bound_updates.append(int(bound_updates or 0))
+
+    def as_meta(self) -> dict[str, Any]:
+        """The ``counters`` entry of meta.json."""
+        return {
+            "linear": self.linear,
+            "pdas": self.pdas,
+            "bound_updates": self.bound_updates,
+            "e0": self.e0,
+            "fields_written": self.fields_written,
+            "segment": self.segment,
+        }
+
+    @classmethod
+    def from_meta(cls, c: dict[str, Any]) -> RunCounters:
+        """The counters of a meta.json ``counters`` entry."""
+        return cls(
+            list(c["linear"]),
+            list(c["pdas"]),
+            list(c["bound_updates"]),
+            float(c["e0"]),
+            int(c["fields_written"]),
+            int(c["segment"]),
+        )
+
+
+# ----------------------------------------------------------------------------- mechanics state
+def _fields(integ: Integrator, st: dict) -> list[tuple[str, int, npt.NDArray]]:
+    """(name, ncomp, owned values) of every per-node field of the state."""
+    bs = integ.model.V.dofmap.index_map_bs
+    n = integ.model.V.dofmap.index_map.size_local
+    out = [(name, bs, st[name]) for name in ("u_n", "u_nm1", "velocity")]
+    c = st.get("contact")
+    if c is None:
+        return out
+    out.append(("Uh", bs, c["Uh"]))
+    for k, itf in enumerate(integ.contact.interfaces):
+        for key, ncomp in (("active", 1), ("directions", bs - 1), ("lam_n_prev", 1)):
+            arr = np.zeros((n, ncomp))
+            arr[itf.blocks] = np.asarray(c[key][k], dtype=float).reshape(-1, ncomp)
+            out.append((f"contact{k}_{key}", ncomp, arr))
+        if c["work_gaps"]:
+            arr = np.zeros((n, 1))
+            arr[itf.blocks, 0] = c["work_gaps"][k]
+            out.append((f"contact{k}_work_gaps", 1, arr))
+        mark = np.zeros((n, 1))
+        mark[itf.blocks] = 1.0
+        out.append((f"contact{k}_slave", 1, mark))
+    return out
+
+
+def _write_state(path: Path, integ: Integrator) -> None:
+    """The per-node fields of the state, in input order, into ``path`` (collective)."""
+    order = InputOrder(integ.model.V)
+    st = integ.state()
+    gdim = integ.model.mesh.geometry.dim
+    viewer = PETSc.Viewer().createHDF5(str(path), "w", comm=integ.model.mesh.comm)
+    try:
+        order.write(viewer, "coordinates", gdim, _owned_coordinates(integ.model.V))
+        for name, ncomp, values in _fields(integ, st):
+            order.write(viewer, name, ncomp, values)
+    finally:
+        viewer.destroy()
+        order.destroy()
+
+
+def _mechanics_scalars(integ: Integrator, counters: RunCounters) -> dict[str, Any]:
+    """meta.json entries of a mechanics state."""
+    st = integ.state()
+    return {
+        "nodes": integ.model.V.dofmap.index_map.size_global,
+        "pairs": [itf.name for itf in integ.contact.interfaces] if integ.contact else [],
+        "contact_cold": st["contact"]["cold"] if st["contact"] is not None else None,
+        "balance": st["balance"],
+        "counters": counters.as_meta(),
+    }
+
+
+def write_checkpoint(
+    output: Path, integ: Integrator, counters: RunCounters, info: dict[str, Any]
+) -> Path:
+    """Write the mechanics state after step ``integ.step_count`` atomically (collective).
+
+    ``info``: further entries of meta.json (scene name, analysis kind, dt...; a ``kind``
+    entry replaces :data:`KIND`).
+
+    Raises
+    ------
+    CheckpointError
+        On every rank, if any part cannot be written (the temporary directory is
+        removed; earlier checkpoints are untouched).
+    """
+    comm = integ.model.mesh.comm
+
+    def files(tmp: Path) -> None:
+        _write_state(tmp / "state.h5", integ)
+        vtkhdf.write_mesh(str(tmp / "mesh.vtkhdf"), integ.model.mesh)
+
+    meta = {
+        **_header(KIND, integ.step_count, integ.t, comm),
+        **_mechanics_scalars(integ, counters),
+        **info,
+    }
+    return save_checkpoint(output, integ.step_count, comm, files, meta)
+
+
+def _check_mesh_matches(path: Path, meta: dict[str, Any], integ: Integrator) -> None:
+    """The node count and contact pairs of the checkpoint are the scene's."""
+    nodes = integ.model.V.dofmap.index_map.size_global
+    if meta["nodes"] != nodes:
+        raise CheckpointError(
+            f"checkpoint {path} was written on a mesh with {meta['nodes']} nodes; "
+            f"this scene's mesh has {nodes}"
+        )
+    pairs = [itf.name for itf in integ.contact.interfaces] if integ.contact else []
+    if meta["pairs"] != pairs:
+        raise CheckpointError(
+            f"checkpoint {path} has contact pairs {meta['pairs']}; this scene has {pairs}"
+        )
 
 
 def read_checkpoint(path: Path, meta: dict[str, Any], integ: Integrator) -> RunCounters:
@@ -485,46 +701,21 @@ def read_checkpoint(path: Path, meta: dict[str, Any], integ: Integrator) -> RunC
         The run's counters at the checkpoint.
     """
     comm = integ.model.mesh.comm
+    _check_mesh_matches(path, meta, integ)
     order = InputOrder(integ.model.V)
-    nodes = integ.model.V.dofmap.index_map.size_global
-    if meta["nodes"] != nodes:
-        raise CheckpointError(
-            f"checkpoint {path} was written on a mesh with {meta['nodes']} nodes; "
-            f"this scene's mesh has {nodes}"
-        )
-    pairs = [itf.name for itf in integ.contact.interfaces] if integ.contact else []
-    if meta["pairs"] != pairs:
-        raise CheckpointError(
-            f"checkpoint {path} has contact pairs {meta['pairs']}; this scene has {pairs}"
-        )
     st = integ.state()  # the layout to fill
     gdim = integ.model.mesh.geometry.dim
     viewer = PETSc.Viewer().createHDF5(str(path / "state.h5"), "r", comm=comm)
     try:
-
-        def load(name: str, ncomp: int) -> npt.NDArray[np.float64]:
-            vec = order.empty(ncomp, name)
-            vec.load(viewer)
-            out = order.from_input(vec, ncomp)
-            vec.destroy()
-            return out
-
-        _check_coordinates(path, load("coordinates", gdim), _coordinates(integ), comm)
-        new = {name: load(name, ncomp) for name, ncomp, _ in _fields(integ, st)}
+        saved = order.read(viewer, "coordinates", gdim)
+        _check_coordinates(path, saved, _owned_coordinates(integ.model.V), comm)
+        new = {name: order.read(viewer, name, ncomp) for name, ncomp, _ in _fields(integ, st)}
     finally:
         viewer.destroy()
         order.destroy()
     _fill_state(st, new, integ, meta)
     integ.restore_state(st)
-    c = meta["counters"]
-    return RunCounters(
-        list(c["linear"]),
-        list(c["pdas"]),
-        list(c["bound_updates"]),
-        float(c["e0"]),
-        int(c["fields_written"]),
-        int(c["segment"]),
-    )
+    return RunCounters.from_meta(meta["counters"])
 
 
 def _check_coordinates(path: Path, saved: npt.NDArray, here: npt.NDArray, comm: MPI.Comm) -> None:
@@ -557,72 +748,255 @@ def _fill_state(st: dict, new: dict[str, npt.NDArray], integ: Integrator, meta: 
             c["work_gaps"][k] = new[f"contact{k}_work_gaps"][itf.blocks, 0]
 
 
-# ----------------------------------------------------------------------------- tables
-def trim_tables(output: Path, step: int, comm: MPI.Comm) -> None:
-    """Cut history.csv and probes.csv after the rows of ``step`` (rank 0; collective).
+class MechanicsState:
+    """The state of a mechanics run: the integrator (fields, contact warm start) and the
+    run's :class:`RunCounters`.
 
-    A run that went on after its last checkpoint wrote rows the restart writes again.
-
-    Raises
-    ------
-    CheckpointError
-        If history.csv is missing or ends before ``step`` (rows would be missing).
+    Parameters
+    ----------
+    integ
+        The run's integrator (after ``set_initial``).
+    counters
+        The counters (default: new ones starting from the integrator's energy).
     """
 
-    def trim() -> None:
-        for name in _TABLES:
-            path = Path(output) / name
-            if not path.is_file():
-                if name == "history.csv":
-                    raise CheckpointError(f"{path} is missing: cannot append to it")
-                continue
-            with open(path, newline="") as f:
-                rows = list(csv.reader(f))
-            keep = [rows[0]] + [r for r in rows[1:] if r and int(r[0]) <= step]
-            if int(keep[-1][0] if len(keep) > 1 else -1) != step:
-                raise CheckpointError(
-                    f"{path} has no rows of step {step} (the checkpoint is newer than the "
-                    "table): cannot continue it without missing rows"
-                )
-            tmp = path.with_suffix(".csv.tmp")
-            with open(tmp, "w", newline="") as f:
-                csv.writer(f).writerows(keep)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
+    kind = KIND
+    label = "a mechanics run's"
 
-    on_root(comm, trim)
+    def __init__(self, integ: Integrator, counters: RunCounters | None = None):
+        self.integ = integ
+        self.comm = integ.model.mesh.comm
+        self.counters = counters if counters is not None else RunCounters(e0=integ.balance.total)
+
+    def position(self) -> tuple[int, float]:
+        return int(self.integ.step_count), float(self.integ.t)
+
+    def write(self, tmp: Path) -> None:
+        _write_state(tmp / "state.h5", self.integ)
+        vtkhdf.write_mesh(str(tmp / "mesh.vtkhdf"), self.integ.model.mesh)
+
+    def scalars(self) -> dict[str, Any]:
+        return _mechanics_scalars(self.integ, self.counters)
+
+    def read(self, path: Path, meta: dict[str, Any]) -> None:
+        """Restore the integrator and the counters (a new segment of the run)."""
+        self.counters = read_checkpoint(path, meta, self.integ)
+        self.counters.segment += 1
+
+    def trim(self, output: Path, step: int) -> None:
+        trim_tables(output, step, self.comm)
 
 
-def trim_rows(path: Path, rows: int, comm: MPI.Comm) -> None:
-    """Keep the header and the first ``rows`` rows of the table ``path`` (rank 0; collective).
+class CrackState(MechanicsState):
+    """The state of a crack scene: a mechanics state on the mesh of the current crack
+    (``integ``: set by the run whenever it builds an integrator) and fracture.csv; the
+    crack itself is a run entry (``crack_run``) of meta.json.
 
-    For tables with one row per step and no step column (growth.csv: row k is step k).
-
-    Raises
-    ------
-    CheckpointError
-        If the table is missing or has fewer rows (rows would be missing).
+    Parameters
+    ----------
+    comm
+        The run's communicator.
     """
 
-    def trim() -> None:
-        if not path.is_file():
-            raise CheckpointError(f"{path} is missing: cannot append to it")
-        with open(path, newline="") as f:
-            table = list(csv.reader(f))
-        if len(table) - 1 < rows:
-            raise CheckpointError(
-                f"{path} has {len(table) - 1} rows, the checkpoint needs {rows} (the checkpoint "
-                "is newer than the table): cannot continue it without missing rows"
-            )
-        tmp = path.with_suffix(".csv.tmp")
-        with open(tmp, "w", newline="") as f:
-            csv.writer(f).writerows(table[: rows + 1])
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
+    kind = CRACK_KIND
+    label = "a crack scene's"
 
-    on_root(comm, trim)
+    def __init__(self, comm: MPI.Comm):
+        self.comm = comm
+        self.integ: Integrator | None = None
+        self.counters = RunCounters()
+
+    def position(self) -> tuple[int, float]:
+        return (0, 0.0) if self.integ is None else super().position()
+
+    def trim(self, output: Path, step: int) -> None:
+        trim_tables(output, step, self.comm)
+        trim_fracture_table(output, step, self.comm)
+
+
+# ----------------------------------------------------------------------------- growth state
+def _model_kind(driver: Driver) -> str:
+    if isinstance(driver, TumourGrowth):
+        return "tumour"
+    if isinstance(driver, CystShapeGrowth):
+        return "cyst_shape"
+    return "cyst_sphere"
+
+
+def _cells_order(msh: dmesh.Mesh) -> tuple[InputOrder, npt.NDArray[np.int32]]:
+    """The order of gmsh's cells over the owned cells, and the owned cells."""
+    n = msh.topology.index_map(msh.topology.dim).size_local
+    keys = np.asarray(msh.topology.original_cell_index, dtype=np.int64)[:n]
+    return InputOrder.of_keys(msh.comm, keys), np.arange(n, dtype=np.int32)
+
+
+def _cell_nodes(msh: dmesh.Mesh, cells: npt.NDArray[np.int32]) -> npt.NDArray[np.float64]:
+    """The input (gmsh) node numbers of ``cells``, as floats (exact below 2⁵³)."""
+    inp = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)
+    return inp[msh.geometry.dofmaps[0][cells]].astype(np.float64)
+
+
+def _is_cellwise(u: fem.Function) -> bool:
+    return u.function_space.dofmap.list.shape[1] == 1
+
+
+def _write_model_fields(viewer: PETSc.Viewer, driver: Driver, orders: list[InputOrder]) -> None:
+    """The mesh (coordinates, cells) and fields of a growth model with a mesh (collective)."""
+    msh = driver.model.mesh
+    nodes = InputOrder(driver.model.motion.V)
+    cells_order, cells = _cells_order(msh)
+    orders += [nodes, cells_order]
+    nodes.write(viewer, "coordinates", msh.geometry.dim, _owned_coordinates(driver.model.motion.V))
+    cells_order.write(viewer, "cells", msh.topology.dim + 1, _cell_nodes(msh, cells))
+    for name, u in driver.fields().items():
+        if _is_cellwise(u):
+            cells_order.write(viewer, name, 1, u.x.array[u.function_space.dofmap.list[cells, 0]])
+            continue
+        order = InputOrder(u.function_space)
+        orders.append(order)
+        bs = u.function_space.dofmap.index_map_bs
+        n = u.function_space.dofmap.index_map.size_local
+        order.write(viewer, name, bs, u.x.array[: n * bs])
+
+
+def _write_growth_state(path: Path, driver: Driver, comm: MPI.Comm) -> None:
+    """state.h5 of a growth model (collective)."""
+    viewer = PETSc.Viewer().createHDF5(str(path), "w", comm=comm)
+    orders: list[InputOrder] = []
+    try:
+        if isinstance(driver, CystSphereGrowth):
+            order = InputOrder.of_keys(comm, [0, 1] if comm.rank == 0 else [])
+            orders.append(order)
+            order.write(viewer, "ode", 1, [driver.R, driver.f] if comm.rank == 0 else [])
+        else:
+            _write_model_fields(viewer, driver, orders)
+    finally:
+        viewer.destroy()
+        for order in orders:
+            order.destroy()
+
+
+def _load_whole(path: Path, names: list[str]) -> dict[str, npt.NDArray[np.float64]]:
+    """Whole datasets of ``path`` (rank 0 only, sequential)."""
+    viewer = PETSc.Viewer().createHDF5(str(path), "r", comm=MPI.COMM_SELF)
+    out = {}
+    try:
+        for name in names:
+            vec = PETSc.Vec().create(comm=MPI.COMM_SELF)
+            vec.setType("seq")
+            vec.setName(name)
+            vec.load(viewer)
+            out[name] = vec.array.copy()
+            vec.destroy()
+    finally:
+        viewer.destroy()
+    return out
+
+
+def _rebuild_mesh(path: Path, dim: int, comm: MPI.Comm) -> dmesh.Mesh:
+    """The checkpoint's mesh, rebuilt as a remesh builds one (collective)."""
+    cells = np.empty((0, dim + 1), dtype=np.int64)
+    x = np.empty((0, dim))
+    error = None
+    if comm.rank == 0:
+        try:
+            data = _load_whole(path / "state.h5", ["cells", "coordinates"])
+            cells = np.rint(data["cells"]).astype(np.int64).reshape(-1, dim + 1)
+            x = data["coordinates"].reshape(-1, dim)
+        except Exception as exc:  # reported collectively below
+            error = f"{type(exc).__name__}: {exc}"
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise CheckpointError(f"checkpoint {path}: cannot read the mesh ({error})")
+    return mesh_from_cells(comm, cells, x, dim)
+
+
+def _read_model_fields(path: Path, driver: Driver, comm: MPI.Comm) -> None:
+    """The fields of a growth model with a mesh, on its rebuilt mesh (collective)."""
+    cells_order, cells = _cells_order(driver.model.mesh)
+    orders = [cells_order]
+    viewer = PETSc.Viewer().createHDF5(str(path / "state.h5"), "r", comm=comm)
+    try:
+        for name, u in driver.fields().items():
+            if _is_cellwise(u):
+                dofs = u.function_space.dofmap.list[cells, 0]
+                u.x.array[dofs] = cells_order.read(viewer, name, 1)[:, 0]
+            else:
+                order = InputOrder(u.function_space)
+                orders.append(order)
+                bs = u.function_space.dofmap.index_map_bs
+                n = u.function_space.dofmap.index_map.size_local
+                u.x.array[: n * bs] = order.read(viewer, name, bs).ravel()
+            u.x.scatter_forward()
+    finally:
+        viewer.destroy()
+        for order in orders:
+            order.destroy()
+
+
+def read_growth_state(path: Path, meta: dict[str, Any], driver: Driver, comm: MPI.Comm) -> None:
+    """Put the growth model of a checkpoint into ``driver`` (built from the same scene;
+    collective)."""
+    kind = _model_kind(driver)
+    if meta.get("model") != kind:
+        raise CheckpointError(
+            f"checkpoint {path} holds a {meta.get('model')!r} growth model, the scene a {kind!r}"
+        )
+    if not isinstance(driver, CystSphereGrowth):
+        driver.replace_mesh(_rebuild_mesh(path, driver.dim, comm))
+        _read_model_fields(path, driver, comm)
+    driver.restore_checkpoint_state(meta["model_state"])
+
+
+class GrowthState:
+    """The state of a growth-only or coupled run: the growth model (its mesh, as gmsh made
+    it at the last remesh, its fields and scalars); growth.csv is continued.
+
+    Parameters
+    ----------
+    driver
+        The growth model (built from the scene).
+    comm
+        The run's communicator.
+    """
+
+    kind = GROWTH_KIND
+    label = "a growth run's"
+
+    def __init__(self, driver: Driver, comm: MPI.Comm):
+        self.driver, self.comm = driver, comm
+
+    def position(self) -> tuple[int, float]:
+        return int(self.driver.steps), float(self.driver.t)
+
+    def write(self, tmp: Path) -> None:
+        _write_growth_state(tmp / "state.h5", self.driver, self.comm)
+        if not isinstance(self.driver, CystSphereGrowth):
+            vtkhdf.write_mesh(str(tmp / "mesh.vtkhdf"), self.driver.model.mesh)
+
+    def scalars(self) -> dict[str, Any]:
+        return {"model": _model_kind(self.driver), "model_state": self.driver.checkpoint_state()}
+
+    def read(self, path: Path, meta: dict[str, Any]) -> None:
+        read_growth_state(path, meta, self.driver, self.comm)
+
+    def trim(self, output: Path, step: int) -> None:
+        trim_rows(Path(output) / "growth.csv", step + 1, self.comm)
+
+
+def write_growth_checkpoint(
+    output: Path, driver: Driver, comm: MPI.Comm, info: dict[str, Any], content: dict[str, Any]
+) -> Path:
+    """Write the growth state after step ``driver.steps`` atomically (collective);
+    ``content``: the run's further meta.json entries."""
+    return _write(output, GrowthState(driver, comm), {**_plain(content), **info})
+
+
+def _write(output: Path, state: RunState, entries: dict[str, Any]) -> Path:
+    """Write the checkpoint of ``state`` with the run's meta.json ``entries`` (collective)."""
+    step, t = state.position()
+    meta = {**_header(state.kind, step, t, state.comm), **state.scalars(), **entries}
+    return save_checkpoint(output, step, state.comm, state.write, meta)
 
 
 # ----------------------------------------------------------------------------- stopping
@@ -706,10 +1080,8 @@ def signal_name(signum: int) -> str:
 
 
 # ----------------------------------------------------------------------------- the run's side
-def checkpoint_summary(ck: Any) -> dict[str, Any]:
-    """The summary.json entries of a run's checkpointer ``ck`` (:class:`Checkpointer`, or the
-    growth and crack ones: attributes ``every``, ``schedule``, ``written``, ``time_s``,
-    ``last``, ``restarted_from``, ``signum``): ``checkpoints``, after a restart
+def checkpoint_summary(ck: Checkpointer) -> dict[str, Any]:
+    """The summary.json entries of a run's checkpointer: ``checkpoints``, after a restart
     ``restarted_from``, after a signal ``signal``."""
     out: dict[str, Any] = {
         "checkpoints": {
@@ -728,19 +1100,22 @@ def checkpoint_summary(ck: Any) -> dict[str, Any]:
 
 
 class Checkpointer:
-    """A mechanics run's checkpoints: restart, periodic writes, the stop on a signal.
+    """A run's checkpoints, for every run kind: restart, periodic writes, the stop on a
+    signal.
 
     Parameters
     ----------
     output
         The run's output directory.
-    integ
-        The run's integrator (after ``set_initial``).
+    state
+        What the run saves (:class:`MechanicsState`, :class:`CrackState`,
+        :class:`GrowthState`); an :class:`~bonecontact.mechanics.integrator.Integrator`
+        stands for ``MechanicsState(integ)``.
     every
         Write a checkpoint every this many steps (0: only when stopped by a signal).
     info
         Entries that must agree between a checkpoint and the run continuing it
-        (scene name, analysis kind, dt).
+        (scene name, analysis or run kind, dt...).
     interval
         Also write one after the first step that reaches each multiple of this much
         simulated time, s (0: none).
@@ -752,22 +1127,23 @@ class Checkpointer:
     def __init__(
         self,
         output: Path,
-        integ: Integrator,
+        state: RunState | Integrator,
         every: int,
         info: dict[str, Any],
         interval: float = 0.0,
         on_signal: bool = True,
     ):
-        self.output, self.integ, self.every = Path(output), integ, int(every)
+        if isinstance(state, Integrator):  # the former mechanics signature
+            state = MechanicsState(state)
+        self.output, self.state, self.every = Path(output), state, int(every)
+        self.comm = state.comm
+        self.info = dict(info)
         self.on_signal = bool(on_signal)
-        self.schedule = CheckpointSchedule(every, interval, integ.t)
-        #: further state for meta.json: entry name -> a function giving its JSON value
+        self.schedule = CheckpointSchedule(every, interval, state.position()[1])
+        #: further meta.json entries: name -> a function giving its JSON value at a write
         self.extra: dict[str, Callable[[], Any]] = {}
         #: the meta.json of the checkpoint the run continues from (after :meth:`resume`)
         self.resumed: dict[str, Any] = {}
-        self.comm = integ.model.mesh.comm
-        self.info = dict(info)
-        self.counters = RunCounters(e0=integ.balance.total)
         self.stop = StopRequest()
         self.restarted_from: dict[str, Any] | None = None
         self.last: Path | None = None
@@ -776,24 +1152,32 @@ class Checkpointer:
         self.signum = 0
 
     @property
+    def counters(self) -> RunCounters:
+        """The counters of a mechanics or crack state (``state.counters``)."""
+        return self.state.counters
+
+    @property
     def fields_stem(self) -> str:
         """Field files of this segment: ``fields`` (first run), ``fields_restart<n>`` after."""
-        seg = self.counters.segment
+        counters = getattr(self.state, "counters", None)
+        seg = 0 if counters is None else counters.segment
         return "fields" if seg == 0 else f"fields_restart{seg}"
 
-    def resume(self, named: str | Path | None) -> None:
-        """Continue from the newest (or the named) checkpoint: restore the integrator and
-        the counters, cut the tables after the checkpoint's step (collective).
+    def find(self, named: str | Path | bool | None) -> tuple[Path, dict[str, Any]]:
+        """The checkpoint to continue from (``named``: that directory; ``None``/``True``:
+        the newest intact one) and its meta.json, checked against the run: format,
+        checksum, kind and every entry of ``info`` (collective; nothing is changed).
 
         Raises
         ------
         CheckpointError
-            On every rank, before any file is changed.
+            On every rank.
         """
-        path, meta = find_checkpoint(self.output, self.comm, None if not named else Path(named))
-        if meta.get("kind") != KIND:
+        which = None if named is None or isinstance(named, bool) else Path(named)
+        path, meta = find_checkpoint(self.output, self.comm, which)
+        if meta.get("kind") != self.state.kind:
             raise CheckpointError(
-                f"checkpoint {path} is a {meta.get('kind')!r}, not a mechanics run's: "
+                f"checkpoint {path} is a {meta.get('kind')!r}, not {self.state.label}: "
                 "a restart continues the same scene"
             )
         for key, value in self.info.items():
@@ -802,39 +1186,68 @@ class Checkpointer:
                     f"checkpoint {path} has {key} = {meta.get(key)!r}, the scene {value!r}: "
                     "a restart continues the same scene"
                 )
-        self.counters = read_checkpoint(path, meta, self.integ)
+        return path, meta
+
+    def continue_from(self, path: Path, meta: dict[str, Any]) -> dict[str, Any]:
+        """Restore the state from the checkpoint ``path`` (found by :meth:`find`), cut the
+        tables after its step and note the restart (collective).  Returns ``meta``."""
+        self.state.read(path, meta)
+        return self.restored(path, meta)
+
+    def restored(self, path: Path, meta: dict[str, Any]) -> dict[str, Any]:
+        """After the state is restored from ``path``: cut the tables after its step and
+        note the restart (collective; part of :meth:`continue_from`).  Returns ``meta``."""
+        step = int(meta["step"])
+        self.state.trim(self.output, step)
         self.resumed = meta
-        self.counters.segment += 1
-        self.schedule.t_last = self.integ.t
-        trim_tables(self.output, int(meta["step"]), self.comm)
+        self.schedule.t_last = float(meta["time"])
         self.restarted_from = {
             "checkpoint": str(path),
-            "step": int(meta["step"]),
+            "step": step,
             "time": float(meta["time"]),
             "ranks": int(meta["ranks"]),
         }
         self.last = path
+        return meta
 
-    def after_step(self, last: bool = False) -> int:
+    def resume(self, named: str | Path | bool | None) -> dict[str, Any]:
+        """Continue from the newest (or the named) checkpoint: :meth:`find`, then
+        :meth:`continue_from` (collective).
+
+        Returns
+        -------
+        dict
+            The checkpoint's meta.json (the run's further entries).
+
+        Raises
+        ------
+        CheckpointError
+            On every rank, before any file is changed.
+        """
+        return self.continue_from(*self.find(named))
+
+    def after_step(self, last: bool = False, scalars: dict[str, Any] | None = None) -> int:
         """Between steps (collective): write a checkpoint when one is due
-        (:class:`CheckpointSchedule`) or a signal came.
-
-        Returns the signal number (0: go on)."""
-        self.signum = self.stop.agreed(self.comm)
-        due = self.schedule.due(self.integ.step_count, self.integ.t, last)
+        (:class:`CheckpointSchedule`) or a signal came; ``scalars``: further meta.json
+        entries of this write.  Returns the signal number (0: go on)."""
+        self.signum = max(self.signum, self.stop.agreed(self.comm))
+        step, t = self.state.position()
+        due = self.schedule.due(step, t, last)
         if (self.signum and self.on_signal) or due:
-            self.write()
+            self.write(scalars)
         return self.signum
 
-    def write(self) -> Path:
+    def write(self, scalars: dict[str, Any] | None = None) -> Path:
         """Write a checkpoint of the current state now (collective)."""
         t0 = time.perf_counter()
-        info = {**self.info, **{name: get() for name, get in self.extra.items()}}
-        self.last = write_checkpoint(self.output, self.integ, self.counters, info)
+        entries = {name: get() for name, get in self.extra.items()}
+        entries = _plain({**entries, **(scalars or {})})
+        self.last = _write(self.output, self.state, {**entries, **self.info})
         self.time_s += time.perf_counter() - t0
         self.written += 1
         return self.last
 
     def summary(self) -> dict[str, Any]:
-        """The summary.json entries: ``checkpoints`` and, after a restart, ``restarted_from``."""
+        """The summary.json entries: ``checkpoints``, after a restart ``restarted_from``,
+        after a signal ``signal``."""
         return checkpoint_summary(self)

@@ -21,13 +21,13 @@ finished but its result is invalid (``"status": "invalid"``: the strain measure 
 small-strain limit, :mod:`bonecontact.scene.validity`; results written); 128 + signal
 (130 Ctrl-C, 143 SIGTERM) stopped by a signal after writing a checkpoint.  Under MPI an
 input error is detected on every rank (collective checks) and an unexpected error on one
-rank aborts all ranks.
+rank aborts all ranks.  The one table of exit statuses:
+:data:`bonecontact.scene.errors.EXIT_CODES` (docs/scene_format.md, *Exit status*).
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import traceback
 import warnings
@@ -42,6 +42,7 @@ from bonecontact.runners.dispatch import check, run_kind, run_scene
 from bonecontact.runners.mechanics import SceneModel, force_summary_lines
 from bonecontact.scene import Scene, SceneError, format_error, load_scene
 from bonecontact.scene.checks import PlausibilityWarning, implausible_allowed
+from bonecontact.scene.errors import ExitCode, exit_code, exit_code_for_status
 from bonecontact.scene.mesh_checks import count_bodies, mesh_extent
 
 __all__ = ["main"]
@@ -161,11 +162,11 @@ def _summary_lines(scene: Scene, sm: SceneModel | None, comm: MPI.Comm) -> list[
         fr = "frictionless" if c.friction == "none" else c.friction
         rows.append(("contact", f"{c.name}: {c.slave} (slave) on {c.master} (master), {fr}"))
     for c in scene.cracks:
-        fr = f"Coulomb {c.friction:g}" if c.friction else "frictionless"
+        fr = f"Coulomb {c.coefficient:g}" if c.coefficient else "frictionless"
         rows.append(("contact", f"{c.name}: the crack's faces (re-meshed body), {fr}"))
     initiates = scene.fracture is not None and scene.fracture.initiate and not scene.cracks
     if initiates:
-        mu = scene.fracture.friction
+        mu = scene.fracture.coefficient
         fr = f"Coulomb {mu:g}" if mu else "frictionless"
         rows.append(("contact", f"initiated: the faces of the crack inserted at risk 1, {fr}"))
     if not scene.contacts and not scene.cracks and not initiates:
@@ -205,11 +206,6 @@ def _check(scene: Scene, shown: Path, comm: MPI.Comm) -> int:
     return 0
 
 
-def _signal_number(name: str) -> int:
-    """15 for ``"SIGTERM"`` (2 for an unknown name)."""
-    return int(getattr(signal.Signals, name, signal.SIGINT))
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     comm = MPI.COMM_WORLD
@@ -235,49 +231,50 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
         )
     except SceneError as exc:
         _say(format_error(exc), comm)
-        return 2
+        return exit_code(exc)
     except PlausibilityWarning as exc:  # --strict: raised on every rank
         _say(f"error (--strict): {exc}", comm)
-        return 2
+        return exit_code(exc)
     except CheckpointError as exc:  # raised on every rank
         _say(f"restart: {exc}", comm)
-        return 2
-    except KeyboardInterrupt:
+        return exit_code(exc)
+    except KeyboardInterrupt as exc:
         _say("interrupted", comm)
         if comm.size > 1:
-            comm.Abort(130)
-        return 130
+            comm.Abort(exit_code(exc))
+        return exit_code(exc)
     except Exception:  # an internal error: say so loudly and stop every rank
         sys.stderr.write(
             f"[rank {comm.rank}] internal error in bonecontact:\n{traceback.format_exc()}"
         )
         sys.stderr.flush()
         if comm.size > 1:
-            comm.Abort(1)
-        return 1
+            comm.Abort(int(ExitCode.FAILED))
+        return int(ExitCode.FAILED)
+    code = exit_code_for_status(result.status, result.summary.get("signal"))
     if result.status == "interrupted":
         _say(
             f"{scene.name}: {result.summary.get('message', 'interrupted')}; checkpoint "
             f"{result.summary['checkpoints']['last']} (continue with --restart)",
             comm,
         )
-        return 128 + _signal_number(result.summary.get("signal", "SIGINT"))
+        return code
     if result.status == "invalid":  # finished, results written, outside the model's range
         _say(f"invalid result: {result.summary.get('message', '')}", comm)
-        return 3  # ExitCode.INVALID of bonecontact.scene.errors (K's table)
+        return code
     if result.status != "converged":
         _say(
             f"run failed: {result.summary.get('message', '')} "
             f"(see {result.output / 'summary.json'})",
             comm,
         )
-        return 1
+        return code
     _say(
         f"{scene.name}: {result.status}, {result.summary['steps']} steps, "
         f"results in {result.output}",
         comm,
     )
-    return 0
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

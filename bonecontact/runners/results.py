@@ -32,6 +32,7 @@ import numpy.typing as npt
 import ufl
 from dolfinx import fem, geometry, io
 
+from bonecontact.common.errors import InputError
 from bonecontact.common.formatting import format_cell, format_float
 from bonecontact.common.profiling import peak_memory_mb
 from bonecontact.common.version import __version__
@@ -89,8 +90,8 @@ ENERGY_COLUMNS = [
 ]
 
 
-class ProbeError(ValueError):
-    """A probe point lies outside the mesh."""
+class ProbeError(InputError):
+    """A probe point lies outside the mesh (input refused: exit status 2)."""
 
     def __init__(self, index: int, point: Sequence[float]):
         super().__init__(f"probe #{index + 1} at {list(point)} lies outside the mesh")

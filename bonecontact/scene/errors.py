@@ -1,22 +1,69 @@
-"""Errors of scene files: :class:`SceneError` and the helpers that word its messages.
+"""Errors of scene files and the one exit-status table of the ``bonecontact`` command.
 
 Every problem of a scene is reported as one :class:`SceneError` naming the file, the
 table, the key and what is allowed.
+
+:data:`EXIT_CODES` says what each exit status means (docs/scene_format.md, *Exit status*);
+:data:`ERROR_EXIT_CODES` maps every exception type of the package to one of them, and
+:func:`exit_code` gives the status of an exception that ends the command.  The bases
+(:class:`~bonecontact.common.errors.InputError`, :class:`~bonecontact.common.errors.RunError`)
+live in :mod:`bonecontact.common.errors`, below every layer; new exception types derive
+from them and need no entry here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
+from bonecontact.common.errors import (
+    EXIT_CODES,
+    BonecontactError,
+    CheckpointError,
+    ExitCode,
+    InputError,
+    InvalidRunError,
+    RunError,
+    exit_code_for_status,
+)
+from bonecontact.common.errors import exit_code as base_exit_code
+from bonecontact.contact import ContactConvergenceError, ContactInputError, SingularActiveSetError
+from bonecontact.fracture import FractureError
 from bonecontact.materials.laws import MaterialError
+from bonecontact.meshing import MeshingError, MeshInputError
+from bonecontact.neoplasm import (
+    CouplingError,
+    CoverageError,
+    CystParameterError,
+    TumourError,
+    TumourParameterError,
+)
+from bonecontact.scene.expressions import ExpressionError
 
-__all__ = ["SceneError", "describe_value", "format_choices", "format_error", "table_label"]
+__all__ = [
+    "ERROR_EXIT_CODES",
+    "EXIT_CODES",
+    "BonecontactError",
+    "CheckpointError",
+    "ExitCode",
+    "InputError",
+    "InvalidRunError",
+    "RunError",
+    "SceneError",
+    "describe_value",
+    "error_exit_code",
+    "exit_code",
+    "exit_code_for_status",
+    "format_choices",
+    "format_error",
+    "table_label",
+]
 
 
-class SceneError(Exception):
-    """An invalid scene: one clear message naming the file, the table and the key.
+class SceneError(BonecontactError):
+    """An invalid scene: one clear message naming the file, the table and the key (exit
+    status 2; raised on every rank).
 
     Parameters
     ----------
@@ -38,6 +85,8 @@ class SceneError(Exception):
     'scene.toml: [[material]] #2 "cortical", key "nu": must satisfy -1 < nu < 0.5, got 0.5'
     """
 
+    exit_code: ClassVar[int] = ExitCode.BAD_INPUT
+
     def __init__(self, file: str | Path | None, table: str | None, key: str | None, message: str):
         file = None if file is None else str(file)
         super().__init__(file, table, key, message)
@@ -56,6 +105,49 @@ class SceneError(Exception):
     def with_file(self, file: str | Path) -> SceneError:
         """A copy of this error attributed to ``file``."""
         return SceneError(file, self.table, self.key, self.message)
+
+
+#: Exception type -> exit status, the most specific first (:func:`exit_code` takes the
+#: first type the exception is an instance of).  Input the package refuses is 2, a
+#: computation that cannot go on is 1 (a run reports it as ``"status": "failed"``).
+ERROR_EXIT_CODES: dict[type[BaseException], ExitCode] = {
+    SceneError: ExitCode.BAD_INPUT,
+    CheckpointError: ExitCode.BAD_INPUT,
+    MaterialError: ExitCode.BAD_INPUT,
+    ExpressionError: ExitCode.BAD_INPUT,
+    TumourParameterError: ExitCode.BAD_INPUT,
+    CystParameterError: ExitCode.BAD_INPUT,
+    ContactInputError: ExitCode.BAD_INPUT,
+    FractureError: ExitCode.BAD_INPUT,
+    MeshInputError: ExitCode.BAD_INPUT,
+    InputError: ExitCode.BAD_INPUT,
+    InvalidRunError: ExitCode.INVALID,
+    ContactConvergenceError: ExitCode.FAILED,
+    SingularActiveSetError: ExitCode.FAILED,
+    MeshingError: ExitCode.FAILED,
+    CouplingError: ExitCode.FAILED,
+    CoverageError: ExitCode.FAILED,
+    TumourError: ExitCode.FAILED,
+    RunError: ExitCode.FAILED,
+}
+
+
+def error_exit_code(kind: type[BaseException]) -> int | None:
+    """The exit status of the exception type ``kind``: its row of :data:`ERROR_EXIT_CODES`
+    (the first row it is a subclass of), else its ``exit_code`` attribute; ``None`` for a
+    type the package does not define (an internal error)."""
+    for row, code in ERROR_EXIT_CODES.items():
+        if issubclass(kind, row):
+            return int(code)
+    return getattr(kind, "exit_code", None)
+
+
+def exit_code(exc: BaseException) -> int:
+    """The exit status of an exception that ends the command: :func:`error_exit_code` of
+    its type; else a warning raised as an error (``--strict``) 2, ``KeyboardInterrupt``
+    130, anything else (an internal error) 1."""
+    code = error_exit_code(type(exc))
+    return base_exit_code(exc) if code is None else code
 
 
 def format_error(exc: BaseException) -> str:
