@@ -1,59 +1,10 @@
 """Moving boundaries, remeshing and field transfer for growing neoplasms.
 
-Public API
-----------
-Meshing (gmsh on rank 0, distributed with :func:`dolfinx.io.gmsh.model_to_mesh`):
-
-``polygon_mesh(points, h, comm) -> dolfinx.mesh.Mesh``
-    Triangulate the inside of a closed polygon (2D).  The polygon's nodes become the
-    boundary vertices of the mesh, unchanged and in order (each edge is one facet).
-``surface_mesh(points, triangles, h, comm) -> dolfinx.mesh.Mesh``
-    Tetrahedralise the inside of a closed triangulated surface (3D); the surface
-    triangulation is kept as the boundary of the mesh.
-``moved_curve_mesh(points, h, comm)`` / ``moved_surface_mesh(points, triangles, h, comm)``
-    Remesh a moved boundary; when gmsh fails, retry with a smoothed boundary, then with
-    half the size as well (``REMESH_RETRIES``), before failing with every attempt named.
-``sphere_mesh(radius, h, comm) -> dolfinx.mesh.Mesh``
-    A tetrahedral ball (a convenience for 3D initial tumours).
-
-Boundary geometry (replicated on every rank, only the boundary is gathered):
-
-``gather_boundary(mesh) -> Boundary``
-    The exterior boundary as NumPy arrays on every rank: 2D an ordered, counter-clockwise
-    closed loop, 3D vertices + outward-oriented triangles.  Vertices are keyed by the
-    mesh's input (gmsh) node index, so the result does not depend on the partition.
-``curvature.polygon_curvature`` / ``curvature.surface_curvature``
-    (module :mod:`bonecontact.neoplasm.curvature`) mean curvature of the boundary.
-``snap_to_grid(points) -> points``
-    Coordinates rounded to a power-of-two grid of about 3e-10 of the extent: what gmsh
-    and the resampling see, so that a boundary moved on any number of ranks (round-off
-    apart) gives the same mesh.
-``resample_closed_curve(points, h) -> points``
-    Redistribute the nodes of a closed curve uniformly in arclength (periodic cubic
-    spline through the old nodes, so a fixed smooth boundary is preserved to O(h^4)).
-
-Motion and transfer:
-
-``DirichletLaplacian(V, boundary_dofs)``
-    ``-Δu = f``, ``u = g`` on the exterior boundary, one MUMPS factorisation per mesh
-    position reused for every right-hand side.
-``MeshMotion(mesh, laplacian=None)``
-    ``.extend(displacement_on_boundary)``: harmonic extension of a boundary displacement
-    into the mesh (vector P1 Laplace, solved per component with one factorisation of the
-    scalar Laplacian); ``.apply(w)``: move ``mesh.geometry.x`` by
-    an extension; ``.move(displacement_on_boundary)``: both.
-``transfer(u_from, V_to, extrapolate=0.0) -> fem.Function``
-    (``transfer_fields(sources, V_to, extrapolate)``: several fields of one source mesh
-    with one point search)
-    Non-matching interpolation ``fem.create_interpolation_data`` +
-    ``Function.interpolate_nonmatching`` WITH a coverage check: every target point must be
-    inside the source mesh, or within ``extrapolate`` of it (then the nearest source cell's
-    polynomial is evaluated there: explicit extrapolation).  Points further away raise
-    :class:`CoverageError` naming how many and where - they are never silently zero.
-
-Conventions: the boundary of a 2D mesh is one closed curve (simply connected region);
-curvature is positive for a convex region (circle: 1/R, sphere: 2/R, i.e. kappa =
-kappa_1 + kappa_2 = div n in 3D).
+Meshes made by gmsh on rank 0 (inside a polygon or a closed surface, a moved boundary
+with retries, a ball), the boundary gathered on every rank and keyed by input node, the
+harmonic mesh motion with one factorised Laplacian, and the non-matching transfer of
+fields with a coverage check.  Methods: docs/theory/remeshing.md.  A 2D boundary is one
+closed counter-clockwise curve; curvature is div n, positive for a convex region.
 """
 
 from __future__ import annotations
