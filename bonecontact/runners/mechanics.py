@@ -32,7 +32,7 @@ from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.newmark import make_integrator
 from bonecontact.mechanics.reactions import ForceMoment, SupportReactions, moment_components
 from bonecontact.meshing.io import read_gmsh_mesh
-from bonecontact.runners.checkpoint import Checkpointer, RunCounters
+from bonecontact.runners.checkpoint import Checkpointer, MechanicsState, RunCounters
 from bonecontact.runners.fracture_check import FractureMonitor, fracture_history_columns
 from bonecontact.runners.loop import StepHooks, progress_bar, run_steps
 from bonecontact.runners.results import (
@@ -656,6 +656,9 @@ def finish_run(
     info["warnings"] = [str(i) for i in sm.issues]
     info.setdefault("reactions", rec.reaction_summary())
     info["phases_s"] = timer.summary(comm)
+    imap = sm.model.V.dofmap.index_map
+    owned = imap.size_local * sm.model.V.dofmap.index_map_bs
+    info["memory_bytes_per_dof"] = timer.memory_per_dof(comm, owned)  # (issue 28)
     if message is not None:
         info["message"] = message
     summary = rec.writer.summary(status, **info)
@@ -730,7 +733,12 @@ def run_model(
     out = scene.output
     info = _checkpoint_info(scene, sm, dt)
     ckpt = Checkpointer(
-        outdir, integ, out.checkpoint_every, info, out.checkpoint_time, checkpoint_on_signal
+        outdir,
+        MechanicsState(integ),
+        out.checkpoint_every,
+        info,
+        out.checkpoint_time,
+        checkpoint_on_signal,
     )
     if restart:
         with timer.phase("checkpoint"):
