@@ -16,8 +16,10 @@ flops as ratios to it.
 
 Variants (``--variants``, comma-separated): ``tight`` (every Krylov solve to the tight
 tolerance), ``loose1e-2`` … (inexact PDAS with that loose tolerance), and suffixes
-``+cheb1`` (one Chebyshev iteration per level), ``+v`` (V-cycles), ``+reuseP``
-(``pc_gamg_reuse_interpolation``), ``+agg1`` (one level of aggressive coarsening),
+``+cheb1`` (one Chebyshev iteration per level), ``+v`` (V-cycles), ``+reuseP`` /
+``+noreuseP`` (``pc_gamg_reuse_interpolation`` on / off; on by default since issue 28),
+``+chol`` / ``+lu`` (the coarse grid's factorisation; Cholesky by default for these
+symmetric systems since issue 28), ``+agg1`` (one level of aggressive coarsening),
 ``+th0.05`` (``pc_gamg_threshold``), ``+cel<n>`` (a coarse grid of at most n
 equations; ``+cel50``: GAMG's default, the setting before 2026-11-27), e.g. ``loose1e-4+cheb1``.
 
@@ -47,7 +49,7 @@ from bench_contact3d import SIZES, linear_solve
 from common import machine, write_rows
 
 from bonecontact.common.linalg import set_solver_options
-from bonecontact.contact.krylov import coarse_grid_limit
+from bonecontact.contact.krylov import GAMG_OPTIONS, SYMMETRIC_COARSE_OPTIONS, coarse_grid_limit
 from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
 COMM = MPI.COMM_WORLD
@@ -59,6 +61,9 @@ SUFFIXES: dict[str, dict[str, object]] = {
     "cheb1": {"mg_levels_ksp_max_it": 1},
     "v": {"pc_mg_cycle_type": "v"},
     "reuseP": {"pc_gamg_reuse_interpolation": True},
+    "noreuseP": {"pc_gamg_reuse_interpolation": False},
+    "chol": {"mg_coarse_sub_pc_type": "cholesky"},
+    "lu": {"mg_coarse_sub_pc_type": "lu"},
     "agg1": {"pc_gamg_aggressive_coarsening": 1},
     "th0.05": {"pc_gamg_threshold": 0.05},
     "th-1": {"pc_gamg_threshold": -1.0},
@@ -85,7 +90,7 @@ def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
     """Set the variant's options (the solver's own, :func:`set_solver_options`: options
     of an earlier variant are reset to the defaults) and drop the preconditioner
     (rebuilt at the next solve)."""
-    reset = {"mg_levels_ksp_max_it": 2, "pc_gamg_reuse_interpolation": False}
+    reset = {"mg_levels_ksp_max_it": 2, **GAMG_OPTIONS, **SYMMETRIC_COARSE_OPTIONS}
     size = {"pc_gamg_coarse_eq_limit": coarse_grid_limit(solver.B.getSize()[0])}  # the solver's
     solver.ksp.getPC().reset()
     set_solver_options(solver.ksp, {**reset, **DEFAULTS, **size, **popts}, PREFIX)

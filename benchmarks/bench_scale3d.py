@@ -16,6 +16,13 @@ Usage::
 
 Writes ``benchmarks/results/scale3d.csv`` (one row per size, rank count and solver,
 appended).  Meshes are made once by gmsh's HXT mesher into ``--mesh-dir``.
+
+Memory per dof: every row has ``bytes_per_dof_rank`` (the largest rank's peak over its
+share of the dofs) and, when ``summary.json`` has it, ``memory_bytes_per_dof`` by phase.
+``--budget R`` holds the peak to R times that of one plain linear solve of the same mesh
+on the same ranks (``results/reference_<size>_<ranks>.json`` of ``bench_reference.py``,
+its ``gamg_default`` row — ``mumps`` for the direct path): a row over it gets
+``status = over budget`` and the script exits with status 1.
 """
 
 from __future__ import annotations
@@ -193,11 +200,56 @@ def _summary_figures(summary: dict) -> dict:
     mem = summary.get("peak_memory_mb", {})
     out["mem_max_rank_mb"] = mem.get("max_rank")
     out["mem_total_mb"] = mem.get("total")
+    if out["dofs"] and mem.get("max_rank"):
+        share = out["dofs"] / max(int(summary.get("ranks", 1)), 1)
+        out["bytes_per_dof_rank"] = round(mem["max_rank"] * 2**20 / share, 1)
+    if "memory_bytes_per_dof" in summary:
+        out["memory_bytes_per_dof"] = json.dumps(summary["memory_bytes_per_dof"])
     out["pdas_iterations"] = summary.get("contact", {}).get("pdas_iterations", {}).get("total")
     out["linear_iterations"] = summary.get("linear_iterations", {}).get("total")
     for name, value in summary.get("phases_s", {}).items():
         out[f"t_{name}"] = round(float(value), 2)
     return out
+
+
+def reference_peak_mb(out: Path, label: str, ranks: int, linear: str) -> float | None:
+    """Peak memory per rank (MiB, median) of one plain linear solve of the same mesh and
+    ranks, from ``bench_reference.py``'s results (``None`` if it has not been run)."""
+    path = out / f"reference_{label}_{ranks}.json"
+    if not path.exists():
+        return None
+    med = json.loads(path.read_text()).get("medians", {})
+    ref = med.get("reference:mumps" if linear == "direct" else "reference:gamg_default")
+    return ref.get("peak_mib_max_rank") if ref else None
+
+
+def check_budget(row: dict, out: Path, budget: float | None) -> bool:
+    """Add the peak-memory ratio to the reference to ``row``; ``False`` if over ``budget``."""
+    ref = reference_peak_mb(out, row["label"], row["ranks"], row["linear"])
+    if ref is None or row.get("mem_max_rank_mb") is None:
+        return True
+    row["mem_ratio_to_reference"] = round(row["mem_max_rank_mb"] / ref, 2)
+    if budget is not None and row["mem_ratio_to_reference"] > budget:
+        row["status"] = f"over budget ({row['mem_ratio_to_reference']} > {budget})"
+        return False
+    return True
+
+
+def append_row(target: Path, row: dict) -> None:
+    """Append ``row`` to the CSV file; a column the file does not have yet is added (the
+    file rewritten with the union of the columns, old rows empty there)."""
+    rows: list[dict] = []
+    columns = list(row)
+    if target.exists():
+        with open(target, newline="") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+            old = list(reader.fieldnames or [])
+            columns = old + [k for k in row if k not in old]
+    with open(target, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        w.writerows(rows + [row])
 
 
 def main() -> None:
@@ -208,7 +260,11 @@ def main() -> None:
     p.add_argument("--mesh-dir", type=Path, default=Path("/tmp/bonecontact-bench-meshes"))
     p.add_argument("--out", type=Path, default=OUT)
     p.add_argument("--keep", type=Path, default=None, help="keep the scene and results here")
+    p.add_argument(
+        "--budget", type=float, default=None, help="peak memory / one plain linear solve's"
+    )
     args = p.parse_args()
+    within = True
     args.out.mkdir(parents=True, exist_ok=True)
     target = args.out / "scale3d.csv"
     info = machine()
@@ -217,14 +273,12 @@ def main() -> None:
         for linear in args.linear.split(","):
             for n in map(int, args.ranks.split(",")):
                 row = run_case(label, n, linear, mesh, args.keep)
+                within = check_budget(row, args.out, args.budget) and within
                 row["machine"] = info
                 print(json.dumps(row), flush=True)
-                new = not target.exists()
-                with open(target, "a", newline="") as f:
-                    w = csv.DictWriter(f, fieldnames=list(row), extrasaction="ignore")
-                    if new:
-                        w.writeheader()
-                    w.writerow(row)
+                append_row(target, row)
+    if not within:
+        raise SystemExit(1)
 
 
 if __name__ == "__main__":

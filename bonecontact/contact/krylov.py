@@ -52,7 +52,20 @@ __all__ = [
 #: more often) keeps the iterations nearly independent of the mesh (load-driven 3D
 #: Hertz, rtol 1e-12: 35 and 40 iterations at 25k and 65k dofs; V-cycles 48 and 71).
 #: The size of the coarse grid: :func:`coarse_grid_limit`.
-GAMG_OPTIONS: dict[str, object] = {"pc_gamg_agg_nsmooths": 0, "pc_mg_cycle_type": "w"}
+#: ``pc_gamg_reuse_interpolation``: a rebuild for a new set (the set changes only at the
+#: contact surface) keeps the aggregates and prolongators of the first build and redoes
+#: only the Galerkin products, smoother bounds and coarse factorisation (65k dofs: the
+#: same operations and iterations, the graph and aggregation not repeated).
+GAMG_OPTIONS: dict[str, object] = {
+    "pc_gamg_agg_nsmooths": 0,
+    "pc_mg_cycle_type": "w",
+    "pc_gamg_reuse_interpolation": True,
+}
+
+#: Coarse-grid solver of a symmetric condensed system (frictionless, or fixed-point
+#: slip rows): Cholesky instead of LU (65k dofs: the same iterations, 10 % fewer
+#: operations in the contact solve).  Nonsymmetric systems (3D Newton slip rows) keep LU.
+SYMMETRIC_COARSE_OPTIONS: dict[str, object] = {"mg_coarse_sub_pc_type": "cholesky"}
 
 
 def coarse_grid_limit(num_equations: int) -> int:
@@ -172,7 +185,8 @@ def configure_condensed_ksp(
 
     Sets the block size of ``B`` (the transformations lose it; GAMG aggregates nodes,
     not single rows, only with it), the near-nullspace of
-    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` and the coarse grid of
+    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` (and
+    :data:`SYMMETRIC_COARSE_OPTIONS` unless ``nonsymmetric``) and the coarse grid of
     :func:`coarse_grid_limit` (options under the KSP's own prefix, in the options
     database only while it sets up or solves; the command line overrides them under
     ``prefix``) and a nonzero initial guess (the previous PDAS iterate).
@@ -184,6 +198,8 @@ def configure_condensed_ksp(
     nns.destroy()
     B.setOption(PETSc.Mat.Option.SPD, not nonsymmetric)
     gamg = {**GAMG_OPTIONS, "pc_gamg_coarse_eq_limit": coarse_grid_limit(B.getSize()[0])}
+    if not nonsymmetric:
+        gamg.update(SYMMETRIC_COARSE_OPTIONS)
     configure_ksp(ksp, "iterative", rtol=rtol, prefix=prefix, max_it=max_it, options=gamg)
     if nonsymmetric:
         ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
