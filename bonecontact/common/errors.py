@@ -29,7 +29,6 @@ __all__ = [
     "CheckpointError",
     "ExitCode",
     "InputError",
-    "InvalidRunError",
     "RunError",
     "exit_code",
     "exit_code_for_status",
@@ -91,12 +90,6 @@ class RunError(BonecontactError, RuntimeError):
     """A computation that cannot go on (exit status 1; the run's status ``"failed"``)."""
 
     exit_code: ClassVar[int] = ExitCode.FAILED
-
-
-class InvalidRunError(BonecontactError):
-    """A finished run whose result is outside the model's validity (exit status 3)."""
-
-    exit_code: ClassVar[int] = ExitCode.INVALID
 
 
 class CheckpointError(BonecontactError):

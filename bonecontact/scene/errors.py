@@ -23,7 +23,6 @@ from bonecontact.common.errors import (
     CheckpointError,
     ExitCode,
     InputError,
-    InvalidRunError,
     RunError,
     exit_code_for_status,
 )
@@ -48,7 +47,6 @@ __all__ = [
     "CheckpointError",
     "ExitCode",
     "InputError",
-    "InvalidRunError",
     "RunError",
     "SceneError",
     "describe_value",
@@ -121,7 +119,6 @@ ERROR_EXIT_CODES: dict[type[BaseException], ExitCode] = {
     FractureError: ExitCode.BAD_INPUT,
     MeshInputError: ExitCode.BAD_INPUT,
     InputError: ExitCode.BAD_INPUT,
-    InvalidRunError: ExitCode.INVALID,
     ContactConvergenceError: ExitCode.FAILED,
     SingularActiveSetError: ExitCode.FAILED,
     MeshingError: ExitCode.FAILED,

@@ -69,7 +69,7 @@ def test_every_exception_type_has_its_exit_status(module: str, name: str):
     elif issubclass(kind, RuntimeError):
         expected = ExitCode.FAILED
     else:
-        expected = kind.exit_code  # InvalidRunError, the bases
+        expected = kind.exit_code  # the common base
     assert code == expected
 
 
