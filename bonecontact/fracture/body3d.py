@@ -38,7 +38,13 @@ from bonecontact.fracture.meshing import TipMesh
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
 
-__all__ = ["BodySurface", "CrackedBody3D", "body_surface", "mesh_body_with_planar_crack"]
+__all__ = [
+    "BodySurface",
+    "CrackedBody3D",
+    "body_surface",
+    "face_side_sign",
+    "mesh_body_with_planar_crack",
+]
 
 
 @dataclass(frozen=True)
@@ -267,7 +273,7 @@ def _build(body: BodySurface, crack: PlanarCrack, size: TipMesh, tags: tuple[int
 
 
 # --------------------------------------------------------------------- DOLFINx side
-def _upper_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.ndarray) -> int:
+def face_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.ndarray) -> int:
     """+1 if the cells behind facet group ``tag`` lie on the side ``n`` points to, else −1
     (collective)."""
     tdim = msh.topology.dim
@@ -333,7 +339,7 @@ def mesh_body_with_planar_crack(
         md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
     n = np.asarray(crack.normal, dtype=float)
     a, b = tags
-    upper, lower = (a, b) if _upper_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
+    upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
     cb = CrackedBody3D(
         md.mesh, md.cell_tags, md.facet_tags, crack, {"crack_upper": upper, "crack_lower": lower}
     )

@@ -217,6 +217,11 @@ class EllipticalFront:
         """Arc length from the point to the nearest corner of the front: ∞ (smooth)."""
         return math.inf
 
+    @property
+    def closed(self) -> bool:
+        """True: the front is a closed curve (arc length wraps at the perimeter)."""
+        return True
+
 
 class CrackFront(Protocol):
     """The front protocol of :func:`front_interaction_integral` and
@@ -244,7 +249,10 @@ class CrackFront(Protocol):
 
     def radius_of_curvature(self, phi: float) -> float: ...  # ∞ on a straight edge
 
-    def corner_distance(self, phi: float) -> float: ...
+    def corner_distance(self, phi: float) -> float: ...  # or to the free surface
+
+    @property
+    def closed(self) -> bool: ...  # False: the front ends on the free surface
 
     def nearest(self, x: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
 
@@ -349,6 +357,11 @@ class PolygonFront:
     def radius_of_curvature(self, phi: float) -> float:
         """∞: the edges are straight."""
         return math.inf
+
+    @property
+    def closed(self) -> bool:
+        """True: the front is a closed polygon."""
+        return True
 
     def corner_distance(self, phi: float) -> float:
         """Distance from the point at ``phi`` to the nearer end of its edge (m)."""
@@ -560,11 +573,14 @@ def _front_coordinates(
     front: CrackFront, x: np.ndarray, phi0: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Distance r of points ``x`` (n, 3) to the front and the arc length s of their nearest
-    front point measured from the point φ₀ (wrapped to (−P/2, P/2], P the perimeter)."""
+    front point measured from the point φ₀ (on a closed front wrapped to (−P/2, P/2], P
+    the perimeter)."""
     t = front.nearest(x)
     r = np.linalg.norm(x - front.point(t), axis=1)
-    per = front.perimeter
-    s = (front.arc_length(t) - front.arc_length(phi0) + 0.5 * per) % per - 0.5 * per
+    s = front.arc_length(t) - front.arc_length(phi0)
+    if front.closed:
+        per = front.perimeter
+        s = (s + 0.5 * per) % per - 0.5 * per
     return r, s
 
 
@@ -746,6 +762,31 @@ def front_interaction_integral(
     -------
     FrontSIF
     """
+    r_in, length, rho = _domain_sizes(block.front, phi, material, r_out, r_in, length)
+    p0 = block.front.point(phi)[0]
+    e1, e2, _ = block.front.frame(phi)
+    q, dx, norm = _domain(block, phi, (r_in, r_out, length), rho, quadrature_degree)
+    const = {
+        k: fem.Constant(block.mesh, np.asarray(v, dtype=default_scalar_type))
+        for k, v in (("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0)))
+    }
+    form = _interaction_form(u, block, q, dx, const, (rho, r_out), material, face_traction)
+    K_I, K_II, K_III, G = _mode_values(form, const, block, norm, material)
+    return FrontSIF(
+        float(phi), tuple(map(float, p0)), tuple(map(float, e1)), K_I, K_II, K_III, G, "interaction"
+    )
+
+
+def _domain_sizes(
+    front: CrackFront,
+    phi: float,
+    material: Isotropic,
+    r_out: float,
+    r_in: float | None,
+    length: float | None,
+) -> tuple[float, float, float]:
+    """Check the material and the domain against the front at ``phi``: (r_in, length, ρ),
+    the defaults filled in and ρ the front's radius of curvature there."""
     if not isinstance(material, Isotropic):
         raise FractureError(
             "material", f"needs a homogeneous isotropic material, got {type(material).__name__}"
@@ -756,7 +797,6 @@ def front_interaction_integral(
         raise FractureError(
             "r_out", f"need 0 <= r_in < r_out and length > 0, got {r_in}, {r_out}, {length}"
         )
-    front, msh = block.front, block.mesh
     rho = front.radius_of_curvature(phi)
     if max(r_out, length) > 0.75 * rho:
         raise FractureError(
@@ -768,30 +808,53 @@ def front_interaction_integral(
     if length > corner:  # the ring may be wider: a convex polygon's other edges lie beyond
         raise FractureError(
             "length",
-            f"the domain along the front (length={length:g}) reaches a corner of the front "
-            f"({corner:g} m from the point); take a shorter length or a point farther from it",
+            f"the domain along the front (length={length:g}) reaches a corner of the front or "
+            f"the free surface ({corner:g} m from the point); take a shorter length or a "
+            "point farther from it",
         )
+    return r_in, length, rho
+
+
+def _domain(
+    block: CrackBlock, phi: float, radii: tuple[float, float, float], rho: float, degree: int
+) -> tuple[fem.Function, ufl.Measure, float]:
+    """The q-function of the point, the measure of its support (checked against the
+    boundary) and the normalising front integral ∫ q (e₁·e₁(s)) ds; ``radii`` =
+    (r_in, r_out, length)."""
+    front, msh = block.front, block.mesh
+    r_in, r_out, length = radii
     p0 = front.point(phi)[0]
-    e1, e2, _ = front.frame(phi)
+    e1, _, _ = front.frame(phi)
     V1 = fem.functionspace(msh, ("Lagrange", 1))
     q = _q_function(V1, front, phi, r_in, r_out, 0.5 * length, length, p0)
     support = _check_domain(block, q, p0)
     tags = mesh.meshtags(msh, 3, support, np.ones(support.size, dtype=np.int32))
-    rule = _rule(quadrature_degree, rho)
+    rule = _rule(degree, rho)
     dx = ufl.Measure("dx", domain=msh, subdomain_data=tags, metadata=rule)(1)
     boxes = msh.comm.allgather((msh.geometry.x.min(axis=0), msh.geometry.x.max(axis=0)))
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
     norm = _normalisation(front, lo, hi, phi, e1, 0.5 * length, length)
-    E, nu = material.E, material.nu
+    return q, dx, norm
+
+
+def _interaction_form(
+    u: fem.Function,
+    block: CrackBlock,
+    q: fem.Function,
+    dx: ufl.Measure,
+    const: dict,
+    radii: tuple[float, float],
+    material: Isotropic,
+    face_traction: tuple | None,
+) -> fem.Form:
+    """The compiled interaction integral (the mode is ``const["k"]``): the volume terms
+    and, on a model with both faces, the face term; ``radii`` = (ρ, r_out)."""
+    rho, r_out = radii
     mu, lmbda = material.mu, material.lmbda
-    c = elastic_constants(E, nu, "strain")
-    const = {
-        k: fem.Constant(msh, np.asarray(v, dtype=default_scalar_type))
-        for k, v in (("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0)))
-    }
-    x = ufl.SpatialCoordinate(msh)
-    ua = _auxiliary_displacement(x, const, rho, mu, c["kappa"], scale=r_out)
+    kappa = elastic_constants(material.E, material.nu, "strain")["kappa"]
+    x = ufl.SpatialCoordinate(block.mesh)
+    ua = _auxiliary_displacement(x, const, rho, mu, kappa, scale=r_out)
 
     def sigma(v):
         eps = ufl.sym(ufl.grad(v))
@@ -806,21 +869,31 @@ def front_interaction_integral(
     integrand = (ufl.dot(flux, gq) + q * ufl.dot(ufl.div(sa), du1)) * dx
     if not block.half_model and "crack_upper" in block.groups:  # both faces meshed
         integrand = integrand - _face_term(
-            block, face_traction, u, x, const, (rho, r_out), mu, lmbda, c["kappa"], q
+            block, face_traction, u, x, const, (rho, r_out), mu, lmbda, kappa, q
         )
     elif face_traction is not None:
         raise FractureError("face_traction", "the face term needs a model with both faces")
-    form = fem.form(integrand)
+    return fem.form(integrand)
+
+
+def _mode_values(
+    form: fem.Form, const: dict, block: CrackBlock, norm: float, material: Isotropic
+) -> tuple[float, float, float, float]:
+    """(K_I, K_II, K_III, G) from the form assembled with the unit auxiliary field of
+    each mode (a half model: K_I only, the volume integral doubled)."""
+    c = elastic_constants(material.E, material.nu, "strain")
+    mu = material.mu
     factor = 2.0 if block.half_model else 1.0
     modes = (
         ((1.0, 0.0, 0.0),)
         if block.half_model
         else ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     )
+    comm = block.mesh.comm
     values = []
     for k in modes:
         const["k"].value[:] = k
-        values.append(factor * msh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM) / norm)
+        values.append(factor * comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM) / norm)
     K_I = 0.5 * c["E_prime"] * values[0]
     K_II, K_III = (
         (0.5 * c["E_prime"] * values[1], mu * values[2])
@@ -830,9 +903,7 @@ def front_interaction_integral(
     G = (K_I**2 + (0.0 if math.isnan(K_II) else K_II**2)) / c["E_prime"] + (
         0.0 if math.isnan(K_III) else K_III**2 / (2 * mu)
     )
-    return FrontSIF(
-        float(phi), tuple(map(float, p0)), tuple(map(float, e1)), K_I, K_II, K_III, G, "interaction"
-    )
+    return K_I, K_II, K_III, G
 
 
 #: Quadrature of the face term.

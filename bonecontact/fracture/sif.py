@@ -290,6 +290,37 @@ def interaction_integral(
     r_in = 0.5 * r_out if r_in is None else r_in
     d = _domain(cm, end, material, r_in, r_out, quadrature_degree)
     c = elastic_constants(d.material.E, d.material.nu, plane)
+    tip, e1 = cm.crack.tip(end), cm.crack.direction(end)
+    form, J_form, const = _interaction_forms(u, cm, end, d, c, face_traction, quadrature_degree)
+    values = {}
+    for mode, (k1, k2) in (("I", (1.0, 0.0)), ("II", (0.0, 1.0))):
+        const["k1"].value, const["k2"].value = k1, k2
+        values[mode] = 0.5 * c["E_prime"] * _total_compiled(form, cm.mesh.comm)
+    J = _total_compiled(J_form, cm.mesh.comm)
+    K_I, K_II = values["I"], values["II"]
+    return SIFResult(
+        K_I,
+        K_II,
+        (K_I**2 + K_II**2) / c["E_prime"],
+        J,
+        (float(tip[0]), float(tip[1])),
+        (float(e1[0]), float(e1[1])),
+        "interaction",
+    )
+
+
+def _interaction_forms(
+    u: fem.Function,
+    cm: CrackedMesh,
+    end: int,
+    d: _Domain,
+    c: dict,
+    face_traction: ufl.core.expr.Expr | tuple | None,
+    quadrature_degree: int,
+) -> tuple[fem.Form, fem.Form, dict]:
+    """The compiled interaction integral (its auxiliary mode set by the constants
+    ``k1``, ``k2``), the compiled J-integral and the constants, on the domain ``d`` of
+    the tip ``end`` (with the face terms of loaded faces)."""
     crack, msh = cm.crack, cm.mesh
     tip, e1 = crack.tip(end), crack.direction(end)
     # constants, not numbers: one compiled form for every tip, mesh size and material
@@ -328,22 +359,7 @@ def interaction_integral(
         )
     else:
         integrand = integrand * d.dx
-    form = fem.form(integrand)
-    values = {}
-    for mode, (k1, k2) in (("I", (1.0, 0.0)), ("II", (0.0, 1.0))):
-        const["k1"].value, const["k2"].value = k1, k2
-        values[mode] = 0.5 * c["E_prime"] * _total_compiled(form, msh.comm)
-    J = _total_compiled(fem.form(J_integrand), msh.comm)
-    K_I, K_II = values["I"], values["II"]
-    return SIFResult(
-        K_I,
-        K_II,
-        (K_I**2 + K_II**2) / c["E_prime"],
-        J,
-        (float(tip[0]), float(tip[1])),
-        (float(e1[0]), float(e1[1])),
-        "interaction",
-    )
+    return fem.form(integrand), fem.form(J_integrand), const
 
 
 # ------------------------------------------------------------ displacement correlation
