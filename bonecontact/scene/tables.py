@@ -21,7 +21,7 @@ from typing import Any
 
 from bonecontact.scene.errors import SceneError, describe_value, format_choices
 from bonecontact.scene.keys import Key, SceneDeprecationWarning, Table
-from bonecontact.scene.spec import Schedule
+from bonecontact.scene.spec import SCHEDULE_KEYS, Schedule
 
 __all__ = [
     "MISSING",
@@ -283,7 +283,7 @@ class TableReader:
 
     def schedule(self) -> Schedule | None:
         """The ``ramp`` / ``schedule`` keys; ``None`` when neither is given (or ``ramp = 0``)."""
-        ramp = self.number("ramp", nonnegative=True)
+        ramp = self.get(SCHEDULE_KEYS[0])  # the declared "ramp": a number >= 0 (s)
         pairs = self.raw("schedule", False)
         if pairs is MISSING:
             # ramp = 0 is the documented default: the same as no ramp at all
