@@ -445,80 +445,142 @@ def _build_serial(
     h_neo: float,
     path: Path | None,
 ) -> HostMesh:
+    """:func:`build_host_mesh3d` on rank 0: surfaces, checks, volumes, groups, mesh."""
     if region not in geo.cells:
         raise CouplingError(f'the mesh has no cell group "{region}"')
-    names = list(geo.cells)
     gname = host[0] if host else region
-    merged = [gname if n == region else n for n in names]
-    group = sorted(set(merged))
-    gi = {g: i for i, g in enumerate(group)}
-    tets = np.concatenate([geo.cells[n][1] for n in names])
-    label = np.concatenate([np.full(len(geo.cells[n][1]), gi[m]) for n, m in zip(names, merged)])
-    # rounded to 0.1 nm: the surface comes from reductions whose round-off may differ with
-    # the number of ranks, and gmsh's mesh is not continuous in its input
-    npts = np.round(np.asarray(points, dtype=np.float64), 10)
-    ntri = np.asarray(triangles, dtype=np.int64)
-    if surface_volume(npts, ntri) < 0:
-        ntri = ntri[:, [0, 2, 1]]
+    group, label, tets = _host_groups(geo, region, gname)
+    npts, ntri = _neoplasm_surface(points, triangles)
     sf = _recover_surfaces(geo, label, tets)
-    hb = _host_body(sf, geo.x, gname, gi[gname], npts, ntri, h_neo)
+    hb = _host_body(sf, geo.x, gname, group.index(gname), npts, ntri, h_neo)
     tags = {n: t for n, (t, _) in geo.cells.items()}
     with gmsh_session("bonecontact-host3d"):
         ent = _add_patches(sf, geo.x)
-        s_neo = gmsh.model.addDiscreteEntity(2)
-        off = len(geo.x) + 1
-        gmsh.model.mesh.addNodes(2, s_neo, np.arange(len(npts)) + off, npts.ravel())
-        gmsh.model.mesh.addElementsByType(s_neo, 2, [], (ntri + off).ravel())
-        vols: dict[str, list[int]] = {}
-        kernel = gmsh.model.geo
-        for bd in range(len(sf.body_group)):
-            loops = [kernel.addSurfaceLoop([ent[p] for p in sh]) for sh in _shells(sf, bd, geo.x)]
-            if bd == hb:
-                loops.append(kernel.addSurfaceLoop([s_neo]))
-            vols.setdefault(group[sf.body_group[bd]], []).append(kernel.addVolume(loops))
-        neo_vol = None if cavity else kernel.addVolume([kernel.addSurfaceLoop([s_neo])])
-        kernel.synchronize()
-        for g, vs in vols.items():
-            tag = tags[g] if g in tags else tags[region]
-            gmsh.model.addPhysicalGroup(3, vs, tag, name=g)
-        if neo_vol is not None:
-            if region in vols:  # host = []: the neoplasm joins its region
-                gmsh.model.removePhysicalGroups([(3, tags[region])])
-                gmsh.model.addPhysicalGroup(3, vols[region] + [neo_vol], tags[region], name=region)
-            else:
-                gmsh.model.addPhysicalGroup(3, [neo_vol], tags[region], name=region)
-        facet_names = []
-        for g, (tag, _) in geo.facets.items():
-            members = [ent[p] for p, fs in enumerate(sf.patch_facets) if g in fs]
-            if members:
-                gmsh.model.addPhysicalGroup(2, members, tag, name=g)
-                facet_names.append(g)
-        wname = wall_name(region)
-        used = list(tags.values()) + [t for t, _ in geo.facets.values()]
-        gmsh.model.addPhysicalGroup(2, [s_neo], max(used) + 1, name=wname)
-        facet_names.append(wname)
-        h_max = float(np.nanmax(geo.node_size()))
-        gmsh.model.mesh.setSizeCallback(_size_callback(npts, h_neo, h_max))
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
-        gmsh.model.mesh.generate(3)
+        s_neo = _add_neoplasm_surface(npts, ntri, len(geo.x) + 1)
+        vols, neo_vol = _add_volumes(sf, geo.x, ent, group, hb, s_neo, cavity)
+        _cell_groups(vols, neo_vol, tags, region)
+        facet_names = _facet_groups(geo, sf, ent, s_neo, tags, region)
+        _mesh_volumes(npts, h_neo, float(np.nanmax(geo.node_size())))
         ncells = 0
         for _, v in gmsh.model.getEntities(3):
             types, etags, _ = gmsh.model.mesh.getElements(3, v)
             ncells += sum(len(t) for t in etags)
-        if cavity:
-            neo_volume = surface_volume(npts, ntri)
-        else:
-            neo_volume = _meshed_volume(neo_vol)
+        neo_volume = surface_volume(npts, ntri) if cavity else _meshed_volume(neo_vol)
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             gmsh.write(str(path))
         cell_groups = tuple(sorted(set(vols) | ({region} if neo_vol is not None else set())))
         return HostMesh(
-            path, cell_groups, tuple(facet_names), float(neo_volume), wname, int(ncells)
+            path, cell_groups, tuple(facet_names), float(neo_volume), wall_name(region), int(ncells)
         )
+
+
+def _host_groups(
+    geo: HostGeometry3D, region: str, gname: str
+) -> tuple[list[str], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """The cell groups with ``region`` counted as the host group ``gname`` (sorted), the
+    index of each tetrahedron's group and the tetrahedra."""
+    names = list(geo.cells)
+    merged = [gname if n == region else n for n in names]
+    group = sorted(set(merged))
+    gi = {g: i for i, g in enumerate(group)}
+    tets = np.concatenate([geo.cells[n][1] for n in names])
+    label = np.concatenate([np.full(len(geo.cells[n][1]), gi[m]) for n, m in zip(names, merged)])
+    return group, label, tets
+
+
+def _neoplasm_surface(
+    points: npt.ArrayLike, triangles: npt.ArrayLike
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """The neoplasm surface rounded to 0.1 nm and oriented outward.  (The surface comes
+    from reductions whose round-off may differ with the number of ranks, and gmsh's mesh
+    is not continuous in its input.)"""
+    npts = np.round(np.asarray(points, dtype=np.float64), 10)
+    ntri = np.asarray(triangles, dtype=np.int64)
+    if surface_volume(npts, ntri) < 0:
+        ntri = ntri[:, [0, 2, 1]]
+    return npts, ntri
+
+
+def _add_neoplasm_surface(
+    npts: npt.NDArray[np.float64], ntri: npt.NDArray[np.int64], off: int
+) -> int:
+    """The neoplasm surface as a discrete gmsh surface, its nodes numbered from ``off``."""
+    s_neo = gmsh.model.addDiscreteEntity(2)
+    gmsh.model.mesh.addNodes(2, s_neo, np.arange(len(npts)) + off, npts.ravel())
+    gmsh.model.mesh.addElementsByType(s_neo, 2, [], (ntri + off).ravel())
+    return s_neo
+
+
+def _add_volumes(
+    sf: _Surfaces,
+    x: npt.NDArray[np.float64],
+    ent: dict[int, int],
+    group: list[str],
+    hb: int,
+    s_neo: int,
+    cavity: bool,
+) -> tuple[dict[str, list[int]], int | None]:
+    """One volume per body (its shells; the neoplasm surface a hole of body ``hb``) by
+    group name, and the neoplasm's own volume (``None`` for a cavity)."""
+    vols: dict[str, list[int]] = {}
+    kernel = gmsh.model.geo
+    for bd in range(len(sf.body_group)):
+        loops = [kernel.addSurfaceLoop([ent[p] for p in sh]) for sh in _shells(sf, bd, x)]
+        if bd == hb:
+            loops.append(kernel.addSurfaceLoop([s_neo]))
+        vols.setdefault(group[sf.body_group[bd]], []).append(kernel.addVolume(loops))
+    neo_vol = None if cavity else kernel.addVolume([kernel.addSurfaceLoop([s_neo])])
+    kernel.synchronize()
+    return vols, neo_vol
+
+
+def _cell_groups(
+    vols: dict[str, list[int]], neo_vol: int | None, tags: dict[str, int], region: str
+) -> None:
+    """Every cell group under its name and tag; a tumour's volume under ``region``'s."""
+    for g, vs in vols.items():
+        tag = tags[g] if g in tags else tags[region]
+        gmsh.model.addPhysicalGroup(3, vs, tag, name=g)
+    if neo_vol is not None:
+        if region in vols:  # host = []: the neoplasm joins its region
+            gmsh.model.removePhysicalGroups([(3, tags[region])])
+            gmsh.model.addPhysicalGroup(3, vols[region] + [neo_vol], tags[region], name=region)
+        else:
+            gmsh.model.addPhysicalGroup(3, [neo_vol], tags[region], name=region)
+
+
+def _facet_groups(
+    geo: HostGeometry3D,
+    sf: _Surfaces,
+    ent: dict[int, int],
+    s_neo: int,
+    tags: dict[str, int],
+    region: str,
+) -> list[str]:
+    """The scene's facet groups that still have patches, and the neoplasm wall under a new
+    tag; returns their names."""
+    facet_names = []
+    for g, (tag, _) in geo.facets.items():
+        members = [ent[p] for p, fs in enumerate(sf.patch_facets) if g in fs]
+        if members:
+            gmsh.model.addPhysicalGroup(2, members, tag, name=g)
+            facet_names.append(g)
+    wname = wall_name(region)
+    used = list(tags.values()) + [t for t, _ in geo.facets.values()]
+    gmsh.model.addPhysicalGroup(2, [s_neo], max(used) + 1, name=wname)
+    facet_names.append(wname)
+    return facet_names
+
+
+def _mesh_volumes(npts: npt.NDArray[np.float64], h_neo: float, h_max: float) -> None:
+    """Tetrahedra (Delaunay) of a size growing with the distance from the neoplasm."""
+    gmsh.model.mesh.setSizeCallback(_size_callback(npts, h_neo, h_max))
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+    gmsh.model.mesh.generate(3)
 
 
 def _meshed_volume(vol: int) -> float:
