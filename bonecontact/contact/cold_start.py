@@ -2,7 +2,7 @@
 support patch (docs/theory/pdas.md#cold-start).
 
 A cold start solves first with only the support patch ``S`` of the closest nodes held
-(:func:`bonecontact.contact.pdas.support_patch`).  Held at a few nodes, a body pushed
+(:func:`support_patch`).  Held at a few nodes, a body pushed
 by a load sinks far into the obstacle: the patch acts as a small flat punch, whose
 approach ``δ₁`` is ``ρ_S/a`` times larger than that of the final contact zone of radius
 ``a`` (``ρ_S``: the patch radius).  Every node within a large radius then penetrates,
@@ -30,17 +30,34 @@ the path of the PDAS changes; its converged solution is the same.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from bonecontact.contact.condensed import CondensedSystem, RowLayout
+from bonecontact.contact.interface import ContactInterface
+from bonecontact.contact.linear_strategy import LinearStrategy, SetRows
+
+if TYPE_CHECKING:
+    from bonecontact.contact.set_update import Iterate
 
 __all__ = [
+    "SUPPORT_RADIUS",
     "edge_gap",
     "first_set",
+    "initial_set",
     "patch_response",
     "predicted_set",
     "punch_approach",
     "structure_stiffness",
+    "support_patch",
 ]
+
+#: Radius of the cold-start support patch in local slave mesh sizes (``D_pp`` in 2D,
+#: ``√D_pp`` in 3D): the closest nodes' immediate neighbours on every side.
+SUPPORT_RADIUS = 1.6
 
 
 def structure_stiffness(P1: float, delta1: float, K: float) -> float:
@@ -180,56 +197,61 @@ def first_set(
     return patch | (g <= t)
 
 
-def patch_response(solver, st, it, shift: float) -> npt.NDArray[np.float64]:
+def patch_response(
+    system: CondensedSystem,
+    strategy: LinearStrategy,
+    rows: SetRows,
+    patch: npt.NDArray[np.bool_],
+    lam_n: npt.NDArray[np.float64],
+    shift: float,
+) -> tuple[npt.NDArray[np.float64], int]:
     """Change of the normal contact forces ``w`` of all slave nodes when every node of
-    the first set is pushed ``shift`` further (one more solve of the same set).
+    the first set ``patch`` is pushed ``shift`` further (one more solve of the same set).
 
-    ``solver`` is the :class:`~bonecontact.contact.pdas.ContactSolver`, ``st`` and
-    ``it`` its state and first iterate (a cold start: no slip rows, no given forces).
+    ``rows`` are the rows of the first system (a cold start: no slip rows, no given
+    forces) and ``lam_n`` its normal multipliers.  Returns the change and the linear
+    iterations of the extra solve.
     """
-    R0 = solver._ridx[0]
-    fixed = solver._fixed_rows(st.an, st.stick)
-    dvals = np.zeros(solver.bs * solver.NS)
-    dvals[R0[st.an]] = shift
-    if solver.lowrank is not None:
-        _, w2 = solver.lowrank.respond(fixed, solver._scale, dvals)
-    else:
-        # the solve overwrites the field Ũ: keep the first iterate's (the PDAS may stop
-        # at this iteration, and the next solve starts from it)
-        kept = solver.Uh.copy()
-        zero = np.zeros(solver.bs * solver.NS)
-        _, w2, its = solver._solve_refactor(fixed, st.values + dvals, zero, st.b)
-        kept.copy(solver.Uh)
-        kept.destroy()
-        st.lin_total += its
-    return w2[R0] - it.lam_n * solver._D
+    R0 = system.layout.rows_of[0]
+    dvals = np.zeros(system.layout.n_rows)
+    dvals[R0[patch]] = shift
+    sol = strategy.respond(rows, dvals)
+    return sol.w[R0] - lam_n * system.D, sol.iterations
 
 
-def predicted_set(solver, st, it) -> npt.NDArray[np.bool_]:
+def predicted_set(
+    system: CondensedSystem,
+    strategy: LinearStrategy,
+    rows: SetRows,
+    patch: npt.NDArray[np.bool_],
+    it: Iterate,
+) -> tuple[npt.NDArray[np.bool_], int]:
     """The first set update of a 3D cold start, pair by pair (:func:`first_set`).
 
-    ``solver`` is the :class:`~bonecontact.contact.pdas.ContactSolver`, ``st`` its
-    state (``st.an``: the support patch) and ``it`` the first iterate.  A pair whose
-    patch carries no compressive force in the first solve (pulled apart) takes the plain
-    active-set rule instead.
+    ``rows`` are the rows of the first system, ``patch`` its active set (the support
+    patch) and ``it`` the first iterate.  A pair whose patch carries no compressive
+    force in the first solve (pulled apart) takes the plain active-set rule instead.
+    Returns the set and the linear iterations of the extra solve.
     """
-    gap, D = solver._gap, solver._D
+    lay, gap, D = system.layout, system.gap, system.D
     force = it.lam_n * D
-    g0 = float(gap[st.an].min()) if st.an.any() else 0.0
-    shift = max(float((it.un - g0).max()), 0.0) if solver.NS else 0.0
-    dforce = patch_response(solver, st, it, shift) if shift > 0.0 else None
-    X = solver._gn(np.concatenate([itf.coords for itf in solver.interfaces]))
-    pair = solver._gn(
+    g0 = float(gap[patch].min()) if patch.any() else 0.0
+    shift = max(float((it.un - g0).max()), 0.0) if lay.n_nodes else 0.0
+    dforce, its = None, 0
+    if shift > 0.0:
+        dforce, its = patch_response(system, strategy, rows, patch, it.lam_n, shift)
+    interfaces = system.interfaces
+    X = lay.gather(np.concatenate([itf.coords for itf in interfaces]))
+    pair = lay.gather(
         np.concatenate(
-            [np.full(itf.num_owned, k) for k, itf in enumerate(solver.interfaces)]
-            + [np.zeros(0, int)]
+            [np.full(itf.num_owned, k) for k, itf in enumerate(interfaces)] + [np.zeros(0, int)]
         )
     )
-    new = np.zeros(solver.NS, dtype=bool)
+    new = np.zeros(lay.n_nodes, dtype=bool)
     release = it.ind_n > it.eps  # the plain rule (docs/theory/pdas.md#active-set-rule)
-    for k in range(len(solver.interfaces)):
+    for k in range(len(interfaces)):
         m = pair == k
-        if st.an[m].any() and float(force[m & st.an].sum()) <= 0.0:
+        if patch[m].any() and float(force[m & patch].sum()) <= 0.0:
             # a pair pulled apart (e.g. crack faces in tension): nothing to measure the
             # compliance with, and keeping the patch would accept tensile multipliers
             new[m] = release[m]
@@ -240,8 +262,68 @@ def predicted_set(solver, st, it) -> npt.NDArray[np.bool_]:
             D[m],
             it.un[m],
             force[m],
-            st.an[m],
+            patch[m],
             None if dforce is None else dforce[m],
             shift,
         )
-    return new
+    return new, its
+
+
+def support_patch(
+    coords: npt.NDArray[np.float64],
+    D: npt.NDArray[np.float64],
+    closest: npt.NDArray[np.bool_],
+    gdim: int,
+    radius: float = SUPPORT_RADIUS,
+) -> npt.NDArray[np.bool_]:
+    """The closest slave nodes and every slave node within ``radius`` local mesh sizes of
+    one of them (docs/theory/pdas.md#cold-start).
+
+    A single touching node cannot hold a body against its rotations (two in 3D, one in
+    2D) about that node; its neighbours on the surface, in every direction, can.  The
+    local mesh size of node ``p`` is ``D_pp`` (2D; the length it carries) or
+    ``√(D_pp)`` (3D; ``D_pp ≈ 0.87 h²`` on equilateral triangles).
+
+    Parameters
+    ----------
+    coords, D
+        Reference coordinates ``(n, gdim)`` and ``D_pp`` of the slave nodes of a pair
+        (replicated: identical on every rank).
+    closest
+        Mask of the closest nodes.
+    gdim
+        Geometric dimension.
+    radius
+        Patch radius in local mesh sizes.
+
+    Returns
+    -------
+    numpy.ndarray
+        Mask of the patch (``closest`` included).
+    """
+    if not closest.any():
+        return closest.copy()
+    h = np.abs(D[closest]) ** (1.0 / max(gdim - 1, 1))
+    tree = cKDTree(coords[closest])
+    dist, j = tree.query(coords, k=1)
+    return closest | (dist <= radius * h[j])
+
+
+def initial_set(
+    layout: RowLayout, interfaces: list[ContactInterface], gap_tol: float
+) -> npt.NDArray[np.bool_]:
+    """The first active set of a cold start (docs/theory/pdas.md#cold-start): per pair, the
+    nodes whose gap is within ``gap_tol`` of the smallest gap of that pair (the
+    closed-gap nodes when the bodies touch, the closest ones when they start apart), and
+    the support patch around them (:func:`support_patch`), so that a body held only by
+    contact is supported against its rigid modes from the first solve even when it
+    touches at a single node.  Replicated (collective)."""
+    out = []
+    comm = layout.comm
+    for itf in interfaces:
+        gap = layout.gather(itf.gap)
+        closest = gap <= max(float(gap.min()) if gap.size else 0.0, 0.0) + gap_tol
+        patch = support_patch(layout.gather(itf.coords), layout.gather(itf.D), closest, itf.gdim)
+        lo = sum(comm.allgather(itf.num_owned)[: comm.rank])
+        out.append(patch[lo : lo + itf.num_owned])
+    return layout.gather(np.concatenate(out + [np.zeros(0, bool)]))

@@ -20,6 +20,7 @@ identical on all ranks), pure NumPy:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -31,6 +32,7 @@ __all__ = [
     "FRICTION_KIND",
     "EdgeSets",
     "FrictionLaw",
+    "NodalFriction",
     "aitken_directions",
     "coulomb_fixed_point_bounds",
     "edge_groups",
@@ -77,6 +79,66 @@ class FrictionLaw:
             )
         if self.coefficient < 0 or self.bound < 0:
             raise ValueError("friction coefficient and bound must be >= 0")
+
+
+@dataclass(frozen=True)
+class NodalFriction:
+    """The friction laws of all contact pairs, node by node (replicated arrays).
+
+    Built once per operator (:meth:`of_pairs`); gives the friction bounds of a step and
+    of the Coulomb fixed point.  Bounds are in operator units (Pa divided by the
+    operator's force scale).
+    """
+
+    kind: npt.NDArray[np.int_]  # FRICTION_KIND code per node
+    mu: npt.NDArray[np.float64]  # Coulomb coefficient
+    bound: npt.NDArray[np.float64]  # Tresca bound (operator units)
+    fixed_point: npt.NDArray[np.bool_]  # Coulomb with the Algorithm FP update
+
+    @classmethod
+    def of_pairs(
+        cls,
+        laws: list[FrictionLaw],
+        sizes: list[int],
+        gather: Callable[[npt.NDArray], npt.NDArray],
+        force_scale: float,
+    ) -> NodalFriction:
+        """Per-node arrays of the laws of the pairs, ``sizes[k]`` owned nodes of pair
+        ``k`` on this rank; ``gather`` replicates this rank's values (collective)."""
+
+        def per(f: Callable[[FrictionLaw], float]) -> npt.NDArray[np.float64]:
+            parts = [np.full(n, f(fl), dtype=float) for n, fl in zip(sizes, laws)]
+            return gather(np.concatenate(parts + [np.zeros(0)]))
+
+        kind = per(lambda fl: FRICTION_KIND[fl.kind]).astype(int)
+        fixed_point = (kind == 2) & (per(lambda fl: fl.update == "fixed_point") > 0)
+        return cls(
+            kind=kind,
+            mu=per(lambda fl: fl.coefficient),
+            bound=per(lambda fl: fl.bound) / force_scale,
+            fixed_point=fixed_point,
+        )
+
+    @property
+    def active(self) -> npt.NDArray[np.bool_]:
+        """Nodes with friction."""
+        return self.kind > 0
+
+    @property
+    def rigid(self) -> npt.NDArray[np.bool_]:
+        """Friction nodes whose bound does not follow the current pressure (Tresca,
+        semi-implicit Coulomb): the nodes of the edge rule."""
+        return self.active & ~self.fixed_point
+
+    def step_bounds(self, lam_n_prev: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Bounds at the start of a step (:func:`step_bounds`)."""
+        return step_bounds(self.kind, self.bound, self.mu, lam_n_prev)
+
+    def fixed_point_bounds(
+        self, g: npt.NDArray[np.float64], lam_n: npt.NDArray[np.float64]
+    ) -> tuple[npt.NDArray[np.float64], float]:
+        """Algorithm FP bounds of the current iterate (:func:`coulomb_fixed_point_bounds`)."""
+        return coulomb_fixed_point_bounds(g, self.fixed_point, self.mu, lam_n)
 
 
 def step_bounds(

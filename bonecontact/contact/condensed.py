@@ -1,0 +1,244 @@
+"""The condensed contact system of one time step
+(docs/theory/mortar.md#condensation-of-the-multipliers,
+docs/theory/pdas.md#linear-system-of-one-iteration).
+
+:class:`CondensedSystem` holds what every PDAS iteration works on: the operator in the
+nodal frames ``Ã = T Q A Qᵀ Tᵀ``, its right-hand side ``T Q b``, the solution ``Ũ`` and
+the layout of the contact rows, with the per-node data (``D_pp``, gaps, row scales)
+replicated on every rank.  It is built once per operator by
+:meth:`CondensedSystem.build` and knows nothing of active sets or friction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem
+
+from bonecontact.contact.interface import (
+    ContactInterface,
+    basis_transform,
+    rotation_matrix,
+    transformed_operator,
+)
+
+__all__ = ["CondensedSystem", "RowLayout"]
+
+
+@dataclass
+class RowLayout:
+    """Where the contact rows are: this rank's and the replicated numbering.
+
+    The replicated arrays of the PDAS have one entry per slave node of every rank (rank
+    order, interface by interface within a rank); the replicated contact rows are
+    component-major: ``rows_of[j][p]`` is the row of component ``j`` (0 normal, then the
+    tangents) of node ``p``.
+    """
+
+    comm: MPI.Comm
+    bs: int  # block size = gdim
+    n_nodes: int  # NS: slave nodes of all ranks
+    n_owned: int  # slave nodes of this rank
+    node_offset: int  # this rank's first node in the replicated numbering
+    split: npt.NDArray[np.int64]  # where this rank's nodes change interface
+    local_rows: npt.NDArray[np.int32]  # this rank's contact rows (local, component-major)
+    rows_of: list[npt.NDArray[np.int64]]  # per component, the replicated row of every node
+
+    @classmethod
+    def of(cls, comm: MPI.Comm, bs: int, interfaces: list[ContactInterface]) -> RowLayout:
+        """The layout of the owned slave nodes of ``interfaces`` (collective)."""
+        sizes = [itf.num_owned for itf in interfaces]
+        m = int(sum(sizes))
+        counts = comm.allgather(m)
+        nodes_local = np.concatenate(
+            [bs * itf.blocks.astype(np.int64) for itf in interfaces] + [np.zeros(0, np.int64)]
+        )
+        local_rows = np.concatenate([nodes_local + j for j in range(bs)]).astype(np.int32)
+        offs = np.cumsum([0] + counts[:-1])
+        rows_of = [
+            np.concatenate([bs * o + j * c + np.arange(c) for o, c in zip(offs, counts)]).astype(
+                np.int64
+            )
+            for j in range(bs)
+        ]
+        return cls(
+            comm=comm,
+            bs=bs,
+            n_nodes=int(sum(counts)),
+            n_owned=m,
+            node_offset=int(sum(counts[: comm.rank])),
+            split=np.cumsum(sizes)[:-1],
+            local_rows=local_rows,
+            rows_of=rows_of,
+        )
+
+    @property
+    def n_rows(self) -> int:
+        """Replicated contact rows (``bs × n_nodes``)."""
+        return self.bs * self.n_nodes
+
+    def gather(self, local: npt.NDArray) -> npt.NDArray:
+        """This rank's per-node (or per-row) values → the replicated array (collective)."""
+        return np.concatenate(self.comm.allgather(np.ascontiguousarray(local)), axis=0)
+
+    def own(self, rep: npt.NDArray) -> list[npt.NDArray]:
+        """A replicated per-node array → this rank's nodes, split by interface."""
+        return np.split(rep[self.node_offset : self.node_offset + self.n_owned], self.split)
+
+    def own_rows(self, rep: npt.NDArray) -> npt.NDArray:
+        """A replicated per-row array → the entries of this rank's contact rows."""
+        lo = self.bs * self.node_offset
+        return rep[lo : lo + self.local_rows.size]
+
+    def fixed_rows(
+        self, normal: npt.NDArray[np.bool_], tangential: npt.NDArray[np.bool_]
+    ) -> npt.NDArray[np.bool_]:
+        """Replicated mask of the rows with a prescribed value: the normal rows of the nodes
+        ``normal`` (active), the tangential rows of the nodes ``tangential`` (sticking)."""
+        fixed = np.zeros(self.n_rows, dtype=bool)
+        fixed[self.rows_of[0][normal]] = True
+        for j in range(1, self.bs):
+            fixed[self.rows_of[j][tangential]] = True
+        return fixed
+
+
+@dataclass
+class CondensedSystem:
+    """The condensed, rotated contact system of one operator (docs/theory/pdas.md).
+
+    Unknowns ``Ũ = T Q⁻ᵀ U``: relative displacements of the slave nodes in their frames
+    ``[n; t(; t2)]``; the contact rows carry ``w = T F̂ − Ã Ũ`` (the contact force is
+    ``−w``) and the multipliers are ``λ = w / D_pp``.  Per-node arrays are replicated.
+    """
+
+    layout: RowLayout
+    interfaces: list[ContactInterface]
+    Qt: PETSc.Mat  # Qᵀ (basis transformation)
+    T: PETSc.Mat  # rotation into the nodal frames
+    Tt: PETSc.Mat  # Tᵀ
+    At: PETSc.Mat  # Ã = T Q A Qᵀ Tᵀ (Dirichlet rows eliminated)
+    bc_rows: npt.NDArray  # owned global Dirichlet rows
+    bc_local: npt.NDArray[np.int32]  # the same, local
+    start: int  # first owned global row
+    D: npt.NDArray[np.float64]  # D_pp
+    gap: npt.NDArray[np.float64]  # nodal gaps g_p = d_p / D_pp
+    scale: npt.NDArray[np.float64]  # |diagonal| of every contact row (replicated rows)
+    stiffness_ratio: float  # mean of (normal-row diagonal / D_pp) (≈ E/h)
+    diag_value: float  # diagonal of eliminated rows
+    force_scale: float  # operator forces → N (1, 1/Δt or 1/Δt²)
+    Uh: PETSc.Vec  # Ũ, the last solution
+    r0: PETSc.Vec  # T F̂ = T Q b, Dirichlet rows holding their values
+    w: PETSc.Vec  # work: T F̂ − Ã Ũ
+    Fh: PETSc.Vec  # work: F̂ = Q b
+
+    @classmethod
+    def build(
+        cls,
+        V: fem.FunctionSpace,
+        interfaces: list[ContactInterface],
+        A: PETSc.Mat,
+        bc_rows: npt.ArrayLike | None,
+        force_scale: float,
+    ) -> CondensedSystem:
+        """Transform ``A`` (Dirichlet rows and columns eliminated) once and lay out the
+        contact rows (collective)."""
+        bs = V.dofmap.index_map_bs
+        layout = RowLayout.of(V.mesh.comm, bs, interfaces)
+        Qt = basis_transform(V, interfaces)
+        T = rotation_matrix(V, interfaces)
+        Tt = T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
+        At = transformed_operator(A, Qt, Tt)
+        start = bs * V.dofmap.index_map.local_range[0]
+        bc = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
+        D = layout.gather(np.concatenate([itf.D for itf in interfaces] + [np.zeros(0)]))
+        gap = layout.gather(np.concatenate([itf.gap for itf in interfaces] + [np.zeros(0)]))
+        diag = At.getDiagonal()
+        scale = np.maximum(layout.gather(np.abs(diag.array[layout.local_rows])), 1e-300)
+        diag.destroy()
+        ns = layout.n_nodes
+        sn = scale[layout.rows_of[0]]
+        ratio = float((sn / np.where(D > 0, D, 1.0)).sum()) / max(ns, 1)
+        return cls(
+            layout=layout,
+            interfaces=list(interfaces),
+            Qt=Qt,
+            T=T,
+            Tt=Tt,
+            At=At,
+            bc_rows=bc,
+            bc_local=(bc - start).astype(np.int32),
+            start=start,
+            D=D,
+            gap=gap,
+            scale=scale,
+            stiffness_ratio=ratio,
+            # the mean normal-row stiffness
+            diag_value=ratio * float(np.mean(D)) if ns else 1.0,
+            force_scale=float(force_scale),
+            Uh=At.createVecRight(),
+            r0=At.createVecLeft(),
+            w=At.createVecLeft(),
+            Fh=Qt.createVecRight(),
+        )
+
+    # ------------------------------------------------------------------ vectors
+    def assemble_rhs(self, b: PETSc.Vec) -> None:
+        """``T F̂ = T Q b`` into :attr:`r0` (Dirichlet rows keep their prescribed values)."""
+        self.Qt.multTranspose(b, self.Fh)
+        self.T.mult(self.Fh, self.r0)
+        if self.bc_local.size:
+            self.r0.array[self.bc_local] = b.array[self.bc_local]
+
+    def unknowns(self) -> npt.NDArray[np.float64]:
+        """The replicated unknowns ``Ũ`` of the contact rows."""
+        return self.layout.gather(self.Uh.array[self.layout.local_rows])
+
+    def contact_residual(self) -> npt.NDArray[np.float64]:
+        """``w = T F̂ − Ã Ũ`` into :attr:`w`; returns its replicated contact rows."""
+        self.At.mult(self.Uh, self.w)
+        self.w.aypx(-1.0, self.r0)
+        return self.layout.gather(self.w.array[self.layout.local_rows])
+
+    def fixed_values(self, xold: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Values of rows when prescribed: the gap for normal rows, the unknowns ``xold``
+        at the start of the step (no slip) for tangential ones."""
+        values = xold.copy()
+        values[self.layout.rows_of[0]] = self.gap
+        return values
+
+    def write_solution(self, u: fem.Function) -> None:
+        """``U = Qᵀ Tᵀ Ũ`` into ``u`` (ghosts updated)."""
+        uhat = self.Tt.createVecLeft()
+        self.Tt.mult(self.Uh, uhat)  # Û = Tᵀ Ũ
+        self.Qt.mult(uhat, u.x.petsc_vec)  # U = Qᵀ Û
+        uhat.destroy()
+        u.x.scatter_forward()
+
+    def contact_force(self, out: PETSc.Vec) -> None:
+        """The contact forces of :attr:`Uh` in the original basis (N; N/m in 2D;
+        ``−Q⁻¹ Tᵀ w`` with ``Q⁻¹ = 2I − Q``, times the force scale; see
+        :meth:`bonecontact.contact.pdas.ContactSolver.contact_force`)."""
+        self.At.mult(self.Uh, self.w)
+        self.w.aypx(-1.0, self.r0)
+        wv = self.At.createVecLeft()
+        wv.set(0.0)
+        rows = self.layout.local_rows
+        wv.array[rows] = self.w.array_r[rows]
+        tw = self.Tt.createVecLeft()
+        self.Tt.mult(wv, tw)
+        self.Qt.multTranspose(tw, out)
+        out.aypx(-1.0, tw)  # Q⁻¹ Tᵀ w = 2 Tᵀ w − Q Tᵀ w
+        out.axpy(1.0, tw)
+        out.scale(-self.force_scale)
+        wv.destroy()
+        tw.destroy()
+
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        for obj in (self.At, self.T, self.Tt, self.Qt, self.Uh, self.r0, self.w, self.Fh):
+            obj.destroy()

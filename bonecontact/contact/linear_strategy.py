@@ -1,0 +1,402 @@
+"""How the PDAS solves the linear system of one active set
+(docs/theory/pdas.md#low-rank-updates, docs/theory/pdas.md#iterative-linear-solver).
+
+Every PDAS iteration solves the condensed system of
+:class:`~bonecontact.contact.condensed.CondensedSystem` with some contact rows
+prescribed (:class:`SetRows`).  Three strategies do it, chosen once per operator by
+:func:`make_strategy`:
+
+* :class:`LowRankStrategy` — one LU factorisation, other sets by low-rank updates
+  (:mod:`bonecontact.contact.lowrank`); the default with the direct solver;
+* :class:`RefactorStrategy` — eliminate the rows and refactorise (MUMPS) every
+  iteration, the reference;
+* :class:`KrylovStrategy` — eliminate the rows and solve by CG/GMRES + GAMG, keeping
+  the preconditioner while the set changes little (:mod:`bonecontact.contact.krylov`).
+
+All three have the interface of :class:`LinearStrategy`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple, Protocol
+
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem
+
+from bonecontact.common.linalg import configure_ksp
+from bonecontact.contact.condensed import CondensedSystem
+from bonecontact.contact.krylov import (
+    PreconditionerReuse,
+    configure_condensed_ksp,
+    reduction_decades,
+)
+from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
+from bonecontact.contact.options import LinearOptions
+
+__all__ = [
+    "KrylovStrategy",
+    "LinearStrategy",
+    "LowRankStrategy",
+    "RefactorStrategy",
+    "SetRows",
+    "SetSolution",
+    "make_strategy",
+]
+
+
+@dataclass
+class SetRows:
+    """The rows of one active set's system (replicated numbering of the contact rows).
+
+    ``fixed`` rows take ``values`` (active normal rows: the gap; stick rows: the old
+    slip); free rows carry the given residual ``forces`` (2D / fixed-point slip rows:
+    the friction force; zero elsewhere); the groups ``coupled = (rows, G, H, h)``
+    replace their rows' equations by ``G w + H x = h`` (3D Newton slip rows, edge
+    nodes).  ``margin`` is each row's distance from switching (low-rank speculation),
+    or ``None``.
+    """
+
+    fixed: npt.NDArray[np.bool_]
+    values: npt.NDArray[np.float64]
+    forces: npt.NDArray[np.float64]
+    coupled: tuple | None = None
+    margin: npt.NDArray[np.float64] | None = None
+
+
+class SetSolution(NamedTuple):
+    """Replicated unknowns ``x`` and residual ``w = T F̂ − Ã Ũ`` of the contact rows,
+    the linear iterations of the solve and what the history records of it."""
+
+    x: npt.NDArray[np.float64]
+    w: npt.NDArray[np.float64]
+    iterations: int
+    info: dict
+
+
+class LinearStrategy(Protocol):
+    """The linear solver of the PDAS (one object per operator)."""
+
+    #: the contact forces of the result are recomputed from the field ``Ũ``
+    field_multipliers: bool
+
+    def begin(self, rows: SetRows) -> None:
+        """Start a contact solve whose first system is ``rows`` (after
+        :meth:`CondensedSystem.assemble_rhs`)."""
+
+    def solve(self, rows: SetRows) -> SetSolution:
+        """Solve the system of ``rows``; ``Ũ`` may be updated. Raises
+        :class:`~bonecontact.contact.lowrank.SingularActiveSetError`."""
+
+    def respond(self, rows: SetRows, shift: npt.NDArray[np.float64]) -> SetSolution:
+        """The solution with the fixed values shifted by ``shift``, the state of the
+        contact solve (and ``Ũ``) kept."""
+
+    def finish(self, iterations: int) -> tuple[int, int]:
+        """End the contact solve (``Ũ`` holds its solution); returns the factorisations
+        and low-rank columns it took."""
+
+    def set_rtol(self, rtol: float) -> None:
+        """Relative tolerance of the next solves (Krylov only)."""
+
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+
+
+class LowRankStrategy:
+    """One factorisation reused through low-rank updates
+    (:class:`~bonecontact.contact.lowrank.LowRankActiveSetSolver`)."""
+
+    field_multipliers = True
+
+    def __init__(
+        self,
+        system: CondensedSystem,
+        options: LinearOptions,
+        split: tuple | None,
+    ):
+        self.system = system
+        self.lowrank = LowRankActiveSetSolver(
+            system.At,
+            system.bc_rows,
+            system.layout.local_rows,
+            system.diag_value,
+            prefix=options.prefix,
+            max_columns=options.max_columns,
+            rebase_ratio=options.rebase_ratio,
+            memory_ratio=options.memory_ratio,
+            split=split,
+        )
+        self._counts = (0, 0)
+
+    def begin(self, rows: SetRows) -> None:
+        lr, sy = self.lowrank, self.system
+        self._counts = (lr.factorizations, lr.columns)
+        lr.begin(sy.r0, sy.r0.array[sy.bc_local], rows.values, rows.fixed)
+
+    def solve(self, rows: SetRows) -> SetSolution:
+        x, w, info = self.lowrank.solve_set(
+            rows.fixed, self.system.scale, rows.forces, rows.margin, rows.coupled
+        )
+        return SetSolution(
+            x, w, 1, {"columns": info["columns"], "refactorized": info["refactorized"]}
+        )
+
+    def respond(self, rows: SetRows, shift: npt.NDArray[np.float64]) -> SetSolution:
+        x, w = self.lowrank.respond(rows.fixed, self.system.scale, shift)
+        return SetSolution(x, w, 0, {})
+
+    def finish(self, iterations: int) -> tuple[int, int]:
+        lr = self.lowrank
+        lr.finish(self.system.Uh)
+        return lr.factorizations - self._counts[0], lr.columns - self._counts[1]
+
+    def set_rtol(self, rtol: float) -> None:
+        pass
+
+    def destroy(self) -> None:
+        self.lowrank.destroy()
+
+
+class RefactorStrategy:
+    """Eliminate the fixed rows (symmetrically) and refactorise with MUMPS every
+    iteration (the symbolic analysis is reused)."""
+
+    field_multipliers = False
+    kind = "direct"
+
+    def __init__(
+        self,
+        system: CondensedSystem,
+        options: LinearOptions,
+        rtol: float,
+        V: fem.FunctionSpace,
+        nonsymmetric: bool,
+    ):
+        self.system = system
+        self.B = system.At.duplicate(copy=True)
+        self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.ksp = PETSc.KSP().create(system.layout.comm)
+        self.ksp.setOptionsPrefix(options.prefix)
+        self._configure(options, rtol, V, nonsymmetric)
+        self.ksp.setFromOptions()
+        self._rhs = system.At.createVecLeft()
+
+    def _configure(
+        self, options: LinearOptions, rtol: float, V: fem.FunctionSpace, nonsymmetric: bool
+    ) -> None:
+        """MUMPS LU with null-pivot detection (singular sets)."""
+        configure_ksp(
+            self.ksp,
+            "direct",
+            rtol=rtol,
+            prefix=options.prefix,
+            max_it=3000,
+            options={"mat_mumps_icntl_24": 1},
+        )
+
+    def begin(self, rows: SetRows) -> None:
+        pass
+
+    def solve(self, rows: SetRows) -> SetSolution:
+        self._eliminate(rows)
+        self._ksp_solve(rows)
+        sy = self.system
+        x = sy.unknowns()
+        w = sy.contact_residual()
+        return SetSolution(x, w, self.ksp.getIterationNumber(), {})
+
+    def respond(self, rows: SetRows, shift: npt.NDArray[np.float64]) -> SetSolution:
+        # the solve overwrites the field Ũ: keep the current one (the PDAS may stop at
+        # this iteration, and the next solve starts from it)
+        Uh = self.system.Uh
+        kept = Uh.copy()
+        shifted = SetRows(rows.fixed, rows.values + shift, np.zeros_like(rows.forces))
+        out = self.solve(shifted)
+        kept.copy(Uh)
+        kept.destroy()
+        return out
+
+    def finish(self, iterations: int) -> tuple[int, int]:
+        return iterations, 0
+
+    def set_rtol(self, rtol: float) -> None:
+        pass
+
+    def _eliminate(self, rows: SetRows) -> None:
+        """``B``: ``Ã`` with the Dirichlet and fixed rows eliminated (symmetric), the given
+        forces in the right-hand side, the coupled rows replaced."""
+        sy, lay = self.system, self.system.layout
+        v = self._rhs.duplicate()
+        v.set(0.0)
+        if sy.bc_local.size:
+            v.array[sy.bc_local] = sy.r0.array[sy.bc_local]
+        own_fixed = lay.own_rows(rows.fixed)
+        v.array[lay.local_rows[own_fixed]] = lay.own_rows(rows.values)[own_fixed]
+        sy.r0.copy(self._rhs)
+        self._rhs.array[lay.local_rows] -= lay.own_rows(rows.forces)
+        sy.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        eliminated = np.concatenate(
+            [
+                sy.bc_rows.astype(np.int64),
+                lay.local_rows[own_fixed].astype(np.int64) + sy.start,
+            ]
+        ).astype(PETSc.IntType)
+        self.B.zeroRowsColumns(eliminated, diag=sy.diag_value, x=v, b=self._rhs)
+        v.destroy()
+        if rows.coupled is not None:
+            self._replace_rows(rows.coupled)
+
+    def _replace_rows(self, coupled: tuple) -> None:
+        """Rows ``q`` of a slip node (free, no prescribed force): with ``w = rhs − B x``
+        there, ``G w + H x = h`` becomes ``G B x − H x = G rhs − h`` (same pattern: the
+        rows of one node share their columns)."""
+        crow, Gc, Hc, hc = coupled
+        sy, lay = self.system, self.system.layout
+        lo = lay.bs * lay.node_offset
+        hi = lo + lay.local_rows.size
+        mine = np.flatnonzero((crow[:, 0] >= lo) & (crow[:, 0] < hi))
+        updates = []
+        for i in mine:
+            grows = [int(lay.local_rows[q - lo]) + sy.start for q in crow[i]]
+            data = [self.B.getRow(r) for r in grows]
+            cols = data[0][0]
+            vals = np.array([d[1] for d in data])
+            if any(not np.array_equal(d[0], cols) for d in data):
+                raise RuntimeError(
+                    "contact: the rows of a slave node do not share their sparsity pattern"
+                )
+            rhs_loc = np.array([self._rhs.array[r - sy.start] for r in grows])
+            new = Gc[i] @ vals
+            for a in range(len(grows)):
+                for b_, c in enumerate(grows):
+                    new[a, int(np.flatnonzero(cols == c)[0])] -= Hc[i, a, b_]
+            updates.append((grows, cols, new))
+            self._rhs.array[np.array(grows) - sy.start] = Gc[i] @ rhs_loc - hc[i]
+        for grows, cols, new in updates:  # (no MatGetRow once values are set)
+            for a, r in enumerate(grows):
+                self.B.setValues([r], cols, new[a], addv=PETSc.InsertMode.INSERT_VALUES)
+        self.B.assemble()
+
+    def _ksp_solve(self, rows: SetRows) -> None:
+        """Factorise ``B`` and solve into ``Ũ``; a singular or failed solve raises."""
+        self.ksp.setOperators(self.B)
+        try:
+            self.ksp.solve(self._rhs, self.system.Uh)
+        except PETSc.Error as exc:
+            raise SingularActiveSetError(
+                f"linear solve failed (singular system? PETSc error {exc.ierr})"
+            ) from None
+        self._check()
+
+    def _check(self) -> None:
+        """Null pivots or a diverged solve: the system of the set is singular."""
+        nulls = null_pivots(self.ksp)
+        if nulls:
+            raise SingularActiveSetError(
+                f"the system of the active set is singular ({nulls} "
+                f"null pivots: a body without support?)"
+            )
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise SingularActiveSetError(f"the linear solver diverged (reason {reason})")
+
+    def destroy(self) -> None:
+        for obj in (self.ksp, self.B, self._rhs):
+            obj.destroy()
+
+
+class KrylovStrategy(RefactorStrategy):
+    """Eliminate the fixed rows and solve by CG (GMRES with nonsymmetric slip rows) +
+    GAMG with the rigid-body modes in the nodal frames; the preconditioner of an
+    earlier set is kept while the set changes little
+    (:class:`~bonecontact.contact.krylov.PreconditionerReuse`)."""
+
+    kind = "iterative"
+
+    def __init__(
+        self,
+        system: CondensedSystem,
+        options: LinearOptions,
+        rtol: float,
+        V: fem.FunctionSpace,
+        nonsymmetric: bool,
+    ):
+        self.pc_reuse = PreconditionerReuse(options.pc_reuse_rows, options.pc_reuse_growth)
+        super().__init__(system, options, rtol, V, nonsymmetric)
+
+    def _configure(
+        self, options: LinearOptions, rtol: float, V: fem.FunctionSpace, nonsymmetric: bool
+    ) -> None:
+        """(docs/theory/pdas.md#iterative-linear-solver)"""
+        sy, prefix = self.system, options.prefix
+        configure_ksp(self.ksp, "iterative", rtol=rtol, prefix=prefix, max_it=3000)
+        configure_condensed_ksp(
+            self.ksp, self.B, V, sy.Qt, sy.T, prefix=prefix, rtol=rtol, nonsymmetric=nonsymmetric
+        )
+
+    def finish(self, iterations: int) -> tuple[int, int]:
+        return 0, 0
+
+    def set_rtol(self, rtol: float) -> None:
+        self.ksp.setTolerances(rtol=rtol)
+
+    def _ksp_solve(self, rows: SetRows) -> None:
+        """Keep or rebuild the preconditioner, solve; a kept one that fails is rebuilt and
+        the solve repeated."""
+        self.ksp.setOperators(self.B)
+        replaced = rows.fixed.copy()
+        if rows.coupled is not None:
+            replaced[np.asarray(rows.coupled[0]).ravel()] = True
+        kept = self.pc_reuse.decide(self.ksp, replaced)
+        Uh = self.system.Uh
+        try:
+            self.ksp.solve(self._rhs, Uh)
+            if kept and self.ksp.getConvergedReason() < 0:
+                self.pc_reuse.forget()  # a kept preconditioner failed: rebuild, solve again
+                self.pc_reuse.decide(self.ksp, replaced)
+                self.ksp.solve(self._rhs, Uh)
+        except PETSc.Error as exc:
+            raise SingularActiveSetError(
+                f"linear solve failed (singular system? PETSc error {exc.ierr})"
+            ) from None
+        self.pc_reuse.record(self.ksp.getIterationNumber(), reduction_decades(self.ksp))
+        self._check()
+
+
+def make_strategy(
+    system: CondensedSystem,
+    options: LinearOptions,
+    linear: str,
+    rtol: float,
+    V: fem.FunctionSpace,
+    nonsymmetric: bool,
+    split: tuple | None,
+) -> LowRankStrategy | RefactorStrategy:
+    """The strategy of ``options.strategy`` for the linear solver ``linear`` (``"direct"``
+    or ``"iterative"``); ``"auto"``: low-rank with the direct solver, else Krylov.
+
+    ``nonsymmetric``: the systems have nonsymmetric rows (3D Newton slip rows);
+    ``split``: the low-rank split basis arguments, or ``None``.
+    """
+    strategy = strategy_name(options.strategy, linear)
+    if strategy == "lowrank":
+        return LowRankStrategy(system, options, split)
+    cls = KrylovStrategy if linear == "iterative" else RefactorStrategy
+    return cls(system, options, rtol, V, nonsymmetric)
+
+
+def strategy_name(strategy: str, linear: str) -> str:
+    """``"lowrank"`` or ``"refactor"`` for the option ``strategy`` and the linear solver
+    (``"auto"`` resolved); raises for low-rank with an iterative solver."""
+    if strategy == "auto":
+        strategy = "lowrank" if linear == "direct" else "refactor"
+    if strategy not in ("lowrank", "refactor") or (strategy == "lowrank" and linear != "direct"):
+        raise ValueError(
+            f"contact strategy must be 'lowrank' (direct solver only) or 'refactor', "
+            f"got {strategy!r} with linear={linear!r}"
+        )
+    return strategy

@@ -1,0 +1,439 @@
+"""The set update of the PDAS: active/inactive, stick/slip, slip directions, friction
+bounds and the edge of the contact zone (docs/theory/pdas.md#active-set-rule,
+docs/theory/pdas.md#tresca-and-coulomb-friction).
+
+:class:`SetUpdate` turns the solution of one iteration into the sets of the next and
+says which rows the next system prescribes (:meth:`SetUpdate.system_rows`).  It works
+on replicated per-node arrays only — every rank takes the same decisions — and does no
+linear algebra.  :class:`PDASState` is what one contact solve carries from iteration to
+iteration, :class:`Iterate` what one iteration computed, :class:`WarmStart` what is
+carried from one step to the next.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from bonecontact.contact.condensed import CondensedSystem
+from bonecontact.contact.friction import (
+    EdgeSets,
+    NodalFriction,
+    aitken_directions,
+    edge_groups,
+    merge_groups,
+    slip_directions,
+    slip_newton_rows,
+    slip_set,
+    update_edge_sets,
+    with_normal_row,
+)
+from bonecontact.contact.linear_strategy import SetRows
+from bonecontact.contact.options import ActiveSetOptions, SlipOptions
+
+__all__ = ["Iterate", "PDASState", "SetUpdate", "WarmStart"]
+
+
+@dataclass
+class WarmStart:
+    """The sets carried from one contact solve to the next (replicated arrays)."""
+
+    active: npt.NDArray[np.bool_]  # active set A_n
+    directions: npt.NDArray[np.float64]  # slip directions, (NS, gdim − 1)
+    lam_n_prev: npt.NDArray[np.float64]  # normal multipliers of the last step
+    cold: bool = True  # no step solved yet: the cold-start rules apply
+
+
+@dataclass
+class PDASState:
+    """The state of one contact solve carried from one PDAS iteration to the next
+    (replicated per-node arrays)."""
+
+    an: npt.NDArray[np.bool_]  # active set A_n
+    stick: npt.NDArray[np.bool_]  # stick set (active friction nodes without slip)
+    dirs: npt.NDArray[np.float64]  # slip directions s_p, (NS, gdim − 1)
+    g: npt.NDArray[np.float64]  # friction bounds ĝ_p (in operator units)
+    xold: npt.NDArray[np.float64]  # unknowns at the start of the step
+    values: npt.NDArray[np.float64]  # prescribed values of fixed rows (gap, old slip)
+    x_prev: npt.NDArray[np.float64]  # unknowns of the previous iteration
+    edges: EdgeSets  # edge of the contact zone (docs/theory/pdas.md)
+    switches: npt.NDArray[np.int_]  # stick <-> slip switches in this solve
+    margin: npt.NDArray[np.float64] | None = None  # rows' distance to switching
+    lam_t_k: npt.NDArray[np.float64] | None = None  # 3D Newton: last traction
+    z_k: npt.NDArray[np.float64] | None = None  # 3D Newton: last ξ = λ_t + c_t Δu_t
+    aitken: list = field(
+        default_factory=lambda: [None, 1.0]
+    )  # 3D slip directions: residual, relaxation
+    history: list[dict] = field(default_factory=list)
+    seen: set = field(default_factory=set)
+    lin_total: int = 0
+    n_bound: int = 0
+
+
+@dataclass
+class Iterate:
+    """What one PDAS iteration computed from its linear solve (replicated arrays)."""
+
+    x: npt.NDArray[np.float64]
+    lam_n: npt.NDArray[np.float64]
+    lam_t: npt.NDArray[np.float64]
+    un: npt.NDArray[np.float64]
+    dut: npt.NDArray[np.float64]
+    eps: float
+    ind_n: npt.NDArray[np.float64]
+    z: npt.NDArray[np.float64]
+    zn: npt.NDArray[np.float64]
+    new_an: npt.NDArray[np.bool_] | None = None
+    new_stick: npt.NDArray[np.bool_] | None = None
+    new_dirs: npt.NDArray[np.float64] | None = None
+    changed_sets: int = 0
+    changed_t: int = 0
+    turned: int = 0
+    bound_change: float = 0.0
+    new_edges: EdgeSets | None = None
+
+
+class SetUpdate:
+    """The PDAS set rules on the condensed system ``system`` with the friction
+    ``friction`` (docs/theory/pdas.md#active-set-rule).
+
+    Parameters
+    ----------
+    system
+        The condensed system (layout, ``D_pp``, gaps, row scales).
+    friction
+        The friction laws node by node.
+    active_set, slip
+        The option groups of the normal rule (``c_n``, ``c_t``, cold start) and of the
+        friction iteration.
+    """
+
+    def __init__(
+        self,
+        system: CondensedSystem,
+        friction: NodalFriction,
+        active_set: ActiveSetOptions,
+        slip: SlipOptions,
+    ):
+        self.system, self.friction = system, friction
+        fs = system.force_scale
+        c_n, c_t = active_set.c_n, active_set.c_t
+        self.c_n = float(c_n) / fs if c_n is not None else system.stiffness_ratio
+        self.c_t = float(c_t) / fs if c_t is not None else self.c_n
+        self.cold_start_fraction = float(active_set.cold_start_fraction)
+        self.fp_every, self.fp_tol = max(int(slip.fp_every), 1), float(slip.fp_tol)
+        self.direction_tol = float(slip.direction_tol)
+        self.bs = system.layout.bs
+        self.newton_3d = self.bs == 3 and slip.slip_3d == "newton" and bool(friction.active.any())
+
+    # ------------------------------------------------------------------ start and rows
+    def start(self, warm: WarmStart, xold: npt.NDArray[np.float64]) -> PDASState:
+        """The state at the start of a solve: the warm-started sets with every active
+        friction node sticking (the elastic trial state; the first solve shows where the
+        bound is exceeded)."""
+        ns = self.system.layout.n_nodes
+        return PDASState(
+            an=warm.active.copy(),
+            stick=warm.active & self.friction.active,
+            dirs=warm.directions.copy(),
+            g=self.friction.step_bounds(warm.lam_n_prev),
+            xold=xold,
+            values=self.system.fixed_values(xold),
+            x_prev=xold,
+            edges=EdgeSets.empty(ns),
+            switches=np.zeros(ns, dtype=int),
+        )
+
+    def fixed_rows(self, st: PDASState) -> npt.NDArray[np.bool_]:
+        """Rows prescribed by the sets of ``st``: active normal rows, stick rows."""
+        return self.system.layout.fixed_rows(st.an, st.an & st.stick & self.friction.active)
+
+    def system_rows(self, st: PDASState) -> SetRows:
+        """The rows of the system of the current sets
+        (docs/theory/pdas.md#linear-system-of-one-iteration).
+
+        Active normal rows and stick rows are prescribed (``values``); 2D slip rows (and
+        3D fixed-point slip rows) carry the prescribed force ``ĝ D s``; 3D Newton slip
+        rows are replaced by their linearisation, edge nodes by their group.
+        """
+        sy, g = self.system, st.g
+        R, D, bs = sy.layout.rows_of, sy.D, self.bs
+        fixed = self.fixed_rows(st)
+        slip = st.an & self.friction.active & ~st.stick
+        wg = np.zeros(sy.layout.n_rows)
+        coupled = None
+        if self.newton_3d:
+            # (a slip node with a zero bound is a free row with zero force: no Newton row)
+            if (slip & (g > 0.0)).any():
+                S = np.flatnonzero(slip & (g > 0.0))
+                rows = np.stack([R[j][S] for j in range(1, bs)], axis=1)
+                coupled = slip_newton_rows(
+                    rows, D[S], self.c_t, st.lam_t_k[S], st.z_k[S], g[S], st.xold
+                )
+        else:
+            for j in range(1, bs):
+                wg[R[j][slip]] = (g * D * st.dirs[:, j - 1])[slip]
+        coupled = self._with_edge_rows(st, fixed, coupled)
+        return SetRows(fixed, st.values, wg, coupled, st.margin)
+
+    def _with_edge_rows(self, st: PDASState, fixed: np.ndarray, coupled: tuple | None):
+        """Edge nodes (docs/theory/pdas.md#edge-of-the-contact-zone): their normal and
+        tangential rows become one coupled group (zero pressure, touching, traction along
+        the slip direction); 3D Newton slip groups then take their normal row along
+        (``u_n = g``) so that all groups have the same size.  ``fixed`` loses the normal
+        rows moved into groups (in place)."""
+        edge = st.edges.edge
+        if not edge.any():
+            return coupled
+        sy = self.system
+        R = sy.layout.rows_of
+        nodes = np.flatnonzero(edge)
+        groups = edge_groups(nodes, R, st.dirs, sy.gap, sy.scale[R[0]])
+        fixed[R[0][nodes]] = False
+        if coupled is not None:
+            normal = R[0][np.searchsorted(R[1], coupled[0][:, 0])]
+            coupled = with_normal_row(
+                coupled, normal, sy.gap[np.searchsorted(R[0], normal)], sy.scale[normal]
+            )
+            fixed[normal] = False
+        return merge_groups(coupled, groups)
+
+    # ------------------------------------------------------------------ multipliers
+    def iterate(
+        self, st: PDASState, x: npt.NDArray[np.float64], w: npt.NDArray[np.float64]
+    ) -> Iterate:
+        """``λ = w / D``, the normal approach, the slip of the step, the normal indicator
+        ``λ_n + c_n (u_n − g)`` and ``ξ = λ_t + c_t Δu_t`` of the solution ``x, w``."""
+        sy, bs = self.system, self.bs
+        R = sy.layout.rows_of
+        Dsafe = np.where(sy.D > 0, sy.D, 1.0)
+        lam_n = w[R[0]] / Dsafe
+        lam_t = np.stack([w[R[j]] / Dsafe for j in range(1, bs)], axis=1)
+        un = x[R[0]]
+        dut = np.stack([x[R[j]] - st.xold[R[j]] for j in range(1, bs)], axis=1)
+        lam_scale = float(np.abs(lam_n).max()) if sy.layout.n_nodes else 0.0
+        eps = 1e-10 * max(lam_scale, 1e-300)
+        z = lam_t + self.c_t * dut
+        return Iterate(
+            x=x,
+            lam_n=lam_n,
+            lam_t=lam_t,
+            un=un,
+            dut=dut,
+            eps=eps,
+            ind_n=lam_n + self.c_n * (un - sy.gap),
+            z=z,
+            zn=np.linalg.norm(z, axis=1),
+        )
+
+    # ------------------------------------------------------------------ the set rules
+    def update_active(self, st: PDASState, it: Iterate, damp_first: bool) -> None:
+        """``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0``; ``damp_first`` (the first update
+        of a cold start): of the newly penetrating nodes only those within
+        ``cold_start_fraction`` of the deepest penetration."""
+        an = st.an
+        # an indicator within ±ε of zero keeps the node's state: an active node whose
+        # multiplier is zero to round-off (λ ≈ −ε, a degenerate node at the edge of the
+        # zone) stays active instead of toggling (docs/theory/pdas.md#active-set-rule)
+        new_an = (it.ind_n > it.eps) | (an & (it.ind_n >= -it.eps))
+        if damp_first and self.cold_start_fraction > 0 and (new_an & ~an).any():
+            pen = it.un - self.system.gap
+            new_an &= an | (pen > self.cold_start_fraction * float(pen[new_an & ~an].max()))
+        self.take_active(st, it, new_an)
+
+    def take_active(self, st: PDASState, it: Iterate, new_an: npt.NDArray[np.bool_]) -> None:
+        """Take ``new_an`` as the new active set of ``it`` (e.g. a predicted one)."""
+        it.new_an = new_an
+        it.changed_sets = int((new_an != st.an).sum())
+
+    def update_bounds(self, st: PDASState, it: Iterate, k: int) -> None:
+        """Coulomb fixed point (Algorithm FP): bounds from the current normal multipliers,
+        every ``fp_every`` iterations and whenever the sets have settled for the current
+        bounds."""
+        it.bound_change = 0.0
+        fr = self.friction
+        if not fr.fixed_point.any():
+            return
+        fric, g, new_an = fr.active, st.g, it.new_an
+        trial_stick = new_an & fric & ~slip_set(new_an, fric, it.zn, g, it.eps)
+        settle = it.changed_sets == 0 and not ((trial_stick != st.stick) & new_an & fric).any()
+        if k % self.fp_every == 0 or settle:
+            g_new, it.bound_change = fr.fixed_point_bounds(g, it.lam_n)
+            if it.bound_change > 0.0:
+                st.g = g_new
+                st.n_bound += 1
+                st.seen.clear()
+
+    def update_slip(self, st: PDASState, it: Iterate) -> None:
+        """Stick/slip sets and slip directions, and how many of them changed.
+
+        2D: a slip node changes when its direction (sign) flips.  3D Newton: directions
+        settled and ``λ_t = ĝ s`` on the slip nodes (ĝ > 0).  3D fixed point: directions
+        converge (linearly, Aitken-accelerated) to a fixed point.
+        """
+        fric, g, dirs = self.friction.active, st.g, st.dirs
+        slip = st.an & fric & ~st.stick
+        held = self._hold_reversed_releases(st, it, slip)
+        new_an = it.new_an
+        new_slip, new_dirs = slip_directions(
+            slip_set(new_an, fric, it.zn, g, it.eps), slip, it.z, it.zn, g, dirs
+        )
+        new_slip &= ~held
+        new_stick = new_an & fric & ~new_slip
+        both = new_slip & slip
+        if self.bs == 2:
+            turned = 0
+        elif self.newton_3d:
+            turned = self._newton_turns(st, it, both, new_dirs)
+            if turned:
+                self._hold_switches(st, new_an, new_stick, new_dirs)
+        else:
+            turned = int(
+                (np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum()
+            )
+            stick_changes = int(((new_stick != st.stick) & new_an & fric).sum())
+            aitken_directions(both, dirs, new_dirs, it.changed_sets + stick_changes != 0, st.aitken)
+        changed_t = int(((new_stick != st.stick) & new_an & fric).sum())
+        if self.bs == 2:
+            changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
+        st.switches += (new_stick != st.stick) & new_an & st.an & fric
+        it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned
+
+    def _newton_turns(
+        self,
+        st: PDASState,
+        it: Iterate,
+        both: npt.NDArray[np.bool_],
+        new_dirs: npt.NDArray[np.float64],
+    ) -> int:
+        """3D Newton slip rows: slip nodes (ĝ > 0) whose direction still turns or whose
+        traction is not yet ``ĝ s``."""
+        g, dirs = st.g, st.dirs
+        bg = both & (g > 0.0)
+        turned = int((np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum())
+        gs = max(float(g.max()) if self.system.layout.n_nodes else 0.0, it.eps)
+        off = (
+            np.linalg.norm(it.lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1)
+            > self.direction_tol * gs
+        )
+        return turned + int(off.sum())
+
+    def _hold_reversed_releases(
+        self, st: PDASState, it: Iterate, slip: npt.NDArray[np.bool_]
+    ) -> npt.NDArray[np.bool_]:
+        """Slip nodes that the solve released (``λ_n < 0``) while they slipped against
+        the direction of their traction (``Δu_t · s < 0``) stay active and stick
+        (docs/theory/pdas.md#active-set-rule): their pressure was computed with a
+        friction traction outside the law, so their normal indicator is not trusted.
+
+        ``it.new_an`` and ``it.changed_sets`` are updated; returns the nodes held.
+        """
+        back = (it.dut * st.dirs).sum(axis=1)
+        n = self.system.layout.n_nodes
+        tol = 1e-12 * max(float(np.abs(it.dut).max()) if n else 0.0, 1e-300)
+        held = slip & ~it.new_an & (st.g > 0.0) & (back < -tol)
+        if held.any():
+            it.new_an = it.new_an | held
+            it.changed_sets = int((it.new_an != st.an).sum())
+        return held
+
+    def _hold_switches(
+        self,
+        st: PDASState,
+        new_an: npt.NDArray[np.bool_],
+        new_stick: npt.NDArray[np.bool_],
+        new_dirs: npt.NDArray[np.float64],
+    ) -> None:
+        """3D Newton slip rows, while slip directions still turn: a node that already
+        switched between stick and slip in this solve keeps its state (``new_stick``,
+        ``new_dirs`` in place) until the directions have settled
+        (docs/theory/pdas.md#active-set-rule).  Its indicator is taken on a linearisation
+        point that is still moving; deciding on it toggles the node at the rim of the
+        friction disc.  Once no direction turns, the plain rule decides again."""
+        fric = self.friction.active
+        hold = (new_stick != st.stick) & new_an & st.an & fric & (st.switches >= 1)
+        new_stick[hold] = st.stick[hold]
+        new_dirs[hold] = st.dirs[hold]
+
+    def update_edges(self, st: PDASState, it: Iterate) -> None:
+        """The edge rule for friction nodes whose bound does not follow the current
+        pressure (docs/theory/pdas.md#edge-of-the-contact-zone), and the set changes
+        counted again when it moved a node."""
+        rigid = self.friction.rigid
+        if not rigid.any():
+            return
+        new_an, new_stick = it.new_an.copy(), it.new_stick.copy()
+        n = self.system.layout.n_nodes
+        gs = max(float(st.g.max()) if n else 0.0, it.eps)
+        it.new_edges = update_edge_sets(
+            st.an, it.new_an, st.stick, it.new_stick, it.new_dirs, st.dirs, st.edges, rigid,
+            st.g, it.lam_t, it.z, it.zn, 1e-10 * gs,
+        )  # fmt: skip
+        old, new = st.edges.edge, it.new_edges.edge
+        moved = (new_an != it.new_an).any() or (new_stick != it.new_stick).any()
+        if not (moved or old.any() or new.any()):
+            return
+        fric = self.friction.active
+        it.changed_sets = int((it.new_an != st.an).sum() + (new != old).sum())
+        changed_t = int(((it.new_stick != st.stick) & it.new_an & fric).sum())
+        both_e = new & old
+        if self.bs == 2:
+            slip = st.an & fric & ~st.stick
+            both = it.new_an & fric & ~it.new_stick & slip
+            flips = np.sign(it.new_dirs[:, 0]) != np.sign(st.dirs[:, 0])
+            changed_t += int((flips & (both | both_e)).sum())
+        else:
+            turn = np.linalg.norm(it.new_dirs[both_e] - st.dirs[both_e], axis=1)
+            it.turned += int((turn > self.direction_tol).sum())
+        it.changed_t = changed_t
+
+    # ------------------------------------------------------------------ convergence
+    def record(self, st: PDASState, it: Iterate, k: int, its: int, extra: dict) -> bool:
+        """Record iteration ``k`` in the history; converged when no set, sign or
+        direction changed and the friction bounds are settled."""
+        changed = it.changed_sets + it.changed_t + it.turned
+        nrm = float(np.linalg.norm(it.x))
+        update = float(np.linalg.norm(it.x - st.x_prev)) / nrm if nrm > 0 else 0.0
+        st.x_prev = it.x
+        an, fric = st.an, self.friction.active
+        st.history.append(
+            {
+                "iteration": k,
+                "active": int(an.sum()),
+                "stick": int((an & st.stick & fric).sum()),
+                "slip": int((an & fric & ~st.stick).sum()),
+                "changed": changed,
+                "update": update,
+                "bound_change": it.bound_change,
+                "edge": int(st.edges.edge.sum()),
+                "linear_iterations": its,
+                **extra,
+            }
+        )
+        return changed == 0 and it.bound_change <= self.fp_tol
+
+    def accept(self, st: PDASState, it: Iterate) -> bool:
+        """Take the new sets, with the margins of every row to switching (for the
+        speculative low-rank columns).  Returns ``True`` when the sets repeat an earlier
+        iteration's with unchanged bounds (cycling)."""
+        bs, fric = self.bs, self.friction.active
+        R = self.system.layout.rows_of
+        margin = np.full(self.system.layout.n_rows, np.inf)
+        margin[R[0]] = np.abs(it.ind_n - it.eps)
+        for j in range(1, bs):
+            margin[R[j][it.new_an & fric]] = np.abs(it.zn - st.g)[it.new_an & fric]
+        st.margin = margin
+        st.an, st.stick, st.dirs = it.new_an, it.new_stick, it.new_dirs
+        st.lam_t_k, st.z_k = it.lam_t, it.z
+        if it.new_edges is not None:
+            st.edges = it.new_edges
+        if it.changed_sets + it.changed_t == 0:
+            return False  # only 3D slip directions still turning: not a cycle
+        sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes() if bs == 2 else b"")
+        sig += (st.edges.signature(),)
+        if sig in st.seen:
+            return True
+        st.seen.add(sig)
+        return False
