@@ -17,7 +17,7 @@ flops as ratios to it.
 Variants (``--variants``, comma-separated): ``tight`` (every Krylov solve to the tight
 tolerance), ``loose1e-2`` … (inexact PDAS with that loose tolerance), and suffixes
 ``+cheb1`` (one Chebyshev iteration per level), ``+v`` (V-cycles), ``+reuseP`` /
-``+noreuseP`` (``pc_gamg_reuse_interpolation`` on / off; on by default since issue 28),
+``+noreuseP`` (``pc_gamg_reuse_interpolation`` on / off; off by default),
 ``+chol`` / ``+lu`` (the coarse grid's factorisation; Cholesky by default for these
 symmetric systems since issue 28), ``+agg1`` (one level of aggressive coarsening),
 ``+th0.05`` (``pc_gamg_threshold``), ``+cel<n>`` (a coarse grid of at most n
@@ -90,7 +90,8 @@ def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
     """Set the variant's options (the solver's own, :func:`set_solver_options`: options
     of an earlier variant are reset to the defaults) and drop the preconditioner
     (rebuilt at the next solve)."""
-    reset = {"mg_levels_ksp_max_it": 2, **GAMG_OPTIONS, **SYMMETRIC_COARSE_OPTIONS}
+    reset = {"mg_levels_ksp_max_it": 2, "pc_gamg_reuse_interpolation": False}
+    reset |= {**GAMG_OPTIONS, **SYMMETRIC_COARSE_OPTIONS}
     size = {"pc_gamg_coarse_eq_limit": coarse_grid_limit(solver.B.getSize()[0])}  # the solver's
     solver.ksp.getPC().reset()
     set_solver_options(solver.ksp, {**reset, **DEFAULTS, **size, **popts}, PREFIX)
