@@ -83,7 +83,6 @@ __all__ = [
     "trim_rows",
     "trim_tables",
     "write_checkpoint",
-    "write_growth_checkpoint",
 ]
 
 #: Format number of a checkpoint (meta.json ``format``); a restart refuses any other.
@@ -984,14 +983,6 @@ class GrowthState:
         trim_rows(Path(output) / "growth.csv", step + 1, self.comm)
 
 
-def write_growth_checkpoint(
-    output: Path, driver: Driver, comm: MPI.Comm, info: dict[str, Any], content: dict[str, Any]
-) -> Path:
-    """Write the growth state after step ``driver.steps`` atomically (collective);
-    ``content``: the run's further meta.json entries."""
-    return _write(output, GrowthState(driver, comm), {**_plain(content), **info})
-
-
 def _write(output: Path, state: RunState, entries: dict[str, Any]) -> Path:
     """Write the checkpoint of ``state`` with the run's meta.json ``entries`` (collective)."""
     step, t = state.position()
@@ -1109,8 +1100,7 @@ class Checkpointer:
         The run's output directory.
     state
         What the run saves (:class:`MechanicsState`, :class:`CrackState`,
-        :class:`GrowthState`); an :class:`~bonecontact.mechanics.integrator.Integrator`
-        stands for ``MechanicsState(integ)``.
+        :class:`GrowthState`).
     every
         Write a checkpoint every this many steps (0: only when stopped by a signal).
     info
@@ -1127,14 +1117,12 @@ class Checkpointer:
     def __init__(
         self,
         output: Path,
-        state: RunState | Integrator,
+        state: RunState,
         every: int,
         info: dict[str, Any],
         interval: float = 0.0,
         on_signal: bool = True,
     ):
-        if isinstance(state, Integrator):  # the former mechanics signature
-            state = MechanicsState(state)
         self.output, self.state, self.every = Path(output), state, int(every)
         self.comm = state.comm
         self.info = dict(info)

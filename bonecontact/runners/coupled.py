@@ -75,13 +75,13 @@ from bonecontact.neoplasm.host import (
     read_host_geometry,
 )
 from bonecontact.neoplasm.host3d import build_host_mesh3d, read_host_geometry3d, sphere_surface
+from bonecontact.runners.checkpoint import Checkpointer
 from bonecontact.runners.growth import (
     GrowthSteps,
     build_growth,
     growth_checkpointer,
     growth_times,
 )
-from bonecontact.runners.growth_checkpoint import GrowthCheckpointer
 from bonecontact.runners.loop import RunStopped, Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import build_model, run_mechanics
 from bonecontact.runners.results import (
@@ -431,7 +431,7 @@ class CoupledSteps(GrowthSteps):
         table: GrowthTable,
         analyses: _Analyses,
         times: np.ndarray,
-        ckpt: GrowthCheckpointer,
+        ckpt: Checkpointer,
         resumed: dict[str, Any] | None,
     ):
         super().__init__(cp.driver, table, times, analyses.timer, ckpt, resumed)

@@ -26,7 +26,7 @@ analyses only: the solution of a static step does not depend on the previous sta
 nothing needs to be transferred to the new mesh.
 
 Checkpoints are written between load steps and hold the crack with the mechanics state
-(:mod:`bonecontact.runners.crack_checkpoint`); a restart re-meshes the body around the
+(:class:`bonecontact.runners.checkpoint.CrackState`); a restart re-meshes the body around the
 stored crack and continues.
 """
 
@@ -70,8 +70,7 @@ from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
 from bonecontact.fracture.sif import displacement_correlation, interaction_integral
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
-from bonecontact.runners.checkpoint import CheckpointError, RunCounters, read_checkpoint
-from bonecontact.runners.crack_checkpoint import CrackCheckpoints
+from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, CrackState, RunCounters
 from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
 from bonecontact.runners.loop import Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import (
@@ -488,7 +487,7 @@ class CrackSteps(MechanicsSteps):
     step on the cracked body: K at every tip (fracture.csv), the crack grown where K
     reaches K_Ic (the same step again on the longer crack) until it arrests or cuts
     through (the last step).  Checkpoints hold the crack with the mechanics state
-    (:mod:`bonecontact.runners.crack_checkpoint`).
+    (:class:`bonecontact.runners.checkpoint.CrackState`).
     """
 
     errors = (RuntimeError, FractureError)  # a solver failure; a tip K cannot be had
@@ -500,7 +499,7 @@ class CrackSteps(MechanicsSteps):
         comm: MPI.Comm,
         outdir: Path,
         timer: PhaseTimer,
-        ck: CrackCheckpoints,
+        ck: Checkpointer,
         resume: tuple[Path, dict[str, Any]] | None,
         progress: bool,
     ):
@@ -557,9 +556,9 @@ class CrackSteps(MechanicsSteps):
         resumed = {}
         if stem.startswith("fields_restart"):  # the state and counters of the checkpoint
             with self.timer.phase("checkpoint"):
-                self.counters = read_checkpoint(self.resume[0], self.resume[1], integ)
-                self.counters.segment += 1
-                self.ck.resumed(*self.resume)
+                self.ck.state.integ = integ
+                self.ck.continue_from(*self.resume)  # the state, a new segment; tables cut
+                self.counters = self.ck.state.counters
             if self.saved["monitor"] is not None:
                 resumed["fracture"] = self.saved["monitor"]
         files = SimpleNamespace(
@@ -657,7 +656,8 @@ class CrackSteps(MechanicsSteps):
 
     def checkpoint(self, k: int, last: bool) -> bool:
         with self.timer.phase("checkpoint"):
-            signum = self.ck.after_step(self.integ, self.counters, self.crack_state(), last)
+            self.ck.state.integ, self.ck.state.counters = self.integ, self.counters
+            signum = self.ck.after_step(last, {"crack_run": self.crack_state()})
         return bool(signum)
 
     def failure(self, k: int, exc: BaseException) -> str:
@@ -720,7 +720,7 @@ def run_cracked(
     n-th restart ``fields_restart<n>.*``), fracture.csv and summary.json.
 
     ``restart``: continue from the newest checkpoint in the output directory (``True``)
-    or the named one (:mod:`bonecontact.runners.crack_checkpoint`); checkpoints are
+    or the named one (docs/checkpoint.md); checkpoints are
     written between load steps as ``[output] checkpoint_every`` / ``checkpoint_time`` ask
     and when SIGINT/SIGTERM stops the run (``"interrupted"``).
 
@@ -739,12 +739,12 @@ def run_cracked(
     run = prepare(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = analysis_steps(scene)
-    ck = CrackCheckpoints(
+    ck = Checkpointer(
         outdir,
-        comm,
+        CrackState(comm),
         scene.output.checkpoint_every,
-        scene.output.checkpoint_time,
         {"scene": scene.name, "analysis": scene.analysis.kind, "dt": dt},
+        scene.output.checkpoint_time,
     )
     resume = ck.find(restart) if restart else None
     hooks = CrackSteps(scene, run, comm, outdir, timer, ck, resume, progress)

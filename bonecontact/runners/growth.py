@@ -70,7 +70,7 @@ from bonecontact.neoplasm.growth import (
     tumour_growth,
 )
 from bonecontact.neoplasm.remesh import Boundary, RemeshError
-from bonecontact.runners.growth_checkpoint import GrowthCheckpointer
+from bonecontact.runners.checkpoint import Checkpointer, GrowthState
 from bonecontact.runners.loop import StepHooks, progress_bar, run_steps
 from bonecontact.runners.mechanics import read_mesh
 from bonecontact.runners.results import (
@@ -220,13 +220,14 @@ def growth_times(scene: Scene) -> np.ndarray:
 
 def growth_checkpointer(
     scene: Scene, driver: Driver, comm: MPI.Comm, outdir: Path, run: str
-) -> GrowthCheckpointer:
+) -> Checkpointer:
     """The checkpoints of a growth (``run = "growth"``) or coupled run (docs/checkpoint.md)."""
     neo = scene.neoplasm
     assert neo is not None
     info = {"scene": scene.name, "run": run, "dt": neo.dt, "remesh_every": neo.remesh_every}
     out = scene.output
-    return GrowthCheckpointer(outdir, driver, comm, out.checkpoint_every, info, out.checkpoint_time)
+    state = GrowthState(driver, comm)
+    return Checkpointer(outdir, state, out.checkpoint_every, info, out.checkpoint_time)
 
 
 def run_growth(
@@ -321,7 +322,7 @@ class GrowthSteps(StepHooks):
         table: GrowthTable,
         times: np.ndarray,
         timer: PhaseTimer,
-        ckpt: GrowthCheckpointer,
+        ckpt: Checkpointer,
         resumed: dict[str, Any] | None,
     ):
         self.driver, self.table, self.times = driver, table, times
