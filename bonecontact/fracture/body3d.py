@@ -304,7 +304,7 @@ def mesh_body_with_planar_crack(
         The body's boundary (:func:`body_surface` of the scene's mesh).
     crack
         The crack, inside the body (checked against the cells beforehand:
-        :func:`~bonecontact.fracture.scene_tables.check_crack_region`).
+        :func:`~bonecontact.scene.crack_region.check_crack_region`).
     size
         Element size at the front, its growth per unit distance from the front and the
         largest size (:class:`~bonecontact.fracture.meshing.TipMesh`; ``h_max`` at most

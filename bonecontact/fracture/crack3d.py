@@ -24,26 +24,11 @@ from bonecontact.fracture.front3d import EllipticalFront, PolygonFront
 
 __all__ = [
     "CORNER_FRACTION",
-    "CRACK3D_KEYS",
     "CRACK3D_SHAPES",
     "PlanarCrack",
     "planar_crack_from_table",
 ]
 
-#: Keys of a 3D ``[[crack]]`` table.
-CRACK3D_KEYS = (
-    "name",
-    "shape",
-    "centre",
-    "normal",
-    "radius",
-    "semi_axes",
-    "axis",
-    "region",
-    "friction",
-    "front_points",
-    "vertices",
-)
 #: Shapes of a 3D crack.
 CRACK3D_SHAPES = ("disc", "ellipse", "polygon")
 _UNIT_TOL = 1e-6

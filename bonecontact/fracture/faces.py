@@ -39,6 +39,7 @@ __all__ = [
     "FaceTraction",
     "contact_tags",
     "crack_face_solver",
+    "face_friction_law",
     "face_interface",
     "face_traction",
     "recovered_traction",
@@ -79,6 +80,14 @@ def face_interface(model: Mechanics, cm: CrackedMesh, name: str = "crack") -> Co
     )
 
 
+def face_friction_law(coefficient: float | None) -> FrictionLaw:
+    """The friction of a crack's faces: frictionless (``None``) or Coulomb with the
+    coefficient and the fixed-point bound (so that a single static step is frictional)."""
+    if coefficient is None:
+        return FrictionLaw()
+    return FrictionLaw("coulomb", float(coefficient), update="fixed_point")
+
+
 def crack_face_solver(
     model: Mechanics,
     cm: CrackedMesh,
@@ -88,11 +97,7 @@ def crack_face_solver(
     """A PDAS contact solver for the crack faces: frictionless (``friction=None``) or
     Coulomb with coefficient ``friction`` (fixed-point bound, so that a single static
     step is frictional)."""
-    law = (
-        FrictionLaw()
-        if friction is None
-        else FrictionLaw("coulomb", float(friction), update="fixed_point")
-    )
+    law = face_friction_law(friction)
     opts = options if options is not None else PDASOptions(friction=law, max_iterations=50)
     return ContactSolver(model.V, [face_interface(model, cm)], opts)
 
