@@ -151,3 +151,24 @@ def test_command_line_override_reaches_its_prefix_only(system, same_prefix):
         opts.delValue(f"{p1}mg_levels_ksp_max_it")
     for ksp in (k1, k2):
         ksp.destroy()
+
+
+@pytest.mark.parametrize(
+    "linear, strategy", [("direct", "lowrank"), ("direct", "refactor"), ("iterative", "auto")]
+)
+def test_contact_solve_leaves_no_option(linear, strategy):
+    """A whole PDAS contact solve (2D load-driven Hertz: MUMPS low-rank, MUMPS
+    refactorising, CG + GAMG on the condensed system) leaves the options database as
+    it found it; its contact resultant balances the applied load (force balance)."""
+    from bonecontact.contact.options import LinearOptions, PDASOptions
+    from bonecontact.verification.load_driven import half_disc_on_block_2d, hertz_errors
+
+    before = PETSc.Options().getAll()
+    opts = PDASOptions(linear=LinearOptions(strategy=strategy))
+    pb = half_disc_on_block_2d(COMM, 1.0e-3, linear=linear, options=opts)
+    res = pb.solve()
+    err = hertz_errors(pb, res)
+    pb.destroy()
+    assert PETSc.Options().getAll() == before
+    assert sum(np.atleast_1d(res.n_active)) >= 3
+    assert err["equilibrium"] < 1e-8
