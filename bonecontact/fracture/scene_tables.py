@@ -18,20 +18,6 @@ from bonecontact.fracture.crack3d import PlanarCrack
 
 __all__ = ["check_crack_region"]
 
-#: Names that moved to bonecontact.scene.spec (read through the transitional
-#: ``__getattr__`` below until the runners import them from there).
-_MOVED = ("CrackSpec", "FractureSpec")
-
-
-def __getattr__(name: str) -> Any:
-    """Transitional: ``CrackSpec`` and ``FractureSpec`` now live in
-    :mod:`bonecontact.scene.spec`."""
-    if name in _MOVED:
-        import bonecontact.scene.spec as spec
-
-        return getattr(spec, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
 
 def check_crack_region(
     spec: Any,
