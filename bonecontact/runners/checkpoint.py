@@ -1180,11 +1180,6 @@ class Checkpointer:
         """Restore the state from the checkpoint ``path`` (found by :meth:`find`), cut the
         tables after its step and note the restart (collective).  Returns ``meta``."""
         self.state.read(path, meta)
-        return self.restored(path, meta)
-
-    def restored(self, path: Path, meta: dict[str, Any]) -> dict[str, Any]:
-        """After the state is restored from ``path``: cut the tables after its step and
-        note the restart (collective; part of :meth:`continue_from`).  Returns ``meta``."""
         step = int(meta["step"])
         self.state.trim(self.output, step)
         self.resumed = meta
