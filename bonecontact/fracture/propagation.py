@@ -48,6 +48,7 @@ __all__ = [
     "IncrementRecord",
     "PropagationOptions",
     "PropagationResult",
+    "domain_radius",
     "propagate",
     "write_fracture_table",
 ]
@@ -181,9 +182,12 @@ def _distance_to_outline(p: np.ndarray, outline: np.ndarray, holes: Sequence[Hol
     return d
 
 
-def _domain_radius(
+def domain_radius(
     crack: Crack2D, end: int, outline: np.ndarray, holes: Sequence[Hole], opts: PropagationOptions
 ) -> float:
+    """Outer radius of the interaction-integral domain at tip ``end``: ``opts.r_out_max``
+    (default 2Δa), at most 0.8 × the last crack segment and 0.8 × the distance to the free
+    surface; a :class:`FractureError` if it spans fewer than 4 tip elements."""
     r_max = opts.r_out_max if opts.r_out_max is not None else 2.0 * opts.increment
     free = _distance_to_outline(crack.tip(end), outline, holes)
     r = min(r_max, 0.8 * crack.tip_segment_length(end), 0.8 * free)
@@ -254,7 +258,7 @@ def propagate(
         face_t = face[0] if face else None
         grown, status = crack, "arrested"
         for end in crack.tip_ends:
-            r_out = _domain_radius(crack, end, poly, holes, options)
+            r_out = domain_radius(crack, end, poly, holes, options)
             k = interaction_integral(
                 u, cm, end, material, r_out, plane=options.plane, face_traction=face_t
             )
