@@ -1,0 +1,125 @@
+"""A centre-cracked plate grown by fatigue: the Paris-law block integration of
+:mod:`bonecontact.fracture.fatigue` on a re-meshed 2D crack (docs/theory/fracture.md#fatigue).
+
+The plate [−W, W] × [−2W, 2W] under remote tension σ at the peak of the cycle (the plate of
+:mod:`bonecontact.fracture.plates`, plane strain), a straight centre crack of half-length
+a0 grown at both tips until its half-length is a1.  Every block end is a new mesh and
+solve; the peak K is the MTS equivalent K of the interaction integral.
+
+The K at a block end depends only on the crack's geometry and the mesh parameters, not on
+the Paris constants: runs that share those (for example the same Δa_max with other m or
+R) reuse the solves, kept in a per-process cache keyed by the crack's points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+
+from bonecontact.fracture.fatigue import CrackFatigueBody, FatigueResult, ParisLaw, grow_by_fatigue
+from bonecontact.fracture.meshing import CrackedMesh, TipMesh
+from bonecontact.fracture.plates import centre_crack, rectangle_outline, solve_tension
+from bonecontact.materials.laws import Isotropic
+
+__all__ = ["CentreCrackFatigue", "grow_centre_crack"]
+
+_K_CACHE: dict[tuple, tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = {}
+
+
+@dataclass
+class _CachedPlateBody(CrackFatigueBody):
+    """:class:`CrackFatigueBody` whose K and kink angles are looked up by geometry."""
+
+    key: tuple = ()
+
+    def k_max(self) -> npt.NDArray[np.float64]:
+        k = (*self.key, self.comm.size, np.round(self.crack.points, 12).tobytes())
+        if k not in _K_CACHE:
+            k_eq = super().k_max()
+            _K_CACHE[k] = (k_eq, self.angles.copy())
+        k_eq, angles = _K_CACHE[k]
+        self.angles = angles.copy()
+        return k_eq.copy()
+
+
+@dataclass(frozen=True)
+class CentreCrackFatigue:
+    """The grown plate: the fatigue history and the half-length at every block end."""
+
+    result: FatigueResult
+    half_lengths: npt.NDArray[np.float64]
+
+    @property
+    def cycles(self) -> float:
+        """Cycles from a0 to a1."""
+        return float(self.result.cycles[-1])
+
+
+def grow_centre_crack(
+    law: ParisLaw,
+    a0: float,
+    a1: float,
+    da_max: float,
+    tip_mesh: TipMesh,
+    half_width: float = 1.0,
+    sigma: float = 1.0e6,
+    material: Isotropic | None = None,
+    comm: MPI.Comm | None = None,
+) -> CentreCrackFatigue:
+    """Grow the centre crack of the plate from half-length ``a0`` to ``a1``.
+
+    Parameters
+    ----------
+    law
+        :class:`~bonecontact.fracture.fatigue.ParisLaw` (its R sets ΔK from the peak σ).
+    a0, a1
+        Initial and final half-lengths (m), a0 < a1 < half_width.
+    da_max
+        Growth of each tip per block (m).
+    tip_mesh
+        Tip element size and grading of every re-mesh.
+    half_width, sigma, material
+        W (m; the plate's half-height is 2W), peak remote stress (Pa), material
+        (default: E = 17 GPa, ν = 0.3).
+    comm
+        Communicator (default ``MPI.COMM_WORLD``).
+
+    Returns
+    -------
+    CentreCrackFatigue
+        The same on every rank.
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    mat = Isotropic(E=17.0e9, nu=0.3) if material is None else material
+    w = float(half_width)
+
+    def solve(cm: CrackedMesh) -> tuple:
+        sol = solve_tension(cm, mat, sigma)
+        return sol.model, sol.u
+
+    body = _CachedPlateBody(
+        outline=rectangle_outline(-w, -2 * w, w, 2 * w),
+        crack=centre_crack(a0),
+        solve=solve,
+        material=mat,
+        tip_mesh=tip_mesh,
+        da_max=da_max,
+        comm=comm,
+        key=(w, float(sigma), mat.E, mat.nu, tip_mesh, float(da_max)),
+    )
+    halves = [a0]
+
+    class _Recorder:
+        def k_max(self) -> npt.NDArray[np.float64]:
+            return body.k_max()
+
+        def grow(self, advances: npt.NDArray[np.float64]) -> None:
+            body.grow(advances)
+            halves.append(0.5 * body.crack.length)
+
+    result = grow_by_fatigue(_Recorder(), law, da_max, a1 - a0)
+    return CentreCrackFatigue(result, np.array(halves))
