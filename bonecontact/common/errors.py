@@ -54,8 +54,9 @@ EXIT_CODES: dict[int, str] = {
     ),
     ExitCode.BAD_INPUT: (
         "invalid input, reported on every rank before anything is written: the scene, "
-        "its mesh, materials or tables; an implausible value under --strict; a restart "
-        "refused (no intact checkpoint, or one of another scene)"
+        "its mesh, materials or tables; an implausible value under --strict; a unit slip "
+        "beyond doubt (mesh > 2 m or < 0.1 mm across, modulus < 1 kPa) unless "
+        "--allow-implausible; a restart refused (no intact checkpoint, or one of another scene)"
     ),
     ExitCode.INVALID: (
         'the run finished but its result is outside the model\'s validity ("status": '
