@@ -427,8 +427,9 @@ analyses = res.summary["coupling"]["analyses"]
 # the changes are the rebuilt meshes', not the tumour's).
 #
 # **A limit of this model.**  The cartilage under the contact nodes is compressed by
-# up to 50 % (9 MPa on a layer of $E$ = 10 MPa), and 1 % of the cartilage's volume by
-# more than 42 % (summary.json `strain_measure`), far beyond the small-strain limit of
+# up to 50 % (9 MPa on a layer of $E$ = 10 MPa), 1 % of the cartilage's volume by more
+# than 42 % (summary.json `strain_measure`) and 14 % of it by more than 10 %
+# (`volume_above_strain_limit`), far beyond the small-strain limit of
 # 10 % (docs/scene_format.md, "Validity of the model"): the scene accepts it explicitly
 # (`allow_large_strain = true`; without it the run ends `"invalid"`, exit status 3).  On
 # these incongruent surfaces the load goes through a few nodes instead of a patch of

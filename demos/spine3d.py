@@ -603,7 +603,8 @@ if comm.rank == 0:
 #
 # **A limit of this model.**  The disc carries the flexion by strains of 20–30 % at its
 # front and back (the run prints the largest strain of each analysis, summary.json
-# `max_strain`; 1 % of the disc's volume is strained by more than 24 %, `strain_measure`):
+# `max_strain`; 1 % of the disc's volume is strained by more than 24 %, `strain_measure`,
+# and more than half of it beyond 10 %, `volume_above_strain_limit`):
 # beyond the small-strain limit of 10 % (docs/scene_format.md, "Validity of the model"),
 # which the scene accepts explicitly (`allow_large_strain = true`; without it the run ends
 # `"invalid"`, exit status 3).  The disc's deformation and the segment's tilt are therefore
