@@ -222,6 +222,9 @@ dimension = 2
 kind = "dynamic"
 t_end = 2e-4
 dt = 2e-5
+# the cartilage block is squeezed ~12 %: beyond the 10 % small-strain limit, accepted
+# here because the test is of the time scheme and the contact algebra, not of the model
+allow_large_strain = true
 [[material]]
 name = "bone"
 regions = ["lower"]
