@@ -94,6 +94,7 @@ MECHANICS_TABLES = (
 # the tables of a mechanics scene
 # --------------------------------------------------------------------------------------
 def _read_analysis(doc: Mapping[str, Any]) -> Analysis:
+    """``[analysis]`` (required in a mechanics scene)."""
     tab = table_of(doc, "analysis", required=True)
     assert tab is not None
     tab.check_keys(ANALYSIS_TABLE)
@@ -111,6 +112,7 @@ def _read_analysis(doc: Mapping[str, Any]) -> Analysis:
 
 
 def _read_solver(doc: Mapping[str, Any]) -> SolverOptions:
+    """``[solver]``, the defaults when absent."""
     defaults = default_solver_options()
     tab = table_of(doc, "solver", required=False)
     if tab is None:
@@ -155,6 +157,7 @@ def _material_constants(tab: TableReader, model: str, dim: int) -> dict[str, Any
 
 
 def _read_material(entry: dict[str, Any], i: int, dim: int, dynamic: bool) -> MaterialSpec:
+    """One ``[[material]]`` entry (``i`` from 0): its law from the model's constants."""
     tab = TableReader(entry, table_label("material", i, entry.get("name")))
     name = tab.get(MATERIAL_TABLE["name"])
     model = tab.get(MATERIAL_TABLE["model"])
@@ -180,6 +183,7 @@ def _read_material(entry: dict[str, Any], i: int, dim: int, dynamic: bool) -> Ma
 
 
 def _read_materials(doc: Mapping[str, Any], dim: int, dynamic: bool) -> tuple[MaterialSpec, ...]:
+    """The ``[[material]]`` entries: unique names, each region in one material."""
     entries = array_of_tables(doc, "material")
     if not entries:
         raise SceneError(None, "[[material]]", None, "at least one material is required")
@@ -261,6 +265,7 @@ def _check_friction_keys(tab: TableReader, spec: ContactSpec, allow_friction: bo
 def _read_contacts(
     doc: Mapping[str, Any], allow_contact: bool, allow_friction: bool = False
 ) -> tuple[ContactSpec, ...]:
+    """The ``[[contact]]`` pairs (``allow_contact``, ``allow_friction``: see load_scene)."""
     entries = array_of_tables(doc, "contact")
     if entries and not allow_contact:
         raise SceneError(None, "[[contact]]", None, "contact is not supported yet")
@@ -282,11 +287,13 @@ def _read_contacts(
 
 
 def _default_schedule(static: bool) -> Schedule:
+    """The schedule of an entry without ``ramp`` or ``schedule``."""
     # static: loads grow linearly with the pseudo-time over the load steps
     return Schedule.from_ramp(1.0) if static else Schedule()
 
 
 def _read_dirichlet(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[DirichletSpec, ...]:
+    """The ``[[dirichlet]]`` entries: a number or ``"free"`` per component."""
     specs: list[DirichletSpec] = []
     for i, entry in enumerate(array_of_tables(doc, "dirichlet")):
         tab = TableReader(entry, table_label("dirichlet", i))
@@ -380,6 +387,7 @@ def _read_load(tab: TableReader, kind: str, dim: int, static: bool) -> LoadSpec:
 
 
 def _read_loads(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[LoadSpec, ...]:
+    """Tractions, pressures, body forces and forces, each kind in file order."""
     return tuple(
         _read_load(TableReader(entry, table_label(kind, i)), kind, dim, static)
         for kind in LOAD_TABLES
@@ -388,6 +396,7 @@ def _read_loads(doc: Mapping[str, Any], dim: int, static: bool) -> tuple[LoadSpe
 
 
 def _read_initial_velocities(doc: Mapping[str, Any], dim: int) -> tuple[InitialVelocitySpec, ...]:
+    """The ``[[initial_velocity]]`` entries (a region in one entry only)."""
     specs: list[InitialVelocitySpec] = []
     owner: dict[str, int] = {}
     for i, entry in enumerate(array_of_tables(doc, "initial_velocity")):
@@ -407,6 +416,7 @@ def _read_initial_velocities(doc: Mapping[str, Any], dim: int) -> tuple[InitialV
 
 
 def _read_output(doc: Mapping[str, Any], dim: int) -> OutputSpec:
+    """``[output]`` (the defaults when absent)."""
     tab = table_of(doc, "output", required=False) or TableReader({}, "[output]")
     tab.check_keys(OUTPUT_TABLE)
     directory = Path(tab.get(OUTPUT_TABLE["directory"]))

@@ -179,6 +179,7 @@ class TableReader:
         nonnegative: bool = False,
         why: str = "",
     ) -> float | None:
+        """A finite number (an integer is accepted), with the range asked for."""
         value = self.raw(key, required, why)
         if value is MISSING:
             return default
@@ -198,6 +199,7 @@ class TableReader:
         minimum: int | None = None,
         why: str = "",
     ) -> int | None:
+        """An integer (``2.0`` and booleans are refused), at least ``minimum``."""
         value = self.raw(key, required, why)
         if value is MISSING:
             return default
@@ -216,6 +218,7 @@ class TableReader:
         default: str | None = None,
         choices: Sequence[str] | None = None,
     ) -> str | None:
+        """A non-empty string, one of ``choices`` when given."""
         value = self.raw(
             key, required, f"; allowed values: {format_choices(choices)}" if choices else ""
         )
@@ -231,6 +234,7 @@ class TableReader:
         return value
 
     def boolean(self, key: str, *, default: bool = False) -> bool:
+        """``true`` or ``false``."""
         value = self.raw(key, False)
         if value is MISSING:
             return default
@@ -267,6 +271,7 @@ class TableReader:
     def vector(
         self, key: str, dim: int, *, required: bool = True, value: Any = MISSING, what: str = ""
     ) -> tuple[float, ...]:
+        """``dim`` finite numbers (``value`` instead of the table's value when given)."""
         if value is MISSING:
             value = self.raw(key, required)
         if not isinstance(value, list):
