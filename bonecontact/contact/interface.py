@@ -815,38 +815,72 @@ def build_interface(
         Empty groups, degenerate facets, a slave surface that no master facet covers,
         initial interpenetration.
     """
-    comm = V.mesh.comm
-    gdim = V.mesh.geometry.dim
-    bs = V.dofmap.index_map_bs
     t_start = time.perf_counter()
     stats: dict[str, float] = {}
     # slave surface on every rank, its normals
     surf = _gather_slave_surface(V, facet_tags, slave, name)
     # slave nodes with Dirichlet dofs carry no multiplier
-    ranges = _owner_ranges(comm, V)
-    lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
     mask = _dirichlet_node_mask(V, surf.gids, dirichlet_dofs)
     if shared_nodes not in ("refuse", "no_multiplier"):
         raise ValueError(f"shared_nodes: 'refuse' or 'no_multiplier', not {shared_nodes!r}")
     stats["t_gather"] = time.perf_counter() - t_start
     # mortar integrals: D, weighted gap, M
     if isinstance(master, RigidPlane):
-        mortar = _rigid_plane_mortar(comm, surf, master, mask)
+        mortar = _rigid_plane_mortar(V.mesh.comm, surf, master, mask)
     else:
-        local_master = _local_surface(V, facet_tags, master)
-        shared = _allreduce(
-            comm, np.isin(surf.gids, local_master[0]).astype(np.int32), MPI.MAX, np.int32
-        ).astype(bool)
-        if shared_nodes == "no_multiplier":
-            mask, shared = mask | shared, np.zeros_like(shared)
         labels = _PairLabels.of(name, slave, master, groups)
-        _check_master(comm, labels, local_master, shared)
-        mortar = _surface_pair_mortar(
-            V, surf, mask, search_radius, stats, local_master, labels, approach
+        mortar = _two_surface_mortar(
+            V, facet_tags, master, surf, mask, labels, shared_nodes, search_radius, stats, approach
         )
     # nodes carrying a multiplier, initial interpenetration
     carries = _multiplier_nodes(surf, mortar.d)
-    _check_initial_gap(comm, surf, mortar, carries, max_penetration, name)
+    _check_initial_gap(V.mesh.comm, surf, mortar, carries, max_penetration, name)
+    return _distributed_interface(
+        V, surf, mortar, carries, name, isinstance(master, RigidPlane), stats, t_start
+    )
+
+
+def _two_surface_mortar(
+    V: fem.FunctionSpace,
+    facet_tags,
+    master: int,
+    surf: _SlaveSurface,
+    mask: npt.NDArray[np.bool_],
+    labels: _PairLabels,
+    shared_nodes: str,
+    search_radius: float | None,
+    stats: dict[str, float],
+    approach: bool,
+) -> _MortarData:
+    """The mortar integrals of a slave surface against master facets (the arguments of
+    :func:`build_interface`): nodes shared by both surfaces refused or, with
+    ``shared_nodes="no_multiplier"``, added to the nodes without a multiplier."""
+    comm = V.mesh.comm
+    local_master = _local_surface(V, facet_tags, master)
+    shared = _allreduce(
+        comm, np.isin(surf.gids, local_master[0]).astype(np.int32), MPI.MAX, np.int32
+    ).astype(bool)
+    if shared_nodes == "no_multiplier":
+        mask, shared = mask | shared, np.zeros_like(shared)
+    _check_master(comm, labels, local_master, shared)
+    return _surface_pair_mortar(V, surf, mask, search_radius, stats, local_master, labels, approach)
+
+
+def _distributed_interface(
+    V: fem.FunctionSpace,
+    surf: _SlaveSurface,
+    mortar: _MortarData,
+    carries: npt.NDArray[np.bool_],
+    name: str,
+    rigid: bool,
+    stats: dict[str, float],
+    t_start: float,
+) -> ContactInterface:
+    """The interface of this rank: its owned slave nodes that carry a multiplier and the
+    rows of ``M̂`` sent to the ranks that own them (collective)."""
+    comm, gdim, bs = V.mesh.comm, V.mesh.geometry.dim, V.dofmap.index_map_bs
+    ranges = _owner_ranges(comm, V)
+    lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
     # M̂ rows to their owners
     rows, cols, vals, weight = _mhat_triplets(comm, surf, mortar, carries, bs)
     q_rows, q_cols, q_vals = _send_rows_to_owners(comm, bs * ranges, rows, cols, vals)
@@ -873,7 +907,7 @@ def build_interface(
         qt_vals=q_vals,
         slave_area=float(surf.measure.sum()),
         covered_area=float(mortar.covered),
-        rigid=isinstance(master, RigidPlane),
+        rigid=rigid,
         build_stats=stats,
     )
 

@@ -196,6 +196,21 @@ def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
     return M
 
 
+def _solve_dense(M: npt.NDArray, rhs: npt.NDArray) -> npt.NDArray:
+    """Solve the small dense system of a set; one LU and LAPACK's O(m²) 1-norm condition
+    estimate (not an SVD per iteration).  Raises :class:`SingularActiveSetError` above a
+    condition number of 1e13."""
+    lu, piv, info = lapack.dgetrf(M)
+    rcond = lapack.dgecon(lu, float(np.abs(M).sum(axis=0).max()), norm="1")[0] if info == 0 else 0.0
+    if rcond < 1e-13:
+        n = M.shape[0]
+        raise SingularActiveSetError(
+            f"the system of the active set is singular (condition number "
+            f"of the {n}×{n} update > 1e13)"
+        )
+    return lapack.dgetrs(lu, piv, rhs)[0]
+
+
 class LowRankActiveSetSolver:
     """Solve ``B_A x = b_A`` for changing sets ``A`` of fixed slave-normal unknowns.
 
@@ -676,7 +691,6 @@ class LowRankActiveSetSolver:
             ``{"columns": new columns, "refactorized": bool, "size": unknowns of the small
             system}``.
         """
-        refactorized = False
         if self._set_given(wgiven):
             self._base_solve()
         crow = (
@@ -684,13 +698,39 @@ class LowRankActiveSetSolver:
             if coupled is None
             else np.asarray(coupled[0], dtype=np.int64)
         )
+        diff, new_cols, refactorized = self._prepare_columns(active, margin, crow)
+        cols = [int(q) for q in diff]
+        xN, wN = self._xbN.copy(), self._r0N - self._AxbN
+        self._y = (cols, np.zeros(0))
+        if cols:
+            G = np.column_stack([self.cache[q][0] for q in cols])
+            KG = np.column_stack([self.cache[q][1] for q in cols])
+            M, rhs, csc = self._small_system(cols, active, scale, G, KG, xN, wN, coupled, crow)
+            y = _solve_dense(M, rhs) * csc
+            xN += G @ y
+            wN -= KG @ y
+            self._y = (cols, y)
+        return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
 
-        def needed() -> np.ndarray:
-            d = active != self.base
-            d[crow.ravel()] = True
-            return np.flatnonzero(d)
+    def _differing(self, active: npt.NDArray[np.bool_], crow: npt.NDArray) -> npt.NDArray:
+        """Replicated rows in which the set ``active`` differs from the base, or whose
+        equation is replaced (``crow``): one column each."""
+        d = active != self.base
+        d[crow.ravel()] = True
+        return np.flatnonzero(d)
 
-        diff = needed()
+    def _prepare_columns(
+        self,
+        active: npt.NDArray[np.bool_],
+        margin: npt.NDArray[np.float64] | None,
+        crow: npt.NDArray,
+    ) -> tuple[npt.NDArray, int, bool]:
+        """Make the columns of the set ``active`` available: re-split, rebase or compute
+        the missing ones (with speculative release columns, see :meth:`solve_set`).
+        Returns the rows that need a column, the columns computed and whether the base
+        was refactorised."""
+        refactorized = False
+        diff = self._differing(active, crow)
         missing = [int(q) for q in diff if int(q) not in self.cache]
         too_many = len(self.cache) + len(missing) > self.column_limit
         cost_columns = self.t_block + len(missing) * self.t_column
@@ -698,7 +738,7 @@ class LowRankActiveSetSolver:
         if self.split is not None and missing and self._resplit_pays(len(missing)):
             self._resplit(active)
             refactorized = True
-            diff = needed()
+            diff = self._differing(active, crow)
             missing = [int(q) for q in diff if int(q) not in self.cache]
         elif self.split is not None:
             if too_many:  # (no rebase: keep the columns of this set only)
@@ -708,7 +748,7 @@ class LowRankActiveSetSolver:
             self.factorize(active)
             self._base_solve()
             refactorized = True
-            diff = needed()
+            diff = self._differing(active, crow)
             missing = [int(q) for q in diff if int(q) not in self.cache]
         if missing and margin is not None and self.split is None:
             # speculate on releases only: fixed rows of the base closest to being freed
@@ -718,61 +758,49 @@ class LowRankActiveSetSolver:
             extra = [int(q) for q in order if same[q] and int(q) not in self.cache][: len(missing)]
             room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
-        new_cols = len(missing)
         if missing:
             self._compute_columns(missing)
-        cols = [int(q) for q in diff]
-        xN, wN = self._xbN.copy(), self._r0N - self._AxbN
-        self._y = (cols, np.zeros(0))
-        if cols:
-            pos = {q: i for i, q in enumerate(cols)}
-            G = np.column_stack([self.cache[q][0] for q in cols])
-            KG = np.column_stack([self.cache[q][1] for q in cols])
-            base = self.base[cols]
-            # unknowns: value shifts s (base-fixed rows) and forces mu = scale * mu~ (base-free
-            # rows)
-            csc = np.where(base, 1.0, scale[cols])
-            M = np.empty((len(cols), len(cols)))
-            rhs = np.empty(len(cols))
-            fix = active[cols]
-            M[fix] = G[np.asarray(cols)[fix], :]
-            rhs[fix] = (self._vals - xN)[np.asarray(cols)[fix]]
-            free = ~fix
-            c_free = np.asarray(cols)[free]
-            M[free] = KG[c_free, :] / scale[c_free, None]
-            rhs[free] = (wN - self._wg)[c_free] / scale[c_free]
-            if coupled is not None:
-                _, Gc, Hc, hc = coupled
-                q = crow.ravel()
-                idx = np.array([pos[int(v)] for v in q], dtype=np.int64)
-                Mc = np.einsum("iab,ibk->iak", Hc, G[crow]) - np.einsum(
-                    "iab,ibk->iak", Gc, KG[crow]
-                )
-                rc = (
-                    hc
-                    - np.einsum("iab,ib->ia", Gc, wN[crow])
-                    - np.einsum("iab,ib->ia", Hc, xN[crow])
-                )
-                M[idx] = Mc.reshape(q.size, len(cols)) / scale[q, None]
-                rhs[idx] = rc.ravel() / scale[q]
-            M *= csc[None, :]
-            # one LU and LAPACK's O(m²) 1-norm condition estimate (not an SVD per iteration)
-            lu, piv, info = lapack.dgetrf(M)
-            rcond = (
-                lapack.dgecon(lu, float(np.abs(M).sum(axis=0).max()), norm="1")[0]
-                if info == 0
-                else 0.0
-            )
-            if rcond < 1e-13:
-                raise SingularActiveSetError(
-                    f"the system of the active set is singular (condition number "
-                    f"of the {len(cols)}×{len(cols)} update > 1e13)"
-                )
-            y = lapack.dgetrs(lu, piv, rhs)[0] * csc
-            xN += G @ y
-            wN -= KG @ y
-            self._y = (cols, y)
-        return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
+        return diff, len(missing), refactorized
+
+    def _small_system(
+        self,
+        cols: list[int],
+        active: npt.NDArray[np.bool_],
+        scale: npt.NDArray[np.float64],
+        G: npt.NDArray,
+        KG: npt.NDArray,
+        xN: npt.NDArray,
+        wN: npt.NDArray,
+        coupled: tuple | None,
+        crow: npt.NDArray,
+    ) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
+        """The dense system of the column amplitudes ``y = csc · ỹ``: a fixed row takes its
+        value, a free row its given force, a coupled row its equation (rows scaled by
+        ``scale``).  Returns ``(M, rhs, csc)``."""
+        pos = {q: i for i, q in enumerate(cols)}
+        base = self.base[cols]
+        # unknowns: value shifts s (base-fixed rows) and forces mu = scale * mu~ (base-free
+        # rows)
+        csc = np.where(base, 1.0, scale[cols])
+        M = np.empty((len(cols), len(cols)))
+        rhs = np.empty(len(cols))
+        fix = active[cols]
+        M[fix] = G[np.asarray(cols)[fix], :]
+        rhs[fix] = (self._vals - xN)[np.asarray(cols)[fix]]
+        free = ~fix
+        c_free = np.asarray(cols)[free]
+        M[free] = KG[c_free, :] / scale[c_free, None]
+        rhs[free] = (wN - self._wg)[c_free] / scale[c_free]
+        if coupled is not None:
+            _, Gc, Hc, hc = coupled
+            q = crow.ravel()
+            idx = np.array([pos[int(v)] for v in q], dtype=np.int64)
+            Mc = np.einsum("iab,ibk->iak", Hc, G[crow]) - np.einsum("iab,ibk->iak", Gc, KG[crow])
+            rc = hc - np.einsum("iab,ib->ia", Gc, wN[crow]) - np.einsum("iab,ib->ia", Hc, xN[crow])
+            M[idx] = Mc.reshape(q.size, len(cols)) / scale[q, None]
+            rhs[idx] = rc.ravel() / scale[q]
+        M *= csc[None, :]
+        return M, rhs, csc
 
     def respond(
         self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64], dvals: npt.NDArray

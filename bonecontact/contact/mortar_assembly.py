@@ -742,6 +742,22 @@ def assemble_mortar(
     )
     coeffs = modify_dual_coefficients(base, facet_mask) if facet_mask.any() else base
     pairs = _apply_dual_coefficients(raw, coeffs)
+    return _assemble_pairs(pairs, fs, fm, facet_mask, n_s, n_m, covered, facet_area)
+
+
+def _assemble_pairs(
+    pairs: MortarPairs,
+    fs: npt.NDArray[np.int64],
+    fm: npt.NDArray[np.int64],
+    facet_mask: npt.NDArray[np.bool_],
+    n_s: int,
+    n_m: int,
+    covered: float,
+    facet_area: npt.NDArray[np.float64],
+) -> MortarContributions:
+    """Sum the integrals of the facet pairs into ``M`` (triplets), the diagonal of ``D``,
+    the weighted gap and the off-diagonal ``D`` of boundary-modified facets."""
+    nv = fs.shape[1]
     t0 = time.perf_counter()
     integ = pairs.integrals
     sf, mf = pairs.slave_facet, pairs.master_facet
