@@ -30,7 +30,8 @@ import gmsh
 import numpy as np
 from dolfinx.io.gmsh import MeshData
 
-from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
+from bonecontact.meshing.builder import MeshingError, PhysicalGroups, check_positive, generate
+from bonecontact.meshing.report import MeshReport, format_report, msh_report
 from bonecontact.meshing.surface_repair import MeshInputError, Surface, split_components
 
 __all__ = [
@@ -38,9 +39,13 @@ __all__ = [
     "bone_regions",
     "ct_bone_surface",
     "ct_slice_mesh",
+    "main",
+    "mesh_ct",
     "polygon_area",
     "read_ct_series",
     "read_ct_slice",
+    "region_area",
+    "select_bodies",
 ]
 
 #: air, outside every image (HU)
@@ -239,6 +244,96 @@ def _resample(xy: np.ndarray, h: float) -> np.ndarray:
     return np.column_stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])])
 
 
+#: the kinds of ``bodies`` of :func:`ct_slice_mesh`
+BODIES = ("all", "largest", "each")
+#: names of the low and high end along x and y (as :func:`~.builder.block_groups`)
+END_NAMES = (("left", "right"), ("bottom", "top"))
+
+
+def region_area(region: tuple[np.ndarray, list[np.ndarray]]) -> float:
+    """Area of a region (outer boundary minus its holes), m²."""
+    outer, holes = region
+    return abs(polygon_area(outer)) - sum(abs(polygon_area(x)) for x in holes)
+
+
+def select_bodies(regions: list, bodies: str) -> list:
+    """The regions sorted by area (largest first): all of them, or only the largest.
+
+    Raises
+    ------
+    ValueError
+        For a ``bodies`` not in :data:`BODIES`.
+    """
+    if bodies not in BODIES:
+        raise ValueError(f"bodies must be one of {', '.join(BODIES)}; got {bodies!r}")
+    ranked = sorted(regions, key=region_area, reverse=True)
+    return ranked[:1] if bodies == "largest" else ranked
+
+
+def _segment_on_root(source, threshold, h, min_area, bodies, comm):
+    """Rank 0: the image's regions (resampled at ``h``), all found and the kept ones;
+    an error is raised on every rank."""
+    out, error = None, None
+    if comm.rank == 0:
+        try:
+            image = source if isinstance(source, CTImage) else read_ct_slice(source)
+            h = 2 * max(image.spacing[-2:]) if h is None else h
+            check_positive(h=h)
+            found = bone_regions(image, threshold, min_area)
+            kept = select_bodies(found, bodies)
+            resampled = [(_resample(o, h), [_resample(x, h) for x in holes]) for o, holes in kept]
+            out = (found, kept, resampled, h)
+        except (MeshInputError, ValueError) as exc:
+            error = exc
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise error
+    return out if out is not None else (None, None, None, None)
+
+
+def _end_of(midpoints: np.ndarray, lo: float, hi: float, fraction: float) -> np.ndarray:
+    """0 for a midpoint within ``fraction`` of the extent of the low end, 1 of the high
+    end, -1 elsewhere."""
+    band = fraction * (hi - lo)
+    return np.where(midpoints <= lo + band, 0, np.where(midpoints >= hi - band, 1, -1))
+
+
+def _add_slice_geometry(regions, h, name, bodies, ends):
+    """gmsh geometry and physical groups of the (resampled) regions."""
+    geo = gmsh.model.geo
+    curves: dict[str, list[int]] = {}
+    surfaces = []
+    if ends is not None:
+        axis, fraction = ends
+        coords = np.concatenate([o[:, axis] for o, _ in regions])
+        lo, hi = float(coords.min()), float(coords.max())
+
+    def loop(xy: np.ndarray, outer: bool) -> int:
+        pts = [geo.addPoint(x, y, 0.0, h) for x, y in xy]
+        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        kind = np.full(len(lines), -1)
+        if outer and ends is not None:
+            kind = _end_of(0.5 * (xy[:, axis] + np.roll(xy, -1, axis=0)[:, axis]), lo, hi, fraction)
+        for line, k in zip(lines, kind):
+            group = "inner" if not outer else ("outer" if k < 0 else END_NAMES[axis][k])
+            curves.setdefault(f"{name}_{group}", []).append(line)
+        return geo.addCurveLoop(lines)
+
+    for outer, holes in regions:
+        loops = [loop(outer, True)] + [loop(x, False) for x in holes]
+        surfaces.append(geo.addPlaneSurface(loops))
+    geo.synchronize()
+    groups = PhysicalGroups()
+    if bodies == "each":
+        for k, surface in enumerate(surfaces, start=1):
+            groups(2, [surface], f"{name}_{k}")
+    else:
+        groups(2, surfaces, name)
+    for group, lines in curves.items():
+        groups(1, lines, group)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+
+
 def ct_slice_mesh(
     source: str | Path | CTImage,
     threshold: float = 300.0,
@@ -246,6 +341,8 @@ def ct_slice_mesh(
     *,
     name: str = "bone",
     min_area: float | None = None,
+    bodies: str = "all",
+    ends: tuple[int, float] | None = None,
     comm: MPI.Comm | None = None,
     path: str | Path | None = None,
 ) -> MeshData | Path:
@@ -264,6 +361,16 @@ def ct_slice_mesh(
         (holes; only if there are any).
     min_area
         Smaller pieces and holes are dropped (m²; default four pixels).
+    bodies
+        ``"all"``: every connected piece, one cell group ``<name>``; ``"largest"``: the
+        piece of largest area alone (group ``<name>``); ``"each"``: every piece, largest
+        first, as cell groups ``<name>_1``, ``<name>_2``, ….
+    ends
+        ``(axis, fraction)`` (axis 0: x, 1: y): the outer boundary's segments whose
+        midpoint lies within ``fraction`` of the kept bodies' extent along the axis from
+        its low or high end form the facet groups ``<name>_bottom``/``<name>_top`` (y) or
+        ``<name>_left``/``<name>_right`` (x), for supports and loads; the rest of the outer
+        boundary stays ``<name>_outer``.
     comm, path
         As for every builder: distribute to ``comm`` or write a gmsh file at ``path``.
 
@@ -271,46 +378,25 @@ def ct_slice_mesh(
     ------
     MeshInputError
         On every rank, for an unreadable image or no bone above the threshold.
+    ValueError
+        On every rank, for a bad ``h``, ``bodies`` or ``ends``.
     """
     comm = MPI.COMM_WORLD if comm is None else comm
-    regions, error = None, None
-    if comm.rank == 0:
-        try:
-            image = source if isinstance(source, CTImage) else read_ct_slice(source)
-            h = 2 * max(image.spacing[-2:]) if h is None else h
-            check_positive(h=h)
-            regions = [
-                (_resample(o, h), [_resample(x, h) for x in holes])
-                for o, holes in bone_regions(image, threshold, min_area)
-            ]
-        except (MeshInputError, ValueError) as exc:
-            error = exc
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise error
+    _check_ends(ends)
+    _, _, regions, h = _segment_on_root(source, threshold, h, min_area, bodies, comm)
 
     def build() -> None:
-        geo = gmsh.model.geo
-        outer_curves, inner_curves, surfaces = [], [], []
-
-        def loop(xy: np.ndarray, into: list[int]) -> int:
-            pts = [geo.addPoint(x, y, 0.0, h) for x, y in xy]
-            lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
-            into.extend(lines)
-            return geo.addCurveLoop(lines)
-
-        for outer, holes in regions:
-            loops = [loop(outer, outer_curves)] + [loop(x, inner_curves) for x in holes]
-            surfaces.append(geo.addPlaneSurface(loops))
-        geo.synchronize()
-        groups = PhysicalGroups()
-        groups(2, surfaces, name)
-        groups(1, outer_curves, f"{name}_outer")
-        if inner_curves:
-            groups(1, inner_curves, f"{name}_inner")
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        _add_slice_geometry(regions, h, name, bodies, ends)
 
     return generate(name, 2, build, comm, path)
+
+
+def _check_ends(ends: tuple[int, float] | None) -> None:
+    if ends is None:
+        return
+    axis, fraction = ends
+    if axis not in (0, 1) or not (0 < fraction < 0.5):
+        raise ValueError(f"ends must be (axis 0 or 1, fraction in (0, 0.5)); got {ends!r}")
 
 
 def ct_bone_surface(image: CTImage, threshold: float = 300.0) -> Surface:
@@ -339,3 +425,124 @@ def ct_bone_surface(image: CTImage, threshold: float = 300.0) -> Surface:
     pts = np.column_stack([ox + c, -(oy + r), oz + k])
     s = split_components(Surface(pts, faces.astype(np.int64), image.source))[0]
     return s if s.volume > 0 else Surface(s.points, s.triangles[:, ::-1], image.source)
+
+
+# ------------------------------------------------------------------------- command line
+def _bodies_note(found: list, kept: list, bodies: str, threshold: float, name: str) -> str:
+    areas = sorted((region_area(r) for r in found), reverse=True)
+    shown = ", ".join(f"{a:.4g}" for a in areas[:5]) + (", …" if len(areas) > 5 else "")
+    what = {
+        "largest": f"kept the largest (group {name})",
+        "each": f"kept every one (groups {name}_1, … largest first)",
+        "all": f"kept every one (one group {name})",
+    }[bodies]
+    dropped = sum(areas) - sum(region_area(r) for r in kept)
+    return f"{len(found)} connected bodies above {threshold:g} HU (areas {shown} m²); {what}" + (
+        f"; dropped {len(found) - len(kept)} of {dropped:.4g} m²" if dropped > 0 else ""
+    )
+
+
+def mesh_ct(
+    source: str | Path | CTImage,
+    path: str | Path,
+    threshold: float = 300.0,
+    h: float | None = None,
+    *,
+    name: str = "bone",
+    min_area: float | None = None,
+    bodies: str = "largest",
+    ends: tuple[int, float] | None = (1, 0.1),
+    comm: MPI.Comm | None = None,
+) -> MeshReport | None:
+    """:func:`ct_slice_mesh` written to ``path`` (the largest body, bottom/top groups by
+    default), with its report on rank 0 (``None`` elsewhere).
+
+    The report's input area is that of the segmented polygons of the kept bodies (before
+    resampling at ``h``); its notes say how many bodies were found and which were kept.
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    _check_ends(ends)
+    found, kept, regions, h = _segment_on_root(source, threshold, h, min_area, bodies, comm)
+    generate(name, 2, lambda: _add_slice_geometry(regions, h, name, bodies, ends), comm, path)
+    if comm.rank != 0:
+        return None
+    notes = (_bodies_note(found, kept, bodies, threshold, name),)
+    if ends is not None:
+        low, high = END_NAMES[ends[0]]
+        notes += (
+            f"groups {name}_{low}/{name}_{high}: the outer boundary within {ends[1]:g} of the "
+            f"extent along {'xy'[ends[0]]} from each end; {name}_outer the rest",
+        )
+    area = sum(region_area(r) for r in kept)
+    return msh_report(path, input_measure=area, notes=notes)
+
+
+def ct_parser(prog: str = "bonecontact mesh-ct"):
+    """The arguments of ``bonecontact mesh-ct``."""
+    import argparse
+
+    p = argparse.ArgumentParser(
+        prog=prog,
+        description="Triangle mesh (gmsh .msh) of the bone in one CT slice (DICOM): "
+        "threshold in HU, the largest connected body (or all, each its own cell group), "
+        "facet groups at the two ends along an axis for supports and loads. Exit status 2 "
+        "for a bad file or no bone above the threshold.",
+    )
+    p.add_argument("image", type=Path, help="DICOM file of one CT slice")
+    p.add_argument("output", type=Path, help="gmsh file to write (.msh)")
+    p.add_argument("--threshold", type=float, default=300.0, help="bone above this HU (300)")
+    p.add_argument("--size", type=float, default=None, help="element size (m; two pixels)")
+    p.add_argument("--name", default="bone", help="prefix of the group names")
+    p.add_argument("--min-area", type=float, default=None, help="drop smaller pieces (m²)")
+    p.add_argument(
+        "--all-bodies",
+        action="store_true",
+        help="keep every body, each its own cell group <name>_1, <name>_2, … (largest first)",
+    )
+    p.add_argument(
+        "--ends-axis",
+        choices=("x", "y", "none"),
+        default="y",
+        help="axis of the end groups: y gives <name>_bottom/<name>_top, x <name>_left/"
+        "<name>_right, none only <name>_outer (default y)",
+    )
+    p.add_argument(
+        "--end-fraction",
+        type=float,
+        default=0.1,
+        help="depth of each end group as a fraction of the extent along the axis (0.1)",
+    )
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bonecontact mesh-ct``; prints the report on rank 0; exit status 2 for bad input,
+    1 if gmsh failed."""
+    import sys
+
+    args = ct_parser().parse_args(argv)
+    comm = MPI.COMM_WORLD
+    ends = None if args.ends_axis == "none" else ("xy".index(args.ends_axis), args.end_fraction)
+    try:
+        report = mesh_ct(
+            args.image,
+            args.output,
+            args.threshold,
+            args.size,
+            name=args.name,
+            min_area=args.min_area,
+            bodies="each" if args.all_bodies else "largest",
+            ends=ends,
+            comm=comm,
+        )
+    except (MeshInputError, ValueError) as exc:
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except MeshingError as exc:
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 1
+    if report is not None:
+        print(format_report(report))
+    return 0

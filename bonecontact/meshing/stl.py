@@ -34,9 +34,11 @@ import numpy as np
 from dolfinx.io.gmsh import MeshData
 
 from bonecontact.meshing.builder import MeshingError, PhysicalGroups, check_positive, generate
+from bonecontact.meshing.report import MeshReport, format_report, msh_report
 from bonecontact.meshing.surface_repair import (
     MeshInputError,
     Surface,
+    check_surface,
     prepare_surface,
     remesh_surface,
     split_components,
@@ -46,9 +48,11 @@ from bonecontact.meshing.surface_repair import (
 __all__ = [
     "SurfaceRegion",
     "bone_from_surface",
+    "check_region_names",
     "cortical_inner_surface",
     "depth_field",
     "inside_mask",
+    "mesh_surface",
     "select_triangles",
 ]
 
@@ -102,6 +106,23 @@ class SurfaceRegion:
         return mask
 
 
+def check_region_names(regions: Sequence[SurfaceRegion], rest: str) -> None:
+    """Raise ValueError if two regions share a name, or one is named like the rest group.
+
+    A facet group takes the triangles of one region; to select by several criteria at once
+    give them to one :class:`SurfaceRegion` (they combine with *and*).
+    """
+    seen: set[str] = set()
+    for region in regions:
+        if region.name in seen or region.name == rest:
+            raise ValueError(
+                f"region {region.name!r} is given twice (or names the rest of the surface, "
+                f"{rest!r}): each facet group takes one region; several criteria of one "
+                "region combine with 'and' (SurfaceRegion(name, box=..., cone=...))"
+            )
+        seen.add(region.name)
+
+
 def select_triangles(
     surface: Surface, regions: Sequence[SurfaceRegion], rest: str
 ) -> dict[str, np.ndarray]:
@@ -112,6 +133,7 @@ def select_triangles(
     MeshInputError
         If a region selects no triangle (naming the region and the surface's extent).
     """
+    check_region_names(regions, rest)
     c, n = surface.centroids(), surface.triangle_normals()
     free = np.ones(len(c), bool)
     out = {}
@@ -305,32 +327,88 @@ def bone_from_surface(
     bonecontact.meshing.MeshingError
         On every rank: gmsh failed (e.g. a cortex thinner than the surface's sagitta).
     """
-    check_positive(h=h)
-    if cortical_thickness is not None:
-        check_positive(cortical_thickness=cortical_thickness)
     comm = MPI.COMM_WORLD if comm is None else comm
+    parts = _prepare_on_root(
+        comm, source, h, cortical_thickness, name, regions, scale, repair, remesh
+    )
+
+    def build() -> None:
+        _add_to_gmsh(*parts[:3], name=name, h=h)
+
+    return generate(name, 3, build, comm, path)
+
+
+def mesh_surface(
+    source: str | Path | Surface,
+    path: str | Path,
+    h: float,
+    cortical_thickness: float | None = None,
+    *,
+    name: str = "bone",
+    regions: Sequence[SurfaceRegion] = (),
+    scale: float = 1.0,
+    repair: bool = False,
+    remesh: bool = True,
+    comm: MPI.Comm | None = None,
+) -> MeshReport | None:
+    """:func:`bone_from_surface` written to ``path``, with the report of what was made.
+
+    Returns
+    -------
+    MeshReport or None
+        On rank 0: cells, vertices, each group's area or volume, the volume enclosed by the
+        input surface (after the repairs, before remeshing) and the change to the mesh's
+        volume, every repair and remeshing, the bounding box.  ``None`` on other ranks.
+
+    Raises
+    ------
+    As :func:`bone_from_surface`.
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    parts = _prepare_on_root(
+        comm, source, h, cortical_thickness, name, regions, scale, repair, remesh
+    )
+
+    def build() -> None:
+        _add_to_gmsh(*parts[:3], name=name, h=h)
+
+    generate(name, 3, build, comm, path)
+    if comm.rank != 0:
+        return None
+    outer, input_volume = parts[0], parts[3]
+    notes = (f"coordinates of the file multiplied by {scale:g} (to m)",) if scale != 1 else ()
+    return msh_report(path, input_measure=input_volume, repairs=outer.repairs, notes=notes)
+
+
+def _prepare_on_root(comm, source, h, thickness, name, regions, scale, repair, remesh):
+    """:func:`_prepare` on rank 0; its error raised on every rank (``None`` parts elsewhere)."""
+    check_positive(h=h)
+    if thickness is not None:
+        check_positive(cortical_thickness=thickness)
     parts, error = None, None
     if comm.rank == 0:
         try:
-            parts = _prepare(source, h, cortical_thickness, name, regions, scale, repair, remesh)
+            parts = _prepare(source, h, thickness, name, regions, scale, repair, remesh)
         except (MeshInputError, ValueError) as exc:
             error = exc
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error
-
-    def build() -> None:
-        _add_to_gmsh(*parts, name=name, h=h)
-
-    return generate(name, 3, build, comm, path)
+    return parts if parts is not None else (None,) * 4
 
 
 def _prepare(source, h, thickness, name, regions, scale, repair, remesh):
-    """Rank 0: the outer surface, its facet groups and the inner cortical surfaces."""
-    outer = prepare_surface(source, scale=scale, repair=repair, size=h if remesh else None)
+    """Rank 0: the outer surface, its facet groups, the inner cortical surfaces and the
+    volume enclosed by the input surface (after repairs, before remeshing)."""
+    check_region_names(regions, f"{name}_surface")
+    outer = prepare_surface(source, scale=scale, repair=repair)
+    input_volume = outer.volume
+    if remesh:
+        outer = remesh_surface(outer, h)
+        check_surface(outer)
     groups = select_triangles(outer, regions, f"{name}_surface")
     inner = [] if thickness is None else cortical_inner_surface(outer, thickness, h)
-    return outer, groups, inner
+    return outer, groups, inner, input_volume
 
 
 def _add_to_gmsh(
@@ -426,40 +504,65 @@ def surface_parser(prog: str = "bonecontact mesh-surface"):
     return p
 
 
+def _regions_from_args(args) -> list[SurfaceRegion]:
+    """The regions of ``--box``, ``--side``, ``--cone`` in the order of the options.
+
+    Raises
+    ------
+    ValueError
+        If a group name is given twice (naming both options): a facet group takes one
+        region (first match wins), so a repeated name would silently drop a selection.
+    """
+    found: list[tuple[str, SurfaceRegion]] = []
+    for b in args.box:
+        box = (tuple(map(float, b[1:4])), tuple(map(float, b[4:7])))
+        found.append(("--box", SurfaceRegion(b[0], box=box)))
+    for p in args.side:
+        plane = (tuple(map(float, p[1:4])), tuple(map(float, p[4:7])))
+        found.append(("--side", SurfaceRegion(p[0], plane=plane)))
+    for c in args.cone:
+        found.append(("--cone", SurfaceRegion(c[0], cone=(tuple(map(float, c[1:4])), float(c[4])))))
+    first: dict[str, str] = {}
+    for option, region in found:
+        if region.name in first or region.name == f"{args.name}_surface":
+            before = first.get(region.name, "--name")
+            raise ValueError(
+                f"{option} {region.name}: the group {region.name!r} is already named by "
+                f"{before}; each facet group takes one region option (first match wins), "
+                "give each a name of its own"
+            )
+        first[region.name] = option
+    return [region for _, region in found]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """``bonecontact mesh-surface``; returns the exit status (2: bad input)."""
+    """``bonecontact mesh-surface``; prints the report (:func:`format_report`) on rank 0 and
+    returns the exit status (2: bad input, 1: gmsh failed)."""
     import sys
 
     args = surface_parser().parse_args(argv)
+    comm = MPI.COMM_WORLD
     try:
-        regions = [
-            SurfaceRegion(b[0], box=(tuple(map(float, b[1:4])), tuple(map(float, b[4:7]))))
-            for b in args.box
-        ]
-        regions += [
-            SurfaceRegion(s[0], plane=(tuple(map(float, s[1:4])), tuple(map(float, s[4:7]))))
-            for s in args.side
-        ]
-        regions += [
-            SurfaceRegion(c[0], cone=(tuple(map(float, c[1:4])), float(c[4]))) for c in args.cone
-        ]
-        bone_from_surface(
+        report = mesh_surface(
             args.surface,
+            args.output,
             args.size,
             args.cortical,
             name=args.name,
-            regions=regions,
+            regions=_regions_from_args(args),
             scale=args.scale,
             repair=args.repair,
             remesh=not args.keep_triangles,
-            comm=MPI.COMM_SELF,
-            path=args.output,
+            comm=comm,
         )
     except (MeshInputError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
         return 2
     except MeshingError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
         return 1
-    print(f"{args.output}: written")
+    if report is not None:
+        print(format_report(report))
     return 0

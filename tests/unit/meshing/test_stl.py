@@ -140,14 +140,19 @@ def test_command_line_exit_status(tmp_path, capsys):
     from bonecontact.meshing.stl import main
 
     s = icosphere(nsub=2)
-    broken = tmp_path / "inverted.stl"
-    meshio.write(broken, meshio.Mesh(s.points, [("triangle", s.triangles[:, ::-1])]), binary=True)
-    out = tmp_path / "out.msh"
+    tmp = COMM.bcast(tmp_path, root=0)  # one set of files for all ranks
+    broken = tmp / "inverted.stl"
+    good = tmp / "ball_mm.stl"
+    if COMM.rank == 0:
+        inverted = meshio.Mesh(s.points, [("triangle", s.triangles[:, ::-1])])
+        meshio.write(broken, inverted, binary=True)
+        meshio.write(good, meshio.Mesh(s.points * 1e3, [("triangle", s.triangles)]), binary=True)
+    COMM.barrier()
+    out = tmp / "out.msh"
     assert main([str(broken), str(out), "--size", "0.005"]) == 2
-    assert "inverted.stl: inverted shell" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert ("inverted.stl: inverted shell" in err) == (COMM.rank == 0)  # printed once
     assert not out.exists()
-    good = tmp_path / "ball_mm.stl"
-    meshio.write(good, meshio.Mesh(s.points * 1e3, [("triangle", s.triangles)]), binary=True)
     args = [str(good), str(out), "--size", "0.006", "--scale", "1e-3", "--keep-triangles"]
     assert main([*args, "--cone", "top", "0", "1", "0", "30", "--cortical", "0.003"]) == 0
     m = meshio.read(out)
