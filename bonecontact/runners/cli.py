@@ -9,7 +9,10 @@ A unit slip beyond doubt (a mesh more than 2 m or less than 0.1 mm across, a mod
 1 kPa) is an error (exit status 2) unless ``--allow-implausible``.
 
 ``bonecontact mesh-surface SURFACE.stl OUT.msh --size H [--cortical T]`` meshes a closed
-bone surface (:func:`bonecontact.meshing.stl.main`; exit status 2 for a broken surface).
+bone surface (:func:`bonecontact.meshing.stl.main`; exit status 2 for a broken surface);
+``bonecontact mesh-ct SLICE.dcm OUT.msh`` meshes the bone of one CT slice
+(:func:`bonecontact.meshing.ct.main`).  Both print a report of what they made (cells,
+groups with their measures, the change from the input, repairs, the frame) on rank 0.
 
 ``bonecontact run SCENE.toml --restart [CHECKPOINT]`` continues a mechanics run from its
 newest (or the named) checkpoint (docs/checkpoint.md).
@@ -36,6 +39,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bonecontact.common.version import __version__
+from bonecontact.meshing.ct import main as mesh_ct
 from bonecontact.meshing.stl import main as mesh_surface
 from bonecontact.runners.checkpoint import CheckpointError
 from bonecontact.runners.dispatch import check, run_kind, run_scene
@@ -90,6 +94,12 @@ def _parser() -> argparse.ArgumentParser:
         add_help=False,
         help="tetrahedral bone (.msh) from a closed surface file (STL, ...); "
         "'bonecontact mesh-surface -h' for its options",
+    )
+    sub.add_parser(
+        "mesh-ct",
+        add_help=False,
+        help="triangle mesh (.msh) of the bone in one CT slice (DICOM); "
+        "'bonecontact mesh-ct -h' for its options",
     )
     c = sub.add_parser("check", help="validate a scene file and its mesh without running it")
     c.add_argument("scene", type=Path, help="scene file (TOML)")
@@ -212,6 +222,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["mesh-surface"]:  # its own parser (bonecontact.meshing.stl)
         return mesh_surface(argv[1:])
+    if argv[:1] == ["mesh-ct"]:  # its own parser (bonecontact.meshing.ct)
+        return mesh_ct(argv[1:])
     args = _parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.simplefilter("error" if args.strict else "always", PlausibilityWarning)

@@ -94,3 +94,15 @@ def test_bad_options_are_refused(tmp_path, capsys):
         assert "fraction in (0, 0.5)" in capsys.readouterr().err
     with pytest.raises(ValueError, match="bodies must be one of all, largest, each"):
         ct_slice_mesh(read_ct_slice(src), 200.0, bodies="biggest", comm=COMM)
+
+
+@pytest.mark.parametrize("command", ["mesh-ct", "mesh-surface"])
+def test_package_command_dispatches(tmp_path, capsys, command):
+    from bonecontact.runners.cli import main as bonecontact
+
+    missing = COMM.bcast(str(tmp_path / "missing.file"), root=0)
+    out = COMM.bcast(str(tmp_path / "x.msh"), root=0)
+    extra = ["--size", "0.01"] if command == "mesh-surface" else []
+    assert bonecontact([command, missing, out, *extra]) == 2
+    if COMM.rank == 0:
+        assert "missing.file: no such file" in capsys.readouterr().err
