@@ -12,7 +12,8 @@ a tetrahedral bone (cortical shell, cancellous core, facet groups selected by re
 :mod:`~bonecontact.meshing.anatomy_data` loads the shipped bone surfaces,
 :mod:`~bonecontact.meshing.joint` poses one bone on another, cuts them and meshes a joint
 with cartilage layers, and :mod:`~bonecontact.meshing.ct` segments CT images and meshes the
-bone found.
+bone found.  :mod:`~bonecontact.meshing.report` measures what a mesh command wrote (the
+report of ``bonecontact mesh-surface`` and ``bonecontact mesh-ct``).
 """
 
 from bonecontact.meshing.anatomy import knee_2d, long_bone_2d
@@ -23,6 +24,7 @@ from bonecontact.meshing.ct import (
     bone_regions,
     ct_bone_surface,
     ct_slice_mesh,
+    mesh_ct,
     read_ct_series,
     read_ct_slice,
 )
@@ -35,6 +37,7 @@ from bonecontact.meshing.joint import (
     joint_from_surfaces,
     pose_on,
 )
+from bonecontact.meshing.report import GroupMeasure, MeshReport, format_report, msh_report
 from bonecontact.meshing.session import gmsh_session
 from bonecontact.meshing.shapes import (
     box,
@@ -47,7 +50,7 @@ from bonecontact.meshing.shapes import (
     two_blocks_2d,
     two_boxes_3d,
 )
-from bonecontact.meshing.stl import SurfaceRegion, bone_from_surface
+from bonecontact.meshing.stl import SurfaceRegion, bone_from_surface, mesh_surface
 from bonecontact.meshing.surface_repair import (
     MeshInputError,
     Surface,
@@ -62,8 +65,10 @@ __all__ = [
     "ANATOMY_SURFACES",
     "CTImage",
     "Cartilage",
+    "GroupMeasure",
     "JointBone",
     "MeshInputError",
+    "MeshReport",
     "MeshingError",
     "Pose",
     "Surface",
@@ -77,12 +82,16 @@ __all__ = [
     "clip_surface",
     "ct_bone_surface",
     "ct_slice_mesh",
+    "format_report",
     "gmsh_session",
     "hertz_2d",
     "hertz_3d",
     "joint_from_surfaces",
     "knee_2d",
     "long_bone_2d",
+    "mesh_ct",
+    "mesh_surface",
+    "msh_report",
     "pose_on",
     "prepare_surface",
     "quarter_tube",
