@@ -190,3 +190,22 @@ def test_command_prints_the_report(tmp_path, capsys):
         assert "longest along" in text and "bounding box" in text
     else:
         assert text == ""
+
+
+@pytest.mark.parametrize(
+    "defect, note",
+    [("hole", "pymeshfix: holes filled"), ("inverted", "inverted shell flipped")],
+)
+def test_every_repair_is_listed(tmp_path, defect, note):
+    s = icosphere(2)
+    tri = s.triangles[1:] if defect == "hole" else s.triangles[:, ::-1]
+    broken = Surface(s.points, tri, "broken.stl")
+    path = shared_path(tmp_path, f"{defect}.msh")
+    r = mesh_surface(broken, path, 8e-3, repair=True, remesh=False, comm=COMM)
+    if COMM.rank == 0:
+        assert any(note in x for x in r.repairs)
+        assert note in format_report(r)
+        # the repaired surface bounds the mesh: its volume is the input's, within the
+        # one filled triangle (a hole) of the sphere's
+        assert r.volume_change == pytest.approx(0.0, abs=1e-10)
+        assert r.cell_measure == pytest.approx(s.volume, rel=0.02)
