@@ -18,8 +18,8 @@ Variants (``--variants``, comma-separated): ``tight`` (every Krylov solve to the
 tolerance), ``loose1e-2`` … (inexact PDAS with that loose tolerance), and suffixes
 ``+cheb1`` (one Chebyshev iteration per level), ``+v`` (V-cycles), ``+reuseP`` /
 ``+noreuseP`` (``pc_gamg_reuse_interpolation`` on / off; off by default),
-``+chol`` / ``+lu`` (the coarse grid's factorisation; Cholesky by default for these
-symmetric systems since issue 28), ``+agg1`` (one level of aggressive coarsening),
+``+chol`` / ``+lu`` (the coarse grid's factorisation; LU by default), ``+agg1`` (one
+level of aggressive coarsening),
 ``+th0.05`` (``pc_gamg_threshold``), ``+cel<n>`` (a coarse grid of at most n
 equations; ``+cel50``: GAMG's default, the setting before 2026-11-27), e.g. ``loose1e-4+cheb1``.
 
@@ -49,7 +49,7 @@ from bench_contact3d import SIZES, linear_solve
 from common import machine, write_rows
 
 from bonecontact.common.linalg import set_solver_options
-from bonecontact.contact.krylov import GAMG_OPTIONS, SYMMETRIC_COARSE_OPTIONS, coarse_grid_limit
+from bonecontact.contact.krylov import GAMG_OPTIONS, coarse_grid_limit
 from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
 COMM = MPI.COMM_WORLD
@@ -91,7 +91,7 @@ def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
     of an earlier variant are reset to the defaults) and drop the preconditioner
     (rebuilt at the next solve)."""
     reset = {"mg_levels_ksp_max_it": 2, "pc_gamg_reuse_interpolation": False}
-    reset |= {**GAMG_OPTIONS, **SYMMETRIC_COARSE_OPTIONS}
+    reset |= {**GAMG_OPTIONS, "mg_coarse_sub_pc_type": "lu"}
     size = {"pc_gamg_coarse_eq_limit": coarse_grid_limit(solver.B.getSize()[0])}  # the solver's
     solver.ksp.getPC().reset()
     set_solver_options(solver.ksp, {**reset, **DEFAULTS, **size, **popts}, PREFIX)

@@ -55,14 +55,11 @@ __all__ = [
 #: (``pc_gamg_reuse_interpolation``, keeping the aggregates and prolongators of the first
 #: build when a set change rebuilds the preconditioner, was measured and not adopted: it
 #: skips only the graph and aggregation, while the stale aggregates cost CG iterations —
-#: 67 → 69 at 65k dofs, 75 → 80 at 200k — and operations.)
+#: 67 → 69 at 65k dofs, 75 → 80 at 200k — and operations.  The coarse grid stays
+#: factorised by LU: Cholesky for symmetric systems gave the same iterations, half the
+#: coarse factor and 12 % fewer operations at 65k, but failed — "PC failed" — where LU
+#: did not, with ``pc_gamg_threshold`` 0.05 at 65k: not robust enough for a default.)
 GAMG_OPTIONS: dict[str, object] = {"pc_gamg_agg_nsmooths": 0, "pc_mg_cycle_type": "w"}
-
-#: Coarse-grid solver of a symmetric condensed system (frictionless, or fixed-point
-#: slip rows): Cholesky instead of LU (65k dofs: the same 67 iterations and active sets,
-#: 12 % fewer operations in the contact solve).  Nonsymmetric systems (3D Newton slip
-#: rows) keep LU.
-SYMMETRIC_COARSE_OPTIONS: dict[str, object] = {"mg_coarse_sub_pc_type": "cholesky"}
 
 
 def coarse_grid_limit(num_equations: int) -> int:
@@ -182,8 +179,7 @@ def configure_condensed_ksp(
 
     Sets the block size of ``B`` (the transformations lose it; GAMG aggregates nodes,
     not single rows, only with it), the near-nullspace of
-    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` (and
-    :data:`SYMMETRIC_COARSE_OPTIONS` unless ``nonsymmetric``) and the coarse grid of
+    :func:`condensed_near_nullspace`, :data:`GAMG_OPTIONS` and the coarse grid of
     :func:`coarse_grid_limit` (options under the KSP's own prefix, in the options
     database only while it sets up or solves; the command line overrides them under
     ``prefix``) and a nonzero initial guess (the previous PDAS iterate).
@@ -195,8 +191,6 @@ def configure_condensed_ksp(
     nns.destroy()
     B.setOption(PETSc.Mat.Option.SPD, not nonsymmetric)
     gamg = {**GAMG_OPTIONS, "pc_gamg_coarse_eq_limit": coarse_grid_limit(B.getSize()[0])}
-    if not nonsymmetric:
-        gamg.update(SYMMETRIC_COARSE_OPTIONS)
     configure_ksp(ksp, "iterative", rtol=rtol, prefix=prefix, max_it=max_it, options=gamg)
     if nonsymmetric:
         ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
