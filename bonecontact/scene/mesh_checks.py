@@ -45,7 +45,7 @@ from scipy.spatial import cKDTree
 
 from bonecontact.scene.checks import PlausibilityIssue, check_plausibility
 from bonecontact.scene.errors import SceneError
-from bonecontact.scene.rigid_motions import find_bodies
+from bonecontact.scene.rigid_motions import cell_pieces, find_bodies
 from bonecontact.scene.spec import Scene
 
 __all__ = [
@@ -252,18 +252,8 @@ def _duplicate_finding(rows: list, names: dict[int, str], tol: float) -> list[tu
 def _pieces(msh: Any, comm: MPI.Comm) -> tuple[int, npt.NDArray, list]:
     """Connected pieces of this rank's cells (owned + ghost; cells sharing a vertex) and
     the links to other ranks: (n_local, label per cell, (global vertex, local piece))."""
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim, 0)
-    c2v = msh.topology.connectivity(tdim, 0)
-    nv = msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts
-    nc = len(c2v.offsets) - 1
-    cells = np.repeat(np.arange(nc), np.diff(c2v.offsets))
-    graph = coo_matrix((np.ones(len(cells)), (cells, c2v.array)), shape=(nc, nv)).tocsr()
-    n_local, label = connected_components(
-        coo_matrix(graph @ graph.T), directed=False, return_labels=True
-    )
-    vpiece = np.full(nv, -1, dtype=np.int64)
-    vpiece[c2v.array] = label[cells]
+    n_local, label, vpiece = cell_pieces(msh)
+    nv = len(vpiece)
     imap = msh.topology.index_map(0)
     if comm.size > 1:
         ghosts = np.arange(imap.size_local, nv)

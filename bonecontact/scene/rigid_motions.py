@@ -57,6 +57,7 @@ __all__ = [
     "UnheldMotion",
     "UnheldMotionWarning",
     "body_geometry",
+    "cell_pieces",
     "check_rigid_motions",
     "contact_sets",
     "describe_motions",
@@ -114,21 +115,33 @@ class Bodies:
         return len(self.names)
 
 
-def _local_pieces(msh: Any) -> tuple[int, npt.NDArray[np.int64], npt.NDArray[np.int64]]:
-    """Connected pieces of this rank's cells (sharing a vertex): count, label per cell,
-    label per local vertex."""
+def cell_pieces(msh: Any) -> tuple[int, npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Connected pieces of this rank's cells (owned and ghost; cells sharing a vertex are
+    connected): count, label per cell (0 … count − 1, numbered by their smallest cell),
+    label per local vertex (−1 for a vertex of no cell).
+
+    The components of the cell–vertex incidence graph (cells and vertices as nodes, one
+    edge per cell vertex): O(cells · vertices per cell) memory, where the cell-to-cell
+    graph (cells sharing a vertex) holds ~100 entries per tetrahedron.
+    """
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim, 0)
     c2v = msh.topology.connectivity(tdim, 0)
     imap = msh.topology.index_map(0)
     nv = imap.size_local + imap.num_ghosts
     nc = len(c2v.offsets) - 1
-    cells = np.repeat(np.arange(nc), np.diff(c2v.offsets))
-    graph = coo_matrix((np.ones(len(cells)), (cells, c2v.array)), shape=(nc, nv)).tocsr()
-    n, label = connected_components(coo_matrix(graph @ graph.T), directed=False)
+    cells = np.repeat(np.arange(nc, dtype=np.int64), np.diff(c2v.offsets))
+    verts = nc + np.asarray(c2v.array, dtype=np.int64)
+    incidence = coo_matrix(
+        (np.ones(len(cells), dtype=np.int8), (cells, verts)), shape=(nc + nv, nc + nv)
+    )
+    _, comp = connected_components(incidence, directed=False)
+    _, label = np.unique(comp[:nc], return_inverse=True)  # pieces with cells only
+    label = label.astype(np.int64).ravel()
     vpiece = np.full(nv, -1, dtype=np.int64)
     vpiece[c2v.array] = label[cells]
-    return int(n), label.astype(np.int64), vpiece
+    n = int(label.max()) + 1 if nc else 0
+    return n, label, vpiece
 
 
 def _shared_links(msh: Any, vpiece: npt.NDArray[np.int64], comm: MPI.Comm) -> tuple:
@@ -214,7 +227,7 @@ def find_bodies(msh: Any, cell_tags: Any, names: Mapping[int, str], comm: MPI.Co
         The mesh's communicator.
     """
     tdim = msh.topology.dim
-    n, label, vpiece = _local_pieces(msh)
+    n, label, vpiece = cell_pieces(msh)
     ncells = len(label)
     cell_tag = np.full(ncells, -1, dtype=np.int64)
     if cell_tags is not None:
