@@ -28,8 +28,8 @@ from typing import Any
 
 from bonecontact.common.resources import data_dir
 from bonecontact.fracture.crack import FractureError
-from bonecontact.fracture.scene_tables import check_crack_region
 from bonecontact.materials.laws import Isotropic, Material, Orthotropic, TransverselyIsotropic
+from bonecontact.scene.crack_region import check_crack_region
 from bonecontact.scene.errors import SceneError, table_label
 from bonecontact.scene.spec import LOAD_KINDS, MaterialSpec, Scene
 
@@ -221,7 +221,7 @@ def check_cracks_in_mesh(
 ) -> None:
     """Every ``[[crack]]`` lies in the cells of its region (collective; raised on every rank).
 
-    :func:`bonecontact.fracture.scene_tables.check_crack_region` samples each segment;
+    :func:`bonecontact.scene.crack_region.check_crack_region` samples each segment;
     a crack leaving the mesh, leaving its region or crossing another body, and a
     ``[fracture]`` increment not smaller than the region are a :class:`SceneError`.
     """
