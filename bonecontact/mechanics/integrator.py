@@ -279,18 +279,20 @@ class Integrator:
         # decided collectively: a rank without constrained dofs must still take part
         # in the collective lifting product of the other ranks
         self._has_bc = model.mesh.comm.allreduce(int(self._bc_local.size)) > 0
-        self.A_bc = self.A.duplicate(copy=True)
-        self.A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
+        self._A_bc: PETSc.Mat | None = self._eliminated_operator()
         self.contact = contact
         self.last_contact = None
         if contact is not None:
             self.ksp = None
             contact.setup(
-                self.A_bc, self._bc_rows, force_scale=force_scale, linear=linear, rtol=rtol
+                self._A_bc, self._bc_rows, force_scale=force_scale, linear=linear, rtol=rtol
             )
+            # the contact solver has built its own operators: no step needs A_bc again
+            # (the residual uses A); a solver that kept it holds its own reference
+            self._A_bc = None
         else:
             nns = rigid_body_modes(V) if linear == "iterative" else None
-            self.ksp = create_solver(self.A_bc, linear, nns, rtol=rtol)
+            self.ksp = create_solver(self._A_bc, linear, nns, rtol=rtol)
         self.setup_time = _time.perf_counter() - t0
         self._b, self._w = self.A.createVecs()
         self._F = self._b.duplicate()
@@ -312,6 +314,22 @@ class Integrator:
             self._reset_balance()
 
     # -------------------------------------------------------------- set-up
+    def _eliminated_operator(self) -> PETSc.Mat:
+        """A copy of the step operator with the Dirichlet rows and columns eliminated
+        (unit diagonal; collective)."""
+        A_bc = self.A.duplicate(copy=True)
+        A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
+        return A_bc
+
+    @property
+    def A_bc(self) -> PETSc.Mat:
+        """The step operator with the Dirichlet rows and columns eliminated.  With
+        contact it is released once the contact solver is set up (it builds its own
+        operators) and built again here on demand (collective then)."""
+        if self._A_bc is None:
+            self._A_bc = self._eliminated_operator()
+        return self._A_bc
+
     def scheme_coefficients(self) -> tuple[tuple[float, float, float], float]:
         """``(c_M, c_K, c_V)`` of the step operator c_M M + c_K K + c_V Kv (module
         docstring) and the factor turning its forces into physical ones (1/c_K).  A
@@ -560,7 +578,7 @@ class Integrator:
         if self._dM is not None:
             for obj in (self._dM, self.M):
                 obj.destroy()
-        for obj in (self.ksp, self.A, self.A_bc, self._b, self._w, self._F, self._rhs0):
+        for obj in (self.ksp, self.A, self._A_bc, self._b, self._w, self._F, self._rhs0):
             if obj is not None:
                 obj.destroy()
         for obj in (self.residual, self.inertia):

@@ -1,0 +1,83 @@
+"""The integrator releases its operator with Dirichlet rows (``A_bc``) once the contact
+solver is set up (issue 28: one matrix less during the contact solve).
+
+The two-block scene of ``test_pdas.py`` (partial lift-off) for the direct (low-rank, which
+keeps its own reference to the operator) and the iterative solver: after the release a
+step still solves, both solvers give the same displacement (to the Krylov tolerance), and
+``A_bc`` asked for afterwards is built again equal to that of an integrator without
+contact (same entries, to round-off).
+"""
+
+from __future__ import annotations
+
+import dolfinx_solver  # noqa: F401
+
+from mpi4py import MPI
+
+import pytest
+import ufl
+
+from bonecontact.contact.interface import build_interface
+from bonecontact.contact.pdas import ContactSolver
+from bonecontact.materials.laws import Isotropic
+from bonecontact.mechanics.integrator import Integrator
+from bonecontact.mechanics.model import Mechanics
+from bonecontact.meshing import shapes as meshing
+
+COMM = MPI.COMM_WORLD
+W, H = 0.02, 0.01
+P0 = 1.0e5
+
+
+def _model():
+    """The soft block on a stiff block of test_pdas.py, pulled up at its right end."""
+    md = meshing.two_blocks_2d(
+        COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H
+    )
+    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    mats = {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)}
+    m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
+    m.add_dirichlet(m.facets(pg["bottom"]), 1, 0.0)
+    m.add_dirichlet(m.facets(pg["bottom"]), 0, 0.0)
+    m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
+    x = ufl.SpatialCoordinate(md.mesh)
+    m.add_traction(pg["top"], ufl.as_vector([0.0, -P0 * (1.0 - 1.2 * x[0] / W)]))
+    return md, pg, m
+
+
+def _contact_integrator(linear: str) -> Integrator:
+    md, pg, m = _model()
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
+    return Integrator(m, "static", 1.0, linear=linear, contact=ContactSolver(m.V, [itf]))
+
+
+@pytest.fixture(scope="module")
+def solved() -> dict[str, Integrator]:
+    out = {}
+    for linear in ("direct", "iterative"):
+        integ = _contact_integrator(linear)
+        integ.step()
+        out[linear] = integ
+    return out
+
+
+def test_step_after_release_same_for_both_solvers(solved):
+    ud = solved["direct"].u.x.petsc_vec
+    ui = solved["iterative"].u.x.petsc_vec
+    diff = ud.copy()
+    diff.axpy(-1.0, ui)
+    assert diff.norm() <= 1e-6 * ud.norm()
+    diff.destroy()
+
+
+@pytest.mark.parametrize("linear", ["direct", "iterative"])
+def test_rebuilt_operator_equals_plain_one(solved, linear):
+    integ = solved[linear]
+    plain = Integrator(integ.model, "static", 1.0, linear="direct")
+    D = integ.A_bc.copy()
+    D.axpy(-1.0, plain.A_bc)
+    assert D.norm() <= 1e-14 * plain.A_bc.norm()
+    D.destroy()
+    plain.destroy()
