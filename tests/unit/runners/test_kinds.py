@@ -102,7 +102,10 @@ FAMILY = [
 def _family_scene(folder: Path, name: str, analysis: str, tables: str) -> Path:
     path = folder / f"{name}.toml"
     mechanics = MECHANICS if analysis else ""  # a growth-only scene has no mechanics tables
-    path.write_text(PLATE.format(name=name, analysis=analysis, mechanics=mechanics, tables=tables))
+    if MPI.COMM_WORLD.rank == 0:  # one writer: the other ranks read it after the barrier
+        path.write_text(
+            PLATE.format(name=name, analysis=analysis, mechanics=mechanics, tables=tables)
+        )
     return path
 
 
@@ -111,9 +114,9 @@ def _scenes(folder: Path) -> list[tuple[Path, str]]:
     named, never read: an empty file, written by rank 0)."""
     if MPI.COMM_WORLD.rank == 0:
         (folder / "plate.msh").touch()
-    MPI.COMM_WORLD.barrier()
     shipped = [(SCENES / f"{name}.toml", kind) for name, kind in SHIPPED.items()]
     made = [(_family_scene(folder, n, a, t), kind) for n, a, t, kind in FAMILY]
+    MPI.COMM_WORLD.barrier()
     return shipped + made
 
 
