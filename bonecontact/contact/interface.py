@@ -965,11 +965,17 @@ def transformed_operator(A: PETSc.Mat, Qt: PETSc.Mat, Tt: PETSc.Mat) -> PETSc.Ma
     One triple product with ``P = Qᵀ Tᵀ`` (both factors are the identity outside the
     slave rows, so ``P`` costs little) instead of two: at 10⁶ dofs the second product of
     the whole matrix and the intermediate ``Â = Q A Qᵀ`` held beside ``A`` were seconds
-    and a matrix's memory.
+    and a matrix's memory.  The product is returned as a plain copy: PETSc's product
+    record would otherwise hold a reference to ``A`` (and ``P``) for as long as the result
+    lives, so an ``A`` its owner releases after set-up could never be freed.
     """
     P = Qt.matMult(Tt)
     try:
-        return A.PtAP(P)
+        product = A.PtAP(P)
+        try:
+            return product.duplicate(copy=True)
+        finally:
+            product.destroy()
     finally:
         P.destroy()
 

@@ -17,7 +17,7 @@ from mpi4py import MPI
 import pytest
 import ufl
 
-from bonecontact.contact.interface import build_interface
+from bonecontact.contact.interface import build_interface, transformed_operator
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
@@ -81,3 +81,17 @@ def test_rebuilt_operator_equals_plain_one(solved, linear):
     assert D.norm() <= 1e-14 * plain.A_bc.norm()
     D.destroy()
     plain.destroy()
+
+
+def test_transformed_operator_holds_no_reference_to_the_operator(solved):
+    """``T Q A Qᵀ Tᵀ`` is returned without PETSc's product record, which would keep ``A``
+    (and so the released ``A_bc``) alive as long as the condensed operator lives."""
+    integ = solved["iterative"]
+    A = integ.A_bc
+    Qt, Tt = integ.contact.Qt, integ.contact.system.Tt
+    before = A.getRefCount()
+    At = transformed_operator(A, Qt, Tt)
+    assert A.getRefCount() == before
+    assert At.getRefCount() == 1
+    assert At.norm() > 0.0
+    At.destroy()
