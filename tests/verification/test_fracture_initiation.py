@@ -300,7 +300,7 @@ def test_bad_initiation_input_is_exit_2(
 
 
 def test_check_accepts_an_initiating_scene(mesh: Path, tmp_path: Path) -> None:
-    res = _check(_scene(tmp_path, mesh, "friction = 0.3"))
+    res = _check(_scene(tmp_path, mesh, "coefficient = 0.3"))
     assert res.returncode == 0, res.stderr
     assert "initiated: the faces of the crack inserted at risk 1, Coulomb 0.3" in res.stdout
 

@@ -71,7 +71,7 @@ value = [0.0, {minus_sigma}]
 name = "c"
 points = {points}
 region = "plate"
-friction = {friction}
+coefficient = {friction}
 [output]
 fields_every = 0
 {extra}"""

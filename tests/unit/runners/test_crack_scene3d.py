@@ -201,7 +201,7 @@ def test_closed_inclined_penny(block_dir: Path, beta_deg: float, mu: float, per_
     μ = 0.3) of |σ|√(πa) at a/10)."""
     beta = math.radians(beta_deg)
     normal = f"[{math.sin(beta)!r}, 0.0, {math.cos(beta)!r}]"
-    points = "8" + (f"\nfriction = {mu!r}" if mu > 0 else "")
+    points = "8" + (f"\ncoefficient = {mu!r}" if mu > 0 else "")
     tab, _, out = _run(
         block_dir,
         f"closed{beta_deg:g}_{mu:g}_{per_a}",
