@@ -9,6 +9,9 @@ The modules of ``bonecontact`` are parsed (not imported) and every import of ano
 * an import that goes up the layers (``LAYERS`` below, lowest first);
 * a ``bonecontact`` import inside a function (it would hide a cycle);
 * a private name (leading underscore) imported from another module.
+* a function longer than ``MAX_FUNCTION_LINES`` (split it into named steps);
+* ``obj._name`` where ``obj`` is not ``self``/``cls``: no module reads the private
+  attributes of another object.
 """
 
 from __future__ import annotations
@@ -276,3 +279,61 @@ def test_tests_benchmarks_and_demos_use_the_public_api():
     assert len(scripts) > 20
     private = [use for p in scripts for use in _private_uses(p)]
     assert not private, f"private bonecontact names used outside the package: {private}"
+
+
+#: The longest function the package may hold (lines, docstring included): a longer one is
+#: split into named steps.
+MAX_FUNCTION_LINES = 100
+
+
+def _function_lengths(path: Path) -> Iterator[tuple[str, int, int]]:
+    """``(name, first line, length)`` of every function and method of a file."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            yield node.name, node.lineno, node.end_lineno - node.lineno + 1
+
+
+def test_the_length_scan_measures_functions():
+    """The scan counts a function's lines from ``def`` to its last line (so it can fail)."""
+    lengths = {name: n for name, _, n in _function_lengths(Path(__file__))}
+    assert lengths["test_the_length_scan_measures_functions"] == 4
+
+
+def test_no_function_longer_than_the_limit():
+    long = [
+        f"{path.relative_to(ROOT)}:{line} {name} ({n} lines)"
+        for path in MODULES.values()
+        for name, line, n in _function_lengths(path)
+        if n > MAX_FUNCTION_LINES
+    ]
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines (split them): {long}"
+
+
+def _foreign_private_attributes(source: str) -> list[tuple[int, str]]:
+    """``(line, "obj._name")`` where ``obj`` is not ``self``/``cls``: another object's private."""
+    return [
+        (node.lineno, f"{ast.unparse(node.value)}.{node.attr}")
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, ast.Attribute)
+        and node.attr.startswith("_")
+        and not node.attr.startswith("__")
+        and not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"))
+    ]
+
+
+def test_the_attribute_scan_finds_a_planted_access():
+    source = "def f(solver):\n    return solver._gap + self._own + solver.model._w + x.__len__\n"
+    assert sorted(_foreign_private_attributes(source)) == [
+        (2, "solver._gap"),
+        (2, "solver.model._w"),
+    ]
+
+
+def test_no_private_attribute_of_another_object_is_read():
+    found = [
+        f"{path.relative_to(ROOT)}:{line} {use}"
+        for path in MODULES.values()
+        for line, use in _foreign_private_attributes(path.read_text())
+    ]
+    assert not found, f"private attributes read from outside their object: {found}"
