@@ -1,50 +1,15 @@
 """One LU factorisation for a whole PDAS solve (and for many of them): low-rank updates.
 
-Every PDAS iteration solves the condensed, rotated contact system with the Dirichlet
-unknowns and the *active* normal unknowns eliminated (fixed to known values),
-
-.. math::  B_{\\mathcal A}\\,x = b_{\\mathcal A},
-
-and only the set :math:`\\mathcal A` changes between iterations (and between the steps
-of a time-stepped run).  Refactorising :math:`B_{\\mathcal A}` each time makes a contact
-solve cost one factorisation per iteration.  Here one *base* set :math:`\\mathcal C` is
-factorised, :math:`B_0 = B_{\\mathcal C}`, and the system of any other set is solved
-exactly through a small dense system whose size is the number of nodes in which
-:math:`\\mathcal A` and :math:`\\mathcal C` differ:
-
-* :math:`P = \\mathcal A\\setminus\\mathcal C` (newly fixed normal unknowns): a force
-  :math:`\\mu_p` at row :math:`p` enforces :math:`x_p = g_p`; its response is the
-  column :math:`W_p = B_0^{-1} e_p`;
-* :math:`Z = \\mathcal C\\setminus\\mathcal A` (released unknowns): the value
-  :math:`x_z = g_z + s_z` becomes unknown, with the response :math:`X_z` of a unit
-  value at :math:`z` (:math:`B_0 X_z = \\delta e_z - (A e_z)|_{\\rm free}`), and row
-  :math:`z` of the full equations must hold: :math:`(A x)_z = r_z`;
-* rows with a replaced equation (3D slip rows of the semi-smooth Newton friction
-  step, :math:`G w + H x = h` per node): an unknown force (free in the base, column
-  :math:`W`) or value (fixed in the base, column :math:`X`), and that equation.
-
-With the base solution :math:`x_b = B_0^{-1} b_{\\mathcal C}`,
-:math:`x = x_b + \\sum_z s_z X_z + \\sum_p \\mu_p W_p`; the unknowns
-:math:`(s, \\mu)` solve the equations above, one per row in which the set differs from the
-base (or whose equation is replaced).  Only the values of the
-columns (and of :math:`A` times them) at the slave normal rows are kept — replicated
-on every rank, ``n_slave × n_columns`` numbers — so the PDAS set update needs no
-further solve; the full field is obtained by one last solve with the forces and values
-found.  Columns are computed in blocks (MUMPS multi-right-hand-side solve) the first
-time a node needs one and cached while the base is kept, so in a time-stepped run a
-step usually costs one forward/backward solve.
-
-When the columns a set needs would cost more than a factorisation (times measured as
-the run goes), or the cache exceeds ``max_columns``, the current set becomes the new
-base (one numeric refactorisation, same pattern).  The result is the same discrete
-solution as refactorising every iteration, to round-off (tests compare the two).
-
-With a :class:`SplitBasis` (the default of the contact solver) the factorised operator
-has only the cold start's support patch in the contact basis, so its LU factors are
-those of the plain operator instead of carrying the interface coupling of every slave
-node (about half the memory and a third of the time in 3D); every other set is reached
-by force columns and the base is never refactorised
-(docs/theory/pdas.md#split-basis).
+One *base* set is factorised; the condensed system of any other active set is solved
+exactly through a small dense system with one unknown per row in which the set differs
+from the base (a force that fixes a newly active row, a value that frees a released
+one, or a replaced 3D slip equation). Columns of the base's inverse are computed in
+blocks by MUMPS multi-right-hand-side solves when first needed and cached across
+iterations and steps; when they would cost more than a factorisation, the current set
+becomes the new base. With a :class:`SplitBasis` (the default) only the cold start's
+support patch is in the contact basis of the factorised operator, so its LU factors are
+those of the plain operator. The result equals refactorising every iteration, to
+round-off. Theory: docs/theory/pdas.md#low-rank-updates and #split-basis.
 """
 
 from __future__ import annotations
