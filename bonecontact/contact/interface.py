@@ -41,6 +41,7 @@ import numpy.typing as npt
 from dolfinx import fem
 from scipy.spatial import cKDTree
 
+from bonecontact.common.errors import InputError
 from bonecontact.contact.dual_basis import (
     element_mass_matrices,
     modify_dual_coefficients,
@@ -66,7 +67,7 @@ __all__ = [
 PENETRATION_FRACTION = 0.5
 
 
-class ContactInputError(ValueError):
+class ContactInputError(InputError):
     """A contact interface cannot be built from the given surfaces (collective)."""
 
 

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg import lapack
 
+from bonecontact.common.errors import RunError
 from bonecontact.common.linalg import configure_ksp, solver_options
 
 __all__ = [
@@ -38,7 +39,7 @@ __all__ = [
 ]
 
 
-class SingularActiveSetError(RuntimeError):
+class SingularActiveSetError(RunError):
     """The system of an active set is singular (e.g. a body left without support)."""
 
 

@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
+from bonecontact.common.errors import RunError
 from bonecontact.contact import cold_start
 from bonecontact.contact.cold_start import SUPPORT_RADIUS, support_patch
 from bonecontact.contact.condensed import CondensedSystem
@@ -55,7 +56,7 @@ __all__ = [
 ]
 
 
-class ContactConvergenceError(RuntimeError):
+class ContactConvergenceError(RunError):
     """The PDAS iteration did not converge; ``history`` holds one dict per iteration."""
 
     def __init__(self, message: str, history: list[dict]):

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.common.errors import InputError
+
 __all__ = [
     "Crack2D",
     "FractureError",
@@ -25,7 +27,7 @@ __all__ = [
 ]
 
 
-class FractureError(ValueError):
+class FractureError(InputError):
     """Invalid fracture input or a fracture computation that cannot be done as asked.
 
     ``key`` names the offending input (a scene key or a function argument).

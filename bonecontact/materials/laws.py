@@ -18,6 +18,8 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.common.errors import InputError
+
 __all__ = [
     "FORMULATIONS",
     "Isotropic",
@@ -39,7 +41,7 @@ FORMULATIONS = ("displacement", "nodal_pressure")
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
 
-class MaterialError(ValueError):
+class MaterialError(InputError):
     """Invalid material constants.
 
     Parameters

@@ -20,6 +20,7 @@ from mpi4py import MPI
 import gmsh
 from dolfinx.io.gmsh import MeshData, model_to_mesh
 
+from bonecontact.common.errors import RunError
 from bonecontact.meshing.session import gmsh_session
 
 __all__ = [
@@ -39,7 +40,7 @@ __all__ = [
 EPS = 1e-9
 
 
-class MeshingError(RuntimeError):
+class MeshingError(RunError):
     """gmsh failed to build or mesh a geometry."""
 
 

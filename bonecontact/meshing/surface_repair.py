@@ -33,6 +33,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from bonecontact.common.errors import InputError
+
 __all__ = [
     "MeshInputError",
     "Surface",
@@ -48,7 +50,7 @@ __all__ = [
 ]
 
 
-class MeshInputError(ValueError):
+class MeshInputError(InputError):
     """A surface (or image) file cannot be meshed; the message names the file and the defect."""
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from bonecontact.common.constants import R_GAS
+from bonecontact.common.errors import InputError
 
 __all__ = [
     "CystHistory",
@@ -29,7 +30,7 @@ __all__ = [
 ]
 
 
-class CystParameterError(ValueError):
+class CystParameterError(InputError):
     """A cyst parameter outside its allowed range.
 
     Parameters

@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
+from bonecontact.common.errors import RunError
 from bonecontact.common.geometry import cross2, signed_polygon_area
 from bonecontact.meshing.session import gmsh_session
 
@@ -46,7 +47,7 @@ __all__ = [
 ]
 
 
-class CouplingError(RuntimeError):
+class CouplingError(RunError):
     """The host mesh cannot be rebuilt around the neoplasm."""
 
 

@@ -26,6 +26,7 @@ from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
 from dolfinx.io import gmsh as gmsh_io
 
+from bonecontact.common.errors import RunError
 from bonecontact.common.geometry import signed_polygon_area
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
@@ -78,7 +79,7 @@ def release_replaced_meshes(*holders: DirichletLaplacian | MeshMotion | None) ->
 RemeshError = MeshingError
 
 
-class CoverageError(RuntimeError):
+class CoverageError(RunError):
     """Target points of a transfer lie outside the source mesh (beyond the extrapolation band)."""
 
 

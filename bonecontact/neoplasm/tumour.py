@@ -14,7 +14,7 @@ import dataclasses
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from mpi4py import MPI
 
@@ -25,6 +25,7 @@ from dolfinx import fem, la
 from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import LinearProblem
 
+from bonecontact.common.errors import ExitCode, InputError, RunError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm import curvature, remesh
 
@@ -33,11 +34,11 @@ __all__ = ["TumourError", "TumourModel", "TumourParameterError", "TumourParamete
 Rate = float | Callable[[Any], Any]
 
 
-class TumourError(RuntimeError):
+class TumourError(RunError):
     """Bad tumour parameters or a failed growth step."""
 
 
-class TumourParameterError(TumourError, ValueError):
+class TumourParameterError(TumourError, InputError):
     """A tumour parameter outside its allowed range.
 
     Parameters
@@ -49,6 +50,9 @@ class TumourParameterError(TumourError, ValueError):
     where
         Where the parameters come from (prefix of ``str(error)``).
     """
+
+    #: refused input (exit status 2), although a :class:`TumourError` too
+    exit_code: ClassVar[int] = ExitCode.BAD_INPUT
 
     def __init__(self, key: str, message: str, where: str = "[neoplasm.tumour]"):
         super().__init__(f"{where}: '{key}' {message}")

@@ -25,6 +25,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from bonecontact.common.errors import InputError
+
 __all__ = ["ALLOWED_FUNCTIONS", "VARIABLE", "ExpressionError", "RateExpression", "parse_rate"]
 
 #: The only free variable.
@@ -52,7 +54,7 @@ _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**
 _UNARY = {ast.UAdd: "+", ast.USub: "-"}
 
 
-class ExpressionError(ValueError):
+class ExpressionError(InputError):
     """A rate expression that is not in the accepted grammar (the message says why)."""
 
 
