@@ -108,13 +108,15 @@ def test_patch_scene(tmp_path):
     assert phases["contact_solve"] <= phases["time_stepping"]
     assert sum(phases[k] for k in expected | {"output"}) <= summary["wall_time_s"]
     # memory per dof by phase (issue 28): the timed phases, resident <= peak so far, and
-    # the highest peak is the run's peak memory (ru_maxrss, read later: at least as high)
+    # the highest is at most the process's peak memory (ru_maxrss,
+    # read later; in a test process shared with earlier tests, or after an exec, it can be
+    # far higher, so only the upper bound is asserted here; the phase peak against the
+    # size of an allocation: tests/unit/common/test_profiling.py)
     mem = summary["memory_bytes_per_dof"]
     assert {"mesh_read", "model", "time_stepping", "output"} <= set(mem) <= set(phases)
     assert all(0.0 < m["resident"] <= m["peak"] + 0.1 for m in mem.values())
     peak_mib = max(m["peak"] for m in mem.values()) * summary["dofs"] / 2**20
-    assert 0.9 * summary["peak_memory_mb"]["max_rank"] <= peak_mib
-    assert peak_mib <= 1.02 * summary["peak_memory_mb"]["max_rank"]  # (dofs ~ owned, rounding)
+    assert 20.0 < peak_mib <= 1.02 * summary["peak_memory_mb"]["max_rank"]
     memory = summary["peak_memory_mb"]
     assert 50.0 < memory["max_rank"] <= memory["total"] < 24 * 1024
 
