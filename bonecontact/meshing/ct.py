@@ -30,8 +30,8 @@ import gmsh
 import numpy as np
 from dolfinx.io.gmsh import MeshData
 
-from bonecontact.meshing.builder import MeshingError, PhysicalGroups, check_positive, generate
-from bonecontact.meshing.report import MeshReport, format_report, msh_report
+from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
+from bonecontact.meshing.report import MeshReport, msh_report, run_report_command
 from bonecontact.meshing.surface_repair import MeshInputError, Surface, split_components
 
 __all__ = [
@@ -518,13 +518,11 @@ def ct_parser(prog: str = "bonecontact mesh-ct"):
 def main(argv: list[str] | None = None) -> int:
     """``bonecontact mesh-ct``; prints the report on rank 0; exit status 2 for bad input,
     1 if gmsh failed."""
-    import sys
-
     args = ct_parser().parse_args(argv)
     comm = MPI.COMM_WORLD
     ends = None if args.ends_axis == "none" else ("xy".index(args.ends_axis), args.end_fraction)
-    try:
-        report = mesh_ct(
+    return run_report_command(
+        lambda: mesh_ct(
             args.image,
             args.output,
             args.threshold,
@@ -534,15 +532,6 @@ def main(argv: list[str] | None = None) -> int:
             bodies="each" if args.all_bodies else "largest",
             ends=ends,
             comm=comm,
-        )
-    except (MeshInputError, ValueError) as exc:
-        if comm.rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except MeshingError as exc:
-        if comm.rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
-        return 1
-    if report is not None:
-        print(format_report(report))
-    return 0
+        ),
+        comm,
+    )

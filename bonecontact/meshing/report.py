@@ -14,13 +14,19 @@ every mesh of the package has y up (gravity and body-weight loads along −y,
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from mpi4py import MPI
 
 import gmsh
 import numpy as np
 
+from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
+from bonecontact.meshing.surface_repair import MeshInputError
 
 __all__ = ["GroupMeasure", "MeshReport", "format_report", "msh_report"]
 
@@ -170,3 +176,24 @@ def format_report(r: MeshReport) -> str:
     )
     lines.extend(f"  note: {n}" for n in r.notes)
     return "\n".join(lines)
+
+
+def run_report_command(build: Callable[[], MeshReport | None], comm: MPI.Comm) -> int:
+    """Run a mesh command's ``build`` (collective) and print its report on rank 0.
+
+    Returns the exit status: 0, 2 for refused input (the message on rank 0), 1 if gmsh
+    failed.
+    """
+    try:
+        report = build()
+    except (MeshInputError, ValueError) as exc:
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except MeshingError as exc:
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 1
+    if report is not None:
+        print(format_report(report))
+    return 0

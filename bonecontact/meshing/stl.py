@@ -33,8 +33,8 @@ import gmsh
 import numpy as np
 from dolfinx.io.gmsh import MeshData
 
-from bonecontact.meshing.builder import MeshingError, PhysicalGroups, check_positive, generate
-from bonecontact.meshing.report import MeshReport, format_report, msh_report
+from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
+from bonecontact.meshing.report import MeshReport, msh_report, run_report_command
 from bonecontact.meshing.surface_repair import (
     MeshInputError,
     Surface,
@@ -538,12 +538,10 @@ def _regions_from_args(args) -> list[SurfaceRegion]:
 def main(argv: Sequence[str] | None = None) -> int:
     """``bonecontact mesh-surface``; prints the report (:func:`format_report`) on rank 0 and
     returns the exit status (2: bad input, 1: gmsh failed)."""
-    import sys
-
     args = surface_parser().parse_args(argv)
     comm = MPI.COMM_WORLD
-    try:
-        report = mesh_surface(
+    return run_report_command(
+        lambda: mesh_surface(
             args.surface,
             args.output,
             args.size,
@@ -554,15 +552,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             repair=args.repair,
             remesh=not args.keep_triangles,
             comm=comm,
-        )
-    except (MeshInputError, ValueError) as exc:
-        if comm.rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except MeshingError as exc:
-        if comm.rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
-        return 1
-    if report is not None:
-        print(format_report(report))
-    return 0
+        ),
+        comm,
+    )
