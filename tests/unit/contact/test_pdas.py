@@ -20,37 +20,19 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-import ufl
+from two_blocks import P0, H, W, partial_liftoff_model
 
 from bonecontact.contact.interface import RigidPlane, build_interface
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
 from bonecontact.contact.snes_vi import snes_vi_solve
-from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
-from bonecontact.mechanics.model import Mechanics
-from bonecontact.meshing import shapes as meshing
 
 COMM = MPI.COMM_WORLD
-W, H = 0.02, 0.01
-P0 = 1.0e5
 
 
 def _model():
-    md = meshing.two_blocks_2d(
-        COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H
-    )
-    pg = {k: v.tag for k, v in md.physical_groups.items()}
-    mats = {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)}
-    m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
-    m.add_dirichlet(m.facets(pg["bottom"]), 1, 0.0)
-    m.add_dirichlet(m.facets(pg["bottom"]), 0, 0.0)
-    m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)  # holds the upper block sideways
-    x = ufl.SpatialCoordinate(md.mesh)
-    # compression on the left, tension on the right: resultant 0.4 P0 W (per unit
-    # thickness) acting at x = W/4
-    m.add_traction(pg["top"], ufl.as_vector([0.0, -P0 * (1.0 - 1.2 * x[0] / W)]))
-    return md, pg, m
+    return partial_liftoff_model(COMM)
 
 
 def _gathered(values, coords):

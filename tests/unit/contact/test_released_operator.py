@@ -15,34 +15,17 @@ import dolfinx_solver  # noqa: F401
 from mpi4py import MPI
 
 import pytest
-import ufl
+from two_blocks import partial_liftoff_model
 
 from bonecontact.contact.interface import build_interface, transformed_operator
 from bonecontact.contact.pdas import ContactSolver
-from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
-from bonecontact.mechanics.model import Mechanics
-from bonecontact.meshing import shapes as meshing
 
 COMM = MPI.COMM_WORLD
-W, H = 0.02, 0.01
-P0 = 1.0e5
 
 
 def _model():
-    """The soft block on a stiff block of test_pdas.py, pulled up at its right end."""
-    md = meshing.two_blocks_2d(
-        COMM, h_lower=W / 9, h_upper=W / 24, width=W, lower_height=H, upper_height=H
-    )
-    pg = {k: v.tag for k, v in md.physical_groups.items()}
-    mats = {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)}
-    m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
-    m.add_dirichlet(m.facets(pg["bottom"]), 1, 0.0)
-    m.add_dirichlet(m.facets(pg["bottom"]), 0, 0.0)
-    m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
-    x = ufl.SpatialCoordinate(md.mesh)
-    m.add_traction(pg["top"], ufl.as_vector([0.0, -P0 * (1.0 - 1.2 * x[0] / W)]))
-    return md, pg, m
+    return partial_liftoff_model(COMM)
 
 
 def _contact_integrator(linear: str) -> Integrator:
