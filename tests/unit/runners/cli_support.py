@@ -1,6 +1,7 @@
 """What the runner tests share: the ``bonecontact`` command run in a subprocess (serially
 or under ``mpiexec``; every converged run is checked for reactions that balance the
-loads), the dynamic Coulomb contact scene of the checkpoint and restart tests and the
+loads) or in this process, the dynamic Coulomb contact scene of the checkpoint and restart
+tests, the bar under uniaxial traction of the plausibility and validity tests, and the
 reaction-balance check itself.
 
 Not a test module (no ``test_`` prefix); the runner tests import it by name (pytest puts
@@ -19,6 +20,8 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+
+from mpi4py import MPI
 
 import numpy as np
 
@@ -251,3 +254,88 @@ def check_reaction_balance(out: Path, tolerance: float = BALANCE_TOLERANCE) -> N
         f"{table}: the reactions do not balance the loads (relative defect up to "
         f"{force.max():.3g} > {tolerance:g})"
     )
+
+
+BAR = """format = 1
+
+[scene]
+name = "bar"
+mesh = "{mesh}"
+dimension = 2
+
+[analysis]
+kind = "static"
+load_steps = 1
+{allow}
+
+[[material]]
+name = "{name}"
+regions = ["body"]
+model = "isotropic"
+E = {E}
+nu = 0.0
+
+[[dirichlet]]
+boundary = "left"
+value = [0.0, "free"]
+
+[[dirichlet]]
+boundary = "bottom"
+value = ["free", 0.0]
+
+[[traction]]
+boundary = "right"
+value = [{t}, 0.0]
+
+[output]
+directory = "{out}"
+fields_every = 0
+"""
+
+#: bar mesh name → its width (m): 20 mm (a bone piece), the same numbers in metres (a mesh
+#: in millimetres), 20 µm (a micro-CT voxel unit slip) and 1.5 m (large but plausible)
+BAR_WIDTHS = {"rect_m": 0.02, "rect_mm": 20.0, "rect_um": 2.0e-5, "rect_1m": 1.5}
+
+
+def write_bar_meshes(directory: Path, comm: MPI.Comm = MPI.COMM_WORLD) -> Path:
+    """The bars of :data:`BAR_WIDTHS` (aspect 2:1, 8 × 4 cells) as ``<name>.msh`` in
+    ``directory``, written on rank 0 of ``comm``."""
+    from bonecontact.meshing import shapes
+
+    if comm.rank == 0:
+        for name, w in BAR_WIDTHS.items():
+            shapes.rectangle(w, w / 2, 8, 4, MPI.COMM_SELF, path=directory / f"{name}.msh")
+    comm.barrier()
+    return directory
+
+
+def write_bar_scene(
+    directory: Path,
+    meshes: Path,
+    E: float = 17.0e9,
+    t: float = 1.0e6,
+    mesh: str = "rect_m",
+    name: str = "cortical",
+    allow: bool | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> tuple[Path, Path]:
+    """``directory/bar.toml``: the bar ``mesh`` (ν = 0, held by rollers on its left and
+    bottom edges) of material ``name`` with modulus ``E`` (Pa) under the traction ``t``
+    (Pa) on its right edge, so that its strain is t/E everywhere; ``allow`` sets
+    ``[analysis] allow_large_strain`` when given.  Returns the scene and its output
+    directory."""
+    out = directory / "results"
+    path = directory / "bar.toml"
+    line = "" if allow is None else f"allow_large_strain = {str(allow).lower()}"
+    text = BAR.format(
+        mesh=meshes / f"{mesh}.msh",
+        name=name,
+        E=repr(float(E)),
+        t=repr(float(t)),
+        out=out,
+        allow=line,
+    )
+    if comm.rank == 0:
+        path.write_text(text)
+    comm.barrier()
+    return path, out

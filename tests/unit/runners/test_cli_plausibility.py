@@ -15,66 +15,25 @@ import json
 from importlib.metadata import version
 from pathlib import Path
 
+from mpi4py import MPI
+
 import pytest
-from cli_support import run_cli
+from cli_support import run_cli, write_bar_meshes, write_bar_scene
 
 pytestmark = pytest.mark.serial
 
 ROOT = Path(__file__).resolve().parents[3]
 
-BAR = """format = 1
-
-[scene]
-name = "bar"
-mesh = "{mesh}"
-dimension = 2
-
-[analysis]
-kind = "static"
-load_steps = 1
-
-[[material]]
-name = "{name}"
-regions = ["body"]
-model = "isotropic"
-E = {E}
-nu = 0.0
-
-[[dirichlet]]
-boundary = "left"
-value = [0.0, "free"]
-
-[[dirichlet]]
-boundary = "bottom"
-value = ["free", 0.0]
-
-[[traction]]
-boundary = "right"
-value = [{t}, 0.0]
-
-[output]
-directory = "{out}"
-fields_every = 0
-"""
-
 
 @pytest.fixture(scope="module")
 def meshes(tmp_path_factory):
-    """A 20 mm × 10 mm rectangle in metres and the same numbers taken as metres (a mesh
-    written in millimetres)."""
-    from bonecontact.meshing import shapes
-
-    d = tmp_path_factory.mktemp("plausibility-meshes")
-    shapes.rectangle(0.02, 0.01, 8, 4, None, path=d / "rect_m.msh")
-    shapes.rectangle(20.0, 10.0, 8, 4, None, path=d / "rect_mm.msh")
-    return d
+    """The bars of :data:`cli_support.BAR_WIDTHS` (20 mm across in metres; the same numbers
+    taken as metres: a mesh written in millimetres; ...)."""
+    return write_bar_meshes(tmp_path_factory.mktemp("plausibility-meshes"), MPI.COMM_SELF)
 
 
-def _scene(tmp_path, meshes, E="17.0e9", t="1.0e6", mesh="rect_m.msh", name="cortical"):
-    out = tmp_path / "results"
-    path = tmp_path / "bar.toml"
-    path.write_text(BAR.format(mesh=meshes / mesh, name=name, E=E, t=t, out=out))
-    return path, out
+def _scene(tmp_path, meshes, E=17.0e9, t=1.0e6, mesh="rect_m", name="cortical"):
+    return write_bar_scene(tmp_path, meshes, E, t, mesh, name, comm=MPI.COMM_SELF)
 
 
 def _run(args, nproc=1):
@@ -109,7 +68,7 @@ def test_gpa_slip_is_refused(tmp_path, meshes, nproc):
     """``E = 17`` (GPa meant): a unit slip beyond doubt, exit 2 with the reason on every
     command, nothing written; --allow-implausible runs it, and the strain (1e6 Pa / 17 Pa)
     makes the result invalid (exit 3)."""
-    path, out = _scene(tmp_path, meshes, E="17.0")
+    path, out = _scene(tmp_path, meshes, E=17.0)
     r = _run(["run", "-q", str(path)], nproc)
     assert r.returncode == 2, r.stderr
     assert r.stderr.count("E = 17 Pa: did you mean 17 GPa?") == 1  # rank 0 only
@@ -125,7 +84,7 @@ def test_gpa_slip_is_refused(tmp_path, meshes, nproc):
 def test_doubtful_value_with_strict_exits_2(tmp_path, meshes):
     """17 MPa for cortical bone: outside its range but not beyond doubt — a warning
     (test_validity_cli.py); with --strict an error."""
-    path, out = _scene(tmp_path, meshes, E="17.0e6")
+    path, out = _scene(tmp_path, meshes, E=17.0e6)
     strict = _run(["run", "-q", "--strict", str(path)])
     assert strict.returncode == 2
     assert "error (--strict)" in strict.stderr and "E = 1.7e+07 Pa" in strict.stderr
@@ -133,7 +92,7 @@ def test_doubtful_value_with_strict_exits_2(tmp_path, meshes):
 
 
 def test_mesh_in_millimetres_is_refused(tmp_path, meshes):
-    path, out = _scene(tmp_path, meshes, mesh="rect_mm.msh")
+    path, out = _scene(tmp_path, meshes, mesh="rect_mm")
     r = _run(["run", "-q", str(path)])
     assert r.returncode == 2
     assert "is the mesh in millimetres?" in r.stderr
@@ -153,7 +112,7 @@ def test_computed_strain_flag(tmp_path, meshes, strain):
     """σ = strain × E on a ν = 0 bar: the computed strain is σ/E exactly; above 10 % the
     run ends "invalid" with exit status 3 (results written) and the console says why."""
     E = 1.0e9
-    path, out = _scene(tmp_path, meshes, E=repr(E), t=repr(strain * E), name="cancellous")
+    path, out = _scene(tmp_path, meshes, E=E, t=strain * E, name="cancellous")
     r = _run(["run", "-q", str(path)])
     assert r.returncode == (3 if strain > 0.1 else 0), r.stderr
     summary = json.loads((out / "summary.json").read_text())

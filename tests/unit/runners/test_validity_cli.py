@@ -17,7 +17,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import pytest
-from cli_support import run_in_process
+from cli_support import BAR_WIDTHS, run_in_process, write_bar_meshes, write_bar_scene
 
 from bonecontact.scene.checks import SMALL_STRAIN_LIMIT
 
@@ -32,79 +32,15 @@ class ExitCode:
     INVALID = 3
 
 
-BAR = """format = 1
-
-[scene]
-name = "bar"
-mesh = "{mesh}"
-dimension = 2
-
-[analysis]
-kind = "static"
-load_steps = 1
-{allow}
-
-[[material]]
-name = "{name}"
-regions = ["body"]
-model = "isotropic"
-E = {E}
-nu = 0.0
-
-[[dirichlet]]
-boundary = "left"
-value = [0.0, "free"]
-
-[[dirichlet]]
-boundary = "bottom"
-value = ["free", 0.0]
-
-[[traction]]
-boundary = "right"
-value = [{t}, 0.0]
-
-[output]
-directory = "{out}"
-fields_every = 0
-"""
-
-#: mesh name → its width (m): 20 mm (a bone piece), the same numbers in metres (a mesh in
-#: millimetres), 20 µm (a mesh in metres read as km... or a micro-CT voxel unit slip)
-WIDTHS = {"rect_m": 0.02, "rect_mm": 20.0, "rect_um": 2.0e-5, "rect_1m": 1.5}
-
-
 @pytest.fixture(scope="module")
 def meshes(tmp_path_factory) -> Path:
-    """The bars of :data:`WIDTHS` (aspect 2:1), on a path every rank sees."""
-    from bonecontact.meshing import shapes
-
+    """The bars of :data:`cli_support.BAR_WIDTHS`, on a path every rank sees."""
     d = COMM.bcast(str(tmp_path_factory.mktemp("validity")) if COMM.rank == 0 else None)
-    if COMM.rank == 0:
-        for name, w in WIDTHS.items():
-            shapes.rectangle(w, w / 2, 8, 4, MPI.COMM_SELF, path=Path(d) / f"{name}.msh")
-    COMM.barrier()
-    return Path(d)
+    return write_bar_meshes(Path(d), COMM)
 
 
-def _scene(
-    d: Path,
-    meshes: Path,
-    E: float = 17.0e9,
-    t: float = 1.0e6,
-    mesh: str = "rect_m",
-    name: str = "cortical",
-    allow: bool | None = None,
-) -> tuple[Path, Path]:
-    out = d / "results"
-    path = d / "bar.toml"
-    line = "" if allow is None else f"allow_large_strain = {str(allow).lower()}"
-    text = BAR.format(
-        mesh=meshes / f"{mesh}.msh", name=name, E=repr(E), t=repr(t), out=out, allow=line
-    )
-    if COMM.rank == 0:
-        path.write_text(text)
-    COMM.barrier()
-    return path, out
+def _scene(d: Path, meshes: Path, **kw) -> tuple[Path, Path]:
+    return write_bar_scene(d, meshes, comm=COMM, **kw)
 
 
 def _summary(out: Path) -> dict:
@@ -163,8 +99,8 @@ def test_a_mesh_larger_than_2_m_or_smaller_than_01_mm_is_refused(
         assert r.returncode == ExitCode.CONVERGED, r.stderr
         return
     assert r.returncode == ExitCode.BAD_INPUT
-    assert _said(r, f'[scene], key "mesh": the mesh {mesh}.msh is {WIDTHS[mesh]:.4g} m across')
-    if WIDTHS[mesh] > 2.0:
+    assert _said(r, f'[scene], key "mesh": the mesh {mesh}.msh is {BAR_WIDTHS[mesh]:.4g} m across')
+    if BAR_WIDTHS[mesh] > 2.0:
         assert _said(r, "is the mesh in millimetres?")
     assert not (out / "summary.json").exists()
     allowed = run_in_process(["run", "-q", "--allow-implausible", str(path)])
