@@ -81,7 +81,7 @@ def mindlin(
         contact=ContactSolver(
             m.V,
             [itf],
-            PDASOptions(
+            PDASOptions.from_fields(
                 friction=FrictionLaw("coulomb", coefficient=mu, update=update),
                 fp_tol=fp_tol,
                 max_iterations=200,

@@ -71,7 +71,7 @@ def mindlin_3d(h: float, slip_3d: str, tol: float = 1e-6) -> tuple[dict, np.ndar
         contact=ContactSolver(
             m.V,
             [itf],
-            PDASOptions(
+            PDASOptions.from_fields(
                 friction=FrictionLaw("coulomb", coefficient=MU),
                 max_iterations=100,
                 slip_3d=slip_3d,

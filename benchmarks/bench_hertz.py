@@ -91,7 +91,10 @@ def _hertz_model(h: float, schedule=None):
 def _hertz_case(h: float, strategy: str = "lowrank") -> dict:
     m, itf = _hertz_model(h)
     integ = Integrator(
-        m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy))
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(m.V, [itf], PDASOptions.from_fields(strategy=strategy)),
     )
     COMM.barrier()
     t0 = time.perf_counter()
@@ -136,7 +139,10 @@ def stepped_case(h: float, strategy: str, steps: int = 8) -> dict:
     the cost of a contact step once the run is going, and how often it factorises."""
     m, itf = _hertz_model(h, schedule=lambda t: t / steps)
     integ = Integrator(
-        m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy))
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(m.V, [itf], PDASOptions.from_fields(strategy=strategy)),
     )
     times, its, facts = [], [], []
     for _ in range(steps):

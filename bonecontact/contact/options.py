@@ -5,7 +5,8 @@ grouped by the part of the solver they steer.
 active_set=ActiveSetOptions(...), slip=SlipOptions(...))``.  The former flat keywords
 (``PDASOptions(strategy="refactor", slip_3d="fixed_point")``) are still accepted, with a
 :class:`DeprecationWarning` naming the group, and reading ``options.strategy`` still
-works (it reads the group's field).
+works (it reads the group's field); ``PDASOptions.from_fields(strategy=..., slip_3d=...)``
+groups fields given by name without a warning (parameter sweeps).
 """
 
 from __future__ import annotations
@@ -213,6 +214,24 @@ class PDASOptions:
             object.__setattr__(self, group, value)
         if int(self.max_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
+
+    @classmethod
+    def from_fields(
+        cls,
+        friction: FrictionLaw | list[FrictionLaw] | tuple[FrictionLaw, ...] | None = None,
+        max_iterations: int = 50,
+        **fields_: object,
+    ) -> PDASOptions:
+        """The options with the groups' fields given by name, each put in its group
+        (``from_fields(strategy="refactor", slip_3d="fixed_point")``): for parameter
+        sweeps that vary fields of several groups.  An unknown name is a ``TypeError``."""
+        groups: dict[str, dict[str, object]] = {g: {} for g in GROUPS}
+        for name, value in fields_.items():
+            if name not in FLAT_NAMES:
+                raise TypeError(f"PDASOptions has no option {name!r}")
+            groups[FLAT_NAMES[name]][name] = value
+        built = {g: GROUPS[g](**kw) for g, kw in groups.items()}
+        return cls(friction, max_iterations, **built)
 
     def __getattr__(self, name: str) -> object:
         """A group's field by its former flat name (``options.strategy``)."""

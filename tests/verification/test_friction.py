@@ -81,7 +81,9 @@ def test_tresca_block_stick_below_the_bound(strategy):
         "static",
         1.0,
         contact=ContactSolver(
-            m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)
+            m.V,
+            [itf],
+            PDASOptions.from_fields(friction=FrictionLaw("tresca", bound=g), strategy=strategy),
         ),
     )
     integ.step()  # normal load only
@@ -108,7 +110,9 @@ def test_tresca_block_slips_with_the_bound(strategy):
         "static",
         1.0,
         contact=ContactSolver(
-            m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)
+            m.V,
+            [itf],
+            PDASOptions.from_fields(friction=FrictionLaw("tresca", bound=g), strategy=strategy),
         ),
     )
     integ.step()
@@ -137,7 +141,9 @@ def test_tresca_block_partial_slip_complementarity(strategy):
         "static",
         1.0,
         contact=ContactSolver(
-            m.V, [itf], PDASOptions(friction=FrictionLaw("tresca", bound=g), strategy=strategy)
+            m.V,
+            [itf],
+            PDASOptions.from_fields(friction=FrictionLaw("tresca", bound=g), strategy=strategy),
         ),
     )
     integ.step()
@@ -317,7 +323,7 @@ def _oblique_impact(law: FrictionLaw, dt: float, strategy: str = "auto"):
         m,
         "dynamic",
         dt,
-        contact=ContactSolver(m.V, [itf], PDASOptions(friction=law, strategy=strategy)),
+        contact=ContactSolver(m.V, [itf], PDASOptions.from_fields(friction=law, strategy=strategy)),
         energy_balance=True,
     )
     v0 = fem.Function(m.V)
@@ -539,7 +545,9 @@ def _sphere_drag(slip_3d: str, strategy: str, tol: float):
         "slip_3d": slip_3d,
         "direction_tol": tol,
     }
-    integ = Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(**opts)))
+    integ = Integrator(
+        m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions.from_fields(**opts))
+    )
     integ.step()
     integ.step()
     r = integ.last_contact

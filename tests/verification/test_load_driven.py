@@ -212,7 +212,7 @@ def _sphere_on_block(h: float, cold_start_3d: str, **options) -> dict:
     """The load-driven 3D Hertz problem of the benchmarks (a hemisphere loaded on its flat
     face, held in the load direction only by the contact): a cold solve, then a warm
     solve with the load raised by 10 %."""
-    opts = PDASOptions(cold_start_3d=cold_start_3d, **options)
+    opts = PDASOptions.from_fields(cold_start_3d=cold_start_3d, **options)
     pb = sphere_on_block_3d(COMM, h, h_far=3e-3, options=opts)
     cold = pb.solve()
     err = hertz_errors(pb)

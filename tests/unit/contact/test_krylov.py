@@ -50,7 +50,7 @@ def _solve(
         return _CACHE[key]
     old = load_driven.LOAD_DRIVEN_STIFFNESS_RATIO
     load_driven.LOAD_DRIVEN_STIFFNESS_RATIO = ratio
-    opts = PDASOptions() if loose is None else PDASOptions(loose_rtol=loose)
+    opts = PDASOptions.from_fields() if loose is None else PDASOptions.from_fields(loose_rtol=loose)
     try:
         pb = sphere_on_block_3d(COMM, size[0], h_far=size[1], linear=linear, options=opts)
     finally:

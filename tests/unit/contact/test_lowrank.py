@@ -59,7 +59,9 @@ def _hertz():
 
 
 def _run(m, itf, kind="static", steps=1, **options):
-    integ = Integrator(m, kind, 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(**options)))
+    integ = Integrator(
+        m, kind, 1.0, contact=ContactSolver(m.V, [itf], PDASOptions.from_fields(**options))
+    )
     out = []
     for _ in range(steps):
         integ.step()
@@ -218,7 +220,10 @@ def test_singular_active_set_is_reported(strategy):
         m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
     )
     integ = Integrator(
-        m, "static", 1.0, contact=ContactSolver(m.V, [itf], PDASOptions(strategy=strategy))
+        m,
+        "static",
+        1.0,
+        contact=ContactSolver(m.V, [itf], PDASOptions.from_fields(strategy=strategy)),
     )
     with pytest.raises(ContactConvergenceError) as info:
         integ.step()

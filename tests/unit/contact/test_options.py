@@ -101,3 +101,34 @@ def test_top_level_options_and_wrong_arguments():
         _ = PDASOptions().no_such_option
     with pytest.raises(dataclasses.FrozenInstanceError):
         PDASOptions().max_iterations = 3
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {},
+        {"strategy": "refactor"},
+        {"strategy": "lowrank", "cold_start_fraction": 0.0, "slip_3d": "fixed_point"},
+        {"loose_rtol": 0.0, "pc_reuse_rows": 0.5, "direction_tol": 1e-5},
+    ],
+)
+def test_from_fields_groups_without_warning(fields):
+    """Fields given by name land in their groups, equal to the grouped construction, and no
+    DeprecationWarning is raised."""
+    import warnings
+
+    from bonecontact.contact.options import FLAT_NAMES, GROUPS
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = PDASOptions.from_fields(max_iterations=7, **fields)
+        per_group = {g: {k: v for k, v in fields.items() if FLAT_NAMES[k] == g} for g in GROUPS}
+        want = PDASOptions(max_iterations=7, **{g: GROUPS[g](**kw) for g, kw in per_group.items()})
+    assert got == want
+    for name, value in fields.items():
+        assert getattr(getattr(got, FLAT_NAMES[name]), name) == value
+
+
+def test_from_fields_refuses_an_unknown_name():
+    with pytest.raises(TypeError, match="no option 'strateg'"):
+        PDASOptions.from_fields(strateg="refactor")
