@@ -1,30 +1,15 @@
-"""Checks of a scene's mesh before any solve: bad elements, duplicated nodes, detached
-pieces of a region, load and contact groups inside the body.
+"""Checks of a scene's mesh before any solve: inverted and degenerate elements, duplicated
+nodes, detached pieces of a region, load and contact groups inside the body.
 
-:func:`check_mesh` runs on the distributed DOLFINx mesh read for a scene (collective).
-Every rank examines its owned cells and facets with vectorised NumPy; the findings are
-gathered on rank 0 and the first one is broadcast, so every rank raises the same
-:class:`~bonecontact.scene.errors.SceneError` (exit status 2 from the command line) and no
-rank waits for another.  The checks, in order:
+:func:`check_mesh` runs on the distributed DOLFINx mesh read for a scene (collective):
+every rank examines its owned cells and facets, the findings are gathered on rank 0 and
+the first one is broadcast, so every rank raises the same
+:class:`~bonecontact.scene.errors.SceneError` (exit status 2) and no rank waits for
+another.  Each message names the group and a location (coordinates in m).  What each
+check looks for and its tolerance: docs/scene_format.md, "Checks of the mesh itself".
 
-* **inverted elements**: a cell whose orientation (the sign of its Jacobian determinant)
-  is opposite to that of most cells of its region — a fold of the mesh;
-* **degenerate elements**: ``|det J| ≤ 10⁻¹⁰ ℓ^d`` with ``ℓ`` the cell's longest edge
-  (zero area or volume to round-off: collinear or coplanar nodes);
-* **duplicated nodes**: two different mesh nodes of the same region at the same point
-  (within 10⁻⁹ of the mesh size) — the region is cut there.  Such nodes lie on the
-  mesh's boundary (the facets around them are not shared), so only boundary nodes are
-  compared; pairs on contact surfaces (bodies touching at matching nodes) are allowed;
-* **detached pieces**: a region in several pieces, one of which is a body of its own —
-  attached to no other cell — without a Dirichlet boundary or contact surface of the
-  scene (nothing holds it, nothing can reach it);
-* **facet groups inside the body**: a contact surface, traction or pressure boundary
-  with a facet between two cells.
-
-Each message names the group and a location (coordinates in m).
-
-The plausibility checks of :mod:`bonecontact.scene.checks` need two things from the mesh:
-its size (:func:`mesh_extent`) and the materials next to each facet group
+The plausibility checks of :mod:`bonecontact.scene.checks` need the mesh's size
+(:func:`mesh_extent`) and the materials next to each facet group
 (:func:`facet_materials`); :func:`scene_issues` measures both and runs them.
 :func:`count_bodies` counts the connected pieces of a mesh (for ``bonecontact check``).
 """

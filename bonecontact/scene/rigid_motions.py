@@ -2,31 +2,15 @@
 
 A static or quasi-static scene is solvable only when every *body* (connected piece of
 the mesh) is held against each of its rigid motions — 2 translations and 1 rotation in
-2D, 3 and 3 in 3D — by a Dirichlet condition or by a contact.  A motion that nothing holds
-leaves the displacement undetermined: the linear systems are singular, or (with the
-round-off of faceted normals) nearly so, and a solve returns an arbitrary rigid motion.
-:func:`unheld_motions` finds these motions before anything is solved; :func:`check_rigid_motions`
-turns them into a :class:`~bonecontact.scene.errors.SceneError` or a
-:class:`UnheldMotionWarning` (``[analysis] unheld_motion``).  The method is
-docs/theory/rigid_motions.md:
+2D, 3 and 3 in 3D — by a Dirichlet condition or by a contact; a motion that nothing holds
+leaves the displacement undetermined.  :func:`unheld_motions` finds these motions before
+anything is solved (small matrices of the constraints of every support and contact pair,
+reduced across ranks, their null spaces intersected); :func:`check_rigid_motions` turns
+them into a :class:`~bonecontact.scene.errors.SceneError` or a
+:class:`UnheldMotionWarning` (``[analysis] unheld_motion``).  Bodies and their names come
+from :func:`find_bodies`, collectively and the same on any number of ranks.
 
-* the rigid motions of all bodies together are the unknowns ``q`` (``3 nb`` or ``6 nb``
-  numbers); a motion of body ``b`` is ``v(x) = a + ω × (x − c_b)``, ``c_b`` its centroid;
-* each ``[[dirichlet]]`` entry holds the motions whose fixed components vanish on its
-  facets; each ``[[contact]]`` pair the motions whose *relative* velocity (slave body
-  minus master body) has no normal component on the slave surface (frictionless), or
-  which do not move the slave surface relative to the master body at all (a Tresca or
-  Coulomb pair, taken as pressed);
-* every set contributes two small symmetric matrices, sums over its facets reduced
-  across ranks (no gathering of the mesh): ``G = Σ w r rᵀ`` of its constraint rows and
-  ``W = Σ w |v|²`` of the velocity on its facets; a motion is held by the set when the
-  share ``qᵀGq / qᵀWq`` of its velocity there that the set resists exceeds a threshold;
-* the unheld motions are what remains after every set in turn has removed what it holds
-  (an intersection of null spaces), so that a body held through a chain of contacts by a
-  body that is itself held counts as held, and two bodies can hold each other.
-
-Bodies and their names (the cell groups they are made of) come from :func:`find_bodies`,
-collectively and the same on any number of ranks.
+The method, its thresholds and its limits: docs/theory/rigid_motions.md.
 """
 
 from __future__ import annotations
