@@ -20,18 +20,26 @@ import numpy as np
 
 from bonecontact.fracture.crack import Crack2D, FractureError
 from bonecontact.fracture.crack3d import planar_crack_from_table
-from bonecontact.scene.errors import SceneError, table_label
+from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.spec import (
     CRACK3D_TABLE,
     CRACK_TABLE,
+    FATIGUE_TABLE,
     FRACTURE_TABLE,
     CrackSpec,
+    FatigueSpec,
     FractureSpec,
     MaterialSpec,
 )
 from bonecontact.scene.tables import TableReader, array_of_tables, table_of
 
-__all__ = ["crack_from_table", "fracture_from_table", "missing_strength", "read_fracture"]
+__all__ = [
+    "crack_from_table",
+    "fatigue_from_table",
+    "fracture_from_table",
+    "missing_strength",
+    "read_fracture",
+]
 
 
 def _fracture_error(tab: TableReader, exc: FractureError) -> SceneError:
@@ -41,9 +49,34 @@ def _fracture_error(tab: TableReader, exc: FractureError) -> SceneError:
     return tab.error(exc.key, text[len(prefix) :] if text.startswith(prefix) else text)
 
 
+def fatigue_from_table(tab: TableReader) -> FatigueSpec | None:
+    """``[fracture.fatigue]`` of the ``[fracture]`` table ``tab`` (``None``: absent).
+
+    Raises
+    ------
+    SceneError
+        Naming ``[fracture.fatigue]`` and the key (``[fracture]`` ``fatigue`` if it is
+        not a table, or given with ``propagate = true``).
+    """
+    if not tab.has("fatigue"):
+        return None
+    value = tab.data["fatigue"]
+    if not isinstance(value, dict):
+        raise tab.error(
+            "fatigue", f"must be a table [fracture.fatigue], got {describe_value(value)}"
+        )
+    sub = TableReader(value, "[fracture.fatigue]")
+    sub.check_keys(FATIGUE_TABLE)
+    values = {k: sub.get(FATIGUE_TABLE[k]) for k in FATIGUE_TABLE.names}
+    if not values["R"] < 1.0:
+        raise sub.error("R", f"the load ratio K_min/K_max must be < 1, got {values['R']!r}")
+    return FatigueSpec(**values)
+
+
 def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> FractureSpec:
     """``[fracture]``; ``increment`` is required when ``propagate = true``,
-    ``initiation_length`` and ``coefficient`` apply with ``initiate = true`` only.
+    ``initiation_length`` and ``coefficient`` apply with ``initiate = true`` only;
+    ``[fracture.fatigue]`` (:func:`fatigue_from_table`) excludes ``propagate = true``.
 
     Raises
     ------
@@ -63,6 +96,13 @@ def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> 
             raise tab.error(key, "applies to an initiated crack only: set initiate = true")
     for key in ("tip_size", "tip_grading", "initiation_length", "coefficient"):
         values[key] = tab.get(FRACTURE_TABLE[key])
+    values["fatigue"] = fatigue_from_table(tab)
+    if values["fatigue"] is not None and values["propagate"]:
+        raise tab.error(
+            "propagate",
+            "[fracture.fatigue] grows the crack by cycles; propagate = true (growth when "
+            "K_eq reaches K_Ic under one load) is the other rule: give one of them",
+        )
     return FractureSpec(**values)
 
 
@@ -142,8 +182,8 @@ def missing_strength(spec: FractureSpec, strengths: Mapping[str, float]) -> str 
 
 
 def _check_dimension(spec: FractureSpec, dim: int) -> None:
-    """Propagation and automatic insertion run in 2D only."""
-    for key in ("propagate", "initiate"):
+    """Propagation, fatigue and automatic insertion run in 2D only."""
+    for key in ("propagate", "initiate", "fatigue"):
         if dim != 2 and getattr(spec, key):
             raise SceneError(
                 None,
@@ -187,6 +227,17 @@ def read_fracture(
         )
     spec = fracture_from_table(tab.data if tab is not None else {})
     _check_dimension(spec, dim)
+    if spec.fatigue is not None and has_neoplasm:
+        raise SceneError(
+            None, "[fracture]", "fatigue", "is not run in a coupled [neoplasm] scene yet"
+        )
+    if spec.fatigue is not None and not entries and not spec.initiate:
+        raise SceneError(
+            None,
+            "[fracture]",
+            "fatigue",
+            "fatigue grows a crack: add a [[crack]] or set initiate = true",
+        )
     cracks = [crack_from_table(entry, i + 1, dim) for i, entry in enumerate(entries)]
     _check_materials(spec, materials)
     names = [c.name for c in cracks]

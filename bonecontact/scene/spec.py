@@ -39,6 +39,7 @@ __all__ = [
     "CrackSpec",
     "CystSpec",
     "DirichletSpec",
+    "FatigueSpec",
     "FractureSpec",
     "InitialVelocitySpec",
     "LoadSpec",
@@ -802,6 +803,52 @@ class FractureSpec:
     initiate: bool = False
     initiation_length: float | None = None
     coefficient: float = 0.0
+    fatigue: FatigueSpec | None = None
+
+    @property
+    def grows(self) -> bool:
+        """The crack grows: by K_Ic (``propagate``) or by cycles (``fatigue``)."""
+        return self.propagate or self.fatigue is not None
+
+    @property
+    def growth_step(self) -> float | None:
+        """Δa of propagation, Δa_max of fatigue (m); ``None`` without growth."""
+        if self.fatigue is not None:
+            return self.fatigue.da_max
+        return self.increment if self.propagate else None
+
+
+@dataclass(frozen=True)
+class FatigueSpec:
+    """``[fracture.fatigue]``: growth by blocks of load cycles under the Paris law
+    da/dN = C ΔK^m (docs/theory/fracture.md#fatigue).
+
+    Parameters
+    ----------
+    C, m
+        Paris coefficient ((m/cycle)/(Pa·√m)^m) and exponent.
+    da_max
+        Growth of the fastest tip per block (m).
+    delta_K_th
+        Threshold ΔK (Pa·√m): no growth at or below it.
+    R
+        Load ratio K_min/K_max of the cycle (< 1).
+    max_blocks
+        Upper bound on the blocks.
+    """
+
+    C: float
+    m: float
+    da_max: float
+    delta_K_th: float = 0.0
+    R: float = 0.0
+    max_blocks: int = 100
+
+    def law(self) -> Any:
+        """The :class:`~bonecontact.fracture.fatigue.ParisLaw` of the table."""
+        from bonecontact.fracture.fatigue import ParisLaw  # the physics: not at import
+
+        return ParisLaw(self.C, self.m, self.delta_K_th, self.R)
 
 
 @dataclass(frozen=True)
@@ -864,8 +911,22 @@ FRACTURE_TABLE = Table(
             doc_default="Δa with `propagate`, else four cells of the mesh at the risk maximum",
         ),
         _COEFFICIENT,
+        Key("fatigue", "table"),
     ),
     renamed=_OLD_COEFFICIENT,
+)
+
+#: ``[fracture.fatigue]``: the Paris law and the blocks of cycles.
+FATIGUE_TABLE = Table(
+    "fracture.fatigue",
+    (
+        Key("C", "number", REQUIRED, unit="(m/cycle)/(Pa·√m)^m", minimum=0, exclusive=True),
+        Key("m", "number", REQUIRED, minimum=0, exclusive=True),
+        Key("delta_K_th", "number", 0.0, unit="Pa·√m", minimum=0),
+        Key("R", "number", 0.0),
+        Key("da_max", "number", REQUIRED, unit="m", minimum=0, exclusive=True),
+        Key("max_blocks", "integer", 100, minimum=1),
+    ),
 )
 
 _CRACK_NAME = Key("name", "string", doc_default='`"crack<n>"`')
@@ -987,6 +1048,7 @@ TABLES: dict[str, Table] = {
     "initial_velocity": INITIAL_VELOCITY_TABLE,
     "output": OUTPUT_TABLE,
     "fracture": FRACTURE_TABLE,
+    "fracture.fatigue": FATIGUE_TABLE,
     "crack": CRACK_TABLE,
     "crack (3D)": CRACK3D_TABLE,
     "neoplasm": NEOPLASM_TABLE,

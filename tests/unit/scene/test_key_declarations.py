@@ -44,6 +44,7 @@ DOC_TABLES: dict[str, tuple[str, str, int]] = {
     "output": ("scene_format.md", "## `[output]`", 0),
     "fracture": ("scene_format.md", "## Fracture", 0),
     "crack": ("scene_format.md", "## Fracture", 1),
+    "fracture.fatigue": ("scene_format.md", "### `[fracture.fatigue]`", 0),
     "crack (3D)": ("scene_format.md", "### 3D crack", 0),
     "neoplasm": ("neoplasm_format.md", "## `[neoplasm]`", 0),
     "neoplasm.tumour": ("neoplasm_format.md", "## `[neoplasm.tumour]`", 0),
@@ -166,6 +167,7 @@ DATACLASSES = [
     ("contact", S.ContactSpec),
     ("output", S.OutputSpec),
     ("fracture", S.FractureSpec),
+    ("fracture.fatigue", S.FatigueSpec),
     ("crack", S.CrackSpec),
     ("neoplasm", S.NeoplasmSpec),
 ]
@@ -221,6 +223,9 @@ CYST_SCENE: dict[str, Any] = {
     "neoplasm": {"kind": "cyst", "radius": 1e-3, "t_end": 1.0, "dt": 0.5}
     | {"cyst": {"beta": 1e-11, "C_minus": 1.0}},
 }
+FATIGUE_SCENE: dict[str, Any] = copy.deepcopy(MESH_SCENE) | {
+    "fracture": {"fatigue": {"C": 1e-30, "m": 4.0, "da_max": 1e-4}}
+}
 #: declared table -> (document, path of the table in it)
 WHERE: dict[str, tuple[dict[str, Any], tuple[Any, ...]]] = {
     "top level": (MESH_SCENE, ()),
@@ -237,6 +242,7 @@ WHERE: dict[str, tuple[dict[str, Any], tuple[Any, ...]]] = {
     "output": (MESH_SCENE, ("output",)),
     "fracture": (MESH_SCENE, ("fracture",)),
     "crack": (MESH_SCENE, ("crack", 0)),
+    "fracture.fatigue": (FATIGUE_SCENE, ("fracture", "fatigue")),
     "neoplasm": (GROWTH_SCENE, ("neoplasm",)),
     "neoplasm.tumour": (GROWTH_SCENE, ("neoplasm", "tumour")),
     "neoplasm.cyst": (CYST_SCENE, ("neoplasm", "cyst")),
@@ -329,6 +335,7 @@ def _parsed(name: str, scene: Any) -> Any:
         "contact": scene.contacts[0] if scene.contacts else None,
         "output": scene.output,
         "fracture": scene.fracture,
+        "fracture.fatigue": scene.fracture.fatigue if scene.fracture else None,
         "crack": scene.cracks[0] if scene.cracks else None,
         "neoplasm": scene.neoplasm,
     }[name]
