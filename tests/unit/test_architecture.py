@@ -337,3 +337,37 @@ def test_no_private_attribute_of_another_object_is_read():
         for line, use in _foreign_private_attributes(path.read_text())
     ]
     assert not found, f"private attributes read from outside their object: {found}"
+
+
+#: A module docstring says what the module is for and points at the theory page; the
+#: maths lives once, in docs/theory (issue 25: "module docstrings short").
+MAX_MODULE_DOCSTRING_LINES = 25
+
+
+def _module_docstring_lines(source: str) -> int:
+    """Lines of a module's docstring, its quotes included (0 without one)."""
+    tree = ast.parse(source)
+    first = tree.body[0] if tree.body else None
+    if not (isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)):
+        return 0
+    if not isinstance(first.value.value, str):
+        return 0
+    return first.end_lineno - first.lineno + 1
+
+
+def test_the_docstring_scan_counts_lines():
+    assert _module_docstring_lines('"""One.\n\nTwo\nthree.\n"""\nx = 1\n') == 5
+    assert _module_docstring_lines('"""One line."""\n') == 1
+    assert _module_docstring_lines("x = 1\n") == 0
+
+
+def test_module_docstrings_are_short():
+    long = [
+        f"{path.relative_to(ROOT)} ({n} lines)"
+        for path in MODULES.values()
+        if (n := _module_docstring_lines(path.read_text())) > MAX_MODULE_DOCSTRING_LINES
+    ]
+    assert not long, (
+        f"module docstrings over {MAX_MODULE_DOCSTRING_LINES} lines (move the maths to "
+        f"docs/theory and point at it): {long}"
+    )
