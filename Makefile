@@ -6,7 +6,7 @@
 #                     another of the nine demos (knee2d, long_bone, knee_tumour, jaw_cyst,
 #                     vertebra_tumour, jaw3d, spine3d, knee3d, contact_api); results in
 #                     demos/results/<name>/
-#   make notebooks    install if needed, then convert every demo to a notebook (build/notebooks/)
+#   make notebooks    install if needed, then run every demo as a notebook (build/notebooks/, also as .html)
 #                     and execute it headless with its figures inline (NOTEBOOKS="demos/x.py"
 #                     for some); results in build/notebooks/results/<name>/
 #   make test         install if needed, then lint, docs, the serial suite and the MPI suite on
@@ -149,8 +149,12 @@ notebooks: install
 	  $(VENV)/bin/jupytext --quiet --to ipynb "$$d" -o "$$nb"; \
 	  BONECONTACT_OUTPUT="$(CURDIR)/$(NB_DIR)/results" $(VENV)/bin/jupyter nbconvert --to notebook \
 	    --execute --inplace --ExecutePreprocessor.timeout=1800 "$$nb"; \
+	  $(VENV)/bin/jupyter nbconvert --log-level=WARN --to html "$$nb"; \
 	done
-	@echo "== notebooks: $(NB_DIR)/*.ipynb (open with jupyter lab), results in $(NB_DIR)/results/"
+	@echo "== notebooks: executed in $(NB_DIR)/*.ipynb, each also as $(NB_DIR)/<name>.html"
+	@echo "   (open the .html in any web browser; the .ipynb in Jupyter or VS Code, which this"
+	@echo "   venv does not install: e.g. '$(VENV)/bin/pip install jupyterlab', then"
+	@echo "   '$(VENV)/bin/jupyter lab $(NB_DIR)'); results in $(NB_DIR)/results/"
 
 # Serial suite: every selected test, including tests marked `serial` that spawn their own mpiexec.
 # pytest-xdist spreads it over SERIAL_WORKERS processes, a test module to a worker (--dist
