@@ -2,35 +2,31 @@
 support patch (docs/theory/pdas.md#cold-start).
 
 A cold start solves first with only the support patch ``S`` of the closest nodes held
-(:func:`support_patch`).  Held at a few nodes, a body pushed
-by a load sinks far into the obstacle: the patch acts as a small flat punch, whose
-approach ``δ₁`` is ``ρ_S/a`` times larger than that of the final contact zone of radius
-``a`` (``ρ_S``: the patch radius).  Every node within a large radius then penetrates,
-and activating them all (or all within a fraction of the deepest penetration) makes the
-PDAS start from a set several times too large, which it then releases ring by ring.
+(:func:`support_patch`).  Held at a few nodes, a body pushed by a load sinks far into
+the obstacle (the patch acts as a small flat punch), and activating every penetrating
+node makes the PDAS start from a set several times too large.
 
-Here the first solve is read as a measurement instead.  It gives the force on the
-patch ``P₁``, the approach ``δ₁`` (the largest normal displacement of the slave nodes
-relative to the closest gap) and, with one more solve, the stiffness ``K`` with which
-the patch force grows when the patch is pushed further.  A flat punch of radius ``ρ``
-has the contact compliance ``1/(2E*ρ)``, so ``2E* ≈ P₁/(δ₁ρ_S)`` and the structure
-behind the contact has the stiffness ``K_b = 1/(1/K − δ₁/P₁)`` (0 for a body held in
-the load direction only by the contact, ∞ for a rigidly driven one).  For a locally
-paraboloidal contact of radius ``a`` (Hertz: ``δ = a²/R``, ``P = 4E*a³/(3R)``; the zone
-ends where the gap is ``t = δ/2``) with the structure in series, ``P = P₀ − K_b δ`` and
-``P₀ = P₁ + K_b δ₁``::
+Here the first solve is read as a measurement instead: the patch force ``P₁``, the
+approach ``δ₁`` and, with one more solve, the patch stiffness ``K`` give the contact
+modulus ``2E* ≈ P₁/(δ₁ρ_S)`` (a flat punch of radius ``ρ_S``) and the stiffness of the
+structure behind the contact ``K_b = 1/(1/K − δ₁/P₁)``.  For a locally paraboloidal
+contact of radius ``a`` with the structure in series, the zone ends at the gap ``t``
+with::
 
     (4/3) · P₁/(δ₁ ρ_S) · a(t) · t = P₁ + K_b (δ₁ − 2t),
 
-where ``a(t) = √(area{g ≤ t}/π)`` is the radius of the nodes whose gap is within ``t``
-of the smallest (areas ``D_pp``).  The left side grows with ``t``, the right side
-falls: the root is unique.  The first set is ``{g ≤ t}`` together with the patch.  Only
-the path of the PDAS changes; its converged solution is the same.
+``a(t) = √(area{g ≤ t}/π)`` (areas ``D_pp``); the left side grows with ``t``, the right
+side falls, the root is unique.  The first set is ``{g ≤ t}`` with the patch; only the
+path of the PDAS changes.  Derivation: docs/theory/pdas.md#cold-start.  Every function
+works on the owned slave nodes of each rank with scalar reductions; the support patch
+takes the closest nodes of neighbouring ranks (docs/theory/pdas.md#distributed-set-logic).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+
+from mpi4py import MPI
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +35,16 @@ from scipy.spatial import cKDTree
 from bonecontact.contact.condensed import CondensedSystem, RowLayout
 from bonecontact.contact.interface import ContactInterface
 from bonecontact.contact.linear_strategy import LinearStrategy, SetRows
+from bonecontact.contact.reductions import (
+    global_any,
+    global_count,
+    global_first,
+    global_kth,
+    global_max,
+    global_min,
+    global_sum,
+    neighbour_points,
+)
 
 if TYPE_CHECKING:
     from bonecontact.contact.set_update import Iterate
@@ -81,6 +87,7 @@ def edge_gap(
     delta1: float,
     rho: float,
     Kb: float,
+    comm: MPI.Comm | None = None,
 ) -> float:
     """The gap ``t`` at which the predicted contact zone ends (module docstring).
 
@@ -94,6 +101,9 @@ def edge_gap(
         Patch force, approach and radius of the first solve (all > 0).
     Kb
         Stiffness of the structure behind the contact (0 … ∞).
+    comm
+        With more than one rank: ``gap`` and ``area`` are this rank's nodes, the search
+        runs over the nodes of all ranks (collective).
 
     Returns
     -------
@@ -103,6 +113,8 @@ def edge_gap(
     """
     if not np.isfinite(Kb):
         return 0.5 * delta1
+    if comm is not None and comm.size > 1:
+        return _edge_gap_distributed(comm, gap, area, P1, delta1, rho, Kb)
     order = np.argsort(gap, kind="stable")
     g = gap[order]
     a = np.sqrt(np.cumsum(np.abs(area[order])) / np.pi)
@@ -112,12 +124,46 @@ def edge_gap(
     return float(g[hit[0]]) if hit.size else float(g[-1])
 
 
+def _edge_gap_distributed(
+    comm: MPI.Comm,
+    gap: npt.NDArray[np.float64],
+    area: npt.NDArray[np.float64],
+    P1: float,
+    delta1: float,
+    rho: float,
+    Kb: float,
+) -> float:
+    """:func:`edge_gap` over the nodes of all ranks: the smallest gap at which the balance
+    holds, found by bisection over the gaps (scalar reductions only)."""
+
+    def holds(t: float) -> bool:
+        a = np.sqrt(global_sum(comm, float(np.abs(area[gap <= t]).sum())) / np.pi)
+        return (4.0 / 3.0) * P1 / (delta1 * rho) * a * t >= P1 + Kb * (delta1 - 2.0 * t)
+
+    t = global_first(comm, gap, holds)
+    return t if t is not None else global_max(comm, gap)
+
+
+def _median(comm: MPI.Comm | None, values: npt.NDArray[np.float64]) -> float:
+    """The median of the values of all ranks (as :func:`numpy.median`)."""
+    if comm is None or comm.size == 1:
+        return float(np.median(values))
+    n = global_count(comm, np.ones(values.size, dtype=bool))
+    hi = global_kth(comm, values, n // 2)
+    return hi if n % 2 else (global_kth(comm, values, n // 2 - 1) + hi) / 2.0
+
+
+def _vsum(comm: MPI.Comm | None, v: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    return v if comm is None or comm.size == 1 else comm.allreduce(v, op=MPI.SUM)
+
+
 def punch_approach(
     coords: npt.NDArray[np.float64],
     un: npt.NDArray[np.float64],
     force: npt.NDArray[np.float64],
     patch: npt.NDArray[np.bool_],
     rho: float,
+    comm: MPI.Comm | None = None,
 ) -> float:
     """The approach ``δ₁`` of the patch solve, from the surface around the patch.
 
@@ -126,23 +172,25 @@ def punch_approach(
     ``u_n / (1 − (2/π) arcsin(ρ/r))`` over the nodes at ``2ρ ≤ r ≤ 4ρ`` from the patch's
     force centre estimates ``δ``.  Far nodes are not used: there the bending of a body
     held at a few nodes adds to ``u_n``.  Falls back to the largest ``u_n`` outside the
-    patch if no node lies in that ring.
+    patch if no node lies in that ring.  ``comm``: the nodes are this rank's, the
+    estimate is over the nodes of all ranks (collective).
     """
     outside = ~patch
-    if not outside.any():
+    if not global_any(comm, outside):
         return 0.0
     wgt = np.maximum(force[patch], 0.0)
+    wsum = global_sum(comm, float(wgt.sum()))
     c = (
-        (wgt[:, None] * coords[patch]).sum(axis=0) / wgt.sum()
-        if wgt.sum() > 0
-        else coords[patch].mean(axis=0)
+        _vsum(comm, (wgt[:, None] * coords[patch]).sum(axis=0)) / wsum
+        if wsum > 0
+        else _vsum(comm, coords[patch].sum(axis=0)) / global_count(comm, patch)
     )
     r = np.linalg.norm(coords - c, axis=1)
     ring = outside & (r >= 2.0 * rho) & (r <= 4.0 * rho)
-    if not ring.any():
-        return float(un[outside].max())
+    if not global_any(comm, ring):
+        return global_max(comm, un[outside])
     shape = 1.0 - (2.0 / np.pi) * np.arcsin(rho / r[ring])
-    return float(np.median(un[ring] / shape))
+    return _median(comm, un[ring] / shape)
 
 
 def first_set(
@@ -154,15 +202,16 @@ def first_set(
     patch: npt.NDArray[np.bool_],
     dforce: npt.NDArray[np.float64] | None,
     shift: float,
+    comm: MPI.Comm | None = None,
 ) -> npt.NDArray[np.bool_]:
     """The first active set of one contact pair after the patch solve.
 
     Parameters
     ----------
     coords
-        Reference coordinates of the pair's slave nodes (replicated).
+        Reference coordinates of the pair's slave nodes (this rank's, with ``comm``).
     gap, area
-        Gaps ``g_p`` and areas ``D_pp`` of the pair's slave nodes (replicated).
+        Gaps ``g_p`` and areas ``D_pp`` of the pair's slave nodes.
     un
         Normal approach ``u_n,p`` of the first solve.
     force
@@ -174,6 +223,8 @@ def first_set(
         (``None``: the structure is taken as absent, ``K_b = 0``).
     shift
         The push (m) ``dforce`` belongs to.
+    comm
+        The ranks over which the pair's nodes are spread (``None``: all here).
 
     Returns
     -------
@@ -181,19 +232,20 @@ def first_set(
         Mask of the first set; the patch itself if the first solve gives no usable
         measurement (no compressive patch force, no approach).
     """
-    if not patch.any():
+    if not global_any(comm, patch):
         return patch.copy()
-    g0 = float(gap[patch].min())
+    g0 = global_min(comm, gap[patch])
     g = np.maximum(gap - g0, 0.0)
-    P1 = float(force[patch].sum())
-    rho = float(np.sqrt(np.abs(area[patch]).sum() / np.pi))
-    delta1 = punch_approach(coords, un - g0, force, patch, rho)
+    P1 = global_sum(comm, float(force[patch].sum()))
+    rho = float(np.sqrt(global_sum(comm, float(np.abs(area[patch]).sum())) / np.pi))
+    delta1 = punch_approach(coords, un - g0, force, patch, rho, comm)
     if P1 <= 0.0 or delta1 <= 0.0:
         return patch.copy()
     Kb = 0.0
     if dforce is not None and shift > 0.0:
-        Kb = structure_stiffness(P1, delta1, float(dforce[patch].sum()) / shift)
-    t = edge_gap(g, area, P1, delta1, rho, Kb)
+        K = global_sum(comm, float(dforce[patch].sum())) / shift
+        Kb = structure_stiffness(P1, delta1, K)
+    t = edge_gap(g, area, P1, delta1, rho, Kb, comm)
     return patch | (g <= t)
 
 
@@ -233,25 +285,24 @@ def predicted_set(
     force in the first solve (pulled apart) takes the plain active-set rule instead.
     Returns the set and the linear iterations of the extra solve.
     """
-    lay, gap, D = system.layout, system.gap, system.D
+    lay, gap, D, comm = system.layout, system.gap, system.D, system.layout.comm
     force = it.lam_n * D
-    g0 = float(gap[patch].min()) if patch.any() else 0.0
-    shift = max(float((it.un - g0).max()), 0.0) if lay.n_nodes else 0.0
+    g0 = global_min(comm, gap[patch]) if global_any(comm, patch) else 0.0
+    shift = max(global_max(comm, it.un - g0, 0.0), 0.0)
     dforce, its = None, 0
     if shift > 0.0:
         dforce, its = patch_response(system, strategy, rows, patch, it.lam_n, shift)
     interfaces = system.interfaces
-    X = lay.gather(np.concatenate([itf.coords for itf in interfaces]))
-    pair = lay.gather(
-        np.concatenate(
-            [np.full(itf.num_owned, k) for k, itf in enumerate(interfaces)] + [np.zeros(0, int)]
-        )
+    X = np.concatenate([itf.coords for itf in interfaces])
+    pair = np.concatenate(
+        [np.full(itf.num_owned, k) for k, itf in enumerate(interfaces)] + [np.zeros(0, int)]
     )
     new = np.zeros(lay.n_nodes, dtype=bool)
     release = it.ind_n > it.eps  # the plain rule (docs/theory/pdas.md#active-set-rule)
     for k in range(len(interfaces)):
         m = pair == k
-        if patch[m].any() and float(force[m & patch].sum()) <= 0.0:
+        pulled = global_sum(comm, float(force[m & patch].sum())) <= 0.0
+        if global_any(comm, patch[m]) and pulled:
             # a pair pulled apart (e.g. crack faces in tension): nothing to measure the
             # compliance with, and keeping the patch would accept tensile multipliers
             new[m] = release[m]
@@ -265,6 +316,7 @@ def predicted_set(
             patch[m],
             None if dforce is None else dforce[m],
             shift,
+            comm,
         )
     return new, its
 
@@ -275,6 +327,7 @@ def support_patch(
     closest: npt.NDArray[np.bool_],
     gdim: int,
     radius: float = SUPPORT_RADIUS,
+    comm: MPI.Comm | None = None,
 ) -> npt.NDArray[np.bool_]:
     """The closest slave nodes and every slave node within ``radius`` local mesh sizes of
     one of them (docs/theory/pdas.md#cold-start).
@@ -288,25 +341,32 @@ def support_patch(
     ----------
     coords, D
         Reference coordinates ``(n, gdim)`` and ``D_pp`` of the slave nodes of a pair
-        (replicated: identical on every rank).
+        (this rank's, with ``comm``).
     closest
         Mask of the closest nodes.
     gdim
         Geometric dimension.
     radius
         Patch radius in local mesh sizes.
+    comm
+        The ranks over which the pair's nodes are spread: the closest nodes of
+        neighbouring ranks within reach are exchanged (collective).
 
     Returns
     -------
     numpy.ndarray
         Mask of the patch (``closest`` included).
     """
-    if not closest.any():
+    if not global_any(comm, closest):
         return closest.copy()
     h = np.abs(D[closest]) ** (1.0 / max(gdim - 1, 1))
-    tree = cKDTree(coords[closest])
+    reach = radius * global_max(comm, h, 0.0)
+    pts, hs = neighbour_points(comm, coords[closest], h, reach, coords)
+    if not hs.size:
+        return closest.copy()
+    tree = cKDTree(pts)
     dist, j = tree.query(coords, k=1)
-    return closest | (dist <= radius * h[j])
+    return closest | (dist <= radius * hs[j])
 
 
 def initial_set(
@@ -317,13 +377,11 @@ def initial_set(
     closed-gap nodes when the bodies touch, the closest ones when they start apart), and
     the support patch around them (:func:`support_patch`), so that a body held only by
     contact is supported against its rigid modes from the first solve even when it
-    touches at a single node.  Replicated (collective)."""
+    touches at a single node.  This rank's owned nodes (collective)."""
     out = []
     comm = layout.comm
     for itf in interfaces:
-        gap = layout.gather(itf.gap)
-        closest = gap <= max(float(gap.min()) if gap.size else 0.0, 0.0) + gap_tol
-        patch = support_patch(layout.gather(itf.coords), layout.gather(itf.D), closest, itf.gdim)
-        lo = sum(comm.allgather(itf.num_owned)[: comm.rank])
-        out.append(patch[lo : lo + itf.num_owned])
-    return layout.gather(np.concatenate(out + [np.zeros(0, bool)]))
+        gmin = global_min(comm, itf.gap)
+        closest = itf.gap <= max(gmin if np.isfinite(gmin) else 0.0, 0.0) + gap_tol
+        out.append(support_patch(itf.coords, itf.D, closest, itf.gdim, comm=comm))
+    return np.concatenate(out + [np.zeros(0, bool)])

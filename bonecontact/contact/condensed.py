@@ -4,9 +4,10 @@ docs/theory/pdas.md#linear-system-of-one-iteration).
 
 :class:`CondensedSystem` holds what every PDAS iteration works on: the operator in the
 nodal frames ``Ã = T Q A Qᵀ Tᵀ``, its right-hand side ``T Q b``, the solution ``Ũ`` and
-the layout of the contact rows, with the per-node data (``D_pp``, gaps, row scales)
-replicated on every rank.  It is built once per operator by
-:meth:`CondensedSystem.build` and knows nothing of active sets or friction.
+the layout of the contact rows, with the per-node data (``D_pp``, gaps, row scales) of
+this rank's owned slave nodes (docs/theory/pdas.md#distributed-set-logic).  It is built
+once per operator by :meth:`CondensedSystem.build` and knows nothing of active sets or
+friction.
 """
 
 from __future__ import annotations
@@ -26,79 +27,76 @@ from bonecontact.contact.interface import (
     rotation_matrix,
     transformed_operator,
 )
+from bonecontact.contact.reductions import global_sum
 
 __all__ = ["CondensedSystem", "RowLayout"]
 
 
 @dataclass
 class RowLayout:
-    """Where the contact rows are: this rank's and the replicated numbering.
+    """Where the contact rows are: this rank's owned slave nodes and their rows.
 
-    The replicated arrays of the PDAS have one entry per slave node of every rank (rank
-    order, interface by interface within a rank); the replicated contact rows are
-    component-major: ``rows_of[j][p]`` is the row of component ``j`` (0 normal, then the
-    tangents) of node ``p``.
+    The per-node arrays of the PDAS have one entry per slave node owned by this rank
+    (interface by interface); the per-row arrays are component-major over them:
+    ``rows_of[j][p] = j n_nodes + p`` is the row of component ``j`` (0 normal, then the
+    tangents) of node ``p``, and ``local_rows`` its row in the PETSc vectors.  Across
+    ranks, the contact rows are numbered rank after rank: this rank's row ``r`` is the
+    global contact row ``row_offset + r``.  No array here has the global size.
     """
 
     comm: MPI.Comm
     bs: int  # block size = gdim
-    n_nodes: int  # NS: slave nodes of all ranks
-    n_owned: int  # slave nodes of this rank
-    node_offset: int  # this rank's first node in the replicated numbering
+    n_nodes: int  # slave nodes of this rank (owned)
+    n_global: int  # slave nodes of all ranks
+    node_offset: int  # this rank's first node in the rank-after-rank numbering
     split: npt.NDArray[np.int64]  # where this rank's nodes change interface
     local_rows: npt.NDArray[np.int32]  # this rank's contact rows (local, component-major)
-    rows_of: list[npt.NDArray[np.int64]]  # per component, the replicated row of every node
+    rows_of: list[npt.NDArray[np.int64]]  # per component, the row of every node
 
     @classmethod
     def of(cls, comm: MPI.Comm, bs: int, interfaces: list[ContactInterface]) -> RowLayout:
         """The layout of the owned slave nodes of ``interfaces`` (collective)."""
         sizes = [itf.num_owned for itf in interfaces]
         m = int(sum(sizes))
-        counts = comm.allgather(m)
+        offset = comm.exscan(m) if comm.size > 1 else 0
         nodes_local = np.concatenate(
             [bs * itf.blocks.astype(np.int64) for itf in interfaces] + [np.zeros(0, np.int64)]
         )
         local_rows = np.concatenate([nodes_local + j for j in range(bs)]).astype(np.int32)
-        offs = np.cumsum([0] + counts[:-1])
-        rows_of = [
-            np.concatenate([bs * o + j * c + np.arange(c) for o, c in zip(offs, counts)]).astype(
-                np.int64
-            )
-            for j in range(bs)
-        ]
         return cls(
             comm=comm,
             bs=bs,
-            n_nodes=int(sum(counts)),
-            n_owned=m,
-            node_offset=int(sum(counts[: comm.rank])),
+            n_nodes=m,
+            n_global=int(comm.allreduce(m, op=MPI.SUM)),
+            node_offset=int(offset or 0),
             split=np.cumsum(sizes)[:-1],
             local_rows=local_rows,
-            rows_of=rows_of,
+            rows_of=[j * m + np.arange(m, dtype=np.int64) for j in range(bs)],
         )
 
     @property
+    def n_owned(self) -> int:
+        """Slave nodes of this rank (:attr:`n_nodes`)."""
+        return self.n_nodes
+
+    @property
     def n_rows(self) -> int:
-        """Replicated contact rows (``bs × n_nodes``)."""
+        """Contact rows of this rank (``bs × n_nodes``)."""
         return self.bs * self.n_nodes
 
-    def gather(self, local: npt.NDArray) -> npt.NDArray:
-        """This rank's per-node (or per-row) values → the replicated array (collective)."""
-        return np.concatenate(self.comm.allgather(np.ascontiguousarray(local)), axis=0)
+    @property
+    def row_offset(self) -> int:
+        """Global contact row of this rank's row 0."""
+        return self.bs * self.node_offset
 
-    def own(self, rep: npt.NDArray) -> list[npt.NDArray]:
-        """A replicated per-node array → this rank's nodes, split by interface."""
-        return np.split(rep[self.node_offset : self.node_offset + self.n_owned], self.split)
-
-    def own_rows(self, rep: npt.NDArray) -> npt.NDArray:
-        """A replicated per-row array → the entries of this rank's contact rows."""
-        lo = self.bs * self.node_offset
-        return rep[lo : lo + self.local_rows.size]
+    def own(self, values: npt.NDArray) -> list[npt.NDArray]:
+        """A per-node array → this rank's nodes split by interface."""
+        return np.split(values, self.split)
 
     def fixed_rows(
         self, normal: npt.NDArray[np.bool_], tangential: npt.NDArray[np.bool_]
     ) -> npt.NDArray[np.bool_]:
-        """Replicated mask of the rows with a prescribed value: the normal rows of the nodes
+        """Mask of the rows with a prescribed value: the normal rows of the nodes
         ``normal`` (active), the tangential rows of the nodes ``tangential`` (sticking)."""
         fixed = np.zeros(self.n_rows, dtype=bool)
         fixed[self.rows_of[0][normal]] = True
@@ -113,7 +111,8 @@ class CondensedSystem:
 
     Unknowns ``Ũ = T Q⁻ᵀ U``: relative displacements of the slave nodes in their frames
     ``[n; t(; t2)]``; the contact rows carry ``w = T F̂ − Ã Ũ`` (the contact force is
-    ``−w``) and the multipliers are ``λ = w / D_pp``.  Per-node arrays are replicated.
+    ``−w``) and the multipliers are ``λ = w / D_pp``.  Per-node arrays hold this rank's
+    owned slave nodes.
     """
 
     layout: RowLayout
@@ -127,7 +126,7 @@ class CondensedSystem:
     start: int  # first owned global row
     D: npt.NDArray[np.float64]  # D_pp
     gap: npt.NDArray[np.float64]  # nodal gaps g_p = d_p / D_pp
-    scale: npt.NDArray[np.float64]  # |diagonal| of every contact row (replicated rows)
+    scale: npt.NDArray[np.float64]  # |diagonal| of every contact row (this rank's rows)
     stiffness_ratio: float  # mean of (normal-row diagonal / D_pp) (≈ E/h)
     diag_value: float  # diagonal of eliminated rows
     force_scale: float  # operator forces → N (1, 1/Δt or 1/Δt²)
@@ -135,6 +134,7 @@ class CondensedSystem:
     r0: PETSc.Vec  # T F̂ = T Q b, Dirichlet rows holding their values
     w: PETSc.Vec  # work: T F̂ − Ã Ũ
     Fh: PETSc.Vec  # work: F̂ = Q b
+    AtL: PETSc.Mat | None = None  # the contact rows of Ã (built on first use)
 
     @classmethod
     def build(
@@ -155,14 +155,15 @@ class CondensedSystem:
         At = transformed_operator(A, Qt, Tt)
         start = bs * V.dofmap.index_map.local_range[0]
         bc = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
-        D = layout.gather(np.concatenate([itf.D for itf in interfaces] + [np.zeros(0)]))
-        gap = layout.gather(np.concatenate([itf.gap for itf in interfaces] + [np.zeros(0)]))
+        D = np.concatenate([itf.D for itf in interfaces] + [np.zeros(0)])
+        gap = np.concatenate([itf.gap for itf in interfaces] + [np.zeros(0)])
         diag = At.getDiagonal()
-        scale = np.maximum(layout.gather(np.abs(diag.array[layout.local_rows])), 1e-300)
+        scale = np.maximum(np.abs(diag.array[layout.local_rows]), 1e-300)
         diag.destroy()
-        ns = layout.n_nodes
+        ns, comm = layout.n_global, layout.comm
         sn = scale[layout.rows_of[0]]
-        ratio = float((sn / np.where(D > 0, D, 1.0)).sum()) / max(ns, 1)
+        ratio = global_sum(comm, float((sn / np.where(D > 0, D, 1.0)).sum())) / max(ns, 1)
+        mean_d = global_sum(comm, float(D.sum())) / max(ns, 1)
         return cls(
             layout=layout,
             interfaces=list(interfaces),
@@ -178,7 +179,7 @@ class CondensedSystem:
             scale=scale,
             stiffness_ratio=ratio,
             # the mean normal-row stiffness
-            diag_value=ratio * float(np.mean(D)) if ns else 1.0,
+            diag_value=ratio * mean_d if ns else 1.0,
             force_scale=float(force_scale),
             Uh=At.createVecRight(),
             r0=At.createVecLeft(),
@@ -195,14 +196,28 @@ class CondensedSystem:
             self.r0.array[self.bc_local] = b.array[self.bc_local]
 
     def unknowns(self) -> npt.NDArray[np.float64]:
-        """The replicated unknowns ``Ũ`` of the contact rows."""
-        return self.layout.gather(self.Uh.array[self.layout.local_rows])
+        """The unknowns ``Ũ`` of this rank's contact rows."""
+        return self.Uh.array[self.layout.local_rows].copy()
 
     def contact_residual(self) -> npt.NDArray[np.float64]:
-        """``w = T F̂ − Ã Ũ`` into :attr:`w`; returns its replicated contact rows."""
-        self.At.mult(self.Uh, self.w)
-        self.w.aypx(-1.0, self.r0)
-        return self.layout.gather(self.w.array[self.layout.local_rows])
+        """This rank's contact rows of ``w = T F̂ − Ã Ũ`` (a product with the contact
+        rows of ``Ã`` only, :attr:`AtL`)."""
+        rows = self.layout.local_rows
+        if self.AtL is None:
+            comm = self.layout.comm
+            lo, hi = self.At.getOwnershipRangeColumn()
+            isrow = PETSc.IS().createGeneral(
+                (rows.astype(np.int64) + self.start).astype(PETSc.IntType), comm=comm
+            )
+            iscol = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=comm)
+            self.AtL = self.At.createSubMatrix(isrow, iscol)
+            isrow.destroy()
+            iscol.destroy()
+        wl = self.AtL.createVecLeft()
+        self.AtL.mult(self.Uh, wl)
+        w = self.r0.array_r[rows] - wl.array_r
+        wl.destroy()
+        return w
 
     def fixed_values(self, xold: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Values of rows when prescribed: the gap for normal rows, the unknowns ``xold``
@@ -242,3 +257,5 @@ class CondensedSystem:
         """Free the PETSc objects."""
         for obj in (self.At, self.T, self.Tt, self.Qt, self.Uh, self.r0, self.w, self.Fh):
             obj.destroy()
+        if self.AtL is not None:
+            self.AtL.destroy()

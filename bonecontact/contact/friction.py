@@ -1,8 +1,9 @@
 """Friction laws of the PDAS contact solver: bounds, slip sets and 3D slip linearisation.
 
-Everything here works on the replicated per-node arrays of
-:class:`bonecontact.contact.pdas.ContactSolver` (one entry per slave node of every rank,
-identical on all ranks), pure NumPy:
+Everything here works on the per-node arrays of
+:class:`bonecontact.contact.pdas.ContactSolver` (one entry per slave node owned by this
+rank); what needs the other ranks is a scalar reduction
+(:mod:`bonecontact.contact.reductions`):
 
 * :class:`FrictionLaw`, the friction of one contact pair;
 * the friction bounds ``ĝ_p``: Tresca, the given bound; Coulomb, ``μ λ_n,p`` of the
@@ -24,8 +25,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from mpi4py import MPI
+
 import numpy as np
 import numpy.typing as npt
+
+from bonecontact.contact.reductions import global_any, global_dot
 
 __all__ = [
     "EDGE_AFTER_RELEASES",
@@ -83,32 +88,37 @@ class FrictionLaw:
 
 @dataclass(frozen=True)
 class NodalFriction:
-    """The friction laws of all contact pairs, node by node (replicated arrays).
+    """The friction laws of all contact pairs, node by node (this rank's owned nodes).
 
     Built once per operator (:meth:`of_pairs`); gives the friction bounds of a step and
     of the Coulomb fixed point.  Bounds are in operator units (Pa divided by the
-    operator's force scale).
+    operator's force scale).  ``any_active``, ``any_fixed_point`` and ``any_rigid`` say
+    whether some node of some rank has friction, the FP update, a rigid bound.
     """
 
     kind: npt.NDArray[np.int_]  # FRICTION_KIND code per node
     mu: npt.NDArray[np.float64]  # Coulomb coefficient
     bound: npt.NDArray[np.float64]  # Tresca bound (operator units)
     fixed_point: npt.NDArray[np.bool_]  # Coulomb with the Algorithm FP update
+    comm: MPI.Comm | None = None
+    any_active: bool = False
+    any_fixed_point: bool = False
+    any_rigid: bool = False
 
     @classmethod
     def of_pairs(
         cls,
         laws: list[FrictionLaw],
         sizes: list[int],
-        gather: Callable[[npt.NDArray], npt.NDArray],
+        comm: MPI.Comm | None,
         force_scale: float,
     ) -> NodalFriction:
         """Per-node arrays of the laws of the pairs, ``sizes[k]`` owned nodes of pair
-        ``k`` on this rank; ``gather`` replicates this rank's values (collective)."""
+        ``k`` on this rank (collective over ``comm``)."""
 
         def per(f: Callable[[FrictionLaw], float]) -> npt.NDArray[np.float64]:
             parts = [np.full(n, f(fl), dtype=float) for n, fl in zip(sizes, laws)]
-            return gather(np.concatenate(parts + [np.zeros(0)]))
+            return np.concatenate(parts + [np.zeros(0)])
 
         kind = per(lambda fl: FRICTION_KIND[fl.kind]).astype(int)
         fixed_point = (kind == 2) & (per(lambda fl: fl.update == "fixed_point") > 0)
@@ -117,6 +127,10 @@ class NodalFriction:
             mu=per(lambda fl: fl.coefficient),
             bound=per(lambda fl: fl.bound) / force_scale,
             fixed_point=fixed_point,
+            comm=comm,
+            any_active=global_any(comm, kind > 0),
+            any_fixed_point=global_any(comm, fixed_point),
+            any_rigid=global_any(comm, (kind > 0) & ~fixed_point),
         )
 
     @property
@@ -138,7 +152,7 @@ class NodalFriction:
         self, g: npt.NDArray[np.float64], lam_n: npt.NDArray[np.float64]
     ) -> tuple[npt.NDArray[np.float64], float]:
         """Algorithm FP bounds of the current iterate (:func:`coulomb_fixed_point_bounds`)."""
-        return coulomb_fixed_point_bounds(g, self.fixed_point, self.mu, lam_n)
+        return coulomb_fixed_point_bounds(g, self.fixed_point, self.mu, lam_n, self.comm)
 
 
 def step_bounds(
@@ -157,15 +171,18 @@ def coulomb_fixed_point_bounds(
     fp: npt.NDArray[np.bool_],
     mu: npt.NDArray[np.float64],
     lam_n: npt.NDArray[np.float64],
+    comm: MPI.Comm | None = None,
 ) -> tuple[npt.NDArray[np.float64], float]:
     """Algorithm FP: the bounds ``μ max(0, λ_n)`` of the current iterate at the nodes ``fp``.
 
-    Returns the new bounds and their relative change (0 when they are all zero).
+    Returns the new bounds and their relative change over the nodes of all ranks of
+    ``comm`` (0 when they are all zero).
     """
     g_new = g.copy()
     g_new[fp] = mu[fp] * np.maximum(lam_n[fp], 0.0)
-    den = float(np.linalg.norm(g_new[fp]))
-    change = float(np.linalg.norm(g_new[fp] - g[fp])) / den if den > 0 else 0.0
+    diff = g_new[fp] - g[fp]
+    den = float(np.sqrt(global_dot(comm, g_new[fp], g_new[fp])))
+    change = float(np.sqrt(global_dot(comm, diff, diff))) / den if den > 0 else 0.0
     return g_new, change
 
 
@@ -175,14 +192,18 @@ def slip_set(
     zn: npt.NDArray[np.float64],
     g: npt.NDArray[np.float64],
     eps: float,
+    gmax: float | None = None,
 ) -> npt.NDArray[np.bool_]:
     """Active friction nodes with ``|λ_t + c_t Δu_t|`` (``zn``) above the bound
     (docs/theory/pdas.md#active-set-rule).
 
     A node with a zero bound (Coulomb with no pressure yet) slips: it carries no
     tangential traction (a "stick" decided on round-off of ξ ≈ 0 could only toggle).
+    ``gmax`` is the largest bound of all ranks (default: of ``g``).
     """
-    gtol = 1e-10 * max(float(g.max()) if g.size else 0.0, eps)
+    if gmax is None:
+        gmax = float(g.max()) if g.size else 0.0
+    gtol = 1e-10 * max(gmax, eps)
     return an & fric & ((zn > g + gtol) | (g <= 0.0))
 
 
@@ -238,13 +259,13 @@ def slip_newton_rows(
     Parameters
     ----------
     rows
-        ``(n, gdim − 1)`` tangential rows (replicated numbering) of the slip nodes.
+        ``(n, gdim − 1)`` tangential rows (this rank's numbering) of the slip nodes.
     D, lam_t, z, g
         ``D_pp``, the traction ``λ^k``, ``ξ^k`` and the bound ``ĝ`` of the slip nodes.
     c_t
         Tangential complementarity parameter.
     xold
-        The replicated unknowns at the start of the step.
+        This rank's unknowns of the contact rows at the start of the step.
 
     Returns
     -------
@@ -276,6 +297,7 @@ def aitken_directions(
     new_dirs: npt.NDArray[np.float64],
     sets_changed: bool,
     aitken: list,
+    comm: MPI.Comm | None = None,
 ) -> None:
     """Aitken-accelerated fixed point of the 3D slip directions (in place).
 
@@ -286,9 +308,10 @@ def aitken_directions(
     res_d = np.where(both[:, None], new_dirs - dirs, 0.0).ravel()
     if not sets_changed and aitken[0] is not None and aitken[0].shape == res_d.shape:
         dr = res_d - aitken[0]
-        den = float(dr @ dr)
+        den = global_dot(comm, dr, dr)
         if den > 0:
-            aitken[1] = float(np.clip(-aitken[1] * float(aitken[0] @ dr) / den, 0.2, 20.0))
+            step = -aitken[1] * global_dot(comm, aitken[0], dr) / den
+            aitken[1] = float(np.clip(step, 0.2, 20.0))
     else:
         aitken[1] = 1.0
     aitken[0] = res_d
@@ -351,7 +374,7 @@ def edge_groups(
     Parameters
     ----------
     nodes
-        The edge nodes (replicated numbering).
+        The edge nodes (this rank's numbering).
     rows
         Per component ``j``, the replicated row of component ``j`` of every node.
     dirs
@@ -430,6 +453,7 @@ def update_edge_sets(
     z: npt.NDArray[np.float64],
     zn: npt.NDArray[np.float64],
     tol: float,
+    comm: MPI.Comm | None = None,
 ) -> EdgeSets:
     """The edge rule (docs/theory/pdas.md#edge-of-the-contact-zone): new normal, stick and
     edge sets (``new_an``, ``new_stick``, ``new_dirs`` updated in place).
@@ -459,7 +483,7 @@ def update_edge_sets(
     back = edge & ~up & (((z - lam_t) * dirs).sum(axis=1) < -tol)
     down = edge & ~back & (beta < -tol)
     stay = edge & ~up & ~down & ~back
-    if (up | down | back).any():
+    if global_any(comm, up | down | back):
         # the solve gave an edge node a traction outside [0, ĝ]: only the edge nodes
         # change in this iteration (the other nodes' indicators were computed with it)
         others = ~edge
@@ -467,7 +491,7 @@ def update_edge_sets(
         new_dirs[others] = dirs[others]
         releases = sets.releases.copy()
         enter[:] = False
-    elif enter.any():
+    elif global_any(comm, enter):
         # a node enters the edge state: the others keep their sets for this iteration
         # (their indicators were computed with the entering node open)
         others = ~(edge | enter)

@@ -31,6 +31,7 @@ import numpy.typing as npt
 from dolfinx import fem
 
 from bonecontact.common.linalg import configure_ksp, rigid_body_modes
+from bonecontact.contact.reductions import global_count
 
 __all__ = [
     "PreconditionerReuse",
@@ -247,12 +248,13 @@ class PreconditionerReuse:
 
     def decide(self, ksp: PETSc.KSP, replaced: npt.NDArray[np.bool_]) -> bool:
         """Before a solve: keep the preconditioner (``True``) or rebuild it, and tell
-        ``ksp``.  ``replaced`` marks the contact rows (replicated, identical on every
-        rank) that are fixed or replaced in the set of the solve."""
+        ``ksp``.  ``replaced`` marks this rank's contact rows that are fixed or replaced
+        in the set of the solve (the counts are summed over the ranks)."""
         keep = self._mask is not None and self.rows > 0.0
         if keep:
-            changed = int((replaced != self._mask).sum())
-            keep = changed <= max(1, int(self.rows * int(self._mask.sum())))
+            comm = ksp.getComm().tompi4py()
+            changed = global_count(comm, replaced != self._mask)
+            keep = changed <= max(1, int(self.rows * global_count(comm, self._mask)))
             keep = keep and self._last_rate <= self.growth * max(self._first_rate, 1.0)
         ksp.getPC().setReusePreconditioner(keep)
         if keep:

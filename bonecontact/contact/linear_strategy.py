@@ -50,7 +50,8 @@ __all__ = [
 
 @dataclass
 class SetRows:
-    """The rows of one active set's system (replicated numbering of the contact rows).
+    """The rows of one active set's system (this rank's contact rows, in the numbering of
+    :class:`~bonecontact.contact.condensed.RowLayout`).
 
     ``fixed`` rows take ``values`` (active normal rows: the gap; stick rows: the old
     slip); free rows carry the given residual ``forces`` (2D / fixed-point slip rows:
@@ -68,7 +69,7 @@ class SetRows:
 
 
 class SetSolution(NamedTuple):
-    """Replicated unknowns ``x`` and residual ``w = T F̂ − Ã Ũ`` of the contact rows,
+    """Unknowns ``x`` and residual ``w = T F̂ − Ã Ũ`` of this rank's contact rows,
     the linear iterations of the solve and what the history records of it."""
 
     x: npt.NDArray[np.float64]
@@ -234,10 +235,10 @@ class RefactorStrategy:
         v.set(0.0)
         if sy.bc_local.size:
             v.array[sy.bc_local] = sy.r0.array[sy.bc_local]
-        own_fixed = lay.own_rows(rows.fixed)
-        v.array[lay.local_rows[own_fixed]] = lay.own_rows(rows.values)[own_fixed]
+        own_fixed = rows.fixed  # (the rows of this rank)
+        v.array[lay.local_rows[own_fixed]] = rows.values[own_fixed]
         sy.r0.copy(self._rhs)
-        self._rhs.array[lay.local_rows] -= lay.own_rows(rows.forces)
+        self._rhs.array[lay.local_rows] -= rows.forces
         sy.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         eliminated = np.concatenate(
             [
@@ -256,12 +257,9 @@ class RefactorStrategy:
         rows of one node share their columns)."""
         crow, Gc, Hc, hc = coupled
         sy, lay = self.system, self.system.layout
-        lo = lay.bs * lay.node_offset
-        hi = lo + lay.local_rows.size
-        mine = np.flatnonzero((crow[:, 0] >= lo) & (crow[:, 0] < hi))
         updates = []
-        for i in mine:
-            grows = [int(lay.local_rows[q - lo]) + sy.start for q in crow[i]]
+        for i in range(crow.shape[0]):  # (the groups of this rank's nodes)
+            grows = [int(lay.local_rows[q]) + sy.start for q in crow[i]]
             data = [self.B.getRow(r) for r in grows]
             cols = data[0][0]
             vals = np.array([d[1] for d in data])

@@ -25,6 +25,7 @@ from scipy.linalg import lapack
 
 from bonecontact.common.errors import RunError
 from bonecontact.common.linalg import configure_ksp, solver_options
+from bonecontact.contact.reductions import global_any
 
 __all__ = [
     "DENSE_BLOCKS",
@@ -103,7 +104,7 @@ class SplitBasis:
     patch_rows
         Owned global rows (all components) of the patch's slave nodes.
     allowed
-        Replicated mask of the contact rows that may be fixed in the base.
+        Mask of this rank's contact rows that may be fixed in the base.
     """
 
     def __init__(
@@ -155,6 +156,20 @@ def _rows_outside_identity(Qt: PETSc.Mat, patch_rows: npt.NDArray, keep: bool) -
     return M
 
 
+def _exscan(comm: MPI.Comm, n: int) -> int:
+    """Sum of ``n`` over the lower ranks."""
+    return int(comm.exscan(n) or 0) if comm.size > 1 else 0
+
+
+def _allgather_rows(comm: MPI.Comm, *arrays: npt.NDArray) -> list[npt.NDArray]:
+    """Each array's rows of all ranks, rank after rank (its size is what the ranks hold,
+    e.g. the rows of a low-rank update, never the slave count)."""
+    if comm.size == 1:
+        return list(arrays)
+    parts = comm.allgather(arrays)
+    return [np.concatenate([p[i] for p in parts], axis=0) for i in range(len(arrays))]
+
+
 def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
     M = PETSc.Mat().createDense(((nloc, PETSc.DECIDE), (PETSc.DECIDE, k)), comm=comm)
     M.setUp()  # PETSc allocates the dense block zeroed
@@ -189,7 +204,7 @@ class LowRankActiveSetSolver:
         Owned global rows with Dirichlet conditions (always eliminated).
     rows
         The owned *local* rows of the contact unknowns (slave normal and tangential
-        rows in the nodal frames), in the order of the replicated arrays.
+        rows in the nodal frames), in the order of the PDAS's per-row arrays.
     diag_value
         Diagonal put on eliminated rows (as in the refactorising solver).
     prefix
@@ -205,7 +220,7 @@ class LowRankActiveSetSolver:
         cache limit is the smaller of this and ``max_columns``).
     split
         Optional ``(A, Qᵀ, T, Tᵀ, allowed, first)``: factorise the operator with only the
-        contact rows ``allowed`` (replicated mask; all rows of the support patch's
+        contact rows ``allowed`` (this rank's rows; all rows of the support patch's
         nodes) in the contact basis, :class:`SplitBasis`, and with the rows ``first``
         fixed (the cold start's first set), whatever set a solve starts from (the
         first argument ``A`` is then not used).
@@ -237,9 +252,8 @@ class LowRankActiveSetSolver:
         self.bc_rows = np.asarray(bc_rows, dtype=PETSc.IntType)
         self.bc_local = (self.bc_rows - self.start).astype(np.int32)
         self.L = np.asarray(rows, dtype=np.int32)
-        counts = self.comm.allgather(int(self.L.size))
-        self.offset = int(sum(counts[: self.comm.rank]))
-        self.ns = int(sum(counts))
+        # this rank's contact rows are the global positions offset … offset + L.size − 1
+        self.offset = _exscan(self.comm, int(self.L.size))
         self.diag_value = float(diag_value)
         self.max_columns = int(max_columns)
         self.rebase_ratio = float(rebase_ratio)
@@ -255,11 +269,15 @@ class LowRankActiveSetSolver:
         self._new_pattern = True
         self._in_respond = False
         self._r0_orig: PETSc.Vec | None = None
-        if self.split is not None:  # the node of every replicated contact row
+        if self.split is not None:  # the node of every contact row of this rank
             bs = max(self._split_args[0].getBlockSize(), 1)
-            self._node = self._gather((self.L.astype(np.int64) + self.start) // bs)
+            self._node = (self.L.astype(np.int64) + self.start) // bs
         self.base: npt.NDArray[np.bool_] | None = None
         self.cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        #: full columns X (this rank's rows) of cached positions, within ``full_limit``:
+        #: the final field of a solve is then ``x_b + X y`` without a second solve
+        self.full_cols: dict[int, np.ndarray] = {}
+        self.full_limit = 0
         self.t_factor = 0.0
         self.t_column = 0.0
         self.t_block = 0.0
@@ -271,18 +289,14 @@ class LowRankActiveSetSolver:
         self._rhs = A.createVecLeft()
         self._xb = A.createVecRight()
         self._tmp = A.createVecLeft()
-        self._vals: npt.NDArray[np.float64] = np.zeros(self.ns)
-        self._wg: npt.NDArray[np.float64] = np.zeros(self.ns)
+        self._vals: npt.NDArray[np.float64] = np.zeros(self.L.size)
+        self._wg: npt.NDArray[np.float64] = np.zeros(self.L.size)
         self._reff = A.createVecLeft()
 
     def _make_split(self, allowed: npt.NDArray[np.bool_], rows: npt.NDArray) -> SplitBasis:
-        """The split basis with the replicated contact rows ``allowed`` in the contact basis."""
+        """The split basis with this rank's contact rows ``allowed`` in the contact basis."""
         A0, Qt, T, Tt = self._split_args
-        comm0 = A0.getComm().tompi4py()
-        rows_ = np.asarray(rows, dtype=np.int64)
-        off = int(sum(comm0.allgather(int(rows_.size))[: comm0.rank]))
-        own = allowed[off : off + rows_.size]
-        patch = rows_[own] + A0.getOwnershipRange()[0]
+        patch = np.asarray(rows, dtype=np.int64)[allowed] + A0.getOwnershipRange()[0]
         return SplitBasis(A0, Qt, T, Tt, patch, allowed)
 
     def _contact_rows(self, A: PETSc.Mat) -> PETSc.Mat:
@@ -304,10 +318,22 @@ class LowRankActiveSetSolver:
         return ksp
 
     # ------------------------------------------------------------------ small utilities
-    def _gather(self, local: npt.NDArray) -> npt.NDArray:
-        """Local values at the slave normal rows → the replicated array (rank order)."""
-        parts = self.comm.allgather(np.ascontiguousarray(local))
-        return np.concatenate(parts, axis=0)
+    def _local(self, qs: list[int] | npt.NDArray) -> tuple[npt.NDArray, npt.NDArray]:
+        """Of the global positions ``qs``: the indices ``i`` of those of this rank and
+        their local rows ``qs[i] − offset``."""
+        q = np.asarray(qs, dtype=np.int64)
+        i = np.flatnonzero((q >= self.offset) & (q < self.offset + self.L.size))
+        return i, q[i] - self.offset
+
+    def _flags(self, mask: npt.NDArray[np.bool_], qs: list[int] | npt.NDArray) -> npt.NDArray:
+        """``mask`` (this rank's rows) at the global positions ``qs``, on every rank (one
+        entry per position, from the rank that holds it)."""
+        out = np.zeros(len(qs), dtype=np.int8)
+        i, r = self._local(qs)
+        out[i] = mask[r]
+        if self.comm.size > 1:
+            out = self.comm.allreduce(out, op=MPI.SUM)
+        return out.astype(bool)
 
     def _full(self, v: PETSc.Vec) -> npt.NDArray:
         """Local values of ``v`` in the contact basis (``(I − J) v`` with a split basis)."""
@@ -319,12 +345,9 @@ class LowRankActiveSetSolver:
         jv.destroy()
         return out
 
-    def _own(self, rep: npt.NDArray) -> npt.NDArray:
-        return rep[self.offset : self.offset + self.L.size]
-
     def _fixed_local(self, mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.int32]:
         """Local rows eliminated for the set ``mask``: Dirichlet rows and fixed normal rows."""
-        return np.concatenate([self.bc_local, self.L[self._own(mask)]]).astype(np.int32)
+        return np.concatenate([self.bc_local, self.L[mask]]).astype(np.int32)
 
     def _lift(self, v: PETSc.Vec, fixed_local: npt.NDArray[np.int32], out: PETSc.Vec) -> None:
         """``out = r − A v`` on free rows and ``δ v`` on the fixed ones (what
@@ -335,10 +358,10 @@ class LowRankActiveSetSolver:
 
     # ------------------------------------------------------------------ factorisation
     def factorize(self, mask: npt.NDArray[np.bool_]) -> None:
-        """Make ``mask`` (replicated, length ``ns``) the base set: assemble and factorise
+        """Make ``mask`` (this rank's contact rows) the base set: assemble and factorise
         ``B_C``."""
         t0 = time.perf_counter()
-        if self.split is not None and (mask & ~self.split.allowed).any():
+        if self.split is not None and global_any(self.comm, mask & ~self.split.allowed):
             raise ValueError("split basis: only rows of the support patch can be fixed in the base")
         self.A.copy(self.B0, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         rows = (self._fixed_local(mask).astype(np.int64) + self.start).astype(PETSc.IntType)
@@ -359,6 +382,7 @@ class LowRankActiveSetSolver:
             )
         self.base = mask.copy()
         self.cache.clear()
+        self.full_cols.clear()
         self._set_memory_limits()
         dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
         # the first factorisation includes the symbolic analysis, which later ones reuse:
@@ -374,7 +398,7 @@ class LowRankActiveSetSolver:
 
         A block of ``k`` columns holds about ``DENSE_BLOCKS`` dense ``n_local × k`` arrays
         at once (right-hand sides, solutions, ``A·X``, MUMPS's work space); the cache
-        keeps two replicated numbers per contact row and column, and a set update
+        keeps two numbers per contact row of the rank and column, and a set update
         stacks the columns it uses once more.  Both are limited to ``memory_ratio``
         times the factors' memory on the largest rank (MUMPS INFOG(21)), so a contact
         solve stays within about ``1 + memory_ratio`` linear solves of memory: blocks are
@@ -383,11 +407,14 @@ class LowRankActiveSetSolver:
         budget = self.memory_ratio * self._factor_bytes()
         if not np.isfinite(budget):
             self.block_limit = self.column_limit = self.max_columns
+            self.full_limit = 0
             return
+        # full columns kept for the final field: the same budget (collective minimum)
+        self.full_limit = self.comm.allreduce(int(budget // (8.0 * max(self.nloc, 1))), op=MPI.MIN)
         per_column = DENSE_BLOCKS * 8.0 * max(self.nloc, 1)
         chunk = self.comm.allreduce(int(budget // per_column), op=MPI.MIN)
         self.block_limit = max(chunk, MIN_BLOCK)
-        cached = int(budget // (4 * 8.0 * max(self.ns, 1)))
+        cached = self.comm.allreduce(int(budget // (4 * 8.0 * max(self.L.size, 1))), op=MPI.MIN)
         self.column_limit = min(self.max_columns, max(cached, MIN_BLOCK))
 
     def _factor_bytes(self) -> float:
@@ -406,16 +433,16 @@ class LowRankActiveSetSolver:
         initial: npt.NDArray[np.bool_],
     ) -> None:
         """Start a contact solve with right-hand side ``r0`` (nodal frames, Dirichlet rows
-        holding their values ``bc_values``) and the replicated values the contact rows
+        holding their values ``bc_values``) and the values this rank's contact rows
         take when fixed (gaps for normal rows, the previous slip for tangential ones);
-        factorise at ``initial`` (replicated mask) if there is no base yet."""
+        factorise at ``initial`` (this rank's rows) if there is no base yet."""
         if self.split is not None:  # (kept for a re-split)
             if self._r0_orig is None:
                 self._r0_orig = r0.duplicate()
             r0.copy(self._r0_orig)
         self._bc_values = np.asarray(bc_values, dtype=np.float64)
         self._vals = np.asarray(values, dtype=np.float64).copy()
-        self._wg = np.zeros(self.ns)
+        self._wg = np.zeros(self.L.size)
         self._set_r0(r0)
         if self.base is None:
             self.factorize(initial if self.split is None else self.split.first)
@@ -430,7 +457,7 @@ class LowRankActiveSetSolver:
             self._r0.axpy(-1.0, jr)
             jr.destroy()
         self._r0.copy(self._reff)
-        self._r0N = self._gather(self._r0.array[self.L])
+        self._r0N = self._r0.array[self.L].copy()
 
     # ------------------------------------------------------------------ re-split
     def _factor_counts(self) -> tuple[float, float]:
@@ -464,7 +491,7 @@ class LowRankActiveSetSolver:
         return cost_columns > self.rebase_ratio * RESPLIT_GROWTH * flops
 
     def _resplit(self, mask: npt.NDArray[np.bool_]) -> None:
-        """Rebuild the split basis with the nodes of ``mask`` (replicated, fixed rows)
+        """Rebuild the split basis with the nodes of ``mask`` (this rank's fixed rows)
         added to the contact basis, and make ``mask`` the factorised base set: the
         columns the set would need become one factorisation."""
         nodes = np.unique(self._node[mask])
@@ -484,21 +511,21 @@ class LowRankActiveSetSolver:
         self.base = None
         self._new_pattern = True  # (its first factorisation includes the analysis)
         self._set_r0(self._r0_orig)
-        wg, self._wg = self._wg, np.zeros(self.ns)
+        wg, self._wg = self._wg, np.zeros(self.L.size)
         self._set_given(wg)
         self.factorize(mask)
         self._base_solve()
 
     def _set_given(self, wgiven: npt.NDArray | None) -> bool:
         """Prescribed residuals ``w`` (e.g. friction forces at slip rows); True if changed."""
-        wg = np.zeros(self.ns) if wgiven is None else np.asarray(wgiven, dtype=np.float64)
-        if np.array_equal(wg, self._wg):
+        wg = np.zeros(self.L.size) if wgiven is None else np.asarray(wgiven, dtype=np.float64)
+        if not global_any(self.comm, not np.array_equal(wg, self._wg)):
             return False
         self._wg = wg.copy()
         self._r0.copy(self._reff)
         f = self._reff.duplicate()
         f.set(0.0)
-        f.array[self.L] = self._own(wg)
+        f.array[self.L] = wg
         if self.split is not None:  # the master side of the given forces
             jf = self.split.Jt.createVecLeft()
             self.split.Jt.mult(f, jf)
@@ -515,9 +542,8 @@ class LowRankActiveSetSolver:
         v.set(0.0)
         if self.bc_local.size:
             v.array[self.bc_local] = self._bc_values
-        own = self._own(mask)
-        vals = self._own(self._vals if extra is None else self._vals + extra)
-        v.array[self.L[own]] = vals[own]
+        vals = self._vals if extra is None else self._vals + extra
+        v.array[self.L[mask]] = vals[mask]
         return v
 
     def _base_solve(self) -> None:
@@ -527,8 +553,8 @@ class LowRankActiveSetSolver:
         self.ksp.solve(self._rhs, self._xb)
         t_solve = time.perf_counter() - t1
         self.A.mult(self._xb, self._tmp)
-        self._xbN = self._gather(self._full(self._xb)[self.L])
-        self._AxbN = self._gather(self._tmp.array[self.L])
+        self._xbN = self._full(self._xb)[self.L].copy()
+        self._AxbN = self._tmp.array[self.L].copy()
         self.t_solve = self.comm.allreduce(t_solve, op=MPI.MAX)
         if self.t_column == 0.0:
             # first estimate of a block of k columns: (1.3 + c k) solves, c = 0.15 serially
@@ -538,19 +564,20 @@ class LowRankActiveSetSolver:
             self.t_block = 1.3 * self.t_solve
 
     def _compute_columns(self, qs: list[int]) -> None:
-        """Columns for the replicated positions ``qs``, in chunks of at most
+        """Columns for the global positions ``qs``, in chunks of at most
         ``block_limit`` (memory)."""
         for i in range(0, len(qs), self.block_limit):
             self._compute_block(qs[i : i + self.block_limit])
 
     def _compute_block(self, qs: list[int]) -> None:
-        """Columns for the replicated positions ``qs`` (X-type if in the base, W-type if not)."""
+        """Columns for the global positions ``qs`` (X-type if in the base, W-type if not)."""
         t0 = time.perf_counter()
         k = len(qs)
         lo, hi = self.offset, self.offset + self.L.size
         Rm = _dense(self.comm, self.nloc, k)
         R = Rm.getDenseArray(readonly=False)
-        xq = [j for j, q in enumerate(qs) if self.base[q]]
+        in_base = self._flags(self.base, qs)
+        xq = [j for j in range(k) if in_base[j]]
         if xq:
             U = _dense(self.comm, self.nloc, k)
             Ua = U.getDenseArray(readonly=False)
@@ -565,8 +592,8 @@ class LowRankActiveSetSolver:
             U.destroy()
         for j, q in enumerate(qs):
             if lo <= q < hi:
-                R[self.L[q - lo], j] = self.diag_value if self.base[q] else 1.0
-        wq = [j for j, q in enumerate(qs) if not self.base[q]]
+                R[self.L[q - lo], j] = self.diag_value if in_base[j] else 1.0
+        wq = [j for j in range(k) if not in_base[j]]
         if self.split is not None and wq:
             self._split_forces(qs, wq, R)
         Rm.assemble()
@@ -579,10 +606,14 @@ class LowRankActiveSetSolver:
             JX = self.split.J.matMult(Xm)
             Xa = Xa - JX.getDenseArray()
             JX.destroy()
-        colN = self._gather(Xa[self.L, :])
-        kcolN = self._gather(KXm.getDenseArray())
+        colN = Xa[self.L, :]  # (this rank's contact rows of the columns)
+        kcolN = KXm.getDenseArray()
+        keep_full = len(self.full_cols) + k <= self.full_limit  # (same on every rank)
+        Xraw = Xm.getDenseArray()
         for j, q in enumerate(qs):
             self.cache[q] = (colN[:, j].copy(), kcolN[:, j].copy())
+            if keep_full:
+                self.full_cols[q] = Xraw[:, j].copy()
         for M in (Rm, Xm, KXm):
             M.destroy()
         self.columns += k
@@ -626,26 +657,31 @@ class LowRankActiveSetSolver:
         margin: npt.NDArray[np.float64] | None = None,
         coupled: tuple | None = None,
     ) -> tuple[npt.NDArray, npt.NDArray, dict]:
-        """Solve the system of the set ``active`` (replicated mask).
+        """Solve the system of the set ``active`` (this rank's contact rows).
+
+        Every array is over this rank's contact rows; the rows in which the set differs
+        from the base are numbered globally (rank after rank), and the small dense
+        system of their amplitudes is formed from the rows each rank holds and solved on
+        every rank (docs/theory/pdas.md#distributed-set-logic).
 
         Parameters
         ----------
         active
-            Replicated mask of the fixed (active) normal unknowns.
+            Mask of the fixed (active) contact rows.
         scale
-            Replicated stiffness scale of the rows (balances the small system).
+            Stiffness scale of the rows (balances the small system).
         wgiven
-            Replicated prescribed residual ``w = r0 − A x`` at free rows (friction forces
+            Prescribed residual ``w = r0 − A x`` at free rows (friction forces
             at slip rows; zero elsewhere).
         margin
-            Optional replicated distance of each node from switching (e.g.
+            Optional distance of each row from switching (e.g.
             ``|λ + c_n (u_n − g)|`` of the previous iteration).  When columns must be
             computed anyway, as many again are computed for the fixed rows of the base
             closest to being released (one block costs little more than a few columns).
         coupled
             Optional rows whose equation is replaced by a small coupled one (the
             linearised slip condition of 3D friction):
-            ``(rows, G, H, h)`` with ``rows`` (m, r) replicated row indices (free in
+            ``(rows, G, H, h)`` with ``rows`` (m, r) this rank's row indices (free in
             ``active``, zero ``wgiven``) and, for every group ``i``,
             ``G_i w[rows_i] + H_i x[rows_i] = h_i`` with ``G_i, H_i`` (r × r).  Each such row
             gets one unknown (a force if free in the base, a value if fixed in it).
@@ -653,7 +689,7 @@ class LowRankActiveSetSolver:
         Returns
         -------
         (x_N, w_N, info)
-            Replicated normal unknowns and residual ``r0 − A x`` at the normal rows, and
+            This rank's contact unknowns and residual ``r0 − A x`` at the contact rows, and
             ``{"columns": new columns, "refactorized": bool, "size": unknowns of the small
             system}``.
         """
@@ -671,7 +707,9 @@ class LowRankActiveSetSolver:
         if cols:
             G = np.column_stack([self.cache[q][0] for q in cols])
             KG = np.column_stack([self.cache[q][1] for q in cols])
-            M, rhs, csc = self._small_system(cols, active, scale, G, KG, xN, wN, coupled, crow)
+            M, rhs, csc = self._small_system(
+                cols, (active, scale), (G, KG), (xN, wN), coupled, crow
+            )
             y = _solve_dense(M, rhs) * csc
             xN += G @ y
             wN -= KG @ y
@@ -679,11 +717,12 @@ class LowRankActiveSetSolver:
         return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
 
     def _differing(self, active: npt.NDArray[np.bool_], crow: npt.NDArray) -> npt.NDArray:
-        """Replicated rows in which the set ``active`` differs from the base, or whose
-        equation is replaced (``crow``): one column each."""
+        """Global positions of the rows in which the set ``active`` differs from the base,
+        or whose equation is replaced (``crow``): one column each (the same list on
+        every rank, gathered: its size is the number of such rows)."""
         d = active != self.base
         d[crow.ravel()] = True
-        return np.flatnonzero(d)
+        return _allgather_rows(self.comm, np.flatnonzero(d) + self.offset)[0]
 
     def _prepare_columns(
         self,
@@ -710,6 +749,7 @@ class LowRankActiveSetSolver:
             if too_many:  # (no rebase: keep the columns of this set only)
                 keep = {int(q) for q in diff}
                 self.cache = {q: c for q, c in self.cache.items() if q in keep}
+                self.full_cols = {q: c for q, c in self.full_cols.items() if q in keep}
         elif missing and (too_many or cost_columns > cost_rebase):
             self.factorize(active)
             self._base_solve()
@@ -719,52 +759,67 @@ class LowRankActiveSetSolver:
         if missing and margin is not None and self.split is None:
             # speculate on releases only: fixed rows of the base closest to being freed
             # (a cold-started PDAS overshoots, then releases nodes for several iterations)
-            same = active & self.base
-            order = np.argsort(margin, kind="stable")
-            extra = [int(q) for q in order if same[q] and int(q) not in self.cache][: len(missing)]
+            extra = self._closest_releases(active, margin, len(missing))
             room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
         if missing:
             self._compute_columns(missing)
         return diff, len(missing), refactorized
 
+    def _closest_releases(
+        self, active: npt.NDArray[np.bool_], margin: npt.NDArray[np.float64], n: int
+    ) -> list[int]:
+        """Global positions of the ``n`` rows fixed in both ``active`` and the base, without
+        a cached column, with the smallest ``margin`` (ties by position): each rank offers
+        its ``n`` closest, the ranks' offers are merged."""
+        same = active & self.base
+        cand = np.flatnonzero(same)
+        q = cand + self.offset
+        keep = np.array([int(v) not in self.cache for v in q], dtype=bool)
+        cand, q = cand[keep], q[keep]
+        order = np.lexsort((q, margin[cand]))[:n]
+        m_all, q_all = _allgather_rows(self.comm, margin[cand][order], q[order])
+        return [int(v) for v in q_all[np.lexsort((q_all, m_all))][:n]]
+
     def _small_system(
         self,
         cols: list[int],
-        active: npt.NDArray[np.bool_],
-        scale: npt.NDArray[np.float64],
-        G: npt.NDArray,
-        KG: npt.NDArray,
-        xN: npt.NDArray,
-        wN: npt.NDArray,
+        sets: tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]],
+        columns: tuple[npt.NDArray, npt.NDArray],
+        base_state: tuple[npt.NDArray, npt.NDArray],
         coupled: tuple | None,
         crow: npt.NDArray,
     ) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
         """The dense system of the column amplitudes ``y = csc · ỹ``: a fixed row takes its
         value, a free row its given force, a coupled row its equation (rows scaled by
-        ``scale``).  Returns ``(M, rhs, csc)``."""
-        pos = {q: i for i, q in enumerate(cols)}
-        base = self.base[cols]
+        ``scale``).  ``sets = (active, scale)``, ``columns = (G, KG)`` and ``base_state =
+        (xN, wN)`` are this rank's rows; each rank forms the equations of the rows it
+        holds, and the rows of all ranks are gathered (``len(cols)²`` numbers).  Returns
+        ``(M, rhs, csc)``."""
+        (active, scale), (G, KG), (xN, wN) = sets, columns, base_state
+        k = len(cols)
+        mine, r = self._local(cols)
         # unknowns: value shifts s (base-fixed rows) and forces mu = scale * mu~ (base-free
         # rows)
-        csc = np.where(base, 1.0, scale[cols])
-        M = np.empty((len(cols), len(cols)))
-        rhs = np.empty(len(cols))
-        fix = active[cols]
-        M[fix] = G[np.asarray(cols)[fix], :]
-        rhs[fix] = (self._vals - xN)[np.asarray(cols)[fix]]
-        free = ~fix
-        c_free = np.asarray(cols)[free]
-        M[free] = KG[c_free, :] / scale[c_free, None]
-        rhs[free] = (wN - self._wg)[c_free] / scale[c_free]
-        if coupled is not None:
+        csc = np.where(self.base[r], 1.0, scale[r])
+        M = np.empty((mine.size, k))
+        rhs = np.empty(mine.size)
+        fix = active[r]
+        M[fix] = G[r[fix], :]
+        rhs[fix] = (self._vals - xN)[r[fix]]
+        c_free = r[~fix]
+        M[~fix] = KG[c_free, :] / scale[c_free, None]
+        rhs[~fix] = (wN - self._wg)[c_free] / scale[c_free]
+        if coupled is not None and crow.size:
             _, Gc, Hc, hc = coupled
             q = crow.ravel()
+            pos = {int(v): i for i, v in enumerate(r)}
             idx = np.array([pos[int(v)] for v in q], dtype=np.int64)
             Mc = np.einsum("iab,ibk->iak", Hc, G[crow]) - np.einsum("iab,ibk->iak", Gc, KG[crow])
             rc = hc - np.einsum("iab,ib->ia", Gc, wN[crow]) - np.einsum("iab,ib->ia", Hc, xN[crow])
-            M[idx] = Mc.reshape(q.size, len(cols)) / scale[q, None]
+            M[idx] = Mc.reshape(q.size, k) / scale[q, None]
             rhs[idx] = rc.ravel() / scale[q]
+        M, rhs, csc = _allgather_rows(self.comm, M, rhs, csc)  # (rows in the order of cols)
         M *= csc[None, :]
         return M, rhs, csc
 
@@ -772,7 +827,7 @@ class LowRankActiveSetSolver:
         self, active: npt.NDArray[np.bool_], scale: npt.NDArray[np.float64], dvals: npt.NDArray
     ) -> tuple[npt.NDArray, npt.NDArray]:
         """The solution of the set ``active`` with the values of the fixed rows shifted by
-        ``dvals`` (replicated), e.g. a push of the cold start's support patch; the state of
+        ``dvals`` (this rank's rows), e.g. a push of the cold start's support patch; the state of
         the current contact solve is kept (one extra base solve).
 
         Returns
@@ -795,32 +850,37 @@ class LowRankActiveSetSolver:
         return xN, wN
 
     def finish(self, out: PETSc.Vec) -> None:
-        """Write the full solution of the last :meth:`solve_set` into ``out`` (one solve)."""
+        """Write the full solution of the last :meth:`solve_set` into ``out``: ``x_b + X y``
+        when every column of the set is kept in full (:attr:`full_cols`), else one solve."""
         cols, y = self._y
-        extra = np.zeros(self.ns)
-        base = self.base[cols] if cols else np.zeros(0, bool)
-        if cols:
-            extra[np.asarray(cols)[base]] = y[base]
+        if all(q in self.full_cols for q in cols):  # (the same on every rank)
+            x = self._xb.array.copy()
+            if cols:
+                x += np.column_stack([self.full_cols[q] for q in cols]) @ y
+            out.array[:] = x
+            if self.split is not None:
+                out.array[:] = self._full(out)
+            return
+        mine, r = self._local(cols)
+        base = self.base[r]
+        extra = np.zeros(self.L.size)
+        extra[r[base]] = y[mine[base]]
         v = self._values_for(self.base, extra)
         self._lift(v, self._fixed_local(self.base), self._rhs)
-        lo, hi = self.offset, self.offset + self.L.size
-        for q, mu, b in zip(cols, y, base):
-            if not b and lo <= q < hi:
-                self._rhs.array[self.L[q - lo]] += mu
+        self._rhs.array[self.L[r[~base]]] += y[mine[~base]]
         if self.split is not None and cols:
-            forces = np.zeros(self.ns)
-            forces[np.asarray(cols)[~base]] = y[~base]
+            forces = np.zeros(self.L.size)
+            forces[r[~base]] = y[mine[~base]]
             self._split_rhs(forces)
         self.ksp.solve(self._rhs, out)
         if self.split is not None:
             out.array[:] = self._full(out)
 
     def _split_rhs(self, forces: npt.NDArray) -> None:
-        """Add the master side ``−Jᵀ f`` of the contact forces ``f`` (replicated, at the
-        contact rows) to the right-hand side (split basis)."""
+        """Add the master side ``−Jᵀ f`` of the contact forces ``f`` (this rank's contact
+        rows) to the right-hand side (split basis)."""
         f = self.split.K.createVecLeft()
-        own = self._own(forces)
-        f.array[self.L] = own
+        f.array[self.L] = forces
         jf = self.split.Jt.createVecLeft()
         self.split.Jt.mult(f, jf)
         self._rhs.array[:] -= jf.array

@@ -13,8 +13,9 @@ assembled from four parts, each in its own module:
   slip directions, bounds and the edge rule;
 * :class:`~bonecontact.contact.friction.NodalFriction` — the friction laws node by node.
 
-Set decisions are taken on arrays replicated over the slave nodes of every rank; the
-linear algebra stays distributed.  Units: λ in Pa (N/m² — per unit thickness in 2D),
+Set decisions are taken node by node on the rank that owns the slave node, with scalar
+reductions only (docs/theory/pdas.md#distributed-set-logic); the linear algebra stays
+distributed.  Units: λ in Pa (N/m² — per unit thickness in 2D),
 forces in N (N/m in 2D), slips in m.
 """
 
@@ -196,7 +197,7 @@ class ContactSolver:
         )
         sizes = [itf.num_owned for itf in self.interfaces]
         self.friction = NodalFriction.of_pairs(
-            self.frictions, sizes, sy.layout.gather, self.force_scale
+            self.frictions, sizes, sy.layout.comm, self.force_scale
         )
         self.sets = SetUpdate(sy, self.friction, opts.active_set, opts.slip)
         self.gap_tol = self._gap_tolerance()
@@ -207,7 +208,7 @@ class ContactSolver:
         self.rtol = float(rtol)
         # inexact PDAS (docs/theory/pdas.md#inexact-solves): frictionless iterative only
         loose = opts.linear.loose_rtol
-        inexact = linear == "iterative" and not self.friction.active.any()
+        inexact = linear == "iterative" and not self.friction.any_active
         self.loose_rtol = float(loose) if inexact and loose > self.rtol else self.rtol
         self.setup_time = time.perf_counter() - t0
 
@@ -314,7 +315,7 @@ class ContactSolver:
 
         def rep(key: str, dtype: type) -> npt.NDArray:
             parts = [np.asarray(a, dtype=dtype) for a in state[key]]
-            return lay.gather(np.concatenate(parts) if parts else np.zeros(0, dtype))
+            return np.concatenate(parts) if parts else np.zeros(0, dtype)
 
         self.warm = WarmStart(
             active=rep("active", bool),

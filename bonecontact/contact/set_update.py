@@ -4,10 +4,12 @@ docs/theory/pdas.md#tresca-and-coulomb-friction).
 
 :class:`SetUpdate` turns the solution of one iteration into the sets of the next and
 says which rows the next system prescribes (:meth:`SetUpdate.system_rows`).  It works
-on replicated per-node arrays only — every rank takes the same decisions — and does no
-linear algebra.  :class:`PDASState` is what one contact solve carries from iteration to
-iteration, :class:`Iterate` what one iteration computed, :class:`WarmStart` what is
-carried from one step to the next.
+on the per-node arrays of this rank's owned slave nodes — each node is decided by its
+rank, the counts and tolerances are scalar reductions
+(docs/theory/pdas.md#distributed-set-logic) — and does no linear algebra.
+:class:`PDASState` is what one contact solve carries from iteration to iteration,
+:class:`Iterate` what one iteration computed, :class:`WarmStart` what is carried from
+one step to the next.
 """
 
 from __future__ import annotations
@@ -32,13 +34,20 @@ from bonecontact.contact.friction import (
 )
 from bonecontact.contact.linear_strategy import SetRows
 from bonecontact.contact.options import ActiveSetOptions, SlipOptions
+from bonecontact.contact.reductions import (
+    global_any,
+    global_count,
+    global_dot,
+    global_max,
+    set_signature,
+)
 
 __all__ = ["Iterate", "PDASState", "SetUpdate", "WarmStart"]
 
 
 @dataclass
 class WarmStart:
-    """The sets carried from one contact solve to the next (replicated arrays)."""
+    """The sets carried from one contact solve to the next (owned nodes)."""
 
     active: npt.NDArray[np.bool_]  # active set A_n
     directions: npt.NDArray[np.float64]  # slip directions, (NS, gdim − 1)
@@ -49,7 +58,7 @@ class WarmStart:
 @dataclass
 class PDASState:
     """The state of one contact solve carried from one PDAS iteration to the next
-    (replicated per-node arrays)."""
+    (per-node arrays of the owned nodes)."""
 
     an: npt.NDArray[np.bool_]  # active set A_n
     stick: npt.NDArray[np.bool_]  # stick set (active friction nodes without slip)
@@ -74,7 +83,7 @@ class PDASState:
 
 @dataclass
 class Iterate:
-    """What one PDAS iteration computed from its linear solve (replicated arrays)."""
+    """What one PDAS iteration computed from its linear solve (owned nodes)."""
 
     x: npt.NDArray[np.float64]
     lam_n: npt.NDArray[np.float64]
@@ -126,7 +135,8 @@ class SetUpdate:
         self.fp_every, self.fp_tol = max(int(slip.fp_every), 1), float(slip.fp_tol)
         self.direction_tol = float(slip.direction_tol)
         self.bs = system.layout.bs
-        self.newton_3d = self.bs == 3 and slip.slip_3d == "newton" and bool(friction.active.any())
+        self.comm = system.layout.comm
+        self.newton_3d = self.bs == 3 and slip.slip_3d == "newton" and friction.any_active
 
     # ------------------------------------------------------------------ start and rows
     def start(self, warm: WarmStart, xold: npt.NDArray[np.float64]) -> PDASState:
@@ -213,7 +223,7 @@ class SetUpdate:
         lam_t = np.stack([w[R[j]] / Dsafe for j in range(1, bs)], axis=1)
         un = x[R[0]]
         dut = np.stack([x[R[j]] - st.xold[R[j]] for j in range(1, bs)], axis=1)
-        lam_scale = float(np.abs(lam_n).max()) if sy.layout.n_nodes else 0.0
+        lam_scale = global_max(self.comm, np.abs(lam_n), 0.0)
         eps = 1e-10 * max(lam_scale, 1e-300)
         z = lam_t + self.c_t * dut
         return Iterate(
@@ -238,15 +248,16 @@ class SetUpdate:
         # multiplier is zero to round-off (λ ≈ −ε, a degenerate node at the edge of the
         # zone) stays active instead of toggling (docs/theory/pdas.md#active-set-rule)
         new_an = (it.ind_n > it.eps) | (an & (it.ind_n >= -it.eps))
-        if damp_first and self.cold_start_fraction > 0 and (new_an & ~an).any():
+        if damp_first and self.cold_start_fraction > 0 and global_any(self.comm, new_an & ~an):
             pen = it.un - self.system.gap
-            new_an &= an | (pen > self.cold_start_fraction * float(pen[new_an & ~an].max()))
+            deepest = global_max(self.comm, pen[new_an & ~an])
+            new_an &= an | (pen > self.cold_start_fraction * deepest)
         self.take_active(st, it, new_an)
 
     def take_active(self, st: PDASState, it: Iterate, new_an: npt.NDArray[np.bool_]) -> None:
         """Take ``new_an`` as the new active set of ``it`` (e.g. a predicted one)."""
         it.new_an = new_an
-        it.changed_sets = int((new_an != st.an).sum())
+        it.changed_sets = global_count(self.comm, new_an != st.an)
 
     def update_bounds(self, st: PDASState, it: Iterate, k: int) -> None:
         """Coulomb fixed point (Algorithm FP): bounds from the current normal multipliers,
@@ -254,11 +265,14 @@ class SetUpdate:
         bounds."""
         it.bound_change = 0.0
         fr = self.friction
-        if not fr.fixed_point.any():
+        if not fr.any_fixed_point:
             return
         fric, g, new_an = fr.active, st.g, it.new_an
-        trial_stick = new_an & fric & ~slip_set(new_an, fric, it.zn, g, it.eps)
-        settle = it.changed_sets == 0 and not ((trial_stick != st.stick) & new_an & fric).any()
+        gmax = global_max(self.comm, g, 0.0)
+        trial_stick = new_an & fric & ~slip_set(new_an, fric, it.zn, g, it.eps, gmax)
+        settle = it.changed_sets == 0 and not global_any(
+            self.comm, (trial_stick != st.stick) & new_an & fric
+        )
         if k % self.fp_every == 0 or settle:
             g_new, it.bound_change = fr.fixed_point_bounds(g, it.lam_n)
             if it.bound_change > 0.0:
@@ -277,8 +291,9 @@ class SetUpdate:
         slip = st.an & fric & ~st.stick
         held = self._hold_reversed_releases(st, it, slip)
         new_an = it.new_an
+        gmax = global_max(self.comm, g, 0.0)
         new_slip, new_dirs = slip_directions(
-            slip_set(new_an, fric, it.zn, g, it.eps), slip, it.z, it.zn, g, dirs
+            slip_set(new_an, fric, it.zn, g, it.eps, gmax), slip, it.z, it.zn, g, dirs
         )
         new_slip &= ~held
         new_stick = new_an & fric & ~new_slip
@@ -290,14 +305,17 @@ class SetUpdate:
             if turned:
                 self._hold_switches(st, new_an, new_stick, new_dirs)
         else:
-            turned = int(
-                (np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol).sum()
+            turned = global_count(
+                self.comm,
+                np.linalg.norm(new_dirs[both] - dirs[both], axis=1) > self.direction_tol,
             )
-            stick_changes = int(((new_stick != st.stick) & new_an & fric).sum())
-            aitken_directions(both, dirs, new_dirs, it.changed_sets + stick_changes != 0, st.aitken)
-        changed_t = int(((new_stick != st.stick) & new_an & fric).sum())
+            stick_changes = global_count(self.comm, (new_stick != st.stick) & new_an & fric)
+            changed = it.changed_sets + stick_changes != 0
+            aitken_directions(both, dirs, new_dirs, changed, st.aitken, self.comm)
+        changed_t = global_count(self.comm, (new_stick != st.stick) & new_an & fric)
         if self.bs == 2:
-            changed_t += int((np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])).sum())
+            flips = np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])
+            changed_t += global_count(self.comm, flips)
         st.switches += (new_stick != st.stick) & new_an & st.an & fric
         it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned
 
@@ -312,13 +330,15 @@ class SetUpdate:
         traction is not yet ``ĝ s``."""
         g, dirs = st.g, st.dirs
         bg = both & (g > 0.0)
-        turned = int((np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol).sum())
-        gs = max(float(g.max()) if self.system.layout.n_nodes else 0.0, it.eps)
+        turned = global_count(
+            self.comm, np.linalg.norm(new_dirs[bg] - dirs[bg], axis=1) > self.direction_tol
+        )
+        gs = max(global_max(self.comm, g, 0.0), it.eps)
         off = (
             np.linalg.norm(it.lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1)
             > self.direction_tol * gs
         )
-        return turned + int(off.sum())
+        return turned + global_count(self.comm, off)
 
     def _hold_reversed_releases(
         self, st: PDASState, it: Iterate, slip: npt.NDArray[np.bool_]
@@ -331,12 +351,11 @@ class SetUpdate:
         ``it.new_an`` and ``it.changed_sets`` are updated; returns the nodes held.
         """
         back = (it.dut * st.dirs).sum(axis=1)
-        n = self.system.layout.n_nodes
-        tol = 1e-12 * max(float(np.abs(it.dut).max()) if n else 0.0, 1e-300)
+        tol = 1e-12 * max(global_max(self.comm, np.abs(it.dut), 0.0), 1e-300)
         held = slip & ~it.new_an & (st.g > 0.0) & (back < -tol)
-        if held.any():
+        if global_any(self.comm, held):
             it.new_an = it.new_an | held
-            it.changed_sets = int((it.new_an != st.an).sum())
+            it.changed_sets = global_count(self.comm, it.new_an != st.an)
         return held
 
     def _hold_switches(
@@ -362,31 +381,30 @@ class SetUpdate:
         pressure (docs/theory/pdas.md#edge-of-the-contact-zone), and the set changes
         counted again when it moved a node."""
         rigid = self.friction.rigid
-        if not rigid.any():
+        if not self.friction.any_rigid:
             return
         new_an, new_stick = it.new_an.copy(), it.new_stick.copy()
-        n = self.system.layout.n_nodes
-        gs = max(float(st.g.max()) if n else 0.0, it.eps)
+        gs = max(global_max(self.comm, st.g, 0.0), it.eps)
         it.new_edges = update_edge_sets(
             st.an, it.new_an, st.stick, it.new_stick, it.new_dirs, st.dirs, st.edges, rigid,
-            st.g, it.lam_t, it.z, it.zn, 1e-10 * gs,
+            st.g, it.lam_t, it.z, it.zn, 1e-10 * gs, self.comm,
         )  # fmt: skip
         old, new = st.edges.edge, it.new_edges.edge
-        moved = (new_an != it.new_an).any() or (new_stick != it.new_stick).any()
-        if not (moved or old.any() or new.any()):
+        moved = (new_an != it.new_an) | (new_stick != it.new_stick)
+        if not global_any(self.comm, moved | old | new):
             return
-        fric = self.friction.active
-        it.changed_sets = int((it.new_an != st.an).sum() + (new != old).sum())
-        changed_t = int(((it.new_stick != st.stick) & it.new_an & fric).sum())
+        fric, comm = self.friction.active, self.comm
+        it.changed_sets = global_count(comm, it.new_an != st.an) + global_count(comm, new != old)
+        changed_t = global_count(comm, (it.new_stick != st.stick) & it.new_an & fric)
         both_e = new & old
         if self.bs == 2:
             slip = st.an & fric & ~st.stick
             both = it.new_an & fric & ~it.new_stick & slip
             flips = np.sign(it.new_dirs[:, 0]) != np.sign(st.dirs[:, 0])
-            changed_t += int((flips & (both | both_e)).sum())
+            changed_t += global_count(comm, flips & (both | both_e))
         else:
             turn = np.linalg.norm(it.new_dirs[both_e] - st.dirs[both_e], axis=1)
-            it.turned += int((turn > self.direction_tol).sum())
+            it.turned += global_count(comm, turn > self.direction_tol)
         it.changed_t = changed_t
 
     # ------------------------------------------------------------------ convergence
@@ -394,20 +412,21 @@ class SetUpdate:
         """Record iteration ``k`` in the history; converged when no set, sign or
         direction changed and the friction bounds are settled."""
         changed = it.changed_sets + it.changed_t + it.turned
-        nrm = float(np.linalg.norm(it.x))
-        update = float(np.linalg.norm(it.x - st.x_prev)) / nrm if nrm > 0 else 0.0
+        comm, dx = self.comm, it.x - st.x_prev
+        nrm = float(np.sqrt(global_dot(comm, it.x, it.x)))
+        update = float(np.sqrt(global_dot(comm, dx, dx))) / nrm if nrm > 0 else 0.0
         st.x_prev = it.x
         an, fric = st.an, self.friction.active
         st.history.append(
             {
                 "iteration": k,
-                "active": int(an.sum()),
-                "stick": int((an & st.stick & fric).sum()),
-                "slip": int((an & fric & ~st.stick).sum()),
+                "active": global_count(comm, an),
+                "stick": global_count(comm, an & st.stick & fric),
+                "slip": global_count(comm, an & fric & ~st.stick),
                 "changed": changed,
                 "update": update,
                 "bound_change": it.bound_change,
-                "edge": int(st.edges.edge.sum()),
+                "edge": global_count(comm, st.edges.edge),
                 "linear_iterations": its,
                 **extra,
             }
@@ -432,7 +451,7 @@ class SetUpdate:
         if it.changed_sets + it.changed_t == 0:
             return False  # only 3D slip directions still turning: not a cycle
         sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes() if bs == 2 else b"")
-        sig += (st.edges.signature(),)
+        sig = set_signature(self.comm, sig + (st.edges.signature(),))
         if sig in st.seen:
             return True
         st.seen.add(sig)
