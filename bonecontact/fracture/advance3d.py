@@ -1,28 +1,39 @@
-"""The advance of a planar crack front in 3D under mode I
-(docs/theory/fracture.md#front-advance-of-a-planar-crack).
+"""The advance of a crack front in 3D (docs/theory/fracture.md#front-advance-of-a-planar-crack,
+#mixed-mode-advance-in-3d).
 
-The front is a convex polygon in the crack plane (:class:`~bonecontact.fracture.front3d.
-PolygonFront`, the ``shape = "polygon"`` crack of :mod:`bonecontact.fracture.crack3d`), K
-is evaluated at the middle of every edge, and every vertex moves in the crack plane along
-the bisector of its two edges' outward normals by
-
-    Δa_i = Δa_max (K_i / K_max)^n,
-
-K_i the mean of its two edges' K (a vertex lies between them), optionally smoothed along
-the front (a periodic moving average of Δa over three vertices, removing the
-point-to-point scatter of the domain integral).  Under mode I the crack stays in its plane
-(the kink angle of MTS, or of any 3D criterion, is zero); a mixed-mode kink is not
-implemented.  Points below K_Ic do not advance.
+* :func:`advance_polygon_front` — a planar convex polygonal front under mode I: every
+  vertex moves in the crack plane along the bisector of its edges' outward normals by
+  Δa_i = Δa_max (K_i/K_max)^n (optionally smoothed over three vertices).
+* :func:`sigma1_kink`, :func:`equivalent_k` — the σ₁′ criterion of Schöllmann et al.
+  (2002): the kink angle φ₀ that maximises σ₁′ = σ_φ/2 + ½√(σ_φ² + 4τ_φz²) of the
+  near-front field, the twist angle ψ₀ and K_V = K_I/2 + ½√(K_I² + 5.336K_II² + 4K_III²).
+* :func:`advance_mixed_front` — a closed polyline front under mixed mode: every vertex
+  moves by Δa_i = Δa_max (K_V,i/K_V,max)^n in the direction cos φ₀ e₁ + sin φ₀ e₂ of its
+  frame (φ₀ and Δa smoothed over three vertices), and :func:`extend_surface` adds the
+  strip between the old and the new front to a
+  :class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from bonecontact.fracture.crack import FractureError
+from bonecontact.fracture.crack3d import TriangulatedCrack
 
-__all__ = ["advance_polygon_front", "vertex_directions"]
+__all__ = [
+    "MixedAdvance",
+    "advance_mixed_front",
+    "advance_polygon_front",
+    "equivalent_k",
+    "extend_surface",
+    "sigma1_kink",
+    "vertex_directions",
+]
 
 
 def vertex_directions(vertices: npt.ArrayLike, normal: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -95,3 +106,177 @@ def advance_polygon_front(
     if np.any(turn <= 0):
         raise FractureError("increment", "the advanced front is not convex: take a smaller one")
     return new, da
+
+
+# ------------------------------------------------------------------ mixed mode (σ₁′)
+_GRID = np.radians(np.linspace(-100.0, 100.0, 4001))  # candidate kink angles, 0.05°
+
+
+def _sigma1(phi, k1, k2, k3):
+    """σ₁′ √(2πr) of the near-front field at the angle ``phi`` (broadcast) and σ_φ, τ_φz."""
+    c = np.cos(phi / 2)
+    s_phi = c * (k1 * c**2 - 1.5 * k2 * np.sin(phi))
+    tau = k3 * c
+    return 0.5 * s_phi + 0.5 * np.sqrt(s_phi**2 + 4 * tau**2), s_phi, tau
+
+
+def sigma1_kink(
+    k_i: npt.ArrayLike, k_ii: npt.ArrayLike, k_iii: npt.ArrayLike
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Kink angle φ₀ and twist angle ψ₀ (rad) of the σ₁′ criterion (Schöllmann et al.
+    2002) at every point.
+
+    φ₀ maximises σ₁′(φ) = σ_φ/2 + ½√(σ_φ² + 4τ_φz²), σ_φ = cos(φ/2)[K_I cos²(φ/2) −
+    (3/2)K_II sin φ], τ_φz = K_III cos(φ/2) (the factor 1/√(2πr) dropped), over
+    |φ| ≤ 100° (a grid of 0.05° refined by a parabola through the best three); ψ₀ =
+    ½ atan(2τ_φz/σ_φ) at φ₀.  K_III = 0 gives the MTS angle; K_II > 0 a negative φ₀
+    (towards −e₂).
+    """
+    k1, k2, k3 = (np.atleast_1d(np.asarray(k, dtype=float))[:, None] for k in (k_i, k_ii, k_iii))
+    val, _, _ = _sigma1(_GRID[None, :], k1, k2, k3)
+    j = np.clip(np.argmax(val, axis=1), 1, len(_GRID) - 2)
+    rows = np.arange(len(j))
+    y0, y1, y2 = val[rows, j - 1], val[rows, j], val[rows, j + 1]
+    den = y0 - 2 * y1 + y2
+    step = _GRID[1] - _GRID[0]
+    shift = np.where(np.abs(den) > 0, 0.5 * (y0 - y2) / np.where(den == 0, 1, den), 0.0)
+    phi0 = _GRID[j] + np.clip(shift, -1, 1) * step
+    _, s_phi, tau = _sigma1(phi0, k1[:, 0], k2[:, 0], k3[:, 0])
+    psi0 = 0.5 * np.arctan2(2 * tau, s_phi)
+    return phi0, psi0
+
+
+def equivalent_k(k_i: npt.ArrayLike, k_ii: npt.ArrayLike, k_iii: npt.ArrayLike):
+    """K_V = K_I/2 + ½√(K_I² + 5.336 K_II² + 4 K_III²) (Schöllmann et al. 2002)."""
+    k1, k2, k3 = (np.asarray(k, dtype=float) for k in (k_i, k_ii, k_iii))
+    return 0.5 * k1 + 0.5 * np.sqrt(k1**2 + 5.336 * k2**2 + 4 * k3**2)
+
+
+@dataclass(frozen=True)
+class MixedAdvance:
+    """One mixed-mode advance: the new front vertices, Δa, φ₀, ψ₀ and the unit
+    direction of every vertex, and K_V at the vertices."""
+
+    vertices: npt.NDArray[np.float64]
+    da: npt.NDArray[np.float64]
+    kink: npt.NDArray[np.float64]
+    twist: npt.NDArray[np.float64]
+    directions: npt.NDArray[np.float64]
+    k_v: npt.NDArray[np.float64]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _vertex_frames(V: np.ndarray, normals2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e₁, e₂) at the vertices of a closed polyline: the means of the frames of its two
+    edges (e₁ = t × e₂ on an edge), e₂ made normal to e₁."""
+    t = _unit(np.roll(V, -1, axis=0) - V)
+    e1 = np.cross(t, normals2)
+    e1v = _unit(e1 + np.roll(e1, 1, axis=0))
+    e2v = normals2 + np.roll(normals2, 1, axis=0)
+    e2v = _unit(e2v - np.sum(e2v * e1v, axis=1)[:, None] * e1v)
+    return e1v, e2v
+
+
+def _smooth(x: np.ndarray) -> np.ndarray:
+    return (np.roll(x, 1, axis=0) + x + np.roll(x, -1, axis=0)) / 3.0
+
+
+def advance_mixed_front(
+    vertices: npt.ArrayLike,
+    normals2: npt.ArrayLike,
+    k_edges: npt.ArrayLike,
+    da_max: float,
+    exponent: float = 2.0,
+    smooth: bool = True,
+) -> MixedAdvance:
+    """Advance a closed polyline front under mixed mode by the σ₁′ criterion.
+
+    Parameters
+    ----------
+    vertices
+        The front's vertices (m), shape (N, 3), counter-clockwise seen from the side e₂
+        points to.
+    normals2
+        The crack-surface normal e₂ of every edge (vertex k → k + 1), shape (N, 3).
+    k_edges
+        (K_I, K_II, K_III) at the middle of every edge (Pa·√m), shape (N, 3).
+    da_max
+        The advance of the vertex of largest K_V (m).
+    exponent
+        n of Δa_i = Δa_max (K_V,i/K_V,max)^n.
+    smooth
+        Average φ₀ and Δa over each vertex and its two neighbours.
+
+    Raises
+    ------
+    FractureError
+        (key ``k_edges``) not finite, the wrong shape, or K_V ≤ 0 somewhere.
+    """
+    V = np.asarray(vertices, dtype=float)
+    K = np.asarray(k_edges, dtype=float)
+    if K.shape != (len(V), 3) or not np.all(np.isfinite(K)):
+        raise FractureError("k_edges", f"need shape ({len(V)}, 3), finite, got {K.shape}")
+    kv_edges = equivalent_k(K[:, 0], K[:, 1], K[:, 2])
+    if np.any(kv_edges <= 0):
+        raise FractureError("k_edges", "the equivalent K must be positive at every edge")
+    K_vertex = 0.5 * (K + np.roll(K, 1, axis=0))
+    kv = equivalent_k(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
+    phi0, psi0 = sigma1_kink(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
+    da = da_max * (kv / kv.max()) ** exponent
+    if smooth:
+        phi0, da = _smooth(phi0), _smooth(da)
+    e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))
+    d = np.cos(phi0)[:, None] * e1 + np.sin(phi0)[:, None] * e2
+    return MixedAdvance(V + da[:, None] * d, da, phi0, psi0, d, kv)
+
+
+def _oriented(tri: np.ndarray, up: np.ndarray) -> tuple[bool, np.ndarray]:
+    """Whether the triangle (3, 3) runs counter-clockwise seen from ``up``, and its unit
+    normal on the side of ``up``."""
+    n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+    n = n / np.linalg.norm(n)
+    return bool(n @ up > 0), (n if n @ up > 0 else -n)
+
+
+def extend_surface(crack: TriangulatedCrack, new_vertices: npt.ArrayLike) -> TriangulatedCrack:
+    """The crack grown to the front ``new_vertices`` (N, 3): the strip between the old and
+    the new front as four triangles per edge, from the sides of the quadrilateral
+    (V_k, V_k+1, V′_k+1, V′_k) to its centroid (a twisted quadrilateral keeps a symmetric
+    triangle on the new edge); the new front's e₂ the normal of the triangle on the new
+    edge, and its kink (L, ψ): L the
+    strip's width along the new e₁, ψ the direction of the old surface behind the old
+    edge seen in the new frame."""
+    P = np.asarray(crack.points, dtype=float)
+    old = np.asarray(crack.front_ids)
+    W = np.asarray(new_vertices, dtype=float)
+    N = len(old)
+    new = np.arange(len(P), len(P) + N)
+    mid = np.arange(len(P) + N, len(P) + 2 * N)
+    quads = [(old[k], old[(k + 1) % N], new[(k + 1) % N], new[k]) for k in range(N)]
+    P2 = np.concatenate([P, W, [np.mean(np.concatenate([P, W])[list(q)], axis=0) for q in quads]])
+    e2_old = np.asarray(crack.normals2, dtype=float)
+    t_old = _unit(np.roll(P[old], -1, axis=0) - P[old])
+    e1_old = np.cross(t_old, e2_old)
+    patches, normals2, cuts = list(crack.patches), [], []
+    for k, (a, b, b2, a2) in enumerate(quads):
+        for p, q in ((a, b), (b, b2), (a2, a), (b2, a2)):
+            tri = (p, q, mid[k])
+            ccw, n = _oriented(P2[list(tri)], e2_old[k])
+            patches.append(tuple(int(i) for i in (tri if ccw else tri[::-1])))
+        normals2.append(n)  # the last triangle, (b2, a2, centre), holds the new edge
+        t = _unit(P2[b2] - P2[a2])
+        e1 = np.cross(t, n)
+        width = float((0.5 * (P2[a2] + P2[b2]) - 0.5 * (P2[a] + P2[b])) @ e1)
+        back = -e1_old[k]
+        cuts.append((width, math.atan2(float(back @ n), float(back @ e1))))
+    return TriangulatedCrack(
+        tuple(map(tuple, P2)),
+        tuple(patches),
+        tuple(int(i) for i in new),
+        tuple(tuple(map(float, n)) for n in normals2),
+        tuple(cuts),
+        crack.normal,
+    )

@@ -32,7 +32,7 @@ from dolfinx import mesh
 from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.fracture.crack import FractureError
-from bonecontact.fracture.crack3d import PlanarCrack
+from bonecontact.fracture.crack3d import PlanarCrack, TriangulatedCrack
 from bonecontact.fracture.front3d import CrackBlock
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.meshing.builder import MeshingError
@@ -100,7 +100,7 @@ class CrackedBody3D:
     mesh: mesh.Mesh
     cell_tags: mesh.MeshTags
     facet_tags: mesh.MeshTags
-    crack: PlanarCrack
+    crack: PlanarCrack | TriangulatedCrack
     groups: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -208,14 +208,39 @@ def _boundary_surfaces(body: BodySurface) -> list[int]:
     return surfaces
 
 
-def _crack_surface(crack: PlanarCrack) -> tuple[int, list[int]]:
-    """The crack as a plane surface of the built-in kernel: its tag and the front curves
-    (four arcs, or a polygon's edges)."""
+def _patches(crack: TriangulatedCrack) -> tuple[list[int], list[int]]:
+    """A non-planar crack as plane surfaces of the built-in kernel sharing their edges:
+    the surface tags and the front's lines."""
     geo = gmsh.model.geo
+    pts = [geo.addPoint(*p) for p in crack.points]
+    lines: dict[tuple[int, int], int] = {}
+
+    def line(i: int, j: int) -> int:
+        if (j, i) in lines:
+            return -lines[(j, i)]
+        if (i, j) not in lines:
+            lines[(i, j)] = geo.addLine(pts[i], pts[j])
+        return lines[(i, j)]
+
+    surfaces = []
+    for patch in crack.patches:
+        loop = [line(i, j) for i, j in zip(patch, patch[1:] + patch[:1], strict=True)]
+        surfaces.append(geo.addPlaneSurface([geo.addCurveLoop(loop)]))
+    ids = crack.front_ids
+    front = [abs(line(i, j)) for i, j in zip(ids, ids[1:] + ids[:1], strict=True)]
+    return surfaces, front
+
+
+def _crack_surface(crack: PlanarCrack | TriangulatedCrack) -> tuple[list[int], list[int]]:
+    """The crack as plane surfaces of the built-in kernel: their tags and the front curves
+    (four arcs, a polygon's edges or a grown crack's front polyline)."""
+    geo = gmsh.model.geo
+    if isinstance(crack, TriangulatedCrack):
+        return _patches(crack)
     if crack.vertices is not None:
         corners = [geo.addPoint(*p) for p in crack.vertices]
         edges = [geo.addLine(p, q) for p, q in zip(corners, corners[1:] + corners[:1], strict=True)]
-        return geo.addPlaneSurface([geo.addCurveLoop(edges)]), edges
+        return [geo.addPlaneSurface([geo.addCurveLoop(edges)])], edges
     c = np.asarray(crack.centre, dtype=float)
     R = crack.axes
     centre = geo.addPoint(*c)
@@ -227,10 +252,12 @@ def _crack_surface(crack: PlanarCrack) -> tuple[int, list[int]]:
         arcs = [geo.addCircleArc(ends[i], centre, ends[(i + 1) % 4]) for i in range(4)]
     else:
         arcs = [geo.addEllipseArc(ends[i], centre, ends[0], ends[(i + 1) % 4]) for i in range(4)]
-    return geo.addPlaneSurface([geo.addCurveLoop(arcs)]), arcs
+    return [geo.addPlaneSurface([geo.addCurveLoop(arcs)])], arcs
 
 
-def _size_field(front: list[int], crack: PlanarCrack, size: TipMesh, h_max: float) -> None:
+def _size_field(
+    front: list[int], crack: PlanarCrack | TriangulatedCrack, size: TipMesh, h_max: float
+) -> None:
     fld = gmsh.model.mesh.field
     d = fld.add("Distance")
     fld.setNumbers(d, "CurvesList", front)
@@ -243,9 +270,9 @@ def _size_field(front: list[int], crack: PlanarCrack, size: TipMesh, h_max: floa
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
 
 
-def _split(surface: int, crack_group: int, second_group: int) -> None:
+def _split(surfaces: list[int], crack_group: int, second_group: int) -> None:
     """Duplicate the crack surface's nodes (not the front's): two physical groups."""
-    gmsh.model.addPhysicalGroup(2, [surface], crack_group, name="crack_a")
+    gmsh.model.addPhysicalGroup(2, surfaces, crack_group, name="crack_a")
     plugin = gmsh.plugin
     plugin.setNumber("Crack", "Dimension", 2)
     plugin.setNumber("Crack", "PhysicalGroup", crack_group)
@@ -257,19 +284,24 @@ def _split(surface: int, crack_group: int, second_group: int) -> None:
     gmsh.model.mesh.renumberElements()
 
 
-def _build(body: BodySurface, crack: PlanarCrack, size: TipMesh, tags: tuple[int, int]) -> None:
+def _build(
+    body: BodySurface,
+    crack: PlanarCrack | TriangulatedCrack,
+    size: TipMesh,
+    tags: tuple[int, int],
+) -> None:
     surfaces = _boundary_surfaces(body)
     geo = gmsh.model.geo
     volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
-    surface, front = _crack_surface(crack)
+    cracks, front = _crack_surface(crack)
     geo.synchronize()
-    gmsh.model.mesh.embed(2, [surface], 3, volume)
+    gmsh.model.mesh.embed(2, cracks, 3, volume)
     region, region_tag = body.region
     gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
     _size_field(front, crack, size, min(size.h_max or body.h_max, body.h_max))
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT (honours the embedded crack)
     gmsh.model.mesh.generate(3)
-    _split(surface, *tags)
+    _split(cracks, *tags)
 
 
 # --------------------------------------------------------------------- DOLFINx side
@@ -294,7 +326,10 @@ def face_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.nd
 
 
 def mesh_body_with_planar_crack(
-    body: BodySurface, crack: PlanarCrack, size: TipMesh, comm: MPI.Comm | None = None
+    body: BodySurface,
+    crack: PlanarCrack | TriangulatedCrack,
+    size: TipMesh,
+    comm: MPI.Comm | None = None,
 ) -> tuple[CrackedBody3D, object]:
     """Mesh a 3D body with a planar crack cut into it (collective; gmsh on rank 0).
 
@@ -303,7 +338,8 @@ def mesh_body_with_planar_crack(
     body
         The body's boundary (:func:`body_surface` of the scene's mesh).
     crack
-        The crack, inside the body (checked against the cells beforehand:
+        The crack (planar, or a grown :class:`~bonecontact.fracture.crack3d.
+        TriangulatedCrack`), inside the body (checked against the cells beforehand:
         :func:`~bonecontact.scene.crack_region.check_crack_region`).
     size
         Element size at the front, its growth per unit distance from the front and the

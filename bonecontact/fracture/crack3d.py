@@ -20,13 +20,15 @@ import numpy as np
 import numpy.typing as npt
 
 from bonecontact.fracture.crack import FractureError
-from bonecontact.fracture.front3d import EllipticalFront, PolygonFront
+from bonecontact.fracture.front3d import EllipticalFront, PolygonFront, PolylineFront
 
 __all__ = [
     "CORNER_FRACTION",
     "CRACK3D_SHAPES",
     "PlanarCrack",
+    "TriangulatedCrack",
     "planar_crack_from_table",
+    "triangulated_from_polygon",
 ]
 
 #: Shapes of a 3D crack.
@@ -316,3 +318,77 @@ def _polygon_from_table(table: Mapping) -> PlanarCrack:
         "polygon",
         verts,
     )
+
+
+@dataclass(frozen=True)
+class TriangulatedCrack:
+    """A grown, non-planar crack: planar patches (the first crack and the strips of
+    every advance) with a closed polyline front (docs/theory/fracture.md#mixed-mode-advance-in-3d).
+
+    Parameters
+    ----------
+    points
+        Coordinates (m), shape (M, 3).
+    patches
+        Planar polygons (indices into ``points``), each counter-clockwise seen from the
+        side ``normal`` points to (the ``crack_upper`` face).
+    front
+        Indices of the front's vertices, in order (counter-clockwise about ``normal``).
+    normals2
+        The surface normal e₂ at every front edge (front vertex k to k + 1), shape (N, 3).
+    cuts
+        (L, ψ) of every front edge (the kink behind it, see
+        :class:`~bonecontact.fracture.front3d.PolylineFront`), or ``None``.
+    normal
+        A unit normal of the whole crack (the first crack's).
+    """
+
+    points: tuple[tuple[float, float, float], ...]
+    patches: tuple[tuple[int, ...], ...]
+    front_ids: tuple[int, ...]
+    normals2: tuple[tuple[float, float, float], ...]
+    cuts: tuple[tuple[float, float], ...] | None
+    normal: tuple[float, float, float]
+    shape: str = "surface"
+
+    @property
+    def vertices(self) -> npt.NDArray[np.float64]:
+        """The front's vertices (m), shape (N, 3)."""
+        return np.asarray(self.points, dtype=float)[list(self.front_ids)]
+
+    def front(self) -> PolylineFront:
+        """The crack front."""
+        return PolylineFront(
+            tuple(map(tuple, self.vertices)), self.normals2, self.cuts, self.normal
+        )
+
+    @property
+    def a(self) -> float:
+        """The largest distance from the front's centroid to a front vertex (m)."""
+        return self.front().a
+
+    @property
+    def b(self) -> float:
+        """The smallest distance from the front's centroid to a front edge (m)."""
+        return self.front().b
+
+    def front_parameters(self, n: int, margin: float = 0.0) -> npt.NDArray[np.float64]:
+        """``n`` points on every front edge, as for a polygon
+        (:meth:`PlanarCrack.front_parameters`)."""
+        front = self.front()
+        out = []
+        for k, L in enumerate(front.edge_lengths):
+            c = min(max(CORNER_FRACTION * L, margin), 0.5 * L)
+            t = [0.5 * L] if n == 1 else np.linspace(c, L - c, n)
+            out.extend(float(np.sum(front.edge_lengths[:k])) + np.asarray(t))
+        return 2 * math.pi * np.asarray(out) / front.perimeter
+
+
+def triangulated_from_polygon(crack: PlanarCrack) -> TriangulatedCrack:
+    """A polygonal :class:`PlanarCrack` as a one-patch :class:`TriangulatedCrack`."""
+    if crack.vertices is None:
+        raise FractureError("shape", f'needs shape = "polygon", got {crack.shape!r}')
+    V = np.asarray(crack.vertices, dtype=float)
+    ids = tuple(range(len(V)))
+    n = tuple(map(float, crack.normal))
+    return TriangulatedCrack(tuple(map(tuple, V)), (ids,), ids, tuple(n for _ in ids), None, n)

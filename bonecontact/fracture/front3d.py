@@ -1,34 +1,23 @@
-"""Stress intensity factors along the front of a planar crack in 3D
+"""Stress intensity factors along the front of a crack in 3D
 (docs/theory/fracture.md#3d-crack-fronts).
 
-* :class:`EllipticalFront` — a penny-shaped (a = b) or elliptical crack front with any
-  centre and orientation (``axes``; default the plane z = z₀): points, the local front frame
-  (e₁ in the crack plane normal to the front, pointing ahead; e₂ the crack-plane normal;
-  e₃ = e₁ × e₂ along the front) and arc length.
-* :class:`PolygonFront` — the front of a planar convex polygonal crack: its straight
-  edges, with the same methods (:class:`CrackFront`, the front protocol the integral
-  uses); on an edge the frame is constant and the tangent-line auxiliary field exact.
-* :func:`mesh_crack_octant` — one eighth of a block with the crack at its centre, the three
-  symmetry planes as boundaries (x = 0, y = 0 and the crack plane z = 0: the crack face is
-  the part of z = 0 inside the front, the ligament the rest), graded by gmsh towards the
-  front.  Valid for loads symmetric about the three planes (mode I only).  Models with
-  both crack faces come from :mod:`bonecontact.fracture.body3d`.
-* :func:`front_interaction_integral` — K_I (and K_II, K_III on a model with both crack faces)
-  at one front point by the 3D domain interaction integral: plane-strain Williams fields and
-  the anti-plane field written in the coordinates of the osculating circle of the front at
-  the point (the edge's line on a polygon) as auxiliary fields (their divergence as a
-  volume term), a q-function that is a ring around the front times a plateau along it,
-  normalised by ∫ q ds along the front; on
-  a two-face model the faces' part of the boundary (and the face tractions of a closed
-  crack) is added.
-* :func:`front_displacement_correlation` — K from the crack-face opening near the point
-  (the cheap cross-check; K_II, K_III too on a two-face model).
-* :func:`penny_k`, :func:`irwin_k` — the closed forms under remote tension σ normal to the
-  crack: K_I = 2σ√(a/π) (penny), Irwin's K_I(φ) (ellipse).
+* :class:`EllipticalFront`, :class:`PolygonFront`, :class:`PolylineFront` — a penny or
+  elliptical front, the straight edges of a planar convex polygon, and the closed polyline
+  front of a grown (non-planar) crack with a frame per edge: points, the local frame (e₁
+  ahead of the front, e₂ the crack-surface normal, e₃ = e₁ × e₂ along the front), arc
+  length (:class:`CrackFront`, the protocol the integrals use).
+* :func:`mesh_crack_octant` — one eighth of a block with a planar crack at its centre
+  and its three symmetry planes (mode I only), graded by gmsh towards the front; models
+  with both faces come from :mod:`bonecontact.fracture.body3d`.
+* :func:`front_interaction_integral` — K_I, K_II, K_III at one front point by the 3D
+  domain interaction integral (Williams and anti-plane auxiliary fields in the
+  coordinates of the front's osculating circle, a ring × plateau q-function, the faces'
+  part of the boundary on a two-face model).
+* :func:`front_displacement_correlation` — K from the face opening (the cheap cross-check).
+* :func:`penny_k`, :func:`irwin_k` — closed forms of a penny and an elliptical crack.
 
-The domain must be small against the front's radius of curvature (b²/a at the ends of the
-major axis) and, on a polygon, must not reach a corner.  One homogeneous isotropic
-material around the front.
+The domain must be small against the front's radius of curvature and must not reach a
+corner of a polygonal front; one homogeneous isotropic material around the front.
 """
 
 from __future__ import annotations
@@ -62,6 +51,7 @@ __all__ = [
     "EllipticalFront",
     "FrontSIF",
     "PolygonFront",
+    "PolylineFront",
     "front_displacement_correlation",
     "front_interaction_integral",
     "irwin_k",
@@ -393,6 +383,156 @@ class PolygonFront:
         return min(math.pi, 1.01 * length * 2 * math.pi / self.perimeter)
 
 
+@dataclass(frozen=True)
+class PolylineFront:
+    """The closed polyline front of a grown, non-planar crack: straight edges, each with
+    its own frame.
+
+    The parameter is φ = 2π s/P as on :class:`PolygonFront`.  On edge k (vertex k to
+    k + 1, t its direction) the frame is e₂ = ``normals2[k]`` (the normal of the crack
+    surface at the edge, on the ``upper`` side), e₁ = t × e₂ (ahead of the front), e₃ =
+    e₁ × e₂ = −t.  ``cuts[k]`` = (L, ψ): the crack surface behind the edge is straight for
+    L (m) and then turns into the direction ψ (the angle from e₁ towards e₂ of the older
+    surface, seen from the kink); ``None`` or L = ∞: straight as far as the integral
+    reaches.  The auxiliary field's branch cut is laid along that kink
+    (docs/theory/fracture.md#mixed-mode-advance-in-3d).
+
+    Parameters
+    ----------
+    vertices
+        The front's corners (m), shape (N, 3), in the order the ``upper`` side sees as
+        counter-clockwise.
+    normals2
+        e₂ of every edge, shape (N, 3), unit and normal to the edge.
+    cuts
+        (L, ψ) of every edge, or ``None``.
+    reference
+        A unit normal of the whole crack (the side of ``crack_upper``).
+    """
+
+    vertices: tuple[tuple[float, float, float], ...]
+    normals2: tuple[tuple[float, float, float], ...]
+    cuts: tuple[tuple[float, float], ...] | None = None
+    reference: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+    @cached_property
+    def _v(self) -> npt.NDArray[np.float64]:
+        return np.asarray(self.vertices, dtype=float)
+
+    @cached_property
+    def _dirs(self) -> npt.NDArray[np.float64]:
+        d = np.roll(self._v, -1, axis=0) - self._v
+        return d / self.edge_lengths[:, None]
+
+    @cached_property
+    def edge_lengths(self) -> npt.NDArray[np.float64]:
+        """Length of every edge (vertex k to k + 1), m."""
+        return np.linalg.norm(np.roll(self._v, -1, axis=0) - self._v, axis=1)
+
+    @cached_property
+    def _cum(self) -> npt.NDArray[np.float64]:
+        return np.concatenate([[0.0], np.cumsum(self.edge_lengths)])
+
+    @property
+    def centre(self) -> tuple[float, float, float]:
+        """The mean of the vertices (m)."""
+        return tuple(map(float, self._v.mean(axis=0)))
+
+    @property
+    def normal(self) -> npt.NDArray[np.float64]:
+        """The crack's reference normal (the side of the ``upper`` face)."""
+        return np.asarray(self.reference, dtype=float)
+
+    @property
+    def rotation(self) -> npt.NDArray[np.float64]:
+        """Rows (u, v, n): n the reference normal, u towards the first vertex."""
+        n = self.normal
+        u = self._v[0] - np.asarray(self.centre)
+        u = u - (u @ n) * n
+        u = u / np.linalg.norm(u)
+        return np.vstack([u, np.cross(n, u), n])
+
+    @property
+    def perimeter(self) -> float:
+        """Length of the whole front (m)."""
+        return float(self._cum[-1])
+
+    @property
+    def a(self) -> float:
+        """The largest distance from the centre to a vertex (m)."""
+        return float(np.max(np.linalg.norm(self._v - np.asarray(self.centre), axis=1)))
+
+    @property
+    def b(self) -> float:
+        """The smallest distance from the centre to an edge (m)."""
+        d = np.asarray(self.centre) - self._v
+        off = d - np.sum(d * self._dirs, axis=1)[:, None] * self._dirs
+        return float(np.min(np.linalg.norm(off, axis=1)))
+
+    def _edge(self, phi: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        s = np.mod(np.atleast_1d(np.asarray(phi, dtype=float)), 2 * math.pi)
+        s = s * self.perimeter / (2 * math.pi)
+        k = np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self._v) - 1)
+        return k, s - self._cum[k]
+
+    def point(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Front points at parameters ``phi``, shape (n, 3)."""
+        k, t = self._edge(phi)
+        return self._v[k] + t[:, None] * self._dirs[k]
+
+    def normals(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """e₁ = t × e₂ of the edges at parameters ``phi``, (n, 3)."""
+        k, _ = self._edge(phi)
+        return np.cross(self._dirs[k], np.asarray(self.normals2, dtype=float)[k])
+
+    def frame(self, phi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(e₁, e₂, e₃) of the edge at ``phi``."""
+        k, _ = self._edge(phi)
+        e2 = np.asarray(self.normals2[int(k[0])], dtype=float)
+        e1 = np.cross(self._dirs[int(k[0])], e2)
+        return e1, e2, np.cross(e1, e2)
+
+    def cut(self, phi: float) -> tuple[float, float] | None:
+        """(L, ψ) of the edge at ``phi`` (``None``: the surface behind it is straight)."""
+        if self.cuts is None:
+            return None
+        k, _ = self._edge(phi)
+        c = self.cuts[int(k[0])]
+        return None if math.isinf(c[0]) or abs(math.sin(c[1])) < 1e-9 else c
+
+    def radius_of_curvature(self, phi: float) -> float:
+        """∞: the edges are straight."""
+        return math.inf
+
+    @property
+    def closed(self) -> bool:
+        """True: the front is a closed polyline."""
+        return True
+
+    def corner_distance(self, phi: float) -> float:
+        """Distance from the point at ``phi`` to the nearer end of its edge (m)."""
+        k, t = self._edge(phi)
+        return float(min(t[0], self.edge_lengths[k[0]] - t[0]))
+
+    def nearest(self, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Parameter φ of the nearest front point of each point ``x`` (n, 3)."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        d = x[:, None, :] - self._v[None, :, :]
+        t = np.clip(np.einsum("nmk,mk->nm", d, self._dirs), 0.0, self.edge_lengths[None, :])
+        dist = np.linalg.norm(d - t[:, :, None] * self._dirs[None, :, :], axis=2)
+        k = np.argmin(dist, axis=1)
+        s = self._cum[k] + t[np.arange(len(x)), k]
+        return 2 * math.pi * s / self.perimeter
+
+    def arc_length(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Arc length from the first vertex to ``phi`` (m)."""
+        return np.asarray(phi, dtype=float) * self.perimeter / (2 * math.pi)
+
+    def parameter_span(self, length: float) -> float:
+        """A parameter half-range that covers arc length ``length`` each way."""
+        return min(math.pi, 1.01 * length * 2 * math.pi / self.perimeter)
+
+
 # ------------------------------------------------------------------------- meshing
 @dataclass
 class CrackBlock:
@@ -413,7 +553,7 @@ class CrackBlock:
     mesh: mesh.Mesh
     cell_tags: mesh.MeshTags
     facet_tags: mesh.MeshTags
-    front: EllipticalFront | PolygonFront
+    front: EllipticalFront | PolygonFront | PolylineFront
     groups: dict[str, int] = field(default_factory=lambda: dict(OCTANT_GROUPS))
     half_model: bool = True
 
@@ -697,7 +837,7 @@ def _auxiliary_displacement(
     if face is not None:  # on a crack face: θ → ±π from that side (x₂ = 0 on both faces)
         x2 = x2 + face * shift  # the faces lie in x₂ = 0 (to round-off)
     r = ufl.sqrt(x1**2 + x2**2)
-    th = ufl.atan2(x2, x1)
+    th = _branch(ufl.atan2(x2, x1), x1, x2, const.get("cut"))
     k1, k2, k3 = const["k"][0], const["k"][1], const["k"][2]
     cc = ufl.sqrt(r / (2 * math.pi)) / (2 * mu)
     ch, sh = ufl.cos(th / 2), ufl.sin(th / 2)
@@ -705,6 +845,19 @@ def _auxiliary_displacement(
     u2 = cc * (k1 * sh * (kappa + 1 - 2 * ch**2) - k2 * ch * (kappa - 1 - 2 * sh**2))
     u3 = 4 * cc * k3 * sh
     return u1 * E1 + u2 * e2 + u3 * E3
+
+
+def _branch(th, x1, x2, cut):
+    """θ with its branch cut along a kinked crack: behind a kink L behind the front, in
+    the wedge between the straight extension of the last increment and the older surface
+    (direction ψ from the kink), θ ± 2π — the auxiliary field is then continuous off the
+    crack.  ``cut``: ``None`` or a constant (L, cos ψ, sin ψ)."""
+    if cut is None:
+        return th
+    sgn = 1.0 if float(cut.value[2]) < 0 else -1.0  # the wedge below (+1) or above x₂ = 0
+    wx, wy = x1 + cut[0], sgn * x2
+    inside = ufl.And(ufl.lt(wy, 0.0), ufl.gt(wx * sgn * cut[2] - wy * cut[1], 0.0))
+    return ufl.conditional(inside, th + sgn * 2 * math.pi, th)
 
 
 def front_interaction_integral(
@@ -766,9 +919,12 @@ def front_interaction_integral(
     p0 = block.front.point(phi)[0]
     e1, e2, _ = block.front.frame(phi)
     q, dx, norm = _domain(block, phi, (r_in, r_out, length), rho, quadrature_degree)
+    values = [("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0))]
+    cut = block.front.cut(phi) if isinstance(block.front, PolylineFront) else None
+    if cut is not None:
+        values.append(("cut", (cut[0], math.cos(cut[1]), math.sin(cut[1]))))
     const = {
-        k: fem.Constant(block.mesh, np.asarray(v, dtype=default_scalar_type))
-        for k, v in (("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0)))
+        k: fem.Constant(block.mesh, np.asarray(v, dtype=default_scalar_type)) for k, v in values
     }
     form = _interaction_form(u, block, q, dx, const, (rho, r_out), material, face_traction)
     K_I, K_II, K_III, G = _mode_values(form, const, block, norm, material)
@@ -948,7 +1104,9 @@ def _face_term(block: CrackBlock, traction, u, x, const: dict, radii, mu, lmbda,
         ua = _auxiliary_displacement(x, const, radii[0], mu, kappa, face=side, scale=radii[1])
         eps = ufl.sym(ufl.grad(ua))
         sa = lmbda * ufl.tr(eps) * ufl.Identity(3) + 2 * mu * eps
-        integrand = ufl.dot(ufl.dot(sa, n), du1) * q
+        # W n·e₁: zero on faces in the plane of e₁, not on an older kinked surface
+        w_n1 = ufl.inner(sa, ufl.sym(ufl.grad(u))) * ufl.dot(n, const["e1"])
+        integrand = (ufl.dot(ufl.dot(sa, n), du1) - w_n1) * q
         if t is not None:
             integrand = integrand - ufl.dot(ua, ufl.dot(ufl.grad(t * q), const["e1"]))
         term = term + integrand * ds(block.groups[name])

@@ -15,9 +15,8 @@
   front, the crack nodes — the mouth on the free surface included, the front excepted —
   split by gmsh's ``Crack`` plugin into the faces ``crack_upper`` (y > 0 side) and
   ``crack_lower``, like the interior cracks of :mod:`bonecontact.fracture.body3d`.
-* :func:`domain_length` — the half-length along the front of the interaction-integral
-  domain at a point: at most the point's distance along the front to the free surface
-  (the domain must not cross it), and refused below two front elements.
+* :func:`domain_length` — the integral's half-length along the front at a point: at most
+  its distance to the free surface, refused below two front elements.
 
 Both fronts follow the front protocol of :mod:`bonecontact.fracture.front3d`
 (:class:`~bonecontact.fracture.front3d.CrackFront`) with ``closed = False``: the arc

@@ -20,9 +20,8 @@ surface), t the thickness, b the half-width (corner crack: the width) and φ the
 parametric angle of the ellipse (x = c cos φ along the surface, depth a sin φ; φ = 0 on
 the front face).  Only a/c ≤ 1 is implemented.
 
-:func:`solve_plate` builds and solves the plate of
-:func:`~bonecontact.fracture.surface3d.mesh_plate_with_crack` under uniform tension and
-gives K along the front by the interaction integral.
+:func:`solve_plate` solves the plate of :func:`~bonecontact.fracture.surface3d.
+mesh_plate_with_crack` under uniform tension: K along the front by the interaction integral.
 """
 
 from __future__ import annotations

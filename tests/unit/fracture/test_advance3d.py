@@ -52,3 +52,130 @@ def test_bad_input_refused():
     k[1] = 100.0  # one edge far ahead of the others: a reflex angle at its neighbours
     with pytest.raises(FractureError, match="convex"):
         advance_polygon_front(octagon, N, k, 5.0, smooth=False)
+
+
+# ------------------------------------------------------------- mixed mode (σ₁′ criterion)
+from bonecontact.fracture.advance3d import (  # noqa: E402
+    advance_mixed_front,
+    equivalent_k,
+    extend_surface,
+    sigma1_kink,
+)
+from bonecontact.fracture.crack3d import (  # noqa: E402
+    planar_crack_from_table,
+    triangulated_from_polygon,
+)
+
+
+@pytest.mark.parametrize("ratio", [0.0, 0.1, 0.5, 1.0, 3.0, -0.7, 1e6])
+def test_sigma1_without_mode_three_is_mts(ratio):
+    """K_III = 0: σ₁′ is the hoop stress, so φ₀ is the MTS angle
+    2 atan[(K_I − √(K_I² + 8K_II²))/(4K_II)] (pure mode II: ∓70.53°), ψ₀ = 0."""
+    k1, k2 = (1.0, ratio) if ratio < 1e5 else (0.0, 1.0)
+    phi, psi = sigma1_kink([k1], [k2], [0.0])
+    mts = 0.0 if k2 == 0 else 2 * math.atan((k1 - math.sqrt(k1**2 + 8 * k2**2)) / (4 * k2))
+    assert math.degrees(phi[0]) == pytest.approx(math.degrees(mts), abs=0.01)
+    assert psi[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_sigma1_mode_three_twists_without_kinking():
+    """Pure K_III: no kink, a twist of 45° (σ_φ = 0, τ_φz the largest at φ = 0); adding
+    K_I lowers the twist to ½ atan(2K_III/K_I)."""
+    phi, psi = sigma1_kink([0.0, 1.0], [0.0, 0.0], [1.0, 1.0])
+    np.testing.assert_allclose(phi, 0.0, atol=1e-12)
+    np.testing.assert_allclose(psi, [math.pi / 4, 0.5 * math.atan(2.0)], rtol=1e-12)
+
+
+def test_equivalent_k_is_the_largest_sigma1():
+    """K_V (Schöllmann's fit) against σ₁′(φ₀)√(2πr) maximised numerically: exact for the
+    pure modes (K_I, 2/√3 K_II, K_III; the fit's 5.336 gives 1.00025 × 2/√3), within 5 %
+    for any mixture (measured 4.5 %)."""
+    np.testing.assert_allclose(
+        equivalent_k([1, 0, 0], [0, 1, 0], [0, 0, 1]), [1, 2 / math.sqrt(3), 1], rtol=3e-4
+    )
+    rng = np.random.default_rng(1)
+    K = np.abs(rng.normal(size=(300, 3)))
+    K[:, 1] *= np.sign(rng.normal(size=300))
+    phi, _ = sigma1_kink(*K.T)
+    c = np.cos(phi / 2)
+    s_phi = c * (K[:, 0] * c**2 - 1.5 * K[:, 1] * np.sin(phi))
+    top = 0.5 * s_phi + 0.5 * np.sqrt(s_phi**2 + 4 * (K[:, 2] * c) ** 2)
+    ratio = equivalent_k(*K.T) / top
+    assert ratio.max() <= 1.0003 and ratio.min() > 0.95
+
+
+def _octagon_crack():
+    t = 2 * math.pi * (np.arange(8) + 0.5) / 8
+    V = np.column_stack([np.cos(t), np.sin(t), 0 * t])
+    return triangulated_from_polygon(
+        planar_crack_from_table({"shape": "polygon", "vertices": V.tolist()})
+    )
+
+
+def test_mode_one_mixed_advance_is_the_planar_advance():
+    """K_II = K_III = 0: the mixed-mode rule moves the vertices as the planar rule."""
+    crack = _octagon_crack()
+    k = np.linspace(1.0, 1.5, 8)
+    adv = advance_mixed_front(
+        crack.vertices, crack.normals2, np.column_stack([k, 0 * k, 0 * k]), 0.1
+    )
+    ref, da = advance_polygon_front(crack.vertices, N, k, 0.1)
+    np.testing.assert_allclose(adv.vertices, ref, atol=1e-13)
+    np.testing.assert_allclose(adv.da, da, rtol=1e-13)
+
+
+@pytest.mark.parametrize("k2", [0.3, -1.0])
+def test_uniform_shear_kinks_every_vertex_by_the_criterion(k2):
+    """Equal (K_I, K_II, 0) on every edge of a planar octagon: every vertex moves by Δa
+    at the MTS angle out of the plane; the strips (planar trapezoids) rise at
+    α = atan(tan φ₀ / cos(π/8)), their normals turned by α and the kink behind the new
+    front at ψ = π − α, the strip's width back."""
+    crack = _octagon_crack()
+    K = np.tile([1.0, k2, 0.0], (8, 1))
+    adv = advance_mixed_front(crack.vertices, crack.normals2, K, 0.1)
+    phi = 2 * math.atan((1 - math.sqrt(1 + 8 * k2**2)) / (4 * k2))
+    np.testing.assert_allclose(adv.kink, phi, atol=1e-5)
+    r = np.linalg.norm(adv.vertices[:, :2], axis=1)
+    np.testing.assert_allclose(r, 1 + 0.1 * math.cos(phi), rtol=1e-4)
+    np.testing.assert_allclose(adv.vertices[:, 2], 0.1 * math.sin(phi), atol=1e-6)
+    grown = extend_surface(crack, adv.vertices)
+    assert len(grown.patches) == 1 + 4 * 8
+    # the strips are planar trapezoids: the mid-edges move by Δa cos φ₀ cos(π/8) outwards
+    # and Δa sin φ₀ up, so each strip rises at α = atan(tan φ₀ / cos(π/8))
+    c8 = math.cos(math.pi / 8)
+    alpha = math.atan(math.tan(phi) / c8)
+    e2 = np.asarray(grown.normals2)
+    np.testing.assert_allclose(e2[:, 2], math.cos(alpha), atol=1e-5)
+    cuts = np.asarray(grown.cuts)
+    np.testing.assert_allclose(np.cos(cuts[:, 1]), -math.cos(alpha), atol=1e-5)
+    np.testing.assert_allclose(np.sin(cuts[:, 1]), math.sin(alpha), atol=1e-5)
+    width = 0.1 * math.hypot(math.cos(phi) * c8, math.sin(phi))
+    np.testing.assert_allclose(cuts[:, 0], width, rtol=1e-4)
+
+
+def test_planar_strips_add_the_area_between_the_fronts():
+    """A planar advance: every strip triangle runs counter-clockwise about +z, and the
+    strips cover the area between the old and the new octagon."""
+    crack = _octagon_crack()
+    k = np.linspace(1.0, 1.4, 8)
+    adv = advance_mixed_front(
+        crack.vertices, crack.normals2, np.column_stack([k, 0 * k, 0 * k]), 0.2
+    )
+    grown = extend_surface(crack, adv.vertices)
+    P = np.asarray(grown.points)
+
+    def area(ids):
+        Q = P[list(ids)]
+        return 0.5 * np.sum(np.cross(Q - Q[0], np.roll(Q, -1, axis=0) - Q[0]), axis=0) @ [0, 0, 1]
+
+    strips = [area(t) for t in grown.patches[1:]]
+    assert min(strips) > 0
+    assert sum(strips) == pytest.approx(area(grown.front_ids) - area(crack.front_ids), rel=1e-12)
+
+
+def test_mixed_advance_bad_input_refused():
+    crack = _octagon_crack()
+    with pytest.raises(FractureError, match="k_edges"):
+        advance_mixed_front(crack.vertices, crack.normals2, np.ones((7, 3)), 0.1)
+    with pytest.raises(FractureError, match="k_edges"):
+        advance_mixed_front(crack.vertices, crack.normals2, np.tile([-1.0, 0, 0], (8, 1)), 0.1)
