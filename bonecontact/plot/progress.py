@@ -16,6 +16,9 @@ from bonecontact.plot.env import in_notebook
 class DisplayFile:
     """A writable file that shows the last line written in one updating notebook display."""
 
+    #: What tqdm reads to choose its bar characters (Unicode blocks, not ``#``).
+    encoding = "utf-8"
+
     def __init__(self) -> None:
         self.handle: Any = None
         self.text = ""

@@ -32,6 +32,7 @@ from mpi4py import MPI
 
 from tqdm import tqdm
 
+from bonecontact.plot.progress import progress_file
 from bonecontact.runners.checkpoint import CheckpointError
 
 __all__ = ["LoopResult", "RunStopped", "StepHooks", "Verdict", "run_steps"]
@@ -101,14 +102,17 @@ class StepHooks:
 
 
 def progress_bar(comm: MPI.Comm, name: str, total: int, done: int, progress: bool) -> tqdm:
-    """The run's progress bar (rank 0 only, and only with ``progress``)."""
+    """The run's progress bar (rank 0 only, and only with ``progress``; in a notebook one
+    display updated in place, :func:`bonecontact.plot.progress_file`)."""
+    disable = (comm.rank != 0) or not progress
     return tqdm(
         total=total,
         initial=done,
         desc=name,
         unit="step",
-        disable=(comm.rank != 0) or not progress,
+        disable=disable,
         dynamic_ncols=True,
+        file=None if disable else progress_file(),
     )
 
 

@@ -813,3 +813,20 @@ def test_knee3d_contact_carries_body_weight_and_tumour_volume(demo_runs):
     assert an[-1]["equivalent_radius"] > an[0]["equivalent_radius"]
     for name in ("pressure", "pressure_3d"):
         _check_png(o1 / f"knee3d_{name}.png")
+
+
+@pytest.mark.parametrize("demo", [d.stem for d in DEMOS])
+def test_demo_figures_pass_the_figure_check(demo_runs, demo):
+    """Every picture a demo writes has its record beside it (bonecontact.plot.show) and
+    passes the figure check: at most 5 % of a colour-mapped area saturated unless the
+    figure states the clip, no overlapping texts, no text outside the picture, every
+    labelled marker or line in a legend, tick labels on every shown axis (the run is
+    the notebook run of test_demo_runs, not repeated)."""
+    import bonecontact.plot as bp
+
+    res, out = demo_runs[demo, 1]
+    assert res.returncode == 0, res.stderr[-2000:]
+    pngs = sorted(out.rglob("*.png"))
+    assert pngs
+    problems = {p.name: bp.check_png(p) for p in pngs}
+    assert not any(problems.values()), {k: v for k, v in problems.items() if v}

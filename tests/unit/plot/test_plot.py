@@ -175,3 +175,29 @@ def test_plot_has_no_bonecontact_imports():
     for path in Path(bp.__file__).parent.glob("*.py"):
         for m in re.finditer(r"(?:from|import) (bonecontact[\w.]*)", path.read_text()):
             assert m.group(1).startswith("bonecontact.plot"), (path.name, m.group(1))
+
+
+def test_progress_file_is_one_updating_display(monkeypatch):
+    """In a notebook a progress bar writes to one display, updated in place with the last
+    line written (after the last carriage return); outside a notebook: stderr (None)."""
+    import IPython.display
+
+    from bonecontact.plot.progress import DisplayFile
+
+    assert bp.progress_file() is None
+    shown = []
+
+    class Handle:
+        def update(self, data, raw):
+            shown.append(("update", data["text/plain"]))
+
+    def display(data, raw, display_id):
+        shown.append(("display", data["text/plain"]))
+        return Handle()
+
+    monkeypatch.setattr(IPython.display, "display", display)
+    f = DisplayFile()
+    for k in range(3):
+        f.write(f"\rrun: {k}/2")
+    f.write("\n")
+    assert shown == [("display", "run: 0/2"), ("update", "run: 1/2"), ("update", "run: 2/2")]
