@@ -483,8 +483,10 @@ def trim_tables(output: Path, step: int, comm: MPI.Comm) -> None:
     on_root(comm, trim)
 
 
-def trim_fracture_table(output: Path, step: int, comm: MPI.Comm) -> None:
-    """Cut fracture.csv after the rows of ``step`` (rank 0; collective).
+def trim_fracture_table(output: Path, step: int, comm: MPI.Comm, increments: int = 0) -> None:
+    """Cut fracture.csv after the rows of ``step`` and the rows of the next step on fewer
+    than ``increments`` crack increments (a checkpoint between the fatigue blocks of a
+    step; rank 0; collective).
 
     Raises
     ------
@@ -492,8 +494,14 @@ def trim_fracture_table(output: Path, step: int, comm: MPI.Comm) -> None:
         If fracture.csv is missing.
     """
     path = Path(output) / "fracture.csv"
-    col = FRACTURE_COLUMNS.index("step")
-    on_root(comm, lambda: _cut_table(path, _upto_step(path, step, col, exact=False)))
+    col, inc = FRACTURE_COLUMNS.index("step"), FRACTURE_COLUMNS.index("increment")
+    upto = _upto_step(path, step, col, exact=False)
+
+    def keep(rows: list[list[str]]) -> list[list[str]]:
+        within = [r for r in rows[1:] if r and int(r[col]) == step + 1 and int(r[inc]) < increments]
+        return upto(rows) + within
+
+    on_root(comm, lambda: _cut_table(path, keep))
 
 
 def trim_rows(path: Path, rows: int, comm: MPI.Comm) -> None:
@@ -804,13 +812,20 @@ class CrackState(MechanicsState):
         self.comm = comm
         self.integ: Integrator | None = None
         self.counters = RunCounters()
+        self.increments = 0  # crack increments of the checkpoint read (fatigue blocks)
 
     def position(self) -> tuple[int, float]:
         return (0, 0.0) if self.integ is None else super().position()
 
+    def read(self, path: Path, meta: dict[str, Any]) -> None:
+        """The mechanics state, and the crack increments made (fracture.csv keeps the rows
+        of fewer increments of the step after the checkpoint's)."""
+        super().read(path, meta)
+        self.increments = int((meta.get("crack_run") or {}).get("increment", 0))
+
     def trim(self, output: Path, step: int) -> None:
         trim_tables(output, step, self.comm)
-        trim_fracture_table(output, step, self.comm)
+        trim_fracture_table(output, step, self.comm, self.increments)
 
 
 # ----------------------------------------------------------------------------- growth state

@@ -1,33 +1,23 @@
 """Mechanics scenes with a ``[[crack]]`` or ``[fracture] initiate = true``
 (docs/scene_format.md#fracture, docs/theory/fracture.md).
 
-With ``initiate = true`` and no ``[[crack]]`` the scene runs on its own mesh, step by step,
-with the initiation check; at the first step whose largest risk reaches 1 a short crack is
-inserted there (:mod:`bonecontact.fracture.initiation`: from the surface point if the cell
-of the maximum is at the boundary, else centred on it; normal to σ₁), the same step is
-solved again on the cracked body and the run goes on as a crack scene (below).
+With ``initiate = true`` and no ``[[crack]]`` the scene runs on its own mesh with the
+initiation check; at the first step whose largest risk reaches 1 a short crack is
+inserted there (:mod:`bonecontact.fracture.initiation`), the same step is solved again on
+the cracked body and the run goes on as a crack scene.
 
-The crack is cut into the scene's body (:mod:`bonecontact.fracture.body`: the body's
-boundary is taken from the scene mesh, re-meshed with gmsh around the crack, graded
-towards the tips), its two faces become a contact pair (``crack_plus`` slave,
-``crack_minus`` master; frictionless, or Coulomb with the crack's ``friction`` and the
-fixed-point bound) solved with the scene's other pairs by the mortar PDAS, and after
-every step K_I, K_II, J and G of every tip come from the interaction integral (with the
-contact tractions as face term) and K_I, K_II from displacement correlation as a
-cross-check; rows go to ``fracture.csv`` as the run goes.
-
-With ``[fracture] propagate = true`` a tip whose MTS equivalent K reaches the K_Ic of
-the cracked material grows by Δa in the direction of the criterion; the body is re-meshed
-around the longer crack and the same step (same load) is solved again, until no tip grows
-(arrest at this load: the analysis goes on to the next step), a grown tip comes within
-Δa of the free surface (*fractured*: the run stops, with the time and step in
-``summary.json`` and on the console) or ``max_increments`` increments are made.  Static
-analyses only: the solution of a static step does not depend on the previous state, so
-nothing needs to be transferred to the new mesh.
-
-Checkpoints are written between load steps and hold the crack with the mechanics state
-(:class:`bonecontact.runners.checkpoint.CrackState`); a restart re-meshes the body around the
-stored crack and continues.
+The crack is cut into the scene's body (:mod:`bonecontact.fracture.body`: re-meshed by
+gmsh, graded towards the tips), its faces are a contact pair (``crack_plus`` /
+``crack_minus``, frictionless or Coulomb) solved with the other pairs by the mortar
+PDAS, and after every step K_I, K_II, J and G of every tip (interaction integral, the
+contact tractions as face term; displacement correlation as a cross-check) go to
+``fracture.csv``.  With ``propagate = true`` a tip whose MTS equivalent K reaches K_Ic
+grows by Δa and the same step is solved again on the re-meshed body, until no tip grows,
+a tip comes within Δa of the surface (*fractured*) or ``max_increments`` are made; with
+``[fracture.fatigue]`` the crack grows by blocks of cycles at the last step's load
+(:mod:`bonecontact.runners.crack_fatigue`).  Static analyses only for growth: nothing is
+transferred to the new mesh.  Checkpoints hold the crack with the mechanics state
+(:class:`bonecontact.runners.checkpoint.CrackState`), between steps and between blocks.
 """
 
 from __future__ import annotations
@@ -71,8 +61,16 @@ from bonecontact.fracture.sif import displacement_correlation, interaction_integ
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, CrackState, RunCounters
+from bonecontact.runners.crack_fatigue import (
+    FATIGUE_COLUMNS,
+    FatigueProgress,
+    FatigueRecord,
+    block_end,
+    bound_to_separation,
+    plain_rows,
+)
 from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
-from bonecontact.runners.loop import Verdict, progress_bar, run_steps
+from bonecontact.runners.loop import RunStopped, Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import (
     MechanicsSteps,
     Recorder,
@@ -206,12 +204,12 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
             "model",
             "the stress intensity factors of a crack need an isotropic material around it",
         )
-    if fr.propagate and scene.analysis.kind != "static":
+    if fr.grows and scene.analysis.kind != "static":
         raise SceneError(
             str(scene.path),
             "[fracture]",
-            "propagate",
-            f"propagation runs static analyses in this version, not {scene.analysis.kind!r}",
+            "propagate" if fr.propagate else "fatigue",
+            f"crack growth runs static analyses in this version, not {scene.analysis.kind!r}",
         )
     if spec is None:
         _check_initiation(scene, fr, body)
@@ -224,14 +222,16 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
 def with_crack(run: CrackRun, spec: CrackSpec, initiated: bool = False) -> CrackRun:
     """The run with its crack: the tip mesh and the face pair added to the scene's pairs.
 
-    Tip size: ``tip_size``; default Δa/8 with propagation (for an initiated crack at most
-    an eighth of its length), else 1/100 of the shortest tip segment."""
+    Tip size: ``tip_size``; default Δa/8 with propagation, Δa_max/10 with fatigue (for an
+    initiated crack at most that fraction of its length), else 1/100 of the shortest tip
+    segment."""
     fr = run.fracture
     seg = min(spec.crack.tip_segment_length(e) for e in spec.crack.tip_ends)
     if fr.tip_size is not None:
         h_tip = fr.tip_size
-    elif fr.propagate:
-        h_tip = fr.increment / 8 if not initiated else min(fr.increment, spec.crack.length) / 8
+    elif fr.grows:
+        step = fr.growth_step if not initiated else min(fr.growth_step, spec.crack.length)
+        h_tip = step / (8 if fr.propagate else 10)
     else:
         h_tip = seg / 100
     pair = spec.face_pair(_pair_name(spec.name), "crack_plus", "crack_minus")
@@ -280,8 +280,8 @@ def _radius(crack: Crack2D, end: int, run: CrackRun) -> float:
     seg = crack.tip_segment_length(end)
     free = run.body.distance(crack.tip(end))
     r = min(0.4 * seg, 0.8 * free)
-    if run.fracture.propagate:
-        r = min(0.8 * seg, 0.8 * free, 2.0 * run.fracture.increment)
+    if run.fracture.grows:
+        r = min(0.8 * seg, 0.8 * free, 2.0 * run.fracture.growth_step)
     return r
 
 
@@ -377,15 +377,24 @@ def _snapped(crack: Crack2D, ends: tuple[int, ...], run: CrackRun) -> Crack2D:
     return Crack2D(pts, crack.tips)
 
 
-def _grow(crack: Crack2D, records: list[IncrementRecord], run: CrackRun) -> tuple[Crack2D, bool]:
-    """The crack grown at every tip that grows; whether a grown tip is within Δa of the
-    free surface (then marked ``fractured``)."""
-    da = run.fracture.increment
+def _grow(
+    crack: Crack2D,
+    records: list[IncrementRecord],
+    run: CrackRun,
+    advances: dict[int, float] | None = None,
+) -> tuple[Crack2D, bool]:
+    """The crack grown at every tip that grows (by Δa, or by its entry of ``advances``);
+    whether a grown tip is within Δa (Δa_max) of the free surface (then marked
+    ``fractured``)."""
+    da = run.fracture.growth_step
+    if advances is None:
+        advances = {r.tip: da for r in records if r.status == "grows"}
     fractured = False
     for i, r in enumerate(records):
-        if r.status != "grows":
+        if r.tip not in advances:
             continue
-        crack = _snapped(crack.extended(r.tip, da, math.radians(r.angle_deg)), (r.tip,), run)
+        grown = crack.extended(r.tip, advances[r.tip], math.radians(r.angle_deg))
+        crack = _snapped(grown, (r.tip,), run)
         if run.body.distance(crack.tip(r.tip)) < da:
             fractured = True
             records[i] = dataclasses.replace(r, status="fractured")
@@ -422,7 +431,7 @@ def _initiate(
     length = (
         fr.initiation_length
         if fr.initiation_length is not None
-        else default_length(fr.increment if fr.propagate else None, h)
+        else default_length(fr.growth_step, h)
     )
     try:
         ini = initiation_crack(run.body, centre, direction, length, h)
@@ -506,9 +515,10 @@ class CrackSteps(MechanicsSteps):
         self.scene, self.comm, self.outdir, self.ck, self.resume = scene, comm, outdir, ck, resume
         self.progress, self.table = progress, None
         self.saved = resume[1]["crack_run"] if resume is not None else None
-        dt = analysis_steps(scene)[1]
+        self.nsteps, dt = analysis_steps(scene)
         super().__init__(None, None, timer, scene.output.fields_every, RunCounters(), dt)
         self.state = CrackProgress()
+        self.fatigue = FatigueProgress()  # the blocks of a [fracture.fatigue] run
         self.run, self.crack, self.cm = run, None, None
 
     # ------------------------------------------------------------- models
@@ -540,11 +550,12 @@ class CrackSteps(MechanicsSteps):
             int(saved["increment"]),
             saved["propagation"],
             None,
-            [IncrementRecord(**r) for r in saved["tips_last"]],
+            plain_rows(saved["tips_last"]),
             saved["initiation"],
             saved["risk_before"],
             tuple(saved["prev"]),
         )
+        self.fatigue = FatigueProgress.from_state(saved.get("fatigue"))
 
     def start_model(self, step: int, stem: str) -> None:
         """The integrator (at ``step``) and recorder of the current model; after a
@@ -620,7 +631,10 @@ class CrackSteps(MechanicsSteps):
         return self.remesh(k, "fields_initiated")  # the same load on the cracked body
 
     def evaluate_and_grow(self, k: int) -> Verdict:
-        """K at every tip after step ``k``; the crack grown where it reaches K_Ic."""
+        """K at every tip after step ``k``; the crack grown where it reaches K_Ic (with
+        ``[fracture.fatigue]``: :meth:`fatigue_block`)."""
+        if self.run.fracture.fatigue is not None:
+            return self.fatigue_block(k)
         integ, st = self.integ, self.state
         with self.timer.phase("fracture"):
             records = evaluate_tips(
@@ -648,6 +662,65 @@ class CrackSteps(MechanicsSteps):
         if st.status == "grows":
             st.status = "arrested"
         return Verdict.NEXT
+
+    def fatigue_block(self, k: int) -> Verdict:
+        """K at every tip after step ``k`` of a fatigue run; at the last step (the peak of
+        the cycle) a block end: its cycles, then a stop or the next block (the crack grown,
+        the same step again on the re-meshed body)."""
+        integ, st, fr = self.integ, self.state, self.run.fracture
+        with self.timer.phase("fracture"):
+            records = evaluate_tips(
+                self.sm, self.cm, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
+            )
+        prog = self.fatigue if k == self.nsteps else None
+        rows, grow, stop = block_end(records, fr.fatigue, self.run.K_Ic, prog, st.increment)
+        fractured = False
+        if grow:
+            self.crack, fractured = _grow(self.crack, rows, self.run, grow)
+        self.table.rows(rows)
+        st.tips_last = rows
+        if stop or fractured:
+            self.fatigue_stop(k, stop or "fractured", rows)
+            return Verdict.LAST
+        if prog is None:
+            return Verdict.NEXT
+        st.increment, st.status = st.increment + 1, "grows"
+        verdict = self.remesh(k, f"fields_block{st.increment}")  # the longer crack
+        self.block_checkpoint(k)
+        return verdict
+
+    def fatigue_stop(self, k: int, status: str, rows: list[FatigueRecord]) -> None:
+        """The end of the blocks: the status, after a fracture the bound of the cycles to
+        separation, and the line on the console."""
+        st, prog, t = self.state, self.fatigue, self.integ.t
+        st.status = prog.status = status
+        cycles = prog.cycles[-1] if prog.cycles else 0.0
+        if status == "fractured":
+            st.increment, st.fractured_at = st.increment + 1, (t, k)
+            law = self.run.fracture.fatigue.law()
+            prog.bound = min(
+                bound_to_separation(cycles, self.run.body.distance((r.x, r.y)), law.rate(r.K_eq))
+                for r in rows
+                if r.status == "fractured"
+            )
+        self.say(
+            f"{self.scene.name}: fatigue {status} at step {k} after {len(prog.cycles) - 1} "
+            f"blocks, N = {cycles:.6g} cycles (crack length {self.crack.length:.6g} m)"
+        )
+
+    def block_checkpoint(self, k: int) -> None:
+        """After a block (the model rebuilt at step ``k`` − 1): a checkpoint every
+        ``checkpoint_every`` blocks and on a signal, which then stops the run."""
+        every, signum = self.scene.output.checkpoint_every, self.ck.stop.agreed(self.comm)
+        if signum or (every > 0 and self.state.increment % every == 0):
+            with self.timer.phase("checkpoint"):
+                self.ck.state.integ, self.ck.state.counters = self.integ, self.counters
+                self.ck.write({"crack_run": self.crack_state()})
+        if signum:
+            self.ck.signum = signum
+            raise RunStopped(
+                "interrupted", f"stopped after block {self.state.increment} of step {k} by a signal"
+            )
 
     def record(self, k: int, last: bool) -> None:
         super().record(k, last)
@@ -682,6 +755,7 @@ class CrackSteps(MechanicsSteps):
             "risk_before": st.risk_before,
             "prev": list(st.prev),
             "monitor": fracture.checkpoint_state() if fracture is not None else None,
+            "fatigue": self.fatigue.state() if self.run.fracture.fatigue is not None else None,
         }
         return json.loads(json.dumps(state, default=_plain))
 
@@ -698,7 +772,25 @@ class CrackSteps(MechanicsSteps):
                 run, self.crack, st.tips_last, st.increment, st.status, st.fractured_at
             )
         )
+        if frac["crack"] is not None and run.fracture.fatigue is not None:
+            frac["crack"]["fatigue"] = self.fatigue_summary()
         return frac
+
+    def fatigue_summary(self) -> dict[str, Any]:
+        """The ``fracture.crack.fatigue`` entry of summary.json."""
+        prog, f, at = self.fatigue, self.run.fracture.fatigue, self.state.fractured_at
+        return {
+            "status": prog.status,
+            "blocks": max(len(prog.cycles) - 1, 0),
+            "cycles": prog.cycles[-1] if prog.cycles else 0.0,
+            "cycles_bound": prog.bound,
+            "length": self.crack.length,
+            "fractured": at is not None,
+            "fracture_time": None if at is None else at[0],
+            "fracture_step": None if at is None else at[1],
+            **dataclasses.asdict(f),
+            "K_Ic": self.run.K_Ic,
+        }
 
 
 def _spent(r: IncrementRecord) -> IncrementRecord:
@@ -749,9 +841,9 @@ def run_cracked(
     resume = ck.find(restart) if restart else None
     hooks = CrackSteps(scene, run, comm, outdir, timer, ck, resume, progress)
     first = hooks.build_first(scene)
-    hooks.table = RecordTable(
-        comm, Path(outdir) / "fracture.csv", FRACTURE_COLUMNS, append=resume is not None
-    )
+    columns = FATIGUE_COLUMNS if run.fracture.fatigue is not None else FRACTURE_COLUMNS
+    fracture_csv = Path(outdir) / "fracture.csv"
+    hooks.table = RecordTable(comm, fracture_csv, columns, append=resume is not None)
     try:
         with ck.stop:
             bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)

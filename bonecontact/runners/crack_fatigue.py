@@ -1,0 +1,177 @@
+"""Fatigue growth of a 2D crack scene by blocks of load cycles (``[fracture.fatigue]``;
+docs/scene_format.md, docs/theory/fracture.md#fatigue).
+
+At the load of the analysis's last step (the peak of the cycle) every evaluation of the
+tips is a block end: the Paris rates of the tips' MTS equivalent K, the cycles of the
+block just made (:func:`bonecontact.fracture.fatigue.block_cycles` over the ends known so
+far), then a stop or the advances of the next block.  The run (:mod:`~.cracks`)
+re-meshes the grown crack and solves the same step again.  Nothing here touches a mesh.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from bonecontact.fracture.fatigue import block_cycles
+from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
+from bonecontact.scene.spec import FatigueSpec
+
+__all__ = [
+    "FATIGUE_COLUMNS",
+    "FatigueProgress",
+    "FatigueRecord",
+    "block_end",
+    "bound_to_separation",
+    "plain_rows",
+]
+
+#: The columns of fracture.csv of a fatigue run: the crack's, then the cumulative cycles.
+FATIGUE_COLUMNS = (*FRACTURE_COLUMNS, "cycles")
+
+#: A tip whose share of a block is below this fraction of Δa_max keeps it for later: its
+#: last segment (the integration domain's bound) stays ≥ 0.6 Δa_max.
+WAIT_FRACTION = 0.6
+
+
+@dataclasses.dataclass(frozen=True)
+class FatigueRecord(IncrementRecord):
+    """A row of fracture.csv of a fatigue run: the tip, then the cycles N to this crack."""
+
+    cycles: float = 0.0
+
+    def row(self) -> tuple:
+        return (*super().row(), self.cycles)
+
+
+@dataclasses.dataclass
+class FatigueProgress:
+    """The history of the blocks at the peak load (what a checkpoint stores).
+
+    ``growth`` and ``lead_rate`` are the growth of the fastest tip summed over the blocks
+    (m) and its da/dN (m/cycle) at every block end, ``cycles`` the cumulative N there,
+    ``waiting`` the growth a tip keeps for later (tip end -> m), ``status`` the stop
+    (``None`` while it runs) and ``bound`` the upper bound of the cycles to separation.
+    """
+
+    growth: list[float] = dataclasses.field(default_factory=list)
+    lead_rate: list[float] = dataclasses.field(default_factory=list)
+    cycles: list[float] = dataclasses.field(default_factory=list)
+    waiting: dict[int, float] = dataclasses.field(default_factory=dict)
+    status: str | None = None
+    bound: float | None = None
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any] | None) -> FatigueProgress:
+        """From a checkpoint's ``fatigue`` entry (``None``: a fresh history)."""
+        if state is None:
+            return cls()
+        waiting = {int(k): float(v) for k, v in state["waiting"].items()}
+        return cls(
+            [float(v) for v in state["growth"]],
+            [float(v) for v in state["lead_rate"]],
+            [float(v) for v in state["cycles"]],
+            waiting,
+            state["status"],
+            state["bound"],
+        )
+
+    def state(self) -> dict[str, Any]:
+        """The checkpoint's ``fatigue`` entry (JSON)."""
+        out = dataclasses.asdict(self)
+        out["waiting"] = {str(k): v for k, v in self.waiting.items()}
+        return out
+
+    def add_end(self, growth: float, lead_rate: float) -> float:
+        """A block end (the fastest tip's summed growth and rate there): its cumulative
+        cycles (the last block's by the rule of :func:`block_cycles` over the ends known so
+        far, or, if the rate at its end is zero, at its start rate)."""
+        self.growth.append(float(growth))
+        self.lead_rate.append(float(lead_rate))
+        if len(self.growth) == 1:
+            block = 0.0
+        elif lead_rate > 0:
+            block = float(block_cycles(self.growth, self.lead_rate)[-1])
+        else:
+            block = (self.growth[-1] - self.growth[-2]) / self.lead_rate[-2]
+        self.cycles.append((self.cycles[-1] if self.cycles else 0.0) + block)
+        return self.cycles[-1]
+
+
+def _stop(k_eq: np.ndarray, rates: np.ndarray, K_Ic: float | None, blocks: int, most: int) -> str:
+    """The stop at this block end (``""``: make a block)."""
+    if K_Ic and bool(np.any(k_eq >= K_Ic)):
+        return "K_Ic"
+    if float(rates.max(initial=0.0)) <= 0.0:
+        return "arrested"
+    if blocks >= most:
+        return "max_blocks"
+    return ""
+
+
+def _as_fatigue(r: IncrementRecord, status: str, cycles: float) -> FatigueRecord:
+    fields = {f.name: getattr(r, f.name) for f in dataclasses.fields(IncrementRecord)}
+    return FatigueRecord(**(fields | {"status": status, "cycles": cycles}))
+
+
+def _stopped_rows(
+    records: list[IncrementRecord], k_eq: np.ndarray, K_Ic: float | None, stop: str, n: float
+) -> list[FatigueRecord]:
+    """The rows of a stop: the tips at K_Ic marked ``K_Ic`` (the others ``holds``), every
+    tip ``arrested`` or ``max_blocks``."""
+    hit = k_eq >= K_Ic if stop == "K_Ic" else np.ones(len(records), dtype=bool)
+    return [_as_fatigue(r, stop if h else "holds", n) for r, h in zip(records, hit, strict=True)]
+
+
+def block_end(
+    records: list[IncrementRecord],
+    spec: FatigueSpec,
+    K_Ic: float | None,
+    prog: FatigueProgress | None,
+    blocks: int,
+) -> tuple[list[FatigueRecord], dict[int, float], str]:
+    """One evaluation of the tips after ``blocks`` blocks: the rows, the advance of every
+    tip that grows in the next block (tip end -> m) and the stop (``""``: go on).
+
+    ``prog`` is ``None`` before the last step (the ramp): only the K_Ic check.  Otherwise
+    the rates give the cycles of the block just made (``prog`` updated), then the stop
+    (``K_Ic``, ``arrested``, ``max_blocks``) or the advances: each tip's share
+    rate/max rate × Δa_max added to what it kept, grown once the sum reaches
+    :data:`WAIT_FRACTION` × Δa_max (the fastest tip always).
+    """
+    k_eq = np.array([r.K_eq for r in records], dtype=float)
+    if prog is None:
+        stop = "K_Ic" if K_Ic and bool(np.any(k_eq >= K_Ic)) else ""
+        if stop:
+            return _stopped_rows(records, k_eq, K_Ic, stop, 0.0), {}, stop
+        return [_as_fatigue(r, r.status, 0.0) for r in records], {}, ""
+    rates = spec.law().rate(k_eq)
+    lead = float(rates.max(initial=0.0))
+    n = prog.add_end(blocks * spec.da_max, lead)
+    stop = _stop(k_eq, rates, K_Ic, blocks, spec.max_blocks)
+    if stop:
+        prog.status = stop
+        return _stopped_rows(records, k_eq, K_Ic, stop, n), {}, stop
+    share = {
+        r.tip: prog.waiting.get(r.tip, 0.0) + spec.da_max * float(rt) / lead
+        for r, rt in zip(records, rates, strict=True)
+    }
+    least = WAIT_FRACTION * spec.da_max * (1.0 - 1e-12)
+    grow = {t: s for t, s in share.items() if s >= least}
+    prog.waiting = {t: s for t, s in share.items() if t not in grow and s > 0}
+    rows = [_as_fatigue(r, "grows" if r.tip in grow else "holds", n) for r in records]
+    return rows, grow, ""
+
+
+def plain_rows(rows: list[dict[str, Any]]) -> list[IncrementRecord]:
+    """Rows of a checkpoint back as records (fatigue rows carry ``cycles``)."""
+    return [FatigueRecord(**r) if "cycles" in r else IncrementRecord(**r) for r in rows]
+
+
+def bound_to_separation(cycles: float, distance: float, rate: float) -> float:
+    """An upper bound of the cycles to separation from the last evaluated crack: the tip's
+    distance to the surface at its rate there (the rate only grows as the crack does)."""
+    return cycles + distance / rate if rate > 0 else math.inf
