@@ -202,8 +202,8 @@ if comm.rank == 0:
         "The computed peak is about twice Hertz's because each 3 mm cartilage layer lies on "
         "bone 100-1700 times stiffer: a thin layer on a stiff substrate is stiffer than the "
         "half-space Hertz assumes, so the contact is narrower and the pressure higher.  The "
-        "thin-layer (Winkler) estimate, a = (3PtR/2M)^(1/3), p0 = M a^2/(2Rt) with t = 6 mm "
-        "of cartilage and M its confined modulus, is close to the computed profile.",
+        "thin-layer (Winkler) estimate, $a = (3PtR/2M)^{1/3}$, $p_0 = M a^2/(2Rt)$ with "
+        "$t$ = 6 mm of cartilage and $M$ its confined modulus, is close to the computed profile.",
     )
     bp.show(fig, output / "contact_pressure.png", dpi=120)
     width = x[p > 0].max() - x[p > 0].min()
@@ -217,23 +217,40 @@ if comm.rank == 0:
 # %% [markdown]
 # ## Stress, with the contact zone marked
 # von Mises stress (pyvista reads the `.pvd` series), smoothed to the vertices for
-# display; the colour range stops at the 99th percentile of the area so that the thin,
-# highly loaded cartilage does not take the whole scale (the clipped maximum is stated
-# under the picture).  The blue dots are the femoral cartilage nodes in contact.
+# display; the colour range stops at a round number that leaves at most 1 % of the area
+# above it, so that the thin, highly loaded cartilage and cortex do not take the whole
+# scale (the clip and the maximum are stated in the colour-bar label).  The blue dots are
+# the femoral cartilage nodes in contact.
 
 # %%
 if comm.rank == 0:
+    from scipy.spatial import cKDTree
+
+    from bonecontact.neoplasm.host import read_host_geometry
+
     active = np.column_stack([x[p > 0], rows["y"][p > 0]])
+    fields = bp.read_fields(output / "fields.pvd")
+    # each cell's region of the mesh (matched by centroid): the display projection is
+    # continuous within a region and keeps the jumps between cortex, cancellous bone
+    # and cartilage
+    geo = read_host_geometry(scene.mesh_path)
+    names = sorted(geo.cells)
+    centres = np.vstack([geo.x[geo.cells[k][1]].mean(axis=1) for k in names])
+    labels = np.concatenate([np.full(len(geo.cells[k][1]), i) for i, k in enumerate(names)])
+    _, idx = cKDTree(centres[:, :2]).query(np.asarray(fields.cell_centers().points)[:, :2])
     png = bp.field_view(
-        bp.read_fields(output / "fields.pvd"),
+        fields,
         "von_mises",
         output / "knee2d_von_mises.png",
         quantity="von Mises stress",
         unit="MPa",
         contact_points=active,
         contact_label="femoral cartilage nodes in contact",
-        title="knee2d: von Mises stress under body weight",
+        title="knee2d: von Mises stress under body weight (frontal section)",
         cmap="inferno",
+        regions=labels[idx],
+        axis_titles={"x": "x, across the knee", "y": "y, along the leg"},
+        directions={"proximal": (0.0, 1.0, 0.0)},
     )
     bp.show(png, png)
     print(f"pictures: {output / 'contact_pressure.png'}, {png}")
@@ -304,6 +321,7 @@ if comm.rank == 0:
     a1.plot(h["time"], 50 * h["tangential_force"] / 1e3, label="tangential force × 50")
     bp.line_axes(a1, ("time", "s"), ("force per unit thickness", "kN/m"))
     a1.legend(fontsize=8)
+    a1.tick_params(labelbottom=True)  # time ticks on both panels
     a2.plot(h["time"], h["n_stick"], label="stick nodes")
     a2.plot(h["time"], h["n_slip"], label="slip nodes")
     a2.plot(h["time"], h["n_active"], ":", label="in contact")

@@ -140,8 +140,9 @@ if comm.rank == 0:
 # %% [markdown]
 # ## Pictures
 # pyvista reads the `.pvd` series (the VTK in the PyPI wheels cannot read DOLFINx's
-# XDMF).  The displacement magnitude and the von Mises stress (smoothed to the vertices for
-# display) on the deformed shape, magnified by the stated factor, y up, lengths in mm.
+# XDMF).  The displacement magnitude and the von Mises stress (projected to the vertices
+# for display) on the undeformed bone, lengths in mm, proximal up; the dashed line is the
+# outline of the deformed bone with the displacement magnified by the stated factor.
 
 # %%
 png = output / "long_bone.png"
@@ -149,12 +150,17 @@ if comm.rank == 0:
     grid = bp.read_fields(output / "fields.pvd")
     u = np.asarray(grid.point_data["displacement"])
     warp = float(f"{0.1 * 0.2 / max(np.abs(u).max(), 1e-30):.1g}")  # 10 % of the length
-    common = dict(displacement="displacement", warp=warp, window_size=(700, 1000))
+    common = dict(
+        displacement="displacement",
+        warp=warp,
+        window_size=(700, 1000),
+        directions={"proximal": (0.0, 1.0, 0.0)},
+    )
     disp = bp.field_view(
         grid,
         "displacement",
         output / "long_bone_displacement.png",
-        quantity="|u|",
+        quantity=r"displacement $|\mathbf{u}|$",
         unit="µm",
         clim=None,
         title=f"long bone: displacement at t = {summary['steps'] * scene.analysis.dt * 1e3:.0f} ms",

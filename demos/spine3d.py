@@ -726,26 +726,26 @@ if comm.rank == 0:
     a1.plot(growth["time"] / DAY, growth["volume"] * 1e9, "-", label="growth.csv")
     a1.plot(rows[:, 0] / DAY, rows[:, 2] * 1e9, "o", label="analyses (tumour cells)")
     a1.legend()
-    bp.line_axes(a1, ("growth time", "days"), ("tumour volume", "mm³"))
+    bp.line_axes(a1, ("growth time", "days"), ("tumour volume", "mm³"), zero=True)
     a2.plot(rows[:, 0] / DAY, rows[:, 5] / MM * 1e3, "^-", color="C1")
-    bp.line_axes(a2, ("growth time", "days"), ("subsidence of the L4 endplate", "µm"))
+    bp.line_axes(a2, ("growth time", "days"), ("subsidence of the L4 endplate", "µm"), zero=True)
     a3.plot(rows[:, 0] / DAY, rows[:, 3] / MM * 1e3, "s-", color="C2")
-    bp.line_axes(
-        a3, ("growth time", "days"), ("subsidence of the L3 top (segment shortening)", "µm")
-    )
+    bp.line_axes(a3, ("growth time", "days"), ("subsidence of the L3 top", "µm"), zero=True)
     a4.plot(rows[:, 0] / DAY, rows[:, 6] / 1e6, "s-", color="C3")
-    bp.line_axes(a4, ("growth time", "days"), ("max von Mises ≤ 2 mm from the tumour", "MPa"))
+    bp.line_axes(
+        a4, ("growth time", "days"), ("max von Mises ≤ 2 mm from the tumour", "MPa"), zero=True
+    )
     a5.plot(rows[:, 0] / DAY, rows[:, 8], "s-", color="C4", label="L4, ≤ 2 mm from the tumour")
     a5.plot(rows[:, 0] / DAY, rows[:, 9], "^:", color="C4", label="L4, all its bone")
     a5.plot(rows[:, 0] / DAY, rows[:, 10], "o--", color="C5", label="L3")
-    a5.legend()
-    bp.line_axes(a5, ("growth time", "days"), ("largest fracture risk σ₁/σ_t of the bone", ""))
+    bp.line_axes(
+        a5, ("growth time", "days"), (r"largest fracture risk $\sigma_1/\sigma_t$", ""), zero=True
+    )
+    a5.legend(fontsize=8)
     a6.plot(rows[:, 0] / DAY, rows[:, 4], "s-", color="C6")
-    bp.line_axes(a6, ("growth time", "days"), ("forward tilt of the L3 top", "°"))
+    bp.line_axes(a6, ("growth time", "days"), ("forward tilt of the L3 top", "°"), zero=True)
     for ax in (a1, a2, a3, a4, a5, a6):
         ax.set_xlim(-0.5, days + 0.5)
-    for ax in (a2, a3, a4, a6):
-        ax.ticklabel_format(axis="y", useOffset=False)
     fig.suptitle(
         f"spine3d: tumour in L4, {F_BODY:.0f} N body weight and {M_FLEX} N·m flexion on L3"
     )
@@ -753,16 +753,18 @@ if comm.rank == 0:
     bp.show(fig, output / "spine3d_growth.png", dpi=120)
 
 # %% [markdown]
-# ## The segment cut in the mid-sagittal plane: stress and fracture risk on the deformed shape
+# ## The segment cut in the mid-sagittal plane: stress and fracture risk
 # The half $z \le 0$ of the segment seen from the side (the cut face shows both
 # vertebral bodies, the disc between them and the tumour in L4, outlined in cyan; the
-# soft tumour's own stress is near zero, so it shows black), in parallel projection, on
-# the deformed shape at true scale, at the last analysis; the colour range stops at the
-# 99th percentile of the cells shown (the thin cortex carries most of the load).  Then
-# the same cut cropped to the L4 body, the colour range stopping at the largest stress
-# of the bone within 2 mm of the tumour (the cortex saturates); and the fracture risk
-# $\sigma_1/\sigma_t$ on that cut (its colour range to the 99th percentile): the weak
-# cancellous bone, not the stiff cortex, carries the risk.
+# soft tumour's own stress is near zero, so it shows black) on its undeformed
+# coordinates, at the last analysis.  The cell stresses are projected to the vertices
+# within each region (cortex, cancellous bone, disc, tumour), so the picture is
+# continuous inside a region and keeps the jumps between them.  Each colour range stops
+# at a round number leaving at most 1 % of the cut's area above it (0.1 % for the risk,
+# so that its rise next to the tumour stays visible); a clip is stated in the colour-bar
+# label with the maximum.  Then the same cut cropped to the L4 body, and the fracture
+# risk $\sigma_1/\sigma_t$ on that cut: the weak cancellous bone, not the stiff cortex,
+# carries the risk.
 
 
 # %%
@@ -779,41 +781,39 @@ def tumour_outline(directory: Path) -> np.ndarray:
     return pts[np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0]))]
 
 
+def cell_regions(grid, directory: Path) -> np.ndarray:
+    """A label per cell of ``grid``: the index of its region in the rebuilt mesh (matched
+    by centroid), so that the display projection is continuous within each region and
+    leaves the jumps between bone, disc and tumour."""
+    g = read_host_geometry3d(Path(directory) / "host_mesh.msh")
+    names = sorted(g.cells)
+    centres = np.vstack([g.x[g.cells[k][1]].mean(axis=1) for k in names])
+    labels = np.concatenate([np.full(len(g.cells[k][1]), i) for i, k in enumerate(names)])
+    _, idx = cKDTree(centres).query(np.asarray(grid.cell_centers().points))
+    return labels[idx]
+
+
 def stress_pictures(a: dict) -> list[Path]:
     """Three PNGs of analysis ``a``: the cut segment and the cut L4 body (von Mises), the
     cut L4 body (fracture risk)."""
     d = Path(a["directory"])
     grid = bp.read_fields(sorted(d.glob("fields*.pvd"))[-1])
+    grid.cell_data["region"] = cell_regions(grid, d)  # kept by the clips below
     cut = grid.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, 0.0), invert=True)
     state = (
         f"day {a['time'] / DAY:.0f}, tumour R = {a['equivalent_radius'] / MM:.1f} mm, "
         f"{F_BODY:.0f} N + {M_FLEX} N·m flexion"
     )
     body = cut.clip_box([-18 * MM, 16 * MM, -3 * MM, 29 * MM, -25 * MM, 0.0], invert=False)
-    near = near_tumour_stress(d, a["equivalent_radius"]) / 1e6  # MPa
     outline = tumour_outline(d)
     pngs = []
-    for g, name, field, quantity, unit, clim, title in (
-        (cut, "spine3d_von_mises.png", "von_mises", "von Mises stress", "MPa", None, "von Mises"),
-        (
-            body,
-            "spine3d_L4_body.png",
-            "von_mises",
-            "von Mises stress",
-            "MPa",
-            (0.0, near),
-            "von Mises (L4 body)",
-        ),
-        (
-            body,
-            "spine3d_L4_risk.png",
-            "fracture_risk",
-            "fracture risk sigma_1/sigma_t",
-            "",
-            None,
-            "fracture risk (L4 body)",
-        ),
-    ):
+    for g, name, field, quantity, unit, saturated, title in (
+        (cut, "spine3d_von_mises.png", "von_mises", "von Mises stress", "MPa", 0.01, "von Mises"),
+        (body, "spine3d_L4_body.png", "von_mises", "von Mises stress", "MPa", 0.01,
+         "von Mises (L4 body)"),
+        (body, "spine3d_L4_risk.png", "fracture_risk", r"fracture risk $\sigma_1/\sigma_t$", "",
+         0.001, "fracture risk (L4 body)"),
+    ):  # fmt: skip
         pngs.append(
             bp.field_view(
                 g,
@@ -821,16 +821,15 @@ def stress_pictures(a: dict) -> list[Path]:
                 output / name,
                 quantity=quantity,
                 unit=unit,
-                displacement="displacement",
-                warp=1.0,
                 title=f"spine3d: {title}, {state}",
                 cmap="inferno",
-                clim=clim,
-                smooth=False,
+                saturated=saturated,
+                regions=g.cell_data["region"],
                 outline=outline,
                 outline_label="tumour (cut)",
                 view="xy",
                 axis_titles={"x": "x, back to front", "y": "y, up"},
+                directions={"anterior": (1.0, 0.0, 0.0), "superior": (0.0, 1.0, 0.0)},
             )
         )
     return pngs

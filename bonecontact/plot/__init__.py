@@ -146,23 +146,39 @@ def read_fields(path: str | Path, time_index: int = -1) -> Any:
 
 # ----------------------------------------------------------------------------- matplotlib
 def line_axes(
-    ax: Any, x: tuple[str, str], y: tuple[str, str], title: str = "", grid: bool = True
+    ax: Any,
+    x: tuple[str, str],
+    y: tuple[str, str],
+    title: str = "",
+    grid: bool = True,
+    zero: bool = False,
 ) -> Any:
-    """Label matplotlib axes with quantity and unit: ``x = ("x along the plateau", "mm")``."""
+    """Label matplotlib axes with quantity and unit: ``x = ("x along the plateau", "mm")``.
+
+    ``zero``: the y axis starts (or, for negative data, ends) at 0, so that a change of a
+    few per cent is not magnified into a slope across the panel (call after plotting)."""
     ax.set_xlabel(f"{x[0]} ({x[1]})" if x[1] else x[0])
     ax.set_ylabel(f"{y[0]} ({y[1]})" if y[1] else y[0])
     if title:
         ax.set_title(title)
     if grid:
         ax.grid(alpha=0.3)
+    if zero:
+        lo, hi = ax.dataLim.intervaly
+        if lo >= 0:
+            ax.set_ylim(0.0, 1.1 * hi if hi > 0 else 1.0)
+        elif hi <= 0:
+            ax.set_ylim(1.1 * lo, 0.0)
     return ax
 
 
 def caption(fig: Any, text: str, width: int = 100) -> None:
-    """A caption under a matplotlib figure (wrapped to ``width`` characters): what the
-    curves are and why a reference differs."""
+    """A caption under a matplotlib figure (wrapped to ``width`` characters, never inside
+    a ``$…$`` formula): what the curves are and why a reference differs."""
+    import re
     import textwrap
 
     fig.tight_layout()  # the axes' labels inside the figure, the caption below them
-    wrapped = "\n".join(textwrap.wrap(text, width))
+    glued = re.sub(r"\$[^$]*\$", lambda m: m.group(0).replace(" ", "\x00"), text)
+    wrapped = "\n".join(textwrap.wrap(glued, width)).replace("\x00", " ")
     fig.text(0.01, -0.01, wrapped, ha="left", va="top", fontsize=9)

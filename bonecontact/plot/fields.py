@@ -420,4 +420,4 @@ def _plane_directions(
 ) -> None:
     """Arrows of the anatomical directions in the lower left corner of a plane picture."""
     vectors = {k: np.asarray(v, dtype=float)[list(plane)] for k, v in directions.items()}
-    draw_directions(ax, vectors, ax.transAxes, (0.06, 0.08), 0.09)
+    draw_directions(ax, vectors)

@@ -95,29 +95,36 @@ def points3(points: npt.ArrayLike) -> np.ndarray:
     return np.pad(p, ((0, 0), (0, 3 - p.shape[1])))
 
 
-def draw_directions(
-    ax: Any,
-    vectors: Mapping[str, np.ndarray],
-    transform: Any,
-    origin: tuple[float, float],
-    length: float,
-) -> None:
-    """Arrows from ``origin`` along the 2D ``vectors`` (screen components, y up), labelled
-    at their tips; a direction seen end-on (in-plane length < 0.3) is left out."""
-    for label, v in vectors.items():
-        n = float(np.linalg.norm(v))
-        if n < 0.3:
-            continue
-        d = np.asarray(v) / n * length
-        tip = (origin[0] + d[0], origin[1] + d[1])
-        ax.annotate("", xy=tip, xytext=origin, xycoords=transform, textcoords=transform,
-                    arrowprops={"arrowstyle": "-|>", "color": "k", "lw": 1.2})  # fmt: skip
-        ha = "left" if d[0] > 0.3 * length else ("right" if d[0] < -0.3 * length else "center")
-        va = "bottom" if d[1] > 0.3 * length else ("top" if d[1] < -0.3 * length else "center")
-        pad = 0.15 * d  # the label just beyond the arrow's head
-        box = {"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1}
-        at = (tip[0] + pad[0], tip[1] + pad[1])
-        ax.text(*at, label, transform=transform, ha=ha, va=va, fontsize=10, bbox=box)
+def draw_directions(ax: Any, vectors: Mapping[str, np.ndarray], corner: str = "lower left") -> None:
+    """Arrows along the 2D ``vectors`` (screen components, y up) in a small white inset in
+    a ``corner`` of ``ax``, labelled at their tips; a direction seen end-on (in-plane length
+    < 0.3) is left out."""
+    shown = {k: np.asarray(v, dtype=float) for k, v in vectors.items()}
+    shown = {k: v / np.linalg.norm(v) for k, v in shown.items() if np.linalg.norm(v) >= 0.3}
+    if not shown:
+        return
+    from mpl_toolkits.axes_grid1.inset_locator import inset_axes
+
+    inset = inset_axes(ax, width=1.1, height=1.1, loc=corner, borderpad=0.3)  # inches
+    inset.set_xlim(-1.6, 1.6)
+    inset.set_ylim(-1.6, 1.6)
+    inset.set_aspect("equal")
+    inset.set_axis_off()
+    inset.add_patch(_white_box(inset))
+    for label, d in shown.items():
+        tip = 0.8 * d
+        inset.annotate("", xy=tip, xytext=(0, 0), arrowprops={"arrowstyle": "-|>", "lw": 1.2})
+        ha = "left" if d[0] > 0.3 else ("right" if d[0] < -0.3 else "center")
+        va = "bottom" if d[1] > 0.3 else ("top" if d[1] < -0.3 else "center")
+        inset.text(0.9 * d[0], 0.9 * d[1], label, ha=ha, va=va, fontsize=9)
+
+
+def _white_box(inset: Any) -> Any:
+    from matplotlib.patches import Rectangle
+
+    return Rectangle(
+        (0, 0), 1, 1, transform=inset.transAxes, fc="white", ec="0.6", lw=0.5, alpha=0.85
+    )
 
 
 def scale_bar_length(width: float) -> float:

@@ -115,7 +115,7 @@ def render_picture(
     colorbar(fig, ax, style.cmap, cr, style.label)
     _scale_bar(ax, image.shape, px_per_unit, style.length_unit)
     vectors = {k: np.array([np.dot(v, right), np.dot(v, up)]) for k, v in directions.items()}
-    draw_directions(ax, vectors, ax.transAxes, (0.14, 0.14), 0.08)
+    draw_directions(ax, vectors)
     handles = [proxy(m) for m in marks]
     if deform is not None:
         from matplotlib.lines import Line2D
