@@ -25,7 +25,7 @@ from scipy.linalg import lapack
 
 from bonecontact.common.errors import RunError
 from bonecontact.common.linalg import configure_ksp, solver_options
-from bonecontact.contact.reductions import global_any
+from bonecontact.contact.reductions import gather_rows, global_any, global_op, global_vsum
 
 __all__ = [
     "DENSE_BLOCKS",
@@ -159,15 +159,6 @@ def _rows_outside_identity(Qt: PETSc.Mat, patch_rows: npt.NDArray, keep: bool) -
 def _exscan(comm: MPI.Comm, n: int) -> int:
     """Sum of ``n`` over the lower ranks."""
     return int(comm.exscan(n) or 0) if comm.size > 1 else 0
-
-
-def _allgather_rows(comm: MPI.Comm, *arrays: npt.NDArray) -> list[npt.NDArray]:
-    """Each array's rows of all ranks, rank after rank (its size is what the ranks hold,
-    e.g. the rows of a low-rank update, never the slave count)."""
-    if comm.size == 1:
-        return list(arrays)
-    parts = comm.allgather(arrays)
-    return [np.concatenate([p[i] for p in parts], axis=0) for i in range(len(arrays))]
 
 
 def _dense(comm: MPI.Comm, nloc: int, k: int) -> PETSc.Mat:
@@ -331,9 +322,7 @@ class LowRankActiveSetSolver:
         out = np.zeros(len(qs), dtype=np.int8)
         i, r = self._local(qs)
         out[i] = mask[r]
-        if self.comm.size > 1:
-            out = self.comm.allreduce(out, op=MPI.SUM)
-        return out.astype(bool)
+        return global_vsum(self.comm, out).astype(bool)
 
     def _full(self, v: PETSc.Vec) -> npt.NDArray:
         """Local values of ``v`` in the contact basis (``(I − J) v`` with a split basis)."""
@@ -384,7 +373,7 @@ class LowRankActiveSetSolver:
         self.cache.clear()
         self.full_cols.clear()
         self._set_memory_limits()
-        dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        dt = global_op(self.comm, time.perf_counter() - t0, MPI.MAX)
         # the first factorisation includes the symbolic analysis, which later ones reuse:
         # count half of it as the cost of a refactorisation until one is measured
         # (numeric / first = 0.37-0.50 measured on 2D Hertz meshes, 1 and 2 ranks)
@@ -410,11 +399,11 @@ class LowRankActiveSetSolver:
             self.full_limit = 0
             return
         # full columns kept for the final field: the same budget (collective minimum)
-        self.full_limit = self.comm.allreduce(int(budget // (8.0 * max(self.nloc, 1))), op=MPI.MIN)
+        self.full_limit = global_op(self.comm, int(budget // (8.0 * max(self.nloc, 1))), MPI.MIN)
         per_column = DENSE_BLOCKS * 8.0 * max(self.nloc, 1)
-        chunk = self.comm.allreduce(int(budget // per_column), op=MPI.MIN)
+        chunk = global_op(self.comm, int(budget // per_column), MPI.MIN)
         self.block_limit = max(chunk, MIN_BLOCK)
-        cached = self.comm.allreduce(int(budget // (4 * 8.0 * max(self.L.size, 1))), op=MPI.MIN)
+        cached = global_op(self.comm, int(budget // (4 * 8.0 * max(self.L.size, 1))), MPI.MIN)
         self.column_limit = min(self.max_columns, max(cached, MIN_BLOCK))
 
     def _factor_bytes(self) -> float:
@@ -555,7 +544,7 @@ class LowRankActiveSetSolver:
         self.A.mult(self._xb, self._tmp)
         self._xbN = self._full(self._xb)[self.L].copy()
         self._AxbN = self._tmp.array[self.L].copy()
-        self.t_solve = self.comm.allreduce(t_solve, op=MPI.MAX)
+        self.t_solve = global_op(self.comm, t_solve, MPI.MAX)
         if self.t_column == 0.0:
             # first estimate of a block of k columns: (1.3 + c k) solves, c = 0.15 serially
             # and 0.45 in parallel (MUMPS multi-right-hand-side solves measured on 2D Hertz
@@ -617,7 +606,7 @@ class LowRankActiveSetSolver:
         for M in (Rm, Xm, KXm):
             M.destroy()
         self.columns += k
-        dt = self.comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        dt = global_op(self.comm, time.perf_counter() - t0, MPI.MAX)
         self.t_column = max(dt - self.t_block, 0.1 * dt) / k
 
     def _split_forces(self, qs: list[int], wq: list[int], R: npt.NDArray) -> None:
@@ -722,7 +711,7 @@ class LowRankActiveSetSolver:
         every rank, gathered: its size is the number of such rows)."""
         d = active != self.base
         d[crow.ravel()] = True
-        return _allgather_rows(self.comm, np.flatnonzero(d) + self.offset)[0]
+        return gather_rows(self.comm, np.flatnonzero(d) + self.offset)[0]
 
     def _prepare_columns(
         self,
@@ -778,7 +767,7 @@ class LowRankActiveSetSolver:
         keep = np.array([int(v) not in self.cache for v in q], dtype=bool)
         cand, q = cand[keep], q[keep]
         order = np.lexsort((q, margin[cand]))[:n]
-        m_all, q_all = _allgather_rows(self.comm, margin[cand][order], q[order])
+        m_all, q_all = gather_rows(self.comm, margin[cand][order], q[order])
         return [int(v) for v in q_all[np.lexsort((q_all, m_all))][:n]]
 
     def _small_system(
@@ -819,7 +808,7 @@ class LowRankActiveSetSolver:
             rc = hc - np.einsum("iab,ib->ia", Gc, wN[crow]) - np.einsum("iab,ib->ia", Hc, xN[crow])
             M[idx] = Mc.reshape(q.size, k) / scale[q, None]
             rhs[idx] = rc.ravel() / scale[q]
-        M, rhs, csc = _allgather_rows(self.comm, M, rhs, csc)  # (rows in the order of cols)
+        M, rhs, csc = gather_rows(self.comm, M, rhs, csc)  # (rows in the order of cols)
         M *= csc[None, :]
         return M, rhs, csc
 
