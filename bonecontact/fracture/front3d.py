@@ -953,7 +953,7 @@ def _domain_sizes(
         raise FractureError(
             "r_out", f"need 0 <= r_in < r_out and length > 0, got {r_in}, {r_out}, {length}"
         )
-    rho = front.radius_of_curvature(phi)
+    rho = float(front.radius_of_curvature(phi))  # a NumPy scalar would swallow UFL operands
     if max(r_out, length) > 0.75 * rho:
         raise FractureError(
             "r_out",

@@ -483,10 +483,17 @@ def trim_tables(output: Path, step: int, comm: MPI.Comm) -> None:
     on_root(comm, trim)
 
 
-def trim_fracture_table(output: Path, step: int, comm: MPI.Comm, increments: int = 0) -> None:
+def trim_fracture_table(
+    output: Path,
+    step: int,
+    comm: MPI.Comm,
+    increments: int = 0,
+    columns: tuple[str, ...] = FRACTURE_COLUMNS,
+) -> None:
     """Cut fracture.csv after the rows of ``step`` and the rows of the next step on fewer
     than ``increments`` crack increments (a checkpoint between the fatigue blocks of a
-    step; rank 0; collective).
+    step; rank 0; collective).  ``columns``: the table's (a 3D crack's has no
+    ``increment``).
 
     Raises
     ------
@@ -494,10 +501,13 @@ def trim_fracture_table(output: Path, step: int, comm: MPI.Comm, increments: int
         If fracture.csv is missing.
     """
     path = Path(output) / "fracture.csv"
-    col, inc = FRACTURE_COLUMNS.index("step"), FRACTURE_COLUMNS.index("increment")
+    col = columns.index("step")
+    inc = columns.index("increment") if "increment" in columns else None
     upto = _upto_step(path, step, col, exact=False)
 
     def keep(rows: list[list[str]]) -> list[list[str]]:
+        if inc is None:
+            return upto(rows)
         within = [r for r in rows[1:] if r and int(r[col]) == step + 1 and int(r[inc]) < increments]
         return upto(rows) + within
 
@@ -803,16 +813,19 @@ class CrackState(MechanicsState):
     ----------
     comm
         The run's communicator.
+    columns
+        The columns of the run's fracture.csv.
     """
 
     kind = CRACK_KIND
     label = "a crack scene's"
 
-    def __init__(self, comm: MPI.Comm):
+    def __init__(self, comm: MPI.Comm, columns: tuple[str, ...] = FRACTURE_COLUMNS):
         self.comm = comm
         self.integ: Integrator | None = None
         self.counters = RunCounters()
         self.increments = 0  # crack increments of the checkpoint read (fatigue blocks)
+        self.columns = tuple(columns)  # of fracture.csv (a 3D crack's: FRONT_COLUMNS)
 
     def position(self) -> tuple[int, float]:
         return (0, 0.0) if self.integ is None else super().position()
@@ -825,7 +838,7 @@ class CrackState(MechanicsState):
 
     def trim(self, output: Path, step: int) -> None:
         trim_tables(output, step, self.comm)
-        trim_fracture_table(output, step, self.comm, self.increments)
+        trim_fracture_table(output, step, self.comm, self.increments, self.columns)
 
 
 # ----------------------------------------------------------------------------- growth state

@@ -60,7 +60,7 @@ from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
 from bonecontact.fracture.sif import displacement_correlation, interaction_integral
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
-from bonecontact.runners.checkpoint import Checkpointer, CheckpointError, CrackState, RunCounters
+from bonecontact.runners.checkpoint import Checkpointer, CrackState, RunCounters
 from bonecontact.runners.crack_fatigue import (
     FATIGUE_COLUMNS,
     FatigueProgress,
@@ -823,9 +823,7 @@ def run_cracked(
         mesh cannot be rebuilt.
     """
     if scene.dimension == 3:  # a planar crack in a 3D body: K along the front
-        if restart:
-            raise CheckpointError("a 3D [[crack]] scene writes no checkpoints to restart from")
-        return run_cracked3d(scene, comm, output, progress)
+        return run_cracked3d(scene, comm, output, progress, restart)
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare(scene, comm)

@@ -17,7 +17,8 @@ run goes, the largest K_I and G and their place to ``summary.json``, and the fro
 K to ``fields_crack_front.vtk``.
 
 Static and quasi-static analyses, one crack per scene, one cell group, an isotropic
-material around the front; no propagation and no checkpoints in 3D (refused with exit 2).
+material around the front; checkpoints and restarts as a mechanics run's, the crack's
+geometry stored with them; no propagation in 3D (refused with exit 2).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import mesh
 
+from bonecontact.common.errors import CheckpointError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body3d import (
@@ -53,7 +55,7 @@ from bonecontact.fracture.front3d import (
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
-from bonecontact.runners.checkpoint import RunCounters
+from bonecontact.runners.checkpoint import Checkpointer, CrackState
 from bonecontact.runners.loop import Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import (
     MechanicsSteps,
@@ -168,13 +170,6 @@ def _refuse(scene: Scene) -> None:
             "kind",
             f"a 3D [[crack]] scene runs static or quasi-static analyses, not "
             f"{scene.analysis.kind!r}",
-        )
-    if scene.output.checkpoint_every or scene.output.checkpoint_time:
-        raise SceneError(
-            str(scene.path),
-            "[output]",
-            "checkpoint_every" if scene.output.checkpoint_every else "checkpoint_time",
-            "a 3D [[crack]] scene writes no checkpoints in this version",
         )
 
 
@@ -406,10 +401,44 @@ def _front_summary(run: Crack3DRun, records: list[FrontRecord]) -> dict[str, Any
     return out
 
 
+def crack_geometry(crack: PlanarCrack) -> dict[str, Any]:
+    """The crack as a checkpoint stores it (the ``crack`` of meta.json's ``crack_run``)."""
+    return {
+        "shape": crack.shape,
+        "centre": list(map(float, crack.centre)),
+        "normal": list(map(float, crack.normal)),
+        "semi_axes": [float(crack.a), float(crack.b)],
+        "axis": list(map(float, crack.axis)),
+        "vertices": None
+        if crack.vertices is None
+        else [list(map(float, v)) for v in crack.vertices],
+    }
+
+
+def check_saved_crack(path: Path, meta: dict[str, Any], crack: PlanarCrack) -> None:
+    """Refuse a checkpoint written for another crack (its stored geometry differs from the
+    scene's beyond 10⁻¹² of the crack's size)."""
+    saved = (meta.get("crack_run") or {}).get("crack")
+    here = crack_geometry(crack)
+    if saved is None or saved["shape"] != here["shape"]:
+        raise CheckpointError(f"checkpoint {path} was not written for this 3D crack")
+    for key in ("centre", "normal", "semi_axes", "axis", "vertices"):
+        a, b = saved[key], here[key]
+        if (a is None) != (b is None) or (
+            a is not None
+            and (np.shape(a) != np.shape(b) or not np.allclose(a, b, rtol=0, atol=1e-12 * crack.a))
+        ):
+            raise CheckpointError(
+                f"checkpoint {path} has the crack's {key} = {a}, the scene {b}: a restart "
+                "continues the same crack"
+            )
+
+
 class FrontSteps(MechanicsSteps):
     """The hooks of a 3D crack run: after every step K along the front (phase
-    ``fracture``; fracture.csv rows), the front with its K written with the fields; no
-    checkpoints."""
+    ``fracture``; fracture.csv rows), the front with its K written with the fields; a
+    checkpoint (:class:`~bonecontact.runners.checkpoint.CrackState`, the crack's geometry
+    in ``crack_run``) when due or asked for by a signal."""
 
     errors = (RuntimeError, FractureError)  # a solver failure; K cannot be had
 
@@ -422,7 +451,9 @@ class FrontSteps(MechanicsSteps):
         table: RecordTable,
         outdir: Path,
     ):
-        super().__init__(base.integ, base.rec, base.timer, base.every, base.counters, base.dt)
+        super().__init__(
+            base.integ, base.rec, base.timer, base.every, base.counters, base.dt, base.ckpt
+        )
         self.sm, self.cb, self.run, self.table, self.outdir = sm, cb, run, table, outdir
         self.tips = front_nodes(cb)
         self.last: list[FrontRecord] = []
@@ -444,36 +475,70 @@ class FrontSteps(MechanicsSteps):
     def failure(self, k: int, exc: BaseException) -> str:
         return f"step {k} (t = {k * self.dt:.6g}): {exc}"
 
+    def checkpoint(self, k: int, last: bool) -> bool:
+        if self.ckpt is None:
+            return False
+        crack_run = {"crack": crack_geometry(self.run.spec.crack), "increment": 0}
+        with self.timer.phase("checkpoint"):
+            return bool(self.ckpt.after_step(last, {"crack_run": crack_run}))
+
+
+def _checkpointer(scene: Scene, outdir: Path, comm: MPI.Comm, dt: float) -> Checkpointer:
+    out = scene.output
+    info = {"scene": scene.name, "analysis": scene.analysis.kind, "dt": dt}
+    return Checkpointer(
+        outdir, CrackState(comm, FRONT_COLUMNS), out.checkpoint_every, info, out.checkpoint_time
+    )
+
 
 def run_cracked3d(
     scene: Scene,
     comm: MPI.Comm = MPI.COMM_WORLD,
     output: Path | None = None,
     progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Validate, build and run a 3D scene with a planar ``[[crack]]`` (module docstring),
     writing history.csv, the contact tables (the crack pair included), fields, the front
-    (``fields_crack_front.vtk``), fracture.csv and summary.json."""
+    (``fields_crack_front.vtk``), fracture.csv and summary.json.  ``restart``: continue
+    from the newest (``True``) or the named checkpoint (docs/checkpoint.md): the body is
+    meshed around the crack again (the checkpoint's crack must be the scene's; the node
+    coordinates are checked against the checkpoint's), the tables are cut after its step
+    and the run goes on from there."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare3d(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = analysis_steps(scene)
-    counts = RunCounters()
+    ck = _checkpointer(scene, outdir, comm, dt)
+    resume = ck.find(None if restart is True else restart) if restart else None
+    if resume is not None:
+        check_saved_crack(resume[0], resume[1], run.spec.crack)
     sm, cb = build_cracked3d(scene, run, comm, timer)
     with timer.phase("solver_setup"):
         integ = scene_integrator(run.scene, sm, dt, False)
         integ.set_initial(None, sm.v0)
+    ck.state.integ = integ
+    if resume is not None:
+        with timer.phase("checkpoint"):
+            ck.continue_from(*resume)
     with timer.phase("output"):
-        rec = Recorder(run.scene, sm, integ, comm, outdir, False)
-    table = RecordTable(comm, Path(outdir) / "fracture.csv", FRONT_COLUMNS)
-    base = MechanicsSteps(integ, rec, timer, scene.output.fields_every, counts, dt)
+        rec = Recorder(run.scene, sm, integ, comm, outdir, False, ck)
+    table = RecordTable(
+        comm, Path(outdir) / "fracture.csv", FRONT_COLUMNS, append=resume is not None
+    )
+    base = MechanicsSteps(integ, rec, timer, scene.output.fields_every, ck.counters, dt, ck)
     hooks = FrontSteps(base, sm, cb, run, table, outdir)
-    bar = progress_bar(comm, scene.name, nsteps, 0, progress)
-    end = run_steps(hooks, 1, nsteps, bar)
-    table.close()
+    first = integ.step_count + 1
+    try:
+        with ck.stop:
+            bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)
+            end = run_steps(hooks, first, nsteps, bar)
+    finally:
+        table.close()
     info = summary_header(scene, sm, integ, dt)
-    info.update(run_info(run.scene, sm, integ, counts, False, 0.0, t_start))
+    info.update(run_info(run.scene, sm, integ, ck.counters, False, 0.0, t_start))
+    info.update(ck.summary())
     info.update(rec.strain.summary())
     frac = rec.fracture.summary() if rec.fracture is not None else {}
     frac["crack"] = _front_summary(run, hooks.last)
