@@ -339,8 +339,9 @@ if comm.rank == 0:
     fig.tight_layout()
     bp.show(fig, output / "jaw_cyst_growth.png", dpi=120)
 
-    # one picture per cyst; each colour range to the 99th percentile of the area, with the
-    # clipped maximum (the peak at the thin bone next to the cyst) stated under it
+    # one picture per cyst; each colour range stops at a round number leaving at most 1 %
+    # of the area above it, the clip and the maximum (the peak at the thin bone next to
+    # the cyst) stated in the colour-bar label
     views = [("keratocyst", output, "jaw_cyst_von_mises.png"),
              ("radicular", output / "radicular", "jaw_cyst_radicular_von_mises.png")]  # fmt: skip
     for kind, out, name in views:
@@ -350,7 +351,7 @@ if comm.rank == 0:
             output / name,
             quantity="von Mises stress",
             unit="MPa",
-            title=f"{kind} after {runs[kind][1]} months, bite of 3 MPa",
+            title=f"jaw_cyst: von Mises stress, {kind} after {runs[kind][1]} months, bite of 3 MPa",
             cmap="inferno",
             window_size=(1200, 700),
         )

@@ -521,11 +521,13 @@ if comm.rank == 0:
         )
 
 # %% [markdown]
-# ## The pressure map on the plateau over growth time
+# ## The pressure map over growth time
 # The contact pressure at the slave nodes (the femur's cartilage surface, where it
-# presses on the plateau), seen from above, one panel per analysis; the tumour's
-# outline (its equator, projected) in cyan.  Then, with pyvista, the pressure on the
-# femur's cartilage surface at the last analysis, seen along $y$.
+# presses on the plateau), projected on the transverse plane and seen from above
+# (anterior up the page), one panel per analysis, one colour range for all; the
+# tumour's equator (projected) in cyan and the node of the peak pressure starred.
+# Then the pressure on the femur's cartilage surface at the last analysis, projected
+# the same way, as a picture of its own (projected to the vertices within the surface).
 
 # %%
 if comm.rank == 0:
@@ -534,31 +536,45 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    vmax = max(m["max_pressure"] for m in maps) / 1e6
-    fig, axes = plt.subplots(1, len(maps) + 1, figsize=(4.6 * (len(maps) + 1), 4.6))
-    for ax, m, a in zip(axes, maps, analyses):
+    peak = [m["points"][int(np.argmax(m["pressure"]))] for m in maps]
+    nodal = np.concatenate([m["nodal_pressure"] for m in maps]) / 1e6
+    cr = bp.auto_range(nodal)  # the colour range of all panels, ≤ 1 % of the nodes above
+    fig, axes = plt.subplots(
+        1, len(maps) + 1, figsize=(4.6 * (len(maps) + 1), 5.2), layout="constrained"
+    )
+    for ax, m, a, top in zip(axes, maps, analyses, peak):
         sc = ax.tripcolor(
             m["x"][:, 2] / MM, m["x"][:, 0] / MM, m["triangles"], m["nodal_pressure"] / 1e6,
-            shading="gouraud", cmap="inferno", vmin=0.0, vmax=vmax,
+            shading="gouraud", cmap="inferno", vmin=cr.vmin, vmax=cr.vmax,
         )  # fmt: skip
         phi = np.linspace(0, 2 * np.pi, 100)
         r = a["equivalent_radius"] / MM
-        ax.plot(TUMOUR[2] / MM + r * np.cos(phi), TUMOUR[0] / MM + r * np.sin(phi), "c-", lw=1)
+        ax.plot(TUMOUR[2] / MM + r * np.cos(phi), TUMOUR[0] / MM + r * np.sin(phi), "c-", lw=1.5,
+                label="tumour equator (projected)")  # fmt: skip
+        ax.plot(top[2] / MM, top[0] / MM, "*", color="deepskyblue", mec="k", ms=12,
+                label="peak pressure")  # fmt: skip
         ax.set_aspect("equal")
-        ax.set_title(f"day {a['time'] / DAY:.0f}, tumour R = {r:.1f} mm")
+        ax.set_title(f"day {a['time'] / DAY:.0f}, tumour R = {r:.1f} mm", fontsize=10)
         ax.set_xlabel("z, across the knee (mm)")
+        bp.draw_directions(ax, {"anterior": np.array([0.0, 1.0])}, corner="lower right")
     axes[0].set_ylabel("x, back to front (mm)")
-    fig.colorbar(sc, ax=axes[: len(maps)], label="contact pressure (MPa)")
+    bar = fig.colorbar(sc, ax=axes[: len(maps)], extend=cr.extend, shrink=0.8)
+    bar.set_label(cr.bar_label("contact pressure (MPa)"))
+    axes[0].legend(loc="upper left", fontsize=8)
     ax = axes[-1]
-    ax.plot(growth["time"] / DAY, growth["volume"] * 1e9, "-", label="growth.csv")
-    ax.plot(rows[:, 0] / DAY, rows[:, 2] * 1e9, "o", label="analyses (tumour cells)")
+    ax.plot(growth["time"] / DAY, growth["volume"] * 1e9, "-", label="tumour volume (growth.csv)")
+    ax.plot(rows[:, 0] / DAY, rows[:, 2] * 1e9, "o", label="tumour volume (analyses)")
     ax2 = ax.twinx()
     ax2.plot(rows[:, 0] / DAY, rows[:, 14] / 1e6, "s--", color="C3", label="peak pressure")
     ax2.set_ylabel("peak contact pressure (MPa)", color="C3")
     ax2.set_ylim(0.0, 1.2 * rows[:, 14].max() / 1e6)
-    ax.legend(loc="upper left")
-    bp.line_axes(ax, ("growth time", "days"), ("tumour volume", "mm³"))
-    fig.suptitle(f"knee3d: contact pressure on the plateau under {W:.0f} N, tumour in the tibia")
+    handles = ax.get_legend_handles_labels()[0] + ax2.get_legend_handles_labels()[0]
+    ax.legend(handles=handles, loc="upper left", fontsize=8)
+    bp.line_axes(ax, ("growth time", "days"), ("tumour volume", "mm³"), zero=True)
+    fig.suptitle(
+        f"knee3d: contact pressure on the femoral cartilage under {W:.0f} N, tumour in the "
+        "tibia (seen from above)"
+    )
     bp.show(fig, output / "knee3d_pressure.png", dpi=110)
 
     import pyvista as pv
@@ -569,17 +585,27 @@ if comm.rank == 0:
     surf = pv.PolyData(g.x, np.hstack([np.full((len(tri), 1), 3), tri]).ravel())
     _, idx = cKDTree(maps[-1]["points"]).query(g.x)
     surf.point_data["contact_pressure"] = maps[-1]["pressure"][idx]
+    r = analyses[-1]["equivalent_radius"]
+    phi = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    equator = TUMOUR + r * np.c_[np.sin(phi), np.zeros_like(phi), np.cos(phi)]
     png = bp.field_view(
         surf.extract_cells(np.arange(len(tri))),
         "contact_pressure",
         output / "knee3d_pressure_3d.png",
         quantity="contact pressure",
         unit="MPa",
-        title=f"knee3d: contact pressure on the femoral cartilage, day {days}",
+        title=(
+            "knee3d: contact pressure on the femoral cartilage surface, "
+            f"day {analyses[-1]['time'] / DAY:.0f} (projected, seen from above)"
+        ),
         cmap="inferno",
-        smooth=False,
         view="xz",
+        up="x",
         axis_titles={"x": "x, back to front", "z": "z, across the knee"},
+        directions={"anterior": (1.0, 0.0, 0.0)},
+        outline=equator,
+        outline_label="tumour equator (projected)",
+        markers=[bp.Marker([peak[-1]], "peak pressure", "deepskyblue", "*", 12)],
     )
     bp.show(png, png)
     print(f"pictures and ParaView files (fields.xdmf, fields.pvd) in {output}")

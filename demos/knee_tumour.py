@@ -157,9 +157,13 @@ if comm.rank == 0:
         )
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
     a1.plot(gr["time"] / SECONDS_PER_DAY, 1e3 * gr["equivalent_radius"], "o-", ms=3)
-    bp.line_axes(a1, ("time", "days"), ("tumour equivalent radius √(A/π)", "mm"))
+    bp.line_axes(
+        a1, ("time", "days"), (r"tumour equivalent radius $\sqrt{A/\pi}$", "mm"), zero=True
+    )
     a2.plot([r[1] for r in rows], [r[2] for r in rows], "s-")
-    bp.line_axes(a2, ("tumour radius", "mm"), ("subsidence under the plate at (0, −4) mm", "µm"))
+    bp.line_axes(
+        a2, ("tumour radius", "mm"), ("subsidence under the plate at (0, −4) mm", "µm"), zero=True
+    )
     fig.suptitle("knee2d_tumour: tumour growth and the plateau's subsidence under body weight")
     fig.tight_layout()
     bp.show(fig, output / "tumour_growth.png", dpi=120)
@@ -170,9 +174,10 @@ if comm.rank == 0:
 
 # %% [markdown]
 # ## Stress in the tibia with the tumour outlined
-# von Mises stress of the last analysis (smoothed to the vertices for display), colour
-# range to the 99th percentile of the area with the clipped maximum stated; the cyan line
-# is the tumour boundary.
+# von Mises stress of the last analysis (projected to the vertices for display), the
+# colour range stopping at a round number that leaves at most 1 % of the area above it
+# (the clip and the maximum stated in the colour-bar label); the cyan line is the tumour
+# boundary.
 
 # %%
 if comm.rank == 0:
@@ -187,6 +192,8 @@ if comm.rank == 0:
         outline_label="tumour boundary",
         title=f"knee2d_tumour: von Mises stress after {s['growth']['final_time'] / SECONDS_PER_DAY:.0f} days",
         cmap="inferno",
+        axis_titles={"x": "x, across the knee", "y": "y, along the leg"},
+        directions={"proximal": (0.0, 1.0, 0.0)},
     )
     bp.show(png, png)
     print(f"pictures: {output / 'tumour_growth.png'}, {png}")

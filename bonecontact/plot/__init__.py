@@ -32,7 +32,7 @@ from bonecontact.plot.fields import (
     field_view,
     lumped_projection,
 )
-from bonecontact.plot.frame import Marker, pyvista_module, smooth_cell_data
+from bonecontact.plot.frame import Marker, draw_directions, pyvista_module, smooth_cell_data
 from bonecontact.plot.progress import progress_file
 from bonecontact.plot.record import (
     check_png,
@@ -63,6 +63,7 @@ __all__ = [
     "check_png",
     "check_record",
     "color_range",
+    "draw_directions",
     "field_view",
     "figure_record",
     "in_notebook",

@@ -101,6 +101,12 @@ def split_regions(tris: np.ndarray, regions: np.ndarray | None) -> tuple[np.ndar
     return out, np.concatenate(origin)
 
 
+def _is_surface(grid: Any) -> bool:
+    """Whether ``grid`` has only triangles and quadrilaterals (a surface in 3D: a plane
+    picture projects it on the plane of the view)."""
+    return all(int(t) in TRIANGLES + QUADS for t in grid.cells_dict)
+
+
 def _cut_face(grid: Any, view: str) -> Any:
     """The surface cells of a 3D ``grid`` in the plane of ``view`` at its largest depth
     coordinate (the face a clip leaves, seen from outside), with the point and cell data."""
@@ -193,7 +199,8 @@ def field_view(
     view
         The up axis; ``view`` ``"xy"``, ``"xz"``, ``"yz"``: the plane seen face-on (a
         3D grid shows its face at the largest third coordinate, e.g. the face a clip
-        leaves), ``None``: the plane of a flat grid, else an isometric 3D picture.
+        leaves; a surface is projected on the plane), ``None``: the plane of a flat
+        grid, else an isometric 3D picture.
     axis_titles
         Axis titles instead of the coordinate names, e.g. ``{"x": "x, back to front"}``.
     directions
@@ -216,7 +223,7 @@ def field_view(
     fig = _figure(window_size)
     if flat or view is not None:
         source = _with_regions(grid, regions)
-        face = source if flat else _cut_face(source, view)
+        face = source if flat or _is_surface(source) else _cut_face(source, view)
         reg = face.cell_data[REGION_KEY] if regions is not None else None
         plane = _plane_axes(view or "xy", up)
         _plane_picture(fig, face, name, plane, style, (smooth, reg), deform, marks,

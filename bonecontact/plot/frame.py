@@ -123,7 +123,15 @@ def _white_box(inset: Any) -> Any:
     from matplotlib.patches import Rectangle
 
     return Rectangle(
-        (0, 0), 1, 1, transform=inset.transAxes, fc="white", ec="0.6", lw=0.5, alpha=0.85
+        (0, 0),
+        1,
+        1,
+        transform=inset.transAxes,
+        fc="white",
+        ec="0.6",
+        lw=0.5,
+        alpha=0.85,
+        clip_on=False,
     )
 
 
