@@ -43,6 +43,7 @@ from bonecontact.contact.reductions import (
     global_max,
     global_min,
     global_sum,
+    global_vsum,
     neighbour_points,
 )
 
@@ -153,10 +154,6 @@ def _median(comm: MPI.Comm | None, values: npt.NDArray[np.float64]) -> float:
     return hi if n % 2 else (global_kth(comm, values, n // 2 - 1) + hi) / 2.0
 
 
-def _vsum(comm: MPI.Comm | None, v: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    return v if comm is None or comm.size == 1 else comm.allreduce(v, op=MPI.SUM)
-
-
 def punch_approach(
     coords: npt.NDArray[np.float64],
     un: npt.NDArray[np.float64],
@@ -181,9 +178,9 @@ def punch_approach(
     wgt = np.maximum(force[patch], 0.0)
     wsum = global_sum(comm, float(wgt.sum()))
     c = (
-        _vsum(comm, (wgt[:, None] * coords[patch]).sum(axis=0)) / wsum
+        global_vsum(comm, (wgt[:, None] * coords[patch]).sum(axis=0)) / wsum
         if wsum > 0
-        else _vsum(comm, coords[patch].sum(axis=0)) / global_count(comm, patch)
+        else global_vsum(comm, coords[patch].sum(axis=0)) / global_count(comm, patch)
     )
     r = np.linalg.norm(coords - c, axis=1)
     ring = outside & (r >= 2.0 * rho) & (r <= 4.0 * rho)

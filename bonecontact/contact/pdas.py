@@ -46,6 +46,7 @@ from bonecontact.contact.linear_strategy import (
 )
 from bonecontact.contact.lowrank import SingularActiveSetError
 from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.reductions import global_sum, global_vsum
 from bonecontact.contact.set_update import Iterate, PDASState, SetUpdate, WarmStart
 
 __all__ = [
@@ -101,7 +102,7 @@ class PDASResult:
 
 
 def _allsum(comm: MPI.Comm, x) -> float:
-    return comm.allreduce(x, op=MPI.SUM)
+    return global_sum(comm, x)
 
 
 class ContactSolver:
@@ -538,7 +539,7 @@ class ContactSolver:
                     ft += ((itf.weight * tracs[k][:, j])[:, None] * itf.tangents[:, j, :]).sum(
                         axis=0
                     )
-            ft = comm.allreduce(ft, op=MPI.SUM)
+            ft = global_vsum(comm, ft)
             tforces.append(float(np.linalg.norm(ft)))
             n_active.append(_allsum(comm, int(act[k].sum())))
             n_stick.append(_allsum(comm, int((stats[k] == "stick").sum())))

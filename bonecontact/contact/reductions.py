@@ -12,7 +12,9 @@ serial (no communication).
 from __future__ import annotations
 
 import hashlib
+import pickle
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 from mpi4py import MPI
 
@@ -20,6 +22,9 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "TRAFFIC",
+    "Traffic",
+    "gather_rows",
     "global_any",
     "global_count",
     "global_dot",
@@ -28,6 +33,7 @@ __all__ = [
     "global_max",
     "global_min",
     "global_sum",
+    "global_vsum",
     "neighbour_points",
     "set_signature",
 ]
@@ -37,9 +43,79 @@ __all__ = [
 GATHER_BELOW = 64
 
 
+@dataclass
+class Traffic:
+    """What this rank exchanged through these helpers (bytes of the payload: what it
+    contributes, and what it receives; reset it before a measurement).  ``largest``
+    holds the largest message received per kind: ``"reduce"`` (reductions and
+    one-value-per-rank gathers), ``"rows"`` (:func:`gather_rows`), ``"neighbour"``
+    (:func:`neighbour_points`)."""
+
+    calls: int = 0
+    sent: int = 0
+    received: int = 0
+    largest: dict = field(default_factory=dict)
+
+    def add(self, sent: int, received: int, kind: str = "reduce") -> None:
+        """Count one exchange."""
+        self.calls += 1
+        self.sent += int(sent)
+        self.received += int(received)
+        self.largest[kind] = max(self.largest.get(kind, 0), int(received))
+
+    def reset(self) -> None:
+        """Forget everything counted."""
+        self.calls = self.sent = self.received = 0
+        self.largest = {}
+
+
+#: The traffic of this process (benchmarks/bench_set_comm.py reads it).
+TRAFFIC = Traffic()
+
+
+def _nbytes(obj: object) -> int:
+    """Payload of a message: the bytes of the arrays, else of the pickled object."""
+    if isinstance(obj, np.ndarray):
+        return obj.nbytes
+    if isinstance(obj, (tuple, list)):
+        return sum(_nbytes(o) for o in obj)
+    return len(pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def _allreduce(comm: MPI.Comm, x: object, op: MPI.Op) -> object:
+    out = comm.allreduce(x, op=op)
+    TRAFFIC.add(_nbytes(x), _nbytes(out))
+    return out
+
+
+def _allgather(comm: MPI.Comm, x: object, kind: str = "reduce") -> list:
+    out = comm.allgather(x)
+    TRAFFIC.add(_nbytes(x), sum(_nbytes(o) for o in out), kind)
+    return out
+
+
 def global_sum(comm: MPI.Comm | None, x: float) -> float:
     """Sum of ``x`` over the ranks."""
-    return x if comm is None or comm.size == 1 else comm.allreduce(x, op=MPI.SUM)
+    return x if comm is None or comm.size == 1 else _allreduce(comm, x, MPI.SUM)
+
+
+def global_vsum(comm: MPI.Comm | None, v: npt.NDArray) -> npt.NDArray:
+    """Entry-wise sum of the (same-shape) arrays ``v`` over the ranks."""
+    return v if comm is None or comm.size == 1 else _allreduce(comm, v, MPI.SUM)
+
+
+def global_op(comm: MPI.Comm | None, x: object, op: MPI.Op) -> object:
+    """``x`` reduced by ``op`` over the ranks (e.g. a timing, ``MPI.MAX``)."""
+    return x if comm is None or comm.size == 1 else _allreduce(comm, x, op)
+
+
+def gather_rows(comm: MPI.Comm | None, *arrays: npt.NDArray) -> list[npt.NDArray]:
+    """Each array's rows of all ranks, rank after rank: for exchanges whose size is what
+    the ranks hold (e.g. the rows of a low-rank update), never the slave count."""
+    if comm is None or comm.size == 1:
+        return list(arrays)
+    parts = _allgather(comm, arrays, "rows")
+    return [np.concatenate([p[i] for p in parts], axis=0) for i in range(len(arrays))]
 
 
 def global_count(comm: MPI.Comm | None, mask: npt.NDArray[np.bool_]) -> int:
@@ -50,19 +126,19 @@ def global_count(comm: MPI.Comm | None, mask: npt.NDArray[np.bool_]) -> int:
 def global_any(comm: MPI.Comm | None, mask: npt.NDArray[np.bool_] | bool) -> bool:
     """Whether any rank has a ``True`` entry in ``mask``."""
     local = bool(np.any(mask))
-    return local if comm is None or comm.size == 1 else bool(comm.allreduce(local, op=MPI.LOR))
+    return local if comm is None or comm.size == 1 else bool(_allreduce(comm, local, MPI.LOR))
 
 
 def global_max(comm: MPI.Comm | None, x: npt.NDArray, default: float = -np.inf) -> float:
     """Largest entry of ``x`` over the ranks (``default`` where a rank has none)."""
     local = float(x.max()) if x.size else default
-    return local if comm is None or comm.size == 1 else comm.allreduce(local, op=MPI.MAX)
+    return local if comm is None or comm.size == 1 else _allreduce(comm, local, MPI.MAX)
 
 
 def global_min(comm: MPI.Comm | None, x: npt.NDArray, default: float = np.inf) -> float:
     """Smallest entry of ``x`` over the ranks (``default`` where a rank has none)."""
     local = float(x.min()) if x.size else default
-    return local if comm is None or comm.size == 1 else comm.allreduce(local, op=MPI.MIN)
+    return local if comm is None or comm.size == 1 else _allreduce(comm, local, MPI.MIN)
 
 
 def global_dot(comm: MPI.Comm | None, a: npt.NDArray, b: npt.NDArray) -> float:
@@ -74,7 +150,7 @@ def _pivot(comm: MPI.Comm, cand: npt.NDArray[np.float64]) -> float:
     """A candidate value near the global median: the count-weighted median of the ranks'
     local medians (one value and one count per rank)."""
     med = float(cand[(cand.size - 1) // 2]) if cand.size else 0.0
-    pairs = np.array(comm.allgather((med, cand.size)), dtype=float)
+    pairs = np.array(_allgather(comm, (med, cand.size)), dtype=float)
     pairs = pairs[pairs[:, 1] > 0]
     order = np.argsort(pairs[:, 0], kind="stable")
     cum = np.cumsum(pairs[order, 1])
@@ -93,13 +169,13 @@ def global_kth(comm: MPI.Comm | None, values: npt.NDArray, k: int) -> float:
     lo, hi = -np.inf, np.inf
     while True:
         cand = v[(v > lo) & (v < hi)]
-        n = comm.allreduce(cand.size, op=MPI.SUM)
+        n = _allreduce(comm, cand.size, MPI.SUM)
         if n <= GATHER_BELOW:
-            allc = np.sort(np.concatenate(comm.allgather(cand)))
+            allc = np.sort(np.concatenate(_allgather(comm, cand)))
             return float(allc[k])
         p = _pivot(comm, cand)
         counts = np.array([(cand < p).sum(), (cand == p).sum()], dtype=np.int64)
-        less, eq = (int(c) for c in comm.allreduce(counts, op=MPI.SUM))
+        less, eq = (int(c) for c in _allreduce(comm, counts, MPI.SUM))
         if k < less:
             hi = p
         elif k < less + eq:
@@ -127,7 +203,7 @@ def global_first(
     lo, hi, found = -np.inf, np.inf, None
     while True:
         cand = v[(v > lo) & (v < hi)]
-        if comm.allreduce(cand.size, op=MPI.SUM) == 0:
+        if _allreduce(comm, cand.size, MPI.SUM) == 0:
             return found
         p = _pivot(comm, cand)
         if holds(p):
@@ -148,6 +224,7 @@ def set_signature(comm: MPI.Comm | None, parts: tuple[bytes, ...]) -> bytes:
     if comm is not None and comm.size > 1:
         out = np.zeros_like(words)
         comm.Allreduce(words, out, op=MPI.BXOR)
+        TRAFFIC.add(words.nbytes, out.nbytes)
         words = out
     return words.tobytes()
 
@@ -175,13 +252,14 @@ def neighbour_points(
         if targets.size
         else np.concatenate([np.full(gdim, np.inf), np.full(gdim, -np.inf)])
     )
-    boxes = np.array(comm.allgather(box)).reshape(comm.size, 2, gdim)
+    boxes = np.array(_allgather(comm, box)).reshape(comm.size, 2, gdim)
     send = []
     for r in range(comm.size):
         lo, hi = boxes[r, 0] - reach, boxes[r, 1] + reach
         near = np.all((points >= lo) & (points <= hi), axis=1) if points.size else np.zeros(0, bool)
         send.append((points[near], data[near]))
     got = comm.alltoall(send)
+    TRAFFIC.add(sum(_nbytes(x) for x in send), sum(_nbytes(x) for x in got), "neighbour")
     pts = np.concatenate([g[0].reshape(-1, gdim) for g in got], axis=0)
     dat = np.concatenate([g[1] for g in got], axis=0)
     return pts, dat
