@@ -30,11 +30,14 @@ Mixed mode: the octagon (circumradius a = 1) with its normal at 45° to the load
 * the increment halved (two advances of 0.1a against one of 0.2a): the fronts differ by
   less than a front element (measured 0.016a against 0.125a).  Slow: to 0.4a (two of
   0.2a against four of 0.1a), measured 0.023a.
+* 2 and 3 ranks: K and the grown front equal the serial run's on the same mesh to 1e-8.
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 
 import math
+
+from mpi4py import MPI
 
 import numpy as np
 import pytest
@@ -122,6 +125,21 @@ def test_mixed_front_does_not_depend_on_the_increment(inclined):
     halved = grow_inclined_penny(beta_deg=45.0, increments=2, da=0.1, h_front=H_MIXED)
     d = np.linalg.norm(inclined.front(1) - halved.front(2), axis=1)
     assert d.max() < H_MIXED
+
+
+def test_mixed_advance_same_on_any_rank_count(inclined):
+    """On 2 and 3 ranks: K and the grown front equal those of the same growth on one
+    rank (rank 0 on COMM_SELF: the same gmsh mesh) to 1e-8."""
+    comm = MPI.COMM_WORLD
+    if comm.size == 1:
+        pytest.skip("compares a distributed run with a serial one")
+    serial = None
+    if comm.rank == 0:
+        rec = grow_inclined_penny(45.0, increments=1, da=0.2, h_front=H_MIXED, comm=MPI.COMM_SELF)
+        serial = (rec.k_edges[0], rec.front(1))
+    k, front = comm.bcast(serial, root=0)
+    np.testing.assert_allclose(inclined.k_edges[0], k, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(inclined.front(1), front, rtol=0, atol=1e-8)
 
 
 @pytest.mark.slow
