@@ -358,7 +358,7 @@ def stress_pictures(a: dict, label: str) -> list[Path]:
                 view="xy",
                 axis_titles={"x": "x, forward", "y": "y, up"},
                 directions={"anterior": (1.0, 0.0, 0.0), "superior": (0.0, 1.0, 0.0)},
-                markers=[bp.Marker([CYST], "cyst centre", "cyan", "+", 10)],
+                markers=[bp.Marker([CYST], "cyst centre", "tab:blue", "+", 12)],
             )
         )
     return pngs

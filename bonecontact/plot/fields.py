@@ -417,7 +417,9 @@ def _plane_markers(ax: Any, marks: list[Marker], plane: tuple[int, int], s: floa
             p = np.vstack([p, p[:1]])
             ax.plot(p[:, 0], p[:, 1], "-", color=m.color, lw=2)
         else:
-            ax.plot(p[:, 0], p[:, 1], m.marker, color=m.color, ms=m.size, mec="k", mew=0.5)
+            line_like = m.marker in ("+", "x", "|", "_", "1", "2", "3", "4")  # no face
+            edge = {"mew": 2.0} if line_like else {"mec": "k", "mew": 0.5}
+            ax.plot(p[:, 0], p[:, 1], m.marker, color=m.color, ms=m.size, **edge)
         handles.append(proxy(m))
     return handles
 
