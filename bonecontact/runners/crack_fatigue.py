@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from bonecontact.fracture.fatigue import block_cycles
+from bonecontact.fracture.fatigue import ParisLaw, block_cycles
 from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
 from bonecontact.scene.spec import FatigueSpec
 
@@ -26,6 +26,7 @@ __all__ = [
     "FatigueRecord",
     "block_end",
     "bound_to_separation",
+    "paris_law",
     "plain_rows",
 ]
 
@@ -101,6 +102,11 @@ class FatigueProgress:
         return self.cycles[-1]
 
 
+def paris_law(spec: FatigueSpec) -> ParisLaw:
+    """The Paris law of ``[fracture.fatigue]``."""
+    return ParisLaw(spec.C, spec.m, spec.delta_K_th, spec.R)
+
+
 def _stop(k_eq: np.ndarray, rates: np.ndarray, K_Ic: float | None, blocks: int, most: int) -> str:
     """The stop at this block end (``""``: make a block)."""
     if K_Ic and bool(np.any(k_eq >= K_Ic)):
@@ -148,7 +154,7 @@ def block_end(
         if stop:
             return _stopped_rows(records, k_eq, K_Ic, stop, 0.0), {}, stop
         return [_as_fatigue(r, r.status, 0.0) for r in records], {}, ""
-    rates = spec.law().rate(k_eq)
+    rates = paris_law(spec).rate(k_eq)
     lead = float(rates.max(initial=0.0))
     n = prog.add_end(blocks * spec.da_max, lead)
     stop = _stop(k_eq, rates, K_Ic, blocks, spec.max_blocks)

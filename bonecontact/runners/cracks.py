@@ -67,6 +67,7 @@ from bonecontact.runners.crack_fatigue import (
     FatigueRecord,
     block_end,
     bound_to_separation,
+    paris_law,
     plain_rows,
 )
 from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
@@ -697,7 +698,7 @@ class CrackSteps(MechanicsSteps):
         cycles = prog.cycles[-1] if prog.cycles else 0.0
         if status == "fractured":
             st.increment, st.fractured_at = st.increment + 1, (t, k)
-            law = self.run.fracture.fatigue.law()
+            law = paris_law(self.run.fracture.fatigue)
             prog.bound = min(
                 bound_to_separation(cycles, self.run.body.distance((r.x, r.y)), law.rate(r.K_eq))
                 for r in rows

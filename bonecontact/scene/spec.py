@@ -821,7 +821,8 @@ class FractureSpec:
 @dataclass(frozen=True)
 class FatigueSpec:
     """``[fracture.fatigue]``: growth by blocks of load cycles under the Paris law
-    da/dN = C ΔK^m (docs/theory/fracture.md#fatigue).
+    da/dN = C ΔK^m (docs/theory/fracture.md#fatigue; the law:
+    :func:`bonecontact.runners.crack_fatigue.paris_law`).
 
     Parameters
     ----------
@@ -843,12 +844,6 @@ class FatigueSpec:
     delta_K_th: float = 0.0
     R: float = 0.0
     max_blocks: int = 100
-
-    def law(self) -> Any:
-        """The :class:`~bonecontact.fracture.fatigue.ParisLaw` of the table."""
-        from bonecontact.fracture.fatigue import ParisLaw  # the physics: not at import
-
-        return ParisLaw(self.C, self.m, self.delta_K_th, self.R)
 
 
 @dataclass(frozen=True)

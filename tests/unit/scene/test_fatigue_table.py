@@ -1,7 +1,8 @@
 """``[fracture.fatigue]`` (docs/scene_format.md, *[fracture.fatigue]*): the values read into
-FatigueSpec and its Paris law, and every bad value a SceneError naming the file,
-``[fracture.fatigue]`` (or ``[fracture]``) and the key, with the allowed values; the CLI's
-exit status 2.  Pure Python: also runs under mpiexec (each rank its own tmp_path).
+FatigueSpec and its Paris law (bonecontact.runners.crack_fatigue.paris_law), and every bad
+value a SceneError naming the file, ``[fracture.fatigue]`` (or ``[fracture]``) and the
+key, with the allowed values; the CLI's exit status 2.  Also runs under mpiexec (each
+rank its own tmp_path).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from bonecontact.runners.crack_fatigue import paris_law
 from bonecontact.scene import SceneError, load_scene
 from bonecontact.scene.spec import FatigueSpec
 
@@ -93,7 +95,7 @@ def test_values_are_read_with_their_defaults(tmp_path: Path, given: dict[str, st
         int(expected["max_blocks"]),
     )
     assert spec.grows and not spec.propagate and spec.growth_step == float(expected["da_max"])
-    law = f.law()
+    law = paris_law(f)
     assert (law.C, law.m, law.delta_K_th, law.R) == (f.C, f.m, f.delta_K_th, f.R)
     # the law of the table: da/dN = C ((1 - R) K)^m for R >= 0, C K^m for R < 0
     k = 1.0e6
