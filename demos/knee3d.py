@@ -538,7 +538,16 @@ if comm.rank == 0:
 
     peak = [m["points"][int(np.argmax(m["pressure"]))] for m in maps]
     nodal = np.concatenate([m["nodal_pressure"] for m in maps]) / 1e6
-    cr = bp.auto_range(nodal)  # the colour range of all panels, ≤ 1 % of the nodes above
+    weights = np.concatenate(  # each node's share of the surface's area
+        [
+            bp.lumped_projection(
+                m["triangles"], np.zeros(len(m["triangles"])),
+                triangle_areas(m["x"], m["triangles"]), len(m["x"]),
+            )[1]
+            for m in maps
+        ]
+    )  # fmt: skip
+    cr = bp.auto_range(nodal, weights)  # one range for all panels, ≤ 1 % of the area above
     fig, axes = plt.subplots(
         1, len(maps) + 1, figsize=(4.6 * (len(maps) + 1), 5.2), layout="constrained"
     )
@@ -556,7 +565,7 @@ if comm.rank == 0:
         ax.set_aspect("equal")
         ax.set_title(f"day {a['time'] / DAY:.0f}, tumour R = {r:.1f} mm", fontsize=10)
         ax.set_xlabel("z, across the knee (mm)")
-        bp.draw_directions(ax, {"anterior": np.array([0.0, 1.0])}, corner="lower right")
+        bp.draw_directions(ax, {"anterior": np.array([0.0, 1.0])}, corner="lower left")
     axes[0].set_ylabel("x, back to front (mm)")
     bar = fig.colorbar(sc, ax=axes[: len(maps)], extend=cr.extend, shrink=0.8)
     bar.set_label(cr.bar_label("contact pressure (MPa)"))

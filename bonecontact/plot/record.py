@@ -88,8 +88,9 @@ def _tick_labels(fig: Any) -> list[tuple[str, Any, Any]]:
             axis.get_majorticklabels()  # brings the ticks up to date
             for tick in axis.get_major_ticks() + axis.get_minor_ticks():
                 inside = lo - eps <= tick.get_loc() <= hi + eps
+                shown = inside and axis.get_visible()  # a twin's hidden axis draws nothing
                 for lab in (tick.label1, tick.label2):
-                    out.append((name if inside and lab.get_visible() else "hidden", lab, ax))
+                    out.append((name if shown and lab.get_visible() else "hidden", lab, ax))
     return out
 
 

@@ -107,6 +107,8 @@ def _figure_with(defect: str):
         ax.set_xticks([])
     if defect == "outside":
         fig.text(0.9, 0.5, "a text running out of the picture on the right")
+    if defect == "twin":  # a twin's hidden x axis draws no tick labels over the host's
+        ax.twinx().set_ylabel("second quantity (MPa)")
     return fig
 
 
@@ -114,6 +116,7 @@ def _figure_with(defect: str):
     ("defect", "expected"),
     [
         ("none", None),
+        ("twin", None),
         ("overlap", "texts overlap"),
         ("no_legend_entry", "without a legend entry"),
         ("saturated", "saturated"),
