@@ -34,6 +34,7 @@ from bonecontact.common.linalg import configure_ksp, rigid_body_modes
 from bonecontact.contact.reductions import global_count
 
 __all__ = [
+    "RESPONSE_RTOL",
     "PreconditionerReuse",
     "apply_inverse_transpose",
     "coarse_grid_limit",
@@ -61,6 +62,12 @@ __all__ = [
 #: coarse factor and 12 % fewer operations at 65k, but failed — "PC failed" — where LU
 #: did not, with ``pc_gamg_threshold`` 0.05 at 65k: not robust enough for a default.)
 GAMG_OPTIONS: dict[str, object] = {"pc_gamg_agg_nsmooths": 0, "pc_mg_cycle_type": "w"}
+
+#: Relative tolerance of the response to a shift of the fixed values (the cold start's
+#: patch-stiffness solve, :meth:`~bonecontact.contact.linear_strategy.KrylovStrategy.respond`),
+#: solved alone from zero: the tolerance is relative to the shift's own right-hand side.
+#: ``None``: the whole shifted system is solved again from the last solution.
+RESPONSE_RTOL: float | None = 1e-4
 
 
 def coarse_grid_limit(num_equations: int) -> int:

@@ -30,6 +30,7 @@ from dolfinx import fem
 from bonecontact.common.linalg import configure_ksp
 from bonecontact.contact.condensed import CondensedSystem
 from bonecontact.contact.krylov import (
+    RESPONSE_RTOL,
     PreconditionerReuse,
     configure_condensed_ksp,
     reduction_decades,
@@ -341,6 +342,60 @@ class KrylovStrategy(RefactorStrategy):
 
     def set_rtol(self, rtol: float) -> None:
         self.ksp.setTolerances(rtol=rtol)
+
+    def respond(self, rows: SetRows, shift: npt.NDArray[np.float64]) -> SetSolution:
+        """The solution with the fixed values shifted by ``shift``, by linearity: the
+        solution ``Ũ`` of the last solve (same rows, so the same ``B`` and preconditioner)
+        plus the response ``y`` to the shift alone, ``B y = e`` solved from zero to
+        :data:`~bonecontact.contact.krylov.RESPONSE_RTOL` of ``e``
+        (docs/theory/pdas.md#iterative-linear-solver); ``Ũ`` is kept.  Systems with
+        replaced (slip) rows take the full shifted solve."""
+        if rows.coupled is not None or RESPONSE_RTOL is None:
+            return super().respond(rows, shift)
+        sy, Uh = self.system, self.system.Uh
+        rhs = self._response_rhs(rows, shift)
+        y = Uh.duplicate()
+        y.set(0.0)
+        rtol = self.ksp.getTolerances()[0]
+        self.ksp.setInitialGuessNonzero(False)
+        self.ksp.setTolerances(rtol=RESPONSE_RTOL)
+        try:
+            self.ksp.solve(rhs, y)
+        except PETSc.Error as exc:
+            raise SingularActiveSetError(
+                f"linear solve failed (singular system? PETSc error {exc.ierr})"
+            ) from None
+        finally:
+            self.ksp.setInitialGuessNonzero(True)
+            self.ksp.setTolerances(rtol=rtol)
+        self._check()
+        its = self.ksp.getIterationNumber()
+        kept = Uh.copy()
+        Uh.axpy(1.0, y)  # the shifted solution, for its contact rows
+        x, w = sy.unknowns(), sy.contact_residual()
+        kept.copy(Uh)
+        for obj in (rhs, y, kept):
+            obj.destroy()
+        return SetSolution(x, w, its, {})
+
+    def _response_rhs(self, rows: SetRows, shift: npt.NDArray[np.float64]) -> PETSc.Vec:
+        """Right-hand side of the response to ``shift`` at the fixed rows: ``B`` as
+        eliminated by :meth:`_eliminate` (``zeroRowsColumns``) with zero load and zero
+        Dirichlet values, i.e. ``diag · shift`` in the fixed rows and ``−Ã[:, F] shift``
+        in the free ones."""
+        sy, lay = self.system, self.system.layout
+        v = self._rhs.duplicate()
+        v.set(0.0)
+        fixed_local = lay.local_rows[rows.fixed]  # (the rows of this rank)
+        v.array[fixed_local] = shift[rows.fixed]
+        rhs = self._rhs.duplicate()
+        sy.At.mult(v, rhs)
+        rhs.scale(-1.0)
+        rhs.array[fixed_local] = sy.diag_value * v.array[fixed_local]
+        if sy.bc_local.size:
+            rhs.array[sy.bc_local] = 0.0
+        v.destroy()
+        return rhs
 
     def _ksp_solve(self, rows: SetRows) -> None:
         """Keep or rebuild the preconditioner, solve; a kept one that fails is rebuilt and
