@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.plot.scales import ColorRange, nice_floor
+from bonecontact.plot.scales import ColorRange, nice_factor
 
 
 @dataclass(frozen=True)
@@ -136,8 +136,8 @@ def _white_box(inset: Any) -> Any:
 
 
 def scale_bar_length(width: float) -> float:
-    """A nice length of about a fifth of ``width``."""
-    return nice_floor(0.2 * width) if width > 0 else 1.0
+    """A length of 1, 2 or 5 × 10^k of about a fifth of ``width``."""
+    return nice_factor(0.2 * width) if width > 0 else 1.0
 
 
 def pyvista_module() -> Any:

@@ -7,6 +7,7 @@ by :func:`bonecontact.plot.field_view`).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -116,7 +117,8 @@ def render_picture(
     _scale_bar(ax, image.shape, px_per_unit, style.length_unit)
     vectors = {k: np.array([np.dot(v, right), np.dot(v, up)]) for k, v in directions.items()}
     draw_directions(ax, vectors)
-    handles = [proxy(m) for m in marks]
+    # points are rendered as spheres: their legend entries are dots of the same colour
+    handles = [proxy(m if m.marker == "-" else replace(m, marker="o")) for m in marks]
     if deform is not None:
         from matplotlib.lines import Line2D
 
