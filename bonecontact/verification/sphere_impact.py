@@ -33,7 +33,7 @@ from bonecontact.mechanics.model import Mechanics
 from bonecontact.mechanics.newmark import make_integrator
 from bonecontact.meshing import shapes as meshing
 
-__all__ = ["SphereImpact", "SphereImpactResult", "run_sphere_impact"]
+__all__ = ["SphereImpact", "SphereImpactResult", "run_sphere_impact", "sphere_model"]
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,9 @@ class SphereImpactResult:
         }
 
 
-def _sphere_model(p: SphereImpact, comm: MPI.Comm):
+def sphere_model(p: SphereImpact, comm: MPI.Comm) -> tuple:
+    """The model, the contact interface and the hemisphere's vertical indicator (a
+    function: 1 on the vertical dofs of the hemisphere) of the impact ``p``."""
     md = meshing.hertz_3d(comm, radius=p.radius, h_contact=p.h_contact, h_far=p.h_far)
     pg = {k: v.tag for k, v in md.physical_groups.items()}
     mats = {
@@ -143,7 +145,7 @@ def run_sphere_impact(
     """Run the impact with ``scheme`` until two steps after separation (or ``t_max``,
     default 2 t_c); see :class:`SphereImpactResult`."""
     t0 = time.perf_counter()
-    m, itf, sphere = _sphere_model(p, comm)
+    m, itf, sphere = sphere_model(p, comm)
     integ = make_integrator(
         scheme, m, "dynamic", dt, contact=ContactSolver(m.V, [itf]), energy_balance=True
     )

@@ -1,0 +1,170 @@
+"""Cost of a dynamic step in contact against a contact-free step of the same mesh
+(issue #24: "a step in contact ≤ 1.3× a contact-free step").
+
+The hemisphere impact of :mod:`bonecontact.verification.sphere_impact`
+(``scheme = "stabilized-newmark"``, frictionless dual mortar, Δt = t_c/50) is run twice
+on one mesh: with the contact pair (the 40 steps from 0.1 t_c to 0.9 t_c are timed: the
+contact zone grows, then shrinks) and without it (10 steps timed)
+(the same integrator, a plain linear solve per step; the hemisphere passes through the
+block, which does not change the cost of a step).  Both use the direct solver (MUMPS),
+one factorisation for all steps (the dynamic operator is constant for fixed Δt).
+
+Where the time of a step in contact goes is measured by wrapping the methods of the
+integrator and the contact solver of this run (no change to the package): ``rhs`` (loads,
+predictor and its gaps), ``dirichlet``, ``contact`` (the PDAS: ``pdas_rhs``,
+``pdas_begin`` = the base solve of the low-rank strategy, ``pdas_iterations`` = set
+updates and small dense systems, ``new_columns`` = new low-rank columns (MUMPS
+multi-right-hand-side solves), ``refactor``, ``pdas_finish`` = the final solve and
+the result), ``velocity``; the contact-free step's ``solve``.
+
+Columns: case, h_contact, dofs, ranks, steps_free, steps_contact, free_step_s,
+contact_step_s, ratio, the phase means (s per step in contact), factorizations,
+columns, pdas_iterations (mean per contact step), machine, date.
+
+Usage:  python benchmarks/bench_dynamic_cost.py [--sizes 5e-4,3e-4] [--steps 40]
+        [--out benchmarks/results/dynamic_cost.csv]
+"""
+
+import dolfinx_solver  # noqa: F401
+
+import argparse
+import time
+from collections import defaultdict
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+from common import machine, write_rows
+from dolfinx import fem
+
+from bonecontact.contact.pdas import ContactSolver
+from bonecontact.mechanics.newmark import make_integrator
+from bonecontact.verification.sphere_impact import SphereImpact, sphere_model
+
+COMM = MPI.COMM_WORLD
+
+
+class Phases:
+    """Wall time of wrapped methods, per name (s, accumulated)."""
+
+    def __init__(self):
+        self.t = defaultdict(float)
+
+    def wrap(self, obj, method: str, name: str) -> None:
+        """Time ``obj.method`` under ``name`` (an instance attribute shadows the method)."""
+        f = getattr(obj, method)
+
+        def timed(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return f(*a, **k)
+            finally:
+                self.t[name] += time.perf_counter() - t0
+
+        setattr(obj, method, timed)
+
+    def snapshot(self) -> dict:
+        return dict(self.t)
+
+
+def _instrument(integ, ph: Phases) -> None:
+    ph.wrap(integ, "rhs", "rhs")
+    ph.wrap(integ, "apply_dirichlet", "dirichlet")
+    ph.wrap(integ, "_new_velocity", "velocity")
+    if integ.contact is None:
+        ph.wrap(integ, "solve_linear", "solve")
+        return
+    cs = integ.contact
+    ph.wrap(cs, "solve", "contact")
+    ph.wrap(cs, "contact_gaps", "predictor_gaps")
+    ph.wrap(cs, "_assemble_rhs", "pdas_rhs")
+    ph.wrap(cs, "_predict", "pdas_begin")
+    ph.wrap(cs, "_finish", "pdas_finish")
+    lr = getattr(cs.linear_solver, "lowrank", None)
+    if lr is not None:
+        ph.wrap(lr, "_compute_columns", "new_columns")
+        ph.wrap(lr, "factorize", "refactor")
+        ph.wrap(lr, "finish", "final_solve")
+
+
+def run(p: SphereImpact, contact: bool, steps: int, t_start: float) -> dict:
+    """Time ``steps`` steps after ``t_start`` (s after the first touch; the steps before
+    are run untimed), with or without the contact pair; the phase means per step."""
+    m, itf, sphere = sphere_model(p, COMM)
+    dt = p.contact_time / 50
+    cs = ContactSolver(m.V, [itf]) if contact else None
+    integ = make_integrator("stabilized-newmark", m, "dynamic", dt, contact=cs)
+    v0 = fem.Function(m.V)
+    v0.x.array[:] = -p.v0 * sphere.x.array
+    integ.set_initial(None, v0)
+    ph = Phases()
+    # the steps before t_start (approach and first contact): not timed
+    while integ.t < t_start - 0.5 * dt:
+        integ.step()
+    _instrument(integ, ph)
+    times, its, cols0 = [], [], None
+    lr = getattr(getattr(cs, "linear_solver", None), "lowrank", None)
+    f0 = (lr.factorizations, lr.columns) if lr is not None else (0, 0)
+    for _ in range(steps):
+        COMM.barrier()
+        t0 = time.perf_counter()
+        integ.step()
+        times.append(COMM.allreduce(time.perf_counter() - t0, op=MPI.MAX))
+        if contact:
+            its.append(integ.last_contact.iterations)
+            cols0 = integ.last_contact.n_active[0]
+    out = {k: COMM.allreduce(v, op=MPI.MAX) / steps for k, v in ph.snapshot().items()}
+    out["step"] = float(np.mean(times))
+    out["step_median"] = float(np.median(times))
+    out["dofs"] = int(3 * m.V.dofmap.index_map.size_global)
+    if contact:
+        out["pdas_iterations"] = float(np.mean(its))
+        out["n_active"] = cols0
+        out["factorizations"] = lr.factorizations - f0[0] if lr is not None else -1
+        out["columns"] = lr.columns - f0[1] if lr is not None else -1
+    integ.destroy()
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", default="5e-4", help="h_contact values (m), comma-separated")
+    ap.add_argument("--steps", type=int, default=40)
+    ap.add_argument("--out", default="benchmarks/results/dynamic_cost.csv")
+    a = ap.parse_args()
+    rows = []
+    for h in (float(s) for s in a.sizes.split(",")):
+        p = SphereImpact(h_contact=h, h_far=10 * h)
+        # contact: every step from 0.1 t_c to 0.9 t_c (the zone grows, then shrinks)
+        free = run(p, False, min(a.steps, 10), 0.0)
+        con = run(p, True, a.steps, 0.1 * p.contact_time)
+        row = dict(
+            case="sphere",
+            h_contact=h,
+            dofs=con["dofs"],
+            ranks=COMM.size,
+            steps_free=min(a.steps, 10),
+            steps_contact=a.steps,
+            free_step_s=free["step"],
+            contact_step_s=con["step"],
+            ratio=con["step"] / free["step"],
+            free_solve_s=free.get("solve", 0.0),
+        )
+        for k in (
+            "rhs", "predictor_gaps", "dirichlet", "contact", "pdas_rhs", "pdas_begin",
+            "new_columns", "refactor", "final_solve", "pdas_finish", "velocity",
+        ):  # fmt: skip
+            row[f"{k}_s"] = con.get(k, 0.0)
+        for k in ("pdas_iterations", "n_active", "factorizations", "columns"):
+            row[f"n_{k}"] = con.get(k, 0)
+        row["machine"] = machine() + " (busy)"
+        rows.append(row)
+        if COMM.rank == 0:
+            print({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})
+    out = Path(a.out)
+    write_rows(out.parent, out.stem, rows)
+
+
+if __name__ == "__main__":
+    main()
