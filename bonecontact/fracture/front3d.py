@@ -1077,8 +1077,9 @@ def _rule(degree: int, rho: float) -> dict:
 
 def _face_term(block: CrackBlock, traction, u, x, const: dict, radii, mu, lmbda, kappa, q):
     """The crack-face part of the boundary of the domain, over both faces:
-    ∫ [t·∂₁u^a + (σ^a n)·∂₁u] q dS, with the auxiliary field on ``crack_upper`` from the
-    side θ → π and on ``crack_lower`` from θ → −π, n the outward normal.
+    ∫ [t·∂₁u^a + (σ^a n)·∂₁u − (σ^a:ε)(n·e₁)] q dS, with the auxiliary field on
+    ``crack_upper`` from the side θ → π and on ``crack_lower`` from θ → −π, n the outward
+    normal (n·e₁ = 0 on a planar crack; not on the older surface behind a kink).
 
     * (σ^a n)·∂₁u: the curved auxiliary field is not traction-free on the faces (the hoop
       strain u^a₁/R of modes II: σ^a₂₂ = λu^a₁/R), so this term is there even for
