@@ -14,22 +14,26 @@ that holds the ``region``, and classifies the pieces
 
 the neoplasm boundary inside the bone becomes the facet group ``"<region>_wall"``
 (:func:`wall_name`); every facet group keeps its name and tag (split where the neoplasm
-crosses it; removed where a cyst has eaten it).  gmsh runs on rank 0; the result is
-broadcast.
+crosses it; removed where a cyst has eaten it).  gmsh runs on rank 0; the mesh is
+distributed from its open model (:func:`distribute_host_mesh`, no file read back) and
+the numbers broadcast.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from contextlib import nullcontext
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
 import gmsh
 import numpy as np
 import numpy.typing as npt
+from dolfinx.io.gmsh import model_to_mesh
 from scipy.spatial import cKDTree
 
 from bonecontact.common.errors import RunError
@@ -41,6 +45,7 @@ __all__ = [
     "HostGeometry",
     "HostMesh",
     "build_host_mesh",
+    "distribute_host_mesh",
     "neoplasm_polygon",
     "read_host_geometry",
     "wall_name",
@@ -246,12 +251,12 @@ def neoplasm_polygon(center: npt.ArrayLike, radius: float, h: float) -> npt.NDAr
 
 @dataclass
 class HostMesh:
-    """What :func:`build_host_mesh` built (rank 0's numbers, broadcast).
+    """What :func:`build_host_mesh` built (rank 0's numbers, broadcast) and the mesh.
 
     Parameters
     ----------
     path
-        The written gmsh file (``None`` if only checked).
+        The gmsh file written for the user (``None``: none written); nothing reads it.
     cell_groups, facet_groups
         Names of the non-empty groups of the new mesh.
     neoplasm_area
@@ -260,6 +265,12 @@ class HostMesh:
         Name of the wall facet group, ``None`` when the neoplasm has no boundary in the bone.
     cells
         Number of triangles.
+    mesh_data
+        The distributed mesh with its cell and facet tags
+        (:class:`dolfinx.io.gmsh.MeshData`, every rank; ``None`` before
+        :func:`distribute_host_mesh`).
+    groups
+        Physical-group name -> ``(dim, tag)`` of ``mesh_data``.
     """
 
     path: Path | None
@@ -268,6 +279,8 @@ class HostMesh:
     neoplasm_area: float
     wall: str | None
     cells: int
+    mesh_data: Any = None
+    groups: dict[str, tuple[int, int]] = field(default_factory=dict)
 
 
 @dataclass
@@ -326,25 +339,29 @@ def _build_host_serial(
     if signed_polygon_area(poly) < 0:
         poly = poly[::-1]
     hb = _HostBuild(geo, region, host, cavity, h_neo, poly, geo.node_size(), _bodies(geo))
-    with gmsh_session("bonecontact-host"):
-        _add_cell_group_surfaces(hb)
-        neo = _add_neoplasm_surface(hb)
-        _fragment_and_classify(hb, neo)
-        gmsh.model.occ.synchronize()
-        neo_area = sum(gmsh.model.occ.getMass(2, p) for p in hb.neo_pieces)
-        _remove_unused_entities(hb)
-        _set_point_sizes(hb)
-        _add_cell_groups(hb)
-        facet_names = _add_facet_groups(hb)
-        wname = _add_wall_group(hb, facet_names)
-        gmsh.model.mesh.generate(2)
-        ncells = sum(len(gmsh.model.mesh.getElements(2, s)[1][0]) for s in hb.kept)
-        if path is not None:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            gmsh.write(str(path))
-        return HostMesh(
-            path, tuple(sorted(hb.groups)), tuple(facet_names), float(neo_area), wname, int(ncells)
-        )
+    _add_cell_group_surfaces(hb)
+    neo = _add_neoplasm_surface(hb)
+    _fragment_and_classify(hb, neo)
+    gmsh.model.occ.synchronize()
+    neo_area = sum(gmsh.model.occ.getMass(2, p) for p in hb.neo_pieces)
+    _remove_unused_entities(hb)
+    _set_point_sizes(hb)
+    _add_cell_groups(hb)
+    facet_names = _add_facet_groups(hb)
+    wname = _add_wall_group(hb, facet_names)
+    gmsh.model.mesh.generate(2)
+    ncells = sum(len(gmsh.model.mesh.getElements(2, s)[1][0]) for s in hb.kept)
+    write_result_mesh(path)
+    return HostMesh(
+        path, tuple(sorted(hb.groups)), tuple(facet_names), float(neo_area), wname, int(ncells)
+    )
+
+
+def write_result_mesh(path: Path | None) -> None:
+    """Write the open gmsh model's mesh to ``path`` for the user (rank 0; ``None``: not)."""
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        gmsh.write(str(path))
 
 
 def _add_cell_group_surfaces(hb: _HostBuild) -> None:
@@ -561,23 +578,36 @@ def build_host_mesh(
     h_neo
         Mesh size on the neoplasm boundary (m).
     path
-        Where rank 0 writes the gmsh file (``None``: build and check only).
+        Where rank 0 writes the gmsh file for the user (``None``: none); nothing reads it.
 
     Returns
     -------
     HostMesh
-        The same on every rank.
+        The same numbers on every rank, with the distributed mesh and its groups
+        (``mesh_data``, ``groups``; :func:`distribute_host_mesh`).
 
     Raises
     ------
     CouplingError
         On every rank, when gmsh fails or the neoplasm does not overlap the region/hosts.
     """
-    return build_on_rank0(
-        lambda: _build_host_serial(geo, region, host, np.asarray(polygon), cavity, h_neo, path),
-        "rebuild the host mesh around the neoplasm",
-        comm,
-    )
+    with gmsh_session("bonecontact-host") if comm.rank == 0 else nullcontext():
+        hm = build_on_rank0(
+            lambda: _build_host_serial(geo, region, host, np.asarray(polygon), cavity, h_neo, path),
+            "rebuild the host mesh around the neoplasm",
+            comm,
+        )
+        return distribute_host_mesh(hm, 2, comm)
+
+
+def distribute_host_mesh(hm: HostMesh, gdim: int, comm: MPI.Comm) -> HostMesh:
+    """``hm`` with the mesh of rank 0's open gmsh model distributed over ``comm``
+    (:func:`dolfinx.io.gmsh.model_to_mesh`, the cell and facet tags of its physical
+    groups; collective, inside rank 0's gmsh session).  The same mesh as reading the
+    written file back gives, without the file."""
+    md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=gdim)
+    groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in md.physical_groups.items()}
+    return replace(hm, mesh_data=md, groups=groups)
 
 
 def build_on_rank0(build: Callable[[], HostMesh], what: str, comm: MPI.Comm) -> HostMesh:

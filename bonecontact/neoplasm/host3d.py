@@ -4,13 +4,14 @@ The 3D counterpart of :mod:`bonecontact.neoplasm.host`, without boolean geometry
 scene mesh's surfaces go to gmsh as discrete surfaces (kept node for node), the
 neoplasm's surface becomes a hole of the body it lies strictly inside (and, for a tumour,
 the boundary of a volume of its own), and only the volumes are meshed again
-(:func:`build_host_mesh3d`).  Method, group names and accuracy:
-docs/theory/growth.md#coupling-in-3d.
+(:func:`build_host_mesh3d`; the mesh is distributed from gmsh's open model, no file read
+back).  Method, group names and accuracy: docs/theory/growth.md#coupling-in-3d.
 """
 
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,8 +29,10 @@ from bonecontact.neoplasm.host import (
     CouplingError,
     HostMesh,
     build_on_rank0,
+    distribute_host_mesh,
     read_gmsh_groups,
     wall_name,
+    write_result_mesh,
 )
 
 __all__ = [
@@ -454,25 +457,22 @@ def _build_serial(
     sf = _recover_surfaces(geo, label, tets)
     hb = _host_body(sf, geo.x, gname, group.index(gname), npts, ntri, h_neo)
     tags = {n: t for n, (t, _) in geo.cells.items()}
-    with gmsh_session("bonecontact-host3d"):
-        ent = _add_patches(sf, geo.x)
-        s_neo = _add_neoplasm_surface(npts, ntri, len(geo.x) + 1)
-        vols, neo_vol = _add_volumes(sf, geo.x, ent, group, hb, s_neo, cavity)
-        _cell_groups(vols, neo_vol, tags, region)
-        facet_names = _facet_groups(geo, sf, ent, s_neo, tags, region)
-        _mesh_volumes(npts, h_neo, float(np.nanmax(geo.node_size())))
-        ncells = 0
-        for _, v in gmsh.model.getEntities(3):
-            types, etags, _ = gmsh.model.mesh.getElements(3, v)
-            ncells += sum(len(t) for t in etags)
-        neo_volume = surface_volume(npts, ntri) if cavity else _meshed_volume(neo_vol)
-        if path is not None:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            gmsh.write(str(path))
-        cell_groups = tuple(sorted(set(vols) | ({region} if neo_vol is not None else set())))
-        return HostMesh(
-            path, cell_groups, tuple(facet_names), float(neo_volume), wall_name(region), int(ncells)
-        )
+    ent = _add_patches(sf, geo.x)
+    s_neo = _add_neoplasm_surface(npts, ntri, len(geo.x) + 1)
+    vols, neo_vol = _add_volumes(sf, geo.x, ent, group, hb, s_neo, cavity)
+    _cell_groups(vols, neo_vol, tags, region)
+    facet_names = _facet_groups(geo, sf, ent, s_neo, tags, region)
+    _mesh_volumes(npts, h_neo, float(np.nanmax(geo.node_size())))
+    ncells = 0
+    for _, v in gmsh.model.getEntities(3):
+        types, etags, _ = gmsh.model.mesh.getElements(3, v)
+        ncells += sum(len(t) for t in etags)
+    neo_volume = surface_volume(npts, ntri) if cavity else _meshed_volume(neo_vol)
+    write_result_mesh(path)
+    cell_groups = tuple(sorted(set(vols) | ({region} if neo_vol is not None else set())))
+    return HostMesh(
+        path, cell_groups, tuple(facet_names), float(neo_volume), wall_name(region), int(ncells)
+    )
 
 
 def _host_groups(
@@ -633,13 +633,14 @@ def build_host_mesh3d(
     h_neo
         Mesh size on the neoplasm surface (m); the size grows away from it.
     path
-        Where rank 0 writes the gmsh file (``None``: build and check only).
+        Where rank 0 writes the gmsh file for the user (``None``: none); nothing reads it.
 
     Returns
     -------
     HostMesh
-        The same on every rank; ``neoplasm_area`` is the neoplasm's volume (m³) and
-        ``cells`` the number of tetrahedra.
+        The same numbers on every rank, with the distributed mesh and its groups;
+        ``neoplasm_area`` is the neoplasm's volume (m³) and ``cells`` the number of
+        tetrahedra.
 
     Raises
     ------
@@ -647,10 +648,12 @@ def build_host_mesh3d(
         On every rank: the neoplasm is not strictly inside one body of the group it grows
         in (the message names the group and the distance), or gmsh fails.
     """
-    return build_on_rank0(
-        lambda: _build_serial(
-            geo, region, host, np.asarray(points), np.asarray(triangles), cavity, h_neo, path
-        ),
-        "rebuild the 3D host mesh around the neoplasm",
-        comm,
-    )
+    with gmsh_session("bonecontact-host3d") if comm.rank == 0 else nullcontext():
+        hm = build_on_rank0(
+            lambda: _build_serial(
+                geo, region, host, np.asarray(points), np.asarray(triangles), cavity, h_neo, path
+            ),
+            "rebuild the 3D host mesh around the neoplasm",
+            comm,
+        )
+        return distribute_host_mesh(hm, 3, comm)

@@ -1,31 +1,17 @@
-"""Command line: ``bonecontact run SCENE.toml`` (also under ``mpiexec -n K``).
+"""Command line: ``bonecontact run|check|mesh-surface|mesh-ct`` (also under ``mpiexec -n K``).
 
-``bonecontact check SCENE.toml`` validates a scene and its mesh without running it and prints
-a short summary (analysis, mesh, bodies, materials, groups used, contact pairs, dofs,
-whether every rigid motion of every body is held: :mod:`bonecontact.scene.rigid_motions`)
-to stdout.  Implausible values (likely unit slips, :mod:`bonecontact.scene.checks`) are
-printed as warnings before anything is solved; ``--strict`` makes them errors (exit status 2).
-A unit slip beyond doubt (a mesh more than 2 m or less than 0.1 mm across, a modulus below
-1 kPa) is an error (exit status 2) unless ``--allow-implausible``.
+``bonecontact check SCENE.toml`` validates a scene and its mesh without running it and
+prints a short summary; ``bonecontact run SCENE.toml [--restart [CHECKPOINT]]`` runs (or
+continues) it; ``--strict`` makes plausibility warnings errors, ``--allow-implausible``
+runs a unit slip beyond doubt.  ``mesh-surface`` and ``mesh-ct`` mesh a closed surface or
+one CT slice (:mod:`bonecontact.meshing.stl`, :mod:`bonecontact.meshing.ct`).  The run
+kind comes from :mod:`bonecontact.runners.kinds`, as for :func:`bonecontact.run`.
 
-``bonecontact mesh-surface SURFACE.stl OUT.msh --size H [--cortical T]`` meshes a closed
-bone surface (:func:`bonecontact.meshing.stl.main`; exit status 2 for a broken surface);
-``bonecontact mesh-ct SLICE.dcm OUT.msh`` meshes the bone of one CT slice
-(:func:`bonecontact.meshing.ct.main`).  Both print a report of what they made (cells,
-groups with their measures, the change from the input, repairs, the frame) on rank 0.
-
-``bonecontact run SCENE.toml --restart [CHECKPOINT]`` continues a mechanics run from its
-newest (or the named) checkpoint (docs/checkpoint.md).
-
-Exit status: 0 converged; 1 the run failed (solver did not converge — see
-``summary.json``) or an internal error; 2 invalid input (message names the file,
-table and key; nothing is written) or no usable checkpoint to restart from; 3 the run
-finished but its result is invalid (``"status": "invalid"``: the strain measure exceeds the
-small-strain limit, :mod:`bonecontact.scene.validity`; results written); 128 + signal
-(130 Ctrl-C, 143 SIGTERM) stopped by a signal after writing a checkpoint.  Under MPI an
-input error is detected on every rank (collective checks) and an unexpected error on one
-rank aborts all ranks.  The one table of exit statuses:
-:data:`bonecontact.scene.errors.EXIT_CODES` (docs/scene_format.md, *Exit status*).
+Exit statuses follow one table, :data:`bonecontact.scene.errors.EXIT_CODES`
+(docs/scene_format.md, *Exit status*): 0 converged, 1 failed, 2 invalid input, 3 an
+invalid result, 128 + signal after a checkpoint.  Under MPI an input error is found on
+every rank and an unexpected error on one rank aborts all ranks.  What each command
+prints and does: docs/run_loop.md (*The command*).
 """
 
 from __future__ import annotations

@@ -1,61 +1,29 @@
-"""Neoplasm growth coupled to the loaded bone (docs/theory/growth.md#neoplasm-growth; 2D).
+"""Neoplasm growth coupled to the loaded bone: the ``coupled`` run kind (2D and 3D).
 
-A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]`` (``docs/neoplasm_format.md``).
-:func:`run_coupled` (called by :func:`bonecontact.runners.dispatch.run_scene`) runs it:
+A *coupled* scene has ``[neoplasm]`` **and** ``[analysis]``.  :func:`run_coupled` advances
+the growth model of :func:`bonecontact.runners.growth.build_growth` step by step (writing
+``growth.csv``) and, every ``mechanics_every`` growth steps and after the last, runs the
+scene's analysis on the host mesh rebuilt around the current neoplasm:
 
-1. the growth model of :func:`bonecontact.runners.growth.build_growth` (tumour: Problem P_T on its
-   own gmsh-remeshed mesh; cyst: the cylinder ODE of :mod:`bonecontact.neoplasm.cyst`) advances
-   step by step and writes ``growth.csv`` as a growth-only run does;
-2. every ``mechanics_every`` growth steps (``0``: once, after the growth) the **host
-   mechanics mesh is rebuilt by gmsh** with the current neoplasm boundary embedded
-   (:func:`bonecontact.neoplasm.host.build_host_mesh`): the geometry of the scene's mesh is
-   recovered from its
-   cell groups (their boundary edges become OCC lines, so every original boundary and
-   interface is kept exactly), the neoplasm polygon is fragmented into the body that
-   holds the ``region``, and the pieces are classified
+1. gmsh rebuilds the host mesh on rank 0 (:func:`bonecontact.neoplasm.host.build_host_mesh`,
+   3D :func:`~bonecontact.neoplasm.host3d.build_host_mesh3d`) and the mesh is distributed
+   from the open gmsh model (``host_mesh.msh`` is written for the user, never read back);
+2. :func:`analysis_model` builds the mechanics model on that mesh from the scene checked
+   once at the start (only the new mesh's own checks run again; the plausibility findings
+   of the check at t = 0 are kept, not repeated);
+3. :func:`bonecontact.runners.mechanics.run_model` runs it through the step loop.
 
-   * inside the neoplasm and in ``region`` or a ``host`` group -> **neoplasm**: a tumour
-     keeps the tag/name of ``region`` and takes its ``[[material]]`` (near-fluid tissue,
-     use ``formulation = "nodal_pressure"``); a cyst is removed, leaving a **cavity**;
-   * inside the neoplasm but in another group -> that group (the neoplasm grows only
-     into ``host``);
-   * the part of ``region`` the neoplasm no longer covers -> ``host[0]`` (with
-     ``host = []`` the neoplasm stays the region);
-
-   the neoplasm boundary inside the bone becomes the facet group ``"<region>_wall"``;
-   every facet group of the scene keeps its name and tag (split where the neoplasm
-   crosses it; removed where a cyst has eaten it);
-3. the scene's ``[analysis]`` runs on that mesh
-(:func:`bonecontact.runners.mechanics.run_mechanics`,
-   all loads, supports, contacts and probes of the scene).  A cyst adds the load
-   ``[[pressure]] boundary = "<region>_wall"`` with value f = P_h⁺ − P_h⁻, the osmotic
-   excess pressure of the lumen at that time (the hydrostatic pressure P_h⁻ of the
-   surrounding tissue is the reference, zero, state of the mechanics); in a static
-   analysis it ramps with the pseudo-time like the scene's own loads, otherwise it is
-   constant.
-
-Results: ``growth.csv`` in the output directory; the last analysis (after the growth)
-writes the usual mechanics results into the output directory itself, earlier ones into
-``mechanics_<step>/``; each analysis directory also holds ``host_mesh.msh`` (the rebuilt
-mesh) and ``neoplasm_boundary.csv`` (the polygon embedded).  ``summary.json`` is the
-final analysis's summary plus ``growth`` (as a growth-only run) and ``coupling`` (one
-record per analysis).  With ``[fracture]`` every analysis runs the initiation check (the
-risk field with its fields, ``max_risk`` columns in its history.csv); its largest risk
-goes into its ``coupling`` record, and ``summary.json`` ``fracture`` holds the largest risk
-of every analysis against growth time and the first growth time at which it reached 1
-(a pathological fracture initiates); a ``[[crack]]`` is refused in a coupled scene.
-
-The growth does not feel the mechanics (one-way coupling): the cyst ODE has its own
-Maxwell surrounding, the tumour its own pressure.  The rebuilt mesh is a fresh
-reference configuration (no stress is carried over from an earlier analysis).
+A cyst is a cavity loaded by its excess pressure on ``"<region>_wall"``; a tumour keeps
+the region's material.  The coupling is one-way and every rebuilt mesh is a fresh
+reference configuration.  Classification of the pieces, the result files and
+``summary.json``: docs/neoplasm_format.md; the hooks and where the model comes from:
+docs/run_loop.md; the method: docs/theory/remeshing.md.
 """
 
 from __future__ import annotations
 
 import math
-import shutil
 import signal
-import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -83,7 +51,13 @@ from bonecontact.runners.growth import (
     growth_times,
 )
 from bonecontact.runners.loop import RunStopped, Verdict, progress_bar, run_steps
-from bonecontact.runners.mechanics import build_model, run_mechanics
+from bonecontact.runners.mechanics import (
+    SceneModel,
+    build_model,
+    check_mesh_groups,
+    check_scene_mesh,
+    run_model,
+)
 from bonecontact.runners.results import (
     SUMMARY_FORMAT,
     GrowthTable,
@@ -92,8 +66,9 @@ from bonecontact.runners.results import (
     write_summary,
 )
 from bonecontact.scene import LoadSpec, Scene, SceneError, Schedule
+from bonecontact.scene.checks import PlausibilityIssue
 
-__all__ = ["check_coupled", "mechanics_scene", "run_coupled"]
+__all__ = ["analysis_model", "check_coupled", "mechanics_scene", "run_coupled"]
 
 
 # ----------------------------------------------------------------------------- mechanics scene
@@ -102,9 +77,11 @@ def mechanics_scene(scene: Scene, hm: HostMesh, pressure: float | None, output: 
 
     Materials keep only the cell groups that still exist; a cyst adds
     ``[[pressure]] boundary = "<region>_wall", value = pressure`` (ramped with the
-    pseudo-time in a static analysis like the scene's own loads, else constant).
+    pseudo-time in a static analysis like the scene's own loads, else constant).  The
+    mesh is ``hm``'s in memory; ``mesh_path`` names the written result file (if any) in
+    messages.
     """
-    assert hm.path is not None and scene.analysis is not None
+    assert scene.analysis is not None
     present = set(hm.cell_groups)
     materials = tuple(
         replace(m, regions=tuple(r for r in m.regions if r in present))
@@ -119,7 +96,7 @@ def mechanics_scene(scene: Scene, hm: HostMesh, pressure: float | None, output: 
         )
     return replace(
         scene,
-        mesh_path=hm.path,
+        mesh_path=hm.path if hm.path is not None else scene.mesh_path,
         neoplasm=None,
         materials=materials,
         loads=loads,
@@ -224,8 +201,8 @@ class _Coupled:
 def check_coupled(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     """Every check of a coupled scene without running it (collective; nothing written).
 
-    Builds the growth model, the host mesh at t = 0 (in a temporary directory) and the
-    mechanics model on it.
+    Builds the growth model, the host mesh at t = 0 (in memory) and the mechanics model
+    on it.
 
     Raises
     ------
@@ -235,19 +212,35 @@ def check_coupled(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     _check(scene, comm, _Coupled(scene, comm))
 
 
-def _check(scene: Scene, comm: MPI.Comm, cp: _Coupled) -> None:
-    tmp = tempfile.mkdtemp(prefix="bonecontact-host-") if comm.rank == 0 else None
-    tmp = Path(comm.bcast(tmp, root=0))
+def _check(scene: Scene, comm: MPI.Comm, cp: _Coupled) -> list[PlausibilityIssue]:
+    """The host mesh at t = 0 and the mechanics model on it, with every check of the scene
+    (its plausibility findings emitted once and returned for the analyses)."""
     try:
-        try:
-            hm, _ = cp.host_mesh(tmp / "host_mesh.msh")
-        except CouplingError as exc:
-            raise SceneError(str(scene.path), "[neoplasm]", "region", str(exc)) from None
-        build_model(mechanics_scene(scene, hm, cp.pressure(), tmp), comm)
-    finally:
-        comm.barrier()
-        if comm.rank == 0:
-            shutil.rmtree(tmp, ignore_errors=True)
+        hm, _ = cp.host_mesh(None)
+    except CouplingError as exc:
+        raise SceneError(str(scene.path), "[neoplasm]", "region", str(exc)) from None
+    ms = mechanics_scene(scene, hm, cp.pressure(), scene.output.directory)
+    check_mesh_groups(ms, hm.mesh_data, hm.groups, comm)
+    check_scene_mesh(ms, hm.mesh_data, hm.groups)  # the order of read_mesh + build_model
+    return build_model(ms, comm, mesh=(hm.mesh_data, hm.groups)).issues
+
+
+def analysis_model(
+    scene: Scene,
+    hm: HostMesh,
+    comm: MPI.Comm,
+    timer: PhaseTimer | None = None,
+    issues: list[PlausibilityIssue] | None = None,
+) -> SceneModel:
+    """The mechanics model of ``scene`` (a :func:`mechanics_scene`) on the host mesh in
+    memory (collective; no file read).
+
+    The new mesh's checks run (its groups against the scene's names, bad elements,
+    detached pieces, unheld rigid motions); ``issues``: the plausibility findings of the
+    check at t = 0, kept and not emitted again (``None``: measured and emitted).
+    """
+    check_mesh_groups(scene, hm.mesh_data, hm.groups, comm)
+    return build_model(scene, comm, timer, mesh=(hm.mesh_data, hm.groups), issues=issues)
 
 
 # ----------------------------------------------------------------------------- run
@@ -280,11 +273,12 @@ def run_coupled(
     with timer.phase("setup"):
         cp = _Coupled(scene, comm)
     with timer.phase("check"):
-        _check(scene, comm, cp)  # SceneError before anything is written
+        issues = _check(scene, comm, cp)  # SceneError before anything is written
     outdir = Path(output) if output is not None else scene.output.directory
     times = growth_times(scene)
     ckpt = growth_checkpointer(scene, cp.driver, comm, outdir, "coupled")
     analyses = _Analyses(scene, comm, cp, outdir, len(times) - 1, timer)
+    analyses.issues = issues
     resumed = None
     if restart:
         resumed = ckpt.resume(None if restart is True else restart)
@@ -333,6 +327,7 @@ class _Analyses:
         self.result: RunResult | None = None
         self.last_summary: dict[str, Any] | None = None  # the last analysis's summary
         self.invalid = False  # an analysis ended "invalid" (beyond small strain)
+        self.issues: list[PlausibilityIssue] | None = None  # of the check at t = 0
 
     def due(self, step: int) -> bool:
         """An analysis follows the last growth step and every ``mechanics_every`` steps."""
@@ -351,13 +346,7 @@ class _Analyses:
                 write_points(where / "neoplasm_boundary.csv", ["x", "y", "z"][: cp.dim], poly)
         pressure = cp.pressure()
         with self.timer.phase("analyses"):
-            res = run_mechanics(  # a signal: no checkpoint of its own, it reaches this run
-                mechanics_scene(self.scene, hm, pressure, where),
-                comm,
-                output=where,
-                progress=False,
-                checkpoint_on_signal=False,
-            )
+            res = self.analyse(mechanics_scene(self.scene, hm, pressure, where), hm, where)
         measure = "neoplasm_area_in_bone" if cp.dim == 2 else "neoplasm_volume_in_bone"
         rec = {
             "growth_step": step,
@@ -381,6 +370,13 @@ class _Analyses:
         self.last_summary = res.summary
         self.invalid = self.invalid or res.status == "invalid"  # the growth goes on
         return res.status in ("converged", "invalid")
+
+    def analyse(self, scene: Scene, hm: HostMesh, where: Path) -> RunResult:
+        """Build the model on the host mesh in memory and run it into ``where`` (a signal:
+        no checkpoint of its own, it reaches the coupled run)."""
+        t_start, timer = time.perf_counter(), PhaseTimer()
+        sm = analysis_model(scene, hm, self.comm, timer, self.issues)
+        return run_model(sm, self.comm, where, False, None, False, timer, t_start)
 
 
 def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:

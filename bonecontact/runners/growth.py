@@ -1,49 +1,23 @@
 """Growth-only scenes: a tumour or a cyst grown alone, written to ``growth.csv``.
 
-A scene with ``[neoplasm]`` and no ``[analysis]`` (``Scene.growth_only``) runs here
-(:func:`run_growth`, called by :func:`bonecontact.runners.dispatch.run_scene`); the format is in
-``docs/neoplasm_format.md``.  The growth drivers are in :mod:`bonecontact.neoplasm.growth`;
-this module builds them from a scene (:func:`build_growth`) and writes the results
-(:mod:`bonecontact.runners.results`).
+A scene with ``[neoplasm]`` and no ``[analysis]`` (the ``growth`` run kind) runs here
+(:func:`run_growth`); coupled runs (:mod:`bonecontact.runners.coupled`) grow with the same
+driver (:func:`build_growth`) and hooks (:class:`GrowthSteps`).  The drivers are in
+:mod:`bonecontact.neoplasm.growth`:
 
-* ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T of
-docs/theory/growth.md#tumour-model
-  on a moving, gmsh-remeshed tumour mesh).  The initial tumour is the cell group
-  ``region`` of the scene's mesh (its boundary is extracted and re-sampled at the mesh
-  size ``h``), or, in a meshless scene, a disc (2D) / ball (3D) of ``radius`` (extension).
-* ``kind = "cyst"``, ``model = "sphere"``: the closed osmotic/Maxwell ODE of
-  :mod:`bonecontact.neoplasm.cyst` (a sphere in 3D, a cylinder per unit length in 2D), integrated
-  step by step with Radau (rtol 1e-11).  The initial radius is ``radius`` or the
-  equivalent radius of ``region``.
+* ``kind = "tumour"``: :class:`bonecontact.neoplasm.tumour.TumourModel` (Problem P_T on a
+  moving, gmsh-remeshed tumour mesh, remeshed in memory);
+* ``kind = "cyst"``, ``model = "sphere"``: the osmotic/Maxwell ODE of
+  :mod:`bonecontact.neoplasm.cyst`;
 * ``kind = "cyst"``, ``model = "shape"``: the moving-wall cyst of
-  :mod:`bonecontact.neoplasm.cyst_shape` (volume and wall area from the current cyst mesh, the wall
-  moved with the uniform normal velocity of the osmotic/Maxwell balance, gmsh-remeshed
-  every ``remesh_every`` steps).  The initial cyst is the cell group ``region`` (its
-  boundary kept as the wall: 2D re-sampled at the mean boundary edge h, 3D the surface
-  triangulation kept) or, meshless, a disc (2D) / ball (3D) of ``radius`` with mesh
-  size h = radius/8.  The mesh size then scales with the cyst's equivalent radius.
+  :mod:`bonecontact.neoplasm.cyst_shape`.
 
-Results (rank 0 writes, one row per growth step, flushed as the run goes):
-
-``growth.csv``
-    ``time,volume,surface_area,equivalent_radius`` (+ ``pressure`` for cysts): time in s;
-    3D volume m³, surface area m², equivalent radius (3V/4π)^(1/3) m; 2D area m² (per unit
-    thickness), perimeter m, equivalent radius √(A/π) m; ``pressure`` = P_h⁺ − P_h⁻, the
-    osmotic excess pressure of the cyst lumen over its surroundings, in Pa.  Row 0 is t = 0.
-``boundary.csv`` (tumour, shape cyst)
-    The final tumour / cyst wall vertices ``x,y[,z]`` (m); 2D in counter-clockwise order.
-``summary.json``
-    The usual run summary plus a ``growth`` entry (steps, remeshes, initial and final
-    radius, status, units) and ``phases_s`` (the wall time of each phase, slowest rank:
-    ``model``, ``output``, ``growth_steps`` and, for a tumour, the split of the steps:
-    nutrient, curvature, pressure, velocity, extension, transport, move, reaction, gmsh,
-    setup, transfer).
-
-Every input problem - including the ones found only with the mesh (``region`` not a
-cell group, a region whose boundary is not one closed curve) - is a
-:class:`~bonecontact.scene.errors.SceneError` raised on every rank before anything is written.
-The rows do not depend on the number of ranks (the cyst ODE is replicated; the tumour
-model is partition independent to round-off).
+Results: ``growth.csv`` (one row per growth step, rank 0, flushed as the run goes),
+``boundary.csv`` (tumour, shape cyst) and ``summary.json`` with ``growth`` and
+``phases_s``.  Every input problem is a :class:`~bonecontact.scene.errors.SceneError` on
+every rank before anything is written; the rows do not depend on the number of ranks.
+The initial neoplasm, the columns and the phases: docs/run_loop.md (*Growth-only runs*)
+and docs/neoplasm_format.md; the models: docs/theory/growth.md.
 """
 
 from __future__ import annotations

@@ -2,7 +2,8 @@
 
 A scene with ``[analysis]`` and no ``[neoplasm]`` runs here (:func:`run_mechanics`,
 chosen by :func:`bonecontact.runners.dispatch.run_scene`); coupled runs
-(:mod:`bonecontact.runners.coupled`) run their analyses here too.
+(:mod:`bonecontact.runners.coupled`) build each analysis's model on their host mesh in
+memory (``build_model(..., mesh=..., issues=...)``) and run it with :func:`run_model`.
 
 Everything that can be wrong with the input is checked before any result file is
 written; :class:`~bonecontact.scene.errors.SceneError` is raised on *every* rank (all
@@ -44,7 +45,12 @@ from bonecontact.runners.results import (
     StressFields,
 )
 from bonecontact.scene import Scene, SceneError, check_against_mesh
-from bonecontact.scene.checks import PlausibilityWarning, check_cracks_in_mesh, emit
+from bonecontact.scene.checks import (
+    PlausibilityIssue,
+    PlausibilityWarning,
+    check_cracks_in_mesh,
+    emit,
+)
 from bonecontact.scene.mesh_checks import check_mesh, scene_issues
 from bonecontact.scene.rigid_motions import check_rigid_motions, singular_diagnosis
 from bonecontact.scene.spec import LoadSpec
@@ -59,6 +65,8 @@ __all__ = [
     "SceneModel",
     "book_step",
     "build_model",
+    "check_mesh_groups",
+    "check_scene_mesh",
     "finish_run",
     "force_summary_lines",
     "read_mesh",
@@ -112,9 +120,18 @@ def read_mesh(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
             f"is {scene.dimension} but the mesh {path.name} has dimension {tdim}",
         )
     groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in md.physical_groups.items()}
-    check_against_mesh(scene, groups, md.mesh.topology.dim, md.mesh.geometry.dim)
-    check_mesh(scene, md, groups, comm)  # bad elements, duplicated nodes, detached pieces
+    check_mesh_groups(scene, md, groups, comm)
     return md, groups
+
+
+def check_mesh_groups(
+    scene: Scene, md: Any, groups: dict[str, tuple[int, int]], comm: MPI.Comm
+) -> None:
+    """The checks of a new mesh (collective): the scene's group names against its groups
+    (:func:`bonecontact.scene.check_against_mesh`), then bad elements, duplicated nodes
+    and detached pieces (:func:`bonecontact.scene.mesh_checks.check_mesh`)."""
+    check_against_mesh(scene, groups, md.mesh.topology.dim, md.mesh.geometry.dim)
+    check_mesh(scene, md, groups, comm)
 
 
 def build_model(
@@ -122,6 +139,7 @@ def build_model(
     comm: MPI.Comm = MPI.COMM_WORLD,
     timer: PhaseTimer | None = None,
     mesh: tuple[Any, dict[str, tuple[int, int]]] | None = None,
+    issues: list[PlausibilityIssue] | None = None,
 ) -> SceneModel:
     """Build the mechanics model of a scene (no output written).
 
@@ -134,7 +152,9 @@ def build_model(
 
     ``mesh`` (``(mesh_data, groups)``): a mesh already read and checked, instead of the
     scene's file (a scene with a crack: the body re-meshed around it,
-    :mod:`bonecontact.runners.cracks`).
+    :mod:`bonecontact.runners.cracks`; a coupled analysis: the rebuilt host mesh).
+    ``issues``: the plausibility findings already reported for this scene (a coupled
+    run's analyses): kept in ``SceneModel.issues``, not measured or emitted again.
 
     Raises
     ------
@@ -145,12 +165,12 @@ def build_model(
     with timer.phase("mesh_read"):
         if mesh is None:
             md, groups = read_mesh(scene, comm)
-            check_cracks_in_mesh(scene, md.mesh, md.cell_tags, groups)
-            _refuse_fracture_not_run(scene)
+            check_scene_mesh(scene, md, groups)
         else:
             md, groups = mesh
-        issues = scene_issues(scene, md, groups, comm)
-    emit(issues, scene.path)
+        if issues is None:
+            issues = scene_issues(scene, md, groups, comm)
+            emit(issues, scene.path)
     unheld = check_rigid_motions(scene, md, groups, comm)  # docs/theory/rigid_motions.md
     tag = {name: t for name, (d, t) in groups.items()}
     with timer.phase("model"):
@@ -165,6 +185,13 @@ def build_model(
     with timer.phase("mortar_geometry"):
         interfaces = _contact_interfaces(scene, model, md, tag)
     return SceneModel(scene, md, groups, model, v0, probes, interfaces, issues, supports, unheld)
+
+
+def check_scene_mesh(scene: Scene, md: Any, groups: dict[str, tuple[int, int]]) -> None:
+    """The checks of a scene on its own mesh beyond the mesh's (run once per scene): every
+    ``[[crack]]`` inside the body, and no ``[fracture] propagate`` without a crack."""
+    check_cracks_in_mesh(scene, md.mesh, md.cell_tags, groups)
+    _refuse_fracture_not_run(scene)
 
 
 def _refuse_fracture_not_run(scene: Scene) -> None:
