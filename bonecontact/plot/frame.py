@@ -130,7 +130,7 @@ def _white_box(inset: Any) -> Any:
         fc="white",
         ec="0.6",
         lw=0.5,
-        alpha=0.85,
+        alpha=1.0,
         clip_on=False,
     )
 
