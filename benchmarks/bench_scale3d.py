@@ -164,6 +164,7 @@ def hertz_from_table(table: Path) -> dict[str, float]:
 def run_case(label: str, ranks: int, linear: str, mesh: Path, keep: Path | None) -> dict:
     """Write the scene, run ``bonecontact run`` on ``ranks`` ranks, collect the figures."""
     work = Path(tempfile.mkdtemp(prefix=f"scale3d-{label}-")) if keep is None else keep
+    work.mkdir(parents=True, exist_ok=True)
     results = work / "results"
     R = LOAD_DRIVEN_RADIUS
     text = SCENE.format(

@@ -5,31 +5,28 @@ A :class:`ContactInterface` is built from two facet groups of one mesh — the s
 surface (it carries the multiplier) and the master surface — on bodies whose
 interfaces do not share nodes, or from a slave group and a rigid plane.  It holds, for
 the slave nodes that this rank owns and that carry a multiplier (``D_pp > 0``):
-
-* averaged unit nodal normals ``n_p`` (out of the slave body) and tangents ``t_p``,
-* the diagonal mortar matrix ``D_pp = ∫ ψ_p φ_p``, the weighted gap ``d_p = ∫ ψ_p g``
-  and the nodal gap ``d_p / D_pp``,
-
-and the triplets of ``M̂ = D⁻¹M`` in global dof numbering.  :func:`basis_transform`
-turns those into the PETSc matrix ``Qᵀ`` of docs/theory/mortar.md#condensation-of-the-multipliers
-(``U = Qᵀ Û``), so that
-``Â = Q A Qᵀ = A.PtAP(Qᵀ)`` and ``F̂ = Q F``.
+averaged unit nodal normals ``n_p`` (out of the slave body) and tangents ``t_p``, the
+diagonal mortar matrix ``D_pp = ∫ ψ_p φ_p``, the weighted gap ``d_p = ∫ ψ_p g``, the
+nodal gap ``d_p / D_pp``, and the triplets of ``M̂ = D⁻¹M`` in global dof numbering.
+:func:`basis_transform` turns those into ``Qᵀ`` (``U = Qᵀ Û``,
+docs/theory/mortar.md#condensation-of-the-multipliers), so that ``Â = Q A Qᵀ`` and
+``F̂ = Q F``; :func:`transformed_operator` forms ``T Q A Qᵀ Tᵀ`` in one product.
 
 Parallel design: a contact surface is small compared with the mesh, so the slave
 surface's nodes and facets (not the system) are gathered on every rank; every rank
-integrates an equal, spatially compact share of the slave facets (vectorised,
-:mod:`bonecontact.contact.mortar_assembly`) against the master facets that lie within the
-bounding box of their search region (each rank sends the others only those of its master
-facets), ``D`` and the weighted gap are summed over ranks, and each row of ``M̂`` is sent
-to the rank owning it.  Normals are
-computed from the gathered surface, so a node shared by several ranks has the same normal
-everywhere and results do not depend on the partition.
+integrates an equal, spatially compact share of the slave facets
+(:mod:`bonecontact.contact.mortar_assembly`) against the master facets within the
+bounding box of their search region (each rank sends the others only those),
+``D`` and the weighted gap are summed over ranks, and each row of ``M̂`` is sent to
+the rank owning it.  Normals come from the gathered surface, so a node shared by
+several ranks has the same normal everywhere and results do not depend on the partition.
 
 Units: coordinates in m; ``D`` in m (2D, per unit thickness) or m²; gaps in m.
 """
 
 from __future__ import annotations
 
+import ctypes
 import time
 from dataclasses import dataclass, field
 
@@ -966,19 +963,35 @@ def transformed_operator(A: PETSc.Mat, Qt: PETSc.Mat, Tt: PETSc.Mat) -> PETSc.Ma
     One triple product with ``P = Qᵀ Tᵀ`` (both factors are the identity outside the
     slave rows, so ``P`` costs little) instead of two: at 10⁶ dofs the second product of
     the whole matrix and the intermediate ``Â = Q A Qᵀ`` held beside ``A`` were seconds
-    and a matrix's memory.  The product is returned as a plain copy: PETSc's product
-    record would otherwise hold a reference to ``A`` (and ``P``) for as long as the result
-    lives, so an ``A`` its owner releases after set-up could never be freed.
+    and a matrix's memory.  PETSc's product record would hold references to ``A`` and
+    ``P`` (and the product's symbolic data) for as long as the result lives, so an ``A``
+    its owner releases after set-up could never be freed: the record is cleared
+    (:func:`_clear_product`), or, where that is not available, the result copied.
     """
     P = Qt.matMult(Tt)
     try:
         product = A.PtAP(P)
+        if _clear_product(product):
+            return product
         try:
             return product.duplicate(copy=True)
         finally:
             product.destroy()
     finally:
         P.destroy()
+
+
+def _clear_product(M: PETSc.Mat) -> bool:
+    """``MatProductClear(M)`` (not wrapped by petsc4py): drop the product record of
+    ``M`` — its references to the factors and its symbolic data — keeping the values.
+    ``False`` if the PETSc library does not give the function."""
+    try:
+        clear = ctypes.CDLL(PETSc.__file__).MatProductClear
+    except (OSError, AttributeError):
+        return False
+    clear.argtypes = [ctypes.c_void_p]
+    clear.restype = ctypes.c_int
+    return clear(M.handle) == 0
 
 
 def rotation_matrix(V: fem.FunctionSpace, interfaces: list[ContactInterface]) -> PETSc.Mat:

@@ -37,7 +37,9 @@ class MaterialFields:
     ----------
     C, C_v
         Elastic and viscous Voigt stiffness (nv×nv; nv = 3 in 2D, 6 in 3D). In
-        cells with the nodal-pressure formulation only the deviatoric part.
+        cells with the nodal-pressure formulation only the deviatoric part.  ``C_v``
+        is ``None`` when no material is viscous (``has_viscosity`` false): at 36 values
+        per cell it would be as large as the stiffness matrix and all zero.
     C_zz
         2D only: the row of σ_zz against [e_xx, e_yy, γ_xy] (plane-strain
         out-of-plane stress), elastic and viscous (shape (2, 3)).
@@ -51,7 +53,7 @@ class MaterialFields:
 
     dim: int
     C: fem.Function
-    C_v: fem.Function
+    C_v: fem.Function | None
     rho: fem.Function
     kappa: fem.Function
     kappa_v: fem.Function
@@ -93,38 +95,40 @@ def material_fields(
     dim = msh.geometry.dim
     imap = msh.topology.index_map(msh.topology.dim)
     ncells = imap.size_local + imap.num_ghosts
-    fields = _zero_fields(msh, dim)
     tagged, cell_mat = _cell_materials(cell_tags, materials, ncells)
+    comm = msh.comm
+    has_visc = bool(comm.allreduce(any(m.tau_v > 0 for m in tagged.values()), op=_mpi_lor()))
+    fields = _zero_fields(msh, dim, has_visc)
     missing = int(np.sum(cell_mat[: imap.size_local] < 0))
     missing = msh.comm.allreduce(missing)
     if missing:
         raise ValueError(
             f"{missing} cells have no material (tags with materials: {sorted(tagged)})"
         )
-    has_visc = has_anp = False
+    has_anp = False
     has_rho = True
     for tag, mat in tagged.items():
         _set_material(fields, np.flatnonzero(cell_mat == tag), mat, ncells)
-        has_visc |= mat.tau_v > 0
         has_anp |= mat.formulation == "nodal_pressure"
         has_rho &= mat.rho is not None
-    comm = msh.comm
-    fields.has_viscosity = bool(comm.allreduce(has_visc, op=_mpi_lor()))
+    fields.has_viscosity = has_visc
     fields.has_nodal_pressure = bool(comm.allreduce(has_anp, op=_mpi_lor()))
     fields.has_density = bool(comm.allreduce(has_rho, op=_mpi_land()))
     f = fields
-    for u in (f.C, f.C_v, f.rho, f.kappa, f.kappa_v, f.chi) + ((f.C_zz,) if dim == 2 else ()):
-        u.x.scatter_forward()
+    for u in (f.C, f.C_v, f.rho, f.kappa, f.kappa_v, f.chi, f.C_zz):
+        if u is not None:
+            u.x.scatter_forward()
     return fields
 
 
-def _zero_fields(msh: mesh.Mesh, dim: int) -> MaterialFields:
-    """The DG0 fields of :func:`material_fields`, all zero, flags false."""
+def _zero_fields(msh: mesh.Mesh, dim: int, viscous: bool) -> MaterialFields:
+    """The DG0 fields of :func:`material_fields`, all zero, flags false (``C_v`` only if
+    ``viscous``)."""
     nv = 3 if dim == 2 else 6
     T0 = fem.functionspace(msh, ("DG", 0, (nv, nv)))
     S0 = fem.functionspace(msh, ("DG", 0))
     C = fem.Function(T0, name="C")
-    Cv = fem.Function(T0, name="C_v")
+    Cv = fem.Function(T0, name="C_v") if viscous else None
     rho = fem.Function(S0, name="rho")
     kap = fem.Function(S0, name="kappa")
     kapv = fem.Function(S0, name="kappa_v")
@@ -167,7 +171,8 @@ def _set_material(
         f.chi.x.array[sdofs] = 1.0
     Cd = plane_strain_block(Cfull) if dim == 2 else Cfull
     f.C.x.array.reshape(-1, nv * nv)[tdofs] = Cd.ravel()
-    f.C_v.x.array.reshape(-1, nv * nv)[tdofs] = mat.tau_v * Cd.ravel()
+    if f.C_v is not None:
+        f.C_v.x.array.reshape(-1, nv * nv)[tdofs] = mat.tau_v * Cd.ravel()
     if mat.rho is not None:
         f.rho.x.array[sdofs] = mat.rho
     if f.C_zz is not None:

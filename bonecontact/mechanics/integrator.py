@@ -493,16 +493,25 @@ class Integrator:
     # --------------------------------------------------------------- energy
     def energy(self) -> Energy:
         """E = ½ vᵀMv + ½ uᵀKu for the current state (kinetic 0 unless dynamic)."""
-        m = self.model
         u = self.u_n.x.petsc_vec
-        m.K.mult(u, self._w)
-        strain = 0.5 * self._w.dot(u)
+        K, scale = self._stiffness()
+        K.mult(u, self._w)
+        strain = 0.5 * scale * self._w.dot(u)
         kin = 0.0
         if self.kind == "dynamic":
             v = self.velocity.x.petsc_vec
             self.M.mult(v, self._w)
             kin = 0.5 * self._w.dot(v)
         return Energy(kin, strain)
+
+    def _stiffness(self) -> tuple[PETSc.Mat, float]:
+        """``(K', s)`` with ``K = s K'``: the step operator when it is a multiple of the
+        stiffness alone (no mass, no viscous term), else the model's ``K`` (assembled
+        once on demand; a static run then holds no second copy of its operator)."""
+        c_mass, c_elastic, c_viscous = self._coeffs
+        if c_mass == 0.0 and c_viscous == 0.0 and self._dM is None:
+            return self.A, 1.0 / c_elastic
+        return self.model.K, 1.0
 
     # ------------------------------------------------------- energy balance
     def contact_gaps(self, u: fem.Function | None = None) -> list[np.ndarray]:
