@@ -2,11 +2,11 @@
 
 The 3D load-driven Hertz problem (hemisphere on a block, held only by contact, a/R =
 0.1; :func:`bonecontact.verification.load_driven.sphere_on_block_3d`) is solved once
-from a cold start with the default solver (MUMPS, low-rank updates, compliance cold
-start).  Counted: the bytes each rank contributes to and receives from the exchanges of
-the contact logic (set decisions, convergence test, cold start, the low-rank update's
-small system), per PDAS iteration, the largest single message, and the number of
-exchanges; not counted: the distributed linear algebra (PETSc/MUMPS products and
+from a cold start with MUMPS (``--strategy lowrank``, the default, or ``refactor``) and
+the compliance cold start.  Counted: the bytes each rank contributes to and receives
+from the exchanges of the contact logic (set decisions, convergence test, cold start,
+the low-rank update's small system), per PDAS iteration, the largest single message,
+and the number of exchanges; not counted: the distributed linear algebra (PETSc/MUMPS products and
 solves), which is the same before and after.
 
 The counts come from :data:`bonecontact.contact.reductions.TRAFFIC`.  Run against the
@@ -54,14 +54,16 @@ def _count_gathers(counter: dict) -> None:
     lowrank.LowRankActiveSetSolver._gather = wrap(lowrank.LowRankActiveSetSolver._gather)
 
 
-def run(h: float, before: bool, counter: dict) -> dict:
+def run(h: float, before: bool, counter: dict, strategy: str) -> dict:
     """One cold-started solve at contact mesh size ``h``; the counts per iteration."""
     from mpi4py import MPI
 
+    from bonecontact.contact.options import PDASOptions
     from bonecontact.verification.load_driven import sphere_on_block_3d
 
     comm = MPI.COMM_WORLD
-    prob = sphere_on_block_3d(comm, h, h_far=4e-3)
+    options = PDASOptions.from_fields(strategy=strategy)
+    prob = sphere_on_block_3d(comm, h, h_far=4e-3, options=options)
     integ = prob.integrator
     if before:
         for k in counter:
@@ -84,6 +86,7 @@ def run(h: float, before: bool, counter: dict) -> dict:
     dofs = prob.model.V.dofmap.index_map.size_global * prob.model.V.dofmap.index_map_bs
     row = {
         "code": "before" if before else "after",
+        "strategy": strategy,
         "ranks": comm.size,
         "h_contact_mm": 1e3 * h,
         "dofs": dofs,
@@ -104,6 +107,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--h", type=float, nargs="+", default=[1.2e-3, 8e-4])
     ap.add_argument("--before", action="store_true")
+    ap.add_argument("--strategy", default="lowrank", choices=["lowrank", "refactor"])
     ap.add_argument("--tree", default=None, help="package tree to import (with --before)")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = ap.parse_args()
@@ -119,7 +123,7 @@ def main() -> None:
     sys.path.insert(0, str(Path(__file__).parent))
     from common import write_rows
 
-    rows = [run(h, args.before, counter) for h in args.h]
+    rows = [run(h, args.before, counter, args.strategy) for h in args.h]
     if MPI.COMM_WORLD.rank == 0:
         for r in rows:
             print(r, flush=True)
