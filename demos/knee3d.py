@@ -565,7 +565,7 @@ if comm.rank == 0:
         ax.set_aspect("equal")
         ax.set_title(f"day {a['time'] / DAY:.0f}, tumour R = {r:.1f} mm", fontsize=10)
         ax.set_xlabel("z, across the knee (mm)")
-        bp.draw_directions(ax, {"anterior": np.array([0.0, 1.0])}, corner="lower left")
+        bp.draw_directions(ax, {"anterior": np.array([0.0, 1.0])}, corner="upper right")
     axes[0].set_ylabel("x, back to front (mm)")
     bar = fig.colorbar(sc, ax=axes[: len(maps)], extend=cr.extend, shrink=0.8)
     bar.set_label(cr.bar_label("contact pressure (MPa)"))

@@ -105,7 +105,7 @@ def draw_directions(ax: Any, vectors: Mapping[str, np.ndarray], corner: str = "l
         return
     from mpl_toolkits.axes_grid1.inset_locator import inset_axes
 
-    inset = inset_axes(ax, width=1.1, height=1.1, loc=corner, borderpad=0.3)  # inches
+    inset = inset_axes(ax, width=0.9, height=0.9, loc=corner, borderpad=0.3)  # inches
     inset.set_xlim(-1.6, 1.6)
     inset.set_ylim(-1.6, 1.6)
     inset.set_aspect("equal")
