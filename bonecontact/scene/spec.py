@@ -887,7 +887,10 @@ FRACTURE_TABLE = Table(
             unit="m",
             minimum=0,
             exclusive=True,
-            doc_default="Δa/8 with `propagate`, else 1/100 of the shortest tip segment (3D: b/10)",
+            doc_default=(
+                "Δa/8 with `propagate`, `da_max`/10 with fatigue, else 1/100 of the "
+                "shortest tip segment (3D: b/10)"
+            ),
         ),
         Key(
             "tip_grading",
@@ -903,7 +906,10 @@ FRACTURE_TABLE = Table(
             unit="m",
             minimum=0,
             exclusive=True,
-            doc_default="Δa with `propagate`, else four cells of the mesh at the risk maximum",
+            doc_default=(
+                "Δa with `propagate` (`da_max` with fatigue), else four cells of the mesh "
+                "at the risk maximum"
+            ),
         ),
         _COEFFICIENT,
         Key("fatigue", "table"),
