@@ -751,6 +751,11 @@ class LowRankActiveSetSolver:
             extra = self._closest_releases(active, margin, len(missing))
             room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
+        if missing and len(self.full_cols) + len(missing) > self.full_limit:
+            # room for this set's full columns: drop those of rows outside it (their reduced
+            # columns stay cached; a set that needs one again takes the final solve)
+            keep = {int(q) for q in diff}
+            self.full_cols = {q: c for q, c in self.full_cols.items() if q in keep}
         if missing:
             self._compute_columns(missing)
         return diff, len(missing), refactorized
