@@ -20,8 +20,12 @@ tolerance), ``loose1e-2`` … (inexact PDAS with that loose tolerance), and suff
 ``+noreuseP`` (``pc_gamg_reuse_interpolation`` on / off; off by default),
 ``+chol`` / ``+lu`` (the coarse grid's factorisation; LU by default), ``+agg1`` (one
 level of aggressive coarsening),
-``+th0.05`` (``pc_gamg_threshold``), ``+cel<n>`` (a coarse grid of at most n
-equations; ``+cel50``: GAMG's default, the setting before 2026-11-27), e.g. ``loose1e-4+cheb1``.
+``+th0.05``, ``+th0``, ``+thcoarse0.05`` (``pc_gamg_threshold``; 0.01 on the fine level, 0.05
+below), ``+agg0`` / ``+agg2`` (aggressive coarsening on no / two levels; one by default),
+``+eig10`` (10 Chebyshev eigenvalue-estimate steps), ``+fv1`` (a V-cycle on the finest
+level, W-cycles below), ``+sm1x1`` (one Chebyshev step on the first coarse level),
+``+cel<n>`` (a coarse grid of at most n equations; ``+cel50``: GAMG's default, the
+setting before 2026-11-27), e.g. ``loose1e-4+cheb1``.
 
 Usage (also under ``mpiexec -n 2``)::
 
@@ -48,7 +52,7 @@ import numpy as np
 from bench_contact3d import SIZES, linear_solve
 from common import machine, write_rows
 
-from bonecontact.common.linalg import set_solver_options
+from bonecontact.common.linalg import set_solver_options, solver_options
 from bonecontact.contact.krylov import GAMG_OPTIONS, coarse_grid_limit
 from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
@@ -67,7 +71,16 @@ SUFFIXES: dict[str, dict[str, object]] = {
     "agg1": {"pc_gamg_aggressive_coarsening": 1},
     "th0.05": {"pc_gamg_threshold": 0.05},
     "th-1": {"pc_gamg_threshold": -1.0},
+    "th0": {"pc_gamg_threshold": 0.0},
+    "thcoarse0.05": {"pc_gamg_threshold": "0.01,0.05,0.05"},
+    "agg0": {"pc_gamg_aggressive_coarsening": 0},
+    "agg2": {"pc_gamg_aggressive_coarsening": 2},
+    "eig10": {"mg_levels_ksp_chebyshev_esteig_steps": 10},
 }
+#: Suffixes set on the hierarchy after each build (not PETSc options): ``fv1`` a
+#: V-cycle on the finest level (the first coarse level visited once per cycle, W-cycles
+#: below), ``sm1x1`` one Chebyshev step (instead of 2) on the first coarse level.
+LEVEL_SUFFIXES = ("fv1", "sm1x1")
 DEFAULTS = {"pc_mg_cycle_type": "w", "pc_gamg_threshold": 0.01}
 
 
@@ -77,6 +90,8 @@ def parse_variant(name: str, tight: float) -> tuple[float, dict[str, object]]:
     loose = tight if base == "tight" else float(base.removeprefix("loose"))
     opts: dict[str, object] = {}
     for sfx in suffixes:
+        if sfx in LEVEL_SUFFIXES:
+            continue
         if sfx.startswith("cel") and sfx[3:].isdigit():  # coarse grid size, e.g. cel1000
             opts["pc_gamg_coarse_eq_limit"] = int(sfx[3:])
             continue
@@ -99,6 +114,34 @@ def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
     solver.loose_rtol = max(loose, solver.rtol)
 
 
+def level_hook(solver, name: str) -> None:
+    """After every preconditioner build of the contact solver: the :data:`LEVEL_SUFFIXES`
+    of the variant ``name`` set on the GAMG hierarchy (none: the hook removed)."""
+    levels = [s for s in name.split("+")[1:] if s in LEVEL_SUFFIXES]
+    reuse = solver.pc_reuse
+    if "decide" in vars(reuse):
+        del reuse.decide  # the class's method again
+    if not levels:
+        return
+    decide = reuse.decide
+
+    def decide_and_set(ksp, replaced):
+        keep = decide(ksp, replaced)
+        if not keep:
+            opts = solver_options(ksp)
+            with opts.applied():
+                ksp.setUp()
+            pc = ksp.getPC()
+            n = pc.getMGLevels()
+            if "fv1" in levels:
+                pc.setMGCycleTypeOnLevel(n - 1, PETSc.PC.MGCycleType.V)
+            if "sm1x1" in levels and n > 2:
+                pc.getMGSmoother(n - 2).setTolerances(max_it=1)
+        return keep
+
+    reuse.decide = decide_and_set
+
+
 def one_linear_solve(pb, tight: float) -> dict:
     """Time, flops (summed over the ranks) and CG iterations of one iterative linear solve
     of the same mesh (``bench_contact3d.linear_solve``)."""
@@ -116,6 +159,7 @@ def solve_once(pb, name: str, tight: float, ref: np.ndarray | None) -> tuple[dic
     solver, integ = pb.integrator.contact, pb.integrator
     loose, popts = parse_variant(name, tight)
     apply_variant(solver, loose, popts)
+    level_hook(solver, name)
     solver.reset()
     integ.u.x.array[:] = 0.0
     b = integ.rhs(1.0)

@@ -316,6 +316,7 @@ def main() -> None:
                    "runs": runs, **summarize(runs)}  # fmt: skip
             tag = f"_{args.tag}" if args.tag else ""
             path = args.out / f"reference_{label}_{ranks}{tag}.json"
+            path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(out, indent=1))
             print(json.dumps({"medians": out["medians"], "ratios": out["ratios"]}, indent=1))
 
