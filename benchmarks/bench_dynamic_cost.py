@@ -4,7 +4,8 @@
 The hemisphere impact of :mod:`bonecontact.verification.sphere_impact`
 (``scheme = "stabilized-newmark"``, frictionless dual mortar, Δt = t_c/50) is run twice
 on one mesh: with the contact pair (the 40 steps from 0.1 t_c to 0.9 t_c are timed: the
-contact zone grows, then shrinks) and without it (10 steps timed)
+contact zone grows, then shrinks) and without it (10 steps timed before the contact run
+and 10 after, their mean: the load of a shared machine drifts)
 (the same integrator, a plain linear solve per step; the hemisphere passes through the
 block, which does not change the cost of a step).  Both use the direct solver (MUMPS),
 one factorisation for all steps (the dynamic operator is constant for fixed Δt).
@@ -17,9 +18,11 @@ updates and small dense systems, ``new_columns`` = new low-rank columns (MUMPS
 multi-right-hand-side solves), ``refactor``, ``pdas_finish`` = the final solve and
 the result), ``velocity``; the contact-free step's ``solve``.
 
-Columns: case, h_contact, dofs, ranks, steps_free, steps_contact, free_step_s,
-contact_step_s, ratio, the phase means (s per step in contact), factorizations,
-columns, pdas_iterations (mean per contact step), machine, date.
+Columns: case, h_contact, dofs, ranks, steps_free, steps_contact, free_step_s (the
+mean of the runs before and after), free_before_s, free_after_s, contact_step_s, ratio,
+free_solve_s, the phase means (s per step in contact), n_pdas_iterations (mean per
+contact step), n_n_active (at the end), n_factorizations, n_columns (in the timed
+steps), machine, date.
 
 Usage:  python benchmarks/bench_dynamic_cost.py [--sizes 5e-4,3e-4] [--steps 40]
         [--out benchmarks/results/dynamic_cost.csv]
@@ -137,8 +140,11 @@ def main() -> None:
     for h in (float(s) for s in a.sizes.split(",")):
         p = SphereImpact(h_contact=h, h_far=10 * h)
         # contact: every step from 0.1 t_c to 0.9 t_c (the zone grows, then shrinks)
-        free = run(p, False, min(a.steps, 10), 0.0)
+        # (the contact-free steps before and after the contact run: the machine's load drifts)
+        before = run(p, False, min(a.steps, 10), 0.0)
         con = run(p, True, a.steps, 0.1 * p.contact_time)
+        after = run(p, False, min(a.steps, 10), 0.0)
+        free = {k: 0.5 * (before.get(k, 0.0) + after.get(k, 0.0)) for k in ("step", "solve")}
         row = dict(
             case="sphere",
             h_contact=h,
@@ -147,6 +153,8 @@ def main() -> None:
             steps_free=min(a.steps, 10),
             steps_contact=a.steps,
             free_step_s=free["step"],
+            free_before_s=before["step"],
+            free_after_s=after["step"],
             contact_step_s=con["step"],
             ratio=con["step"] / free["step"],
             free_solve_s=free.get("solve", 0.0),
