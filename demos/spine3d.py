@@ -762,9 +762,11 @@ if comm.rank == 0:
 # continuous inside a region and keeps the jumps between them.  Each colour range stops
 # at a round number leaving at most 1 % of the cut's area above it (0.1 % for the risk,
 # so that its rise next to the tumour stays visible); a clip is stated in the colour-bar
-# label with the maximum.  Then the same cut cropped to the L4 body, and the fracture
-# risk $\sigma_1/\sigma_t$ on that cut: the weak cancellous bone, not the stiff cortex,
-# carries the risk.
+# label with the maximum.  Then the bone of the same cut cropped to the L4 body (the
+# tumour left out, outlined), its von Mises stress on a logarithmic scale so that the
+# cancellous bone around the tumour and the cortex, a decade apart, both show; and the
+# fracture risk $\sigma_1/\sigma_t$ on that cut: the weak cancellous bone, not the stiff
+# cortex, carries the risk.
 
 
 # %%
@@ -781,16 +783,16 @@ def tumour_outline(directory: Path) -> np.ndarray:
     return pts[np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0]))]
 
 
-def cell_regions(grid, directory: Path) -> np.ndarray:
+def cell_regions(grid, directory: Path) -> tuple[np.ndarray, list[str]]:
     """A label per cell of ``grid``: the index of its region in the rebuilt mesh (matched
     by centroid), so that the display projection is continuous within each region and
-    leaves the jumps between bone, disc and tumour."""
+    leaves the jumps between bone, disc and tumour; and the regions' names."""
     g = read_host_geometry3d(Path(directory) / "host_mesh.msh")
     names = sorted(g.cells)
     centres = np.vstack([g.x[g.cells[k][1]].mean(axis=1) for k in names])
     labels = np.concatenate([np.full(len(g.cells[k][1]), i) for i, k in enumerate(names)])
     _, idx = cKDTree(centres).query(np.asarray(grid.cell_centers().points))
-    return labels[idx]
+    return labels[idx], names
 
 
 def stress_pictures(a: dict) -> list[Path]:
@@ -798,21 +800,25 @@ def stress_pictures(a: dict) -> list[Path]:
     cut L4 body (fracture risk)."""
     d = Path(a["directory"])
     grid = bp.read_fields(sorted(d.glob("fields*.pvd"))[-1])
-    grid.cell_data["region"] = cell_regions(grid, d)  # kept by the clips below
+    labels, names = cell_regions(grid, d)
+    grid.cell_data["region"] = labels  # kept by the clips below
     cut = grid.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, 0.0), invert=True)
     state = (
         f"day {a['time'] / DAY:.0f}, tumour R = {a['equivalent_radius'] / MM:.1f} mm, "
         f"{F_BODY:.0f} N + {M_FLEX} N·m flexion"
     )
     body = cut.clip_box([-18 * MM, 16 * MM, -3 * MM, 29 * MM, -25 * MM, 0.0], invert=False)
+    bone = np.flatnonzero(body.cell_data["region"] != names.index("tumour"))
+    body = body.extract_cells(bone)  # the L4 body's bone: the tumour (outlined) left out
     outline = tumour_outline(d)
     pngs = []
-    for g, name, field, quantity, unit, saturated, title in (
-        (cut, "spine3d_von_mises.png", "von_mises", "von Mises stress", "MPa", 0.01, "von Mises"),
-        (body, "spine3d_L4_body.png", "von_mises", "von Mises stress", "MPa", 0.01,
-         "von Mises (L4 body)"),
+    for g, name, field, quantity, unit, saturated, log, title in (
+        (cut, "spine3d_von_mises.png", "von_mises", "von Mises stress", "MPa", 0.01, False,
+         "von Mises"),
+        (body, "spine3d_L4_body.png", "von_mises", "von Mises stress", "MPa", 0.01, True,
+         "von Mises (L4 body's bone)"),
         (body, "spine3d_L4_risk.png", "fracture_risk", r"fracture risk $\sigma_1/\sigma_t$", "",
-         0.001, "fracture risk (L4 body)"),
+         0.001, False, "fracture risk (L4 body's bone)"),
     ):  # fmt: skip
         pngs.append(
             bp.field_view(
@@ -824,6 +830,7 @@ def stress_pictures(a: dict) -> list[Path]:
                 title=f"spine3d: {title}, {state}",
                 cmap="inferno",
                 saturated=saturated,
+                log=log,
                 regions=g.cell_data["region"],
                 outline=outline,
                 outline_label="tumour (cut)",

@@ -145,6 +145,7 @@ def field_view(
     length_unit: str = "mm",
     clim: tuple[float | None, float | None] | None = None,
     saturated: float = 0.01,
+    log: bool = False,
     smooth: bool = True,
     regions: npt.ArrayLike | None = None,
     displacement: str | None = None,
@@ -182,8 +183,9 @@ def field_view(
         Unit of the axes and the scale bar (``"mm"``, ``"m"``, ``"µm"``).
     clim
         A fixed bottom and/or top of the colour range (in ``unit``; ``None`` entries chosen).
-    saturated
-        Share of the area the chosen range may leave outside (the clip is stated).
+    saturated, log
+        Share of the area the chosen range may leave outside (the clip is stated); a
+        logarithmic colour scale (:func:`bonecontact.plot.scales.auto_range`).
     smooth, regions
         Project a cell field to the vertices (continuous), within each region of the cell
         labels ``regions`` (one per cell of ``grid``) if given.
@@ -213,7 +215,7 @@ def field_view(
         raise ValueError(f"field_view: view must be None, 'xy', 'xz' or 'yz', not {view!r}")
     if length_unit not in LENGTH_UNITS:
         raise ValueError(f"field_view: length_unit must be one of {sorted(LENGTH_UNITS)}")
-    style = Style(quantity, unit, length_unit, cmap, title, saturated, clim)
+    style = Style(quantity, unit, length_unit, cmap, title, saturated, clim, log)
     marks = _markers((contact_points, contact_label), (outline, outline_label), markers)
     factor = nice_factor(warp) if displacement is not None and warp > 0 else 0.0
     deform = (displacement, factor) if factor else None
@@ -245,6 +247,7 @@ class Style:
     title: str
     saturated: float
     clim: tuple[float | None, float | None] | None
+    log: bool = False
 
     @property
     def label(self) -> str:
@@ -259,7 +262,7 @@ class Style:
         return LENGTH_UNITS[self.length_unit]
 
     def color_range(self, values: np.ndarray, weights: np.ndarray) -> ColorRange:
-        return auto_range(values, weights, saturated=self.saturated, clim=self.clim)
+        return auto_range(values, weights, saturated=self.saturated, clim=self.clim, log=self.log)
 
 
 def _figure(window_size: tuple[int, int]) -> Any:
@@ -359,7 +362,7 @@ def _plane_picture(
     xy, tris, values, weights, nodal = _plane_data(face, name, plane, smooth, style.factor)
     cr = style.color_range(values, weights)
     s = style.scale
-    kw = {"cmap": style.cmap, "vmin": cr.vmin, "vmax": cr.vmax, "rasterized": True}
+    kw = {"cmap": style.cmap, "norm": cr.norm(), "rasterized": True}
     if nodal:
         art = ax.tripcolor(xy[:, 0] * s, xy[:, 1] * s, tris, values, shading="gouraud", **kw)
     else:

@@ -62,11 +62,12 @@ def colorbar(fig: Any, ax: Any, cmap: str, cr: ColorRange, label: str) -> Any:
     """A colour bar of the range ``cr`` with nice ticks; the clip stated in its label."""
     import matplotlib as mpl
 
-    sm = mpl.cm.ScalarMappable(norm=mpl.colors.Normalize(cr.vmin, cr.vmax), cmap=cmap)
+    sm = mpl.cm.ScalarMappable(norm=cr.norm(), cmap=cmap)
     sm.bonecontact_registered = True
     bar = fig.colorbar(sm, ax=ax, extend=cr.extend, shrink=0.8, pad=0.02, fraction=0.05)
-    bar.set_label(cr.bar_label(label))
-    bar.ax.yaxis.set_major_locator(mpl.ticker.MaxNLocator(6))
+    bar.set_label(cr.bar_label(label + (", log scale" if cr.log else "")))
+    if not cr.log:
+        bar.ax.yaxis.set_major_locator(mpl.ticker.MaxNLocator(6))
     return bar
 
 
@@ -105,18 +106,18 @@ def draw_directions(ax: Any, vectors: Mapping[str, np.ndarray], corner: str = "l
         return
     from mpl_toolkits.axes_grid1.inset_locator import inset_axes
 
-    inset = inset_axes(ax, width=0.9, height=0.9, loc=corner, borderpad=0.3)  # inches
+    inset = inset_axes(ax, width=0.9, height=0.9, loc=corner, borderpad=1.0)  # inches
     inset.set_xlim(-1.6, 1.6)
     inset.set_ylim(-1.6, 1.6)
     inset.set_aspect("equal")
     inset.set_axis_off()
     inset.add_patch(_white_box(inset))
     for label, d in shown.items():
-        tip = 0.8 * d
+        tip = 0.6 * d
         inset.annotate("", xy=tip, xytext=(0, 0), arrowprops={"arrowstyle": "-|>", "lw": 1.2})
         ha = "left" if d[0] > 0.3 else ("right" if d[0] < -0.3 else "center")
         va = "bottom" if d[1] > 0.3 else ("top" if d[1] < -0.3 else "center")
-        inset.text(0.9 * d[0], 0.9 * d[1], label, ha=ha, va=va, fontsize=9)
+        inset.text(0.7 * d[0], 0.7 * d[1], label, ha=ha, va=va, fontsize=8)
 
 
 def _white_box(inset: Any) -> Any:

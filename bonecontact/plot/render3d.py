@@ -98,7 +98,7 @@ def render_picture(
     pl = pyvista_module().Plotter(off_screen=True, window_size=[int(0.8 * w_px), int(0.85 * h_px)])
     pl.set_background("white")
     surf["shown"] = values
-    pl.add_mesh(surf, scalars="shown", cmap=style.cmap, clim=(cr.vmin, cr.vmax),
+    pl.add_mesh(surf, scalars="shown", cmap=style.cmap, clim=(cr.vmin, cr.vmax), log_scale=cr.log,
                 show_scalar_bar=False, smooth_shading=not on_cells,
                 ambient=0.5, diffuse=0.5, specular=0.0)  # fmt: skip
     _render_markers(pl, marks, grid, deform, s)

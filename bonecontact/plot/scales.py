@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -81,6 +82,13 @@ class ColorRange:
     data_max: float
     clipped_fraction: float
     data_min: float = -math.inf
+    log: bool = False
+
+    def norm(self) -> Any:
+        """The matplotlib norm of the range (logarithmic when ``log``)."""
+        from matplotlib.colors import LogNorm, Normalize
+
+        return (LogNorm if self.log else Normalize)(self.vmin, self.vmax)
 
     @property
     def clipped(self) -> bool:
@@ -148,6 +156,7 @@ def auto_range(
     saturated: float = 0.02,
     zero: bool | None = None,
     clim: tuple[float | None, float | None] | None = None,
+    log: bool = False,
 ) -> ColorRange:
     """A colour range that saturates at most ``saturated`` of the area, at nice numbers.
 
@@ -165,6 +174,10 @@ def auto_range(
         Start the range at 0 (``None``: when the data are non-negative).
     clim
         A fixed bottom and/or top instead (``None`` entries chosen as above).
+    log
+        A logarithmic range: the bottom is the nice number below the area quantile
+        ``saturated`` of the positive values, at most three decades below the top (for
+        data spanning decades, e.g. the stress of cortex and cancellous bone).
 
     Returns
     -------
@@ -179,6 +192,10 @@ def auto_range(
     hi = fixed[1] if fixed[1] is not None else _top(v, w, saturated, hi_d, lo_d)
     if fixed[0] is not None:
         lo = fixed[0]
+    elif log:
+        pos = v > 0
+        q = weighted_quantile(v[pos], w[pos], saturated) if pos.any() else 1.0
+        lo = max(nice_floor(q), nice_floor(hi / 1e3))  # at most three decades
     elif zero:
         lo = min(0.0, lo_d)
     else:
@@ -186,7 +203,7 @@ def auto_range(
     if hi <= lo:
         hi = lo + (abs(lo) or 1.0)
     out = float(w[(v > hi) | (v < lo)].sum() / w.sum())
-    return ColorRange(float(lo), float(hi), hi_d, out, lo_d)
+    return ColorRange(float(lo), float(hi), hi_d, out, lo_d, log)
 
 
 def _top(v: np.ndarray, w: np.ndarray, saturated: float, hi_d: float, lo_d: float) -> float:

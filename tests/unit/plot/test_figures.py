@@ -209,8 +209,9 @@ def test_field_view_plane_family(tmp_path, smooth, regions):
 
 @pytest.mark.parametrize("view", ["xy", "3d"])
 def test_field_view_3d_family(tmp_path, view):
-    """A block (cut face seen face-on, or rendered in 3D): passes the check, ≤ 1 %
-    saturated; a 3D picture has a scale bar of a nice length and the directions."""
+    """A block (cut face seen face-on on a log scale, or rendered in 3D): passes the
+    check, ≤ 1 % saturated; a 3D picture has a scale bar of a nice length and the
+    directions."""
     g = pv.ImageData(
         dimensions=(9, 7, 5), spacing=(0.005, 0.005, 0.005)
     ).cast_to_unstructured_grid()
@@ -225,6 +226,7 @@ def test_field_view_3d_family(tmp_path, view):
         quantity="von Mises stress",
         unit="MPa",
         view=None if view == "3d" else view,
+        log=view == "xy",  # a logarithmic colour scale on the face-on picture
         displacement="displacement",
         warp=100.0,
         directions={"superior": (0, 1, 0), "anterior": (1, 0, 0), "lateral": (0, 0, 1)},
@@ -238,3 +240,25 @@ def test_field_view_3d_family(tmp_path, view):
         bar = [t for t in texts if t.endswith(" mm") and t[:-3].replace(".", "").isdigit()]
         assert len(bar) == 1 and _is_nice(float(bar[0][:-3]))
         assert "superior" in texts and "anterior" in texts
+
+
+@pytest.mark.parametrize("saturated", [0.005, 0.02])
+@pytest.mark.parametrize("spread", [1.0, 3.0])
+def test_auto_range_log(saturated, spread):
+    """A logarithmic range over data spanning decades (and some zeros, e.g. a soft
+    tumour): both ends nice numbers, at most three decades apart, the bottom above the
+    positive area quantile ``saturated`` is not required but at most ``saturated`` of the
+    positive area lies below it unless the three-decade floor cuts in; the share outside
+    counted here matches the range's."""
+    rng = np.random.default_rng(3)
+    v = np.r_[rng.lognormal(0, spread, 5000), np.zeros(50)]
+    w = rng.uniform(0.5, 1.5, len(v))
+    cr = bp.auto_range(v, w, saturated=saturated, log=True)
+    assert cr.log and cr.vmin > 0 and _is_nice(cr.vmin)
+    assert cr.vmax / cr.vmin <= 1e3 * (1 + 1e-9)
+    out = w[(v > cr.vmax) | (v < cr.vmin)].sum() / w.sum()
+    assert cr.clipped_fraction == pytest.approx(out)
+    pos = v > 0
+    below = w[pos & (v < cr.vmin)].sum() / w[pos].sum()
+    assert below <= saturated + 1e-12 or cr.vmin == pytest.approx(bp.nice_floor(cr.vmax / 1e3))
+    assert "clipped at" in cr.bar_label("q (MPa)")  # the zeros are below any log range
