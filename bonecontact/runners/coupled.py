@@ -186,7 +186,9 @@ class _Coupled:
         return float(self.driver.f if hasattr(self.driver, "f") else self.driver.model.f)
 
     def host_mesh(self, path: Path | None) -> tuple[HostMesh, npt.NDArray[np.float64]]:
-        """The rebuilt host mesh and the neoplasm boundary points embedded (collective)."""
+        """The rebuilt host mesh (with the distributed mesh in memory; ``path``: the result
+        file written for the user, or ``None``) and the neoplasm boundary points embedded
+        (collective)."""
         if self.dim == 3:
             pts, tri, h = self.surface()
             return build_host_mesh3d(
