@@ -26,7 +26,6 @@ Units: coordinates in m; ``D`` in m (2D, per unit thickness) or m²; gaps in m.
 
 from __future__ import annotations
 
-import ctypes
 import time
 from dataclasses import dataclass, field
 
@@ -963,35 +962,21 @@ def transformed_operator(A: PETSc.Mat, Qt: PETSc.Mat, Tt: PETSc.Mat) -> PETSc.Ma
     One triple product with ``P = Qᵀ Tᵀ`` (both factors are the identity outside the
     slave rows, so ``P`` costs little) instead of two: at 10⁶ dofs the second product of
     the whole matrix and the intermediate ``Â = Q A Qᵀ`` held beside ``A`` were seconds
-    and a matrix's memory.  PETSc's product record would hold references to ``A`` and
-    ``P`` (and the product's symbolic data) for as long as the result lives, so an ``A``
-    its owner releases after set-up could never be freed: the record is cleared
-    (:func:`_clear_product`), or, where that is not available, the result copied.
+    and a matrix's memory.  The product is returned as a plain copy: PETSc's product
+    record would otherwise hold a reference to ``A`` (and ``P``) for as long as the result
+    lives, so an ``A`` its owner releases after set-up could never be freed.  (Clearing
+    the record instead, ``MatProductClear``, saves the copy's transient matrix but the
+    GAMG solve of the result then takes other iterations: 67 -> 69 at 65k dofs.)
     """
     P = Qt.matMult(Tt)
     try:
         product = A.PtAP(P)
-        if _clear_product(product):
-            return product
         try:
             return product.duplicate(copy=True)
         finally:
             product.destroy()
     finally:
         P.destroy()
-
-
-def _clear_product(M: PETSc.Mat) -> bool:
-    """``MatProductClear(M)`` (not wrapped by petsc4py): drop the product record of
-    ``M`` — its references to the factors and its symbolic data — keeping the values.
-    ``False`` if the PETSc library does not give the function."""
-    try:
-        clear = ctypes.CDLL(PETSc.__file__).MatProductClear
-    except (OSError, AttributeError):
-        return False
-    clear.argtypes = [ctypes.c_void_p]
-    clear.restype = ctypes.c_int
-    return clear(M.handle) == 0
 
 
 def rotation_matrix(V: fem.FunctionSpace, interfaces: list[ContactInterface]) -> PETSc.Mat:
