@@ -849,8 +849,8 @@ class LowRankActiveSetSolver:
         cols, y = self._y
         if all(q in self.full_cols for q in cols):  # (the same on every rank)
             x = self._xb.array.copy()
-            if cols:
-                x += np.column_stack([self.full_cols[q] for q in cols]) @ y
+            for q, yq in zip(cols, y):  # (no n × k temporary)
+                x += yq * self.full_cols[q]
             out.array[:] = x
             if self.split is not None:
                 out.array[:] = self._full(out)
