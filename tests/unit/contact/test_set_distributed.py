@@ -23,6 +23,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+import ufl
 from dolfinx import fem
 
 from bonecontact.contact.friction import FrictionLaw
@@ -58,8 +59,6 @@ def _blocks(comm: MPI.Comm, scene: str, dynamic: bool) -> tuple[Mechanics, objec
     for c in (0, 1):
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
     if scene == "liftoff":
-        import ufl
-
         x = ufl.SpatialCoordinate(md.mesh)
         m.add_dirichlet(m.facets(pg["top"]), 0, 0.0)
         m.add_traction(pg["top"], ufl.as_vector([0.0, -1e5 * (1.0 - 1.2 * x[0] / W)]))
@@ -84,8 +83,6 @@ def _boxes(comm: MPI.Comm, held: bool) -> tuple[Mechanics, object]:
         m.add_dirichlet(m.facets(pg["bottom"]), c, 0.0)
     for c in (0, 2) if held else (2,):
         m.add_dirichlet(m.facets(pg["top"]), c, 0.0)
-    import ufl
-
     x = ufl.SpatialCoordinate(md.mesh)
     m.add_traction(pg["top"], ufl.as_vector([0.0, -1e5 * (1.0 - 1.2 * x[0] / W), 0.0]))
     m.add_traction(pg["top"], [1e4, 0.0, 0.0], schedule=lambda t: max(t - 1.0, 0.0))
