@@ -35,6 +35,7 @@ SHIPPED = {
     "knee2d": "mechanics",
     "knee2d_gait": "mechanics",
     "knee2d_tumour": "coupled",
+    "knee3d_gait": "mechanics",
     "long_bone": "mechanics",
     "tumour_growth_2d": "growth",
 }
