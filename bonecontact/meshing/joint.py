@@ -381,18 +381,31 @@ class Cartilage:
         The articular facets of the bone surface: the triangles any of these regions
         selects (several: e.g. one box per compartment of a joint).
     thickness
-        Layer thickness (m), normal to the facets.
+        Layer thickness (m), normal to the facets; with ``conform_to``, the largest
+        thickness (where the other surface is far).
+    conform_to
+        The name of a bone listed before this one in :func:`joint_from_surfaces`: the
+        layer's articular surface is shaped to that bone's outer surface (its cartilage
+        where it has some), ``clearance``
+        below it along each vertex normal (:func:`cartilage_layer`), and no thicker than
+        ``thickness``.  ``None``: a layer of uniform ``thickness``.
+    clearance
+        The gap left between the conformed surface and the other one (m, >= 0).
     """
 
     name: str
     contact: str
     regions: tuple[SurfaceRegion, ...]
     thickness: float
+    conform_to: str | None = None
+    clearance: float = 0.0
 
     def __post_init__(self) -> None:
         check_positive(thickness=self.thickness)
         if not self.regions:
             raise ValueError(f"cartilage {self.name!r}: give at least one region")
+        if not (math.isfinite(self.clearance) and self.clearance >= 0):
+            raise ValueError(f"cartilage {self.name!r}: clearance must be >= 0 (m)")
 
     def select(self, surface: Surface) -> np.ndarray:
         """The triangles of ``surface`` that any region selects."""
@@ -459,8 +472,92 @@ def _clean_facets(surface: Surface, facets: np.ndarray) -> np.ndarray:
     )
 
 
-def cartilage_layer(surface: Surface, facets: np.ndarray, thickness: float) -> CartilageLayer:
+def _ray_distances(origins: np.ndarray, dirs: np.ndarray, target: Surface) -> np.ndarray:
+    """Distance along each ray ``origins + s dirs`` (unit ``dirs``, ``s > 0``) to its
+    first crossing of the triangles of ``target`` (m; inf: no crossing; Moller-Trumbore,
+    in chunks of rays)."""
+    a, b, c = (target.points[target.triangles[:, k]] for k in range(3))
+    e1, e2 = b - a, c - a
+    out = np.full(len(origins), np.inf)
+    for lo in range(0, len(origins), 256):
+        o, d = origins[lo : lo + 256, None, :], dirs[lo : lo + 256, None, :]
+        p = np.cross(d, e2)
+        det = np.einsum("rtk,tk->rt", p, e1)
+        ok = np.abs(det) > 1e-30
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        tv = o - a
+        u = np.einsum("rtk,rtk->rt", tv, p) * inv
+        q = np.cross(tv, e1)
+        v = np.einsum("rtk,rtk->rt", d, q) * inv
+        s = np.einsum("rtk,tk->rt", q, e2) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (s > 0)
+        out[lo : lo + 256] = np.where(hit, s, np.inf).min(axis=1)
+    return out
+
+
+def _conformed_thickness(
+    origins: np.ndarray,
+    normals: np.ndarray,
+    thickness: float,
+    conform: tuple[Surface, float],
+    source: str,
+) -> np.ndarray:
+    """Per-vertex thickness of a layer shaped to ``conform = (surface, clearance)``: the
+    distance along the normal to that surface less the clearance, at most ``thickness``;
+    refused where it would be below a tenth of ``thickness`` (the bones too close)."""
+    target, clearance = conform
+    t = np.minimum(_ray_distances(origins, normals, target) - clearance, thickness)
+    if np.any(t < 0.1 * thickness):
+        k = int(np.argmin(t))
+        raise MeshInputError(
+            f"{source}: the surface to conform to ({target.source}) is {t[k] + clearance:.3g} m "
+            f"from the bone at {np.round(origins[k], 5).tolist()} m, less than the clearance "
+            f"{clearance:.3g} m plus a tenth of the thickness: pose the bones further apart"
+        )
+    return t
+
+
+def _thin_where_crossing(
+    bone: np.ndarray,
+    verts: np.ndarray,
+    normals: np.ndarray,
+    t: np.ndarray,
+    top: np.ndarray,
+    target: Surface,
+) -> np.ndarray:
+    """The conformed thicknesses ``t`` of the inner vertices ``verts`` (unit ``normals``)
+    of a layer on the points ``bone``, lowered where an articular triangle (``top``,
+    into ``bone`` followed by the offset points) still crosses ``target``: it may bulge
+    between the vertices by more than the clearance (its facets' chord).  Each pass
+    lowers the crossing triangles' inner vertices by a quarter (at most 30 passes)."""
+    other = target.to_pyvista()
+    n0 = len(bone)
+    t = t.copy()
+    for _ in range(30):
+        pts = np.vstack([bone, bone[verts] + t[:, None] * normals])
+        hits, count = Surface(pts, top, "layer").to_pyvista().collision(other, contact_mode=0)
+        if not count:
+            break
+        cells = np.asarray(hits["ContactCells"])
+        bad = np.unique(top[cells[cells >= 0]])
+        t[bad[bad >= n0] - n0] *= 0.75
+    return t
+
+
+def cartilage_layer(
+    surface: Surface,
+    facets: np.ndarray,
+    thickness: float,
+    conform: tuple[Surface, float] | None = None,
+) -> CartilageLayer:
     """The layer of ``thickness`` (m) on the triangles ``facets`` of a closed surface.
+
+    With ``conform = (other, clearance)`` the layer is shaped to the surface ``other``
+    (another bone's cartilage surface, facing this one): each inner vertex is offset
+    along its normal to ``clearance`` short of ``other`` (the first crossing of the
+    normal ray), and by ``thickness`` at most (where ``other`` is far or not crossed).
+    The articular surface then follows ``other`` at the distance ``clearance`` (to the
+    facets' resolution) where the two bones are close: the layers meet over a patch.
 
     Every inner vertex of the facets is offset outward along its normal (the
     area-weighted mean of the normals of its facets) by ``thickness``; the vertices of
@@ -487,11 +584,16 @@ def cartilage_layer(surface: Surface, facets: np.ndarray, thickness: float) -> C
     for k in range(3):
         np.add.at(vn, base[:, k], fn)
     vn = vn[verts] / np.linalg.norm(vn[verts], axis=1, keepdims=True)
+    t = np.full(len(verts), thickness)
+    if conform is not None:
+        t = _conformed_thickness(surface.points[verts], vn, thickness, conform, surface.source)
     n0 = len(surface.points)
     new_id = np.arange(n0, dtype=np.int64)
     new_id[verts] = n0 + np.arange(len(verts))
-    points = np.vstack([surface.points, surface.points[verts] + thickness * vn])
     top = new_id[base]
+    if conform is not None:
+        t = _thin_where_crossing(surface.points, verts, vn, t, top, conform[0])
+    points = np.vstack([surface.points, surface.points[verts] + t[:, None] * vn])
     nt = np.cross(points[top[:, 1]] - points[top[:, 0]], points[top[:, 2]] - points[top[:, 0]])
     if np.any(np.einsum("ij,ij->i", nt, fn) <= 0):
         raise MeshInputError(
@@ -541,7 +643,26 @@ class _BoneParts:
     cartilage: Cartilage | None
 
 
-def _bone_parts(bone: JointBone, h: float, remesh: bool) -> _BoneParts:
+def _conform_target(cart: Cartilage, done: Sequence[_BoneParts]) -> tuple[Surface, float] | None:
+    """The outer surface (cartilage included; and the clearance) a layer is shaped to,
+    from a bone built before it."""
+    if cart.conform_to is None:
+        return None
+    for part in done:
+        if part.name == cart.conform_to and part.layer is not None:
+            return _outer_surface(part), cart.clearance
+    names = [p.name for p in done if p.layer is not None]
+    raise MeshInputError(
+        f"cartilage {cart.name!r}: conform_to = {cart.conform_to!r} is no bone with cartilage "
+        f"listed before it (allowed: {names})"
+    )
+
+
+def _bone_parts(
+    bone: JointBone, h: float, remesh: bool, done: Sequence[_BoneParts] = ()
+) -> _BoneParts:
+    """A bone's remeshed surface split into facet groups, its cartilage layer (shaped to
+    an earlier bone's layer if asked) and its cortical inner surface."""
     outer = prepare_surface(bone.surface, size=h if remesh else None)
     facets = None
     regions = list(bone.regions)
@@ -553,7 +674,8 @@ def _bone_parts(bone: JointBone, h: float, remesh: bool) -> _BoneParts:
                 f"{outer.source}: the regions of the cartilage {bone.cartilage.name!r} select "
                 "no triangle of the surface"
             )
-        layer = cartilage_layer(outer, facets, bone.cartilage.thickness)
+        conform = _conform_target(bone.cartilage, done)
+        layer = cartilage_layer(outer, facets, bone.cartilage.thickness, conform)
     keep = np.ones(len(outer.triangles), bool)
     if layer is not None:
         keep[layer.facets] = False
@@ -682,7 +804,9 @@ def joint_from_surfaces(
     parts, error = None, None
     if comm.rank == 0:
         try:
-            parts = [_bone_parts(b, h, remesh) for b in bones]
+            parts = []
+            for b in bones:
+                parts.append(_bone_parts(b, h, remesh, parts))
             _check_apart(parts)
         except (MeshInputError, ValueError) as exc:
             error = exc
