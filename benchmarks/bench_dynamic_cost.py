@@ -19,10 +19,12 @@ multi-right-hand-side solves), ``refactor``, ``pdas_finish`` = the final solve a
 the result), ``velocity``; the contact-free step's ``solve``.
 
 Columns: case, h_contact, dofs, ranks, steps_free, steps_contact, free_step_s (the
-mean of the runs before and after), free_before_s, free_after_s, contact_step_s, ratio,
-free_solve_s, the phase means (s per step in contact), n_pdas_iterations (mean per
-contact step), n_n_active (at the end), n_factorizations, n_columns (in the timed
-steps), machine, date.
+mean of the runs before and after), free_before_s, free_after_s, contact_step_s, ratio;
+free_step_cpu_s, contact_step_cpu_s, ratio_cpu (the same from the process's CPU time:
+MUMPS runs on one thread, so these are far less sensitive to the load of a shared
+machine than the wall times); free_solve_s, the phase means (s per step in contact),
+n_pdas_iterations (mean per contact step), n_n_active (at the end), n_factorizations,
+n_columns (in the timed steps), machine, date.
 
 Usage:  python benchmarks/bench_dynamic_cost.py [--sizes 5e-4,3e-4] [--steps 40]
         [--out benchmarks/results/dynamic_cost.csv]
@@ -106,13 +108,14 @@ def run(p: SphereImpact, contact: bool, steps: int, t_start: float) -> dict:
     while integ.t < t_start - 0.5 * dt:
         integ.step()
     _instrument(integ, ph)
-    times, its, cols0 = [], [], None
+    times, cpu, its, cols0 = [], [], [], None
     lr = getattr(getattr(cs, "linear_solver", None), "lowrank", None)
     f0 = (lr.factorizations, lr.columns) if lr is not None else (0, 0)
     for _ in range(steps):
         COMM.barrier()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         integ.step()
+        cpu.append(COMM.allreduce(time.process_time() - c0, op=MPI.MAX))
         times.append(COMM.allreduce(time.perf_counter() - t0, op=MPI.MAX))
         if contact:
             its.append(integ.last_contact.iterations)
@@ -120,6 +123,7 @@ def run(p: SphereImpact, contact: bool, steps: int, t_start: float) -> dict:
     out = {k: COMM.allreduce(v, op=MPI.MAX) / steps for k, v in ph.snapshot().items()}
     out["step"] = float(np.mean(times))
     out["step_median"] = float(np.median(times))
+    out["step_cpu"] = float(np.mean(cpu))
     out["dofs"] = int(3 * m.V.dofmap.index_map.size_global)
     if contact:
         out["pdas_iterations"] = float(np.mean(its))
@@ -144,7 +148,9 @@ def main() -> None:
         before = run(p, False, min(a.steps, 10), 0.0)
         con = run(p, True, a.steps, 0.1 * p.contact_time)
         after = run(p, False, min(a.steps, 10), 0.0)
-        free = {k: 0.5 * (before.get(k, 0.0) + after.get(k, 0.0)) for k in ("step", "solve")}
+        free = {
+            k: 0.5 * (before.get(k, 0.0) + after.get(k, 0.0)) for k in ("step", "solve", "step_cpu")
+        }
         row = dict(
             case="sphere",
             h_contact=h,
@@ -157,6 +163,9 @@ def main() -> None:
             free_after_s=after["step"],
             contact_step_s=con["step"],
             ratio=con["step"] / free["step"],
+            free_step_cpu_s=free["step_cpu"],
+            contact_step_cpu_s=con["step_cpu"],
+            ratio_cpu=con["step_cpu"] / free["step_cpu"],
             free_solve_s=free.get("solve", 0.0),
         )
         for k in (
