@@ -113,11 +113,11 @@ def draw_directions(ax: Any, vectors: Mapping[str, np.ndarray], corner: str = "l
     inset.set_axis_off()
     inset.add_patch(_white_box(inset))
     for label, d in shown.items():
-        tip = 0.6 * d
+        tip = 0.9 * d
         inset.annotate("", xy=tip, xytext=(0, 0), arrowprops={"arrowstyle": "-|>", "lw": 1.2})
         ha = "left" if d[0] > 0.3 else ("right" if d[0] < -0.3 else "center")
         va = "bottom" if d[1] > 0.3 else ("top" if d[1] < -0.3 else "center")
-        inset.text(0.7 * d[0], 0.7 * d[1], label, ha=ha, va=va, fontsize=8)
+        inset.text(1.0 * d[0], 1.0 * d[1], label, ha=ha, va=va, fontsize=8)
 
 
 def _white_box(inset: Any) -> Any:
