@@ -441,8 +441,10 @@ class Recorder:
     def _write_fields(self, t: float) -> None:
         integ, stress = self.integ, self.stress
         risk = [] if self.fracture is None else [self.fracture.risk]
+        # a static analysis's velocity is zero: not written (one field less to format)
+        velocity = [] if integ.kind == "static" else [integ.velocity]
         self.writer.fields(
-            t, [integ.u, integ.velocity, stress.stress, stress.von_mises, stress.principal, *risk]
+            t, [integ.u, *velocity, stress.stress, stress.von_mises, stress.principal, *risk]
         )
 
     def record(self, step: int, t: float, write_fields: bool, tables: bool = True) -> None:
