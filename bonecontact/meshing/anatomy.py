@@ -183,6 +183,7 @@ def knee_2d(
     h_far: float = 4e-3,
     tibia_ratio: float = 1.6,
     tumour: tuple[float, float, float] | None = None,
+    plateau_radius: float | None = None,
 ) -> MeshData | Path:
     """A 2D (frontal-plane) knee: a femoral condyle resting on the tibial plateau.
 
@@ -194,7 +195,11 @@ def knee_2d(
     (subchondral) plate and a cancellous core.  The two bones touch at the origin with
     zero gap; they are meshed separately (non-matching at the joint, element sizes
     ``h_contact`` (femur) and ``tibia_ratio * h_contact`` (tibia) near the contact,
-    ``h_far`` away from it), each bone's layers conforming.
+    ``h_far`` away from it), each bone's layers conforming.  With ``plateau_radius`` the
+    plateau is concave instead of flat: its cartilage surface is the arc of that radius
+    (larger than ``condyle_radius``) centred at ``(0, plateau_radius)``, through the
+    origin, with the cartilage and cortical layers offset from it (concentric arcs), so
+    the joint conforms (``plateau_half_width`` must then be below ``plateau_radius``).
 
     Returns
     -------
@@ -222,6 +227,13 @@ def knee_2d(
     )
     if cartilage + cortical >= knee.R / 2:
         raise ValueError("cartilage + cortical must be well below the condyle radius")
+    if plateau_radius is not None:
+        if not (condyle_radius < plateau_radius and plateau_half_width < plateau_radius):
+            raise ValueError(
+                "plateau_radius must exceed condyle_radius and plateau_half_width, got "
+                f"{plateau_radius} (condyle {condyle_radius}, half width {plateau_half_width})"
+            )
+        knee.plateau_radius = plateau_radius
 
     def build() -> None:
         fem_map = _knee_femur(knee)
@@ -246,6 +258,7 @@ class _Knee:
     cartilage: float
     cortical: float
     tumour: tuple[float, float, float] | None
+    plateau_radius: float | None = None
     surfaces: dict[str, list[int]] = field(default_factory=dict)
     curves: dict[str, list[int]] = field(default_factory=dict)
 
@@ -253,6 +266,13 @@ class _Knee:
     def big(self) -> float:
         """A length that reaches past the whole geometry."""
         return 4 * self.R
+
+    @property
+    def rim(self) -> float:
+        """Height of the plateau's cartilage surface at its sides (0 if flat)."""
+        if self.plateau_radius is None:
+            return 0.0
+        return self.plateau_radius - math.sqrt(self.plateau_radius**2 - self.w**2)
 
 
 def _knee_femur(k: _Knee) -> list:
@@ -279,27 +299,56 @@ def _knee_femur(k: _Knee) -> list:
     return fem_map
 
 
+def _knee_tumour_disc(k: _Knee) -> list:
+    """The tumour disc as a list of one dim-tag (empty without a tumour), checked to lie in
+    the tibial cancellous bone."""
+    if k.tumour is None:
+        return []
+    tx, ty, tr = k.tumour
+    w, depth, top = k.w, k.plateau_depth, -k.cartilage - k.cortical
+    if not (-w < tx - tr and tx + tr < w and -depth < ty - tr and ty + tr < top):
+        raise ValueError(f"tumour disc {k.tumour} must lie inside the tibial cancellous bone")
+    return [(2, gmsh.model.occ.addDisk(tx, ty, 0, tr, tr))]
+
+
 def _knee_tibia(k: _Knee) -> list:
     """Plateau layers (cancellous, cortical, cartilage) and the tumour disc, fragmented: the
-    fragment map."""
+    lists of dim-tags of each, in that order."""
+    if k.plateau_radius is not None:
+        return _knee_tibia_concave(k)
     occ = gmsh.model.occ
     w, plateau_depth, cartilage, cortical = k.w, k.plateau_depth, k.cartilage, k.cortical
     t_canc = occ.addRectangle(-w, -plateau_depth, 0, 2 * w, plateau_depth - cartilage - cortical)
     t_cort = occ.addRectangle(-w, -cartilage - cortical, 0, 2 * w, cortical)
     t_cart = occ.addRectangle(-w, -cartilage, 0, 2 * w, cartilage)
-    t_parts = [(2, t_canc), (2, t_cort), (2, t_cart)]
-    if k.tumour is not None:
-        tx, ty, tr = k.tumour
-        if not (
-            -w < tx - tr
-            and tx + tr < w
-            and -plateau_depth < ty - tr
-            and ty + tr < -cartilage - cortical
-        ):
-            raise ValueError(f"tumour disc {k.tumour} must lie inside the tibial cancellous bone")
-        t_parts.append((2, occ.addDisk(tx, ty, 0, tr, tr)))
+    t_parts = [(2, t_canc), (2, t_cort), (2, t_cart)] + _knee_tumour_disc(k)
     _, tib_map = occ.fragment(t_parts, [])
     return tib_map
+
+
+def _knee_tibia_concave(k: _Knee) -> list:
+    """The concave plateau: the block under the rim minus the disc of ``plateau_radius``,
+    split by the concentric arcs of the cartilage and cortical layers."""
+    occ = gmsh.model.occ
+    Rt, w, depth = k.plateau_radius, k.w, k.plateau_depth
+    block = occ.addRectangle(-w, -depth, 0, 2 * w, depth + k.rim)
+    discs = [
+        occ.addDisk(0, Rt, 0, r, r) for r in (Rt, Rt + k.cartilage, Rt + k.cartilage + k.cortical)
+    ]
+    tumour = _knee_tumour_disc(k)
+    _, fmap = occ.fragment([(2, block)] + [(2, d) for d in discs] + tumour, [])
+    in_block, d0, d1, d2 = ({t for _, t in m} for m in fmap[:4])
+    cart = sorted((in_block & d1) - d0)
+    cort = sorted((in_block & d2) - d1)
+    canc = sorted(in_block - d2)
+    keep = set(cart) | set(cort) | set(canc)
+    drop = sorted((d0 | d1 | d2) - keep)
+    if drop:
+        occ.remove([(2, t) for t in drop], recursive=True)
+    parts = [[(2, t) for t in part] for part in (canc, cort, cart)]
+    if tumour:
+        parts.append([(2, t) for _, t in fmap[4]])
+    return parts
 
 
 def _knee_classify_surfaces(k: _Knee, fem_map: list, tib_map: list) -> None:
@@ -329,7 +378,7 @@ def _knee_find_curves(k: _Knee) -> None:
     """The curves of each facet group: contact surfaces, femur top and sides, tibia bottom."""
     R, s = k.R, k.surfaces
     f_cart, f_canc = s["femur_cartilage"], s["femur_cancellous"]
-    tb_cart, tb_canc = s["tibia_cartilage"], s["tibia_cancellous"]
+    tb_canc = s["tibia_cancellous"]
     tol = 1e-7 * R
 
     def midpoint(c):
@@ -347,7 +396,7 @@ def _knee_find_curves(k: _Knee) -> None:
     fem_sides = [
         c for c in _curves_of(f_canc) if abs(abs(com(1, c)[0]) - R) < tol and com(1, c)[1] > R + tol
     ]
-    tib_contact = [c for c in _curves_of(tb_cart) if abs(com(1, c)[1]) < tol]
+    tib_contact = _knee_tibia_contact(k, midpoint)
     tib_bottom = [c for c in _curves_of(tb_canc) if abs(com(1, c)[1] + k.plateau_depth) < tol]
     k.curves = {
         "femur_contact": fem_contact,
@@ -356,6 +405,24 @@ def _knee_find_curves(k: _Knee) -> None:
         "femur_sides": fem_sides,
         "tibia_bottom": tib_bottom,
     }
+
+
+def _knee_tibia_contact(k: _Knee, midpoint) -> list[int]:
+    """The curves of the plateau's cartilage surface (flat: on y = 0; concave: on its arc)."""
+    tb_cart, R = k.surfaces["tibia_cartilage"], k.R
+    if k.plateau_radius is None:
+        return [
+            c
+            for c in _curves_of(tb_cart)
+            if abs(gmsh.model.occ.getCenterOfMass(1, c)[1]) < 1e-7 * R
+        ]
+    Rt = k.plateau_radius
+    centre = np.array([0.0, Rt])
+    return [
+        c
+        for c in _curves_of(tb_cart)
+        if abs(np.hypot(*(midpoint(c) - centre)) - Rt) < 1e-6 * Rt and midpoint(c)[1] < Rt
+    ]
 
 
 def _knee_size_fields(k: _Knee, h_contact: float, h_far: float, tibia_ratio: float) -> None:
@@ -382,7 +449,7 @@ def _knee_size_fields(k: _Knee, h_contact: float, h_far: float, tibia_ratio: flo
         f.setNumber(box, "XMin", -big)
         f.setNumber(box, "XMax", big)
         f.setNumber(box, "YMin", -cartilage - cortical)
-        f.setNumber(box, "YMax", 0.0)
+        f.setNumber(box, "YMax", k.rim)
         res = f.add("Restrict")
         mn = f.add("Min")
         f.setNumbers(mn, "FieldsList", [thr] + ([box] if surfs[0] in tb_cart else []))

@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[3]
 SCENES = ROOT / "data" / "scenes"
 KNEE = (SCENES / "knee2d.toml").read_text()
 #: the knee mesh's bounding box (m) and the materials next to its loaded boundaries
-KNEE_EXTENT = (0.09, 0.11)
+KNEE_EXTENT = (0.068, 0.11)
 KNEE_ADJACENT = {"femur_top": ("cancellous", "cortical")}
 
 
