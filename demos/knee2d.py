@@ -158,7 +158,7 @@ if comm.rank == 0:
 # `contact_tibiofemoral.csv` holds, at every slave node of the femoral cartilage, its
 # position, nodal weighted gap $\tilde g_p$ and pressure $\lambda_{n,p}$.  For comparison:
 # Hertz's cylinder-on-half-space profile (Hertz 1882; Johnson 1985) for the same load
-# per unit thickness $P$ (N/m, the computed normal contact force), the relative radius of
+# per unit thickness $P$ (N/m, the vertical load the tibia receives), the relative radius of
 # the condyle ($R_f = 0.03$ m) in its seat ($R_t = 0.04$ m), $1/R = 1/R_f - 1/R_t$, $R = 0.12$ m,
 # and the cartilage–cartilage contact modulus:
 #
@@ -198,7 +198,8 @@ if comm.rank == 0:
     hist = np.genfromtxt(
         output / "history.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
     )
-    load = float(hist["normal_force"][-1])
+    load = float(hist["reaction_tibia_bottom_y"][-1])  # what the tibia receives (N/m)
+    normal = float(hist["normal_force"][-1])  # sum of |λ| w over the tilted slave normals
     cart = [m for m in scene.materials if m.name == "cartilage"][0].material
     R_f, R_t, t_layers = 0.03, 0.04, 0.006  # condyle, seat radius, both cartilage layers (m)
     R = 1.0 / (1.0 / R_f - 1.0 / R_t)  # relative radius of the conforming pair
@@ -221,7 +222,7 @@ if comm.rank == 0:
         ax,
         ("x along the plateau", "mm"),
         ("contact pressure", "MPa"),
-        f"knee2d: contact force {load / 1e3:.2f} kN/m, peak {p.max() / 1e6:.2f} MPa",
+        f"knee2d: load {load / 1e3:.2f} kN/m, peak {p.max() / 1e6:.2f} MPa",
     )
     ax.legend(fontsize=8)
     bp.caption(
@@ -230,13 +231,16 @@ if comm.rank == 0:
         "bone 100-1700 times stiffer: a thin layer on a stiff substrate is stiffer than the "
         "half-space Hertz assumes, so the contact is narrower and the pressure higher.  The "
         "thin-layer (Winkler) estimate, $a = (3PtR/2M)^{1/3}$, $p_0 = M a^2/(2Rt)$ with "
-        "$t$ = 6 mm of cartilage and $M$ its confined modulus, is close to the computed profile.",
+        "$t$ = 6 mm of cartilage, $M$ its confined modulus and $R$ = 0.12 m the relative radius "
+        "of the condyle (30 mm) in its concave seat (40 mm), is close to the computed profile.",
     )
     bp.show(fig, output / "contact_pressure.png", dpi=120)
     width = x[p > 0].max() - x[p > 0].min()
     print(
         f"contact width {1e3 * width:.1f} mm, peak pressure {p.max() / 1e6:.2f} MPa, "
-        f"total normal force {load:.0f} N/m (applied 17500 N/m); Hertz: width "
+        f"tibial base reaction {load:.0f} N/m (applied 17500 N/m), normal contact force "
+        f"{normal:.0f} N/m (normals tilted by up to {np.degrees(np.arcsin(x[p > 0].max() / R_f)):.0f}°); "
+        f"Hertz: width "
         f"{2e3 * a_h:.1f} mm; thin layers: width {2e3 * a_t:.1f} mm, "
         f"peak {M * a_t**2 / (2 * R * t_layers) / 1e6:.2f} MPa"
     )
