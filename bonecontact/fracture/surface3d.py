@@ -16,7 +16,7 @@
   split by gmsh's ``Crack`` plugin into the faces ``crack_upper`` (y > 0 side) and
   ``crack_lower``, like the interior cracks of :mod:`bonecontact.fracture.body3d`.
 * :func:`domain_length` — the integral's half-length along the front at a point: at most
-  its distance to the free surface, refused below two front elements.
+  a quarter of :func:`curvature_length` and its distance to the free surface.
 
 Both fronts follow the front protocol of :mod:`bonecontact.fracture.front3d`
 (:class:`~bonecontact.fracture.front3d.CrackFront`) with ``closed = False``: the arc
@@ -51,6 +51,7 @@ __all__ = [
     "FacePair",
     "StraightFront",
     "SurfaceCrack",
+    "curvature_length",
     "domain_length",
     "face_pair",
     "front_nodes",
@@ -64,6 +65,9 @@ PLATE_GROUPS = {"left": 11, "right": 12, "bottom": 13, "top": 14, "back": 15, "f
 _CRACK_A, _CRACK_B, _MOUTH = 21, 22, 23
 #: The smallest domain half-length along the front, in front elements.
 MIN_DOMAIN_ELEMENTS = 2.0
+#: The largest domain half-length along the front, as a fraction of the front's
+#: :func:`curvature_length` (docs/theory/fracture.md#k-near-the-free-surface).
+CURVATURE_LENGTH_FRACTION = 0.25
 
 
 # ------------------------------------------------------------------------ fronts
@@ -227,9 +231,22 @@ class StraightFront:
         return np.linspace(f, 1.0 - f, n)
 
 
+def curvature_length(front, phi: float, dphi: float = 1e-4) -> float:
+    """ℓ = κ/|dκ/ds| at ``phi`` (m): the arc length over which the front's curvature κ
+    changes by its own size (∞ on a circle or a straight front; an ellipse with
+    a/c = 0.5: 0.54–0.6a between 12° and 30° from the end of its minor axis)."""
+    k = [1.0 / float(front.radius_of_curvature(p)) for p in (phi - dphi, phi, phi + dphi)]
+    ds = float(front.arc_length(phi + dphi) - front.arc_length(phi - dphi))
+    dk = abs(k[2] - k[0]) / ds
+    return k[1] / dk if dk > 0.0 else math.inf
+
+
 def domain_length(front, phi: float, r_out: float, h_front: float) -> float:
     """Half-length along the front of the interaction-integral domain at ``phi``: r_out,
-    or less near the free surface — the point's distance along the front to the surface,
+    at most :data:`CURVATURE_LENGTH_FRACTION` of the front's :func:`curvature_length`
+    (the auxiliary field follows the osculating circle of the point, which leaves a front
+    of varying curvature) but not below :data:`MIN_DOMAIN_ELEMENTS` front elements, and
+    less near the free surface — the point's distance along the front to the surface,
     so that q vanishes on it (the domain does not cross the free surface).
 
     Raises
@@ -240,8 +257,10 @@ def domain_length(front, phi: float, r_out: float, h_front: float) -> float:
         there.
     """
     reach = front.corner_distance(phi)
-    length = min(r_out, reach * (1.0 - 1e-6))  # q = 0 on the surface, not round-off above
-    if length < MIN_DOMAIN_ELEMENTS * h_front * (1.0 - 1e-9):
+    floor = MIN_DOMAIN_ELEMENTS * h_front
+    bend = max(CURVATURE_LENGTH_FRACTION * curvature_length(front, phi), floor)
+    length = min(r_out, bend, reach * (1.0 - 1e-6))  # q = 0 on the surface, not round-off
+    if length < floor * (1.0 - 1e-9):
         raise FractureError(
             "phi",
             f"the point is {reach:.3g} m from the free surface along the front, less than "
@@ -364,13 +383,23 @@ def _classify(dims: tuple[float, float, float], tol: float) -> tuple[list[int], 
     return crack, front, mouth
 
 
-def _size_field(front: list[int], h_front: float, grading: float, h_max: float, n: int) -> None:
+def _size_field(front: list[int], sizes: tuple, n: int) -> None:
+    """Background size h_front + grading·d (d the distance to the front) up to h_max;
+    with h_surface < h_front also h_surface + grading·d_end/2 (d_end the distance to the
+    front's ends on the free surface): a finer front where it meets the surface."""
+    h_front, grading, h_max, h_surface = sizes
     fld = gmsh.model.mesh.field
     d = fld.add("Distance")
     fld.setNumbers(d, "CurvesList", front)
     fld.setNumber(d, "Sampling", max(100, n))
+    expr = f"{h_front!r} + {grading!r}*F{d}"
+    if h_surface < h_front:
+        ends = gmsh.model.getBoundary([(1, c) for c in front], combined=True, oriented=False)
+        e = fld.add("Distance")
+        fld.setNumbers(e, "PointsList", [abs(tag) for _, tag in ends])
+        expr = f"Min({expr}, {h_surface!r} + {0.5 * grading!r}*F{e})"
     f = fld.add("MathEval")
-    fld.setString(f, "F", f"Min({h_front!r} + {grading!r}*F{d}, {h_max!r})")
+    fld.setString(f, "F", f"Min({expr}, {h_max!r})")
     fld.setAsBackgroundMesh(f)
     for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
@@ -392,7 +421,7 @@ def _split_faces(crack: list[int], mouth: list[int]) -> None:
     gmsh.model.mesh.renumberElements()
 
 
-def _build_plate(crack: SurfaceCrack, dims, h_front: float, grading: float, h_max: float) -> None:
+def _build_plate(crack: SurfaceCrack, dims, sizes: tuple) -> None:
     b, h, t = dims
     occ = gmsh.model.occ
     box = occ.addBox(-b, -h, -t, 2 * b, 2 * h, t)
@@ -401,7 +430,7 @@ def _build_plate(crack: SurfaceCrack, dims, h_front: float, grading: float, h_ma
     occ.synchronize()
     surfaces, front, mouth = _classify(dims, 1e-7 * max(dims))
     length = crack.front(b, t).perimeter
-    _size_field(front, h_front, grading, h_max, int(4 * length / h_front))
+    _size_field(front, sizes, int(4 * length / min(sizes[0], sizes[3])))
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT
     gmsh.model.mesh.generate(3)
     _split_faces(surfaces, mouth)
@@ -416,6 +445,7 @@ def mesh_plate_with_crack(
     grading: float = 0.12,
     h_max: float | None = None,
     comm: MPI.Comm | None = None,
+    h_surface: float | None = None,
 ) -> CrackBlock:
     """Mesh the plate [−b, b] × [−h, h] × [−t, 0] with a surface-breaking crack in y = 0.
 
@@ -428,6 +458,9 @@ def mesh_plate_with_crack(
     h_front, grading, h_max
         Element size at the front, its growth per unit distance from the front and the
         largest size (default t/2).
+    h_surface
+        Element size at the front's ends on the free surface (default h_front: no
+        refinement); below h_front, the size grows from it at half the grading.
     comm
         MPI communicator (``None``: ``MPI.COMM_WORLD``); gmsh runs on rank 0.
 
@@ -455,11 +488,12 @@ def mesh_plate_with_crack(
     if crack.kind != "through" and crack.half_length >= (2 * b if crack.kind == "corner" else b):
         raise FractureError("half_length", f"the crack (c={crack.half_length}) must fit b={b}")
     h_max = 0.5 * t if h_max is None else float(h_max)
+    h_surface = h_front if h_surface is None else float(h_surface)
     error = None
     with gmsh_session("cracked_plate") if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
             try:
-                _build_plate(crack, dims, h_front, grading, h_max)
+                _build_plate(crack, dims, (h_front, grading, h_max, h_surface))
             except Exception as exc:  # reported on every rank below
                 error = f"{type(exc).__name__}: {exc}"
         error = comm.bcast(error, root=0)

@@ -41,6 +41,7 @@ from bonecontact.fracture.surface3d import (
     EllipticalArcFront,
     StraightFront,
     SurfaceCrack,
+    curvature_length,
     domain_length,
 )
 from bonecontact.verification.surface_crack import (
@@ -116,6 +117,33 @@ def test_open_fronts_geometry():
     assert domain_length(s, 0.1, 0.3, 0.04) == pytest.approx(0.1, rel=1e-5)
     with pytest.raises(FractureError, match="free surface"):
         domain_length(s, 0.05, 0.3, 0.05)
+
+
+def test_domain_length_follows_the_curvature_length():
+    """ℓ = κ/|dκ/ds| of an ellipse against its closed form D^{3/2}/(3|c² − a²| sin φ cos φ),
+    D = c² sin²φ + a² cos²φ (semi-axes c along the surface, a in depth); ∞ on a circle.
+    The domain's half-length is a quarter of ℓ where that is below r_out (a/c = 0.5,
+    15°–30°), r_out at the deepest point, never below two front elements, and the
+    distance to the surface where that is shorter."""
+    a, c = 0.2, 0.4
+    front = SurfaceCrack("semi_elliptical", a, c).front(2.0, 1.0)
+    for deg in (12.0, 20.0, 30.0, 60.0):
+        phi = math.radians(deg)
+        d = (c * math.sin(phi)) ** 2 + (a * math.cos(phi)) ** 2
+        exact = d**1.5 / (3 * (c * c - a * a) * math.sin(phi) * math.cos(phi))
+        assert curvature_length(front, phi) == pytest.approx(exact, rel=1e-6)
+    circle = SurfaceCrack("semi_elliptical", a, a).front(2.0, 1.0)
+    assert curvature_length(circle, 0.4) > 1e6 * a
+    assert domain_length(circle, 0.8, 0.3 * a, a / 20) == pytest.approx(0.3 * a)
+    phi = math.radians(20.0)
+    quarter = 0.25 * curvature_length(front, phi)
+    assert quarter < 0.3 * a
+    assert domain_length(front, phi, 0.3 * a, a / 20) == pytest.approx(quarter)
+    assert domain_length(front, phi, 0.3 * a, a / 10) == pytest.approx(0.2 * a)  # 2 h_front
+    assert domain_length(front, math.pi / 2, 0.3 * a, a / 20) == pytest.approx(0.3 * a)
+    assert domain_length(front, math.radians(10.0), 0.3 * a, a / 20) == pytest.approx(
+        front.corner_distance(math.radians(10.0)), rel=1e-5
+    )
 
 
 # ------------------------------------------------------------ the reduced family
