@@ -43,8 +43,9 @@
 # notebook.  `BONECONTACT_DEMO_QUICK=1` grows the tumour for 8 days with two analyses
 # (days 4 and 8) on a coarser mesh (5 mm), instead of 24 days with three analyses
 # (days 8, 16, 24) on a 4 mm mesh.  Time on this 2-core machine, shared with other jobs
-# (load 4–5): quick 25–50 s, full 107–135 s on 1 rank, 79 s on 2 ranks (the 2-rank
-# forces and pressures equal the serial ones to 9 digits).  Units: SI.
+# (load about 16, 2026-11-28): quick 92–120 s on 1 rank, 89 s on 2 ranks (the 2-rank
+# forces and pressures equal the serial ones to the printed digits), full 114 s on 1
+# rank.  Units: SI.
 #
 # ## Mechanics
 # Each analysis solves, on the mesh rebuilt around the tumour, from an unstressed state,
