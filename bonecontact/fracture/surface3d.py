@@ -66,7 +66,7 @@ _CRACK_A, _CRACK_B, _MOUTH = 21, 22, 23
 #: The smallest domain half-length along the front, in front elements.
 MIN_DOMAIN_ELEMENTS = 2.0
 #: The largest domain half-length along the front, as a fraction of the front's
-#: :func:`curvature_length` (docs/theory/fracture.md#k-near-the-free-surface).
+#: :func:`curvature_length` (docs/theory/fracture.md#surface-breaking-cracks-in-3d).
 CURVATURE_LENGTH_FRACTION = 0.25
 
 
@@ -383,23 +383,13 @@ def _classify(dims: tuple[float, float, float], tol: float) -> tuple[list[int], 
     return crack, front, mouth
 
 
-def _size_field(front: list[int], sizes: tuple, n: int) -> None:
-    """Background size h_front + grading·d (d the distance to the front) up to h_max;
-    with h_surface < h_front also h_surface + grading·d_end/2 (d_end the distance to the
-    front's ends on the free surface): a finer front where it meets the surface."""
-    h_front, grading, h_max, h_surface = sizes
+def _size_field(front: list[int], h_front: float, grading: float, h_max: float, n: int) -> None:
     fld = gmsh.model.mesh.field
     d = fld.add("Distance")
     fld.setNumbers(d, "CurvesList", front)
     fld.setNumber(d, "Sampling", max(100, n))
-    expr = f"{h_front!r} + {grading!r}*F{d}"
-    if h_surface < h_front:
-        ends = gmsh.model.getBoundary([(1, c) for c in front], combined=True, oriented=False)
-        e = fld.add("Distance")
-        fld.setNumbers(e, "PointsList", [abs(tag) for _, tag in ends])
-        expr = f"Min({expr}, {h_surface!r} + {0.5 * grading!r}*F{e})"
     f = fld.add("MathEval")
-    fld.setString(f, "F", f"Min({expr}, {h_max!r})")
+    fld.setString(f, "F", f"Min({h_front!r} + {grading!r}*F{d}, {h_max!r})")
     fld.setAsBackgroundMesh(f)
     for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
@@ -421,7 +411,7 @@ def _split_faces(crack: list[int], mouth: list[int]) -> None:
     gmsh.model.mesh.renumberElements()
 
 
-def _build_plate(crack: SurfaceCrack, dims, sizes: tuple) -> None:
+def _build_plate(crack: SurfaceCrack, dims, h_front: float, grading: float, h_max: float) -> None:
     b, h, t = dims
     occ = gmsh.model.occ
     box = occ.addBox(-b, -h, -t, 2 * b, 2 * h, t)
@@ -430,7 +420,7 @@ def _build_plate(crack: SurfaceCrack, dims, sizes: tuple) -> None:
     occ.synchronize()
     surfaces, front, mouth = _classify(dims, 1e-7 * max(dims))
     length = crack.front(b, t).perimeter
-    _size_field(front, sizes, int(4 * length / min(sizes[0], sizes[3])))
+    _size_field(front, h_front, grading, h_max, int(4 * length / h_front))
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT
     gmsh.model.mesh.generate(3)
     _split_faces(surfaces, mouth)
@@ -445,7 +435,6 @@ def mesh_plate_with_crack(
     grading: float = 0.12,
     h_max: float | None = None,
     comm: MPI.Comm | None = None,
-    h_surface: float | None = None,
 ) -> CrackBlock:
     """Mesh the plate [−b, b] × [−h, h] × [−t, 0] with a surface-breaking crack in y = 0.
 
@@ -458,9 +447,6 @@ def mesh_plate_with_crack(
     h_front, grading, h_max
         Element size at the front, its growth per unit distance from the front and the
         largest size (default t/2).
-    h_surface
-        Element size at the front's ends on the free surface (default h_front: no
-        refinement); below h_front, the size grows from it at half the grading.
     comm
         MPI communicator (``None``: ``MPI.COMM_WORLD``); gmsh runs on rank 0.
 
@@ -488,12 +474,11 @@ def mesh_plate_with_crack(
     if crack.kind != "through" and crack.half_length >= (2 * b if crack.kind == "corner" else b):
         raise FractureError("half_length", f"the crack (c={crack.half_length}) must fit b={b}")
     h_max = 0.5 * t if h_max is None else float(h_max)
-    h_surface = h_front if h_surface is None else float(h_surface)
     error = None
     with gmsh_session("cracked_plate") if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
             try:
-                _build_plate(crack, dims, (h_front, grading, h_max, h_surface))
+                _build_plate(crack, dims, h_front, grading, h_max)
             except Exception as exc:  # reported on every rank below
                 error = f"{type(exc).__name__}: {exc}"
         error = comm.bcast(error, root=0)

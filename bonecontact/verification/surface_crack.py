@@ -154,8 +154,7 @@ class PlateProblem:
     """A cracked plate [−b, b] × [−h, h] × [−t, 0] under uniform tension S on y = ±h.
 
     ``h_front`` is the element size at the front, ``grading`` its growth per unit distance,
-    ``h_max`` the largest size, ``h_surface`` the size at the front's ends on the free
-    surface (default ``h_front``); ``r_out`` the ring radius of the interaction integral
+    ``h_max`` the largest size; ``r_out`` the ring radius of the interaction integral
     (its half-length along the front is r_out, less near the free surface:
     :func:`~bonecontact.fracture.surface3d.domain_length`).  ``contact``: the crack faces
     are a frictionless dual-mortar contact pair (``crack_upper`` slave), solved by the
@@ -173,7 +172,6 @@ class PlateProblem:
     S: float = 1.0
     material: Isotropic = PLATE_MATERIAL
     contact: bool = False
-    h_surface: float | None = None
 
     def reference(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Newman–Raju's K_I at parametric angles ``phi`` (elliptical cracks)."""
@@ -234,9 +232,7 @@ def solve_plate(problem: PlateProblem, comm: MPI.Comm | None = None) -> PlateSol
     holds the rigid motions and carries no net force."""
     comm = MPI.COMM_WORLD if comm is None else comm
     p = problem
-    blk = mesh_plate_with_crack(
-        p.crack, p.b, p.h, p.t, p.h_front, p.grading, p.h_max, comm, p.h_surface
-    )
+    blk = mesh_plate_with_crack(p.crack, p.b, p.h, p.t, p.h_front, p.grading, p.h_max, comm)
     m = Mechanics(blk.mesh, p.material, blk.cell_tags, blk.facet_tags)
     h_max = p.h_max if p.h_max is not None else 0.5 * p.t
     patch = _pin_patch(blk, np.array([0.0, -p.h, -0.5 * p.t]), max(0.25 * p.t, h_max))

@@ -22,8 +22,9 @@ elements are refused.
   on COMM_SELF) to 1e-8.
 * Slow: front a/16 (the benchmark's mesh, 19k–38k dofs): within 3 % at the deepest point and
   within 5 % from 10° off the surface on (a/c = 1 and the corner cracks; the semi-elliptical
-  crack a/c = 0.5 within 8 %: it is 4–8 % below Newman–Raju between 10° and 30°, see
-  docs/theory/fracture.md).
+  crack a/c = 0.5: every point within 6 %, their mean within 5 % — measured at the test's
+  angles −5.5 … −2.0 %, mean −3.6 % (−6.3 % at 15°), with the domain's half-length at most
+  a quarter of the front's curvature length; see docs/theory/fracture.md).
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
@@ -255,13 +256,16 @@ def test_closed_crack_contact_pair(kind):
         assert max(abs(k.K_I), abs(k.K_II), abs(k.K_III)) < 0.01 * ref
 
 
-def test_same_on_every_partition():
-    """The distributed K equals the serial K of the same mesh (built on COMM_SELF)."""
+@pytest.mark.parametrize(("a_c", "deg"), [(1.0, 40.0), (0.5, 45.0)])
+def test_same_on_every_partition(a_c, deg):
+    """The distributed K equals the serial K of the same mesh (built on COMM_SELF); at 45°
+    of the a/c = 0.5 corner crack the domain is shortened to a quarter of the front's
+    curvature length (0.22a < r_out)."""
     if MPI.COMM_WORLD.size == 1:
         pytest.skip("needs several ranks")
-    phi = math.radians(40.0)
-    k = solved("corner", 1.0).k(phi)
-    k1 = solved("corner", 1.0, MPI.COMM_SELF).k(phi)
+    phi = math.radians(deg)
+    k = solved("corner", a_c).k(phi)
+    k1 = solved("corner", a_c, MPI.COMM_SELF).k(phi)
     for a, b in ((k.K_I, k1.K_I), (k.K_II, k1.K_II), (k.K_III, k1.K_III)):
         assert a == pytest.approx(b, rel=1e-8, abs=1e-8 * abs(k1.K_I))
 
@@ -283,5 +287,6 @@ def test_newman_raju_fine_mesh(kind, a_c):
     err = k_I / p.reference(phis) - 1.0
     if kind != "corner":
         assert abs(err[np.argmin(np.abs(phis - math.pi / 2))]) < 0.03, err
-    tol = 0.08 if (kind, a_c) == ("semi_elliptical", 0.5) else 0.05
+    tol = 0.06 if (kind, a_c) == ("semi_elliptical", 0.5) else 0.05
     assert np.all(np.abs(err) < tol), err
+    assert abs(float(np.mean(err))) < 0.05, err
