@@ -37,6 +37,7 @@ from bonecontact.contact.krylov import (
 )
 from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
 from bonecontact.contact.options import LinearOptions
+from bonecontact.contact.reductions import global_any
 
 __all__ = [
     "KrylovStrategy",
@@ -249,13 +250,18 @@ class RefactorStrategy:
         ).astype(PETSc.IntType)
         self.B.zeroRowsColumns(eliminated, diag=sy.diag_value, x=v, b=self._rhs)
         v.destroy()
-        if rows.coupled is not None:
+        # (the rows are this rank's: another rank may have groups when this one has
+        # none, and the assembly that follows is collective)
+        if global_any(lay.comm, rows.coupled is not None):
             self._replace_rows(rows.coupled)
 
-    def _replace_rows(self, coupled: tuple) -> None:
+    def _replace_rows(self, coupled: tuple | None) -> None:
         """Rows ``q`` of a slip node (free, no prescribed force): with ``w = rhs − B x``
         there, ``G w + H x = h`` becomes ``G B x − H x = G rhs − h`` (same pattern: the
-        rows of one node share their columns)."""
+        rows of one node share their columns).  ``None``: no group on this rank (it
+        takes part in the assembly)."""
+        if coupled is None:
+            coupled = (np.zeros((0, 0), dtype=np.int64), None, None, None)
         crow, Gc, Hc, hc = coupled
         sy, lay = self.system, self.system.layout
         updates = []
@@ -350,7 +356,7 @@ class KrylovStrategy(RefactorStrategy):
         :data:`~bonecontact.contact.krylov.RESPONSE_RTOL` of ``e``
         (docs/theory/pdas.md#iterative-linear-solver); ``Ũ`` is kept.  Systems with
         replaced (slip) rows take the full shifted solve."""
-        if rows.coupled is not None or RESPONSE_RTOL is None:
+        if global_any(self.system.layout.comm, rows.coupled is not None) or RESPONSE_RTOL is None:
             return super().respond(rows, shift)
         sy, Uh = self.system, self.system.Uh
         rhs = self._response_rhs(rows, shift)

@@ -133,6 +133,16 @@ CASES = {
         "",
         4,
     ),
+    # edge nodes (docs/theory/pdas.md#edge-of-the-contact-zone) on one rank, none on
+    # another: the replaced rows of the refactorised system (a collective assembly)
+    "2d-dynamic-tresca-edges-refactor": (
+        "impact",
+        FrictionLaw("tresca", bound=1e4),
+        "refactor",
+        "direct",
+        "",
+        6,
+    ),
     "2d-dynamic-coulomb-refactor": (
         "impact",
         FrictionLaw("coulomb", coefficient=0.5),
