@@ -226,7 +226,7 @@ class LowRankActiveSetSolver:
         prefix: str = "bc_contact_lr_",
         max_columns: int = 2000,
         rebase_ratio: float = 1.0,
-        memory_ratio: float = 0.5,
+        memory_ratio: float = 0.05,
         split: tuple | None = None,
     ):
         self.split: SplitBasis | None = None

@@ -45,8 +45,9 @@ class LinearOptions:
     #: Low-rank strategy: the memory of a block of columns, and of the column cache, each
     #: at most this fraction of the memory of the LU factors (blocks are computed in
     #: chunks; a cache that would outgrow it rebases), so a contact solve needs at most
-    #: about ``1 + memory_ratio`` linear solves of memory.
-    memory_ratio: float = 0.5
+    #: about ``1 + memory_ratio`` linear solves of memory (0.05: the 65k 3D Hertz
+    #: run's peak 1.64 -> 1.37 MUMPS solves, same sets and time; issue 28).
+    memory_ratio: float = 0.05
     #: Low-rank strategy: factorise the operator with only the cold start's support patch
     #: in the contact basis and reach every other set by force columns
     #: (:class:`bonecontact.contact.lowrank.SplitBasis`; the full contact basis couples
