@@ -4,8 +4,8 @@ Every exception type of the package derives from one of three bases, and its exi
 is the base's :attr:`BonecontactError.exit_code`:
 
 * :class:`InputError` (also a ``ValueError``): input the package refuses — a scene key, a
-  material constant, a mesh or surface file, an expression, a neoplasm or crack parameter;
-  exit status :attr:`ExitCode.BAD_INPUT`;
+  mesh or surface file, an expression; :class:`ParameterError`, one named parameter (a
+  material constant, a neoplasm or crack parameter); exit status :attr:`ExitCode.BAD_INPUT`;
 * :class:`RunError` (also a ``RuntimeError``): a computation that cannot go on — a solver
   that does not converge, gmsh that cannot mesh, a field transfer that misses the mesh;
   a run reports it as ``"status": "failed"``, exit status :attr:`ExitCode.FAILED`;
@@ -29,6 +29,7 @@ __all__ = [
     "CheckpointError",
     "ExitCode",
     "InputError",
+    "ParameterError",
     "RunError",
     "exit_code",
     "exit_code_for_status",
@@ -85,6 +86,38 @@ class InputError(BonecontactError, ValueError):
     """Input that is refused (exit status 2): the message names the item and what is allowed."""
 
     exit_code: ClassVar[int] = ExitCode.BAD_INPUT
+
+
+class ParameterError(InputError):
+    """A named parameter outside its allowed range (exit status 2): a material constant, a
+    fracture input, a tumour or cyst parameter.
+
+    ``str(error)`` is ``where + message``.  The former ``MaterialError``,
+    ``FractureError``, ``TumourParameterError`` and ``CystParameterError`` are deprecated
+    aliases of this one class.
+
+    Parameters
+    ----------
+    key
+        The offending parameter or key, as named in the scene file or the function call.
+    message
+        What is wrong and what is allowed, e.g. ``"must be > 0, got 0.0"``.
+    where
+        The text put before ``message`` in ``str(error)``; ``None``: ``f"{key}: "``.
+
+    Examples
+    --------
+    >>> str(ParameterError("a", "must be > 0, got 0.0"))
+    'a: must be > 0, got 0.0'
+    >>> str(ParameterError("E", "must be a positive number, got 0.0", where=""))
+    'must be a positive number, got 0.0'
+    """
+
+    def __init__(self, key: str, message: str, where: str | None = None):
+        self.key = key
+        self.message = message
+        self.where = f"{key}: " if where is None else where
+        super().__init__(f"{self.where}{message}")
 
 
 class RunError(BonecontactError, RuntimeError):

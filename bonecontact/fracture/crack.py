@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.common.errors import InputError
+from bonecontact.common.errors import ParameterError
 
 __all__ = [
     "Crack2D",
@@ -27,15 +27,10 @@ __all__ = [
 ]
 
 
-class FractureError(InputError):
-    """Invalid fracture input or a fracture computation that cannot be done as asked.
-
-    ``key`` names the offending input (a scene key or a function argument).
-    """
-
-    def __init__(self, key: str, message: str):
-        super().__init__(f"{key}: {message}")
-        self.key = key
+#: Deprecated alias of :class:`~bonecontact.common.errors.ParameterError` (the one type of
+#: a parameter out of range): invalid fracture input or a fracture computation that cannot
+#: be done as asked; ``str(error)`` reads ``<key>: <message>``.
+FractureError = ParameterError
 
 
 def point_segment_distance(p: npt.ArrayLike, a: npt.ArrayLike, b: npt.ArrayLike) -> float:

@@ -18,7 +18,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.common.errors import InputError
+from bonecontact.common.errors import ParameterError
 
 __all__ = [
     "FORMULATIONS",
@@ -41,39 +41,32 @@ FORMULATIONS = ("displacement", "nodal_pressure")
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
 
-class MaterialError(InputError):
-    """Invalid material constants.
+#: Deprecated alias of :class:`~bonecontact.common.errors.ParameterError` (the one type of
+#: a parameter out of range); a material's ``str(error)`` is the bare message.
+MaterialError = ParameterError
 
-    Parameters
-    ----------
-    key
-        The offending parameter name (as in the scene file).
-    message
-        What is wrong and what is allowed.
-    """
 
-    def __init__(self, key: str, message: str):
-        super().__init__(message)
-        self.key = key
-        self.message = message
+def _material_error(key: str, message: str) -> ParameterError:
+    """Invalid material constant ``key`` (``message``: what is wrong and what is allowed)."""
+    return ParameterError(key, message, where="")
 
 
 def _positive(name: str, value: float) -> None:
     if not np.isfinite(value) or value <= 0.0:
-        raise MaterialError(name, f"must be a positive number, got {value!r}")
+        raise _material_error(name, f"must be a positive number, got {value!r}")
 
 
 def _common_checks(rho: float | None, tau_v: float) -> None:
     if rho is not None:
         _positive("rho", rho)
     if not np.isfinite(tau_v) or tau_v < 0.0:
-        raise MaterialError("tau_v", f"must be >= 0, got {tau_v!r}")
+        raise _material_error("tau_v", f"must be >= 0, got {tau_v!r}")
 
 
 def _check_spd(C: npt.NDArray[np.float64], key: str) -> None:
     w = np.linalg.eigvalsh(0.5 * (C + C.T))
     if not np.all(np.isfinite(w)) or w.min() <= 1e-12 * abs(w).max():
-        raise MaterialError(
+        raise _material_error(
             key,
             "engineering constants do not give a positive definite stiffness "
             f"(eigenvalues of the Voigt stiffness: {np.array2string(w, precision=3)})",
@@ -123,9 +116,9 @@ def _axes_matrix(axes: npt.ArrayLike, key: str) -> npt.NDArray[np.float64]:
         B[2, 2] = 1.0
         A = B
     if A.shape != (3, 3):
-        raise MaterialError(key, f"must be 3 orthonormal rows (or 2 in 2D), got shape {A.shape}")
+        raise _material_error(key, f"must be 3 orthonormal rows (or 2 in 2D), got shape {A.shape}")
     if not np.allclose(A @ A.T, np.eye(3), atol=1e-8):
-        raise MaterialError(key, "rows must be orthonormal unit vectors")
+        raise _material_error(key, "rows must be orthonormal unit vectors")
     return A
 
 
@@ -135,7 +128,7 @@ def _frame_from_axis(axis: npt.ArrayLike, key: str = "axis") -> npt.NDArray[np.f
     if a.size == 2:
         a = np.array([a[0], a[1], 0.0])
     if a.size != 3 or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
-        raise MaterialError(key, f"must be a non-zero vector of 2 or 3 components, got {axis!r}")
+        raise _material_error(key, f"must be a non-zero vector of 2 or 3 components, got {axis!r}")
     a = a / np.linalg.norm(a)
     # pick a helper vector not parallel to a; prefer z so that in 2D the frame
     # stays with one in-plane axis and z (plane-strain friendly)
@@ -170,7 +163,7 @@ class _Base:
 
     def _check_formulation(self) -> None:
         if self.formulation not in FORMULATIONS:
-            raise MaterialError(
+            raise _material_error(
                 "formulation", f"must be one of {list(FORMULATIONS)}, got {self.formulation!r}"
             )
 
@@ -203,7 +196,7 @@ class Isotropic(_Base):
     def __post_init__(self) -> None:
         _positive("E", self.E)
         if not np.isfinite(self.nu) or not (-1.0 < self.nu < 0.5):
-            raise MaterialError("nu", f"must satisfy -1 < nu < 0.5, got {self.nu!r}")
+            raise _material_error("nu", f"must satisfy -1 < nu < 0.5, got {self.nu!r}")
         _common_checks(self.rho, self.tau_v)
         self._check_formulation()
 
@@ -256,11 +249,13 @@ class TransverselyIsotropic(_Base):
         for k in ("nu_p", "nu_pa"):
             v = getattr(self, k)
             if not np.isfinite(v):
-                raise MaterialError(k, f"must be a finite number, got {v!r}")
+                raise _material_error(k, f"must be a finite number, got {v!r}")
         _common_checks(self.rho, self.tau_v)
         self._check_formulation()
         if self.formulation != "displacement":
-            raise MaterialError("formulation", "only isotropic materials support 'nodal_pressure'")
+            raise _material_error(
+                "formulation", "only isotropic materials support 'nodal_pressure'"
+            )
         object.__setattr__(self, "_frame", _frame_from_axis(self.axis))
         _check_spd(self._material_voigt(), "nu_pa")
 
@@ -305,11 +300,13 @@ class Orthotropic(_Base):
         for k in ("nu12", "nu13", "nu23"):
             v = getattr(self, k)
             if not np.isfinite(v):
-                raise MaterialError(k, f"must be a finite number, got {v!r}")
+                raise _material_error(k, f"must be a finite number, got {v!r}")
         _common_checks(self.rho, self.tau_v)
         self._check_formulation()
         if self.formulation != "displacement":
-            raise MaterialError("formulation", "only isotropic materials support 'nodal_pressure'")
+            raise _material_error(
+                "formulation", "only isotropic materials support 'nodal_pressure'"
+            )
         object.__setattr__(self, "_frame", _axes_matrix(self.axes, "axes"))
         _check_spd(self._material_voigt(), "nu12")
 

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from bonecontact.common.constants import R_GAS
-from bonecontact.common.errors import InputError
+from bonecontact.common.errors import ParameterError
 
 __all__ = [
     "CystHistory",
@@ -30,21 +30,14 @@ __all__ = [
 ]
 
 
-class CystParameterError(InputError):
-    """A cyst parameter outside its allowed range.
+#: Deprecated alias of :class:`~bonecontact.common.errors.ParameterError` (the one type of
+#: a parameter out of range); ``str(error)`` reads ``cyst parameter <key> <message>``.
+CystParameterError = ParameterError
 
-    Parameters
-    ----------
-    key
-        The parameter (a key of ``[neoplasm.cyst]``).
-    message
-        What is wrong and what is allowed, e.g. ``"must be > 0, got 0.0"``.
-    """
 
-    def __init__(self, key: str, message: str):
-        super().__init__(f"cyst parameter {key} {message}")
-        self.key = key
-        self.message = message
+def _parameter_error(key: str, message: str) -> ParameterError:
+    """A cyst parameter outside its allowed range (``message``: what is allowed)."""
+    return ParameterError(key, message, where=f"cyst parameter {key} ")
 
 
 @dataclass(frozen=True)
@@ -87,20 +80,20 @@ class CystParameters:
         """Check the parameters (raises :class:`CystParameterError` naming the first bad one)."""
         if self.strain not in self.STRAINS:
             choices = ", ".join(f'"{s}"' for s in self.STRAINS)
-            raise CystParameterError("strain", f"must be one of {choices}, got {self.strain!r}")
+            raise _parameter_error("strain", f"must be one of {choices}, got {self.strain!r}")
         for key in self.NONNEGATIVE + self.POSITIVE:
             value = getattr(self, key)
             if key != "E" and not np.isfinite(value):
-                raise CystParameterError(key, f"must be a finite number, got {value!r}")
+                raise _parameter_error(key, f"must be a finite number, got {value!r}")
             if key in self.NONNEGATIVE and not value >= 0:
-                raise CystParameterError(key, f"must be >= 0, got {value!r}")
+                raise _parameter_error(key, f"must be >= 0, got {value!r}")
             if key in self.POSITIVE and not value > 0:
-                raise CystParameterError(key, f"must be > 0, got {value!r}")
+                raise _parameter_error(key, f"must be > 0, got {value!r}")
         if not np.isfinite(self.f0):
-            raise CystParameterError("f0", f"must be a finite number, got {self.f0!r}")
+            raise _parameter_error("f0", f"must be a finite number, got {self.f0!r}")
         f_min = -self.alpha * self.C_minus
         if self.f0 <= f_min:
-            raise CystParameterError(
+            raise _parameter_error(
                 "f0",
                 f"must be > -R_g T C_minus = {f_min:.6g} Pa "
                 f"(the osmolarity inside the cyst must stay positive), got {self.f0!r}",

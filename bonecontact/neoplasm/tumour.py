@@ -14,7 +14,7 @@ import dataclasses
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 from mpi4py import MPI
 
@@ -25,7 +25,7 @@ from dolfinx import fem, la
 from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import LinearProblem
 
-from bonecontact.common.errors import ExitCode, InputError, RunError
+from bonecontact.common.errors import ParameterError, RunError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm import curvature, remesh
 
@@ -38,26 +38,14 @@ class TumourError(RunError):
     """Bad tumour parameters or a failed growth step."""
 
 
-class TumourParameterError(TumourError, InputError):
-    """A tumour parameter outside its allowed range.
+#: Deprecated alias of :class:`~bonecontact.common.errors.ParameterError` (the one type of
+#: a parameter out of range; exit status 2); ``str(error)`` reads ``<where>: '<key>' <message>``.
+TumourParameterError = ParameterError
 
-    Parameters
-    ----------
-    key
-        The parameter as named in ``[neoplasm.tumour]`` (``lambda`` for ``lambda_``).
-    message
-        What is wrong and what is allowed, e.g. ``"must be > 0, got 0.0"``.
-    where
-        Where the parameters come from (prefix of ``str(error)``).
-    """
 
-    #: refused input (exit status 2), although a :class:`TumourError` too
-    exit_code: ClassVar[int] = ExitCode.BAD_INPUT
-
-    def __init__(self, key: str, message: str, where: str = "[neoplasm.tumour]"):
-        super().__init__(f"{where}: '{key}' {message}")
-        self.key = key
-        self.message = message
+def _parameter_error(key: str, message: str, where: str = "[neoplasm.tumour]") -> ParameterError:
+    """A tumour parameter ``key`` outside its allowed range, found in ``where``."""
+    return ParameterError(key, message, where=f"{where}: '{key}' ")
 
 
 def _scene_key(name: str) -> str:
@@ -148,27 +136,25 @@ class TumourParameters:
         for name in self.NUMBERS:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise TumourParameterError(
+                raise _parameter_error(
                     _scene_key(name), f"must be a finite number, got {v!r}", where
                 )
         for name in self.RATES:
             v = getattr(self, name)
             if not callable(v) and (not isinstance(v, (int, float)) or isinstance(v, bool)):
-                raise TumourParameterError(
+                raise _parameter_error(
                     name, f"must be a number or a callable of u_c, got {v!r}", where
                 )
         for name in self.NUMBERS:
             v = getattr(self, name)
             if name in self.POSITIVE and v <= 0:
-                raise TumourParameterError(_scene_key(name), f"must be > 0, got {v!r}", where)
+                raise _parameter_error(_scene_key(name), f"must be > 0, got {v!r}", where)
             if name in self.NONNEGATIVE and v < 0:
-                raise TumourParameterError(name, f"must be >= 0, got {v!r}", where)
+                raise _parameter_error(name, f"must be >= 0, got {v!r}", where)
         if self.u_p0 > 1.0:
-            raise TumourParameterError(
-                "u_p0", f"must satisfy 0 <= u_p0 <= 1, got {self.u_p0!r}", where
-            )
+            raise _parameter_error("u_p0", f"must satisfy 0 <= u_p0 <= 1, got {self.u_p0!r}", where)
         if self.u_p0 + self.u_q0 > 1.0 + 1e-14:
-            raise TumourParameterError(
+            raise _parameter_error(
                 "u_q0",
                 f"must satisfy u_p0 + u_q0 <= 1 (volume fractions), got "
                 f"u_p0 = {self.u_p0!r}, u_q0 = {self.u_q0!r}",

@@ -23,20 +23,17 @@ from bonecontact.common.errors import (
     CheckpointError,
     ExitCode,
     InputError,
+    ParameterError,
     RunError,
     exit_code_for_status,
 )
 from bonecontact.common.errors import exit_code as base_exit_code
 from bonecontact.contact import ContactConvergenceError, ContactInputError, SingularActiveSetError
-from bonecontact.fracture import FractureError
-from bonecontact.materials.laws import MaterialError
 from bonecontact.meshing import MeshingError, MeshInputError
 from bonecontact.neoplasm import (
     CouplingError,
     CoverageError,
-    CystParameterError,
     TumourError,
-    TumourParameterError,
 )
 from bonecontact.scene.expressions import ExpressionError
 
@@ -47,6 +44,7 @@ __all__ = [
     "CheckpointError",
     "ExitCode",
     "InputError",
+    "ParameterError",
     "RunError",
     "SceneError",
     "describe_value",
@@ -111,12 +109,9 @@ class SceneError(BonecontactError):
 ERROR_EXIT_CODES: dict[type[BaseException], ExitCode] = {
     SceneError: ExitCode.BAD_INPUT,
     CheckpointError: ExitCode.BAD_INPUT,
-    MaterialError: ExitCode.BAD_INPUT,
+    ParameterError: ExitCode.BAD_INPUT,
     ExpressionError: ExitCode.BAD_INPUT,
-    TumourParameterError: ExitCode.BAD_INPUT,
-    CystParameterError: ExitCode.BAD_INPUT,
     ContactInputError: ExitCode.BAD_INPUT,
-    FractureError: ExitCode.BAD_INPUT,
     MeshInputError: ExitCode.BAD_INPUT,
     InputError: ExitCode.BAD_INPUT,
     ContactConvergenceError: ExitCode.FAILED,
@@ -153,8 +148,9 @@ def format_error(exc: BaseException) -> str:
     Parameters
     ----------
     exc
-        Typically a :class:`SceneError`; :class:`~bonecontact.materials.laws.MaterialError`
-        and any other exception are formatted too.
+        Typically a :class:`SceneError`; a material's
+        :class:`~bonecontact.common.errors.ParameterError` and any other exception are
+        formatted too.
 
     Returns
     -------
@@ -163,7 +159,7 @@ def format_error(exc: BaseException) -> str:
     """
     if isinstance(exc, SceneError):
         text = str(exc)
-    elif isinstance(exc, MaterialError):
+    elif isinstance(exc, ParameterError) and not exc.where:  # a material constant
         text = f'key "{exc.key}": {exc.message}'
     else:
         text = f"{type(exc).__name__}: {exc}"

@@ -11,7 +11,12 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.special import iv
 
-from bonecontact.neoplasm.tumour import TumourError, TumourModel, TumourParameters
+from bonecontact.neoplasm.tumour import (
+    TumourError,
+    TumourModel,
+    TumourParameterError,
+    TumourParameters,
+)
 
 #: growth tests: the 2-rank session and the serial one run them; the 3-rank session
 #: leaves them to the tests that spawn 3 ranks (make test-all runs them on 3 ranks too)
@@ -182,7 +187,7 @@ def test_taubin_smoothing_removes_noise_without_shrinking():
 def test_bad_parameters():
     with pytest.raises(TumourError, match="unknown key 'K_X'"):
         TumourParameters.from_dict({"K_X": 1.0})
-    with pytest.raises(TumourError, match="u_p0"):
+    with pytest.raises(TumourParameterError, match="u_p0"):
         TumourParameters.from_dict({"u_p0": 0.8, "u_q0": 0.5})
     p = TumourParameters.from_dict({"lambda": 2.0, "K_B": "nonsense"} if False else {"lambda": 2.0})
     assert p.lambda_ == 2.0
