@@ -79,8 +79,10 @@ def release_replaced_meshes(*holders: DirichletLaplacian | MeshMotion | None) ->
 RemeshError = MeshingError
 
 
-class CoverageError(RunError):
-    """Target points of a transfer lie outside the source mesh (beyond the extrapolation band)."""
+#: Deprecated alias of :class:`~bonecontact.common.errors.RunError`, raised when target
+#: points of a transfer lie outside the source mesh (beyond the extrapolation band);
+#: ``except CoverageError`` catches every ``RunError``.
+CoverageError = RunError
 
 
 # ----------------------------------------------------------------------------- gmsh
@@ -707,7 +709,7 @@ def transfer(
 
     Raises
     ------
-    CoverageError
+    RunError
         If any target interpolation point lies outside the source mesh by more than
         ``extrapolate`` (on any rank: raised collectively).
     """
@@ -728,7 +730,7 @@ def transfer_fields(
 
     Raises
     ------
-    CoverageError
+    RunError
         As :func:`transfer`.
     """
     if not sources:
@@ -965,7 +967,7 @@ def _extrapolate(
 def _check_coverage(
     name: str, V_to: fem.FunctionSpace, missing: npt.NDArray[np.int64], band: float
 ) -> None:
-    """Raise :class:`CoverageError` on every rank if any owned target dof is not covered."""
+    """Raise a :class:`RunError` on every rank if any owned target dof is not covered."""
     nown = V_to.dofmap.index_map.size_local
     owned = missing[missing < nown]
     comm = V_to.mesh.comm
@@ -973,7 +975,7 @@ def _check_coverage(
     if nmiss:
         xyz = V_to.tabulate_dof_coordinates()[owned]
         where = comm.allgather(xyz[:3].tolist())
-        raise CoverageError(
+        raise RunError(
             f"transfer of '{name}': {nmiss} target point(s) lie outside the source mesh "
             f"(extrapolation band {band:g}); e.g. {sum(where, [])[:3]}"
         )

@@ -34,8 +34,10 @@ __all__ = ["TumourError", "TumourModel", "TumourParameterError", "TumourParamete
 Rate = float | Callable[[Any], Any]
 
 
-class TumourError(RunError):
-    """Bad tumour parameters or a failed growth step."""
+#: Deprecated alias of :class:`~bonecontact.common.errors.RunError` (an unknown tumour key
+#: or a growth step that cannot be taken: exit status 1); ``except TumourError`` catches
+#: every ``RunError``.
+TumourError = RunError
 
 
 #: Deprecated alias of :class:`~bonecontact.common.errors.ParameterError` (the one type of
@@ -119,7 +121,7 @@ class TumourParameters:
             name = "lambda_" if key == "lambda" else key
             if name not in known:
                 allowed = sorted(_scene_key(k) for k in known)
-                raise TumourError(f"{where}: unknown key '{key}'; allowed: {', '.join(allowed)}")
+                raise RunError(f"{where}: unknown key '{key}'; allowed: {', '.join(allowed)}")
             kwargs[name] = value
         p = cls(**kwargs)
         p.validate(where)
@@ -204,7 +206,7 @@ class TumourModel:
         self.h = float(h)
         self.degree = int(degree)
         if remesh_every < 0:
-            raise TumourError("remesh_every must be >= 0 (0 = never remesh)")
+            raise RunError("remesh_every must be >= 0 (0 = never remesh)")
         self.remesh_every = int(remesh_every)
         self.smoothed_remeshes = 0  # remeshes that needed the moved boundary smoothed
         self.t = 0.0
@@ -407,7 +409,7 @@ class TumourModel:
     def normal_velocity(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
         """``(keys, V_n)`` of the last step at the boundary vertices (replicated)."""
         if self._vn is None:
-            raise TumourError("normal_velocity: no step taken yet")
+            raise RunError("normal_velocity: no step taken yet")
         return self._vn
 
     # ------------------------------------------------------------------ one step
@@ -417,7 +419,7 @@ class TumourModel:
         order = np.argsort(keys)
         pos = np.searchsorted(keys[order], key_of_dof[dofs])
         if np.any(keys[order][np.clip(pos, 0, len(keys) - 1)] != key_of_dof[dofs]):
-            raise TumourError("boundary vertex not found in the gathered boundary")
+            raise RunError("boundary vertex not found in the gathered boundary")
         return np.asarray(values)[order][pos]
 
     def solve_fields(self, dt: float | None = None) -> None:
@@ -432,7 +434,7 @@ class TumourModel:
             sigma_bc = np.zeros(len(self.bdofs))
             if p.gamma > 0:
                 if self.degree != 1:
-                    raise TumourError("surface tension needs degree = 1")
+                    raise RunError("surface tension needs degree = 1")
                 b = self.boundary()
                 kappa = self.curvature(b)
                 sigma_bc = p.gamma * self._boundary_values_by_key(
@@ -455,7 +457,7 @@ class TumourModel:
         nv.scatter_forward()
         gdim = self.mesh.geometry.dim
         if self.degree != 1:
-            raise TumourError("boundary motion is implemented for degree = 1")
+            raise RunError("boundary motion is implemented for degree = 1")
         bd = self.motion.boundary_dofs
         vn = np.zeros(len(self._key_of_p1dof))
         # P1 scalar dofs and P1 vector blocks share the vertex numbering only through keys
@@ -536,7 +538,7 @@ class TumourModel:
     def step(self, dt: float) -> None:
         """Advance the tumour by one growth step dt (collective)."""
         if not dt > 0:
-            raise TumourError(f"dt must be > 0, got {dt}")
+            raise RunError(f"dt must be > 0, got {dt}")
         self.u_c_old.x.array[:] = self.u_c.x.array
         self.solve_fields(dt)
         with self.timer.phase("velocity"):

@@ -335,7 +335,7 @@ class GrowthSteps(StepHooks):
         return bool(self.ckpt.after_step(last, self.content()))
 
     def failure(self, k: int, exc: BaseException) -> str:
-        # TumourError, RemeshError, CoverageError, PETSc errors, ODE failure
+        # RunError (a tumour step, a transfer off the mesh), MeshingError, PETSc, ODE failure
         steps = self.driver.steps
         return f"growth step {steps + 1} (t = {self.times[steps + 1]:.6g} s): {exc}"
 

@@ -30,11 +30,7 @@ from bonecontact.common.errors import (
 from bonecontact.common.errors import exit_code as base_exit_code
 from bonecontact.contact import ContactConvergenceError, ContactInputError, SingularActiveSetError
 from bonecontact.meshing import MeshingError, MeshInputError
-from bonecontact.neoplasm import (
-    CouplingError,
-    CoverageError,
-    TumourError,
-)
+from bonecontact.neoplasm import CouplingError
 from bonecontact.scene.expressions import ExpressionError
 
 __all__ = [
@@ -118,8 +114,6 @@ ERROR_EXIT_CODES: dict[type[BaseException], ExitCode] = {
     SingularActiveSetError: ExitCode.FAILED,
     MeshingError: ExitCode.FAILED,
     CouplingError: ExitCode.FAILED,
-    CoverageError: ExitCode.FAILED,
-    TumourError: ExitCode.FAILED,
     RunError: ExitCode.FAILED,
 }
 
