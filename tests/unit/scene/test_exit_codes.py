@@ -117,3 +117,81 @@ def test_the_documented_table_is_the_table():
     section = text[text.index("### Exit status") :]
     rows = re.findall(r"^\| `(\d+)[^`]*` \|", section, flags=re.M)
     assert [int(r) for r in rows] == sorted(int(c) for c in EXIT_CODES)
+
+
+def _documented_types() -> dict[int, set[str]]:
+    """Exit status -> the exception type names listed under it in docs/scene_format.md."""
+    text = (ROOT / "docs" / "scene_format.md").read_text()
+    section = text[text.index("Exception types, under their exit status") :]
+    section = section[: section.index("\n\n", section.index("- status 1"))]
+    items = re.split(r"^- status (\d+)", section, flags=re.M)[1:]
+    return {
+        int(code): set(re.findall(r"`(\w+Error)`", body)) for code, body in zip(*[iter(items)] * 2)
+    }
+
+
+def _type_by_name(name: str) -> type:
+    import bonecontact.common.errors as common
+    import bonecontact.contact as contact
+    import bonecontact.fracture as fracture
+    import bonecontact.materials as materials
+    import bonecontact.meshing as meshing
+    import bonecontact.neoplasm as neoplasm
+    import bonecontact.runners.results as results
+    import bonecontact.scene.errors as scene_errors
+    import bonecontact.scene.expressions as expressions
+
+    modules = (common, scene_errors, contact, fracture, materials, meshing, neoplasm)
+    for module in (*modules, results, expressions):
+        if hasattr(module, name):
+            return getattr(module, name)
+    raise AssertionError(f"{name} is documented but not defined")
+
+
+def test_the_documented_types_are_the_types():
+    """Every type named under a status in docs/scene_format.md has that status, and every
+    row of ERROR_EXIT_CODES is named under its status."""
+    from bonecontact.scene.errors import ERROR_EXIT_CODES
+
+    documented = _documented_types()
+    assert set(documented) == {ExitCode.FAILED, ExitCode.BAD_INPUT}
+    for code, names in documented.items():
+        for name in names:
+            assert error_exit_code(_type_by_name(name)) == code, name
+    for kind, code in ERROR_EXIT_CODES.items():
+        assert kind.__name__ in documented[int(code)], kind.__name__
+
+
+def test_the_deprecated_names_are_the_one_types():
+    """The former parameter error types are one ParameterError with the same messages; the
+    former empty RunError subclasses are RunError."""
+    from bonecontact.common.errors import ParameterError, RunError
+    from bonecontact.fracture import FractureError
+    from bonecontact.materials import Isotropic, MaterialError
+    from bonecontact.neoplasm import (
+        CoverageError,
+        CystParameterError,
+        CystParameters,
+        TumourError,
+        TumourParameterError,
+        TumourParameters,
+    )
+
+    assert MaterialError is FractureError is ParameterError
+    assert CystParameterError is TumourParameterError is ParameterError
+    assert TumourError is CoverageError is RunError
+    assert exit_code(FractureError("a", "must be > 0, got 0.0")) == ExitCode.BAD_INPUT
+    assert str(FractureError("a", "must be > 0, got 0.0")) == "a: must be > 0, got 0.0"
+    with pytest.raises(MaterialError) as material:
+        Isotropic(E=-1.0, nu=0.3)
+    assert str(material.value) == "must be a positive number, got -1.0"
+    with pytest.raises(CystParameterError) as cyst:
+        CystParameters(beta=-1.0, C_minus=1.0)
+    assert str(cyst.value) == "cyst parameter beta must be >= 0, got -1.0"
+    with pytest.raises(TumourParameterError) as tumour:
+        TumourParameters.from_dict({"u_p0": 2.0})
+    assert str(tumour.value) == "[neoplasm.tumour]: 'u_p0' must satisfy 0 <= u_p0 <= 1, got 2.0"
+    assert (tumour.value.key, tumour.value.message) == (
+        "u_p0",
+        "must satisfy 0 <= u_p0 <= 1, got 2.0",
+    )
