@@ -77,7 +77,7 @@ class CystParameters:
     POSITIVE = ("C_minus", "temperature", "E", "viscosity")
 
     def __post_init__(self) -> None:
-        """Check the parameters (raises :class:`CystParameterError` naming the first bad one)."""
+        """Check the parameters (raises a :class:`ParameterError` naming the first bad one)."""
         if self.strain not in self.STRAINS:
             choices = ", ".join(f'"{s}"' for s in self.STRAINS)
             raise _parameter_error("strain", f"must be one of {choices}, got {self.strain!r}")

@@ -132,7 +132,7 @@ class TumourParameters:
 
         Raises
         ------
-        TumourParameterError
+        ParameterError
             The first offending parameter (its key and what is allowed).
         """
         for name in self.NUMBERS:

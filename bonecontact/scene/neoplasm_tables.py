@@ -14,8 +14,9 @@ from collections.abc import Mapping
 from dataclasses import fields
 from typing import Any
 
-from bonecontact.neoplasm.cyst import CystParameterError, CystParameters
-from bonecontact.neoplasm.tumour import TumourParameterError, TumourParameters
+from bonecontact.common.errors import ParameterError
+from bonecontact.neoplasm.cyst import CystParameters
+from bonecontact.neoplasm.tumour import TumourParameters
 from bonecontact.scene.errors import SceneError, describe_value
 from bonecontact.scene.expressions import ExpressionError, RateExpression, parse_rate
 from bonecontact.scene.spec import (
@@ -72,7 +73,7 @@ def _tumour_parameters(tab: TableReader, values: dict[str, Any]) -> TumourParame
     params = TumourParameters(**values)
     try:
         params.validate()
-    except TumourParameterError as exc:
+    except ParameterError as exc:
         raise tab.error(exc.key, exc.message) from None
     return params
 
@@ -104,7 +105,7 @@ def _read_cyst(tab: TableReader) -> CystSpec:
     others = {k: tab.get(CYST_TABLE[k]) for k in ("temperature", "E", "viscosity", "f0")}
     try:
         params = CystParameters(beta=beta, C_minus=C_minus, strain=strain, **others)
-    except CystParameterError as exc:
+    except ParameterError as exc:
         raise tab.error(exc.key, exc.message) from None
     return CystSpec(model=model, parameters=params)
 

@@ -26,12 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from bonecontact.materials.laws import (
-    Isotropic,
-    MaterialError,
-    Orthotropic,
-    TransverselyIsotropic,
-)
+from bonecontact.common.errors import ParameterError
+from bonecontact.materials.laws import Isotropic, Orthotropic, TransverselyIsotropic
 from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.fracture_tables import read_fracture
 from bonecontact.scene.keys import SceneDeprecationWarning
@@ -173,7 +169,7 @@ def _read_material(entry: dict[str, Any], i: int, dim: int, dynamic: bool) -> Ma
     formulation = tab.get(MATERIAL_TABLE["formulation"])
     try:
         material = _MATERIAL_LAWS[model](rho=rho, tau_v=tau_v, formulation=formulation, **kwargs)
-    except MaterialError as exc:
+    except ParameterError as exc:
         raise tab.error(exc.key, exc.message) from None
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         key = {"isotropic": "nu", "transversely_isotropic": "nu_pa", "orthotropic": "nu12"}[model]
