@@ -147,6 +147,7 @@ def test_fatigue_in_a_wrong_scene_names_fracture(
     assert text in exc.message, str(exc)
 
 
+@pytest.mark.serial  # spawns its own process: not under mpiexec
 def test_cli_exit_status_is_2(tmp_path: Path) -> None:
     path = _scene(tmp_path, FATIGUE | {"R": "1.5"})
     cmd = [sys.executable, "-m", "bonecontact.runners.cli", "check", str(path)]
