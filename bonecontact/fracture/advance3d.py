@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack3d import TriangulatedCrack
 
 __all__ = [
@@ -84,14 +84,14 @@ def advance_polygon_front(
 
     Raises
     ------
-    FractureError
+    ParameterError
         (key ``k_edges``) a K that is not positive and finite, or the wrong count; (key
         ``increment``) an advanced front that is no longer convex.
     """
     V = np.asarray(vertices, dtype=float)
     K = np.asarray(k_edges, dtype=float)
     if K.shape != (len(V),) or not np.all(np.isfinite(K)) or np.any(K <= 0):
-        raise FractureError(
+        raise ParameterError(
             "k_edges", f"need {len(V)} positive finite values (one per edge), got {K}"
         )
     k_vertex = 0.5 * (K + np.roll(K, 1))  # vertex k between edges k − 1 and k
@@ -104,7 +104,7 @@ def advance_polygon_front(
     d = np.roll(new, -1, axis=0) - new
     turn = np.cross(d, np.roll(d, -1, axis=0)) @ np.asarray(normal, dtype=float)
     if np.any(turn <= 0):
-        raise FractureError("increment", "the advanced front is not convex: take a smaller one")
+        raise ParameterError("increment", "the advanced front is not convex: take a smaller one")
     return new, da
 
 
@@ -212,16 +212,16 @@ def advance_mixed_front(
 
     Raises
     ------
-    FractureError
+    ParameterError
         (key ``k_edges``) not finite, the wrong shape, or K_V ≤ 0 somewhere.
     """
     V = np.asarray(vertices, dtype=float)
     K = np.asarray(k_edges, dtype=float)
     if K.shape != (len(V), 3) or not np.all(np.isfinite(K)):
-        raise FractureError("k_edges", f"need shape ({len(V)}, 3), finite, got {K.shape}")
+        raise ParameterError("k_edges", f"need shape ({len(V)}, 3), finite, got {K.shape}")
     kv_edges = equivalent_k(K[:, 0], K[:, 1], K[:, 2])
     if np.any(kv_edges <= 0):
-        raise FractureError("k_edges", "the equivalent K must be positive at every edge")
+        raise ParameterError("k_edges", "the equivalent K must be positive at every edge")
     K_vertex = 0.5 * (K + np.roll(K, 1, axis=0))
     kv = equivalent_k(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     phi0, psi0 = sigma1_kink(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])

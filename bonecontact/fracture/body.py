@@ -27,9 +27,9 @@ import numpy.typing as npt
 from dolfinx import mesh
 from dolfinx.io.gmsh import model_to_mesh
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import (
     Crack2D,
-    FractureError,
     point_in_polygon,
     point_segment_distance,
     segments_intersect,
@@ -112,7 +112,7 @@ class BodyOutline:
         )
 
     def check_crack(self, crack: Crack2D) -> None:
-        """Raise :class:`FractureError` unless the crack lies in the body: tips and interior
+        """Raise :class:`ParameterError` unless the crack lies in the body: tips and interior
         vertices strictly inside (in the outer loop, outside every hole), a mouth on a loop
         (the outer boundary or a hole's edge), no segment crossing or touching a loop
         except at its mouth."""
@@ -126,9 +126,11 @@ class BodyOutline:
         for i, p in enumerate(pts):
             on_loop = self.distance(p) <= tol
             if mouth[i] and not on_loop:
-                raise FractureError("points", f"the crack mouth {p.tolist()} is not on the outline")
+                raise ParameterError(
+                    "points", f"the crack mouth {p.tolist()} is not on the outline"
+                )
             if not mouth[i] and (on_loop or not self.inside(p)):
-                raise FractureError("points", f"crack point {p.tolist()} is not inside the body")
+                raise ParameterError("points", f"crack point {p.tolist()} is not inside the body")
         segs = self.segments()
         for i in range(n - 1):
             a, b = pts[i], pts[i + 1]
@@ -138,7 +140,7 @@ class BodyOutline:
             b2 = b - shrink * (b - a) if mouth[i + 1] else b
             for e0, e1 in segs:
                 if segments_intersect(a2, b2, e0, e1, tol):
-                    raise FractureError("points", f"crack segment {i} crosses the outline")
+                    raise ParameterError("points", f"crack segment {i} crosses the outline")
 
 
 # ------------------------------------------------------------------ the given mesh
@@ -256,7 +258,7 @@ def body_outline(
 
     Raises
     ------
-    FractureError
+    ParameterError
         The mesh has cells outside ``region`` (key ``region``), on every rank.
     MeshingError
         The boundary is not a set of closed loops.
@@ -269,7 +271,7 @@ def body_outline(
     vals = cell_tags.values[cell_tags.indices < n_cells]
     other = int(own.size < n_cells or np.any(vals != region_tag))
     if comm.allreduce(other, op=MPI.MAX):
-        raise FractureError(
+        raise ParameterError(
             "region",
             f"a scene with a crack needs a mesh of one cell group (the crack's region "
             f"{region!r}); this mesh has cells outside it",
@@ -357,7 +359,7 @@ def mesh_body_with_crack(
 
     Raises
     ------
-    FractureError
+    ParameterError
         The crack does not lie in the body (on every rank).
     MeshingError
         gmsh failed (on every rank).

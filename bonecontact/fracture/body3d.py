@@ -31,7 +31,7 @@ import numpy.typing as npt
 from dolfinx import mesh
 from dolfinx.io.gmsh import model_to_mesh
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack3d import PlanarCrack, TriangulatedCrack
 from bonecontact.fracture.front3d import CrackBlock
 from bonecontact.fracture.meshing import TipMesh
@@ -150,7 +150,7 @@ def body_surface(
 
     Raises
     ------
-    FractureError
+    ParameterError
         The mesh has cells outside ``region`` (key ``region``), on every rank.
     """
     comm = msh.comm
@@ -160,7 +160,7 @@ def body_surface(
     own = cell_tags.indices < n_cells
     other = int(int(own.sum()) < n_cells or np.any(cell_tags.values[own] != region_tag))
     if comm.allreduce(other, op=MPI.MAX):
-        raise FractureError(
+        raise ParameterError(
             "region",
             f"a scene with a crack needs a mesh of one cell group (the crack's region "
             f"{region!r}); this mesh has cells outside it",

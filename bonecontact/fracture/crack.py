@@ -100,14 +100,14 @@ class Crack2D:
     def __post_init__(self) -> None:
         pts = np.asarray(self.points, dtype=float)
         if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
-            raise FractureError("points", f"need an (n, 2) array with n >= 2, got {pts.shape}")
+            raise ParameterError("points", f"need an (n, 2) array with n >= 2, got {pts.shape}")
         if not np.all(np.isfinite(pts)):
-            raise FractureError("points", "must be finite numbers")
+            raise ParameterError("points", "must be finite numbers")
         seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
         if np.any(seg <= 1e-12 * max(1.0, float(np.abs(pts).max()))):
-            raise FractureError("points", "consecutive points must be distinct")
+            raise ParameterError("points", "consecutive points must be distinct")
         if self.tips not in ("both", "start", "end"):
-            raise FractureError("tips", f"must be 'both', 'start' or 'end', got {self.tips!r}")
+            raise ParameterError("tips", f"must be 'both', 'start' or 'end', got {self.tips!r}")
         object.__setattr__(self, "points", pts)
         self._check_simple(seg)
 
@@ -117,7 +117,7 @@ class Crack2D:
         for i in range(len(pts) - 1):
             for j in range(i + 2, len(pts) - 1):
                 if segments_intersect(pts[i], pts[i + 1], pts[j], pts[j + 1], tol):
-                    raise FractureError("points", f"segments {i} and {j} of the crack intersect")
+                    raise ParameterError("points", f"segments {i} and {j} of the crack intersect")
 
     # ------------------------------------------------------------ geometry
     @property
@@ -155,7 +155,7 @@ class Crack2D:
 
     def _check_tip(self, end: int) -> None:
         if end not in self.tip_ends:
-            raise FractureError("tip", f"end {end} of the crack is not a tip (tips={self.tips!r})")
+            raise ParameterError("tip", f"end {end} of the crack is not a tip (tips={self.tips!r})")
 
     def extended(self, end: int, da: float, angle: float) -> Crack2D:
         """The crack grown at tip ``end`` by a straight increment.
@@ -170,7 +170,7 @@ class Crack2D:
             Kink angle (rad) from the current tip direction, counter-clockwise positive.
         """
         if not (math.isfinite(da) and da > 0):
-            raise FractureError("increment", f"must be a positive length, got {da!r}")
+            raise ParameterError("increment", f"must be a positive length, got {da!r}")
         d = self.direction(end)
         c, s = math.cos(angle), math.sin(angle)
         new_tip = self.tip(end) + da * np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
@@ -184,7 +184,7 @@ class Crack2D:
         holes: Sequence[tuple[float, float, float]] = (),
         scale: float | None = None,
     ) -> None:
-        """Raise :class:`FractureError` unless the crack lies in the polygon ``outline``.
+        """Raise :class:`ParameterError` unless the crack lies in the polygon ``outline``.
 
         Tips and interior vertices must be strictly inside, mouths on the outline, and no
         segment may cross the outline (a segment may touch it only at a mouth) or come
@@ -201,9 +201,11 @@ class Crack2D:
         for i, p in enumerate(self.points):
             is_mouth = (i == 0 and 0 in self.mouth_ends) or (i == n - 1 and -1 in self.mouth_ends)
             if is_mouth and not on_outline[i]:
-                raise FractureError("points", f"the crack mouth {p.tolist()} is not on the outline")
+                raise ParameterError(
+                    "points", f"the crack mouth {p.tolist()} is not on the outline"
+                )
             if not is_mouth and (on_outline[i] or not point_in_polygon(p, poly)):
-                raise FractureError("points", f"crack point {p.tolist()} is not inside the body")
+                raise ParameterError("points", f"crack point {p.tolist()} is not inside the body")
         for i in range(n - 1):
             a, b = self.points[i], self.points[i + 1]
             # shrink a segment touching a mouth so that its contact at the mouth is allowed
@@ -211,7 +213,7 @@ class Crack2D:
             b2 = b - 1e-6 * (b - a) if i == n - 2 and -1 in self.mouth_ends else b
             for e0, e1 in edges:
                 if segments_intersect(a2, b2, e0, e1, tol):
-                    raise FractureError("points", f"crack segment {i} crosses the outline")
+                    raise ParameterError("points", f"crack segment {i} crosses the outline")
             for k, (x, y, r) in enumerate(holes):
                 if point_segment_distance((x, y), a, b) <= r + tol:
-                    raise FractureError("points", f"crack segment {i} reaches hole {k}")
+                    raise ParameterError("points", f"crack segment {i} reaches hole {k}")

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.front3d import EllipticalFront, PolygonFront, PolylineFront
 
 __all__ = [
@@ -138,7 +138,7 @@ def _vector(table: Mapping, key: str) -> npt.NDArray[np.float64]:
         or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in v)
         or not all(math.isfinite(c) for c in v)
     ):
-        raise FractureError(key, f"must be [x, y, z] (three numbers), got {v!r}")
+        raise ParameterError(key, f"must be [x, y, z] (three numbers), got {v!r}")
     return np.asarray(v, dtype=float)
 
 
@@ -146,13 +146,13 @@ def _unit(table: Mapping, key: str) -> npt.NDArray[np.float64]:
     v = _vector(table, key)
     length = float(np.linalg.norm(v))
     if abs(length - 1.0) > _UNIT_TOL:
-        raise FractureError(key, f"must be a unit vector, got {v.tolist()} (length {length:.6g})")
+        raise ParameterError(key, f"must be a unit vector, got {v.tolist()} (length {length:.6g})")
     return v / length
 
 
 def _positive(v: object, key: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise FractureError(key, f"must be a positive number (m), got {v!r}")
+        raise ParameterError(key, f"must be a positive number (m), got {v!r}")
     return float(v)
 
 
@@ -172,7 +172,7 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack:
 
     Raises
     ------
-    FractureError
+    ParameterError
         Naming the key: a missing or malformed value, a non-unit normal or axis, an axis
         not in the crack plane, a size ≤ 0, a key of another shape; a polygon with fewer
         than 3 vertices, off one plane (more than 10⁻⁶ of its size from the best-fit
@@ -181,36 +181,36 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack:
     """
     shape = table.get("shape", "disc")
     if shape not in CRACK3D_SHAPES:
-        raise FractureError("shape", f"must be one of {', '.join(CRACK3D_SHAPES)}, got {shape!r}")
+        raise ParameterError("shape", f"must be one of {', '.join(CRACK3D_SHAPES)}, got {shape!r}")
     if shape == "polygon":
         return _polygon_from_table(table)
     if "vertices" in table:
-        raise FractureError("vertices", 'applies to shape = "polygon" only')
+        raise ParameterError("vertices", 'applies to shape = "polygon" only')
     for key in ("centre", "normal", "radius" if shape == "disc" else "semi_axes"):
         if key not in table:
-            raise FractureError(key, f"is required (shape = {shape!r})")
+            raise ParameterError(key, f"is required (shape = {shape!r})")
     centre = _vector(table, "centre")
     n = _unit(table, "normal")
     if shape == "disc":
         for key in ("semi_axes", "axis"):
             if key in table:
-                raise FractureError(key, 'applies to shape = "ellipse" only')
+                raise ParameterError(key, 'applies to shape = "ellipse" only')
         a = b = _positive(table["radius"], "radius")
         u = _default_axis(n)
     else:
         if "radius" in table:
-            raise FractureError("radius", 'applies to shape = "disc" only (ellipse: semi_axes)')
+            raise ParameterError("radius", 'applies to shape = "disc" only (ellipse: semi_axes)')
         ab = table["semi_axes"]
         if not isinstance(ab, (list, tuple)) or len(ab) != 2:
-            raise FractureError("semi_axes", f"must be [a, b] (m), got {ab!r}")
+            raise ParameterError("semi_axes", f"must be [a, b] (m), got {ab!r}")
         a, b = (_positive(v, "semi_axes") for v in ab)
         if b > a:
-            raise FractureError("semi_axes", f"need a >= b (a along axis), got [{a}, {b}]")
+            raise ParameterError("semi_axes", f"need a >= b (a along axis), got [{a}, {b}]")
         if "axis" not in table:
-            raise FractureError("axis", 'is required (shape = "ellipse")')
+            raise ParameterError("axis", 'is required (shape = "ellipse")')
         u = _unit(table, "axis")
         if abs(float(np.dot(u, n))) > _UNIT_TOL:
-            raise FractureError("axis", "must lie in the crack plane (normal to `normal`)")
+            raise ParameterError("axis", "must lie in the crack plane (normal to `normal`)")
         u = u - np.dot(u, n) * n
         u = u / np.linalg.norm(u)
     return PlanarCrack(
@@ -221,7 +221,9 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack:
 def _polygon_vertices(table: Mapping) -> npt.NDArray[np.float64]:
     v = table.get("vertices")
     if not isinstance(v, (list, tuple)) or len(v) < 3:
-        raise FractureError("vertices", f"must be a list of at least 3 points [x, y, z], got {v!r}")
+        raise ParameterError(
+            "vertices", f"must be a list of at least 3 points [x, y, z], got {v!r}"
+        )
     return np.array([_vector({"vertices": p}, "vertices") for p in v])
 
 
@@ -233,14 +235,14 @@ def _polygon_normal(table: Mapping, V: npt.NDArray[np.float64], size: float) -> 
     dist = np.abs((V - c0) @ fit)
     if dist.max() > _PLANE_TOL * size:
         k = int(np.argmax(dist))
-        raise FractureError(
+        raise ParameterError(
             "vertices",
             f"must lie in one plane: vertex {k + 1} is {dist[k]:.3g} m from the best-fit plane "
             f"(tolerance {_PLANE_TOL:g} of the polygon's size, {size:.3g} m)",
         )
     area_vec = 0.5 * np.sum(np.cross(V - c0, np.roll(V, -1, axis=0) - c0), axis=0)
     if float(np.linalg.norm(area_vec)) <= 1e-9 * size**2:
-        raise FractureError(
+        raise ParameterError(
             "vertices",
             "the polygon has zero area (collinear vertices, or a boundary crossing itself)",
         )
@@ -248,11 +250,11 @@ def _polygon_normal(table: Mapping, V: npt.NDArray[np.float64], size: float) -> 
     if "normal" in table:
         given = _unit(table, "normal")
         if abs(float(given @ n)) < 1.0 - _UNIT_TOL:
-            raise FractureError(
+            raise ParameterError(
                 "normal", "must be normal to the plane of the vertices (or left out)"
             )
         if given @ n < 0:
-            raise FractureError(
+            raise ParameterError(
                 "vertices",
                 "must run counter-clockwise about `normal` (they run clockwise: reverse "
                 "them, or flip or leave out the normal)",
@@ -267,12 +269,12 @@ def _check_convex(V: npt.NDArray[np.float64], n: np.ndarray, size: float) -> Non
     lengths = np.linalg.norm(d, axis=1)
     if lengths.min() <= 1e-9 * size:
         k = int(np.argmin(lengths))
-        raise FractureError("vertices", f"vertices {k + 1} and {(k + 1) % len(V) + 1} coincide")
+        raise ParameterError("vertices", f"vertices {k + 1} and {(k + 1) % len(V) + 1} coincide")
     d = d / lengths[:, None]
     turn = np.cross(d, np.roll(d, -1, axis=0)) @ n  # sin of the turn at vertex k + 1
     if turn.min() <= 1e-9:
         k = int(np.argmin(turn))
-        raise FractureError(
+        raise ParameterError(
             "vertices",
             f"must form a convex polygon (no turn to the right or straight on: vertex "
             f"{(k + 1) % len(V) + 1}); concave and self-intersecting polygons are not "
@@ -280,7 +282,7 @@ def _check_convex(V: npt.NDArray[np.float64], n: np.ndarray, size: float) -> Non
         )
     angles = np.arctan2(turn, np.sum(d * np.roll(d, -1, axis=0), axis=1))
     if abs(float(angles.sum()) - 2 * math.pi) > 1e-6:
-        raise FractureError(
+        raise ParameterError(
             "vertices",
             "the polygon intersects itself (its boundary turns "
             f"{math.degrees(float(angles.sum())):.0f} deg, not 360)",
@@ -291,13 +293,13 @@ def _polygon_from_table(table: Mapping) -> PlanarCrack:
     """A ``shape = "polygon"`` crack: its vertices checked, centroid, circum/inradius."""
     for key in ("centre", "radius", "semi_axes", "axis"):
         if key in table:
-            raise FractureError(key, 'does not apply to shape = "polygon" (its vertices set it)')
+            raise ParameterError(key, 'does not apply to shape = "polygon" (its vertices set it)')
     if "vertices" not in table:
-        raise FractureError("vertices", 'is required (shape = "polygon")')
+        raise ParameterError("vertices", 'is required (shape = "polygon")')
     V = _polygon_vertices(table)
     size = float(max(np.linalg.norm(V - p, axis=1).max() for p in V))
     if size == 0.0:
-        raise FractureError("vertices", "the polygon has zero area (coincident vertices)")
+        raise ParameterError("vertices", "the polygon has zero area (coincident vertices)")
     n = _polygon_normal(table, V, size)
     _check_convex(V, n, size)
     tri = np.cross(V[1:-1] - V[0], V[2:] - V[0]) @ n  # twice the fan triangles' areas
@@ -387,7 +389,7 @@ class TriangulatedCrack:
 def triangulated_from_polygon(crack: PlanarCrack) -> TriangulatedCrack:
     """A polygonal :class:`PlanarCrack` as a one-patch :class:`TriangulatedCrack`."""
     if crack.vertices is None:
-        raise FractureError("shape", f'needs shape = "polygon", got {crack.shape!r}')
+        raise ParameterError("shape", f'needs shape = "polygon", got {crack.shape!r}')
     V = np.asarray(crack.vertices, dtype=float)
     ids = tuple(range(len(V)))
     n = tuple(map(float, crack.normal))

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem, mesh
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.mechanics.model import Mechanics
 
 __all__ = [
@@ -102,7 +102,7 @@ def cell_stresses(model: Mechanics, u: fem.Function) -> CellStresses:
     """Stress of every owned cell from the model's constitutive law (2D)."""
     msh = model.mesh
     if model.dim != 2:
-        raise FractureError("dimension", "the 2D fracture criteria need a 2D model")
+        raise ParameterError("dimension", "the 2D fracture criteria need a 2D model")
     T = fem.functionspace(msh, ("DG", 0, (3, 3)))
     s = fem.Function(T)
     s.interpolate(fem.Expression(model.stress_expression(u), T.element.interpolation_points))
@@ -141,7 +141,7 @@ def principal_direction_average(
     local = np.column_stack([d[mine], phi[mine], stresses.midpoints[mine]])
     rows = np.concatenate(comm.allgather(local))
     if len(rows) < n_points:
-        raise FractureError("n_points", f"only {len(rows)} cells in the mesh")
+        raise ParameterError("n_points", f"only {len(rows)} cells in the mesh")
     rows = rows[np.lexsort((rows[:, 3], rows[:, 2], rows[:, 0]))][:n_points]
     w = 1.0 / np.maximum(rows[:, 0], 1e-300)
     mean2 = math.atan2(float(w @ np.sin(2 * rows[:, 1])), float(w @ np.cos(2 * rows[:, 1])))
@@ -209,11 +209,11 @@ def cell_principal(model: Mechanics, u: fem.Function) -> CellPrincipal:
 
 def _check_strengths(criterion: str, sigma_t: float | None, sigma_c: float | None) -> None:
     if criterion not in RISK_CRITERIA:
-        raise FractureError("criterion", f"must be one of {RISK_CRITERIA}, got {criterion!r}")
+        raise ParameterError("criterion", f"must be one of {RISK_CRITERIA}, got {criterion!r}")
     needed = {"sigma_t": sigma_t} | ({"sigma_c": sigma_c} if criterion != "tension" else {})
     for key, v in needed.items():
         if v is None or not (math.isfinite(v) and v > 0):
-            raise FractureError(key, f"the {criterion!r} criterion needs a positive strength")
+            raise ParameterError(key, f"the {criterion!r} criterion needs a positive strength")
 
 
 def _smallest_strength(comm: MPI.Comm, values: float | npt.ArrayLike) -> float:

@@ -28,7 +28,8 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.criteria import mts_angle, mts_equivalent_k
 from bonecontact.fracture.meshing import Hole, TipMesh, mesh_cracked_body
 from bonecontact.fracture.propagation import PropagationOptions, Solver, domain_radius
@@ -50,7 +51,7 @@ _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(8)
 
 def _positive(key: str, value: float) -> None:
     if not (math.isfinite(value) and value > 0):
-        raise FractureError(key, f"must be a positive number, got {value!r}")
+        raise ParameterError(key, f"must be a positive number, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -80,9 +81,9 @@ class ParisLaw:
         _positive("C", self.C)
         _positive("m", self.m)
         if not (math.isfinite(self.delta_K_th) and self.delta_K_th >= 0):
-            raise FractureError("delta_K_th", f"must be >= 0, got {self.delta_K_th!r}")
+            raise ParameterError("delta_K_th", f"must be >= 0, got {self.delta_K_th!r}")
         if not (math.isfinite(self.R) and self.R < 1):
-            raise FractureError("R", f"the load ratio must be a number < 1, got {self.R!r}")
+            raise ParameterError("R", f"the load ratio must be a number < 1, got {self.R!r}")
 
     def delta_k(self, k_max: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """ΔK of a cycle with peak ``k_max`` (negative peaks: 0)."""
@@ -161,7 +162,7 @@ def block_cycles(growth: npt.ArrayLike, lead_rate: npt.ArrayLike) -> npt.NDArray
     if s.size < 2:
         return np.zeros(0)
     if np.any(r <= 0):
-        raise FractureError("rate", "the leading tip's da/dN must be positive at every block end")
+        raise ParameterError("rate", "the leading tip's da/dN must be positive at every block end")
     log_r = np.log(r)
     return np.array([_block_integral(s, log_r, i) for i in range(s.size - 1)])
 
@@ -170,7 +171,7 @@ def _check_growth(da_max: float, total: float, max_blocks: int) -> None:
     _positive("da_max", da_max)
     _positive("total_growth", total)
     if int(max_blocks) != max_blocks or max_blocks < 1:
-        raise FractureError("max_blocks", f"must be a positive integer, got {max_blocks!r}")
+        raise ParameterError("max_blocks", f"must be a positive integer, got {max_blocks!r}")
 
 
 def grow_by_fatigue(

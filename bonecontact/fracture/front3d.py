@@ -38,7 +38,7 @@ from dolfinx import default_scalar_type, fem, mesh
 from dolfinx.io.gmsh import model_to_mesh
 from scipy.special import ellipe, ellipeinc
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.williams import elastic_constants
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
@@ -85,7 +85,7 @@ def irwin_k(sigma: float, a: float, b: float, phi: npt.ArrayLike) -> npt.NDArray
     (a cos φ, b sin φ); E the complete elliptic integral of the second kind.
     """
     if not (a >= b > 0):
-        raise FractureError("b", f"need a >= b > 0, got a={a}, b={b}")
+        raise ParameterError("b", f"need a >= b > 0, got a={a}, b={b}")
     phi = np.asarray(phi, dtype=float)
     E = ellipe(1.0 - (b / a) ** 2)  # scipy's argument is m = k²
     return (
@@ -121,17 +121,17 @@ class EllipticalFront:
         for key in ("a", "b"):
             v = getattr(self, key)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise FractureError(key, f"must be a positive number, got {v!r}")
+                raise ParameterError(key, f"must be a positive number, got {v!r}")
         if self.b > self.a:
-            raise FractureError(
+            raise ParameterError(
                 "b", f"the semi-axis along y must not exceed a, got b={self.b} > a={self.a}"
             )
         if self.axes is not None:
             R = np.asarray(self.axes, dtype=float)
             if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9):
-                raise FractureError("axes", "must be three orthonormal rows (u, v, n)")
+                raise ParameterError("axes", "must be three orthonormal rows (u, v, n)")
             if np.linalg.det(R) < 0:
-                raise FractureError("axes", "must be right-handed: n = u × v")
+                raise ParameterError("axes", "must be right-handed: n = u × v")
 
     @property
     def rotation(self) -> npt.NDArray[np.float64]:
@@ -657,14 +657,14 @@ def mesh_crack_octant(
     W = float(half_size)
     H = W if half_height is None else float(half_height)
     if any(abs(c) > 0 for c in front.centre):
-        raise FractureError("centre", "the octant model needs the crack centred at the origin")
+        raise ParameterError("centre", "the octant model needs the crack centred at the origin")
     if not (front.a < W and front.b < H):
-        raise FractureError(
+        raise ParameterError(
             "half_size", f"the crack (a={front.a}) must lie inside the block (W={W})"
         )
     for key, v in (("h_front", h_front), ("grading", grading)):
         if not (math.isfinite(v) and v > 0):
-            raise FractureError(key, f"must be a positive number, got {v!r}")
+            raise ParameterError(key, f"must be a positive number, got {v!r}")
     h_max = W / 4 if h_max is None else float(h_max)
     error = None
     with gmsh_session("crack_octant") if comm.rank == 0 else nullcontext():
@@ -795,12 +795,12 @@ def _check_domain(block: CrackBlock, q: fem.Function, p0: np.ndarray) -> np.ndar
         return bool(msh.comm.allreduce(int(np.any(q.x.array[dofs] > 0)), op=MPI.MAX))
 
     if _touches_outer(block, q):
-        raise FractureError(
+        raise ParameterError(
             "r_out", "the integration domain reaches the outer boundary; take a smaller r_out"
         )
     for name, axis in (("sym_x", 0), ("sym_y", 1)):
         if abs(p0[axis]) > 1e-9 * scale and touches([name]):
-            raise FractureError(
+            raise ParameterError(
                 "length",
                 f"the integration domain reaches the symmetry plane {name} away from the "
                 "point; take a shorter length (or r_out) or a point on that plane",
@@ -944,25 +944,25 @@ def _domain_sizes(
     """Check the material and the domain against the front at ``phi``: (r_in, length, ρ),
     the defaults filled in and ρ the front's radius of curvature there."""
     if not isinstance(material, Isotropic):
-        raise FractureError(
+        raise ParameterError(
             "material", f"needs a homogeneous isotropic material, got {type(material).__name__}"
         )
     r_in = 0.5 * r_out if r_in is None else r_in
     length = r_out if length is None else length
     if not (0 <= r_in < r_out) or not length > 0:
-        raise FractureError(
+        raise ParameterError(
             "r_out", f"need 0 <= r_in < r_out and length > 0, got {r_in}, {r_out}, {length}"
         )
     rho = float(front.radius_of_curvature(phi))  # a NumPy scalar would swallow UFL operands
     if max(r_out, length) > 0.75 * rho:
-        raise FractureError(
+        raise ParameterError(
             "r_out",
             f"the domain (r_out={r_out:g}, length={length:g}) must be smaller than 0.75 times the "
             f"front's radius of curvature there ({rho:g})",
         )
     corner = front.corner_distance(phi)
     if length > corner:  # the ring may be wider: a convex polygon's other edges lie beyond
-        raise FractureError(
+        raise ParameterError(
             "length",
             f"the domain along the front (length={length:g}) reaches a corner of the front or "
             f"the free surface ({corner:g} m from the point); take a shorter length or a "
@@ -1028,7 +1028,7 @@ def _interaction_form(
             block, face_traction, u, x, const, (rho, r_out), mu, lmbda, kappa, q
         )
     elif face_traction is not None:
-        raise FractureError("face_traction", "the face term needs a model with both faces")
+        raise ParameterError("face_traction", "the face term needs a model with both faces")
     return fem.form(integrand)
 
 
@@ -1169,7 +1169,7 @@ def front_displacement_correlation(
     r, s = _front_coordinates(front, x, phi) if len(x) else (np.zeros(0), np.zeros(0))
     keep = (np.abs(s) <= slab) & (r > skip) & (r <= r_max)
     if int(keep.sum()) < 2:
-        raise FractureError("r_max", "needs at least two crack-face nodes near the point")
+        raise ParameterError("r_max", "needs at least two crack-face nodes near the point")
     r, jump = r[keep], jump[keep]
     c = elastic_constants(material.E, material.nu, "strain")
     e1, e2, e3 = front.frame(phi)

@@ -25,8 +25,9 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem, mesh
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.body import BodyOutline
-from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.criteria import cell_stresses
 from bonecontact.mechanics.model import Mechanics
 
@@ -141,7 +142,7 @@ def _unit(v: npt.ArrayLike) -> npt.NDArray[np.float64]:
     v = np.asarray(v, dtype=float)[:2]
     norm = float(np.linalg.norm(v))
     if not norm > 0:
-        raise FractureError("direction", "the crack direction is zero")
+        raise ParameterError("direction", "the crack direction is zero")
     return v / norm
 
 
@@ -158,7 +159,7 @@ def _edge_crack(
         crack = Crack2D(np.array([foot, tip]), "end")
         try:
             body.check_crack(crack)
-        except FractureError:
+        except ParameterError:
             continue
         if best is None or body.distance(tip) > body.distance(best.points[-1]):
             best = crack
@@ -189,12 +190,12 @@ def initiation_crack(
 
     Raises
     ------
-    FractureError
+    ParameterError
         ``initiation_length``: the crack does not fit into the body (longer than the
         material ahead of the surface point, or crossing the outline).
     """
     if not (math.isfinite(length) and length > 0):
-        raise FractureError("initiation_length", f"must be a positive length, got {length!r}")
+        raise ParameterError("initiation_length", f"must be a positive length, got {length!r}")
     x = np.asarray(location, dtype=float)[:2]
     d = _unit(direction)
     foot, dist = body.nearest(x)
@@ -207,7 +208,7 @@ def initiation_crack(
         if steep:
             crack = _edge_crack(body, foot, d, length)
             if crack is None:
-                raise FractureError(
+                raise ParameterError(
                     "initiation_length",
                     f"a crack of {length:.4g} m from the surface point {foot.tolist()} along "
                     f"{d.tolist()} leaves the body; choose a shorter initiation_length",
@@ -218,8 +219,8 @@ def initiation_crack(
         crack = Crack2D(np.array([x - 0.5 * length * d, x + 0.5 * length * d]), "both")
         try:
             body.check_crack(crack)
-        except FractureError as exc:
-            raise FractureError(
+        except ParameterError as exc:
+            raise ParameterError(
                 "initiation_length",
                 f"a crack of {length:.4g} m centred at {x.tolist()} along {d.tolist()} does "
                 f"not lie in the body ({exc}); choose a shorter initiation_length",

@@ -26,7 +26,8 @@ import numpy.typing as npt
 from dolfinx import mesh
 from dolfinx.io.gmsh import model_to_mesh
 
-from bonecontact.fracture.crack import Crack2D, FractureError, point_segment_distance
+from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.crack import Crack2D, point_segment_distance
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
 
@@ -60,7 +61,7 @@ class TipMesh:
         for key in ("h_tip", "grading") + (("h_max",) if self.h_max is not None else ()):
             v = getattr(self, key)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise FractureError(key, f"must be a positive number, got {v!r}")
+                raise ParameterError(key, f"must be a positive number, got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,7 @@ class Hole:
         for key in ("radius", "h"):
             v = getattr(self, key)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise FractureError(f"hole.{key}", f"must be a positive number, got {v!r}")
+                raise ParameterError(f"hole.{key}", f"must be a positive number, got {v!r}")
 
 
 @dataclass
@@ -324,7 +325,7 @@ def mesh_cracked_body(
 
     Raises
     ------
-    FractureError
+    ParameterError
         The crack does not lie in the body (on every rank).
     MeshingError
         gmsh failed (on every rank).

@@ -29,8 +29,9 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.common.formatting import format_cell
-from bonecontact.fracture.crack import Crack2D, FractureError, point_segment_distance
+from bonecontact.fracture.crack import Crack2D, point_segment_distance
 from bonecontact.fracture.criteria import (
     cell_stresses,
     mts_angle,
@@ -123,15 +124,15 @@ class PropagationOptions:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.increment) and self.increment > 0):
-            raise FractureError("increment", f"must be a positive length, got {self.increment!r}")
+            raise ParameterError("increment", f"must be a positive length, got {self.increment!r}")
         if self.direction not in ("mts", "principal"):
-            raise FractureError(
+            raise ParameterError(
                 "direction", f"must be 'mts' or 'principal', got {self.direction!r}"
             )
         if self.K_Ic is not None and not (math.isfinite(self.K_Ic) and self.K_Ic > 0):
-            raise FractureError("K_Ic", f"must be a positive number, got {self.K_Ic!r}")
+            raise ParameterError("K_Ic", f"must be a positive number, got {self.K_Ic!r}")
         if int(self.max_increments) != self.max_increments or self.max_increments < 1:
-            raise FractureError("max_increments", "must be a positive integer")
+            raise ParameterError("max_increments", "must be a positive integer")
 
 
 @dataclass(frozen=True)
@@ -187,12 +188,12 @@ def domain_radius(
 ) -> float:
     """Outer radius of the interaction-integral domain at tip ``end``: ``opts.r_out_max``
     (default 2Δa), at most 0.8 × the last crack segment and 0.8 × the distance to the free
-    surface; a :class:`FractureError` if it spans fewer than 4 tip elements."""
+    surface; a :class:`ParameterError` if it spans fewer than 4 tip elements."""
     r_max = opts.r_out_max if opts.r_out_max is not None else 2.0 * opts.increment
     free = _distance_to_outline(crack.tip(end), outline, holes)
     r = min(r_max, 0.8 * crack.tip_segment_length(end), 0.8 * free)
     if r < 4.0 * opts.tip_mesh.h_tip:
-        raise FractureError(
+        raise ParameterError(
             "tip_mesh.h_tip",
             f"the integration domain (r_out = {r:.3g} m) spans fewer than 4 tip elements; "
             "refine the tip mesh or increase the increment",

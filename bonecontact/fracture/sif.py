@@ -10,7 +10,7 @@
 
 Limits (stated, checked where they can be): the material inside the domain must be one
 homogeneous isotropic material (a domain crossing a material interface, or an anisotropic
-material, is refused with :class:`~bonecontact.fracture.crack.FractureError`); the crack
+material, is refused with :class:`~bonecontact.common.errors.ParameterError`); the crack
 faces inside the domain are straight and traction-free (no crack-face contact term); the
 domain must not reach another boundary.
 """
@@ -27,7 +27,7 @@ import numpy.typing as npt
 import ufl
 from dolfinx import default_scalar_type, fem, mesh
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.meshing import CrackedMesh
 from bonecontact.fracture.williams import PlaneState, elastic_constants, williams_displacement_ufl
 from bonecontact.materials.laws import Isotropic, Material
@@ -112,16 +112,16 @@ def _domain_material(
         all_tags = sorted(set().union(*comm.allgather(set(int(t) for t in tags))))
         mats = [material.get(t) for t in all_tags]
         if any(m is None for m in mats):
-            raise FractureError("materials", f"no material for cell tags {all_tags}")
+            raise ParameterError("materials", f"no material for cell tags {all_tags}")
         if any(m != mats[0] for m in mats[1:]):
-            raise FractureError(
+            raise ParameterError(
                 "r_out",
                 f"the integration domain crosses a material interface (cell tags {all_tags}); "
                 "choose a domain inside one material",
             )
         material = mats[0]
     if not isinstance(material, Isotropic):
-        raise FractureError(
+        raise ParameterError(
             "material",
             f"the interaction integral needs a homogeneous isotropic material near the tip, "
             f"got {type(material).__name__}",
@@ -148,7 +148,7 @@ def _check_boundary(cm: CrackedMesh, tip: np.ndarray, r_in: float, r_out: float)
         verts = mesh.entities_to_geometry(msh, tdim - 1, ext)
         touches = int(np.any(_plateau(msh.geometry.x[verts.ravel()], tip, r_in, r_out) > 0))
     if msh.comm.allreduce(touches, op=MPI.MAX):
-        raise FractureError(
+        raise ParameterError(
             "r_out", "the integration domain reaches the body's boundary; take a smaller r_out"
         )
 
@@ -170,11 +170,11 @@ def _domain(
 ) -> _Domain:
     crack, msh = cm.crack, cm.mesh
     if crack is None:
-        raise FractureError("crack", "the mesh has no crack")
+        raise ParameterError("crack", "the mesh has no crack")
     if not (0 <= r_in < r_out):
-        raise FractureError("r_out", f"need 0 <= r_in < r_out, got r_in={r_in}, r_out={r_out}")
+        raise ParameterError("r_out", f"need 0 <= r_in < r_out, got r_in={r_in}, r_out={r_out}")
     if r_out >= crack.tip_segment_length(end):
-        raise FractureError(
+        raise ParameterError(
             "r_out",
             f"the domain (r_out={r_out:g}) must lie within the straight tip segment "
             f"(length {crack.tip_segment_length(end):g})",
@@ -283,7 +283,7 @@ def interaction_integral(
 
     Raises
     ------
-    FractureError
+    ParameterError
         The domain crosses a material interface, reaches the boundary or leaves the
         straight tip segment, or the material is not isotropic (on every rank).
     """
@@ -399,11 +399,11 @@ def displacement_correlation(
     """
     crack = cm.crack
     if crack is None:
-        raise FractureError("crack", "the mesh has no crack")
+        raise ParameterError("crack", "the mesh has no crack")
     c = elastic_constants(material.E, material.nu, plane)
     tip, e1 = crack.tip(end), crack.direction(end)
     if r_max >= crack.tip_segment_length(end):
-        raise FractureError("r_max", "must be shorter than the straight tip segment")
+        raise ParameterError("r_max", "must be shorter than the straight tip segment")
     e2 = np.array([-e1[1], e1[0]])
     # crack_plus lies left of the polyline; seen from tip 0 the polyline runs backwards
     plus, minus = cm.face_tags if end == -1 else cm.face_tags[::-1]
@@ -415,12 +415,12 @@ def displacement_correlation(
     xp, up, rp, xm, um, rm = xp[keep_p], up[keep_p], rp[keep_p], xm[keep_m], um[keep_m], rm[keep_m]
     ip, im = np.argsort(rp), np.argsort(rm)
     if len(ip) != len(im) or len(ip) < 2 or not np.allclose(xp[ip], xm[im], atol=1e-9 * scale):
-        raise FractureError(
+        raise ParameterError(
             "r_max", "needs at least two pairs of matching face nodes behind the tip"
         )
     r, jump = rp[ip][skip:], (up[ip] - um[im])[skip:]
     if len(r) < 2:
-        raise FractureError(
+        raise ParameterError(
             "r_max", "needs at least two pairs of face nodes after the skipped ones"
         )
     f = c["mu"] / (c["kappa"] + 1) * np.sqrt(2 * np.pi / r)

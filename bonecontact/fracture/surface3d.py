@@ -38,8 +38,8 @@ import numpy.typing as npt
 from dolfinx import mesh
 from dolfinx.io.gmsh import model_to_mesh
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.body3d import face_side_sign
-from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.front3d import CrackBlock, EllipticalFront
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
@@ -90,7 +90,9 @@ class EllipticalArcFront(EllipticalFront):
         super().__post_init__()
         p0, p1 = self.phi_range
         if not (0.0 <= p0 < p1 <= 2.0 * math.pi + 1e-12):
-            raise FractureError("phi_range", f"need 0 <= phi0 < phi1 <= 2 pi, got {self.phi_range}")
+            raise ParameterError(
+                "phi_range", f"need 0 <= phi0 < phi1 <= 2 pi, got {self.phi_range}"
+            )
 
     @property
     def closed(self) -> bool:
@@ -152,9 +154,9 @@ class StraightFront:
         d = np.subtract(self.end, self.start)
         n, e = np.asarray(self.normal_vector), np.asarray(self.ahead)
         if np.linalg.norm(d) <= 0:
-            raise FractureError("end", "the front has zero length")
+            raise ParameterError("end", "the front has zero length")
         if abs(float(d @ n)) + abs(float(d @ e)) + abs(float(n @ e)) > 1e-9 * np.linalg.norm(d):
-            raise FractureError("ahead", "front, normal and ahead must be orthogonal")
+            raise ParameterError("ahead", "front, normal and ahead must be orthogonal")
 
     @property
     def closed(self) -> bool:
@@ -251,7 +253,7 @@ def domain_length(front, phi: float, r_out: float, h_front: float) -> float:
 
     Raises
     ------
-    FractureError
+    ParameterError
         (key ``phi``) the point lies closer to the surface than
         :data:`MIN_DOMAIN_ELEMENTS` front elements: no domain resolves q along the front
         there.
@@ -261,7 +263,7 @@ def domain_length(front, phi: float, r_out: float, h_front: float) -> float:
     bend = max(CURVATURE_LENGTH_FRACTION * curvature_length(front, phi), floor)
     length = min(r_out, bend, reach * (1.0 - 1e-6))  # q = 0 on the surface, not round-off
     if length < floor * (1.0 - 1e-9):
-        raise FractureError(
+        raise ParameterError(
             "phi",
             f"the point is {reach:.3g} m from the free surface along the front, less than "
             f"{MIN_DOMAIN_ELEMENTS:g} front elements of {h_front:.3g} m: no K there (the "
@@ -294,13 +296,13 @@ class SurfaceCrack:
 
     def __post_init__(self) -> None:
         if self.kind not in SURFACE_CRACK_KINDS:
-            raise FractureError(
+            raise ParameterError(
                 "kind", f"must be one of {', '.join(SURFACE_CRACK_KINDS)}, got {self.kind!r}"
             )
         if not (math.isfinite(self.depth) and self.depth > 0):
-            raise FractureError("depth", f"must be a positive number (m), got {self.depth!r}")
+            raise ParameterError("depth", f"must be a positive number (m), got {self.depth!r}")
         if self.kind != "through" and not (self.half_length >= self.depth):
-            raise FractureError(
+            raise ParameterError(
                 "half_length",
                 f"need half_length >= depth (a/c <= 1), got a={self.depth}, c={self.half_length}",
             )
@@ -459,7 +461,7 @@ def mesh_plate_with_crack(
 
     Raises
     ------
-    FractureError
+    ParameterError
         A crack that does not fit the plate (key ``depth`` or ``half_length``).
     MeshingError
         gmsh failed (on every rank).
@@ -468,11 +470,11 @@ def mesh_plate_with_crack(
     dims = (float(half_width), float(half_height), float(thickness))
     b, _, t = dims
     if crack.kind != "through" and crack.depth >= t:
-        raise FractureError("depth", f"the crack (a={crack.depth}) must be shallower than t={t}")
+        raise ParameterError("depth", f"the crack (a={crack.depth}) must be shallower than t={t}")
     if crack.kind == "through" and crack.depth >= 2 * b:
-        raise FractureError("depth", f"the crack (a={crack.depth}) must be shorter than 2b")
+        raise ParameterError("depth", f"the crack (a={crack.depth}) must be shorter than 2b")
     if crack.kind != "through" and crack.half_length >= (2 * b if crack.kind == "corner" else b):
-        raise FractureError("half_length", f"the crack (c={crack.half_length}) must fit b={b}")
+        raise ParameterError("half_length", f"the crack (c={crack.half_length}) must fit b={b}")
     h_max = 0.5 * t if h_max is None else float(h_max)
     error = None
     with gmsh_session("cracked_plate") if comm.rank == 0 else nullcontext():

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 
 __all__ = [
     "PlaneState",
@@ -45,9 +45,9 @@ def elastic_constants(E: float, nu: float, plane: PlaneState) -> dict[str, float
         (E/(1 − ν²) in plane strain, E in plane stress), SI units.
     """
     if plane not in ("strain", "stress"):
-        raise FractureError("plane", f"must be 'strain' or 'stress', got {plane!r}")
+        raise ParameterError("plane", f"must be 'strain' or 'stress', got {plane!r}")
     if not (E > 0 and -1.0 < nu < 0.5):
-        raise FractureError("material", f"needs E > 0 and -1 < nu < 0.5, got E={E}, nu={nu}")
+        raise ParameterError("material", f"needs E > 0 and -1 < nu < 0.5, got E={E}, nu={nu}")
     mu = E / (2 * (1 + nu))
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     if plane == "strain":

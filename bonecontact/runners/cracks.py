@@ -36,10 +36,11 @@ from mpi4py import MPI
 import numpy as np
 from tqdm import tqdm
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_crack
-from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.criteria import (
     cell_stresses,
     mts_angle,
@@ -193,7 +194,7 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
         body = body_outline(md0.mesh, md0.cell_tags, md0.facet_tags, groups, region)
         if spec is not None:
             body.check_crack(spec.crack)
-    except (FractureError, MeshingError) as exc:
+    except (ParameterError, MeshingError) as exc:
         if spec is None:
             raise SceneError(str(scene.path), "[fracture]", "initiate", str(exc)) from None
         raise _scene_error(scene, 0, spec, exc, "region") from None
@@ -252,7 +253,7 @@ def build_cracked(
     try:
         with timer.phase("mesh_read"):
             cm, md = mesh_body_with_crack(run.body, crack, run.tip_mesh, comm)
-    except (FractureError, MeshingError) as exc:
+    except (ParameterError, MeshingError) as exc:
         raise _scene_error(scene, 0, run.spec, exc, "points", run.initiated) from None
     sm = build_model(scene, comm, timer, mesh=(md, run.groups))
     try:
@@ -308,7 +309,7 @@ def evaluate_tips(
     for end in crack.tip_ends:
         r_out = _radius(crack, end, run)
         if r_out < 4 * run.tip_mesh.h_tip:
-            raise FractureError(
+            raise ParameterError(
                 "tip_size",
                 f"the integration domain at tip {end} (r = {r_out:.3g} m) spans fewer than "
                 "4 tip elements; choose a smaller tip_size",
@@ -317,7 +318,7 @@ def evaluate_tips(
         try:
             dc = displacement_correlation(u, cm, end, run.material, r_out)
             kdc = (dc.K_I, dc.K_II)
-        except FractureError:
+        except ParameterError:
             kdc = (math.nan, math.nan)
         if run.fracture.direction == "mts":
             theta = mts_angle(k.K_I, k.K_II)
@@ -440,7 +441,7 @@ def _initiate(
         mouth = snapped.points[snapped.mouth_ends[0]] if snapped.mouth_ends else ini.point
         ini = dataclasses.replace(ini, crack=snapped, point=tuple(float(v) for v in mouth))
         run.body.check_crack(ini.crack)
-    except FractureError as exc:
+    except ParameterError as exc:
         raise _scene_error(scene, 0, None, exc, "initiation_length") from None
     record = {
         "step": rec.integ.step_count,
@@ -500,7 +501,7 @@ class CrackSteps(MechanicsSteps):
     (:class:`bonecontact.runners.checkpoint.CrackState`).
     """
 
-    errors = (RuntimeError, FractureError)  # a solver failure; a tip K cannot be had
+    errors = (RuntimeError, ParameterError)  # a solver failure; a tip K cannot be had
 
     def __init__(
         self,

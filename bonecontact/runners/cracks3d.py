@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import mesh
 
-from bonecontact.common.errors import CheckpointError
+from bonecontact.common.errors import CheckpointError, ParameterError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body3d import (
@@ -45,7 +45,6 @@ from bonecontact.fracture.body3d import (
     body_surface,
     mesh_body_with_planar_crack,
 )
-from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.crack3d import PlanarCrack
 from bonecontact.fracture.faces import face_interface, face_traction
 from bonecontact.fracture.front3d import (
@@ -212,7 +211,7 @@ def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
     check_cracks_in_mesh(scene, md0.mesh, md0.cell_tags, groups)
     try:
         body = body_surface(md0.mesh, md0.cell_tags, md0.facet_tags, groups, spec.region)
-    except FractureError as exc:
+    except ParameterError as exc:
         raise _error(scene, spec, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
     mat_spec = next(m for m in scene.materials if spec.region in m.regions)
     if not isinstance(mat_spec.material, Isotropic):
@@ -332,7 +331,7 @@ def evaluate_front(
                 skip=1.5 * run.tip_mesh.h_tip,  # the front and its first ring: P1 opens least
             )
             kdc = (dc.K_I, dc.K_II, dc.K_III)
-        except FractureError:
+        except ParameterError:
             kdc = (math.nan, math.nan, math.nan)
         x, y, z = k.point
         s = float(front.arc_length(phi) - s0)
@@ -440,7 +439,7 @@ class FrontSteps(MechanicsSteps):
     checkpoint (:class:`~bonecontact.runners.checkpoint.CrackState`, the crack's geometry
     in ``crack_run``) when due or asked for by a signal."""
 
-    errors = (RuntimeError, FractureError)  # a solver failure; K cannot be had
+    errors = (RuntimeError, ParameterError)  # a solver failure; K cannot be had
 
     def __init__(
         self,

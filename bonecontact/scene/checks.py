@@ -26,8 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.common.resources import data_dir
-from bonecontact.fracture.crack import FractureError
 from bonecontact.materials.laws import Isotropic, Material, Orthotropic, TransverselyIsotropic
 from bonecontact.scene.crack_region import check_crack_region
 from bonecontact.scene.errors import SceneError, table_label
@@ -229,7 +229,7 @@ def check_cracks_in_mesh(
     for i, c in enumerate(scene.cracks):
         try:
             check_crack_region(c, msh, cell_tags, groups[c.region][1], increment)
-        except FractureError as exc:
+        except ParameterError as exc:
             table = "[fracture]" if exc.key == "increment" else table_label("crack", i, c.name)
             message = str(exc).removeprefix(f"{exc.key}: ")
             raise SceneError(str(scene.path), table, exc.key, message) from None

@@ -12,7 +12,7 @@ from mpi4py import MPI
 import numpy as np
 from dolfinx import geometry, mesh
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack3d import PlanarCrack
 from bonecontact.scene.spec import CrackSpec
 
@@ -63,10 +63,10 @@ def check_crack_region(
     msh.comm.Allreduce(MPI.IN_PLACE, inside, op=MPI.SUM)
     if np.any(found == 0):
         p = samples[int(np.argmax(found == 0))]
-        raise FractureError(out_key, f"crack {spec.name!r} leaves the mesh near {p.tolist()}")
+        raise ParameterError(out_key, f"crack {spec.name!r} leaves the mesh near {p.tolist()}")
     if np.any(inside == 0):
         p = samples[int(np.argmax(inside == 0))]
-        raise FractureError(
+        raise ParameterError(
             "region", f"crack {spec.name!r} is not in region {spec.region!r} near {p.tolist()}"
         )
     if increment is not None:
@@ -77,6 +77,6 @@ def check_crack_region(
         msh.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)  # buffers: pickled min of arrays fails
         msh.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
         if increment >= float(np.max(hi - lo)):
-            raise FractureError(
+            raise ParameterError(
                 "increment", f"{increment} m is not smaller than region {spec.region!r}"
             )

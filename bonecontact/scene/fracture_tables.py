@@ -5,7 +5,7 @@ The keys are declared in :mod:`bonecontact.scene.spec` (:data:`FRACTURE_TABLE`,
 geometry is built and checked by the fracture physics
 (:class:`~bonecontact.fracture.crack.Crack2D`,
 :func:`~bonecontact.fracture.crack3d.planar_crack_from_table`), whose
-:class:`~bonecontact.fracture.crack.FractureError` is reported as a
+:class:`~bonecontact.common.errors.ParameterError` is reported as a
 :class:`~bonecontact.scene.errors.SceneError` naming the table and the key.  The old
 spelling ``friction = <number>`` of the Coulomb coefficient is read as ``coefficient``
 with a deprecation warning.
@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from bonecontact.fracture.crack import Crack2D, FractureError
+from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.crack3d import planar_crack_from_table
 from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.spec import (
@@ -42,8 +43,8 @@ __all__ = [
 ]
 
 
-def _fracture_error(tab: TableReader, exc: FractureError) -> SceneError:
-    """A FractureError of the physics as a SceneError on ``tab`` (without its ``key:``)."""
+def _fracture_error(tab: TableReader, exc: ParameterError) -> SceneError:
+    """A ParameterError of the physics as a SceneError on ``tab`` (without its ``key:``)."""
     text = str(exc)
     prefix = f"{exc.key}: "
     return tab.error(exc.key, text[len(prefix) :] if text.startswith(prefix) else text)
@@ -124,7 +125,7 @@ def _crack3d(tab: TableReader, name: str) -> CrackSpec:
         front_points = 1  # one K point per polygon edge
     try:
         crack = planar_crack_from_table(tab.data)
-    except FractureError as exc:
+    except ParameterError as exc:
         raise _fracture_error(tab, exc) from None
     return CrackSpec(name, crack, region, coefficient, front_points)
 
@@ -142,7 +143,7 @@ def _crack2d(tab: TableReader, name: str) -> CrackSpec:
         raise tab.error("points", "must be an array of [x, y] pairs (m)") from None
     try:
         crack = Crack2D(arr, tips)
-    except FractureError as exc:
+    except ParameterError as exc:
         raise _fracture_error(tab, exc) from None
     return CrackSpec(name, crack, region, coefficient)
 

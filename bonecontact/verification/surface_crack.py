@@ -35,10 +35,10 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import mesh
 
+from bonecontact.common.errors import ParameterError
 from bonecontact.contact.friction import FrictionLaw
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver
-from bonecontact.fracture.crack import FractureError
 from bonecontact.fracture.faces import face_interface, face_traction
 from bonecontact.fracture.front3d import CrackBlock, FrontSIF, front_interaction_integral
 from bonecontact.fracture.meshing import TipMesh
@@ -71,7 +71,7 @@ __all__ = [
 def shape_factor(a_c: float) -> float:
     """Q = 1 + 1.464 (a/c)^1.65, a/c ≤ 1 (Newman–Raju's approximation of E(k)²)."""
     if not 0 < a_c <= 1:
-        raise FractureError("a/c", f"Newman-Raju is implemented for 0 < a/c <= 1, got {a_c}")
+        raise ParameterError("a/c", f"Newman-Raju is implemented for 0 < a/c <= 1, got {a_c}")
     return 1.0 + 1.464 * a_c**1.65
 
 
@@ -180,7 +180,7 @@ class PlateProblem:
             return surface_crack_k(self.S, a, c, self.t, self.b, phi)
         if self.crack.kind == "corner":
             return corner_crack_k(self.S, a, c, self.t, 2.0 * self.b, phi)
-        raise FractureError("kind", "Newman-Raju covers the elliptical cracks only")
+        raise ParameterError("kind", "Newman-Raju covers the elliptical cracks only")
 
 
 @dataclass
@@ -221,7 +221,7 @@ def _pin_patch(blk: CrackBlock, centre: np.ndarray, radius: float) -> npt.NDArra
     mid = mesh.compute_midpoints(msh, 2, facets)
     patch = facets[np.linalg.norm(mid - centre, axis=1) <= radius].astype(np.int32)
     if msh.comm.allreduce(patch.size, op=MPI.SUM) == 0:
-        raise FractureError("h_max", f"no bottom facet within {radius:g} m of {centre}")
+        raise ParameterError("h_max", f"no bottom facet within {radius:g} m of {centre}")
     return patch
 
 

@@ -29,7 +29,7 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
-from bonecontact.fracture.crack import FractureError
+from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.fatigue import ParisLaw, block_cycles
 from bonecontact.fracture.surface3d import SurfaceCrack
 from bonecontact.verification.surface_crack import PlateProblem, solve_plate, surface_crack_k
@@ -84,11 +84,11 @@ def newman_raju_k(problem: PlateProblem, phi_s: float, comm: MPI.Comm) -> tuple[
 
 def _check(problem: PlateProblem, da_max: float, phi_s: float) -> None:
     if problem.crack.kind != "semi_elliptical":
-        raise FractureError("kind", f'needs a "semi_elliptical" crack, got {problem.crack.kind!r}')
+        raise ParameterError("kind", f'needs a "semi_elliptical" crack, got {problem.crack.kind!r}')
     if not (0 < da_max < problem.t):
-        raise FractureError("da_max", f"must be in (0, t = {problem.t}), got {da_max!r}")
+        raise ParameterError("da_max", f"must be in (0, t = {problem.t}), got {da_max!r}")
     if not (0 < phi_s < 0.5 * math.pi):
-        raise FractureError("phi_s", f"must be in (0, π/2), got {phi_s!r}")
+        raise ParameterError("phi_s", f"must be in (0, π/2), got {phi_s!r}")
 
 
 def grow_surface_crack(
@@ -107,7 +107,7 @@ def grow_surface_crack(
     comm = MPI.COMM_WORLD if comm is None else comm
     _check(problem, da_max, phi_s)
     if problem.r_out is None:
-        raise FractureError("r_out", "set the domain radius (it stays fixed while growing)")
+        raise ParameterError("r_out", "set the domain radius (it stays fixed while growing)")
     rec = SurfaceFatigue(law=law)
     a, c, s = problem.crack.depth, problem.crack.half_length, 0.0
     ligament = problem.r_out + 2 * problem.h_front
