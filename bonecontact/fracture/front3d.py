@@ -251,29 +251,10 @@ class CrackFront(Protocol):
     def parameter_span(self, length: float) -> float: ...
 
 
-@dataclass(frozen=True)
-class PolygonFront:
-    """The front of a planar convex polygonal crack: its straight edges.
-
-    The parameter is φ = 2π s/P, s the arc length from the first vertex along the edges
-    in the vertices' order, P the perimeter.  On an edge the frame is constant: e₁ the
-    in-plane normal of the edge pointing out of the crack, e₂ = n, e₃ = e₁ × e₂ (along
-    the edge, against the vertices' order); the radius of curvature is ∞.
-
-    Parameters
-    ----------
-    vertices
-        Corners (m), counter-clockwise about n = ``axes[2]``, convex, in the plane
-        through ``centre`` normal to n.
-    centre
-        A point inside (the centroid).
-    axes
-        Rows (u, v, n), orthonormal and right-handed.
-    """
-
-    vertices: tuple[tuple[float, float, float], ...]
-    centre: tuple[float, float, float]
-    axes: tuple[tuple[float, float, float], ...]
+class _ClosedPolyline:
+    """What the straight-edged fronts share: a closed polyline through ``vertices``
+    parametrised by φ = 2π s/P (s the arc length from the first vertex, P the perimeter).
+    The classes that use it give ``vertices`` and ``centre``."""
 
     @cached_property
     def _v(self) -> npt.NDArray[np.float64]:
@@ -292,16 +273,6 @@ class PolygonFront:
     @cached_property
     def _cum(self) -> npt.NDArray[np.float64]:
         return np.concatenate([[0.0], np.cumsum(self.edge_lengths)])
-
-    @property
-    def rotation(self) -> npt.NDArray[np.float64]:
-        """Rows (u, v, n) of the crack's frame, shape (3, 3)."""
-        return np.asarray(self.axes, dtype=float)
-
-    @property
-    def normal(self) -> npt.NDArray[np.float64]:
-        """The crack-plane normal n (the side of the ``upper`` face)."""
-        return self.rotation[2].copy()
 
     @property
     def perimeter(self) -> float:
@@ -331,6 +302,41 @@ class PolygonFront:
         """Front points at parameters ``phi``, shape (n, 3)."""
         k, t = self._edge(phi)
         return self._v[k] + t[:, None] * self._dirs[k]
+
+
+@dataclass(frozen=True)
+class PolygonFront(_ClosedPolyline):
+    """The front of a planar convex polygonal crack: its straight edges.
+
+    The parameter is φ = 2π s/P, s the arc length from the first vertex along the edges
+    in the vertices' order, P the perimeter.  On an edge the frame is constant: e₁ the
+    in-plane normal of the edge pointing out of the crack, e₂ = n, e₃ = e₁ × e₂ (along
+    the edge, against the vertices' order); the radius of curvature is ∞.
+
+    Parameters
+    ----------
+    vertices
+        Corners (m), counter-clockwise about n = ``axes[2]``, convex, in the plane
+        through ``centre`` normal to n.
+    centre
+        A point inside (the centroid).
+    axes
+        Rows (u, v, n), orthonormal and right-handed.
+    """
+
+    vertices: tuple[tuple[float, float, float], ...]
+    centre: tuple[float, float, float]
+    axes: tuple[tuple[float, float, float], ...]
+
+    @property
+    def rotation(self) -> npt.NDArray[np.float64]:
+        """Rows (u, v, n) of the crack's frame, shape (3, 3)."""
+        return np.asarray(self.axes, dtype=float)
+
+    @property
+    def normal(self) -> npt.NDArray[np.float64]:
+        """The crack-plane normal n (the side of the ``upper`` face)."""
+        return self.rotation[2].copy()
 
     def normals(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """e₁ (the outward in-plane normal of the edge) at parameters ``phi``, (n, 3)."""
@@ -384,7 +390,7 @@ class PolygonFront:
 
 
 @dataclass(frozen=True)
-class PolylineFront:
+class PolylineFront(_ClosedPolyline):
     """The closed polyline front of a grown, non-planar crack: straight edges, each with
     its own frame.
 
@@ -415,24 +421,6 @@ class PolylineFront:
     cuts: tuple[tuple[float, float], ...] | None = None
     reference: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
-    @cached_property
-    def _v(self) -> npt.NDArray[np.float64]:
-        return np.asarray(self.vertices, dtype=float)
-
-    @cached_property
-    def _dirs(self) -> npt.NDArray[np.float64]:
-        d = np.roll(self._v, -1, axis=0) - self._v
-        return d / self.edge_lengths[:, None]
-
-    @cached_property
-    def edge_lengths(self) -> npt.NDArray[np.float64]:
-        """Length of every edge (vertex k to k + 1), m."""
-        return np.linalg.norm(np.roll(self._v, -1, axis=0) - self._v, axis=1)
-
-    @cached_property
-    def _cum(self) -> npt.NDArray[np.float64]:
-        return np.concatenate([[0.0], np.cumsum(self.edge_lengths)])
-
     @property
     def centre(self) -> tuple[float, float, float]:
         """The mean of the vertices (m)."""
@@ -451,34 +439,6 @@ class PolylineFront:
         u = u - (u @ n) * n
         u = u / np.linalg.norm(u)
         return np.vstack([u, np.cross(n, u), n])
-
-    @property
-    def perimeter(self) -> float:
-        """Length of the whole front (m)."""
-        return float(self._cum[-1])
-
-    @property
-    def a(self) -> float:
-        """The largest distance from the centre to a vertex (m)."""
-        return float(np.max(np.linalg.norm(self._v - np.asarray(self.centre), axis=1)))
-
-    @property
-    def b(self) -> float:
-        """The smallest distance from the centre to an edge (m)."""
-        d = np.asarray(self.centre) - self._v
-        off = d - np.sum(d * self._dirs, axis=1)[:, None] * self._dirs
-        return float(np.min(np.linalg.norm(off, axis=1)))
-
-    def _edge(self, phi: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        s = np.mod(np.atleast_1d(np.asarray(phi, dtype=float)), 2 * math.pi)
-        s = s * self.perimeter / (2 * math.pi)
-        k = np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self._v) - 1)
-        return k, s - self._cum[k]
-
-    def point(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """Front points at parameters ``phi``, shape (n, 3)."""
-        k, t = self._edge(phi)
-        return self._v[k] + t[:, None] * self._dirs[k]
 
     def normals(self, phi: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """e₁ = t × e₂ of the edges at parameters ``phi``, (n, 3)."""
