@@ -28,7 +28,9 @@ With ``--contact`` the same loop runs ``bench_scale3d.py``'s scene run (``boneco
 ``linear = "iterative"``; ``"direct"`` too with ``mumps`` among the variants) for the same
 mesh and ranks right after the reference runs of each repeat, so that both see the same
 machine state; ratios contact / reference (time, CG iterations, peak memory) are taken
-between medians.
+between medians.  The scene's ``[solver] tolerance`` is ``--contact-tolerance``: 1e-6 by
+default, so that its final Krylov solve stops at rtol 1e-8 like the reference
+(``bonecontact.contact.krylov.krylov_rtol``); 1e-10 (the scene default) gives 1e-12.
 
 Usage::
 
@@ -225,12 +227,13 @@ def run_reference(label: str, ranks: int, variant: str, mesh_dir: Path) -> dict:
     return {**json.loads(lines[-1][7:]), "load_before": load0, "status": "ok"}
 
 
-def run_contact(label: str, ranks: int, linear: str, mesh: Path) -> dict:
-    """One scene run of ``bench_scale3d.py`` (the contact problem of the same mesh)."""
+def run_contact(label: str, ranks: int, linear: str, mesh: Path, tolerance: float) -> dict:
+    """One scene run of ``bench_scale3d.py`` (the contact problem of the same mesh, the
+    scene's ``[solver] tolerance``)."""
     from bench_scale3d import run_case
 
     load0 = _load_average()
-    row = run_case(label, ranks, linear, mesh, None)
+    row = run_case(label, ranks, linear, mesh, None, tolerance)
     return {"kind": "contact", "variant": linear, **row, "load_before": load0}
 
 
@@ -287,6 +290,13 @@ def main() -> None:
     p.add_argument("--contact", action="store_true", help="also run the contact scene")
     p.add_argument("--mesh-dir", type=Path, default=Path("/tmp/bonecontact-bench-meshes"))
     p.add_argument("--out", type=Path, default=OUT)
+    p.add_argument(
+        "--contact-tolerance",
+        type=float,
+        default=1e-6,
+        help="the contact scene's [solver] tolerance (1e-6: final Krylov rtol 1e-8, the "
+        "reference's; 1e-10, the scene default: 1e-12)",
+    )
     p.add_argument("--tag", default="", help="suffix of the output file (e.g. 'before')")
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = p.parse_args()
@@ -309,9 +319,13 @@ def main() -> None:
                     print(json.dumps(runs[-1]), flush=True)
                 linears = ["iterative"] + (["direct"] if "mumps" in variants else [])
                 for linear in linears if args.contact else []:
-                    runs.append(run_contact(label, ranks, linear, mesh) | {"repeat": rep})
+                    runs.append(
+                        run_contact(label, ranks, linear, mesh, args.contact_tolerance)
+                        | {"repeat": rep}
+                    )
                     print(json.dumps(runs[-1]), flush=True)
             out = {"size": label, "ranks": ranks, "machine": machine(),
+                   "contact_tolerance": args.contact_tolerance,
                    "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
                    "runs": runs, **summarize(runs)}  # fmt: skip
             tag = f"_{args.tag}" if args.tag else ""

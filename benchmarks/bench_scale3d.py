@@ -72,6 +72,7 @@ load_steps = 1
 [solver]
 linear = "{linear}"
 max_iterations = 40
+tolerance = {tolerance!r}
 
 [[material]]
 name = "sphere"
@@ -161,8 +162,12 @@ def hertz_from_table(table: Path) -> dict[str, float]:
     }
 
 
-def run_case(label: str, ranks: int, linear: str, mesh: Path, keep: Path | None) -> dict:
-    """Write the scene, run ``bonecontact run`` on ``ranks`` ranks, collect the figures."""
+def run_case(
+    label: str, ranks: int, linear: str, mesh: Path, keep: Path | None, tolerance: float = 1e-10
+) -> dict:
+    """Write the scene, run ``bonecontact run`` on ``ranks`` ranks, collect the figures.
+    ``tolerance``: the scene's ``[solver] tolerance`` (the default 1e-10: Krylov rtol
+    1e-12; 1e-6: rtol 1e-8, the plain linear solve's; ``contact.krylov.krylov_rtol``)."""
     work = Path(tempfile.mkdtemp(prefix=f"scale3d-{label}-")) if keep is None else keep
     work.mkdir(parents=True, exist_ok=True)
     results = work / "results"
@@ -171,6 +176,7 @@ def run_case(label: str, ranks: int, linear: str, mesh: Path, keep: Path | None)
         label=label,
         mesh=mesh,
         linear=linear,
+        tolerance=float(tolerance),
         E1=LOAD_DRIVEN_E,
         E2=LOAD_DRIVEN_STIFFNESS_RATIO * LOAD_DRIVEN_E,
         nu=LOAD_DRIVEN_NU,
@@ -185,6 +191,7 @@ def run_case(label: str, ranks: int, linear: str, mesh: Path, keep: Path | None)
     proc = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     row: dict = {"label": label, "ranks": ranks, "linear": linear, "wall_s": round(wall, 2)}
+    row["tolerance"] = float(tolerance)
     if proc.returncode != 0:
         row["status"] = f"failed (exit {proc.returncode}): " + proc.stderr.strip()[-300:]
         return row
@@ -264,6 +271,7 @@ def main() -> None:
     p.add_argument(
         "--budget", type=float, default=None, help="peak memory / one plain linear solve's"
     )
+    p.add_argument("--tolerance", type=float, default=1e-10, help="the scene's [solver] tolerance")
     args = p.parse_args()
     within = True
     args.out.mkdir(parents=True, exist_ok=True)
@@ -273,7 +281,7 @@ def main() -> None:
         mesh = make_mesh(label, args.mesh_dir)
         for linear in args.linear.split(","):
             for n in map(int, args.ranks.split(",")):
-                row = run_case(label, n, linear, mesh, args.keep)
+                row = run_case(label, n, linear, mesh, args.keep, args.tolerance)
                 within = check_budget(row, args.out, args.budget) and within
                 row["machine"] = info
                 print(json.dumps(row), flush=True)

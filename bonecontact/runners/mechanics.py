@@ -26,6 +26,7 @@ from dolfinx import fem
 
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError, build_interface
+from bonecontact.contact.krylov import krylov_rtol
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver, PDASResult
 from bonecontact.mechanics.integrator import Integrator
@@ -383,7 +384,7 @@ def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> 
         scene.analysis.kind,
         dt,
         linear=scene.solver.linear,
-        rtol=min(1e-2 * scene.solver.tolerance, 1e-12),
+        rtol=krylov_rtol(scene.solver.tolerance),
         contact=contact,
         energy_balance=dynamic,
     )
