@@ -10,8 +10,9 @@ step; fields every ``fields_every`` steps) so that a failed run leaves its last 
 state on disk.  Stresses are in Pa, displacements in m, velocities in m/s, forces in
 N (N/m in 2D plane strain), energies in J (J/m in 2D).
 
-Fields are written twice, in the same step: ``fields.xdmf`` (+ ``.h5``; ParaView,
-"Xdmf3ReaderT") and ``fields.pvd`` (VTK; ParaView and ``pyvista.read``).
+Fields are written twice, in the same step, both binary and by every rank for its own
+cells: ``fields.xdmf`` (+ ``.h5``; ParaView, "Xdmf3ReaderT") and ``fields.pvd`` (binary
+VTK pieces, :mod:`bonecontact.runners.vtu`; ParaView and ``pyvista.read``).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from bonecontact.common.errors import InputError
 from bonecontact.common.formatting import format_cell, format_float
 from bonecontact.common.profiling import peak_memory_mb
 from bonecontact.common.version import __version__
+from bonecontact.runners.vtu import VtuSeries
 
 if TYPE_CHECKING:
     from bonecontact.mechanics.integrator import Integrator
@@ -123,9 +125,10 @@ class StressFields:
         self._expr = fem.Expression(sigma, T.element.interpolation_points)
 
     def update(self) -> None:
-        """Re-evaluate from the current state (the stress in chunks of cells: evaluated
-        at once, the expression's coefficients of every cell — 48 values per cell in
-        3D — would be packed together, 43 MiB at 118k cells; issue 28)."""
+        """Re-evaluate from the current state, in chunks of cells (evaluated at once, the
+        expression's coefficients of every cell — 48 values per cell in 3D — would be
+        packed together, 43 MiB at 118k cells, and the symmetric part, deviator and
+        eigenvalues three more arrays of 9 values per cell; issue 28)."""
         imap = self.stress.function_space.mesh.topology.index_map(
             self.stress.function_space.mesh.topology.dim
         )
@@ -133,17 +136,27 @@ class StressFields:
         for start in range(0, ncells, self.CHUNK):
             cells = np.arange(start, min(start + self.CHUNK, ncells), dtype=np.int32)
             self.stress.interpolate(self._expr, cells0=cells)
-        s = self.stress.x.array.reshape(-1, 3, 3)
-        s = s + s.transpose(0, 2, 1)
-        s *= 0.5
-        tr = np.trace(s, axis1=1, axis2=2)
-        dev = s.copy()
-        for i in range(3):
-            dev[:, i, i] -= tr / 3.0
-        self.von_mises.x.array[:] = np.sqrt(1.5 * np.einsum("kij,kij->k", dev, dev))
-        del dev
-        w = np.linalg.eigvalsh(s)  # σ3 ≤ σ2 ≤ σ1
-        self.principal.x.array.reshape(-1, 3)[:] = w[:, ::-1]
+        stress = self.stress.x.array.reshape(-1, 3, 3)
+        von_mises = self.von_mises.x.array
+        principal = self.principal.x.array.reshape(-1, 3)
+        for start in range(0, stress.shape[0], self.CHUNK):
+            part = slice(start, start + self.CHUNK)
+            von_mises[part], principal[part] = _invariants(stress[part])
+
+
+def _invariants(
+    sigma: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Von Mises stress and principal stresses σ1 ≥ σ2 ≥ σ3 of the symmetric parts of
+    the (n, 3, 3) stresses ``sigma``."""
+    s = sigma + sigma.transpose(0, 2, 1)
+    s *= 0.5
+    tr = np.trace(s, axis1=1, axis2=2)
+    dev = s.copy()
+    for i in range(3):
+        dev[:, i, i] -= tr / 3.0
+    vm = np.sqrt(1.5 * np.einsum("kij,kij->k", dev, dev))
+    return vm, np.linalg.eigvalsh(s)[:, ::-1]
 
 
 class Probes:
@@ -510,10 +523,10 @@ class ResultsWriter:
             stem = self.dir / self.fields_stem
             self._xdmf = io.XDMFFile(self.comm, str(stem.with_suffix(".xdmf")), "w")
             self._xdmf.write_mesh(msh)
-            self._vtk = io.VTKFile(self.comm, str(stem.with_suffix(".pvd")), "w")
+            self._vtk = VtuSeries(self.comm, stem.with_suffix(".pvd"))
         for f in functions:
             self._xdmf.write_function(f, t)
-        self._vtk.write_function(list(functions), t)
+        self._vtk.write(t, functions)
 
     # ------------------------------------------------------------ summary
     def summary(self, status: str, **info) -> dict:
@@ -523,9 +536,8 @@ class ResultsWriter:
         return data
 
     def close(self) -> None:
-        for f in (self._xdmf, self._vtk):
-            if f is not None:
-                f.close()
+        if self._xdmf is not None:
+            self._xdmf.close()
         self._xdmf = self._vtk = None
         if self.comm.rank == 0:
             for f in (self._hist, self._probe_file):
