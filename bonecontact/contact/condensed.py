@@ -8,6 +8,10 @@ the layout of the contact rows, with the per-node data (``D_pp``, gaps, row scal
 this rank's owned slave nodes (docs/theory/pdas.md#distributed-set-logic).  It is built
 once per operator by :meth:`CondensedSystem.build` and knows nothing of active sets or
 friction.
+A solver that changes the operator in place (the refactor and Krylov strategies'
+eliminated matrix) takes ``Ã`` over with :meth:`CondensedSystem.take_operator`; the system
+then keeps only ``Ã``'s stripes (its contact and Dirichlet rows and columns), from which
+:meth:`CondensedSystem.restore_operator` resets that matrix to ``Ã`` for the next set.
 """
 
 from __future__ import annotations
@@ -120,7 +124,7 @@ class CondensedSystem:
     Qt: PETSc.Mat  # Qᵀ (basis transformation)
     T: PETSc.Mat  # rotation into the nodal frames
     Tt: PETSc.Mat  # Tᵀ
-    At: PETSc.Mat  # Ã = T Q A Qᵀ Tᵀ (Dirichlet rows eliminated)
+    At: PETSc.Mat | None  # Ã = T Q A Qᵀ Tᵀ (Dirichlet rows eliminated); None once taken
     bc_rows: npt.NDArray  # owned global Dirichlet rows
     bc_local: npt.NDArray[np.int32]  # the same, local
     start: int  # first owned global row
@@ -135,6 +139,9 @@ class CondensedSystem:
     w: PETSc.Vec  # work: T F̂ − Ã Ũ
     Fh: PETSc.Vec  # work: F̂ = Q b
     AtL: PETSc.Mat | None = None  # the contact rows of Ã (built on first use)
+    #: the entries of Ã in the contact and Dirichlet rows and columns (the rest zero),
+    #: once Ã is taken over (:meth:`take_operator`), else ``None``
+    stripes: PETSc.Mat | None = None
 
     @classmethod
     def build(
@@ -202,22 +209,59 @@ class CondensedSystem:
     def contact_residual(self) -> npt.NDArray[np.float64]:
         """This rank's contact rows of ``w = T F̂ − Ã Ũ`` (a product with the contact
         rows of ``Ã`` only, :attr:`AtL`)."""
-        rows = self.layout.local_rows
-        if self.AtL is None:
-            comm = self.layout.comm
-            lo, hi = self.At.getOwnershipRangeColumn()
-            isrow = PETSc.IS().createGeneral(
-                (rows.astype(np.int64) + self.start).astype(PETSc.IntType), comm=comm
-            )
-            iscol = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=comm)
-            self.AtL = self.At.createSubMatrix(isrow, iscol)
-            isrow.destroy()
-            iscol.destroy()
-        wl = self.AtL.createVecLeft()
-        self.AtL.mult(self.Uh, wl)
-        w = self.r0.array_r[rows] - wl.array_r
+        AtL = self._contact_rows()
+        wl = AtL.createVecLeft()
+        AtL.mult(self.Uh, wl)
+        w = self.r0.array_r[self.layout.local_rows] - wl.array_r
         wl.destroy()
         return w
+
+    def _contact_rows(self) -> PETSc.Mat:
+        """:attr:`AtL`, the contact rows of ``Ã`` (built from ``Ã`` on first use)."""
+        if self.AtL is None:
+            rows = self.layout.local_rows.astype(np.int64) + self.start
+            self.AtL = row_block(self.At, rows.astype(PETSc.IntType))
+        return self.AtL
+
+    # ------------------------------------------------- the operator taken over
+    def take_operator(self, stripes: bool = True) -> PETSc.Mat:
+        """Hand ``Ã`` over to a solver that changes it in place (collective).
+
+        The system keeps ``Ã``'s contact rows (:attr:`AtL`) and its stripes
+        (:attr:`stripes`: the entries in the contact and Dirichlet rows and columns, the
+        only ones a set's elimination or replaced rows change), from which
+        :meth:`restore_operator` makes the changed matrix ``Ã`` again; :attr:`At` is
+        ``None`` afterwards.  One matrix of ``Ã``'s size is kept instead of two.
+        ``stripes=False``: a caller that never restores ``Ã`` (nor needs
+        :meth:`operator_product`) leaves the stripes out.
+        """
+        if self.At is None:
+            raise RuntimeError("contact: the condensed operator has been taken over already")
+        self._contact_rows()
+        if stripes:
+            self.stripes = operator_stripes(self.At, self.stripe_rows())
+        At, self.At = self.At, None
+        return At
+
+    def stripe_rows(self) -> npt.NDArray:
+        """The owned global rows whose rows and columns a set may change: the contact
+        rows and the Dirichlet rows (sorted)."""
+        rows = np.concatenate(
+            [self.layout.local_rows.astype(np.int64) + self.start, self.bc_rows.astype(np.int64)]
+        )
+        return np.unique(rows).astype(PETSc.IntType)
+
+    def restore_operator(self, B: PETSc.Mat) -> None:
+        """``B ← Ã`` for a matrix ``B`` taken by :meth:`take_operator` and changed only in
+        the stripes since (collective; exact: the stripes are zeroed and ``Ã``'s entries
+        added there, the rest of ``B`` is not touched)."""
+        B.zeroRowsColumns(self.stripe_rows(), diag=0.0)
+        B.axpy(1.0, self.stripes, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+
+    def operator_product(self, v: PETSc.Vec, out: PETSc.Vec) -> None:
+        """``out = Ã v`` for a ``v`` that is zero outside the contact and Dirichlet rows
+        (from the stripes once ``Ã`` is taken over: the same sums, exactly)."""
+        (self.At if self.At is not None else self.stripes).mult(v, out)
 
     def fixed_values(self, xold: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Values of rows when prescribed: the gap for normal rows, the unknowns ``xold``
@@ -238,24 +282,74 @@ class CondensedSystem:
         """The contact forces of :attr:`Uh` in the original basis (N; N/m in 2D;
         ``−Q⁻¹ Tᵀ w`` with ``Q⁻¹ = 2I − Q``, times the force scale; see
         :meth:`bonecontact.contact.pdas.ContactSolver.contact_force`)."""
-        self.At.mult(self.Uh, self.w)
-        self.w.aypx(-1.0, self.r0)
-        wv = self.At.createVecLeft()
+        wv = self.w
         wv.set(0.0)
-        rows = self.layout.local_rows
-        wv.array[rows] = self.w.array_r[rows]
+        wv.array[self.layout.local_rows] = self.contact_residual()
         tw = self.Tt.createVecLeft()
         self.Tt.mult(wv, tw)
         self.Qt.multTranspose(tw, out)
         out.aypx(-1.0, tw)  # Q⁻¹ Tᵀ w = 2 Tᵀ w − Q Tᵀ w
         out.axpy(1.0, tw)
         out.scale(-self.force_scale)
-        wv.destroy()
         tw.destroy()
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
-        for obj in (self.At, self.T, self.Tt, self.Qt, self.Uh, self.r0, self.w, self.Fh):
+        for obj in (self.T, self.Tt, self.Qt, self.Uh, self.r0, self.w, self.Fh):
             obj.destroy()
-        if self.AtL is not None:
-            self.AtL.destroy()
+        for mat in (self.At, self.AtL, self.stripes):
+            if mat is not None:
+                mat.destroy()
+
+    def matrices(self) -> dict[str, PETSc.Mat]:
+        """The matrices the system holds (name → matrix; those not built left out)."""
+        named = {"At": self.At, "AtL": self.AtL, "stripes": self.stripes}
+        named.update(Qt=self.Qt, T=self.T, Tt=self.Tt)
+        return {k: m for k, m in named.items() if m is not None}
+
+
+def row_block(A: PETSc.Mat, rows: npt.NDArray) -> PETSc.Mat:
+    """The owned global ``rows`` of ``A`` with all its columns (collective; rows numbered
+    in the order given, rank after rank; columns as ``A``'s)."""
+    comm = A.getComm()
+    lo, hi = A.getOwnershipRangeColumn()
+    isrow = PETSc.IS().createGeneral(rows, comm=comm)
+    iscol = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=comm)
+    try:
+        return A.createSubMatrix(isrow, iscol)
+    finally:
+        isrow.destroy()
+        iscol.destroy()
+
+
+def operator_stripes(A: PETSc.Mat, rows: npt.NDArray) -> PETSc.Mat:
+    """The entries of ``A`` in the rows and the columns ``rows`` (owned global rows,
+    sorted), the others left out, as a matrix of ``A``'s size and layout (collective;
+    exact zeros left out too).  Built from two submatrices (the rows, the columns), never
+    a copy of ``A``."""
+    comm = A.getComm()
+    lo, hi = A.getOwnershipRange()
+    ri, rj, rv = row_block(A, rows).getValuesCSR()
+    isall = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=comm)
+    iscol = PETSc.IS().createGeneral(rows, comm=comm)
+    cols = A.createSubMatrix(isall, iscol)
+    ci, cj, cv = cols.getValuesCSR()
+    for obj in (isall, iscol, cols):
+        obj.destroy()
+    all_rows = np.concatenate(comm.tompi4py().allgather(np.asarray(rows, dtype=np.int64)))
+    in_rows = np.zeros(hi - lo, dtype=bool)
+    in_rows[np.asarray(rows, dtype=np.int64) - lo] = True
+    r_i = np.repeat(np.asarray(rows, dtype=np.int64), np.diff(ri))
+    c_i = np.repeat(np.arange(lo, hi, dtype=np.int64), np.diff(ci))
+    keep_r = rv != 0.0
+    keep_c = (cv != 0.0) & ~in_rows[c_i - lo]  # (entries of the rows are in the first part)
+    I = np.concatenate([r_i[keep_r], c_i[keep_c]]).astype(PETSc.IntType)
+    J = np.concatenate([rj[keep_r].astype(np.int64), all_rows[cj[keep_c]]]).astype(PETSc.IntType)
+    V = np.concatenate([rv[keep_r], cv[keep_c]])
+    S = PETSc.Mat().create(comm=comm)
+    S.setSizes(A.getSizes())
+    S.setType(PETSc.Mat.Type.AIJ)
+    S.setPreallocationCOO(I, J)
+    S.setValuesCOO(V)
+    S.assemble()
+    return S

@@ -180,13 +180,14 @@ class RefactorStrategy:
         nonsymmetric: bool,
     ):
         self.system = system
-        self.B = system.At.duplicate(copy=True)
+        # Ã itself, changed in place per set (the system keeps its stripes to restore it)
+        self.B = system.take_operator()
         self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(system.layout.comm)
         self.ksp.setOptionsPrefix(options.prefix)
         self._configure(options, rtol, V, nonsymmetric)
         self.ksp.setFromOptions()
-        self._rhs = system.At.createVecLeft()
+        self._rhs = self.B.createVecLeft()
 
     def _configure(
         self, options: LinearOptions, rtol: float, V: fem.FunctionSpace, nonsymmetric: bool
@@ -241,7 +242,7 @@ class RefactorStrategy:
         v.array[lay.local_rows[own_fixed]] = rows.values[own_fixed]
         sy.r0.copy(self._rhs)
         self._rhs.array[lay.local_rows] -= rows.forces
-        sy.At.copy(self.B, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        sy.restore_operator(self.B)
         eliminated = np.concatenate(
             [
                 sy.bc_rows.astype(np.int64),
@@ -395,7 +396,7 @@ class KrylovStrategy(RefactorStrategy):
         fixed_local = lay.local_rows[rows.fixed]  # (the rows of this rank)
         v.array[fixed_local] = shift[rows.fixed]
         rhs = self._rhs.duplicate()
-        sy.At.mult(v, rhs)
+        sy.operator_product(v, rhs)
         rhs.scale(-1.0)
         rhs.array[fixed_local] = sy.diag_value * v.array[fixed_local]
         if sy.bc_local.size:

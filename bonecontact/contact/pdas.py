@@ -248,8 +248,10 @@ class ContactSolver:
         return self.system.T
 
     @property
-    def At(self) -> PETSc.Mat:
-        """The condensed operator ``Ã`` of :attr:`system`."""
+    def At(self) -> PETSc.Mat | None:
+        """The condensed operator ``Ã`` of :attr:`system` (``None`` once a strategy has
+        taken it over: the refactor/Krylov strategies' :attr:`B` is ``Ã`` changed in
+        place)."""
         return self.system.At
 
     @property
