@@ -119,18 +119,28 @@ class SplitBasis:
         self.allowed = np.asarray(allowed, dtype=bool)
         QtP = _rows_outside_identity(Qt, np.asarray(patch_rows, dtype=np.int64), keep=True)
         NR = _rows_outside_identity(Qt, np.asarray(patch_rows, dtype=np.int64), keep=False)
-        Ahat = A.PtAP(QtP)
-        self.K = Ahat.PtAP(Tt)
-        Ahat.destroy()
+        P = QtP.matMult(Tt)
+        # one triple product, kept as a plain copy: a product keeps its factors (and its
+        # intermediate data) alive for as long as it lives (issue 28)
+        self.K = _plain(A.PtAP(P))
         TN = T.matMult(NR)  # (NR = Qᵀ − Q_Pᵀ: the coupling of the non-patch rows)
-        self.J = TN.matMult(Tt)
+        self.J = _plain(TN.matMult(Tt))
         self.Jt = self.J.transpose(PETSc.Mat())
-        for M in (QtP, NR, TN):
+        for M in (QtP, NR, TN, P):
             M.destroy()
 
     def destroy(self) -> None:
         for M in (self.K, self.J, self.Jt):
             M.destroy()
+
+
+def _plain(product: PETSc.Mat) -> PETSc.Mat:
+    """A copy of a matrix product without its product record (which holds references to
+    the factors and intermediate data); the product is destroyed."""
+    try:
+        return product.duplicate(copy=True)
+    finally:
+        product.destroy()
 
 
 def _rows_outside_identity(Qt: PETSc.Mat, patch_rows: npt.NDArray, keep: bool) -> PETSc.Mat:
@@ -250,10 +260,11 @@ class LowRankActiveSetSolver:
         self.rebase_ratio = float(rebase_ratio)
         self.memory_ratio = float(memory_ratio)
         self.block_limit = self.column_limit = self.max_columns
-        # the contact rows of A (A·X is only ever needed there)
+        # the contact rows of A (A·X is only ever needed there) and its columns at the
+        # rows a set may fix (A·v is only ever needed for v zero elsewhere)
         self.AL = self._contact_rows(A)
-        self.B0 = A.duplicate(copy=True)
-        self.B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.AC, self._cols = self._fixed_columns(A)
+        self.B0 = self._base_matrix(A)
         self.prefix = prefix
         self.ksp = self._make_ksp()
         self.resplits = 0
@@ -279,10 +290,31 @@ class LowRankActiveSetSolver:
         self._values = A.createVecLeft()
         self._rhs = A.createVecLeft()
         self._xb = A.createVecRight()
-        self._tmp = A.createVecLeft()
         self._vals: npt.NDArray[np.float64] = np.zeros(self.L.size)
         self._wg: npt.NDArray[np.float64] = np.zeros(self.L.size)
         self._reff = A.createVecLeft()
+
+    def _base_matrix(self, A: PETSc.Mat) -> PETSc.Mat:
+        """The matrix factorised: a split basis's operator itself (factorised once per
+        split: after :attr:`AL` and :attr:`AC` are taken, no product needs it), otherwise
+        a copy of ``A`` (a rebase factorises another set)."""
+        B0 = A if self.split is not None else A.duplicate(copy=True)
+        B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        return B0
+
+    def _fixed_columns(self, A: PETSc.Mat) -> tuple[PETSc.Mat, npt.NDArray[np.int32]]:
+        """The columns of ``A`` at this rank's Dirichlet and contact rows (all rows), and
+        those local rows (sorted)."""
+        cols = np.unique(np.concatenate([self.bc_local, self.L])).astype(np.int32)
+        lo, hi = A.getOwnershipRange()
+        isrow = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=self.comm)
+        iscol = PETSc.IS().createGeneral(
+            (cols.astype(np.int64) + self.start).astype(PETSc.IntType), comm=self.comm
+        )
+        AC = A.createSubMatrix(isrow, iscol)
+        isrow.destroy()
+        iscol.destroy()
+        return AC, cols
 
     def _make_split(self, allowed: npt.NDArray[np.bool_], rows: npt.NDArray) -> SplitBasis:
         """The split basis with this rank's contact rows ``allowed`` in the contact basis."""
@@ -340,8 +372,12 @@ class LowRankActiveSetSolver:
 
     def _lift(self, v: PETSc.Vec, fixed_local: npt.NDArray[np.int32], out: PETSc.Vec) -> None:
         """``out = r − A v`` on free rows and ``δ v`` on the fixed ones (what
-        ``MatZeroRowsColumns`` does to a right-hand side), ``r = r0 − w_given``."""
-        self.A.mult(v, out)
+        ``MatZeroRowsColumns`` does to a right-hand side), ``r = r0 − w_given``; ``v`` is
+        zero outside the fixed rows (a product with :attr:`AC`)."""
+        vc = self.AC.createVecRight()
+        vc.array[:] = v.array_r[self._cols]
+        self.AC.mult(vc, out)
+        vc.destroy()
         out.aypx(-1.0, self._reff)
         out.array[fixed_local] = self.diag_value * v.array[fixed_local]
 
@@ -352,7 +388,8 @@ class LowRankActiveSetSolver:
         t0 = time.perf_counter()
         if self.split is not None and global_any(self.comm, mask & ~self.split.allowed):
             raise ValueError("split basis: only rows of the support patch can be fixed in the base")
-        self.A.copy(self.B0, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        if self.B0 is not self.A:
+            self.A.copy(self.B0, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         rows = (self._fixed_local(mask).astype(np.int64) + self.start).astype(PETSc.IntType)
         self.B0.zeroRowsColumns(rows, diag=self.diag_value)
         self.ksp.setOperators(self.B0)
@@ -487,14 +524,14 @@ class LowRankActiveSetSolver:
         allowed = self.split.allowed | np.isin(self._node, nodes)
         first = self.split.first
         self.split.destroy()
-        for obj in (self.ksp, self.B0, self.AL):
+        for obj in (self.ksp, self.B0, self.AL, self.AC):
             obj.destroy()
         self.split = self._make_split(allowed, self.L)
         self.split.first = first
         self.A = self.split.K
         self.AL = self._contact_rows(self.A)
-        self.B0 = self.A.duplicate(copy=True)
-        self.B0.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self.AC, self._cols = self._fixed_columns(self.A)
+        self.B0 = self._base_matrix(self.A)
         self.ksp = self._make_ksp()
         self.resplits += 1
         self.base = None
@@ -541,9 +578,11 @@ class LowRankActiveSetSolver:
         t1 = time.perf_counter()
         self.ksp.solve(self._rhs, self._xb)
         t_solve = time.perf_counter() - t1
-        self.A.mult(self._xb, self._tmp)
+        axb = self.AL.createVecLeft()
+        self.AL.mult(self._xb, axb)
         self._xbN = self._full(self._xb)[self.L].copy()
-        self._AxbN = self._tmp.array[self.L].copy()
+        self._AxbN = axb.array_r.copy()
+        axb.destroy()
         self.t_solve = global_op(self.comm, t_solve, MPI.MAX)
         if self.t_column == 0.0:
             # first estimate of a block of k columns: (1.3 + c k) solves, c = 0.15 serially
@@ -567,14 +606,14 @@ class LowRankActiveSetSolver:
         R = Rm.getDenseArray(readonly=False)
         in_base = self._flags(self.base, qs)
         xq = [j for j in range(k) if in_base[j]]
-        if xq:
-            U = _dense(self.comm, self.nloc, k)
+        if xq:  # (A times unit columns at contact rows: columns of AC)
+            U = _dense(self.comm, self._cols.size, k)
             Ua = U.getDenseArray(readonly=False)
             for j in xq:
                 if lo <= qs[j] < hi:
-                    Ua[self.L[qs[j] - lo], j] = 1.0
+                    Ua[np.searchsorted(self._cols, self.L[qs[j] - lo]), j] = 1.0
             U.assemble()
-            AU = self.A.matMult(U)
+            AU = self.AC.matMult(U)
             R[:, :] = -AU.getDenseArray()
             R[self._fixed_local(self.base), :] = 0.0
             AU.destroy()
@@ -895,11 +934,11 @@ class LowRankActiveSetSolver:
             self.ksp,
             self.B0,
             self.AL,
+            self.AC,
             self._r0,
             self._reff,
             self._values,
             self._rhs,
             self._xb,
-            self._tmp,
         ):
             obj.destroy()
