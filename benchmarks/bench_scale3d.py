@@ -22,7 +22,9 @@ share of the dofs) and, when ``summary.json`` has it, ``memory_bytes_per_dof`` b
 ``--budget R`` holds the peak to R times that of one plain linear solve of the same mesh
 on the same ranks (``results/reference_<size>_<ranks>.json`` of ``bench_reference.py``,
 its ``gamg_default`` row — ``mumps`` for the direct path): a row over it gets
-``status = over budget`` and the script exits with status 1.
+``status = over budget`` and the script exits with status 1.  ``--phase-budget`` holds
+each phase to :data:`PHASE_BUDGET` (bytes per owned dof of the largest rank: what the
+solver set-up and the contact solve keep, what the output adds above them) the same way.
 """
 
 from __future__ import annotations
@@ -55,6 +57,18 @@ from bonecontact.verification.load_driven import (  # noqa: E402
 
 OUT = HERE / "results"
 A_OVER_R = 0.1
+
+#: Memory budget by phase (issue 28), bytes per owned dof of the largest rank, from
+#: ``summary.json``'s ``memory_bytes_per_dof``: ``solver_setup`` what the set-up keeps
+#: (resident at its end less the resident after the mortar geometry: the step operator,
+#: the condensed operator, its contact rows and stripes, Q, T, the near-nullspace),
+#: ``time_stepping`` what the contact solve keeps beyond that (GAMG hierarchy, Krylov and
+#: PDAS work), ``output`` the field writer's peak above the resident set of the solve.
+#: Their sum, 1850 B/dof, is what a run may add to its mesh and model and stay within
+#: 1.5 times one plain linear solve of the same mesh (65k dofs on 1 rank and 1M on 2:
+#: 1.5 x 4.5 kB resp. 2.7 kB per dof, of which the mesh read and the model hold 4.9
+#: resp. 2.2 kB; issue 28's target).
+PHASE_BUDGET = {"solver_setup": 1000.0, "time_stepping": 500.0, "output": 350.0}
 
 SCENE = """\
 # 3D load-driven Hertz contact (benchmark scene; SI units)
@@ -243,6 +257,35 @@ def check_budget(row: dict, out: Path, budget: float | None) -> bool:
     return True
 
 
+def phase_growth(memory: dict[str, dict[str, float]]) -> dict[str, float]:
+    """What each budgeted phase adds (bytes per dof; :data:`PHASE_BUDGET`) from
+    ``summary.json``'s ``memory_bytes_per_dof`` (phases missing there are left out)."""
+    res = {k: v["resident"] for k, v in memory.items()}
+    out: dict[str, float] = {}
+    if "solver_setup" in res and "mortar_geometry" in res:
+        out["solver_setup"] = res["solver_setup"] - res["mortar_geometry"]
+    if "time_stepping" in res and "solver_setup" in res:
+        out["time_stepping"] = res["time_stepping"] - res["solver_setup"]
+    if "output" in memory and "time_stepping" in res:
+        out["output"] = max(memory["output"]["peak"] - res["time_stepping"], 0.0)
+    return {k: round(v, 1) for k, v in out.items()}
+
+
+def check_phase_budget(row: dict, enforce: bool) -> bool:
+    """Add each phase's growth and its ratio to :data:`PHASE_BUDGET` to ``row``
+    (``phase_bytes_per_dof``); ``False`` if ``enforce`` and a phase is over its budget."""
+    if "memory_bytes_per_dof" not in row:
+        return True
+    growth = phase_growth(json.loads(row["memory_bytes_per_dof"]))
+    row["phase_bytes_per_dof"] = json.dumps(growth)
+    over = {k: v for k, v in growth.items() if v > PHASE_BUDGET[k]}
+    row["phase_budget"] = "ok" if not over else "over: " + ", ".join(sorted(over))
+    if enforce and over:
+        row["status"] = f"over phase budget ({row['phase_budget']})"
+        return False
+    return True
+
+
 def append_row(target: Path, row: dict) -> None:
     """Append ``row`` to the CSV file; a column the file does not have yet is added (the
     file rewritten with the union of the columns, old rows empty there)."""
@@ -271,6 +314,9 @@ def main() -> None:
     p.add_argument(
         "--budget", type=float, default=None, help="peak memory / one plain linear solve's"
     )
+    p.add_argument(
+        "--phase-budget", action="store_true", help="hold each phase to PHASE_BUDGET (B/dof)"
+    )
     p.add_argument("--tolerance", type=float, default=1e-10, help="the scene's [solver] tolerance")
     args = p.parse_args()
     within = True
@@ -283,6 +329,7 @@ def main() -> None:
             for n in map(int, args.ranks.split(",")):
                 row = run_case(label, n, linear, mesh, args.keep, args.tolerance)
                 within = check_budget(row, args.out, args.budget) and within
+                within = check_phase_budget(row, args.phase_budget) and within
                 row["machine"] = info
                 print(json.dumps(row), flush=True)
                 append_row(target, row)
