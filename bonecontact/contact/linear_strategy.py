@@ -133,6 +133,10 @@ class LowRankStrategy:
             memory_ratio=options.memory_ratio,
             split=split,
         )
+        if split is not None:
+            # a split basis factorises its own operator: Ã is not needed beside it (the
+            # system keeps its contact rows for the residuals; issue 28)
+            system.take_operator().destroy()
         self._counts = (0, 0)
 
     def begin(self, rows: SetRows) -> None:
