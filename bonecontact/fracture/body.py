@@ -16,6 +16,8 @@ polylines of the given mesh's boundary facets.
 
 from __future__ import annotations
 
+import re
+from collections.abc import Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass
 
@@ -30,8 +32,8 @@ from dolfinx.io.gmsh import model_to_mesh
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import (
     Crack2D,
+    crack_gap,
     point_in_polygon,
-    point_segment_distance,
     segments_intersect,
 )
 from bonecontact.fracture.meshing import (
@@ -45,7 +47,13 @@ from bonecontact.fracture.meshing import (
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
 
-__all__ = ["BodyOutline", "body_outline", "mesh_body_with_crack"]
+__all__ = [
+    "BodyOutline",
+    "body_outline",
+    "check_gaps",
+    "mesh_body_with_crack",
+    "mesh_body_with_cracks",
+]
 
 
 @dataclass(frozen=True)
@@ -304,7 +312,33 @@ def _distances(p: npt.NDArray[np.float64], segs: npt.NDArray[np.float64]) -> np.
 
 
 # ---------------------------------------------------------------- gmsh (rank 0)
-def _build(body: BodyOutline, crack: Crack2D, size: TipMesh, tags: tuple[int, int, int]) -> None:
+def _name_curves(body: BodyOutline, cracks: Sequence[Crack2D], tol: float) -> dict[str, list[int]]:
+    """Every model curve named: ``crack<i>`` (on crack ``i``) or ``tag<t>`` (a boundary
+    segment of facet group ``t``)."""
+    segs = body.segments()
+    seg_tags = np.concatenate(body.loop_tags)
+    names: dict[str, list[int]] = {}
+    for _, curve in gmsh.model.getEntities(1):
+        lo, hi = gmsh.model.getParametrizationBounds(1, curve)
+        p = np.asarray(gmsh.model.getValue(1, curve, [0.5 * (lo[0] + hi[0])])[:2])
+        on = [i for i, c in enumerate(cracks) if c.distance(p) < tol]
+        if on:
+            names.setdefault(f"crack{on[0]}", []).append(curve)
+            continue
+        d = _distances(p, segs)
+        k = int(np.argmin(d))
+        if d[k] > tol:
+            raise MeshingError(f"curve {curve} at {p.tolist()} belongs to no boundary segment")
+        names.setdefault(f"tag{int(seg_tags[k])}", []).append(curve)
+    return names
+
+
+def _build(
+    body: BodyOutline,
+    cracks: Sequence[Crack2D],
+    size: TipMesh,
+    tags: Sequence[tuple[int, int, int]],
+) -> None:
     occ = gmsh.model.occ
     loops = []
     for verts in body.loops:
@@ -312,27 +346,15 @@ def _build(body: BodyOutline, crack: Crack2D, size: TipMesh, tags: tuple[int, in
         lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
         loops.append(occ.addCurveLoop(lines))
     surface = occ.addPlaneSurface(loops)
-    cp = [occ.addPoint(x, y, 0) for x, y in crack.points]
-    cl = [occ.addLine(cp[i], cp[i + 1]) for i in range(len(cp) - 1)]
+    cl = []
+    for crack in cracks:
+        cp = [occ.addPoint(x, y, 0) for x, y in crack.points]
+        cl += [occ.addLine(cp[i], cp[i + 1]) for i in range(len(cp) - 1)]
     occ.fragment([(2, surface)], [(1, t) for t in cl])
     occ.synchronize()
     tol = 1e-7 * body.scale
-    segs = body.segments()
-    seg_tags = np.concatenate(body.loop_tags)
-    names: dict[str, list[int]] = {}
-    for _, curve in gmsh.model.getEntities(1):
-        lo, hi = gmsh.model.getParametrizationBounds(1, curve)
-        p = np.asarray(gmsh.model.getValue(1, curve, [0.5 * (lo[0] + hi[0])])[:2])
-        pts = crack.points
-        if min(point_segment_distance(p, pts[k], pts[k + 1]) for k in range(len(pts) - 1)) < tol:
-            names.setdefault("crack", []).append(curve)
-            continue
-        d = _distances(p, segs)
-        k = int(np.argmin(d))
-        if d[k] > tol:
-            raise MeshingError(f"curve {curve} at {p.tolist()} belongs to no boundary segment")
-        names.setdefault(f"tag{int(seg_tags[k])}", []).append(curve)
-    tips = [point_tag(crack.points[e], tol) for e in crack.tip_ends]
+    names = _name_curves(body, cracks, tol)
+    tips = [point_tag(c.points[e], tol) for c in cracks for e in c.tip_ends]
     size_fields(tips, (), [], size, min(size.h_max or body.h_max, body.h_max))
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     region, region_tag = body.region
@@ -342,37 +364,55 @@ def _build(body: BodyOutline, crack: Crack2D, size: TipMesh, tags: tuple[int, in
         if tag > 0:
             gmsh.model.addPhysicalGroup(1, curves, tag, name=body.names.get(tag, f"facets{tag}"))
     gmsh.model.mesh.generate(2)
-    split_crack(names, crack, tol, *tags)
+    for i, (crack, t) in enumerate(zip(cracks, tags, strict=True)):
+        label = "crack" if len(cracks) == 1 else f"crack{i}"
+        last = i == len(cracks) - 1
+        split_crack({"crack": names[f"crack{i}"]}, crack, tol, *t, label=label, renumber=last)
 
 
-def mesh_body_with_crack(
-    body: BodyOutline, crack: Crack2D, size: TipMesh, comm: MPI.Comm | None = None
-) -> tuple[CrackedMesh, object]:
-    """Mesh ``body`` with ``crack`` cut into it (collective; gmsh on rank 0).
+def check_gaps(cracks: Sequence[Crack2D], body: BodyOutline) -> None:
+    """Raise :class:`ParameterError` (key ``points``) when two cracks cross or touch (the
+    message names them by index, from 0)."""
+    for i in range(len(cracks)):
+        for j in range(i):
+            if crack_gap(cracks[i], cracks[j]) <= 1e-9 * body.scale:
+                raise ParameterError(
+                    "points", f"crack {i} crosses or touches crack {j}: cracks may not meet"
+                )
+
+
+def mesh_body_with_cracks(
+    body: BodyOutline, cracks: Sequence[Crack2D], size: TipMesh, comm: MPI.Comm | None = None
+) -> tuple[list[CrackedMesh], object]:
+    """Mesh ``body`` with the ``cracks`` cut into it (collective; gmsh on rank 0), graded
+    towards every tip, every crack split into its own two faces.
 
     Returns
     -------
-    (CrackedMesh, dolfinx.io.gmsh.MeshData)
-        The cracked mesh (groups: the region, the facet groups by name, ``crack_plus``,
-        ``crack_minus``) and the mesh data with its physical groups (the crack groups
-        named ``crack_plus``/``crack_minus``).
+    (list of CrackedMesh, dolfinx.io.gmsh.MeshData)
+        One view of the cracked mesh per crack (the same mesh and markers; its crack and
+        its ``crack_plus``/``crack_minus`` tags) and the mesh data with its physical
+        groups (one crack: ``crack_a``/``crack_b``; several: ``crack<i>_a``/``_b``).
 
     Raises
     ------
     ParameterError
-        The crack does not lie in the body (on every rank).
+        A crack does not lie in the body, or two cracks meet (on every rank).
     MeshingError
         gmsh failed (on every rank).
     """
     comm = MPI.COMM_WORLD if comm is None else comm
-    body.check_crack(crack)
+    for crack in cracks:
+        body.check_crack(crack)
+    check_gaps(cracks, body)
     top = max([body.region[1], *body.names, 0])
-    tags = (top + 1, top + 2, top + 3)  # crack, its second face, the mouth points
+    # per crack: its face, its second face, its mouth points
+    tags = [(top + 1 + 3 * i, top + 2 + 3 * i, top + 3 + 3 * i) for i in range(len(cracks))]
     error = None
     with gmsh_session("cracked_scene") if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
             try:
-                _build(body, crack, size, tags)
+                _build(body, cracks, size, tags)
             except Exception as exc:  # reported on every rank below
                 error = f"{type(exc).__name__}: {exc}"
         error = comm.bcast(error, root=0)
@@ -380,13 +420,30 @@ def mesh_body_with_crack(
             raise MeshingError(f"cracked body: {error}")
         md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=2)
     groups = {
-        n: int(pg.tag) for n, pg in md.physical_groups.items() if n not in ("crack_a", "crack_b")
+        n: int(pg.tag) for n, pg in md.physical_groups.items() if not re.match(r"crack\d*_[ab]$", n)
     }
-    cm = CrackedMesh(md.mesh, md.cell_tags, md.facet_tags, crack, groups, body.outer)
-    a, b = tags[0], tags[1]
-    plus, minus = (a, b) if left_side_sign(cm, a) > 0 else (b, a)
-    cm.groups["crack_plus"], cm.groups["crack_minus"] = plus, minus
-    return cm, md
+    views = []
+    for crack, (a, b, _) in zip(cracks, tags, strict=True):
+        cm = CrackedMesh(md.mesh, md.cell_tags, md.facet_tags, crack, dict(groups), body.outer)
+        plus, minus = (a, b) if left_side_sign(cm, a) > 0 else (b, a)
+        cm.groups["crack_plus"], cm.groups["crack_minus"] = plus, minus
+        views.append(cm)
+    return views, md
+
+
+def mesh_body_with_crack(
+    body: BodyOutline, crack: Crack2D, size: TipMesh, comm: MPI.Comm | None = None
+) -> tuple[CrackedMesh, object]:
+    """Mesh ``body`` with one ``crack`` cut into it (:func:`mesh_body_with_cracks`).
+
+    Returns
+    -------
+    (CrackedMesh, dolfinx.io.gmsh.MeshData)
+        The cracked mesh (groups: the region, the facet groups by name, ``crack_plus``,
+        ``crack_minus``) and the mesh data with its physical groups.
+    """
+    views, md = mesh_body_with_cracks(body, [crack], size, comm)
+    return views[0], md
 
 
 def tip_size_default(crack: Crack2D, increment: float | None) -> float:

@@ -21,8 +21,10 @@ from bonecontact.common.errors import ParameterError
 __all__ = [
     "Crack2D",
     "FractureError",
+    "crack_gap",
     "point_in_polygon",
     "point_segment_distance",
+    "points_in_polygon",
     "segments_intersect",
 ]
 
@@ -79,6 +81,19 @@ def point_in_polygon(p: npt.ArrayLike, polygon: npt.ArrayLike) -> bool:
             if xc > x:
                 inside = not inside
     return inside
+
+
+def points_in_polygon(points: npt.ArrayLike, polygon: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Which of ``points`` (m, 2) lie strictly inside the polygon (n, 2): the even–odd
+    rule of :func:`point_in_polygon` for many points at once."""
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    a = np.asarray(polygon, dtype=float)
+    b = np.roll(a, -1, axis=0)
+    x, y = p[:, :1], p[:, 1:]
+    span = (a[:, 1] > y) != (b[:, 1] > y)
+    dy = np.where(b[:, 1] == a[:, 1], 1.0, b[:, 1] - a[:, 1])
+    xc = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / dy
+    return (np.count_nonzero(span & (xc > x), axis=1) % 2) == 1
 
 
 @dataclass(frozen=True)
@@ -153,6 +168,11 @@ class Crack2D:
         p = self.points
         return float(np.linalg.norm(p[0] - p[1] if end == 0 else p[-1] - p[-2]))
 
+    def distance(self, p: npt.ArrayLike) -> float:
+        """Distance from the point ``p`` to the polyline (m)."""
+        pts = self.points
+        return min(point_segment_distance(p, pts[k], pts[k + 1]) for k in range(len(pts) - 1))
+
     def _check_tip(self, end: int) -> None:
         if end not in self.tip_ends:
             raise ParameterError("tip", f"end {end} of the crack is not a tip (tips={self.tips!r})")
@@ -217,3 +237,15 @@ class Crack2D:
             for k, (x, y, r) in enumerate(holes):
                 if point_segment_distance((x, y), a, b) <= r + tol:
                     raise ParameterError("points", f"crack segment {i} reaches hole {k}")
+
+
+def crack_gap(a: Crack2D, b: Crack2D) -> float:
+    """The shortest distance between two cracks' polylines (m); 0 when they cross or
+    touch (a tolerance of 10⁻⁹ of their extent)."""
+    pa, pb = a.points, b.points
+    tol = 1e-9 * float(np.ptp(np.vstack([pa, pb]), axis=0).max())
+    for i in range(len(pa) - 1):
+        for j in range(len(pb) - 1):
+            if segments_intersect(pa[i], pa[i + 1], pb[j], pb[j + 1], tol):
+                return 0.0
+    return min(min(b.distance(p) for p in pa), min(a.distance(p) for p in pb))

@@ -213,10 +213,14 @@ def split_crack(
     crack_group: int = _CRACK_GROUP,
     plus_group: int = _PLUS_GROUP,
     mouth_group: int = _MOUTH_GROUP,
+    label: str = "crack",
+    renumber: bool = True,
 ) -> None:
     """Duplicate the crack nodes (gmsh ``Crack`` plugin); the tips stay shared.  The two
     faces become the physical groups ``crack_group`` and ``plus_group`` (named
-    ``crack_a`` and ``crack_b``)."""
+    ``<label>_a`` and ``<label>_b``; the curves are ``names["crack"]``).  Several cracks
+    are split one after the other, each with its own groups and label, the nodes
+    renumbered after the last (``renumber``)."""
     gmsh.model.addPhysicalGroup(1, names["crack"], crack_group)
     if crack.mouth_ends:
         mouths = [point_tag(crack.points[e], tol) for e in crack.mouth_ends]
@@ -229,11 +233,11 @@ def split_crack(
     plugin.run("Crack")
     if crack.mouth_ends:
         gmsh.model.removePhysicalGroups([(0, mouth_group)])
-    gmsh.model.setPhysicalName(1, crack_group, "crack_a")
-    gmsh.model.setPhysicalName(1, plus_group, "crack_b")
-    # the plugin leaves node tags with gaps; DOLFINx's reader needs them contiguous
-    gmsh.model.mesh.renumberNodes()
-    gmsh.model.mesh.renumberElements()
+    gmsh.model.setPhysicalName(1, crack_group, f"{label}_a")
+    gmsh.model.setPhysicalName(1, plus_group, f"{label}_b")
+    if renumber:  # the plugin leaves node tags with gaps; DOLFINx's reader needs none
+        gmsh.model.mesh.renumberNodes()
+        gmsh.model.mesh.renumberElements()
 
 
 def _build_and_mesh(

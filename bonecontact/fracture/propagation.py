@@ -56,7 +56,8 @@ __all__ = [
 
 #: Columns of a fracture table (``fracture.csv``), one row per tip and evaluated state:
 #: ``increment`` (crack increments so far), ``step`` and ``time`` of the analysis (a
-#: Python :func:`propagate` run: 0 and nan), ``tip`` (the polyline end, 0 or -1), ``x``,
+#: Python :func:`propagate` run: 0 and nan), ``crack`` (the ``[[crack]]``'s name in a scene;
+#: empty in a Python run), ``tip`` (the polyline end, 0 or -1), ``x``,
 #: ``y`` (the tip, m), ``length`` (of the crack, m), ``K_I``, ``K_II`` (Pa·√m, interaction
 #: integral), ``J`` (domain J-integral, J/m²), ``G`` ((K_I² + K_II²)/E′, J/m²),
 #: ``K_I_dc``, ``K_II_dc`` (displacement correlation, the cross-check; nan when not
@@ -68,6 +69,7 @@ FRACTURE_COLUMNS = (
     "increment",
     "step",
     "time",
+    "crack",
     "tip",
     "x",
     "y",
@@ -156,6 +158,7 @@ class IncrementRecord:
     K_I_dc: float = math.nan
     K_II_dc: float = math.nan
     K_eq: float = math.nan
+    crack: str = ""
 
     def row(self) -> tuple:
         return tuple(getattr(self, c) for c in FRACTURE_COLUMNS)

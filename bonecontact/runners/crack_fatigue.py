@@ -28,6 +28,7 @@ __all__ = [
     "bound_to_separation",
     "paris_law",
     "plain_rows",
+    "tip_key",
 ]
 
 #: The columns of fracture.csv of a fatigue run: the crack's, then the cumulative cycles.
@@ -54,14 +55,14 @@ class FatigueProgress:
 
     ``growth`` and ``lead_rate`` are the growth of the fastest tip summed over the blocks
     (m) and its da/dN (m/cycle) at every block end, ``cycles`` the cumulative N there,
-    ``waiting`` the growth a tip keeps for later (tip end -> m), ``status`` the stop
+    ``waiting`` the growth a tip keeps for later ((crack, tip end) -> m), ``status`` the stop
     (``None`` while it runs) and ``bound`` the upper bound of the cycles to separation.
     """
 
     growth: list[float] = dataclasses.field(default_factory=list)
     lead_rate: list[float] = dataclasses.field(default_factory=list)
     cycles: list[float] = dataclasses.field(default_factory=list)
-    waiting: dict[int, float] = dataclasses.field(default_factory=dict)
+    waiting: dict[TipKey, float] = dataclasses.field(default_factory=dict)
     status: str | None = None
     bound: float | None = None
 
@@ -70,7 +71,7 @@ class FatigueProgress:
         """From a checkpoint's ``fatigue`` entry (``None``: a fresh history)."""
         if state is None:
             return cls()
-        waiting = {int(k): float(v) for k, v in state["waiting"].items()}
+        waiting = {_text_key(k): float(v) for k, v in state["waiting"].items()}
         return cls(
             [float(v) for v in state["growth"]],
             [float(v) for v in state["lead_rate"]],
@@ -83,7 +84,7 @@ class FatigueProgress:
     def state(self) -> dict[str, Any]:
         """The checkpoint's ``fatigue`` entry (JSON)."""
         out = dataclasses.asdict(self)
-        out["waiting"] = {str(k): v for k, v in self.waiting.items()}
+        out["waiting"] = {_key_text(k): v for k, v in self.waiting.items()}
         return out
 
     def add_end(self, growth: float, lead_rate: float) -> float:
@@ -100,6 +101,26 @@ class FatigueProgress:
             block = (self.growth[-1] - self.growth[-2]) / self.lead_rate[-2]
         self.cycles.append((self.cycles[-1] if self.cycles else 0.0) + block)
         return self.cycles[-1]
+
+
+#: A tip of a scene's cracks: (the crack's name, the polyline end 0 or -1).
+TipKey = tuple[str, int]
+
+
+def tip_key(r: IncrementRecord) -> TipKey:
+    """The tip of a row: its crack's name and its end."""
+    return (r.crack, int(r.tip))
+
+
+def _key_text(key: TipKey) -> str:
+    return f"{key[1]}@{key[0]}"
+
+
+def _text_key(text: str) -> TipKey:
+    """A key of a checkpoint's ``waiting``: ``"<end>@<crack>"`` (older: ``"<end>"``, the
+    crack unnamed)."""
+    end, _, crack = str(text).partition("@")
+    return (crack, int(end))
 
 
 def paris_law(spec: FatigueSpec) -> ParisLaw:
@@ -138,9 +159,10 @@ def block_end(
     K_Ic: float | None,
     prog: FatigueProgress | None,
     blocks: int,
-) -> tuple[list[FatigueRecord], dict[int, float], str]:
+) -> tuple[list[FatigueRecord], dict[TipKey, float], str]:
     """One evaluation of the tips after ``blocks`` blocks: the rows, the advance of every
-    tip that grows in the next block (tip end -> m) and the stop (``""``: go on).
+    tip that grows in the next block ((crack, tip end) -> m; the tips of all the cracks
+    share one block, the fastest of them growing by Δa_max) and the stop (``""``: go on).
 
     ``prog`` is ``None`` before the last step (the ramp): only the K_Ic check.  Otherwise
     the rates give the cycles of the block just made (``prog`` updated), then the stop
@@ -162,13 +184,13 @@ def block_end(
         prog.status = stop
         return _stopped_rows(records, k_eq, K_Ic, stop, n), {}, stop
     share = {
-        r.tip: prog.waiting.get(r.tip, 0.0) + spec.da_max * float(rt) / lead
+        tip_key(r): prog.waiting.get(tip_key(r), 0.0) + spec.da_max * float(rt) / lead
         for r, rt in zip(records, rates, strict=True)
     }
     least = WAIT_FRACTION * spec.da_max * (1.0 - 1e-12)
     grow = {t: s for t, s in share.items() if s >= least}
     prog.waiting = {t: s for t, s in share.items() if t not in grow and s > 0}
-    rows = [_as_fatigue(r, "grows" if r.tip in grow else "holds", n) for r in records]
+    rows = [_as_fatigue(r, "grows" if tip_key(r) in grow else "holds", n) for r in records]
     return rows, grow, ""
 
 

@@ -6,14 +6,15 @@ initiation check; at the first step whose largest risk reaches 1 a short crack i
 inserted there (:mod:`bonecontact.fracture.initiation`), the same step is solved again on
 the cracked body and the run goes on as a crack scene.
 
-The crack is cut into the scene's body (:mod:`bonecontact.fracture.body`: re-meshed by
-gmsh, graded towards the tips), its faces are a contact pair (``crack_plus`` /
-``crack_minus``, frictionless or Coulomb) solved with the other pairs by the mortar
-PDAS, and after every step K_I, K_II, J and G of every tip (interaction integral, the
-contact tractions as face term; displacement correlation as a cross-check) go to
-``fracture.csv``.  With ``propagate = true`` a tip whose MTS equivalent K reaches K_Ic
-grows by Δa and the same step is solved again on the re-meshed body, until no tip grows,
-a tip comes within Δa of the surface (*fractured*) or ``max_increments`` are made; with
+The cracks (one or several ``[[crack]]``) are cut into the scene's body
+(:mod:`bonecontact.fracture.body`: re-meshed by gmsh, graded towards the tips), each
+crack's faces a contact pair of its own (``crack_plus`` / ``crack_minus``, frictionless or
+Coulomb) solved with the other pairs by the mortar PDAS, and after every step K_I, K_II, J
+and G of every tip (interaction integral, the contact tractions as face term; displacement
+correlation as a cross-check) go to ``fracture.csv`` (column ``crack``).  With
+``propagate = true`` every tip whose own MTS equivalent K reaches K_Ic grows by Δa and the
+same step is solved again on the re-meshed body, until no tip grows, a tip comes within Δa
+of the surface (*fractured*) or of another crack (*joined*) or ``max_increments`` are made; with
 ``[fracture.fatigue]`` the crack grows by blocks of cycles at the last step's load
 (:mod:`bonecontact.runners.crack_fatigue`).  Static analyses only for growth: nothing is
 transferred to the new mesh.  Checkpoints hold the crack with the mechanics state
@@ -39,7 +40,7 @@ from tqdm import tqdm
 from bonecontact.common.errors import ParameterError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
-from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_crack
+from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_cracks
 from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.criteria import (
     cell_stresses,
@@ -70,6 +71,7 @@ from bonecontact.runners.crack_fatigue import (
     bound_to_separation,
     paris_law,
     plain_rows,
+    tip_key,
 )
 from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
 from bonecontact.runners.loop import RunStopped, Verdict, progress_bar, run_steps
@@ -98,8 +100,8 @@ __all__ = ["CrackRun", "check_cracked", "is_crack_scene", "run_cracked", "write_
 class CrackRun:
     """What a crack scene needs besides the scene model."""
 
-    scene: Scene  # the scene with the crack's face pair added to its contacts
-    spec: CrackSpec | None  # None: no crack yet, one is initiated where the risk reaches 1
+    scene: Scene  # the scene with the cracks' face pairs added to its contacts (last)
+    specs: tuple[CrackSpec, ...]  # (): no crack yet, one is initiated where the risk is 1
     fracture: FractureSpec
     body: BodyOutline
     material: Isotropic
@@ -108,6 +110,15 @@ class CrackRun:
     groups: dict[str, tuple[int, int]]
     mesh: Any = None  # the scene's mesh data as read (the uncracked body)
     initiated: bool = False  # the crack was inserted by the run
+
+    @property
+    def spec(self) -> CrackSpec | None:
+        """The first crack (``None``: none yet)."""
+        return self.specs[0] if self.specs else None
+
+    def pair(self, i: int) -> str:
+        """The contact pair name of crack ``i``."""
+        return _pair_name(self.specs[i].name)
 
 
 def is_crack_scene(scene: Scene) -> bool:
@@ -171,13 +182,6 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
     """Read the scene mesh, check the crack against it and take the body's outline
     (collective; every input problem is a :class:`SceneError` on every rank).  A scene
     with ``[fracture] initiate = true`` has no crack yet (``spec`` is ``None``)."""
-    if len(scene.cracks) > 1:
-        raise SceneError(
-            str(scene.path),
-            table_label("crack", 1, scene.cracks[1].name),
-            None,
-            "this version runs one [[crack]] per scene",
-        )
     fr = scene.fracture if scene.fracture is not None else FractureSpec()
     if fr.initiate and scene.cracks:
         raise SceneError(
@@ -192,12 +196,15 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
     region = spec.region if spec is not None else _only_region(scene, groups)
     try:
         body = body_outline(md0.mesh, md0.cell_tags, md0.facet_tags, groups, region)
-        if spec is not None:
-            body.check_crack(spec.crack)
     except (ParameterError, MeshingError) as exc:
         if spec is None:
             raise SceneError(str(scene.path), "[fracture]", "initiate", str(exc)) from None
         raise _scene_error(scene, 0, spec, exc, "region") from None
+    for i, c in enumerate(scene.cracks):
+        try:
+            body.check_crack(c.crack)
+        except ParameterError as exc:
+            raise _scene_error(scene, i, c, exc, "points") from None
     mat_spec = next(m for m in scene.materials if region in m.regions)
     if not isinstance(mat_spec.material, Isotropic):
         raise SceneError(
@@ -216,52 +223,56 @@ def prepare(scene: Scene, comm: MPI.Comm) -> CrackRun:
     if spec is None:
         _check_initiation(scene, fr, body)
     run = CrackRun(
-        scene, None, fr, body, mat_spec.material, mat_spec.strengths.get("K_Ic"), None, groups, md0
+        scene, (), fr, body, mat_spec.material, mat_spec.strengths.get("K_Ic"), None, groups, md0
     )
-    return run if spec is None else with_crack(run, spec)
+    return run if spec is None else with_cracks(run, tuple(scene.cracks))
 
 
-def with_crack(run: CrackRun, spec: CrackSpec, initiated: bool = False) -> CrackRun:
-    """The run with its crack: the tip mesh and the face pair added to the scene's pairs.
+def with_cracks(run: CrackRun, specs: tuple[CrackSpec, ...], initiated: bool = False) -> CrackRun:
+    """The run with its cracks: the tip mesh and one face pair per crack added to the
+    scene's pairs (in the order of the cracks, after the scene's own).
 
     Tip size: ``tip_size``; default Δa/8 with propagation, Δa_max/10 with fatigue (for an
     initiated crack at most that fraction of its length), else 1/100 of the shortest tip
-    segment."""
+    segment of all the cracks."""
     fr = run.fracture
-    seg = min(spec.crack.tip_segment_length(e) for e in spec.crack.tip_ends)
+    seg = min(c.crack.tip_segment_length(e) for c in specs for e in c.crack.tip_ends)
     if fr.tip_size is not None:
         h_tip = fr.tip_size
     elif fr.grows:
-        step = fr.growth_step if not initiated else min(fr.growth_step, spec.crack.length)
+        shortest = min(c.crack.length for c in specs)
+        step = fr.growth_step if not initiated else min(fr.growth_step, shortest)
         h_tip = step / (8 if fr.propagate else 10)
     else:
         h_tip = seg / 100
-    pair = spec.face_pair(_pair_name(spec.name), "crack_plus", "crack_minus")
+    pairs = tuple(c.face_pair(_pair_name(c.name), "crack_plus", "crack_minus") for c in specs)
     return dataclasses.replace(
         run,
-        scene=dataclasses.replace(run.scene, contacts=tuple(run.scene.contacts) + (pair,)),
-        spec=spec,
+        scene=dataclasses.replace(run.scene, contacts=tuple(run.scene.contacts) + pairs),
+        specs=specs,
         tip_mesh=TipMesh(h_tip, fr.tip_grading if fr.tip_grading is not None else 0.25),
         initiated=initiated,
     )
 
 
 def build_cracked(
-    scene: Scene, run: CrackRun, crack: Crack2D, comm: MPI.Comm, timer: PhaseTimer
-) -> tuple[SceneModel, CrackedMesh]:
-    """The scene model on the body meshed around ``crack``, with the face pair last."""
+    scene: Scene, run: CrackRun, cracks: list[Crack2D], comm: MPI.Comm, timer: PhaseTimer
+) -> tuple[SceneModel, list[CrackedMesh]]:
+    """The scene model on the body meshed around ``cracks`` (one per ``run.specs``), with
+    their face pairs last (in the order of the cracks); the mesh viewed from each crack."""
     try:
         with timer.phase("mesh_read"):
-            cm, md = mesh_body_with_crack(run.body, crack, run.tip_mesh, comm)
+            cms, md = mesh_body_with_cracks(run.body, cracks, run.tip_mesh, comm)
     except (ParameterError, MeshingError) as exc:
         raise _scene_error(scene, 0, run.spec, exc, "points", run.initiated) from None
     sm = build_model(scene, comm, timer, mesh=(md, run.groups))
-    try:
-        with timer.phase("mortar_geometry"):
-            sm.interfaces.append(face_interface(sm.model, cm, _pair_name(run.spec.name)))
-    except ContactInputError as exc:
-        raise _scene_error(scene, 0, run.spec, exc, "points", run.initiated) from None
-    return sm, cm
+    for i, cm in enumerate(cms):
+        try:
+            with timer.phase("mortar_geometry"):
+                sm.interfaces.append(face_interface(sm.model, cm, run.pair(i)))
+        except ContactInputError as exc:
+            raise _scene_error(scene, i, run.specs[i], exc, "points", run.initiated) from None
+    return sm, cms
 
 
 def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
@@ -272,15 +283,16 @@ def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
     run = prepare(scene, comm)
     if run.spec is None:  # the crack is initiated by the run: the uncracked model
         return build_model(scene, comm, PhaseTimer(), mesh=(run.mesh, run.groups))
-    return build_cracked(scene, run, run.spec.crack, comm, PhaseTimer())[0]
+    return build_cracked(scene, run, [c.crack for c in run.specs], comm, PhaseTimer())[0]
 
 
 # ------------------------------------------------------------------ tip evaluation
-def _radius(crack: Crack2D, end: int, run: CrackRun) -> float:
+def _radius(crack: Crack2D, end: int, run: CrackRun, others: list[Crack2D]) -> float:
     """Integration-domain radius: within the straight tip segment and away from the
-    surface; with propagation at most 2Δa (docs/theory/fracture.md#propagation)."""
+    surface and the ``others`` cracks; with propagation at most 2Δa
+    (docs/theory/fracture.md#propagation)."""
     seg = crack.tip_segment_length(end)
-    free = run.body.distance(crack.tip(end))
+    free = min([run.body.distance(crack.tip(end))] + [c.distance(crack.tip(end)) for c in others])
     r = min(0.4 * seg, 0.8 * free)
     if run.fracture.grows:
         r = min(0.8 * seg, 0.8 * free, 2.0 * run.fracture.growth_step)
@@ -289,7 +301,7 @@ def _radius(crack: Crack2D, end: int, run: CrackRun) -> float:
 
 def evaluate_tips(
     sm: SceneModel,
-    cm: CrackedMesh,
+    cms: list[CrackedMesh],
     u: Any,
     result: Any,
     run: CrackRun,
@@ -297,22 +309,44 @@ def evaluate_tips(
     step: int,
     t: float,
 ) -> list[IncrementRecord]:
-    """K, J, G, displacement correlation and the kink of every tip (collective)."""
+    """K, J, G, displacement correlation and the kink of every tip of every crack, crack
+    by crack in the order of the scene (collective)."""
+    records = []
+    for i, cm in enumerate(cms):
+        others = [c.crack for j, c in enumerate(cms) if j != i]
+        k_pair = len(sm.interfaces) - len(cms) + i
+        where = (k_pair, run.specs[i].name)
+        records += _crack_tips(sm, cm, where, others, u, result, run, (increment, step, t))
+    return records
+
+
+def _crack_tips(
+    sm: SceneModel,
+    cm: CrackedMesh,
+    where: tuple[int, str],
+    others: list[Crack2D],
+    u: Any,
+    result: Any,
+    run: CrackRun,
+    when: tuple[int, int, float],
+) -> list[IncrementRecord]:
+    """The records of the tips of one crack (``where``: its face pair's index and its
+    name; the ``others`` cracks bound its integration domains)."""
     crack, comm = cm.crack, cm.mesh.comm
-    k_pair = len(sm.interfaces) - 1
+    (k_pair, name), (increment, step, t) = where, when
     face = None
     if result is not None:
         tips = [crack.tip(e) for e in crack.tip_ends]
-        reach = max(_radius(crack, e, run) for e in crack.tip_ends)  # the integrals' domains
+        reach = max(_radius(crack, e, run, others) for e in crack.tip_ends)
         face = face_traction(sm.model.V, sm.interfaces[k_pair], result, k_pair, tips, reach)
     records = []
     for end in crack.tip_ends:
-        r_out = _radius(crack, end, run)
+        r_out = _radius(crack, end, run, others)
         if r_out < 4 * run.tip_mesh.h_tip:
             raise ParameterError(
                 "tip_size",
                 f"the integration domain at tip {end} (r = {r_out:.3g} m) spans fewer than "
-                "4 tip elements; choose a smaller tip_size",
+                f"4 tip elements (crack {name!r}); choose a smaller tip_size",
             )
         k = interaction_integral(u, cm, end, run.material, r_out, face_traction=face)
         try:
@@ -356,6 +390,7 @@ def evaluate_tips(
                 K_I_dc=kdc[0],
                 K_II_dc=kdc[1],
                 K_eq=k_eq,
+                crack=name,
             )
         )
     return records
@@ -380,38 +415,53 @@ def _snapped(crack: Crack2D, ends: tuple[int, ...], run: CrackRun) -> Crack2D:
 
 
 def _grow(
-    crack: Crack2D,
+    cracks: list[Crack2D],
     records: list[IncrementRecord],
     run: CrackRun,
-    advances: dict[int, float] | None = None,
-) -> tuple[Crack2D, bool]:
-    """The crack grown at every tip that grows (by Δa, or by its entry of ``advances``);
-    whether a grown tip is within Δa (Δa_max) of the free surface (then marked
-    ``fractured``)."""
+    advances: dict[tuple[str, int], float] | None = None,
+) -> tuple[list[Crack2D], str]:
+    """The cracks grown at every tip that grows (by Δa, or by its entry of ``advances``,
+    keyed by (crack name, tip end)), each tip by its own kink; the stop: ``"fractured"``
+    when a grown tip is within Δa (Δa_max) of the free surface, ``"joined"`` when it is
+    within Δa of another crack (the rows of those tips so marked), else ``""``."""
     da = run.fracture.growth_step
     if advances is None:
-        advances = {r.tip: da for r in records if r.status == "grows"}
-    fractured = False
-    for i, r in enumerate(records):
-        if r.tip not in advances:
-            continue
-        grown = crack.extended(r.tip, advances[r.tip], math.radians(r.angle_deg))
-        crack = _snapped(grown, (r.tip,), run)
-        if run.body.distance(crack.tip(r.tip)) < da:
-            fractured = True
-            records[i] = dataclasses.replace(r, status="fractured")
-    return crack, fractured
+        advances = {tip_key(r): da for r in records if r.status == "grows"}
+    names = [c.name for c in run.specs]
+    cracks = list(cracks)
+    grown = [(i, r) for i, r in enumerate(records) if tip_key(r) in advances]
+    for _, r in grown:
+        k = names.index(r.crack)
+        longer = cracks[k].extended(r.tip, advances[tip_key(r)], math.radians(r.angle_deg))
+        cracks[k] = _snapped(longer, (r.tip,), run)
+    stop = ""
+    for i, r in grown:
+        k = names.index(r.crack)
+        tip = cracks[k].tip(r.tip)
+        near = min([math.inf] + [c.distance(tip) for j, c in enumerate(cracks) if j != k])
+        if run.body.distance(tip) < da:
+            stop, records[i] = "fractured", dataclasses.replace(r, status="fractured")
+        elif near < da:
+            stop = stop or "joined"
+            records[i] = dataclasses.replace(r, status="joined")
+    return cracks, stop
 
 
 # ------------------------------------------------------------------------- run
-def write_crack_path(path: Path, crack: Crack2D) -> None:
-    """The crack's polyline as a legacy VTK file (POLYDATA, one line; z = 0), to be shown
-    with the fields of the mesh it was cut into (ParaView, pyvista)."""
-    pts = crack.points
+def write_crack_path(path: Path, cracks: Crack2D | list[Crack2D]) -> None:
+    """The cracks' polylines as a legacy VTK file (POLYDATA, one line per crack; z = 0), to
+    be shown with the fields of the mesh they were cut into (ParaView, pyvista)."""
+    cracks = [cracks] if isinstance(cracks, Crack2D) else list(cracks)
+    pts = np.concatenate([c.points for c in cracks])
     lines = ["# vtk DataFile Version 3.0", f"crack path, {len(pts)} points", "ASCII"]
     lines += ["DATASET POLYDATA", f"POINTS {len(pts)} double"]
     lines += [f"{float(x)!r} {float(y)!r} 0.0" for x, y in pts]
-    lines += [f"LINES 1 {len(pts) + 1}", " ".join(map(str, [len(pts), *range(len(pts))]))]
+    lines += [f"LINES {len(cracks)} {len(pts) + len(cracks)}"]
+    start = 0
+    for c in cracks:
+        n = len(c.points)
+        lines.append(" ".join(map(str, [n, *range(start, start + n)])))
+        start += n
     Path(path).write_text("\n".join(lines) + "\n")
 
 
@@ -471,6 +521,13 @@ def _plain(o: object) -> Any:
     raise TypeError(f"cannot store {type(o).__name__} in a checkpoint")
 
 
+def _saved_cracks(saved: dict[str, Any]) -> list[Crack2D]:
+    """The cracks of a checkpoint's ``crack_run`` entry (before several cracks: the one
+    crack's ``points`` and ``tips``)."""
+    entries = saved.get("cracks") or [{"points": saved["points"], "tips": saved["tips"]}]
+    return [Crack2D(np.asarray(e["points"], dtype=float), e["tips"]) for e in entries]
+
+
 def _initiated_spec(run: CrackRun, initiation: dict[str, Any]) -> CrackSpec:
     """The ``[[crack]]`` of an initiated crack, from its initiation record."""
     crack = Crack2D(np.asarray(initiation["points"], dtype=float), initiation["tips"])
@@ -482,7 +539,7 @@ class CrackProgress:
     """Where a crack run stands: what its checkpoints store and its summary reports."""
 
     increment: int = 0  # crack increments made
-    status: str | None = None  # propagation: grows, arrested, max_increments, fractured
+    status: str | None = None  # grows, arrested, max_increments, fractured, joined
     fractured_at: tuple[float, int] | None = None  # (time, step) the crack cut through
     tips_last: list[IncrementRecord] = dataclasses.field(default_factory=list)
     initiation: dict[str, Any] | None = None  # the record of an initiated crack
@@ -521,7 +578,9 @@ class CrackSteps(MechanicsSteps):
         super().__init__(None, None, timer, scene.output.fields_every, RunCounters(), dt)
         self.state = CrackProgress()
         self.fatigue = FatigueProgress()  # the blocks of a [fracture.fatigue] run
-        self.run, self.crack, self.cm = run, None, None
+        self.run = run
+        self.cracks: list[Crack2D] | None = None  # as they have grown, one per run.specs
+        self.cms: list[CrackedMesh] | None = None  # the mesh viewed from each crack
 
     # ------------------------------------------------------------- models
     def build_first(self, scene: Scene) -> int:
@@ -529,15 +588,15 @@ class CrackSteps(MechanicsSteps):
         crack of the checkpoint) with its integrator and recorder; returns the first step."""
         run, saved, resume = self.run, self.saved, self.resume
         if saved is not None and saved["initiated"]:
-            self.run = run = with_crack(run, _initiated_spec(run, saved["initiation"]), True)
+            initiated = (_initiated_spec(run, saved["initiation"]),)
+            self.run = run = with_cracks(run, initiated, True)
         if run.spec is None:  # no crack yet: the scene's own mesh until the risk reaches 1
             self.sm = build_model(scene, self.comm, self.timer, mesh=(run.mesh, run.groups))
         else:
-            crack = run.spec.crack
-            if saved is not None:  # the crack as it had grown
-                crack = Crack2D(np.asarray(saved["points"], dtype=float), saved["tips"])
-            self.crack = crack
-            self.sm, self.cm = build_cracked(scene, run, crack, self.comm, self.timer)
+            self.cracks = [c.crack for c in run.specs]
+            if saved is not None:  # the cracks as they had grown
+                self.cracks = _saved_cracks(saved)
+            self.sm, self.cms = build_cracked(scene, run, self.cracks, self.comm, self.timer)
         if resume is None:
             self.start_model(0, "fields")
             return 1
@@ -584,8 +643,8 @@ class CrackSteps(MechanicsSteps):
             self.rec = Recorder(
                 self.run.scene, self.sm, integ, self.comm, self.outdir, False, files
             )
-            if self.crack is not None and self.comm.rank == 0:
-                write_crack_path(self.outdir / f"{stem}_crack.vtk", self.crack)
+            if self.cracks is not None and self.comm.rank == 0:
+                write_crack_path(self.outdir / f"{stem}_crack.vtk", self.cracks)
         self.integ = integ
 
     def remesh(self, k: int, stem: str) -> Verdict:
@@ -593,7 +652,7 @@ class CrackSteps(MechanicsSteps):
         before step ``k``: the same step again."""
         self.integ.destroy()
         self.rec.writer.close()
-        self.sm, self.cm = build_cracked(self.scene, self.run, self.crack, self.comm, self.timer)
+        self.sm, self.cms = build_cracked(self.scene, self.run, self.cracks, self.comm, self.timer)
         self.start_model(k - 1, stem)
         return Verdict.AGAIN
 
@@ -604,7 +663,7 @@ class CrackSteps(MechanicsSteps):
         self.state.prev = (0.0, fracture.current.value if fracture is not None else 0.0)
 
     def after(self, k: int) -> Verdict:
-        if self.cm is None:
+        if self.cms is None:
             return self.check_initiation(k)
         return self.evaluate_and_grow(k)
 
@@ -621,8 +680,8 @@ class CrackSteps(MechanicsSteps):
                 self.scene, self.run, self.sm, rec, self.state.prev, integ.t
             )
         self.state.initiation, self.state.risk_before = initiation, rec.fracture.summary()
-        self.run = with_crack(self.run, _initiated_spec(self.run, initiation), initiated=True)
-        self.crack = self.run.spec.crack
+        self.run = with_cracks(self.run, (_initiated_spec(self.run, initiation),), True)
+        self.cracks = [self.run.spec.crack]
         where = "at the surface point" if ini.on_surface else "centred at"
         self.say(
             f"{self.scene.name}: risk {rec.fracture.current.value:.4g} >= 1 at t = "
@@ -633,28 +692,31 @@ class CrackSteps(MechanicsSteps):
         return self.remesh(k, "fields_initiated")  # the same load on the cracked body
 
     def evaluate_and_grow(self, k: int) -> Verdict:
-        """K at every tip after step ``k``; the crack grown where it reaches K_Ic (with
-        ``[fracture.fatigue]``: :meth:`fatigue_block`)."""
+        """K at every tip of every crack after step ``k``; each tip grown where its own
+        K_eq reaches K_Ic, all in one increment (with ``[fracture.fatigue]``:
+        :meth:`fatigue_block`)."""
         if self.run.fracture.fatigue is not None:
             return self.fatigue_block(k)
         integ, st = self.integ, self.state
         with self.timer.phase("fracture"):
             records = evaluate_tips(
-                self.sm, self.cm, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
+                self.sm, self.cms, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
             )
         grows = any(r.status == "grows" for r in records)
         if grows and st.increment >= self.run.fracture.max_increments:
             records = [_spent(r) for r in records]
             grows, st.status = False, "max_increments"
-        fractured = False
+        stop = ""
         if grows:
-            self.crack, fractured = _grow(self.crack, records, self.run)
+            self.cracks, stop = _grow(self.cracks, records, self.run)
         self.table.rows(records)
         st.tips_last = records
-        if fractured:
-            st.increment, st.fractured_at, st.status = st.increment + 1, (integ.t, k), "fractured"
+        if stop:
+            st.increment, st.status = st.increment + 1, stop
+            st.fractured_at = (integ.t, k) if stop == "fractured" else None
+            what = "fractured" if stop == "fractured" else "cracks joined"
             self.say(
-                f"{self.scene.name}: fractured at t = {integ.t:.6g} "
+                f"{self.scene.name}: {what} at t = {integ.t:.6g} "
                 f"(step {k}, after {st.increment} crack increments)"
             )
             return Verdict.LAST
@@ -672,17 +734,17 @@ class CrackSteps(MechanicsSteps):
         integ, st, fr = self.integ, self.state, self.run.fracture
         with self.timer.phase("fracture"):
             records = evaluate_tips(
-                self.sm, self.cm, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
+                self.sm, self.cms, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
             )
         prog = self.fatigue if k == self.nsteps else None
         rows, grow, stop = block_end(records, fr.fatigue, self.run.K_Ic, prog, st.increment)
-        fractured = False
+        met = ""
         if grow:
-            self.crack, fractured = _grow(self.crack, rows, self.run, grow)
+            self.cracks, met = _grow(self.cracks, rows, self.run, grow)
         self.table.rows(rows)
         st.tips_last = rows
-        if stop or fractured:
-            self.fatigue_stop(k, stop or "fractured", rows)
+        if stop or met:
+            self.fatigue_stop(k, stop or met, rows)
             return Verdict.LAST
         if prog is None:
             return Verdict.NEXT
@@ -707,7 +769,8 @@ class CrackSteps(MechanicsSteps):
             )
         self.say(
             f"{self.scene.name}: fatigue {status} at step {k} after {len(prog.cycles) - 1} "
-            f"blocks, N = {cycles:.6g} cycles (crack length {self.crack.length:.6g} m)"
+            f"blocks, N = {cycles:.6g} cycles (crack length "
+            f"{', '.join(f'{c.length:.6g}' for c in self.cracks)} m)"
         )
 
     def block_checkpoint(self, k: int) -> None:
@@ -726,7 +789,7 @@ class CrackSteps(MechanicsSteps):
 
     def record(self, k: int, last: bool) -> None:
         super().record(k, last)
-        if self.cm is None:
+        if self.cms is None:
             self.state.prev = (self.integ.t, self.rec.fracture.current.value)
 
     def checkpoint(self, k: int, last: bool) -> bool:
@@ -745,11 +808,18 @@ class CrackSteps(MechanicsSteps):
 
     def crack_state(self) -> dict[str, Any]:
         """The ``crack_run`` entry of a checkpoint's meta.json."""
-        st, crack, fracture = self.state, self.crack, self.rec.fracture
+        st, cracks, fracture = self.state, self.cracks, self.rec.fracture
+        crack = None if cracks is None else cracks[0]
         state = {
             "initiated": self.run.initiated,
-            "points": None if crack is None else crack.points,
+            "points": None if crack is None else crack.points,  # the first crack's
             "tips": None if crack is None else crack.tips,
+            "cracks": None
+            if cracks is None
+            else [
+                {"name": sp.name, "points": c.points, "tips": c.tips}
+                for sp, c in zip(self.run.specs, cracks, strict=True)
+            ],
             "increment": st.increment,
             "propagation": st.status,
             "tips_last": [dataclasses.asdict(r) for r in st.tips_last],
@@ -767,15 +837,14 @@ class CrackSteps(MechanicsSteps):
         frac = st.risk_before or (fracture.summary() if fracture is not None else {})
         if run.fracture.initiate:
             frac["initiation"] = st.initiation
-        frac["crack"] = (
-            None
-            if run.spec is None
-            else _crack_summary(
-                run, self.crack, st.tips_last, st.increment, st.status, st.fractured_at
-            )
-        )
-        if frac["crack"] is not None and run.fracture.fatigue is not None:
-            frac["crack"]["fatigue"] = self.fatigue_summary()
+        frac["cracks"] = [
+            _crack_summary(run, i, c, st.tips_last, st.increment, st.status, st.fractured_at)
+            for i, c in enumerate(self.cracks or [])
+        ]
+        if frac["cracks"] and run.fracture.fatigue is not None:
+            for entry in frac["cracks"]:
+                entry["fatigue"] = self.fatigue_summary()
+        frac["crack"] = frac["cracks"][0] if frac["cracks"] else None  # the first crack
         return frac
 
     def fatigue_summary(self) -> dict[str, Any]:
@@ -786,7 +855,8 @@ class CrackSteps(MechanicsSteps):
             "blocks": max(len(prog.cycles) - 1, 0),
             "cycles": prog.cycles[-1] if prog.cycles else 0.0,
             "cycles_bound": prog.bound,
-            "length": self.crack.length,
+            "length": sum(c.length for c in self.cracks),  # of all the cracks
+            "lengths": {sp.name: c.length for sp, c in zip(self.run.specs, self.cracks)},
             "fractured": at is not None,
             "fracture_time": None if at is None else at[0],
             "fracture_step": None if at is None else at[1],
@@ -862,17 +932,21 @@ def run_cracked(
 
 def _crack_summary(
     run: CrackRun,
+    i: int,
     crack: Crack2D,
     tips: list[IncrementRecord],
     increments: int,
     status: str | None,
     fractured_at: tuple[float, int] | None,
 ) -> dict[str, Any]:
-    """The ``fracture.crack`` entry of summary.json."""
+    """The entry of crack ``i`` in ``fracture.cracks`` of summary.json (the first is also
+    ``fracture.crack``); the propagation and fatigue entries are the run's, in each."""
+    spec = run.specs[i]
+    tips = [r for r in tips if r.crack in (spec.name, "")]
     out: dict[str, Any] = {
-        "name": run.spec.name,
-        "pair": _pair_name(run.spec.name),
-        "friction": run.spec.coefficient,
+        "name": spec.name,
+        "pair": _pair_name(spec.name),
+        "friction": spec.coefficient,
         "points": crack.points.tolist(),
         "length": crack.length,
         "tips": [

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from bonecontact.common.errors import ParameterError
-from bonecontact.fracture.crack import Crack2D
-from bonecontact.fracture.crack3d import planar_crack_from_table
+from bonecontact.fracture.crack import Crack2D, crack_gap, points_in_polygon
+from bonecontact.fracture.crack3d import SurfaceBreakingCrack, planar_crack_from_table
 from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.spec import (
     CRACK3D_TABLE,
@@ -39,6 +39,7 @@ __all__ = [
     "fatigue_from_table",
     "fracture_from_table",
     "missing_strength",
+    "planar_cracks_meet",
     "read_fracture",
 ]
 
@@ -182,16 +183,19 @@ def missing_strength(spec: FractureSpec, strengths: Mapping[str, float]) -> str 
     return None
 
 
-def _check_dimension(spec: FractureSpec, dim: int) -> None:
-    """Propagation, fatigue and automatic insertion run in 2D only."""
+def _check_dimension(spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec] = ()) -> None:
+    """Automatic insertion runs in 2D only; propagation and fatigue in 2D, and in 3D with
+    a surface crack (``shape = "semi_elliptical"``, V: issue 26)."""
+    surface = any(isinstance(c.crack, SurfaceBreakingCrack) for c in cracks)
     for key in ("propagate", "initiate", "fatigue"):
-        if dim != 2 and getattr(spec, key):
+        if dim != 2 and getattr(spec, key) and not (surface and key != "initiate"):
             raise SceneError(
                 None,
                 "[fracture]",
                 key,
-                "runs in 2D scenes in this version (3D: the risk, and K along the front of a "
-                "given planar [[crack]]; 3D propagation is planned, docs/theory/fracture.md)",
+                "runs in 2D scenes, and in 3D with a semi-elliptical surface [[crack]] "
+                "(propagate, fatigue) in this version (3D otherwise: the risk, and K along "
+                "the front of a given planar [[crack]]; docs/theory/fracture.md)",
             )
 
 
@@ -227,7 +231,6 @@ def read_fracture(
             "initiation check is: it runs at every analysis of the growth)",
         )
     spec = fracture_from_table(tab.data if tab is not None else {})
-    _check_dimension(spec, dim)
     if spec.fatigue is not None and has_neoplasm:
         raise SceneError(
             None, "[fracture]", "fatigue", "is not run in a coupled [neoplasm] scene yet"
@@ -240,9 +243,70 @@ def read_fracture(
             "fatigue grows a crack: add a [[crack]] or set initiate = true",
         )
     cracks = [crack_from_table(entry, i + 1, dim) for i, entry in enumerate(entries)]
+    _check_dimension(spec, dim, cracks)
     _check_materials(spec, materials)
     names = [c.name for c in cracks]
     for i, c in enumerate(cracks):
         if names.index(c.name) != i:
             raise SceneError(None, table_label("crack", i, c.name), "name", "is not unique")
+    check_several(cracks, dim)
     return spec, tuple(cracks)
+
+
+def check_several(cracks: Sequence[CrackSpec], dim: int) -> None:
+    """Several ``[[crack]]`` tables: in 2D all in one region (one body) and no two that
+    cross or touch; in 3D none whose surfaces cross or touch.
+
+    Raises
+    ------
+    SceneError
+        Naming the later table, the key (``region``; ``points`` in 2D, the size key in
+        3D) and the earlier table.
+    """
+    for i, c in enumerate(cracks[1:], start=1):
+        first = cracks[0]
+        if dim == 2 and c.region != first.region:
+            raise SceneError(
+                None,
+                table_label("crack", i, c.name),
+                "region",
+                f"{c.region!r}: the cracks of a 2D scene lie in one body, the region "
+                f"{first.region!r} of {table_label('crack', 0, first.name)}",
+            )
+        for j in range(i):
+            if cracks_meet(c.crack, cracks[j].crack):
+                key = "points" if dim == 2 else c.crack.size_key
+                raise SceneError(
+                    None,
+                    table_label("crack", i, c.name),
+                    key,
+                    f"crosses or touches {table_label('crack', j, cracks[j].name)}: "
+                    "intersecting or overlapping cracks are not supported (give them apart)",
+                )
+
+
+def cracks_meet(a: Any, b: Any) -> bool:
+    """Whether two cracks cross or touch: 2D polylines closer than 10⁻⁹ of their extent;
+    3D planar cracks when one's surface reaches the other's (:func:`planar_cracks_meet`)."""
+    if isinstance(a, Crack2D):
+        return crack_gap(a, b) <= 0.0
+    return planar_cracks_meet(a, b) or planar_cracks_meet(b, a)
+
+
+def planar_cracks_meet(a: Any, b: Any, rings: int = 16, per_ring: int = 96) -> bool:
+    """Whether the planar crack ``a`` reaches the surface of the planar crack ``b``:
+    points covering ``a`` (``sample_points``) that fall within ``b``'s outline when
+    projected on its plane lie on both sides of it or on it (within 10⁻⁹ of the cracks'
+    size).  The outline of ``b`` is its front as a polygon of ``per_ring`` points."""
+    if not all(hasattr(c, "sample_points") for c in (a, b)):
+        return False  # a surface-breaking crack: one per scene (refused by the runner)
+    c, R = np.asarray(b.centre, dtype=float), b.axes
+    rel = (a.sample_points(rings, per_ring) - c) @ R.T  # (u, v, n) in b's frame
+    front = b.front().point(np.linspace(0.0, 2 * np.pi, per_ring, endpoint=False))
+    outline = (front - c) @ R.T
+    inside = points_in_polygon(rel[:, :2], outline[:, :2])
+    if not inside.any():
+        return False
+    d = rel[inside, 2]
+    tol = 1e-9 * max(a.a, b.a)
+    return bool(np.any(np.abs(d) <= tol) or (d.min() < 0.0 < d.max()))

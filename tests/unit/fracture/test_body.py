@@ -149,3 +149,62 @@ def test_crack_mouths_on_either_loop_and_what_is_refused() -> None:
         with pytest.raises(FractureError) as err:
             body.check_crack(crack)
         assert err.value.key == "points", crack.points
+
+
+def _face_length(cm, name: str) -> float:
+    msh, comm = cm.mesh, cm.mesh.comm
+    n_facets = msh.topology.index_map(1).size_local
+    facets = cm.facet_tags.find(cm.groups[name])
+    facets = facets[facets < n_facets].astype(np.int32)
+    x = msh.geometry.x[entities_to_geometry(msh, 1, facets)][:, :, :2]
+    return comm.allreduce(float(np.linalg.norm(x[:, 1] - x[:, 0], axis=1).sum()), op=MPI.SUM)
+
+
+@pytest.mark.parametrize(
+    "cracks",
+    [
+        # two interior cracks on either side of the hole, one inclined
+        [[[0.45, 0.0], [0.75, 0.0]], [[-0.8, 0.4], [-0.5, 0.6]]],
+        # an edge crack from the outer edge and an interior crack, three of them
+        [[[1.0, 0.7], [0.7, 0.7]], [[-0.45, 0.0], [-0.75, 0.0]], [[0.0, -0.5], [0.1, -0.8]]],
+    ],
+    ids=["two", "three-with-edge"],
+)
+def test_several_cracks_each_with_its_own_faces(cracks: list) -> None:
+    """Every crack of the body is split into its own two faces: each face as long as
+    its crack, the face tags of different cracks distinct, every node used."""
+    from bonecontact.fracture.body import mesh_body_with_cracks
+
+    comm = MPI.COMM_WORLD
+    md, groups = _plate_with_hole(comm, False)
+    body = body_outline(md.mesh, md.cell_tags, md.facet_tags, groups, "plate")
+    objs = [Crack2D(np.array(p), "end" if abs(p[0][0]) == L else "both") for p in cracks]
+    views, _ = mesh_body_with_cracks(body, objs, TipMesh(h_tip=0.02), comm)
+    assert len(views) == len(objs)
+    tags = [t for cm in views for t in cm.face_tags]
+    assert len(set(tags)) == 2 * len(objs)
+    for cm, c in zip(views, objs, strict=True):
+        assert cm.crack is c and cm.mesh is views[0].mesh
+        for name in ("crack_plus", "crack_minus"):
+            assert _face_length(cm, name) == pytest.approx(c.length, rel=1e-9), name
+    msh = views[0].mesh
+    n_owned = msh.geometry.index_map().size_local
+    used = np.zeros(n_owned + msh.geometry.index_map().num_ghosts, dtype=bool)
+    used[msh.geometry.dofmaps[0].ravel()] = True
+    assert comm.allreduce(int((~used[:n_owned]).sum()), op=MPI.SUM) == 0
+
+
+@pytest.mark.parametrize(
+    "second",
+    [[[0.6, -0.2], [0.6, 0.2]], [[0.75, 0.0], [0.9, 0.0]]],
+    ids=["crossing", "touching"],
+)
+def test_cracks_that_meet_are_refused(second: list) -> None:
+    from bonecontact.fracture.body import mesh_body_with_cracks
+
+    comm = MPI.COMM_WORLD
+    md, groups = _plate_with_hole(comm, False)
+    body = body_outline(md.mesh, md.cell_tags, md.facet_tags, groups, "plate")
+    cracks = [Crack2D(np.array([[0.45, 0.0], [0.75, 0.0]])), Crack2D(np.array(second))]
+    with pytest.raises(FractureError, match="points: crack 1 crosses or touches crack 0"):
+        mesh_body_with_cracks(body, cracks, TipMesh(h_tip=0.02), comm)

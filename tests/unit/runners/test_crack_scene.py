@@ -358,10 +358,10 @@ def test_closed_crack_propagates_in_shear(mesh: Path, tmp_path: Path) -> None:
     [
         (
             lambda s: (
-                s + '[[crack]]\nname = "d"\npoints = [[0.0, 0.01], [0.002, 0.01]]\n'
+                s + '[[crack]]\nname = "d"\npoints = [[0.0, -0.002], [0.0, 0.002]]\n'
                 'region = "plate"\n'
             ),
-            '[[crack]] #2 "d"',
+            '[[crack]] #2 "d", key "points": crosses or touches [[crack]] #1 "c"',
         ),
         (
             lambda s: (
@@ -371,7 +371,7 @@ def test_closed_crack_propagates_in_shear(mesh: Path, tmp_path: Path) -> None:
             '[fracture], key "propagate"',
         ),
     ],
-    ids=["two_cracks", "quasistatic_propagation"],
+    ids=["crossing_cracks", "quasistatic_propagation"],
 )
 def test_what_is_not_run_is_exit_2(mesh: Path, tmp_path: Path, edit, where: str) -> None:
     path = _scene(tmp_path, mesh, "refused", CENTRE)
