@@ -448,7 +448,14 @@ analyses = res.summary["coupling"]["analyses"]
 # 2–4 MPa deviatoric stress of a 6–10 MPa contact; the measured peak without menisci,
 # 6 MPa, would strain it as much (docs/validation.md).  The bone's strains stay
 # below 2 %.  The pressure's peak and the cartilage's deformation are therefore
-# indicative; the load each bone carries is fixed by equilibrium.
+# indicative; the load each bone carries is fixed by equilibrium.  Why the strain
+# concentrates (measured 2026-12-01): before loading, the vertical gaps of the femoral
+# cartilage nodes over the patch spread from 0.02 to 2 mm, since the scanned femur's
+# 5 mm facets meet at kinks that stand up to 1 mm out of the tibial facets' chords; the
+# layers (3.5–6 mm together) must be compressed by that spread before the patch closes,
+# 15–30 % whatever the modulus.  A short-time cartilage modulus, a "meniscus" conformed
+# to the gap and split facets were tried and measured (docs/validation.md): none brings
+# the measure near 10 % without shrinking the patch.
 
 
 # %%
@@ -460,7 +467,8 @@ def nodal_forces(directory: Path, groups: tuple[str, ...]) -> list[np.ndarray]:
     grid = bp.read_fields(sorted(d.glob("fields*.pvd"))[-1])
     geo = read_host_geometry3d(d / "host_mesh.msh")
     dist, node = cKDTree(geo.x).query(np.asarray(grid.points))
-    tet = node[np.asarray(grid.cells_dict[71]).reshape(-1, 4)]
+    cells = grid.cells_dict  # linear tetrahedra: VTK_LAGRANGE_TETRAHEDRON or VTK_TETRA
+    tet = node[np.asarray(cells[71] if 71 in cells else cells[10]).reshape(-1, 4)]
     _, first = np.unique(np.sort(tet, axis=1), axis=0, return_index=True)
     tet = tet[first]
     sig = np.asarray(grid.cell_data["stress"]).reshape(-1, 3, 3)[first]
@@ -547,7 +555,9 @@ if comm.rank == 0:
 # The model's contact area is that of the femoral cartilage nodes in contact, its mean
 # pressure the area-weighted mean over them, at the last analysis.  The measurement's
 # spread is not in what was read (the abstract): the comparison is of the means only;
-# docs/validation.md discusses it.
+# docs/validation.md discusses it, with the other measurements in that file (Baratz et
+# al. 1986, Shrive et al. 1978: changes with meniscectomy and meniscal load shares, for a
+# model with menisci; Shepherd & Seedhom 1997: the short-time cartilage modulus).
 
 # %%
 if comm.rank == 0:

@@ -616,7 +616,8 @@ def _nodal_forces(pvd: Path, msh: Path, group: str) -> tuple[np.ndarray, np.ndar
 
     grid = read_fields(pvd)
     x = np.asarray(grid.points)
-    tet = np.asarray(grid.cells_dict[71]).reshape(-1, 4)  # linear tetrahedra
+    cells = grid.cells_dict  # linear tetrahedra: VTK_LAGRANGE_TETRAHEDRON or VTK_TETRA
+    tet = np.asarray(cells[71] if 71 in cells else cells[10]).reshape(-1, 4)
     sig = np.asarray(grid.cell_data["stress"]).reshape(-1, 3, 3)
     geo = read_host_geometry3d(msh)
     dist, nodes = cKDTree(x).query(geo.x[np.unique(geo.facets[group][1])])
