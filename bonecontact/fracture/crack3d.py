@@ -7,6 +7,8 @@ circum- and inradius about it).  Its front is an
 :class:`~bonecontact.fracture.front3d.EllipticalFront` or a
 :class:`~bonecontact.fracture.front3d.PolygonFront` (in the crack's frame), which gives
 points, the local frame and arc length along the front for the stress intensity factors.
+:class:`SurfaceBreakingCrack` is a semi-elliptical crack whose front meets the body's
+surface (cut into the body by :mod:`bonecontact.fracture.surface_body3d`).
 :func:`planar_crack_from_table` parses and checks the table (errors name the key).
 """
 
@@ -26,13 +28,14 @@ __all__ = [
     "CORNER_FRACTION",
     "CRACK3D_SHAPES",
     "PlanarCrack",
+    "SurfaceBreakingCrack",
     "TriangulatedCrack",
     "planar_crack_from_table",
     "triangulated_from_polygon",
 ]
 
 #: Shapes of a 3D crack.
-CRACK3D_SHAPES = ("disc", "ellipse", "polygon")
+CRACK3D_SHAPES = ("disc", "ellipse", "polygon", "semi_elliptical")
 _UNIT_TOL = 1e-6
 _PLANE_TOL = 1e-6  # distance from the best-fit plane, relative to the polygon's size
 #: Front points on a polygon edge keep at least this fraction of the edge from its ends.
@@ -163,7 +166,82 @@ def _default_axis(n: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     return u / np.linalg.norm(u)
 
 
-def planar_crack_from_table(table: Mapping) -> PlanarCrack:
+@dataclass(frozen=True)
+class SurfaceBreakingCrack:
+    """A planar semi-elliptical crack centred on the body's surface.
+
+    Parameters
+    ----------
+    centre
+        A point of the body's surface (m): the middle of the crack's mouth.
+    normal
+        Unit normal of the crack plane (the ``crack_upper`` side).
+    depth, half_length
+        a (into the body) and c (along the surface), m.
+    axis
+        Unit in-plane direction of c (``None``: normal to the depth direction, the inward
+        surface normal at the centre projected on the crack plane).
+    """
+
+    centre: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    depth: float
+    half_length: float
+    axis: tuple[float, float, float] | None = None
+    shape: str = "semi_elliptical"
+
+    @property
+    def size_key(self) -> str:
+        """The key that sets the crack's size."""
+        return "depth"
+
+    @property
+    def a(self) -> float:
+        """The larger semi-axis (m)."""
+        return max(self.depth, self.half_length)
+
+    @property
+    def b(self) -> float:
+        """The smaller semi-axis (m)."""
+        return min(self.depth, self.half_length)
+
+    def with_axis(
+        self, axis: tuple[float, float, float], centre: tuple[float, float, float] | None = None
+    ) -> SurfaceBreakingCrack:
+        """The same crack with its ``axis`` set (and its centre moved to ``centre``)."""
+        c = self.centre if centre is None else centre
+        return SurfaceBreakingCrack(c, self.normal, self.depth, self.half_length, axis, self.shape)
+
+    def grown(self, depth: float, half_length: float, shift: float = 0.0) -> SurfaceBreakingCrack:
+        """The crack with new semi-axes, its centre moved by ``shift`` (m) along ``axis``."""
+        c = np.asarray(self.centre, dtype=float) + shift * np.asarray(self.axis, dtype=float)
+        return SurfaceBreakingCrack(
+            tuple(map(float, c)), self.normal, depth, half_length, self.axis, self.shape
+        )
+
+
+def _surface_crack_from_table(table: Mapping) -> SurfaceBreakingCrack:
+    for key in ("radius", "semi_axes", "vertices"):
+        if key in table:
+            raise ParameterError(
+                key, 'does not apply to shape = "semi_elliptical" (depth, half_length)'
+            )
+    for key in ("centre", "normal", "depth", "half_length"):
+        if key not in table:
+            raise ParameterError(key, 'is required (shape = "semi_elliptical")')
+    centre = _vector(table, "centre")
+    n = _unit(table, "normal")
+    a, c = _positive(table["depth"], "depth"), _positive(table["half_length"], "half_length")
+    axis = None
+    if "axis" in table:
+        u = _unit(table, "axis")
+        if abs(float(np.dot(u, n))) > _UNIT_TOL:
+            raise ParameterError("axis", "must lie in the crack plane (normal to `normal`)")
+        axis = tuple(map(float, u))
+    return SurfaceBreakingCrack(tuple(map(float, centre)), tuple(map(float, n)), a, c, axis)
+
+
+def planar_crack_from_table(table: Mapping) -> PlanarCrack | SurfaceBreakingCrack:
     """Parse the geometry of a 3D ``[[crack]]``: ``shape = "disc"`` (``radius``) or
     ``"ellipse"`` (``semi_axes = [a, b]``, a ≥ b, and ``axis``, the in-plane direction of
     ``a``), with ``centre`` and the unit ``normal``; or ``"polygon"``: ``vertices``, a
@@ -184,6 +262,11 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack:
         raise ParameterError("shape", f"must be one of {', '.join(CRACK3D_SHAPES)}, got {shape!r}")
     if shape == "polygon":
         return _polygon_from_table(table)
+    if shape == "semi_elliptical":
+        return _surface_crack_from_table(table)
+    for key in ("depth", "half_length"):
+        if key in table:
+            raise ParameterError(key, 'applies to shape = "semi_elliptical" only')
     if "vertices" in table:
         raise ParameterError("vertices", 'applies to shape = "polygon" only')
     for key in ("centre", "normal", "radius" if shape == "disc" else "semi_axes"):

@@ -21,6 +21,11 @@ from bonecontact.runners.cracks import check_cracked, is_crack_scene, run_cracke
 from bonecontact.runners.growth import build_growth, run_growth
 from bonecontact.runners.mechanics import SceneModel, build_model, run_mechanics
 from bonecontact.runners.results import RunResult
+from bonecontact.runners.surface_crack3d import (
+    check_surface_crack,
+    has_surface_crack,
+    run_surface_crack,
+)
 from bonecontact.scene import Scene, SceneError
 
 __all__ = ["KINDS", "RunKind", "choose_kind"]
@@ -72,6 +77,26 @@ def _run_coupled(
     return run_coupled(scene, comm, output, progress, restart)
 
 
+def _check_crack(scene: Scene, comm: MPI.Comm) -> SceneModel | None:
+    """A crack scene: a 3D surface crack (:mod:`~bonecontact.runners.surface_crack3d`) or
+    any other crack (:mod:`~bonecontact.runners.cracks`)."""
+    if scene.dimension == 3 and has_surface_crack(scene):
+        return check_surface_crack(scene, comm)
+    return check_cracked(scene, comm)
+
+
+def _run_crack(
+    scene: Scene, comm: MPI.Comm, output: Path | None, progress: bool, restart: Restart
+) -> RunResult:
+    if scene.dimension == 3 and has_surface_crack(scene):
+        if restart:
+            raise SceneError(
+                scene.path, "[[crack]]", "shape", "a surface-crack run has no restart yet"
+            )
+        return run_surface_crack(scene, comm, output, progress)
+    return run_cracked(scene, comm, output, progress, restart)
+
+
 #: The run kinds, in the order :func:`choose_kind` tries them.
 KINDS: dict[str, RunKind] = {
     "growth": RunKind(
@@ -89,8 +114,8 @@ KINDS: dict[str, RunKind] = {
     "crack": RunKind(
         "crack",
         "[analysis] with a [[crack]] or [fracture] initiate: the body meshed around the crack",
-        check_cracked,
-        run_cracked,
+        _check_crack,
+        _run_crack,
     ),
     "mechanics": RunKind(
         "mechanics",

@@ -13,7 +13,7 @@ import numpy as np
 from dolfinx import geometry, mesh
 
 from bonecontact.common.errors import ParameterError
-from bonecontact.fracture.crack3d import PlanarCrack
+from bonecontact.fracture.crack3d import PlanarCrack, SurfaceBreakingCrack
 from bonecontact.scene.spec import CrackSpec
 
 __all__ = ["check_crack_region"]
@@ -35,6 +35,8 @@ def check_crack_region(
     cell that it lies outside the mesh.  An ``increment`` must be shorter than the
     region's extent.
     """
+    if isinstance(spec.crack, SurfaceBreakingCrack):
+        return  # its mouth and front are checked when it is cut into the body (surface_body3d)
     if isinstance(spec.crack, PlanarCrack):
         samples = spec.crack.sample_points()
         x, out_key = samples, spec.crack.size_key

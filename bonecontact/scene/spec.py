@@ -961,6 +961,8 @@ CRACK3D_TABLE = Table(
         _COEFFICIENT,
         Key("front_points", "integer", 8, minimum=1, doc_default="`8` (polygon: `1`)"),
         Key("vertices", "points", unit="m", doc_default="required for a polygon"),
+        Key("depth", "number", unit="m", doc_default="required for a semi_elliptical crack"),
+        Key("half_length", "number", unit="m", doc_default="required for a semi_elliptical crack"),
     ),
     array=True,
     renamed=_OLD_COEFFICIENT,

@@ -1,0 +1,710 @@
+"""A semi-elliptical surface crack cut into a scene's 3D body
+(docs/theory/fracture.md#surface-cracks-in-a-scenes-body).
+
+The crack is planar: centre C on the body's surface, unit normal n, depth a (into the
+body, along the inward surface normal projected on the crack plane) and half-length c
+(along the surface).  :func:`cut_mouth` splits the body's boundary triangles along the
+line where the crack plane meets them (vertices within 2 % of an edge of the plane are
+moved onto it) and inserts the two points where that line leaves the ellipse: the
+*mouth*, a chain of boundary nodes, and the *front*, the arc of the ellipse inside the
+body (:class:`BodyArcFront`, its ends on the surface).  :func:`mesh_body_with_surface_crack`
+meshes the crack surface (bounded by the mouth and the front) with triangles graded
+towards the front, embeds it in the volume bounded by the cut boundary, meshes the volume
+by tetrahedra (HXT) and splits the crack nodes — the mouth's included, the front's not —
+into the faces ``crack_upper`` and ``crack_lower`` with gmsh's ``Crack`` plugin.  The
+boundary's facet groups keep their names and tags.  All gmsh work runs on rank 0.
+
+Limits: one planar crack, one cell group; the mouth must be one chain of the surface
+(the plane must not graze the surface near the crack).
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+from dolfinx.io.gmsh import model_to_mesh
+
+from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
+from bonecontact.fracture.crack3d import SurfaceBreakingCrack
+from bonecontact.fracture.front3d import EllipticalFront
+from bonecontact.fracture.meshing import TipMesh
+from bonecontact.fracture.surface3d import EllipticalArcFront
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.meshing.session import gmsh_session
+
+__all__ = [
+    "BodyArcFront",
+    "CutBody",
+    "crack_frame",
+    "cut_mouth",
+    "inside_body",
+    "mesh_body_with_surface_crack",
+]
+
+#: A vertex closer to the crack plane than this fraction of the mean edge is moved onto it.
+SNAP_FRACTION = 0.02
+
+
+@dataclass(frozen=True)
+class BodyArcFront(EllipticalArcFront):
+    """An :class:`~bonecontact.fracture.surface3d.EllipticalArcFront` whose arc may start
+    below φ = 0 (−2π ≤ φ₀ < φ₁ ≤ φ₀ + 2π): on a concave surface the front of a crack
+    centred on the surface reaches a little beyond the ends of the major axis (on a
+    convex one it stops short of them)."""
+
+    def __post_init__(self) -> None:
+        EllipticalFront.__post_init__(self)
+        p0, p1 = self.phi_range
+        if not (-2 * math.pi <= p0 < p1 <= p0 + 2 * math.pi):
+            raise ParameterError("phi_range", f"need phi0 < phi1 <= phi0 + 2 pi, got {p0}, {p1}")
+
+
+@dataclass(frozen=True)
+class CutBody:
+    """The body's boundary with the crack's mouth cut into it.
+
+    Attributes
+    ----------
+    nodes, triangles, tags
+        Boundary nodes (M, 3), triangles (node indices, outward) and their facet tags.
+    mouth
+        Node indices of the mouth, from the front's end at φ₀ to the one at φ₁.
+    arc
+        The front (the ellipse's arc inside the body).
+    crack
+        The crack with its ``axis`` (the direction of c) set.
+    """
+
+    nodes: npt.NDArray[np.float64]
+    triangles: npt.NDArray[np.int64]
+    tags: npt.NDArray[np.int32]
+    mouth: tuple[int, ...]
+    arc: BodyArcFront
+    crack: SurfaceBreakingCrack
+
+    def front(self) -> BodyArcFront:
+        """The crack front."""
+        return self.arc
+
+    @property
+    def normal(self) -> tuple[float, float, float]:
+        return self.crack.normal
+
+    @property
+    def a(self) -> float:
+        """The larger semi-axis (m): the scale of tolerances."""
+        return self.arc.a
+
+
+# ------------------------------------------------------------------- geometry (numpy)
+def _unique_nodes(body: BodySurface) -> tuple[np.ndarray, np.ndarray]:
+    """Merged boundary nodes and the triangles' node indices, in a canonical order (the
+    gathered order depends on the partition)."""
+    tol = 1e-9 * body.scale
+    xyz = body.triangles.reshape(-1, 3)
+    keys = np.round(xyz / tol).astype(np.int64)
+    _, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    conn = inv.reshape(-1, 3)
+    start = np.argmin(conn, axis=1)
+    conn = np.stack([np.roll(c, -k) for c, k in zip(conn, start, strict=True)])
+    order = np.lexsort(conn.T[::-1])
+    return xyz[first].copy(), conn[order], body.tags[order]
+
+
+def _edge(t: np.ndarray, k: int) -> tuple[int, int]:
+    a, b = int(t[k]), int(t[(k + 1) % 3])
+    return (a, b) if a < b else (b, a)
+
+
+def _split_edges(conn: np.ndarray, marked: np.ndarray) -> set[tuple[int, int]]:
+    """The edges to halve: those of the marked triangles, closed so that no triangle has
+    exactly two (red-green refinement: a triangle with two gets its third)."""
+    edges = {
+        tuple(sorted((int(t[k]), int(t[(k + 1) % 3])))) for t in conn[marked] for k in range(3)
+    }
+    while True:
+        more = set()
+        for t in conn:
+            own = [_edge(t, k) for k in range(3)]
+            hit = [e in edges for e in own]
+            if sum(hit) == 2:
+                more.add(own[hit.index(False)])
+        if not more:
+            return edges
+        edges |= more
+
+
+def _refine_once(nodes: np.ndarray, conn: np.ndarray, tags: np.ndarray, marked: np.ndarray):
+    """One red-green step: marked triangles in four, their neighbours halved."""
+    edges = _split_edges(conn, marked)
+    X = list(nodes)
+    mid = {}
+    for e in sorted(edges):
+        X.append(0.5 * (nodes[e[0]] + nodes[e[1]]))
+        mid[e] = len(X) - 1
+    out, out_tags = [], []
+    for t, tag in zip(conn, tags, strict=True):
+        a, b, c = (int(v) for v in t)
+        m = [mid.get(tuple(sorted(e))) for e in ((a, b), (b, c), (c, a))]
+        if all(k is None for k in m):
+            new = [(a, b, c)]
+        elif all(k is not None for k in m):
+            new = [(a, m[0], m[2]), (m[0], b, m[1]), (m[2], m[1], c), (m[0], m[1], m[2])]
+        else:
+            k = next(i for i in range(3) if m[i] is not None)
+            v = (a, b, c)
+            p, q, r = v[k], v[(k + 1) % 3], v[(k + 2) % 3]
+            new = [(p, m[k], r), (m[k], q, r)]
+        out += new
+        out_tags += [tag] * len(new)
+    return np.asarray(X), np.asarray(out, dtype=np.int64), np.asarray(out_tags, dtype=np.int32)
+
+
+def _refine_near(nodes, conn, tags, size, levels: int = 6):
+    """Halve the boundary triangles whose longest edge exceeds twice ``size`` (a function
+    of points) at their centroid, level by level."""
+    for _ in range(levels):
+        tri = nodes[conn]
+        longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+        marked = longest > 2.0 * size(tri.mean(axis=1))
+        if not marked.any():
+            break
+        nodes, conn, tags = _refine_once(nodes, conn, tags, marked)
+    return nodes, conn, tags
+
+
+def _nearest_triangle(nodes: np.ndarray, conn: np.ndarray, x: np.ndarray) -> int:
+    return int(np.argmin(np.linalg.norm(nodes[conn].mean(axis=1) - x, axis=1)))
+
+
+def crack_frame(
+    crack: SurfaceBreakingCrack, nodes: np.ndarray, conn: np.ndarray
+) -> tuple[EllipticalFront, SurfaceBreakingCrack]:
+    """The crack's ellipse (the major semi-axis along u) and the crack with its axis: the
+    centre is moved onto the plane of the nearest boundary triangle (the faceted surface),
+    the depth direction is the inward mean normal of the boundary triangles with a corner
+    within max(a, c) of it projected on the crack plane; c lies along ``axis`` (default: normal
+    to the depth and to n).
+
+    Raises
+    ------
+    ParameterError
+        (key ``normal``) the crack plane is tangent to the surface at the centre.
+    """
+    n = np.asarray(crack.normal, dtype=float)
+    C = np.asarray(crack.centre, dtype=float)
+    tri = nodes[conn[_nearest_triangle(nodes, conn, C)]]
+    m = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+    C = C - ((C - tri[0]) @ m) / (m @ m) * m  # onto the discrete surface
+    x = nodes[conn]
+    reach = max(crack.depth, crack.half_length)
+    near = np.min(np.linalg.norm(x - C, axis=2), axis=1) < reach  # a corner within a, c
+    if near.any():  # the mean (area-weighted) normal around the centre
+        m = np.cross(x[near, 1] - x[near, 0], x[near, 2] - x[near, 0]).sum(axis=0)
+    m = m / np.linalg.norm(m)
+    v0 = -(m - (m @ n) * n)
+    if np.linalg.norm(v0) < 0.2:
+        raise ParameterError(
+            "normal", "the crack plane is (nearly) tangent to the body's surface at its centre"
+        )
+    v0 = v0 / np.linalg.norm(v0)
+    if crack.axis is not None:
+        t = np.asarray(crack.axis, dtype=float)
+        v0 = np.cross(n, t)  # depth normal to the given axis, on the inward side
+        v0 = v0 if v0 @ -m > 0 else -v0
+    t = np.cross(v0, n)
+    a, c = crack.depth, crack.half_length
+    axes = (t, v0, n) if c >= a else (v0, np.cross(n, v0), n)
+    ell = EllipticalFront(max(a, c), min(a, c), tuple(C), tuple(map(tuple, axes)))
+    return ell, crack.with_axis(tuple(map(float, t)), tuple(map(float, C)))
+
+
+def _ellipse_rho(ell: EllipticalFront, x: np.ndarray) -> np.ndarray:
+    loc = ell.local(x)
+    return np.hypot(loc[:, 0] / ell.a, loc[:, 1] / ell.b)
+
+
+def _snap(nodes: np.ndarray, conn: np.ndarray, C: np.ndarray, n: np.ndarray, reach: float):
+    """Move the vertices near the crack within the snap distance onto its plane."""
+    edges = np.linalg.norm(nodes[conn] - nodes[np.roll(conn, 1, axis=1)], axis=2)
+    near_t = np.linalg.norm(nodes[conn].mean(axis=1) - C, axis=1) < reach
+    h = float(np.mean(edges[near_t])) if near_t.any() else float(np.mean(edges))
+    s = (nodes - C) @ n
+    near = np.linalg.norm(nodes - C, axis=1) < reach
+    snap = near & (np.abs(s) < SNAP_FRACTION * h) & (s != 0)
+    nodes = nodes.copy()
+    nodes[snap] -= s[snap, None] * n
+    s[snap] = 0.0
+    s[~near] = np.where(s[~near] == 0, 1e-300, s[~near])  # far vertices never on the plane
+    return nodes, np.sign(s)
+
+
+class _Cutter:
+    """Splits the triangles crossed by the plane; collects the chords (plane ∩ triangle)."""
+
+    def __init__(self, nodes: np.ndarray, sign: np.ndarray, C: np.ndarray, n: np.ndarray):
+        self.nodes = [p for p in nodes]
+        self.sign = list(sign)
+        self.C, self.n = C, n
+        self.crossing: dict[tuple[int, int], int] = {}
+        self.chords: dict[int, tuple[int, int]] = {}  # triangle → chord (p, q)
+
+    def _cross(self, i: int, j: int) -> int:
+        key = (min(i, j), max(i, j))
+        if key not in self.crossing:
+            p, q = self.nodes[i], self.nodes[j]
+            sp, sq = (p - self.C) @ self.n, (q - self.C) @ self.n
+            x = p + sp / (sp - sq) * (q - p)
+            x = x - ((x - self.C) @ self.n) * self.n
+            self.nodes.append(x)
+            self.sign.append(0.0)
+            self.crossing[key] = len(self.nodes) - 1
+        return self.crossing[key]
+
+    def polygon(self, tri: np.ndarray) -> list[int]:
+        """The triangle's corners with the crossing points inserted, in its order."""
+        out = []
+        for k in range(3):
+            i, j = int(tri[k]), int(tri[(k + 1) % 3])
+            out.append(i)
+            if self.sign[i] * self.sign[j] < 0:
+                out.append(self._cross(i, j))
+        return out
+
+    def chord(self, t: int, tri: np.ndarray) -> None:
+        poly = self.polygon(tri)
+        zero = [p for p in poly if self.sign[p] == 0]
+        if len(zero) == 2:
+            self.chords[t] = (zero[0], zero[1])
+
+
+def _chains(chords: dict[int, tuple[int, int]]) -> list[list[int]]:
+    """The chords joined into chains of nodes (each chain open or closed)."""
+    adj: dict[int, list[int]] = {}
+    for p, q in set(tuple(sorted(c)) for c in chords.values()):
+        adj.setdefault(p, []).append(q)
+        adj.setdefault(q, []).append(p)
+    seen: set[int] = set()
+    chains = []
+    for start in sorted(adj, key=lambda k: (len(adj[k]) != 1, k)):
+        if start in seen:
+            continue
+        chain, prev, cur = [start], None, start
+        seen.add(start)
+        while True:
+            nxt = [k for k in adj[cur] if k != prev and k not in seen]
+            if not nxt:
+                break
+            prev, cur = cur, nxt[0]
+            chain.append(cur)
+            seen.add(cur)
+        chains.append(chain)
+    return chains
+
+
+def _segment_exit(ell: EllipticalFront, p: np.ndarray, q: np.ndarray) -> float:
+    """The fraction t ∈ (0, 1] along p → q where the segment leaves the ellipse (p inside)."""
+    lp, lq = ell.local(np.array([p, q]))
+    d = lq - lp
+    A = (d[0] / ell.a) ** 2 + (d[1] / ell.b) ** 2
+    B = 2 * (lp[0] * d[0] / ell.a**2 + lp[1] * d[1] / ell.b**2)
+    Cc = (lp[0] / ell.a) ** 2 + (lp[1] / ell.b) ** 2 - 1.0
+    return float((-B + math.sqrt(max(B * B - 4 * A * Cc, 0.0))) / (2 * A))
+
+
+def _mouth_chain(cut: _Cutter, ell: EllipticalFront) -> tuple[list[int], list[float]]:
+    """The chain through the crack's centre: its nodes inside the ellipse and the exit
+    fractions on the segments beyond each end."""
+    C = np.asarray(ell.centre)
+    X = np.asarray(cut.nodes)
+    best = None
+    for chain in _chains(cut.chords):
+        d = float(np.min(np.linalg.norm(X[chain] - C, axis=1)))
+        if best is None or d < best[0]:
+            best = (d, chain)
+    if best is None or best[0] > ell.b:
+        raise ParameterError("centre", "the crack plane does not cut the body's surface there")
+    chain = best[1]
+    rho = _ellipse_rho(ell, X[chain])
+    inside = np.flatnonzero(rho < 1.0)
+    k0 = int(np.argmin(np.linalg.norm(X[chain] - C, axis=1)))
+    lo = hi = k0
+    while lo - 1 >= 0 and rho[lo - 1] < 1.0:
+        lo -= 1
+    while hi + 1 < len(chain) and rho[hi + 1] < 1.0:
+        hi += 1
+    if rho[k0] >= 1.0 or lo == 0 or hi == len(chain) - 1 or len(inside) > hi - lo + 1:
+        raise ParameterError(
+            "half_length",
+            "the mouth of the crack is not one stretch of the surface inside the ellipse "
+            "(the crack reaches too far along the surface, or the centre is off it)",
+        )
+    nodes = chain[lo : hi + 1]
+    ends = [chain[lo - 1], chain[hi + 1]]
+    t = [_segment_exit(ell, X[nodes[0]], X[ends[0]]), _segment_exit(ell, X[nodes[-1]], X[ends[1]])]
+    return [ends[0], *nodes, ends[1]], t
+
+
+def _end_node(cut: _Cutter, p: int, q: int, t: float, edge: bool) -> tuple[int, bool]:
+    """The front's end on the chord p (inside) → q at fraction t: p if t < 0.1, q if q is
+    a vertex and t > 0.9 (or the chord is a mesh edge: the nearer of the two), else a new
+    node inside the triangle (t at most 0.9).  Returns (node, whether it is new)."""
+    if edge:
+        return (p if t < 0.5 else q), False
+    if t < 0.1:
+        return p, False
+    if t > 0.9 and q not in cut.crossing.values():
+        return q, False
+    P, Q = cut.nodes[p], cut.nodes[q]
+    cut.nodes.append(P + min(t, 0.9) * (Q - P))
+    cut.sign.append(0.0)
+    return len(cut.nodes) - 1, True
+
+
+def _fan(poly: list[int], nodes: list[np.ndarray], centre: int | None = None):
+    """A convex polygon as triangles: a fan from ``centre`` (a node inside it), from a new
+    centroid node when it has more than 3 corners, else the polygon itself."""
+    if centre is None:
+        if len(poly) == 3:
+            return [tuple(poly)]
+        nodes.append(np.mean([nodes[k] for k in poly], axis=0))
+        centre = len(nodes) - 1
+    pairs = [(poly[k], poly[(k + 1) % len(poly)]) for k in range(len(poly))]
+    return [(centre, p, q) for p, q in pairs if centre not in (p, q)]
+
+
+def _split_triangle(cut: _Cutter, tri: np.ndarray, end: tuple[int, int] | None):
+    """The triangles that replace a cut one: both sides of its chord, or — the triangle
+    where the front meets the surface — a fan from the end node over its corners and the
+    chord's inner point (``end`` = (inner point, end node))."""
+    poly = cut.polygon(tri)
+    if end is not None:
+        inner, node = end
+        corners = [k for k in poly if k == inner or k in tri]
+        return _fan(corners, cut.nodes, node)
+    out = []
+    for side in (1, -1):
+        out += _fan([k for k in poly if cut.sign[k] * side >= 0], cut.nodes)
+    return out
+
+
+def _compact(nodes: list, tris: np.ndarray, mouth: list[int]):
+    """Drop the nodes no triangle uses; renumber."""
+    used = np.unique(tris)
+    new = -np.ones(len(nodes), dtype=np.int64)
+    new[used] = np.arange(len(used))
+    return np.asarray(nodes)[used], new[tris], [int(new[k]) for k in mouth]
+
+
+def _segment_triangles(cut: _Cutter) -> dict[tuple[int, int], list[int]]:
+    out: dict[tuple[int, int], list[int]] = {}
+    for t, (p, q) in cut.chords.items():
+        out.setdefault((min(p, q), max(p, q)), []).append(t)
+    return out
+
+
+def _cut_triangles(cut: _Cutter, conn, chain: list[int], frac: list[float]):
+    """The end nodes of the mouth and the replacement of every cut triangle."""
+    seg = _segment_triangles(cut)
+    tri_of = {k: seg[(min(p, q), max(p, q))] for k, (p, q) in enumerate(zip(chain, chain[1:]))}
+    ends, repl = [], {}
+    for k, (inner, outer, t) in enumerate(
+        ((chain[1], chain[0], frac[0]), (chain[-2], chain[-1], frac[1]))
+    ):
+        tris = tri_of[0 if k == 0 else len(chain) - 2]
+        node, new = _end_node(cut, inner, outer, t, len(tris) > 1)
+        ends.append(node)
+        if len(tris) > 1:  # the chord is a mesh edge: nothing to split
+            continue
+        if new or (node == inner and inner in cut.crossing.values()):
+            repl[tris[0]] = _split_triangle(cut, conn[tris[0]], (inner, node))
+        elif node == outer:
+            repl[tris[0]] = _split_triangle(cut, conn[tris[0]], None)
+    for k in range(1, len(chain) - 2):
+        if len(tri_of[k]) == 1:
+            repl[tri_of[k][0]] = _split_triangle(cut, conn[tri_of[k][0]], None)
+    return ends, repl
+
+
+def _arc_parameter(ell: EllipticalFront, x: np.ndarray) -> float:
+    loc = ell.local(x[None, :])[0]
+    return math.atan2(loc[1] / ell.b, loc[0] / ell.a)
+
+
+def _front_of(ell: EllipticalFront, x0: np.ndarray, x1: np.ndarray, deep: np.ndarray):
+    """The arc from x0 to x1 through the body (the side of ``deep``), ``None`` if the arc
+    from x0 to x1 counter-clockwise misses ``deep``."""
+    p0, p1 = _arc_parameter(ell, x0), _arc_parameter(ell, x1)
+    pd = _arc_parameter(ell, deep)
+    p1 = p1 if p1 > p0 else p1 + 2 * math.pi
+    pd = pd if pd > p0 else pd + 2 * math.pi
+    if pd > p1:
+        return None
+    return BodyArcFront(ell.a, ell.b, ell.centre, ell.axes, (p0, p1))
+
+
+def _size_function(ell: EllipticalFront, size: TipMesh, h_max: float):
+    """h(x) = min(h_f + g·d, h_max) with d the distance estimate of the size field."""
+
+    def h(x: np.ndarray) -> np.ndarray:
+        loc = ell.local(x)
+        rho = np.hypot(loc[:, 0] / ell.a, loc[:, 1] / ell.b)
+        d = np.hypot((rho - 1.0) * ell.b, loc[:, 2])
+        return np.minimum(size.h_tip + size.grading * d, h_max)
+
+    return h
+
+
+def cut_mouth(
+    body: BodySurface, crack: SurfaceBreakingCrack, size: TipMesh | None = None
+) -> CutBody:
+    """Cut the crack's mouth into the body's boundary (numpy; the same on every rank); with
+    ``size``, the boundary triangles near the crack are first refined (red-green) to
+    about the front's mesh size.
+
+    Raises
+    ------
+    ParameterError
+        (``centre``) the plane does not cut the surface near the centre; (``half_length``)
+        the mouth is not one stretch of surface inside the ellipse; (``normal``) the plane
+        is tangent to the surface.
+    """
+    nodes, conn, tags = _unique_nodes(body)
+    ell, crack = crack_frame(crack, nodes, conn)
+    if size is not None:
+        nodes, conn, tags = _refine_near(nodes, conn, tags, _size_function(ell, size, body.h_max))
+    C, n = np.asarray(ell.centre), ell.normal
+    reach = 1.5 * ell.a + 3 * body.h_max
+    nodes, sign = _snap(nodes, conn, C, n, reach)
+    cut = _Cutter(nodes, sign, C, n)
+    for t, tri in enumerate(conn):
+        if np.min(np.linalg.norm(nodes[tri] - C, axis=1)) < reach:
+            cut.chord(t, tri)
+    chain, frac = _mouth_chain(cut, ell)
+    ends, repl = _cut_triangles(cut, conn, chain, frac)
+    tris, out_tags = [], []
+    for t, (tri, tag) in enumerate(zip(conn, tags, strict=True)):
+        for tr in repl.get(t, [tuple(int(k) for k in tri)]):
+            tris.append(tr)
+            out_tags.append(tag)
+    mouth = [ends[0], *[k for k in chain[1:-1] if k not in ends], ends[1]]
+    X, tris, mouth = _compact(cut.nodes, np.asarray(tris, dtype=np.int64), mouth)
+    deep = C + crack.depth * _depth_direction(ell, crack)
+    front = _front_of(ell, X[mouth[0]], X[mouth[-1]], deep)
+    if front is None:
+        mouth = mouth[::-1]
+        front = _front_of(ell, X[mouth[0]], X[mouth[-1]], deep)
+    return CutBody(X, tris, np.asarray(out_tags, dtype=np.int32), tuple(mouth), front, crack)
+
+
+def _depth_direction(ell: EllipticalFront, crack: SurfaceBreakingCrack) -> np.ndarray:
+    """The unit depth direction (v of the frame when c ≥ a, else u)."""
+    R = ell.rotation
+    return R[1] if crack.half_length >= crack.depth else R[0]
+
+
+def inside_body(body: BodySurface, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Whether points lie inside the closed boundary (the winding number of its
+    triangles, > 1/2)."""
+    P = np.atleast_2d(np.asarray(points, dtype=float))
+    T = body.triangles
+    out = np.zeros(len(P), dtype=bool)
+    for i, p in enumerate(P):
+        a, b, c = (T[:, k] - p for k in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+        num = np.einsum("ij,ij->i", a, np.cross(b, c))
+        den = (
+            la * lb * lc
+            + np.einsum("ij,ij->i", a, b) * lc
+            + np.einsum("ij,ij->i", b, c) * la
+            + np.einsum("ij,ij->i", c, a) * lb
+        )
+        out[i] = abs(np.sum(2 * np.arctan2(num, den))) / (4 * math.pi) > 0.5
+    return out
+
+
+# ------------------------------------------------------------------ gmsh (rank 0)
+def _num(v: float) -> str:
+    """A number as gmsh's expression parser reads it (no exponent)."""
+    return "(" + np.format_float_positional(float(v), unique=True, trim="0") + ")"
+
+
+def _size_formula(front: BodyArcFront, size: TipMesh, h_max: float) -> str:
+    """h = min(h_f + g·d, h_max), d the estimate of :func:`_distance_formula`."""
+    d = _distance_formula(front)
+    return f"Min({_num(size.h_tip)}+{_num(size.grading)}*{d},{_num(h_max)})"
+
+
+def _distance_formula(front: BodyArcFront) -> str:
+    """An estimate of the distance to the front's ellipse as a gmsh expression (exact on
+    the axes, never larger than the in-plane distance times max/min semi-axis)."""
+    c = np.asarray(front.centre, dtype=float)
+    R = front.rotation
+    lx = [
+        "(" + "+".join(f"{_num(R[k][i])}*({xyz}-{_num(c[i])})" for i, xyz in enumerate("xyz")) + ")"
+        for k in range(3)
+    ]
+    rho = f"Sqrt(({lx[0]}/{_num(front.a)})^2+({lx[1]}/{_num(front.b)})^2)"
+    return f"Sqrt((({rho})-1)^2*{_num(front.b)}^2+({lx[2]})^2)"
+
+
+def _crack_mesh(cb: CutBody, size: TipMesh, h_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of the crack surface (a separate gmsh model): the mouth's segments kept
+    whole (they are the boundary's), the front a spline through the ellipse graded by
+    ``size``.  Returns the node coordinates and the triangles (node indices)."""
+    geo = gmsh.model.geo
+    X = cb.nodes
+    mouth = [geo.addPoint(*X[k]) for k in cb.mouth]
+    p0, p1 = cb.arc.phi_range
+    nseg = max(8, int(math.ceil((p1 - p0) / math.radians(4.0))))
+    inner = cb.arc.point(np.linspace(p1, p0, nseg + 1)[1:-1])  # from the mouth's last end
+    spline = [mouth[-1], *[geo.addPoint(*p) for p in inner], mouth[0]]
+    lines = [geo.addLine(a, b) for a, b in zip(mouth, mouth[1:], strict=False)]
+    front = geo.addSpline(spline)
+    surf = geo.addPlaneSurface([geo.addCurveLoop([*lines, front])])
+    geo.synchronize()
+    for ln in lines:
+        gmsh.model.mesh.setTransfiniteCurve(ln, 2)
+    fld = gmsh.model.mesh.field
+    f = fld.add("MathEval")
+    fld.setString(f, "F", _size_formula(cb.arc, size, h_max))
+    fld.setAsBackgroundMesh(f)
+    for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{opt}", 0)
+    gmsh.model.mesh.generate(2)
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    index = {int(t): i for i, t in enumerate(tags)}
+    _, el = gmsh.model.mesh.getElementsByType(2, surf)
+    tri = np.array([index[int(t)] for t in el], dtype=np.int64).reshape(-1, 3)
+    return xyz.reshape(-1, 3), tri
+
+
+def _merge_crack(cb: CutBody, pts: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The crack's nodes numbered after the boundary's: its mouth nodes are the
+    boundary's own (matched by coordinates); the triangles in the joint numbering."""
+    X = cb.nodes
+    tol = 1e-9 * float(np.ptp(X, axis=0).max())
+    key = {tuple(np.round(X[k] / tol).astype(np.int64)): k for k in cb.mouth}
+    used = np.unique(tri)
+    ids, new = np.full(len(pts), -1, dtype=np.int64), []
+    for i in used:
+        p = pts[i]
+        k = key.get(tuple(np.round(p / tol).astype(np.int64)))
+        if k is None:
+            new.append(p)
+            k = len(X) + len(new) - 1
+        ids[i] = k
+    if not set(cb.mouth) <= set(ids[used].tolist()):
+        raise MeshingError("the crack surface lost a mouth node")
+    return np.asarray(new).reshape(-1, 3), ids[tri]
+
+
+def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int], mouth_tag: int):
+    h_max = min(size.h_max or body.h_max, body.h_max)
+    current = gmsh.model.getCurrent()
+    gmsh.model.add("surface_crack")
+    pts, tri = _crack_mesh(cb, size, h_max)
+    gmsh.model.remove()
+    gmsh.model.setCurrent(current)
+    new, crack_tri = _merge_crack(cb, pts, tri)
+    values = np.unique(cb.tags)
+    surfaces = list(range(1, len(values) + 1))
+    for k in surfaces:
+        gmsh.model.addDiscreteEntity(2, k)
+    n0 = len(cb.nodes)
+    gmsh.model.mesh.addNodes(2, 1, np.arange(1, n0 + 1), cb.nodes.ravel())
+    for k, t in zip(surfaces, values, strict=True):
+        gmsh.model.mesh.addElementsByType(k, 2, [], (cb.triangles[cb.tags == t] + 1).ravel())
+        if t > 0:
+            gmsh.model.addPhysicalGroup(2, [k], int(t), name=body.names.get(int(t), f"facets{t}"))
+    crack = gmsh.model.addDiscreteEntity(2)
+    gmsh.model.mesh.addNodes(2, crack, np.arange(n0 + 1, n0 + len(new) + 1), new.ravel())
+    gmsh.model.mesh.addElementsByType(crack, 2, [], (crack_tri + 1).ravel())
+    mouth = gmsh.model.addDiscreteEntity(1)
+    m = np.asarray(cb.mouth) + 1
+    gmsh.model.mesh.addElementsByType(mouth, 1, [], np.column_stack([m[:-1], m[1:]]).ravel())
+    geo = gmsh.model.geo
+    volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
+    geo.synchronize()
+    gmsh.model.mesh.embed(2, [crack], 3, volume)
+    region, region_tag = body.region
+    gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
+    f = gmsh.model.mesh.field.add("MathEval")
+    gmsh.model.mesh.field.setString(f, "F", _size_formula(cb.arc, size, h_max))
+    gmsh.model.mesh.field.setAsBackgroundMesh(f)
+    for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{opt}", 0)
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10)
+    gmsh.model.mesh.generate(3)
+    _split(crack, mouth, tags, mouth_tag)
+
+
+def _split(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:
+    """Duplicate the crack's nodes, the mouth's included, the front's not."""
+    gmsh.model.addPhysicalGroup(2, [crack], tags[0], name="crack_a")
+    gmsh.model.addPhysicalGroup(1, [mouth], mouth_tag)
+    plugin = gmsh.plugin
+    plugin.setNumber("Crack", "Dimension", 2)
+    plugin.setNumber("Crack", "PhysicalGroup", tags[0])
+    plugin.setNumber("Crack", "NewPhysicalGroup", tags[1])
+    plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", mouth_tag)
+    plugin.run("Crack")
+    gmsh.model.removePhysicalGroups([(1, mouth_tag)])
+    gmsh.model.setPhysicalName(2, tags[1], "crack_b")
+    gmsh.model.mesh.renumberNodes()
+    gmsh.model.mesh.renumberElements()
+
+
+def mesh_body_with_surface_crack(
+    body: BodySurface,
+    crack: SurfaceBreakingCrack,
+    size: TipMesh,
+    comm: MPI.Comm | None = None,
+) -> tuple[CrackedBody3D, object, CutBody]:
+    """Mesh a 3D body with a semi-elliptical surface crack cut into it (collective; gmsh
+    on rank 0).
+
+    Returns
+    -------
+    (CrackedBody3D, dolfinx.io.gmsh.MeshData, CutBody)
+        The cracked mesh (faces ``crack_upper`` on the side of the normal and
+        ``crack_lower``; ``block()`` has the arc front), its mesh data and the cut
+        boundary (the front, the mouth).
+
+    Raises
+    ------
+    ParameterError
+        The crack does not fit the surface (:func:`cut_mouth`), on every rank.
+    MeshingError
+        gmsh failed (on every rank).
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    cb = cut_mouth(body, crack, size)
+    top = max([body.region[1], *body.names, 0])
+    tags = (top + 1, top + 2)
+    error = None
+    with gmsh_session("cracked_surface_body3d") if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                _build(cb, body, size, tags, top + 3)
+            except Exception as exc:  # reported on every rank below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            raise MeshingError(f"surface crack in a 3D body: {error}")
+        md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
+    n = np.asarray(crack.normal, dtype=float)
+    a, b = tags
+    upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
+    body3 = CrackedBody3D(
+        md.mesh, md.cell_tags, md.facet_tags, cb, {"crack_upper": upper, "crack_lower": lower}
+    )
+    return body3, md, cb

@@ -1,0 +1,554 @@
+"""3D scenes with a semi-elliptical surface crack (``shape = "semi_elliptical"``;
+docs/scene_format.md#fracture, docs/theory/fracture.md#surface-cracks-in-a-scenes-body).
+
+The crack is cut into the scene's body (:mod:`bonecontact.fracture.surface_body3d`), its
+faces a contact pair, and after the analysis's last step K_I, K_II, K_III, G, the σ₁′
+equivalent K_V and kink angle (:mod:`bonecontact.fracture.advance3d`) come from the
+interaction integral at ``front_points`` points between φ_s = 20° (or two front elements)
+from either end of the front and at the deepest point.  Without growth that is the run.
+
+Growth keeps the crack planar and semi-elliptical and moves three points — the deepest
+and the two at φ_s from the surface — as Newman and Raju's own growth computations do:
+``[fracture] propagate`` grows the points with K_V ≥ K_Ic by Δa (K_V/K_V,max)² under the
+one load; ``[fracture.fatigue]`` by the Paris rates of ΔK = (1 − R)K_V per block of cycles
+(the fastest point Δa_max, the block's cycles by
+:func:`~bonecontact.fracture.fatigue.block_cycles`).  Each increment re-meshes the body
+and solves the analysis again.  It stops at arrest, at the increment or block limit, when
+K_V reaches K_Ic under fatigue (``fractured``: the crack runs unstably) or when the grown
+front would leave the body (``through``: it reaches the far surface); the two last report
+the fragments, the body on either side of the crack plane.  ``fracture.csv`` has a row
+per increment and front point, ``crack_surface_<k>.vtk`` the crack surface and
+``crack_front_<k>.vtk`` the front with its K after increment k, ``increment<k>/`` the
+fields and tables of each solve.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh
+
+from bonecontact.common.errors import ParameterError
+from bonecontact.common.profiling import PhaseTimer
+from bonecontact.contact.interface import ContactInputError
+from bonecontact.fracture.advance3d import equivalent_k, sigma1_kink
+from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, body_surface
+from bonecontact.fracture.crack3d import SurfaceBreakingCrack
+from bonecontact.fracture.faces import face_interface, face_traction
+from bonecontact.fracture.front3d import front_interaction_integral
+from bonecontact.fracture.meshing import TipMesh
+from bonecontact.fracture.surface3d import domain_length
+from bonecontact.fracture.surface_body3d import (
+    CutBody,
+    cut_mouth,
+    inside_body,
+    mesh_body_with_surface_crack,
+)
+from bonecontact.materials.laws import Isotropic
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.runners.checkpoint import RunCounters
+from bonecontact.runners.crack_fatigue import FatigueProgress, paris_law
+from bonecontact.runners.cracks3d import front_nodes, write_front
+from bonecontact.runners.loop import progress_bar, run_steps
+from bonecontact.runners.mechanics import (
+    MechanicsSteps,
+    Recorder,
+    SceneModel,
+    analysis_steps,
+    build_model,
+    finish_run,
+    read_mesh,
+    run_info,
+    scene_integrator,
+    summary_header,
+)
+from bonecontact.runners.results import RecordTable, RunResult, run_summary, write_summary
+from bonecontact.scene import Scene, SceneError
+from bonecontact.scene.errors import table_label
+from bonecontact.scene.spec import FractureSpec
+
+__all__ = [
+    "SURFACE_COLUMNS",
+    "SurfaceRecord",
+    "check_surface_crack",
+    "has_surface_crack",
+    "run_surface_crack",
+]
+
+#: Columns of ``fracture.csv`` of a surface crack (one row per increment and front point).
+SURFACE_COLUMNS = (
+    "increment",
+    "cycles",
+    "depth",
+    "half_length",
+    "point",
+    "phi_deg",
+    "s",
+    "x",
+    "y",
+    "z",
+    "K_I",
+    "K_II",
+    "K_III",
+    "G",
+    "K_V",
+    "kink_deg",
+    "status",
+)
+#: Parametric angle of the two growth points from the ends of the front.
+PHI_SURFACE = math.radians(20.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceRecord:
+    """One row of ``fracture.csv`` (:data:`SURFACE_COLUMNS`)."""
+
+    increment: int
+    cycles: float
+    depth: float
+    half_length: float
+    point: int
+    phi_deg: float
+    s: float
+    x: float
+    y: float
+    z: float
+    K_I: float
+    K_II: float
+    K_III: float
+    G: float
+    K_V: float
+    kink_deg: float
+    status: str = "stationary"
+
+    def row(self) -> list[Any]:
+        return [getattr(self, c) for c in SURFACE_COLUMNS]
+
+
+@dataclasses.dataclass
+class SurfaceRun:
+    """What a surface-crack scene needs besides the scene model."""
+
+    scene: Scene  # with the crack's face pair added
+    original: Scene  # as given (the model is built from it, the pair added after)
+    name: str
+    crack: SurfaceBreakingCrack  # its axis and centre set on the body's surface
+    body: BodySurface
+    material: Isotropic
+    size: TipMesh
+    groups: dict[str, tuple[int, int]]
+    fracture: FractureSpec
+    points: int
+    K_Ic: float | None
+
+
+def has_surface_crack(scene: Scene) -> bool:
+    """Whether the scene's ``[[crack]]`` is a surface crack (this module runs it)."""
+    return any(isinstance(c.crack, SurfaceBreakingCrack) for c in scene.cracks)
+
+
+def _error(scene: Scene, key: str | None, text: str) -> SceneError:
+    return SceneError(str(scene.path), table_label("crack", 0, scene.cracks[0].name), key, text)
+
+
+def _refuse(scene: Scene) -> None:
+    if len(scene.cracks) > 1:
+        raise _error(scene, "shape", "a surface-breaking crack runs alone in its scene")
+    if scene.analysis.kind not in ("static", "quasistatic"):
+        raise SceneError(
+            str(scene.path),
+            "[analysis]",
+            "kind",
+            f"a surface crack runs static or quasi-static analyses, not {scene.analysis.kind!r}",
+        )
+    fr = scene.fracture
+    if fr is not None and fr.initiate:
+        raise SceneError(str(scene.path), "[fracture]", "initiate", "runs in 2D scenes only")
+
+
+def _material(scene: Scene, region: str) -> tuple[Isotropic, float | None]:
+    spec = next(m for m in scene.materials if region in m.regions)
+    if not isinstance(spec.material, Isotropic):
+        raise SceneError(
+            str(scene.path),
+            table_label("material", spec.index, spec.name),
+            "model",
+            "the stress intensity factors of a crack need an isotropic material around it",
+        )
+    k_ic = spec.strengths.get("K_Ic")
+    return spec.material, (float(k_ic) if k_ic else None)
+
+
+def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
+    """Read the mesh, take the body's surface, cut the crack's mouth into it (to check
+    it: a :class:`SceneError` naming the key on every rank) and set the front mesh."""
+    _refuse(scene)
+    spec = scene.cracks[0]
+    fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    md0, groups = read_mesh(scene, comm)
+    try:
+        body = body_surface(md0.mesh, md0.cell_tags, md0.facet_tags, groups, spec.region)
+    except ParameterError as exc:
+        raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
+    material, k_ic = _material(scene, spec.region)
+    crack = spec.crack
+    h = fr.tip_size if fr.tip_size is not None else crack.b / 10
+    size = TipMesh(h, fr.tip_grading if fr.tip_grading is not None else 0.12)
+    try:
+        cut = cut_mouth(body, crack, size)
+    except ParameterError as exc:
+        raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
+    _check_inside(scene, body, cut, h)
+    pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
+    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
+    return SurfaceRun(
+        scene2,
+        scene,
+        spec.name,
+        cut.crack,
+        body,
+        material,
+        size,
+        groups,
+        fr,
+        spec.front_points,
+        k_ic,
+    )
+
+
+def _pair_name(name: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "_.-" else "_" for ch in name)
+
+
+def _probe_points(cut: CutBody, h: float) -> np.ndarray:
+    """Points a front element ahead of the inner 80 % of the front."""
+    p0, p1 = cut.arc.phi_range
+    phi = np.linspace(p0 + 0.1 * (p1 - p0), p1 - 0.1 * (p1 - p0), 17)
+    return cut.arc.point(phi) + h * cut.arc.normals(phi)
+
+
+def _check_inside(scene: Scene, body: BodySurface, cut: CutBody, h: float) -> None:
+    if not np.all(inside_body(body, _probe_points(cut, h))):
+        raise _error(
+            scene, "depth", "the crack's front leaves the body (the crack is deeper than the body)"
+        )
+
+
+# --------------------------------------------------------------------- one solve
+def _front_parameters(cut: CutBody, n: int, h: float) -> np.ndarray:
+    """The K points: ``n`` equally spaced in φ between φ_s from either end (φ_s = 20° or
+    the angle of two and a half front elements, whichever is more) and the deepest."""
+    arc = cut.arc
+    p0, p1 = arc.phi_range
+    ds = 2.5 * h
+    phi = np.linspace(p0, p1, 2001)
+    s = arc.arc_length(phi) - arc.arc_length(p0)
+    margin = max(
+        PHI_SURFACE, float(np.interp(ds, s, phi) - p0), p1 - float(np.interp(s[-1] - ds, s, phi))
+    )
+    deep = _deepest_parameter(cut)
+    pts = np.linspace(p0 + margin, p1 - margin, max(n, 2))
+    return np.unique(np.append(pts, deep))
+
+
+def _deepest_parameter(cut: CutBody) -> float:
+    """φ of the deepest front point (π/2 when c ≥ a, else 0 — the frame's depth axis)."""
+    c = cut.crack
+    return 0.5 * math.pi if c.half_length >= c.depth else 0.0
+
+
+def _tractions(sm: SceneModel, integ: Any, cb: CrackedBody3D, reach: float) -> tuple | None:
+    k = len(sm.interfaces) - 1
+    result = integ.last_contact
+    if result is None or int(result.n_active[k]) == 0:
+        return None
+    ft = face_traction(sm.model.V, sm.interfaces[k], result, k, front_nodes(cb), reach, 6.0)
+    return ft.plus, ft.minus
+
+
+def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float, traction):
+    """K at the front points (collective)."""
+    cut: CutBody = cb.crack
+    block = cb.block()
+    h = run.size.h_tip
+    r_out = max(0.25 * cut.arc.b, 3 * h)
+    records = []
+    p0 = cut.arc.phi_range[0]
+    for i, phi in enumerate(_front_parameters(cut, run.points, h)):
+        length = domain_length(block.front, float(phi), r_out, h)
+        k = front_interaction_integral(
+            u, block, float(phi), run.material, r_out, None, length, face_traction=traction
+        )
+        kv = float(equivalent_k(k.K_I, k.K_II, k.K_III))
+        kink = float(sigma1_kink(k.K_I, k.K_II, k.K_III)[0][0])
+        x, y, z = k.point
+        s = float(block.front.arc_length(phi) - block.front.arc_length(p0))
+        records.append(
+            SurfaceRecord(
+                inc,
+                cycles,
+                cut.crack.depth,
+                cut.crack.half_length,
+                i,
+                math.degrees(phi),
+                s,
+                x,
+                y,
+                z,
+                k.K_I,
+                k.K_II,
+                k.K_III,
+                k.G,
+                kv,
+                math.degrees(kink),
+            )
+        )
+    return records
+
+
+def _build(run: SurfaceRun, crack: SurfaceBreakingCrack, comm: MPI.Comm, timer: PhaseTimer):
+    """The body meshed with ``crack`` and its scene model with the face pair last."""
+    scene = run.scene
+    try:
+        with timer.phase("mesh_read"):
+            cb, md, _ = mesh_body_with_surface_crack(run.body, crack, run.size, comm)
+    except (MeshingError, ParameterError) as exc:
+        raise _error(scene, getattr(exc, "key", "depth"), str(exc)) from None
+    sm = build_model(run.original, comm, timer, mesh=(md, run.groups))
+    try:
+        with timer.phase("mortar_geometry"):
+            sm.interfaces.append(face_interface(sm.model, cb, _pair_name(run.name)))
+    except ContactInputError as exc:
+        raise _error(scene, "depth", str(exc)) from None
+    return cb, sm
+
+
+def check_surface_crack(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
+    """Every check of a surface-crack scene, the cracked mesh and the face pair included
+    (nothing written); the scene model on that mesh."""
+    run = prepare_surface(scene, comm)
+    return _build(run, run.crack, comm, PhaseTimer())[1]
+
+
+def _solve(run: SurfaceRun, crack: SurfaceBreakingCrack, comm, timer, outdir: Path, inc: int):
+    """Mesh the body with ``crack`` and solve the analysis (collective); the fields and
+    tables of the solve go to ``outdir/increment<inc>``."""
+    scene = run.scene
+    cb, sm = _build(run, crack, comm, timer)
+    nsteps, dt = analysis_steps(scene)
+    integ = scene_integrator(scene, sm, dt, False)
+    integ.set_initial(None, sm.v0)
+    rec = Recorder(scene, sm, integ, comm, Path(outdir) / f"increment{inc}", False, None)
+    counters = RunCounters()
+    hooks = MechanicsSteps(integ, rec, timer, scene.output.fields_every, counters, dt, None)
+    end = run_steps(hooks, 1, nsteps, progress_bar(comm, scene.name, nsteps, 0, False))
+    info = summary_header(scene, sm, integ, dt)
+    info.update(run_info(scene, sm, integ, counters, False, 0.0, time.perf_counter()))
+    summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)
+    return cb, sm, integ, summary
+
+
+# -------------------------------------------------------------------------- growth
+@dataclasses.dataclass
+class Growth:
+    """The state of a growing crack between solves."""
+
+    crack: SurfaceBreakingCrack
+    increments: int = 0
+    cycles: float = 0.0
+    status: str | None = None
+    fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
+    history: list[dict[str, float]] = dataclasses.field(default_factory=list)
+
+
+def _three_points(records: list[SurfaceRecord], cut: CutBody) -> np.ndarray:
+    """K_V at (the φ₀ end, the deepest point, the φ₁ end)."""
+    deep = math.degrees(_deepest_parameter(cut))
+    i = int(np.argmin([abs(r.phi_deg - deep) for r in records]))
+    return np.array([records[0].K_V, records[i].K_V, records[-1].K_V])
+
+
+def _rates(run: SurfaceRun, kv: np.ndarray) -> np.ndarray:
+    """The growth weights of the three points: Paris rates (fatigue) or (K_V/K_V,max)² of
+    the points at K_Ic (one load)."""
+    fat = run.fracture.fatigue
+    if fat is not None:
+        return paris_law(fat).rate(kv)
+    grows = kv >= (run.K_Ic or math.inf)
+    return np.where(grows, (kv / kv.max()) ** 2, 0.0)
+
+
+def _stop(run: SurfaceRun, g: Growth, kv: np.ndarray, rates: np.ndarray) -> str | None:
+    fat = run.fracture.fatigue
+    if fat is not None and run.K_Ic and float(kv.max()) >= run.K_Ic:
+        return "fractured"
+    if float(rates.max(initial=0.0)) <= 0.0:
+        return "arrested"
+    most = fat.max_blocks if fat is not None else run.fracture.max_increments
+    if g.increments >= most:
+        return "max_blocks" if fat is not None else "max_increments"
+    return None
+
+
+def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> SurfaceBreakingCrack:
+    """The crack with its three points advanced: the fastest by ``step``."""
+    d = step * rates / rates.max()
+    return crack.grown(
+        crack.depth + d[1], crack.half_length + 0.5 * (d[0] + d[2]), 0.5 * (d[0] - d[2])
+    )
+
+
+def _breaks_through(run: SurfaceRun, crack: SurfaceBreakingCrack) -> bool:
+    """Whether the grown crack's front leaves the body (or its mouth cannot be cut)."""
+    try:
+        cut = cut_mouth(run.body, crack, None)
+    except ParameterError:
+        return True
+    return not bool(np.all(inside_body(run.body, _probe_points(cut, run.size.h_tip))))
+
+
+def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutBody) -> str | None:
+    """One block end (fatigue) or increment end (one load): the cycles, the stop, the
+    next crack.  Returns the stop (``None``: grow)."""
+    kv = _three_points(records, cut)
+    rates = _rates(run, kv)
+    fat = run.fracture.fatigue
+    if fat is not None:
+        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, float(rates.max(initial=0.0)))
+    g.history.append(
+        {
+            "increment": g.increments,
+            "cycles": g.cycles,
+            "depth": g.crack.depth,
+            "half_length": g.crack.half_length,
+            "K_V_surface": float(max(kv[0], kv[2])),
+            "K_V_deepest": float(kv[1]),
+        }
+    )
+    stop = _stop(run, g, kv, rates)
+    if stop is not None:
+        return stop
+    step = fat.da_max if fat is not None else run.fracture.increment
+    nxt = _grown(g.crack, step, rates)
+    if _breaks_through(run, nxt):
+        if fat is not None:  # the last block at the rate of its start
+            g.cycles += step / float(rates.max())
+        return "through"
+    g.crack, g.increments = nxt, g.increments + 1
+    return None
+
+
+def _fragments(cb: CrackedBody3D) -> list[dict[str, Any]]:
+    """Volumes of the body on either side of the crack plane (collective)."""
+    msh = cb.mesh
+    n = np.asarray(cb.crack.normal, dtype=float)
+    c = np.asarray(cb.crack.crack.centre, dtype=float)
+    tdim = msh.topology.dim
+    cells = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
+    side = np.sign((mesh.compute_midpoints(msh, tdim, cells) - c) @ n)
+    V = fem.functionspace(msh, ("DG", 0))
+    vol = fem.assemble_vector(fem.form(ufl_volume(V))).array[: len(cells)]
+    out = []
+    for name, sgn in (("+normal", 1.0), ("-normal", -1.0)):
+        out.append({"side": name, "volume": float(msh.comm.allreduce(vol[side == sgn].sum()))})
+    return out
+
+
+def ufl_volume(V: Any) -> Any:
+    """The form ∫ v dx of the cell volumes."""
+    return ufl.TestFunction(V) * ufl.dx
+
+
+def write_crack_surface(path: Path, cut: CutBody) -> None:
+    """The crack surface as a legacy VTK polygon (the mouth, then the front back)."""
+    p0, p1 = cut.arc.phi_range
+    front = cut.arc.point(np.linspace(p1, p0, 65)[1:-1])
+    pts = np.concatenate([cut.nodes[list(cut.mouth)], front])
+    n = len(pts)
+    lines = ["# vtk DataFile Version 3.0", "crack surface", "ASCII", "DATASET POLYDATA"]
+    lines += [f"POINTS {n} double"] + [" ".join(repr(float(c)) for c in p) for p in pts]
+    lines += [f"POLYGONS 1 {n + 1}", " ".join(map(str, [n, *range(n)]))]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def run_surface_crack(
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+) -> RunResult:
+    """Validate, build and run a 3D scene with a surface crack (module docstring)."""
+    t_start = time.perf_counter()
+    timer = PhaseTimer()
+    run = prepare_surface(scene, comm)
+    outdir = Path(output) if output is not None else scene.output.directory
+    if comm.rank == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+    fr = run.fracture
+    grows = fr.propagate or fr.fatigue is not None
+    g = Growth(run.crack)
+    table = RecordTable(comm, outdir / "fracture.csv", SURFACE_COLUMNS)
+    fragments, status, message = None, "converged", None
+    try:
+        while True:
+            cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
+            if summary["status"] != "converged":
+                status, message = summary["status"], summary.get("message")
+                break
+            with timer.phase("fracture"):
+                traction = _tractions(sm, integ, cb, max(0.25 * cb.crack.arc.b, 3 * run.size.h_tip))
+                records = evaluate(integ.u, cb, run, g.increments, g.cycles, traction)
+            stop = _advance(run, g, records, cb.crack) if grows else "stationary"
+            mark = stop or "grows"
+            table.rows([dataclasses.replace(r, cycles=g.cycles, status=mark) for r in records])
+            if comm.rank == 0:
+                write_crack_surface(outdir / f"crack_surface_{records[0].increment}.vtk", cb.crack)
+                write_front(outdir / f"crack_front_{records[0].increment}.vtk", records)
+            integ.destroy()
+            if stop is not None:
+                g.status = stop
+                if stop in ("fractured", "through"):
+                    fragments = _fragments(cb)
+                break
+    finally:
+        table.close()
+    info = {
+        "wall_time_s": time.perf_counter() - t_start,
+        "fracture": {
+            "crack": {
+                "name": run.name,
+                "shape": "semi_elliptical",
+                "centre": list(run.crack.centre),
+                "normal": list(run.crack.normal),
+                "axis": list(run.crack.axis),
+                "front_size": run.size.h_tip,
+                "final": dataclasses.asdict(g.crack),
+            },
+            "growth": None
+            if not grows
+            else {
+                "rule": "fatigue" if fr.fatigue is not None else "propagate",
+                "status": g.status,
+                "increments": g.increments,
+                "cycles": g.cycles if fr.fatigue is not None else None,
+                "K_Ic": run.K_Ic,
+                "history": g.history,
+                "fractured": g.status in ("fractured", "through"),
+                "fragments": fragments,
+            },
+        },
+        "phases_s": timer.summary(comm),
+    }
+    if message is not None:
+        info["message"] = message
+    summary = run_summary(scene.name, status, comm, info["wall_time_s"], **info)
+    write_summary(comm, outdir, summary)
+    return RunResult(status, summary, None, outdir)
