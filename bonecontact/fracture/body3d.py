@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from contextlib import nullcontext
 from dataclasses import dataclass, field
+from typing import Any
 
 from mpi4py import MPI
 
@@ -44,6 +45,7 @@ __all__ = [
     "body_surface",
     "face_side_sign",
     "mesh_body_with_planar_crack",
+    "mesh_body_with_planar_cracks",
 ]
 
 
@@ -256,12 +258,16 @@ def _crack_surface(crack: PlanarCrack | TriangulatedCrack) -> tuple[list[int], l
 
 
 def _size_field(
-    front: list[int], crack: PlanarCrack | TriangulatedCrack, size: TipMesh, h_max: float
+    front: list[int],
+    crack: PlanarCrack | TriangulatedCrack | list[PlanarCrack | TriangulatedCrack],
+    size: TipMesh,
+    h_max: float,
 ) -> None:
+    """Sizes graded from the front curves ``front`` (of one crack or of several)."""
     fld = gmsh.model.mesh.field
     d = fld.add("Distance")
     fld.setNumbers(d, "CurvesList", front)
-    perimeter = crack.front().perimeter
+    perimeter = sum(c.front().perimeter for c in (crack if isinstance(crack, list) else [crack]))
     fld.setNumber(d, "Sampling", max(100, int(4 * perimeter / size.h_tip / 4)))
     f = fld.add("MathEval")
     fld.setString(f, "F", f"Min({size.h_tip!r} + {size.grading!r}*F{d}, {h_max!r})")
@@ -270,38 +276,53 @@ def _size_field(
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
 
 
-def _split(surfaces: list[int], crack_group: int, second_group: int) -> None:
-    """Duplicate the crack surface's nodes (not the front's): two physical groups."""
-    gmsh.model.addPhysicalGroup(2, surfaces, crack_group, name="crack_a")
+def _split(
+    surfaces: list[int],
+    crack_group: int,
+    second_group: int,
+    label: str = "crack",
+    last: bool = True,
+) -> None:
+    """Duplicate the crack surface's nodes (not the front's): two physical groups
+    (``<label>_a``, ``<label>_b``; several cracks split one after the other, the nodes
+    renumbered after the ``last``)."""
+    gmsh.model.addPhysicalGroup(2, surfaces, crack_group, name=f"{label}_a")
     plugin = gmsh.plugin
     plugin.setNumber("Crack", "Dimension", 2)
     plugin.setNumber("Crack", "PhysicalGroup", crack_group)
     plugin.setNumber("Crack", "NewPhysicalGroup", second_group)
     plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", 0)
     plugin.run("Crack")
-    gmsh.model.setPhysicalName(2, second_group, "crack_b")
-    gmsh.model.mesh.renumberNodes()  # the plugin leaves gaps; DOLFINx needs them contiguous
-    gmsh.model.mesh.renumberElements()
+    gmsh.model.setPhysicalName(2, second_group, f"{label}_b")
+    if last:  # the plugin leaves gaps; DOLFINx needs them contiguous
+        gmsh.model.mesh.renumberNodes()
+        gmsh.model.mesh.renumberElements()
 
 
 def _build(
     body: BodySurface,
-    crack: PlanarCrack | TriangulatedCrack,
+    crack: PlanarCrack | TriangulatedCrack | list[PlanarCrack | TriangulatedCrack],
     size: TipMesh,
-    tags: tuple[int, int],
+    tags: tuple[int, int] | list[tuple[int, int]],
 ) -> None:
+    """The body with one crack, or several (``crack`` and ``tags`` lists: each crack
+    embedded and split into its own faces, labelled ``crack<i>``)."""
+    several = isinstance(crack, list)
+    cracks, tags = (crack, tags) if several else ([crack], [tags])
     surfaces = _boundary_surfaces(body)
     geo = gmsh.model.geo
     volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
-    cracks, front = _crack_surface(crack)
+    pieces = [_crack_surface(c) for c in cracks]
     geo.synchronize()
-    gmsh.model.mesh.embed(2, cracks, 3, volume)
+    gmsh.model.mesh.embed(2, [t for faces, _ in pieces for t in faces], 3, volume)
     region, region_tag = body.region
     gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
-    _size_field(front, crack, size, min(size.h_max or body.h_max, body.h_max))
+    front = [t for _, fr in pieces for t in fr]
+    _size_field(front, cracks, size, min(size.h_max or body.h_max, body.h_max))
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT (honours the embedded crack)
     gmsh.model.mesh.generate(3)
-    _split(cracks, *tags)
+    for i, ((faces, _), t) in enumerate(zip(pieces, tags, strict=True)):
+        _split(faces, *t, label=f"crack{i}" if several else "crack", last=i == len(pieces) - 1)
 
 
 # --------------------------------------------------------------------- DOLFINx side
@@ -323,6 +344,22 @@ def face_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.nd
     if total == 0:
         raise MeshingError("cannot tell the sides of the crack faces apart")
     return 1 if total > 0 else -1
+
+
+def _meshed(body: BodySurface, crack: Any, size: TipMesh, tags: Any, comm: MPI.Comm) -> Any:
+    """:func:`_build` on rank 0 (one crack, or a list) and the mesh distributed; a gmsh
+    failure is a :class:`MeshingError` on every rank."""
+    error = None
+    with gmsh_session("cracked_body3d") if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                _build(body, crack, size, tags)
+            except Exception as exc:  # reported on every rank below
+                error = f"{type(exc).__name__}: {exc}"
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            raise MeshingError(f"cracked 3D body: {error}")
+        return model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
 
 
 def mesh_body_with_planar_crack(
@@ -362,17 +399,7 @@ def mesh_body_with_planar_crack(
     comm = MPI.COMM_WORLD if comm is None else comm
     top = max([body.region[1], *body.names, 0])
     tags = (top + 1, top + 2)  # the crack surface, its second face
-    error = None
-    with gmsh_session("cracked_body3d") if comm.rank == 0 else nullcontext():
-        if comm.rank == 0:
-            try:
-                _build(body, crack, size, tags)
-            except Exception as exc:  # reported on every rank below
-                error = f"{type(exc).__name__}: {exc}"
-        error = comm.bcast(error, root=0)
-        if error is not None:
-            raise MeshingError(f"cracked 3D body: {error}")
-        md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
+    md = _meshed(body, crack, size, tags, comm)
     n = np.asarray(crack.normal, dtype=float)
     a, b = tags
     upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
@@ -380,3 +407,39 @@ def mesh_body_with_planar_crack(
         md.mesh, md.cell_tags, md.facet_tags, crack, {"crack_upper": upper, "crack_lower": lower}
     )
     return cb, md
+
+
+def mesh_body_with_planar_cracks(
+    body: BodySurface,
+    cracks: list[PlanarCrack],
+    size: TipMesh,
+    comm: MPI.Comm | None = None,
+) -> tuple[list[CrackedBody3D], object]:
+    """Mesh a 3D body with several planar cracks cut into it (collective; gmsh on rank
+    0), graded from all the fronts, each crack split into its own two faces (as
+    :func:`mesh_body_with_planar_crack`; the cracks must not meet, which the scene reader
+    checks).
+
+    Returns
+    -------
+    (list of CrackedBody3D, dolfinx.io.gmsh.MeshData)
+        One view of the mesh per crack (the same mesh and markers; that crack and its
+        ``crack_upper``/``crack_lower`` tags) and the mesh data (groups ``crack<i>_a``,
+        ``crack<i>_b``).
+
+    Raises
+    ------
+    MeshingError
+        gmsh failed (on every rank).
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    top = max([body.region[1], *body.names, 0])
+    tags = [(top + 1 + 2 * i, top + 2 + 2 * i) for i in range(len(cracks))]
+    md = _meshed(body, list(cracks), size, tags, comm)
+    views = []
+    for crack, (a, b) in zip(cracks, tags, strict=True):
+        n = np.asarray(crack.normal, dtype=float)
+        upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
+        groups = {"crack_upper": upper, "crack_lower": lower}
+        views.append(CrackedBody3D(md.mesh, md.cell_tags, md.facet_tags, crack, groups))
+    return views, md

@@ -16,9 +16,10 @@ term), with displacement correlation as the cross-check; rows go to ``fracture.c
 run goes, the largest K_I and G and their place to ``summary.json``, and the front with its
 K to ``fields_crack_front.vtk``.
 
-Static and quasi-static analyses, one crack per scene, one cell group, an isotropic
-material around the front; checkpoints and restarts as a mechanics run's, the crack's
-geometry stored with them; no propagation in 3D (refused with exit 2).
+Several planar cracks per scene (each embedded, split into its own faces, its own pair,
+its rows in fracture.csv under its name), one cell group, an isotropic material around
+the fronts; static and quasi-static analyses; checkpoints and restarts as a mechanics
+run's, the cracks' geometry stored with them; no propagation in 3D (exit 2).
 """
 
 from __future__ import annotations
@@ -44,7 +45,9 @@ from bonecontact.fracture.body3d import (
     CrackedBody3D,
     body_surface,
     mesh_body_with_planar_crack,
+    mesh_body_with_planar_cracks,
 )
+from bonecontact.fracture.crack import points_in_polygon
 from bonecontact.fracture.crack3d import PlanarCrack
 from bonecontact.fracture.faces import face_interface, face_traction
 from bonecontact.fracture.front3d import (
@@ -87,6 +90,7 @@ __all__ = [
 FRONT_COLUMNS = (
     "step",
     "time",
+    "crack",
     "point",
     "phi_deg",
     "s",
@@ -126,6 +130,7 @@ class FrontRecord:
     K_II_dc: float
     K_III_dc: float
     status: str = "stationary"
+    crack: str = ""  # the [[crack]]'s name
 
     def row(self) -> list[Any]:
         return [getattr(self, c) for c in FRONT_COLUMNS]
@@ -143,6 +148,13 @@ class Crack3DRun:
     r_out: float  # radius of the interaction-integral domain (m)
     groups: dict[str, tuple[int, int]]
     length: float | None = None  # half-length along the front (m; None: r_out)
+    index: int = 0  # the crack's place among the scene's [[crack]] tables (and face pairs)
+    count: int = 1  # the scene's cracks: the face pairs are the last ``count`` pairs
+
+    @property
+    def pair_index(self) -> int:
+        """Index of this crack's face pair counted from the end of the model's pairs."""
+        return self.index - self.count
 
 
 def _pair_name(name: str) -> str:
@@ -150,18 +162,29 @@ def _pair_name(name: str) -> str:
 
 
 def _error(scene: Scene, spec: CrackSpec, key: str, text: str) -> SceneError:
-    return SceneError(str(scene.path), table_label("crack", 0, spec.name), key, text)
+    i = next((k for k, c in enumerate(scene.cracks) if c.name == spec.name), 0)
+    return SceneError(str(scene.path), table_label("crack", i, spec.name), key, text)
 
 
 def _refuse(scene: Scene) -> None:
     """What a 3D crack scene does not run (exit 2 naming the table and key)."""
     if len(scene.cracks) > 1:
-        raise SceneError(
-            str(scene.path),
-            table_label("crack", 1, scene.cracks[1].name),
-            None,
-            "this version runs one [[crack]] per scene",
-        )
+        for i, c in enumerate(scene.cracks):
+            if not isinstance(c.crack, PlanarCrack):
+                raise SceneError(
+                    str(scene.path),
+                    table_label("crack", i, c.name),
+                    "shape",
+                    "several [[crack]] tables in 3D are planar cracks with an interior front "
+                    "(disc, ellipse, polygon); a surface-breaking crack runs alone",
+                )
+        if len({c.region for c in scene.cracks}) > 1:
+            raise SceneError(
+                str(scene.path),
+                table_label("crack", 1, scene.cracks[1].name),
+                "region",
+                "the cracks of a 3D scene lie in one body (one region)",
+            )
     if scene.analysis.kind not in ("static", "quasistatic"):
         raise SceneError(
             str(scene.path),
@@ -178,15 +201,31 @@ def _evaluation_parameters(crack: PlanarCrack, n: int, h_tip: float) -> npt.NDAr
     return crack.front_parameters(n, margin=2.0 * h_tip)
 
 
-def _domain_radius(crack: PlanarCrack, body: BodySurface, h_tip: float) -> float:
+def _domain_radius(
+    crack: PlanarCrack, body: BodySurface, h_tip: float, others: tuple[PlanarCrack, ...] = ()
+) -> float:
     """Interaction-integral domain: 0.3 of the smaller semi-axis b (a polygon: its
     inradius) or four front elements, whichever is larger, but at most 0.6 of the smallest
-    radius of curvature of the front (b²/a; none on a polygon's straight edges) and half
-    the distance from the front to the body's surface."""
+    radius of curvature of the front (b²/a; none on a polygon's straight edges), half
+    the distance from the front to the body's surface, and the distance to the ``others``
+    cracks less two front elements (the domain holds none of their faces)."""
     front = crack.front()
-    free = body.distance(front.point(np.linspace(0.0, 2 * math.pi, 64, endpoint=False)))
+    pts = front.point(np.linspace(0.0, 2 * math.pi, 64, endpoint=False))
+    free = body.distance(pts)
+    apart = min([math.inf] + [_crack_distance(pts, c) for c in others]) - 2 * h_tip
     bend = math.inf if crack.vertices is not None else 0.6 * crack.b**2 / crack.a
-    return min(max(0.3 * crack.b, 4 * h_tip), bend, 0.5 * max(free - h_tip, 0.0))
+    return min(max(0.3 * crack.b, 4 * h_tip), bend, 0.5 * max(free - h_tip, 0.0), apart)
+
+
+def _crack_distance(points: npt.NDArray[np.float64], crack: PlanarCrack) -> float:
+    """Distance from ``points`` (n, 3) to the planar ``crack`` (m): to its plane where a
+    point projects inside its outline, else to its front (96 points)."""
+    c, R = np.asarray(crack.centre, dtype=float), crack.axes
+    rel = (points - c) @ R.T
+    front = crack.front().point(np.linspace(0.0, 2 * math.pi, 96, endpoint=False))
+    to_front = np.linalg.norm(points[:, None, :] - front[None, :, :], axis=2).min(axis=1)
+    inside = points_in_polygon(rel[:, :2], ((front - c) @ R.T)[:, :2])
+    return float(np.where(inside, np.abs(rel[:, 2]), to_front).min())
 
 
 def _domain_length(crack: PlanarCrack, r_out: float, h_tip: float, n: int) -> float:
@@ -200,10 +239,11 @@ def _domain_length(crack: PlanarCrack, r_out: float, h_tip: float, n: int) -> fl
     return min(r_out, min(front.corner_distance(float(p)) for p in phis) - h_tip)
 
 
-def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
-    """Read the scene mesh, check the crack against it, take the body's surface and set
-    the front mesh and the integration domain (collective; every input problem is a
-    :class:`SceneError` on every rank)."""
+def prepare3d(scene: Scene, comm: MPI.Comm) -> list[Crack3DRun]:
+    """Read the scene mesh, check the cracks against it, take the body's surface and set
+    every crack's front mesh and integration domain (collective; every input problem is a
+    :class:`SceneError` on every rank).  One run per ``[[crack]]``, in the scene's order,
+    sharing the scene with all the face pairs (the cracks' pairs last, in that order)."""
     _refuse(scene)
     spec = scene.cracks[0]
     fr = scene.fracture if scene.fracture is not None else FractureSpec()
@@ -221,9 +261,34 @@ def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
             "model",
             "the stress intensity factors of a crack need an isotropic material around it",
         )
+    pairs = tuple(
+        c.face_pair(_pair_name(c.name), "crack_upper", "crack_lower") for c in scene.cracks
+    )
+    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + pairs)
+    runs = []
+    for i, c in enumerate(scene.cracks):
+        others = tuple(o.crack for j, o in enumerate(scene.cracks) if j != i)
+        r_out, length, size = _front_domain(scene, c, fr, body, others)
+        runs.append(
+            Crack3DRun(
+                scene2, c, body, mat_spec.material, size, r_out, groups, length, i, len(pairs)
+            )
+        )
+    return runs
+
+
+def _front_domain(
+    scene: Scene,
+    spec: CrackSpec,
+    fr: FractureSpec,
+    body: BodySurface,
+    others: tuple[PlanarCrack, ...],
+) -> tuple[float, float, TipMesh]:
+    """A crack's integration domain (radius, half-length along the front) and front mesh;
+    refused (exit 2, ``tip_size``) when the domain spans too few front elements."""
     crack = spec.crack
     h_tip = fr.tip_size if fr.tip_size is not None else crack.b / 10
-    r_out = _domain_radius(crack, body, h_tip)
+    r_out = _domain_radius(crack, body, h_tip, others)
     length = _domain_length(crack, r_out, h_tip, spec.front_points)
     if length < 2 * h_tip:
         raise SceneError(
@@ -239,40 +304,50 @@ def prepare3d(scene: Scene, comm: MPI.Comm) -> Crack3DRun:
             str(scene.path),
             "[fracture]",
             "tip_size",
-            f"the integration domain around the front (r = {r_out:.3g} m: at most 0.6 b²/a "
-            f"and half the distance to the surface) spans fewer than 3 front elements of "
-            f"{h_tip:.3g} m; choose a smaller tip_size (or a crack farther from the surface)",
+            f"the integration domain around the front of {spec.name!r} (r = {r_out:.3g} m: "
+            f"at most 0.6 b²/a, half the distance to the surface, the distance to the other "
+            "cracks less two elements) "
+            f"spans fewer than 3 front elements of {h_tip:.3g} m; choose a smaller tip_size "
+            "(or cracks farther from the surface and from each other)",
         )
-    pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
-    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
     # the far field needs a finer grading in 3D: 0.3 left K_I 2 % low at every front size
     size = TipMesh(h_tip, fr.tip_grading if fr.tip_grading is not None else 0.12)
-    return Crack3DRun(scene2, spec, body, mat_spec.material, size, r_out, groups, length)
+    return r_out, length, size
 
 
 def build_cracked3d(
-    scene: Scene, run: Crack3DRun, comm: MPI.Comm, timer: PhaseTimer
-) -> tuple[SceneModel, CrackedBody3D]:
-    """The scene model on the body meshed around the crack, with the face pair last."""
+    scene: Scene, runs: list[Crack3DRun], comm: MPI.Comm, timer: PhaseTimer
+) -> tuple[SceneModel, list[CrackedBody3D]]:
+    """The scene model on the body meshed around the cracks, with their face pairs last
+    (in the order of ``runs``); the mesh seen from each crack."""
+    run = runs[0]
     try:
         with timer.phase("mesh_read"):
-            cb, md = mesh_body_with_planar_crack(run.body, run.spec.crack, run.tip_mesh, comm)
+            if len(runs) == 1:
+                cb, md = mesh_body_with_planar_crack(run.body, run.spec.crack, run.tip_mesh, comm)
+                cbs = [cb]
+            else:
+                size = min((r.tip_mesh for r in runs), key=lambda t: t.h_tip)
+                cbs, md = mesh_body_with_planar_cracks(
+                    run.body, [r.spec.crack for r in runs], size, comm
+                )
     except MeshingError as exc:
         raise _error(scene, run.spec, run.spec.crack.size_key, str(exc)) from None
     sm = build_model(scene, comm, timer, mesh=(md, run.groups))
-    try:
-        with timer.phase("mortar_geometry"):
-            sm.interfaces.append(face_interface(sm.model, cb, _pair_name(run.spec.name)))
-    except ContactInputError as exc:
-        raise _error(scene, run.spec, run.spec.crack.size_key, str(exc)) from None
-    return sm, cb
+    for r, cb in zip(runs, cbs, strict=True):
+        try:
+            with timer.phase("mortar_geometry"):
+                sm.interfaces.append(face_interface(sm.model, cb, _pair_name(r.spec.name)))
+        except ContactInputError as exc:
+            raise _error(scene, r.spec, r.spec.crack.size_key, str(exc)) from None
+    return sm, cbs
 
 
 def check_cracked3d(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
     """Every check of a 3D crack scene, the cracked mesh and the face pair included
     (nothing written); the scene model on that mesh."""
-    run = prepare3d(scene, comm)
-    return build_cracked3d(scene, run, comm, PhaseTimer())[0]
+    runs = prepare3d(scene, comm)
+    return build_cracked3d(scene, runs, comm, PhaseTimer())[0]
 
 
 def front_nodes(cb: CrackedBody3D) -> npt.NDArray[np.float64]:
@@ -337,21 +412,35 @@ def evaluate_front(
         s = float(front.arc_length(phi) - s0)
         records.append(
             FrontRecord(
-                step, t, i, math.degrees(phi), s, x, y, z, k.K_I, k.K_II, k.K_III, k.G, *kdc
+                step,
+                t,
+                i,
+                math.degrees(phi),
+                s,
+                x,
+                y,
+                z,
+                k.K_I,
+                k.K_II,
+                k.K_III,
+                k.G,
+                *kdc,
+                crack=run.spec.name,
             )
         )
     return records
 
 
 def _face_tractions(
-    sm: SceneModel, result: Any, tips: np.ndarray, reach: float | None = None
+    sm: SceneModel, result: Any, tips: np.ndarray, reach: float | None = None, back: int = -1
 ) -> tuple | None:
-    """The contact tractions on (crack_upper, crack_lower) when the pair (the last one)
-    has active nodes, else ``None`` (open: traction-free); within ``reach`` of the front
-    recovered by linear fits over 6·``reach`` (the planar face's multipliers scatter more
-    than a 2D crack's, and the face is flat: a fit over most of it loses nothing;
+    """The contact tractions on (crack_upper, crack_lower) when the pair (``back``: its
+    index from the end of the model's pairs; −1 the last) has active nodes, else ``None``
+    (open: traction-free); within ``reach`` of the front recovered by linear fits over
+    6·``reach`` (the planar face's multipliers scatter more than a 2D crack's, and the
+    face is flat: a fit over most of it loses nothing;
     :func:`~bonecontact.fracture.faces.recovered_traction`)."""
-    k = len(sm.interfaces) - 1
+    k = len(sm.interfaces) + back
     if result is None or int(result.n_active[k]) == 0:
         return None
     ft = face_traction(sm.model.V, sm.interfaces[k], result, k, tips, reach, 6.0)
@@ -414,10 +503,13 @@ def crack_geometry(crack: PlanarCrack) -> dict[str, Any]:
     }
 
 
-def check_saved_crack(path: Path, meta: dict[str, Any], crack: PlanarCrack) -> None:
+def check_saved_crack(path: Path, meta: dict[str, Any], crack: PlanarCrack, index: int = 0) -> None:
     """Refuse a checkpoint written for another crack (its stored geometry differs from the
-    scene's beyond 10⁻¹² of the crack's size)."""
-    saved = (meta.get("crack_run") or {}).get("crack")
+    scene's beyond 10⁻¹² of the crack's size); ``index``: the crack's place among the
+    scene's (a checkpoint of several cracks stores them all in ``crack_run.cracks``)."""
+    entry = meta.get("crack_run") or {}
+    stored = entry.get("cracks") or [entry.get("crack")]
+    saved = stored[index] if index < len(stored) else None
     here = crack_geometry(crack)
     if saved is None or saved["shape"] != here["shape"]:
         raise CheckpointError(f"checkpoint {path} was not written for this 3D crack")
@@ -445,23 +537,25 @@ class FrontSteps(MechanicsSteps):
         self,
         base: MechanicsSteps,
         sm: SceneModel,
-        cb: CrackedBody3D,
-        run: Crack3DRun,
+        cbs: list[CrackedBody3D],
+        runs: list[Crack3DRun],
         table: RecordTable,
         outdir: Path,
     ):
         super().__init__(
             base.integ, base.rec, base.timer, base.every, base.counters, base.dt, base.ckpt
         )
-        self.sm, self.cb, self.run, self.table, self.outdir = sm, cb, run, table, outdir
-        self.tips = front_nodes(cb)
+        self.sm, self.cbs, self.runs, self.table, self.outdir = sm, cbs, runs, table, outdir
+        self.tips = [front_nodes(cb) for cb in cbs]
         self.last: list[FrontRecord] = []
 
     def after(self, k: int) -> Verdict:
-        integ = self.integ
+        integ, self.last = self.integ, []
         with self.timer.phase("fracture"):
-            traction = _face_tractions(self.sm, integ.last_contact, self.tips, self.run.r_out)
-            self.last = evaluate_front(integ.u, self.cb, self.run, k, integ.t, traction)
+            for cb, run, tips in zip(self.cbs, self.runs, self.tips, strict=True):
+                result = integ.last_contact
+                traction = _face_tractions(self.sm, result, tips, run.r_out, run.pair_index)
+                self.last += evaluate_front(integ.u, cb, run, k, integ.t, traction)
         self.table.rows(self.last)
         return Verdict.NEXT
 
@@ -469,7 +563,9 @@ class FrontSteps(MechanicsSteps):
         with self.timer.phase("output"):
             self.rec.record(k, self.integ.t, self.fields_due(k) or last)
             if self.sm.model.mesh.comm.rank == 0:
-                write_front(self.outdir / "fields_crack_front.vtk", self.last)
+                for run in self.runs:  # one crack: fields_crack_front.vtk
+                    rows = [r for r in self.last if r.crack == run.spec.name]
+                    write_front(self.outdir / front_file(run), rows)
 
     def failure(self, k: int, exc: BaseException) -> str:
         return f"step {k} (t = {k * self.dt:.6g}): {exc}"
@@ -477,9 +573,23 @@ class FrontSteps(MechanicsSteps):
     def checkpoint(self, k: int, last: bool) -> bool:
         if self.ckpt is None:
             return False
-        crack_run = {"crack": crack_geometry(self.run.spec.crack), "increment": 0}
+        crack_run = {
+            "crack": crack_geometry(self.runs[0].spec.crack),
+            "cracks": [crack_geometry(r.spec.crack) for r in self.runs],
+            "increment": 0,
+        }
         with self.timer.phase("checkpoint"):
             return bool(self.ckpt.after_step(last, {"crack_run": crack_run}))
+
+
+def front_file(run: Crack3DRun) -> str:
+    """The VTK file of a crack's front: ``fields_crack_front.vtk`` (one crack), else
+    ``fields_crack_front_<pair>.vtk``."""
+    return (
+        "fields_crack_front.vtk"
+        if run.count == 1
+        else f"fields_crack_front_{_pair_name(run.spec.name)}.vtk"
+    )
 
 
 def _checkpointer(scene: Scene, outdir: Path, comm: MPI.Comm, dt: float) -> Checkpointer:
@@ -506,14 +616,16 @@ def run_cracked3d(
     and the run goes on from there."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
-    run = prepare3d(scene, comm)
+    runs = prepare3d(scene, comm)
+    run = runs[0]
     outdir = Path(output) if output is not None else scene.output.directory
     nsteps, dt = analysis_steps(scene)
     ck = _checkpointer(scene, outdir, comm, dt)
     resume = ck.find(None if restart is True else restart) if restart else None
     if resume is not None:
-        check_saved_crack(resume[0], resume[1], run.spec.crack)
-    sm, cb = build_cracked3d(scene, run, comm, timer)
+        for i, r in enumerate(runs):
+            check_saved_crack(resume[0], resume[1], r.spec.crack, i)
+    sm, cbs = build_cracked3d(scene, runs, comm, timer)
     with timer.phase("solver_setup"):
         integ = scene_integrator(run.scene, sm, dt, False)
         integ.set_initial(None, sm.v0)
@@ -527,7 +639,7 @@ def run_cracked3d(
         comm, Path(outdir) / "fracture.csv", FRONT_COLUMNS, append=resume is not None
     )
     base = MechanicsSteps(integ, rec, timer, scene.output.fields_every, ck.counters, dt, ck)
-    hooks = FrontSteps(base, sm, cb, run, table, outdir)
+    hooks = FrontSteps(base, sm, cbs, runs, table, outdir)
     first = integ.step_count + 1
     try:
         with ck.stop:
@@ -540,7 +652,10 @@ def run_cracked3d(
     info.update(ck.summary())
     info.update(rec.strain.summary())
     frac = rec.fracture.summary() if rec.fracture is not None else {}
-    frac["crack"] = _front_summary(run, hooks.last)
+    frac["cracks"] = [
+        _front_summary(r, [x for x in hooks.last if x.crack == r.spec.name]) for r in runs
+    ]
+    frac["crack"] = frac["cracks"][0]  # the first crack
     info["fracture"] = frac
     summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)
     return RunResult(summary["status"], summary, integ, outdir)
