@@ -16,6 +16,8 @@ then keeps only ``Ã``'s stripes (its contact and Dirichlet rows and columns), f
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -33,7 +35,30 @@ from bonecontact.contact.interface import (
 )
 from bonecontact.contact.reductions import global_sum
 
-__all__ = ["CondensedSystem", "RowLayout"]
+__all__ = ["CondensedSystem", "RowLayout", "lean_products"]
+
+
+@contextmanager
+def lean_products(comm: MPI.Comm, clear: bool = True) -> Iterator[None]:
+    """PETSc's matrix products made inside the block keep no intermediate data
+    (issue 28): each product frees it once computed (``mat_product_clear``; ``clear=False``
+    for a caller that recomputes a product in place) and, on more than one rank, the
+    triple products ``PᵀAP`` are made all at once (``matptap_via allatonce``: ``AP`` is
+    never formed).  It holds for the condensed operator and for the Galerkin products of
+    GAMG's coarse levels, which otherwise keep that data as long as they live.  Options
+    the user has set are left as they are."""
+    opts = PETSc.Options()
+    wanted = {"mat_product_clear": "true"} if clear else {}
+    if comm.size > 1:
+        wanted["matptap_via"] = "allatonce"
+    added = [k for k in wanted if not opts.hasName(k)]
+    for key in added:
+        opts[key] = wanted[key]
+    try:
+        yield
+    finally:
+        for key in added:
+            opts.delValue(key)
 
 
 @dataclass
@@ -159,7 +184,8 @@ class CondensedSystem:
         Qt = basis_transform(V, interfaces)
         T = rotation_matrix(V, interfaces)
         Tt = T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
-        At = transformed_operator(A, Qt, Tt)
+        with lean_products(layout.comm):
+            At = transformed_operator(A, Qt, Tt)
         start = bs * V.dofmap.index_map.local_range[0]
         bc = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         D = np.concatenate([itf.D for itf in interfaces] + [np.zeros(0)])

@@ -27,8 +27,8 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
-from bonecontact.common.linalg import configure_ksp
-from bonecontact.contact.condensed import CondensedSystem
+from bonecontact.common.linalg import SolverOptions, configure_ksp
+from bonecontact.contact.condensed import CondensedSystem, lean_products
 from bonecontact.contact.krylov import (
     RESPONSE_RTOL,
     PreconditionerReuse,
@@ -136,7 +136,7 @@ class LowRankStrategy:
         if split is not None:
             # a split basis factorises its own operator: Ã is not needed beside it (the
             # system keeps its contact rows for the residuals; issue 28)
-            system.take_operator().destroy()
+            system.take_operator(stripes=False).destroy()
         self._counts = (0, 0)
 
     def begin(self, rows: SetRows) -> None:
@@ -371,7 +371,8 @@ class KrylovStrategy(RefactorStrategy):
         self.ksp.setInitialGuessNonzero(False)
         self.ksp.setTolerances(rtol=RESPONSE_RTOL)
         try:
-            self.ksp.solve(rhs, y)
+            with self._products():
+                self.ksp.solve(rhs, y)
         except PETSc.Error as exc:
             raise SingularActiveSetError(
                 f"linear solve failed (singular system? PETSc error {exc.ierr})"
@@ -388,6 +389,15 @@ class KrylovStrategy(RefactorStrategy):
         for obj in (rhs, y, kept):
             obj.destroy()
         return SetSolution(x, w, its, {})
+
+    def _products(self):
+        """The GAMG set-ups of the solves keep no product data
+        (:func:`~bonecontact.contact.condensed.lean_products`), unless GAMG is told to
+        recompute its coarse operators in place (``pc_gamg_reuse_interpolation``)."""
+        so = SolverOptions.of(self.ksp, self.ksp.getOptionsPrefix())
+        reuse = {**so.options, **so.user_options()}.get("pc_gamg_reuse_interpolation", False)
+        clear = str(reuse).lower() not in ("1", "true", "yes")
+        return lean_products(self.system.layout.comm, clear=clear)
 
     def _response_rhs(self, rows: SetRows, shift: npt.NDArray[np.float64]) -> PETSc.Vec:
         """Right-hand side of the response to ``shift`` at the fixed rows: ``B`` as
@@ -418,11 +428,12 @@ class KrylovStrategy(RefactorStrategy):
         kept = self.pc_reuse.decide(self.ksp, replaced)
         Uh = self.system.Uh
         try:
-            self.ksp.solve(self._rhs, Uh)
-            if kept and self.ksp.getConvergedReason() < 0:
-                self.pc_reuse.forget()  # a kept preconditioner failed: rebuild, solve again
-                self.pc_reuse.decide(self.ksp, replaced)
+            with self._products():
                 self.ksp.solve(self._rhs, Uh)
+                if kept and self.ksp.getConvergedReason() < 0:
+                    self.pc_reuse.forget()  # a kept preconditioner failed: rebuild, solve again
+                    self.pc_reuse.decide(self.ksp, replaced)
+                    self.ksp.solve(self._rhs, Uh)
         except PETSc.Error as exc:
             raise SingularActiveSetError(
                 f"linear solve failed (singular system? PETSc error {exc.ierr})"

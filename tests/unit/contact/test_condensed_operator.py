@@ -7,12 +7,15 @@ of that code: ``Ã`` recomputed by its triple product from the integrator's oper
 the path that keeps ``Ã`` beside a copy (the code before), whose solution and iteration
 counts the taken-over operator must reproduce exactly.  A family of problems: 2D and 3D
 load-driven Hertz (a body held only by contact), the Krylov (iterative) and the refactor
-(MUMPS) strategy; on 1, 2 and 3 ranks.
+(MUMPS) strategy; on 1, 2 and 3 ranks.  The products that build the condensed operator and
+GAMG's coarse levels keep no intermediate data (``lean_products``): the same solution.
 """
 
 from __future__ import annotations
 
 import dolfinx_solver  # noqa: F401
+
+import contextlib
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -20,7 +23,7 @@ from petsc4py import PETSc
 import numpy as np
 import pytest
 
-from bonecontact.contact.condensed import CondensedSystem
+from bonecontact.contact.condensed import CondensedSystem, lean_products
 from bonecontact.contact.interface import transformed_operator
 from bonecontact.contact.options import PDASOptions
 from bonecontact.verification.load_driven import half_disc_on_block_2d, sphere_on_block_3d
@@ -145,3 +148,52 @@ def test_same_solution_as_with_the_operator_kept(problem, strategy, monkeypatch)
     assert _rel(taken["u"], kept["u"]) <= 1e-12
     assert _rel(taken["force"], kept["force"]) <= 1e-12
     assert _rel(kept["force"], 0.0 * kept["force"]) > 0.0  # (a contact force to compare)
+
+
+# ------------------------------------------------------------------ lean products
+def test_lean_products_options_are_scoped():
+    """Inside the block: the product options (all-at-once triple products on more than
+    one rank); after it none is left; an option the user has set is neither changed nor
+    removed."""
+    opts = PETSc.Options()
+    with lean_products(COMM):
+        inside = opts.getAll()
+    assert inside.get("mat_product_clear") == "true"
+    assert ("matptap_via" in inside) == (COMM.size > 1)
+    assert "mat_product_clear" not in opts.getAll() and "matptap_via" not in opts.getAll()
+    opts["mat_product_clear"] = "false"
+    try:
+        with lean_products(COMM, clear=False):
+            assert opts.getAll()["mat_product_clear"] == "false"
+        assert opts.getAll()["mat_product_clear"] == "false"
+    finally:
+        opts.delValue("mat_product_clear")
+
+
+def _plain_products(monkeypatch) -> None:
+    """The path before: products keep their data (PETSc's defaults)."""
+    import bonecontact.contact.condensed as condensed
+    import bonecontact.contact.linear_strategy as linear_strategy
+
+    plain = contextlib.contextmanager(lambda *args, **kwargs: (yield))
+    monkeypatch.setattr(condensed, "lean_products", plain)
+    monkeypatch.setattr(linear_strategy, "lean_products", plain)
+
+
+@pytest.mark.parametrize("problem", list(PROBLEMS))
+def test_lean_products_same_solution(problem, monkeypatch):
+    """The condensed operator and GAMG's coarse levels built without product data (and
+    all at once on several ranks) give the displacement (1e-12), PDAS and Krylov
+    iterations of PETSc's default products (measured: identical serially, 1.6e-14 on 3
+    ranks, 4.6k dofs; 65k dofs on 2 ranks: peak 466 -> 425 MiB per rank)."""
+    results = []
+    for lean in (True, False):
+        if not lean:
+            _plain_products(monkeypatch)
+        pb = _problem(problem, "krylov")
+        res = pb.solve()
+        n = pb.model.V.dofmap.index_map.size_local * pb.model.V.dofmap.index_map_bs
+        results.append((pb.integrator.u.x.array[:n].copy(), res.iterations, res.linear_iterations))
+        pb.destroy()
+    assert results[0][1:] == results[1][1:]
+    assert _rel(results[0][0], results[1][0]) <= 1e-12
