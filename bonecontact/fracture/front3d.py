@@ -34,7 +34,7 @@ import gmsh
 import numpy as np
 import numpy.typing as npt
 import ufl
-from dolfinx import default_scalar_type, fem, mesh
+from dolfinx import default_scalar_type, fem, geometry, mesh
 from dolfinx.io.gmsh import model_to_mesh
 from scipy.special import ellipe, ellipeinc
 
@@ -703,18 +703,40 @@ def _q_function(V1: fem.FunctionSpace, front, phi0, r_in, r_out, l_in, l_out, p0
     return q
 
 
-def _normalisation(front, block_min, block_max, phi0, e1_0, l_in, l_out) -> float:
-    """∫ q (e₁(φ₀)·e₁(s)) ds along the part of the front inside the model's bounding box
-    (trapezoidal rule in s over the segment |s| ≤ l_out)."""
+def _q_at_points(q: fem.Function, support: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """The P1 function ``q`` at points ``pts`` (n, 3), on every rank: each rank evaluates the
+    points that lie in its cells of ``support`` (owned cells where q > 0), a point found on
+    no rank has q = 0 (outside the support or outside the model) (collective)."""
+    msh = q.function_space.mesh
+    vals = np.full(len(pts), -np.inf)
+    if support.size:
+        tree = geometry.bb_tree(msh, msh.topology.dim, entities=support)
+        cells = geometry.compute_colliding_cells(
+            msh, geometry.compute_collisions_points(tree, pts), pts
+        )
+        found = np.flatnonzero(np.diff(cells.offsets) > 0)
+        if found.size:
+            first = cells.array[cells.offsets[found]].astype(np.int32)
+            vals[found] = q.eval(pts[found], first).ravel()
+    vals = msh.comm.allreduce(vals, op=MPI.MAX)  # q is continuous: any rank's value
+    return np.where(np.isfinite(vals), vals, 0.0)
+
+
+def _normalisation(
+    q: fem.Function, support: np.ndarray, front, phi0: float, e1_0: np.ndarray, l_out: float
+) -> float:
+    """∫ q_h (e₁(φ₀)·e₁(s)) ds along the front, q_h the P1 function of the volume integral
+    itself (its nodal values along the front, interpolated linearly between the front
+    nodes), not the continuous plateau it interpolates: the volume integral equals the
+    front integral of the q it uses, and a plateau a few front elements long differs from
+    its interpolant by several per cent depending on where the nodes fall
+    (docs/theory/fracture.md#3d-crack-fronts).  Trapezoidal rule in s over |s| ≤ l_out;
+    the front outside the model (a half model, a front ending on the surface) adds 0."""
     half = front.parameter_span(l_out)
     phi = np.linspace(phi0 - half, phi0 + half, _SAMPLES)
-    pts = front.point(phi)
-    tol = 1e-9 * float(np.max(block_max - block_min))
-    inside = np.all((pts >= block_min - tol) & (pts <= block_max + tol), axis=1)
+    values = _q_at_points(q, support, front.point(phi))
     s = front.arc_length(phi) - front.arc_length(phi0)
-    along = np.clip((l_out - np.abs(s)) / (l_out - l_in), 0.0, 1.0)
-    e1 = front.normals(phi)
-    return float(np.trapezoid(np.where(inside, along * (e1 @ e1_0), 0.0), s))
+    return float(np.trapezoid(values * (front.normals(phi) @ e1_0), s))
 
 
 #: Facet groups that are not the outer boundary: crack faces and symmetry planes.
@@ -863,7 +885,7 @@ def front_interaction_integral(
         on a polygon ``length`` must not exceed the distance to the nearest corner (the
         ring may be wider: a convex polygon's other edges lie beyond it).
     quadrature_degree
-        Quadrature of the ring cells (Gauss–Jacobi on a straight front).
+        Degree of the Gauss–Jacobi rule of the domain cells (no points on cell edges).
     face_traction
         Loaded faces (a model with both faces): the tractions (Pa) on ``crack_upper`` and
         ``crack_lower`` (UFL vectors, e.g. the contact tractions of
@@ -878,7 +900,7 @@ def front_interaction_integral(
     r_in, length, rho = _domain_sizes(block.front, phi, material, r_out, r_in, length)
     p0 = block.front.point(phi)[0]
     e1, e2, _ = block.front.frame(phi)
-    q, dx, norm = _domain(block, phi, (r_in, r_out, length), rho, quadrature_degree)
+    q, dx, norm = _domain(block, phi, (r_in, r_out, length), quadrature_degree)
     values = [("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0))]
     cut = block.front.cut(phi) if isinstance(block.front, PolylineFront) else None
     if cut is not None:
@@ -932,10 +954,10 @@ def _domain_sizes(
 
 
 def _domain(
-    block: CrackBlock, phi: float, radii: tuple[float, float, float], rho: float, degree: int
+    block: CrackBlock, phi: float, radii: tuple[float, float, float], degree: int
 ) -> tuple[fem.Function, ufl.Measure, float]:
     """The q-function of the point, the measure of its support (checked against the
-    boundary) and the normalising front integral ∫ q (e₁·e₁(s)) ds; ``radii`` =
+    boundary) and the normalising front integral ∫ q_h (e₁·e₁(s)) ds; ``radii`` =
     (r_in, r_out, length)."""
     front, msh = block.front, block.mesh
     r_in, r_out, length = radii
@@ -945,12 +967,9 @@ def _domain(
     q = _q_function(V1, front, phi, r_in, r_out, 0.5 * length, length, p0)
     support = _check_domain(block, q, p0)
     tags = mesh.meshtags(msh, 3, support, np.ones(support.size, dtype=np.int32))
-    rule = _rule(degree, rho)
+    rule = _rule(degree)
     dx = ufl.Measure("dx", domain=msh, subdomain_data=tags, metadata=rule)(1)
-    boxes = msh.comm.allgather((msh.geometry.x.min(axis=0), msh.geometry.x.max(axis=0)))
-    lo = np.min([b[0] for b in boxes], axis=0)
-    hi = np.max([b[1] for b in boxes], axis=0)
-    norm = _normalisation(front, lo, hi, phi, e1, 0.5 * length, length)
+    norm = _normalisation(q, support, front, phi, e1, length)
     return q, dx, norm
 
 
@@ -1026,13 +1045,15 @@ def _mode_values(
 FACE_QUADRATURE_DEGREE = 12
 
 
-def _rule(degree: int, rho: float) -> dict:
-    """Quadrature metadata: on a straight front (ρ = ∞) Gauss–Jacobi, whose points are all
-    inside the cell — the default degree-4 rule has points at edge midpoints, and an edge
-    on the straight front is where the auxiliary field is singular (r = 0)."""
-    if math.isinf(rho):
-        return {"quadrature_degree": degree, "quadrature_rule": "gauss_jacobi"}
-    return {"quadrature_degree": degree}
+def _rule(degree: int) -> dict:
+    """Quadrature metadata: Gauss–Jacobi, whose points all lie inside the cell.  The
+    default degree-4 tetrahedron rule has six points at edge midpoints: on a straight front
+    an edge of the front is where the auxiliary field is singular (r = 0, NaN); on a
+    curved front the front's edges are chords, whose midpoints lie a sagitta h²/8ρ from
+    the singular curve, and those single points weighed the 1/r integrand next to the
+    front by up to ten times a typical point's (K spiked by −6 % at single front points of
+    an a/c = 0.5 surface crack: docs/theory/fracture.md#surface-breaking-cracks-in-3d)."""
+    return {"quadrature_degree": degree, "quadrature_rule": "gauss_jacobi"}
 
 
 def _face_term(block: CrackBlock, traction, u, x, const: dict, radii, mu, lmbda, kappa, q):
@@ -1055,7 +1076,7 @@ def _face_term(block: CrackBlock, traction, u, x, const: dict, radii, mu, lmbda,
         "ds",
         domain=block.mesh,
         subdomain_data=block.facet_tags,
-        metadata=_rule(FACE_QUADRATURE_DEGREE, radii[0]),
+        metadata=_rule(FACE_QUADRATURE_DEGREE),
     )
     n = ufl.FacetNormal(block.mesh)
     du1 = ufl.dot(ufl.grad(u), const["e1"])

@@ -519,19 +519,32 @@ def face_pair(block: CrackBlock) -> FacePair:
 
 
 def front_nodes(block: CrackBlock) -> npt.NDArray[np.float64]:
-    """Coordinates of the front nodes — the nodes of both faces — on every rank, sorted
-    (collective)."""
+    """Coordinates of the front nodes — the vertices of both faces — on every rank, sorted
+    by coordinates (collective).
+
+    The faces' other vertices were duplicated by gmsh's ``Crack`` plugin: a copy on each
+    face at the same point, so the front is told by the vertex (its global index), not by
+    its coordinates (which would return every face node)."""
     msh = block.mesh
-    msh.topology.create_connectivity(2, 0)
-    msh.topology.create_connectivity(0, 3)
-    f2v = msh.topology.connectivity(2, 0)
-    scale = 1e-9 * block.front.a
-    keys = []
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, 0)
+    msh.topology.create_connectivity(0, tdim)
+    f2v = msh.topology.connectivity(tdim - 1, 0)
+    imap = msh.topology.index_map(0)
+    faces = []
     for name in ("crack_upper", "crack_lower"):
         facets = block.facet_tags.find(block.groups[name])
         verts = np.unique([v for f in facets for v in f2v.links(f)]).astype(np.int32)
-        x = msh.geometry.x[mesh.entities_to_geometry(msh, 0, verts).ravel()]
-        x = np.concatenate(msh.comm.allgather(x)).reshape(-1, 3)
-        keys.append({tuple(np.round(p / scale).astype(np.int64)): p for p in x})
-    common = sorted(set(keys[0]) & set(keys[1]))
-    return np.array([keys[0][k] for k in common]).reshape(-1, 3)
+        x = msh.geometry.x[mesh.entities_to_geometry(msh, 0, verts).ravel()].reshape(-1, 3)
+        g = imap.local_to_global(verts)
+        faces.append(
+            dict(
+                zip(
+                    np.concatenate(msh.comm.allgather(g)).tolist(),
+                    np.concatenate(msh.comm.allgather(x)).reshape(-1, 3),
+                )
+            )
+        )
+    shared = set(faces[0]) & set(faces[1])
+    x = np.array([faces[0][g] for g in shared]).reshape(-1, 3)
+    return x[np.lexsort(x.T[::-1])]
