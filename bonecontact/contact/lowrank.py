@@ -406,6 +406,8 @@ class LowRankActiveSetSolver:
                 f"the system of the active set is singular ({nulls} null pivots: "
                 f"a body without support?)"
             )
+        if self.B0 is self.A:
+            self._release_operator()
         self.base = mask.copy()
         self.cache.clear()
         self.full_cols.clear()
@@ -417,6 +419,20 @@ class LowRankActiveSetSolver:
         self.t_factor = 0.5 * dt if self._new_pattern else dt
         self._new_pattern = False
         self.factorizations += 1
+
+    def _release_operator(self) -> None:
+        """Free a split basis's operator once it is factorised (it is factorised once per
+        split, and every product goes through :attr:`AL` and :attr:`AC`): the KSP keeps
+        its factors (reused, never rebuilt) and a diagonal as its operator (issue 28)."""
+        eye = PETSc.Mat().createAIJ(self.B0.getSizes(), nnz=1, comm=self.comm)
+        diag = self.B0.createVecLeft()
+        diag.set(1.0)
+        eye.setDiagonal(diag)
+        eye.assemble()
+        self.ksp.getPC().setReusePreconditioner(True)
+        self.ksp.setOperators(eye)
+        for obj in (diag, eye, self.B0):
+            obj.destroy()
 
     def _set_memory_limits(self) -> None:
         """Column limits from the memory of the factorisation (the memory part of the cost
@@ -912,7 +928,7 @@ class LowRankActiveSetSolver:
     def _split_rhs(self, forces: npt.NDArray) -> None:
         """Add the master side ``−Jᵀ f`` of the contact forces ``f`` (this rank's contact
         rows) to the right-hand side (split basis)."""
-        f = self.split.K.createVecLeft()
+        f = self._rhs.duplicate()
         f.array[self.L] = forces
         jf = self.split.Jt.createVecLeft()
         self.split.Jt.mult(f, jf)
