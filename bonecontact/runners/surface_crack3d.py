@@ -148,6 +148,13 @@ class SurfaceRun:
     fracture: FractureSpec
     points: int
     K_Ic: float | None
+    r_out: float = 0.0  # the integration domain's radius (m), fixed as the crack grows
+
+    @property
+    def ligament(self) -> float:
+        """The least distance ahead of the front to the surface (m): r_out and two front
+        elements (the domain must not reach the surface)."""
+        return self.r_out + 2.0 * self.size.h_tip
 
 
 def has_surface_crack(scene: Scene) -> bool:
@@ -206,7 +213,8 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
         cut = cut_mouth(body, crack, size)
     except ParameterError as exc:
         raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
-    _check_inside(scene, body, cut, h)
+    r_out = min(max(0.25 * crack.b, 3.0 * h), 0.6 * crack.b**2 / crack.a)
+    _check_inside(scene, body, cut, r_out + 2.0 * h)
     pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
     scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
     return SurfaceRun(
@@ -221,6 +229,7 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
         fr,
         spec.front_points,
         k_ic,
+        r_out,
     )
 
 
@@ -229,16 +238,19 @@ def _pair_name(name: str) -> str:
 
 
 def _probe_points(cut: CutBody, h: float) -> np.ndarray:
-    """Points a front element ahead of the inner 80 % of the front."""
+    """Points ``h`` ahead of the inner 80 % of the front."""
     p0, p1 = cut.arc.phi_range
     phi = np.linspace(p0 + 0.1 * (p1 - p0), p1 - 0.1 * (p1 - p0), 17)
     return cut.arc.point(phi) + h * cut.arc.normals(phi)
 
 
-def _check_inside(scene: Scene, body: BodySurface, cut: CutBody, h: float) -> None:
-    if not np.all(inside_body(body, _probe_points(cut, h))):
+def _check_inside(scene: Scene, body: BodySurface, cut: CutBody, ligament: float) -> None:
+    if not np.all(inside_body(body, _probe_points(cut, ligament))):
         raise _error(
-            scene, "depth", "the crack's front leaves the body (the crack is deeper than the body)"
+            scene,
+            "depth",
+            f"the crack's front comes within {ligament:.3g} m of the body's surface (the "
+            "integration domain and two front elements): a smaller crack or tip_size",
         )
 
 
@@ -278,8 +290,7 @@ def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float
     """K at the front points (collective)."""
     cut: CutBody = cb.crack
     block = cb.block()
-    h = run.size.h_tip
-    r_out = max(0.25 * cut.arc.b, 3 * h)
+    h, r_out = run.size.h_tip, run.r_out
     records = []
     p0 = cut.arc.phi_range[0]
     for i, phi in enumerate(_front_parameters(cut, run.points, h)):
@@ -412,7 +423,7 @@ def _breaks_through(run: SurfaceRun, crack: SurfaceBreakingCrack) -> bool:
         cut = cut_mouth(run.body, crack, None)
     except ParameterError:
         return True
-    return not bool(np.all(inside_body(run.body, _probe_points(cut, run.size.h_tip))))
+    return not bool(np.all(inside_body(run.body, _probe_points(cut, run.ligament))))
 
 
 def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutBody) -> str | None:
@@ -504,7 +515,7 @@ def run_surface_crack(
                 status, message = summary["status"], summary.get("message")
                 break
             with timer.phase("fracture"):
-                traction = _tractions(sm, integ, cb, max(0.25 * cb.crack.arc.b, 3 * run.size.h_tip))
+                traction = _tractions(sm, integ, cb, run.r_out)
                 records = evaluate(integ.u, cb, run, g.increments, g.cycles, traction)
             stop = _advance(run, g, records, cb.crack) if grows else "stationary"
             mark = stop or "grows"

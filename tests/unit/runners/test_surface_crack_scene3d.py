@@ -11,12 +11,14 @@ half_length.  References:
 * stationary (and ``propagate`` with K_Ic above K: arrested at once): K_I against Newman
   and Raju's equation at the deepest point within 3 % (t = 1), the others within 6 %;
   K_V of Schöllmann's σ₁′ criterion equals K_I within 1 % (mode I), kink below 2°;
-* fatigue, da/dN = C ΔK² (R = 0): the crack grows by three blocks of 0.04 and the cycles
-  to each block end agree with the same two-point growth integrated by RK4 with Newman
-  and Raju's K (bonecontact.verification.surface_fatigue.newman_raju_growth) within 8 %
-  (the FE K is 2–3 % low: 5 % more cycles with m = 2, plus the trapezoid rule of the
-  blocks); the depth at the block ends is the RK4 depth at those cycles within 2 %;
-* a thin plate (t = 0.3): the first block would take the front through the back face:
+* fatigue, da/dN = C ΔK² (R = 0): three blocks, the fastest point (here the points at
+  20°: K 5 % above the deepest's) 0.04 per block; the cycles at the depths of the block
+  ends agree with the same three-point growth integrated by RK4 with Newman and Raju's K
+  (bonecontact.verification.surface_fatigue.newman_raju_growth) within 6 % (measured
+  +3.1 … +3.3 %: the FE K is 1–3 % low, and the trapezoid rule of the blocks), the
+  half-length at those depths within 2 % (measured +0.2 … +0.4 %);
+* a thin plate (t = 0.4): the second block would bring the front within r_out + 2h of the
+  back face:
   status ``through``, the fragments the two halves of the plate (each 2b·h·t within 3 %:
   cells are counted by the side of their midpoint);
 * the crack surface and front VTK per increment; bad input: a centre off the surface.
@@ -148,7 +150,7 @@ def plates(tmp_path_factory) -> Path:
     comm = MPI.COMM_WORLD
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("surface3d")) if comm.rank == 0 else None))
     gmsh_on_rank0(_plate(T), d / "plate.msh", 3)
-    gmsh_on_rank0(_plate(0.3 * L), d / "thin.msh", 3)
+    gmsh_on_rank0(_plate(0.4 * L), d / "thin.msh", 3)
     return d
 
 
@@ -181,6 +183,7 @@ def test_stationary_and_arrested_at_once(plates: Path) -> None:
         assert "SCALARS K_I double 1" in (out / "crack_front_0.vtk").read_text()
 
 
+@pytest.mark.slow  # four re-meshed solves: 290 s on 1 rank at load 20
 def test_fatigue_against_newman_raju_growth(plates: Path) -> None:
     C = 1e-20
     growth = f"[fracture.fatigue]\nC = {C}\nm = 2.0\nda_max = {0.04 * L}\nmax_blocks = 3"
@@ -191,16 +194,21 @@ def test_fatigue_against_newman_raju_growth(plates: Path) -> None:
     hist = g["history"]
     depth = np.array([h["depth"] for h in hist])
     cycles = np.array([h["cycles"] for h in hist])
-    np.testing.assert_allclose(np.diff(depth), 0.04 * L, rtol=1e-9)  # the deepest point leads
+    c = np.array([h["half_length"] for h in hist])
+    # a/c = 1: the points at 20 deg lead (K 5 % above the deepest point's); c grows by the
+    # mean of its two ends, one of them the fastest
+    lead = np.maximum(np.diff(depth), np.diff(c))
+    np.testing.assert_allclose(lead, 0.04 * L, rtol=0.02)
+    assert np.all(np.diff(depth) < np.diff(c))
     a_ref, c_ref, n_ref = newman_raju_growth(ParisLaw(C, 2.0), S, A, A, T, B, depth[-1])
     n_at = np.interp(depth, a_ref, n_ref)
-    np.testing.assert_allclose(cycles[1:], n_at[1:], rtol=0.08)
-    c = np.array([h["half_length"] for h in hist])
+    np.testing.assert_allclose(cycles[1:], n_at[1:], rtol=0.06)
     np.testing.assert_allclose(c, np.interp(depth, a_ref, c_ref), rtol=0.02)
     tab = read_csv(out / "fracture.csv")
     assert sorted(set(tab["increment"].astype(int))) == [0, 1, 2, 3]
 
 
+@pytest.mark.slow  # three re-meshed solves
 def test_through_the_thin_plate_reports_the_fragments(plates: Path) -> None:
     growth = f"[fracture.fatigue]\nC = 1e-20\nm = 2.0\nda_max = {0.06 * L}\nmax_blocks = 5"
     res, _ = _run(plates, "through", mesh="thin.msh", growth=growth)
@@ -208,7 +216,7 @@ def test_through_the_thin_plate_reports_the_fragments(plates: Path) -> None:
     g = res.summary["fracture"]["growth"]
     assert g["status"] == "through" and g["fractured"]
     vols = [f["volume"] for f in g["fragments"]]
-    np.testing.assert_allclose(vols, 2 * B * H * 0.3 * L, rtol=0.03)
+    np.testing.assert_allclose(vols, 2 * B * H * 0.4 * L, rtol=0.03)
     assert g["cycles"] > 0
 
 
