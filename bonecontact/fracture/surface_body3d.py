@@ -197,12 +197,20 @@ def crack_frame(
     Raises
     ------
     ParameterError
-        (key ``normal``) the crack plane is tangent to the surface at the centre.
+        (key ``normal``) the crack plane is tangent to the surface at the centre; (key
+        ``centre``) the centre lies farther than min(a, c)/4 from the surface.
     """
     n = np.asarray(crack.normal, dtype=float)
     C = np.asarray(crack.centre, dtype=float)
     tri = nodes[conn[_nearest_triangle(nodes, conn, C)]]
     m = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+    off = abs(float((C - tri[0]) @ m)) / math.sqrt(float(m @ m))
+    if off > 0.25 * min(crack.depth, crack.half_length):
+        raise ParameterError(
+            "centre",
+            f"is {off:.3g} m from the body's surface (the nearest facet's plane): more than a "
+            "quarter of the smaller semi-axis",
+        )
     C = C - ((C - tri[0]) @ m) / (m @ m) * m  # onto the discrete surface
     x = nodes[conn]
     reach = max(crack.depth, crack.half_length)
