@@ -21,11 +21,17 @@ from petsc4py import PETSc
 
 import numpy as np
 import numpy.typing as npt
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 
 from bonecontact.common.errors import RunError
 from bonecontact.common.linalg import configure_ksp, solver_options
-from bonecontact.contact.reductions import gather_rows, global_any, global_op, global_vsum
+from bonecontact.contact.reductions import (
+    gather_rows,
+    global_any,
+    global_count,
+    global_op,
+    global_vsum,
+)
 
 __all__ = [
     "DENSE_BLOCKS",
@@ -314,6 +320,12 @@ class LowRankActiveSetSolver:
         #: the final field of a solve is then ``x_b + X y`` without a second solve
         self.full_cols: dict[int, np.ndarray] = {}
         self.full_limit = 0
+        #: the last margins of the rows (:meth:`solve_set`), the fixed rows of the last
+        #: contact solve's start, and the columns computed ahead (:meth:`_prefetch_rows`)
+        self._margin: npt.NDArray[np.float64] | None = None
+        self._start_prev: npt.NDArray[np.bool_] | None = None
+        self.prefetched = 0
+        self._stack: tuple | None = None  # (:meth:`_stacked`)
         self.t_factor = 0.0
         self.t_column = 0.0
         self.t_block = 0.0
@@ -444,6 +456,7 @@ class LowRankActiveSetSolver:
             self._release_operator()
         self.base = mask.copy()
         self.cache.clear()
+        self._stack = None
         self.full_cols.clear()
         self._set_memory_limits()
         dt = global_op(self.comm, time.perf_counter() - t0, MPI.MAX)
@@ -522,7 +535,7 @@ class LowRankActiveSetSolver:
         self._set_r0(r0)
         if self.base is None:
             self.factorize(initial if self.split is None else self.split.first)
-        self._base_solve()
+        self._base_solve(self._prefetch_rows(np.asarray(initial, dtype=bool)))
 
     def _set_r0(self, r0: PETSc.Vec) -> None:
         """The right-hand side in the rows of the factorised operator."""
@@ -622,9 +635,17 @@ class LowRankActiveSetSolver:
         v.array[self.L[mask]] = vals[mask]
         return v
 
-    def _base_solve(self) -> None:
+    def _base_solve(self, prefetch: list[int] | None = None) -> None:
+        """``x_b``: the solution of the base set with this solve's right-hand side and
+        values; with ``prefetch`` (global positions), their columns in the same
+        multi-right-hand-side solve (:meth:`_prefetch_rows`)."""
         fixed = self._fixed_local(self.base)
         self._lift(self._values_for(self.base), fixed, self._rhs)
+        if prefetch:
+            self._make_room(len(prefetch))
+            self._compute_block(prefetch, rhs=self._rhs)
+            self.prefetched += len(prefetch)
+            return
         t1 = time.perf_counter()
         self.ksp.solve(self._rhs, self._xb)
         t_solve = time.perf_counter() - t1
@@ -647,12 +668,14 @@ class LowRankActiveSetSolver:
         for i in range(0, len(qs), self.block_limit):
             self._compute_block(qs[i : i + self.block_limit])
 
-    def _compute_block(self, qs: list[int]) -> None:
-        """Columns for the global positions ``qs`` (X-type if in the base, W-type if not)."""
+    def _compute_block(self, qs: list[int], rhs: PETSc.Vec | None = None) -> None:
+        """Columns for the global positions ``qs`` (X-type if in the base, W-type if not);
+        with ``rhs``, the base solve of that right-hand side in the same multi-right-hand-
+        side solve (one more column: :attr:`_xb` and its contact rows)."""
         t0 = time.perf_counter()
         k = len(qs)
         lo, hi = self.offset, self.offset + self.L.size
-        Rm = _dense(self.comm, self.nloc, k)
+        Rm = _dense(self.comm, self.nloc, k + (rhs is not None))
         R = Rm.getDenseArray(readonly=False)
         in_base = self._flags(self.base, qs)
         xq = [j for j in range(k) if in_base[j]]
@@ -664,8 +687,8 @@ class LowRankActiveSetSolver:
                     Ua[np.searchsorted(self._cols, self.L[qs[j] - lo]), j] = 1.0
             U.assemble()
             AU = self.AC.matMult(U)
-            R[:, :] = -AU.getDenseArray()
-            R[self._fixed_local(self.base), :] = 0.0
+            R[:, :k] = -AU.getDenseArray()
+            R[self._fixed_local(self.base), :k] = 0.0
             AU.destroy()
             U.destroy()
         for j, q in enumerate(qs):
@@ -674,8 +697,10 @@ class LowRankActiveSetSolver:
         wq = [j for j in range(k) if not in_base[j]]
         if self.split is not None and wq:
             self._split_forces(qs, wq, R)
+        if rhs is not None:
+            R[:, k] = rhs.array_r
         Rm.assemble()
-        Xm = _dense(self.comm, self.nloc, k)
+        Xm = _dense(self.comm, self.nloc, k + (rhs is not None))
         F = self.ksp.getPC().getFactorMatrix()
         F.matSolve(Rm, Xm)
         KXm = self.AL.matMult(Xm)
@@ -692,10 +717,14 @@ class LowRankActiveSetSolver:
             self.cache[q] = (colN[:, j].copy(), kcolN[:, j].copy())
             if keep_full:
                 self.full_cols[q] = Xraw[:, j].copy()
+        if rhs is not None:  # (the base solve's column)
+            self._xb.array[:] = Xraw[:, k]
+            self._xbN, self._AxbN = colN[:, k].copy(), kcolN[:, k].copy()
         for M in (Rm, Xm, KXm):
             M.destroy()
         self.columns += k
         dt = global_op(self.comm, time.perf_counter() - t0, MPI.MAX)
+        dt -= self.t_solve if rhs is not None else 0.0
         self.t_column = max(dt - self.t_block, 0.1 * dt) / k
 
     def _split_forces(self, qs: list[int], wq: list[int], R: npt.NDArray) -> None:
@@ -771,6 +800,8 @@ class LowRankActiveSetSolver:
             ``{"columns": new columns, "refactorized": bool, "size": unknowns of the small
             system}``.
         """
+        if margin is not None:
+            self._margin = np.asarray(margin, dtype=np.float64).copy()
         if self._set_given(wgiven):
             self._base_solve()
         crow = (
@@ -783,8 +814,7 @@ class LowRankActiveSetSolver:
         xN, wN = self._xbN.copy(), self._r0N - self._AxbN
         self._y = (cols, np.zeros(0))
         if cols:
-            G = np.column_stack([self.cache[q][0] for q in cols])
-            KG = np.column_stack([self.cache[q][1] for q in cols])
+            G, KG = self._stacked(cols)
             M, rhs, csc = self._small_system(
                 cols, (active, scale), (G, KG), (xN, wN), coupled, crow
             )
@@ -793,6 +823,17 @@ class LowRankActiveSetSolver:
             wN -= KG @ y
             self._y = (cols, y)
         return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
+
+    def _stacked(self, cols: list[int]) -> tuple[npt.NDArray, npt.NDArray]:
+        """The cached columns of ``cols`` side by side (values and ``Ã`` times them at
+        this rank's contact rows), kept while the list is the same (PDAS iterations and
+        steps of a settled zone)."""
+        key = tuple(cols)
+        if self._stack is None or self._stack[0] != key:
+            G = np.column_stack([self.cache[q][0] for q in cols])
+            KG = np.column_stack([self.cache[q][1] for q in cols])
+            self._stack = (key, G, KG)
+        return self._stack[1], self._stack[2]
 
     def _differing(self, active: npt.NDArray[np.bool_], crow: npt.NDArray) -> npt.NDArray:
         """Global positions of the rows in which the set ``active`` differs from the base,
@@ -837,7 +878,7 @@ class LowRankActiveSetSolver:
         if missing and margin is not None and self.split is None:
             # speculate on releases only: fixed rows of the base closest to being freed
             # (a cold-started PDAS overshoots, then releases nodes for several iterations)
-            extra = self._closest_releases(active, margin, len(missing))
+            extra = self._closest(active & self.base, margin, len(missing))
             room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
         if missing and len(self.full_cols) + len(missing) > self.full_limit:
@@ -849,20 +890,64 @@ class LowRankActiveSetSolver:
             self._compute_columns(missing)
         return diff, len(missing), refactorized
 
-    def _closest_releases(
-        self, active: npt.NDArray[np.bool_], margin: npt.NDArray[np.float64], n: int
+    def _closest(
+        self,
+        cand: npt.NDArray[np.bool_],
+        margin: npt.NDArray[np.float64],
+        n: int,
+        uncached: bool = True,
     ) -> list[int]:
-        """Global positions of the ``n`` rows fixed in both ``active`` and the base, without
-        a cached column, with the smallest ``margin`` (ties by position): each rank offers
-        its ``n`` closest, the ranks' offers are merged."""
-        same = active & self.base
-        cand = np.flatnonzero(same)
-        q = cand + self.offset
-        keep = np.array([int(v) not in self.cache for v in q], dtype=bool)
-        cand, q = cand[keep], q[keep]
-        order = np.lexsort((q, margin[cand]))[:n]
-        m_all, q_all = gather_rows(self.comm, margin[cand][order], q[order])
+        """Global positions of the ``n`` rows of ``cand`` (this rank's rows; ``uncached``:
+        without a cached column) with the smallest finite ``margin`` (ties by position):
+        each rank offers its ``n`` closest, the ranks' offers are merged (the same list
+        on every rank)."""
+        if uncached:
+            cand = cand & ~self._cached_mask()
+        idx = np.flatnonzero(cand & np.isfinite(margin))
+        q = idx + self.offset
+        order = np.lexsort((q, margin[idx]))[:n]
+        m_all, q_all = gather_rows(self.comm, margin[idx][order], q[order])
         return [int(v) for v in q_all[np.lexsort((q_all, m_all))][:n]]
+
+    def _cached_mask(self) -> npt.NDArray[np.bool_]:
+        """This rank's rows with a cached column."""
+        mask = np.zeros(self.L.size, dtype=bool)
+        q = np.fromiter(self.cache.keys(), dtype=np.int64, count=len(self.cache)) - self.offset
+        mask[q[(q >= 0) & (q < self.L.size)]] = True
+        return mask
+
+    def _prefetch_rows(self, start: npt.NDArray[np.bool_]) -> list[int]:
+        """Open rows about to close whose columns are computed together with the base
+        solve of a contact solve starting from the fixed rows ``start`` (a growing
+        contact zone, e.g. an impact: docs/theory/pdas.md#columns-ahead).
+
+        With ``g`` the rows fixed at this start and not at the previous one, the ``2g``
+        open rows (free in ``start`` and in the base) with the smallest margin of the
+        last solve (``|λ + c (u − g)|``, the distance to closing) must have columns; if
+        one has none, the open rows without a column closest to closing, as many as a
+        block holds besides the base solve (:attr:`block_limit` − 1), within the cache
+        limit.  A split basis only (its sets are reached by columns, never by a
+        rebase).  Collective; the same list on every rank."""
+        prev, self._start_prev = self._start_prev, start.copy()
+        if self.split is None or self._margin is None or prev is None:
+            return []
+        grown = global_count(self.comm, start & ~prev)
+        if grown == 0:
+            return []
+        open_rows = ~start & ~self.base
+        near = self._closest(open_rows, self._margin, 2 * grown, uncached=False)
+        if all(q in self.cache for q in near):  # (the cache is the same on every rank)
+            return []
+        room = min(self.block_limit - 1, self.column_limit - len(self.cache))
+        return self._closest(open_rows, self._margin, room) if room > 0 else []
+
+    def _make_room(self, k: int) -> None:
+        """Room for ``k`` more full columns: when the kept ones and ``k`` exceed
+        :attr:`full_limit`, those of rows outside the base-solve's set are dropped."""
+        if len(self.full_cols) + k <= self.full_limit or self._start_prev is None:
+            return
+        keep = {int(q) for q in self._differing(self._start_prev, np.zeros(0, dtype=np.int64))}
+        self.full_cols = {q: c for q, c in self.full_cols.items() if q in keep}
 
     def _small_system(
         self,
@@ -938,8 +1023,8 @@ class LowRankActiveSetSolver:
         cols, y = self._y
         if all(q in self.full_cols for q in cols):  # (the same on every rank)
             x = self._xb.array.copy()
-            for q, yq in zip(cols, y):  # (no n × k temporary)
-                x += yq * self.full_cols[q]
+            for q, yq in zip(cols, y):  # (in place: no n × k or n temporary)
+                x = blas.daxpy(self.full_cols[q], x, a=yq)
             out.array[:] = x
             if self.split is not None:
                 out.array[:] = self._full(out)
