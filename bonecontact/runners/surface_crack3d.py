@@ -214,6 +214,14 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
     except ParameterError as exc:
         raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
     r_out = min(max(0.25 * crack.b, 3.0 * h), 0.6 * crack.b**2 / crack.a)
+    if r_out < 3.0 * h * (1.0 - 1e-9):
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "tip_size",
+            f"the integration domain (r = {r_out:.3g} m: at most 0.6 b²/a of the crack) spans "
+            f"fewer than 3 front elements of {h:.3g} m; choose a smaller tip_size",
+        )
     _check_inside(scene, body, cut, r_out + 2.0 * h)
     pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
     scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
