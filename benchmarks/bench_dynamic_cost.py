@@ -33,6 +33,7 @@ Usage:  python benchmarks/bench_dynamic_cost.py [--sizes 5e-4,3e-4] [--steps 40]
 import dolfinx_solver  # noqa: F401
 
 import argparse
+import resource
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -43,6 +44,7 @@ import numpy as np
 from common import machine, write_rows
 from dolfinx import fem
 
+from bonecontact.contact.options import LinearOptions, PDASOptions
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.newmark import make_integrator
 from bonecontact.verification.sphere_impact import SphereImpact, sphere_model
@@ -51,7 +53,8 @@ COMM = MPI.COMM_WORLD
 
 
 class Phases:
-    """Wall time of wrapped methods, per name (s, accumulated)."""
+    """Wall and CPU time of wrapped methods, per name (s, accumulated; CPU as
+    ``<name>_cpu``)."""
 
     def __init__(self):
         self.t = defaultdict(float)
@@ -61,11 +64,12 @@ class Phases:
         f = getattr(obj, method)
 
         def timed(*a, **k):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             try:
                 return f(*a, **k)
             finally:
                 self.t[name] += time.perf_counter() - t0
+                self.t[f"{name}_cpu"] += time.process_time() - c0
 
         setattr(obj, method, timed)
 
@@ -93,12 +97,13 @@ def _instrument(integ, ph: Phases) -> None:
         ph.wrap(lr, "finish", "final_solve")
 
 
-def run(p: SphereImpact, contact: bool, steps: int, t_start: float) -> dict:
+def run(p: SphereImpact, contact: bool, steps: int, t_start: float, memory_ratio: float) -> dict:
     """Time ``steps`` steps after ``t_start`` (s after the first touch; the steps before
     are run untimed), with or without the contact pair; the phase means per step."""
     m, itf, sphere = sphere_model(p, COMM)
     dt = p.contact_time / 50
-    cs = ContactSolver(m.V, [itf]) if contact else None
+    opts = PDASOptions(linear=LinearOptions(memory_ratio=memory_ratio))
+    cs = ContactSolver(m.V, [itf], opts) if contact else None
     integ = make_integrator("stabilized-newmark", m, "dynamic", dt, contact=cs)
     v0 = fem.Function(m.V)
     v0.x.array[:] = -p.v0 * sphere.x.array
@@ -110,7 +115,7 @@ def run(p: SphereImpact, contact: bool, steps: int, t_start: float) -> dict:
     _instrument(integ, ph)
     times, cpu, its, cols0 = [], [], [], None
     lr = getattr(getattr(cs, "linear_solver", None), "lowrank", None)
-    f0 = (lr.factorizations, lr.columns) if lr is not None else (0, 0)
+    f0 = (lr.factorizations, lr.columns, lr.prefetched) if lr is not None else (0, 0, 0)
     for _ in range(steps):
         COMM.barrier()
         t0, c0 = time.perf_counter(), time.process_time()
@@ -130,6 +135,11 @@ def run(p: SphereImpact, contact: bool, steps: int, t_start: float) -> dict:
         out["n_active"] = cols0
         out["factorizations"] = lr.factorizations - f0[0] if lr is not None else -1
         out["columns"] = lr.columns - f0[1] if lr is not None else -1
+        out["prefetched"] = lr.prefetched - f0[2] if lr is not None else -1
+        out["full_limit"] = lr.full_limit if lr is not None else -1
+    out["peak_rss_mib"] = COMM.allreduce(
+        resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, op=MPI.MAX
+    )
     integ.destroy()
     return out
 
@@ -139,17 +149,25 @@ def main() -> None:
     ap.add_argument("--sizes", default="5e-4", help="h_contact values (m), comma-separated")
     ap.add_argument("--steps", type=int, default=40)
     ap.add_argument("--out", default="benchmarks/results/dynamic_cost.csv")
+    ap.add_argument(
+        "--memory-ratio",
+        type=float,
+        default=LinearOptions().memory_ratio,
+        help="[contact.linear] memory_ratio of the contact run (default: the package's)",
+    )
     a = ap.parse_args()
     rows = []
     for h in (float(s) for s in a.sizes.split(",")):
         p = SphereImpact(h_contact=h, h_far=10 * h)
         # contact: every step from 0.1 t_c to 0.9 t_c (the zone grows, then shrinks)
         # (the contact-free steps before and after the contact run: the machine's load drifts)
-        before = run(p, False, min(a.steps, 10), 0.0)
-        con = run(p, True, a.steps, 0.1 * p.contact_time)
-        after = run(p, False, min(a.steps, 10), 0.0)
+        mr = a.memory_ratio
+        before = run(p, False, min(a.steps, 10), 0.0, mr)
+        con = run(p, True, a.steps, 0.1 * p.contact_time, mr)
+        after = run(p, False, min(a.steps, 10), 0.0, mr)
         free = {
-            k: 0.5 * (before.get(k, 0.0) + after.get(k, 0.0)) for k in ("step", "solve", "step_cpu")
+            k: 0.5 * (before.get(k, 0.0) + after.get(k, 0.0))
+            for k in ("step", "solve", "step_cpu", "solve_cpu")
         }
         row = dict(
             case="sphere",
@@ -167,14 +185,21 @@ def main() -> None:
             contact_step_cpu_s=con["step_cpu"],
             ratio_cpu=con["step_cpu"] / free["step_cpu"],
             free_solve_s=free.get("solve", 0.0),
+            free_solve_cpu_s=free.get("solve_cpu", 0.0),
+            memory_ratio=mr,
         )
         for k in (
             "rhs", "predictor_gaps", "dirichlet", "contact", "pdas_rhs", "pdas_begin",
             "new_columns", "refactor", "final_solve", "pdas_finish", "velocity",
         ):  # fmt: skip
             row[f"{k}_s"] = con.get(k, 0.0)
-        for k in ("pdas_iterations", "n_active", "factorizations", "columns"):
+            row[f"{k}_cpu_s"] = con.get(f"{k}_cpu", 0.0)
+        for k in (
+            "pdas_iterations", "n_active", "factorizations", "columns", "prefetched", "full_limit"
+        ):  # fmt: skip
             row[f"n_{k}"] = con.get(k, 0)
+        row["peak_rss_free_mib"] = before["peak_rss_mib"]  # (the process's peak: measured first)
+        row["peak_rss_contact_mib"] = con["peak_rss_mib"]
         row["machine"] = machine() + " (busy)"
         rows.append(row)
         if COMM.rank == 0:
