@@ -718,7 +718,7 @@ def _q_at_points(q: fem.Function, support: np.ndarray, pts: np.ndarray) -> np.nd
         if found.size:
             first = cells.array[cells.offsets[found]].astype(np.int32)
             vals[found] = q.eval(pts[found], first).ravel()
-    vals = msh.comm.allreduce(vals, op=MPI.MAX)  # q is continuous: any rank's value
+    msh.comm.Allreduce(MPI.IN_PLACE, vals, op=MPI.MAX)  # a buffer: a pickled max of arrays fails
     return np.where(np.isfinite(vals), vals, 0.0)
 
 
