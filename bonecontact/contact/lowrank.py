@@ -362,6 +362,24 @@ class LowRankActiveSetSolver:
         iscol.destroy()
         return AC, cols
 
+    def _columns_of_ac(self, qs: list[int], xq: list[int]) -> npt.NDArray:
+        """``A e_q`` for the contact positions ``qs[j]``, ``j`` in ``xq``: this rank's rows of
+        those columns of :attr:`AC`, read from its entries (no product)."""
+        lo, hi = self.offset, self.offset + self.L.size
+        col = np.full(len(qs), -1, dtype=np.int64)
+        first = self.AC.getOwnershipRangeColumn()[0]
+        for j in xq:
+            if lo <= qs[j] < hi:
+                col[j] = first + int(np.searchsorted(self._cols, self.L[qs[j] - lo]))
+        self.comm.Allreduce(MPI.IN_PLACE, col, op=MPI.MAX)
+        ai, aj, av = self.AC.getValuesCSR()
+        rows = np.repeat(np.arange(self.nloc), np.diff(ai))
+        out = np.zeros((self.nloc, len(qs)))
+        for j in xq:
+            hit = aj == col[j]
+            out[rows[hit], j] = av[hit]
+        return out
+
     def _make_split(self, allowed: npt.NDArray[np.bool_], rows: npt.NDArray) -> SplitBasis:
         """The split basis with this rank's contact rows ``allowed`` in the contact basis."""
         A0, Qt, T, Tt = self._split_args
@@ -680,17 +698,8 @@ class LowRankActiveSetSolver:
         in_base = self._flags(self.base, qs)
         xq = [j for j in range(k) if in_base[j]]
         if xq:  # (A times unit columns at contact rows: columns of AC)
-            U = _dense(self.comm, self._cols.size, k)
-            Ua = U.getDenseArray(readonly=False)
-            for j in xq:
-                if lo <= qs[j] < hi:
-                    Ua[np.searchsorted(self._cols, self.L[qs[j] - lo]), j] = 1.0
-            U.assemble()
-            AU = self.AC.matMult(U)
-            R[:, :k] = -AU.getDenseArray()
+            R[:, :k] = -self._columns_of_ac(qs, xq)
             R[self._fixed_local(self.base), :k] = 0.0
-            AU.destroy()
-            U.destroy()
         for j, q in enumerate(qs):
             if lo <= q < hi:
                 R[self.L[q - lo], j] = self.diag_value if in_base[j] else 1.0
