@@ -21,7 +21,7 @@ from petsc4py import PETSc
 
 import numpy as np
 import numpy.typing as npt
-from scipy.linalg import blas, lapack
+from scipy.linalg import lapack
 
 from bonecontact.common.errors import RunError
 from bonecontact.common.linalg import configure_ksp, solver_options
@@ -1032,8 +1032,8 @@ class LowRankActiveSetSolver:
         cols, y = self._y
         if all(q in self.full_cols for q in cols):  # (the same on every rank)
             x = self._xb.array.copy()
-            for q, yq in zip(cols, y):  # (in place: no n × k or n temporary)
-                x = blas.daxpy(self.full_cols[q], x, a=yq)
+            for q, yq in zip(cols, y):  # (no n × k temporary; numpy, not a threaded BLAS
+                x += yq * self.full_cols[q]  # call: its threads spin on a busy machine)
             out.array[:] = x
             if self.split is not None:
                 out.array[:] = self._full(out)
