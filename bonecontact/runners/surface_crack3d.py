@@ -276,7 +276,8 @@ def _front_parameters(cut: CutBody, n: int, h: float) -> np.ndarray:
     )
     deep = _deepest_parameter(cut)
     pts = np.linspace(p0 + margin, p1 - margin, max(n, 2))
-    return np.unique(np.append(pts, deep))
+    pts = pts[np.abs(pts - deep) > math.radians(0.5)]  # the deepest point once
+    return np.sort(np.append(pts, deep))
 
 
 def _deepest_parameter(cut: CutBody) -> float:
