@@ -157,6 +157,8 @@ def test_lean_products_options_are_scoped():
     removed."""
     opts = PETSc.Options()
     with lean_products(COMM):
+        assert "matptap_via" not in opts.getAll()
+    with lean_products(COMM, all_at_once=True):
         inside = opts.getAll()
     assert inside.get("mat_product_clear") == "true"
     assert ("matptap_via" in inside) == (COMM.size > 1)
