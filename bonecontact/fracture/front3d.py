@@ -705,8 +705,10 @@ def _q_function(V1: fem.FunctionSpace, front, phi0, r_in, r_out, l_in, l_out, p0
 
 def _q_at_points(q: fem.Function, support: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """The P1 function ``q`` at points ``pts`` (n, 3), on every rank: each rank evaluates the
-    points that lie in its cells of ``support`` (owned cells where q > 0), a point found on
-    no rank has q = 0 (outside the support or outside the model) (collective)."""
+    points in every cell of ``support`` (owned cells where q > 0) that holds them, and a
+    point takes the largest of these values over all cells and ranks — the same choice on
+    any partition (the values differ only by round-off and the collision tolerance); a
+    point found on no rank has q = 0 (outside the support or the model) (collective)."""
     msh = q.function_space.mesh
     vals = np.full(len(pts), -np.inf)
     if support.size:
@@ -714,10 +716,10 @@ def _q_at_points(q: fem.Function, support: np.ndarray, pts: np.ndarray) -> np.nd
         cells = geometry.compute_colliding_cells(
             msh, geometry.compute_collisions_points(tree, pts), pts
         )
-        found = np.flatnonzero(np.diff(cells.offsets) > 0)
-        if found.size:
-            first = cells.array[cells.offsets[found]].astype(np.int32)
-            vals[found] = q.eval(pts[found], first).ravel()
+        which = np.repeat(np.arange(len(pts)), np.diff(cells.offsets))
+        if which.size:
+            found = q.eval(pts[which], cells.array.astype(np.int32)).ravel()
+            np.maximum.at(vals, which, found)
     msh.comm.Allreduce(MPI.IN_PLACE, vals, op=MPI.MAX)  # a buffer: a pickled max of arrays fails
     return np.where(np.isfinite(vals), vals, 0.0)
 

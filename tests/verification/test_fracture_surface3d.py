@@ -11,20 +11,19 @@ elements are refused.
 * Family (default suite, serial; reduced mesh: front a/10, grading 0.15, largest element
   0.4, 7.5k–16k dofs): semi-elliptical and corner cracks, a/c = 0.5 and 1, a/t = 0.2,
   against Newman and Raju's equations from φ = 20° (the deepest point included): every
-  point within 10 %, the mean within 7 % (the coarse mesh scatters by ±3 % from point to
-  point).  K_II and K_III vanish by symmetry (≤ 5 % of K_I).  The mouth is open: the two
-  faces separate on the free surface.
+  point within 7 %.  K_II and K_III vanish by symmetry (≤ 5 % of K_I).  The mouth is open:
+  the two faces separate on the free surface; the front nodes are the faces' shared
+  vertices.
 * The faces are a contact pair: closed by compression, K = 0 (≤ 1 %), pressure |S|.
 * The through crack (an edge crack of length 0.4 through the thickness): K_I at mid-thickness
   against the plane-strain K of the plate's 2D section (our 2D solver), and symmetric about
   the mid-plane.
-* Ranks: on 2 and 3 ranks the distributed K equals the serial K of the same gmsh mesh (built
-  on COMM_SELF) to 1e-8.
-* Slow: front a/16 (the benchmark's mesh, 19k–38k dofs): within 3 % at the deepest point and
-  within 5 % from 10° off the surface on (a/c = 1 and the corner cracks; the semi-elliptical
-  crack a/c = 0.5: every point within 6 %, their mean within 5 % — measured at the test's
-  angles −5.5 … −2.0 %, mean −3.6 % (−6.3 % at 15°), with the domain's half-length at most
-  a quarter of the front's curvature length; see docs/theory/fracture.md).
+* Ranks: on 2 and 3 ranks the distributed K (K_I, K_II, K_III) equals the serial K of the
+  same gmsh mesh (built on COMM_SELF) to 1e-8: both crack shapes, a/c = 0.5 and 1, a point
+  near the surface and the deepest point, and the through crack's straight front.
+* Slow: front a/16 (the benchmark's mesh, 19k–38k dofs): within 3 % at the deepest point
+  and within 5 % at every point from 10° off the surface on (the semi-elliptical crack
+  a/c = 0.5: 6 %, see ``FINE_TOL`` and docs/theory/fracture.md).
 """
 
 import dolfinx_solver  # noqa: F401  (must precede dolfinx)
@@ -44,6 +43,7 @@ from bonecontact.fracture.surface3d import (
     SurfaceCrack,
     curvature_length,
     domain_length,
+    front_nodes,
 )
 from bonecontact.verification.surface_crack import (
     PlateProblem,
@@ -56,11 +56,11 @@ from bonecontact.verification.surface_crack import (
 
 A = 0.2  # crack depth (a/t = 0.2)
 REDUCED = {"h_front": A / 10, "grading": 0.15, "h_max": 0.4, "r_out": 0.3 * A}
-#: Tolerances of the reduced mesh (7.5k–16k dofs) against Newman–Raju: every point, and
-#: the mean error of the points (measured by ``bench_surface_crack3d.py --quick`` over
-#: 15° … 165°: −9.7 … +1.1 %, the point-to-point scatter of the coarse unstructured mesh
-#: on top of the fine mesh's errors; means −5.9 … −1.3 %).
-REDUCED_TOL = {"point": 0.10, "mean": 0.07}
+#: Tolerance of the reduced mesh (7.5k–16k dofs) against Newman–Raju at every point
+#: (measured 2026-12-01 at 15° … 165°: semi-elliptical a/c = 0.5 −6.0 … −2.1 %, a/c = 1
+#: −2.6 … +1.4 %, corner a/c = 0.5 −5.1 … −2.6 %, a/c = 1 −2.1 … −0.3 %; 10 % and a 7 %
+#: mean before the integral's denominator and quadrature were corrected).
+REDUCED_TOL = 0.07
 
 
 def problem(kind: str, a_c: float, **sizes) -> PlateProblem:
@@ -162,18 +162,16 @@ def _angles(kind: str) -> np.ndarray:
 @pytest.mark.serial
 @pytest.mark.parametrize(("kind", "a_c"), FAMILY)
 def test_newman_raju_reduced_mesh(kind, a_c):
-    """K_I within 10 % of Newman–Raju at every point and within 7 % on average (reduced
-    mesh, see ``REDUCED_TOL``); K_II, K_III below 5 % of K_I (zero by symmetry; measured
-    ≤ 3.1 %: K_III of the corner crack 15° off the side face).  The
-    parallel counterpart is :func:`test_same_on_every_partition`."""
+    """K_I within 7 % of Newman–Raju at every point (reduced mesh, see
+    ``REDUCED_TOL``); K_II, K_III below 5 % of K_I (zero by symmetry; measured ≤ 1.7 %).
+    The parallel counterpart is :func:`test_same_on_every_partition`."""
     sol = solved(kind, a_c)
     p = sol.problem
     phis = _angles(kind)
     ks = [sol.k(phi) for phi in phis]
     k_I = np.array([k.K_I for k in ks])
     err = k_I / p.reference(phis) - 1.0
-    assert np.all(np.abs(err) < REDUCED_TOL["point"]), err
-    assert abs(float(np.mean(err))) < REDUCED_TOL["mean"], err
+    assert np.all(np.abs(err) < REDUCED_TOL), err
     for k in ks:  # a symmetric mode-I problem
         assert abs(k.K_II) < 0.05 * k.K_I and abs(k.K_III) < 0.05 * k.K_I
 
@@ -204,6 +202,25 @@ def test_mouth_is_open_and_near_surface_points_refused(kind, a_c):
     assert np.count_nonzero(opening > 1e-3 * np.max(opening)) >= len(common) - 2  # ends shared
     with pytest.raises(FractureError, match="free surface"):
         sol.k(math.radians(2.0))
+    # the front nodes are the vertices of both faces (the split mouth and face nodes are
+    # not): on the front, about one per front element
+    nodes = front_nodes(blk)
+    front = blk.front
+    assert np.max(np.linalg.norm(nodes - front.point(front.nearest(nodes)), axis=1)) < 1e-9 * A
+    assert abs(len(nodes) - (front.perimeter / sol.problem.h_front + 1)) <= 0.1 * len(nodes)
+
+
+#: The through crack: an edge crack of length 0.4 through the thickness, front 0.05.
+THROUGH = PlateProblem(
+    SurfaceCrack("through", 0.4),
+    b=2.0,
+    h=2.0,
+    t=1.0,
+    h_front=0.05,
+    grading=0.15,
+    h_max=0.4,
+    r_out=0.15,
+)
 
 
 @pytest.mark.serial
@@ -212,16 +229,7 @@ def test_through_crack_against_plane_strain():
     thickness): K_I at mid-thickness within 5 % of the plane-strain K of the 2D section
     (the 3D mid-plane sits a few per cent above it), the quarter points (z = −t/4, −3t/4)
     alike within 4 % (symmetry about the mid-plane; measured 2.2 %, mesh scatter)."""
-    p = PlateProblem(
-        SurfaceCrack("through", 0.4),
-        b=2.0,
-        h=2.0,
-        t=1.0,
-        h_front=0.05,
-        grading=0.15,
-        h_max=0.4,
-        r_out=0.15,
-    )
+    p = THROUGH
     sol = solve_plate(p)
     mid = sol.k(0.5).K_I
     ref = plane_strain_edge_k(p)
@@ -256,37 +264,91 @@ def test_closed_crack_contact_pair(kind):
         assert max(abs(k.K_I), abs(k.K_II), abs(k.K_III)) < 0.01 * ref
 
 
-@pytest.mark.parametrize(("a_c", "deg"), [(1.0, 40.0), (0.5, 45.0)])
-def test_same_on_every_partition(a_c, deg):
-    """The distributed K equals the serial K of the same mesh (built on COMM_SELF); at 45°
-    of the a/c = 0.5 corner crack the domain is shortened to a quarter of the front's
-    curvature length (0.22a < r_out)."""
+#: (kind, a/c, φ in degrees) of the partition family: near the surface (the domain cut
+#: to its distance from the surface and to a quarter of the curvature length), the deepest
+#: point, and the corner cracks (45° of a/c = 0.5: the curvature-length domain).
+PARTITION_CASES = [
+    ("semi_elliptical", 0.5, 15.0),
+    ("semi_elliptical", 1.0, 90.0),
+    ("corner", 1.0, 40.0),
+    ("corner", 0.5, 45.0),
+]
+
+
+def _on_rank_0(serial):
+    """``serial()`` on rank 0 alone (a COMM_SELF model), its result on every rank: the
+    other ranks do not compile the same forms at the same time (under load one of them
+    waited past the JIT cache's lock timeout)."""
+    comm = MPI.COMM_WORLD
+    return comm.bcast(serial() if comm.rank == 0 else None, root=0)
+
+
+def _same_k(k, k1) -> None:
+    for a, b in ((k.K_I, k1.K_I), (k.K_II, k1.K_II), (k.K_III, k1.K_III)):
+        assert a == pytest.approx(b, rel=1e-8, abs=1e-8 * abs(k1.K_I))
+
+
+@pytest.mark.parametrize(("kind", "a_c", "deg"), PARTITION_CASES)
+def test_same_on_every_partition(kind, a_c, deg):
+    """The distributed K (K_I, K_II, K_III) equals the serial K of the same mesh (built on
+    COMM_SELF) to 1e-8 — the parallel counterpart of the serial Newman–Raju family."""
     if MPI.COMM_WORLD.size == 1:
         pytest.skip("needs several ranks")
     phi = math.radians(deg)
-    k = solved("corner", a_c).k(phi)
-    k1 = solved("corner", a_c, MPI.COMM_SELF).k(phi)
-    for a, b in ((k.K_I, k1.K_I), (k.K_II, k1.K_II), (k.K_III, k1.K_III)):
-        assert a == pytest.approx(b, rel=1e-8, abs=1e-8 * abs(k1.K_I))
+    k = solved(kind, a_c).k(phi)
+    _same_k(k, _on_rank_0(lambda: solved(kind, a_c, MPI.COMM_SELF).k(phi)))
+
+
+@pytest.mark.parametrize("z", [0.25, 0.5])
+def test_through_crack_same_on_every_partition(z):
+    """The straight front of the through crack (Gauss–Jacobi rules, the tangent-line
+    auxiliary field) on several ranks equals its serial K — the parallel counterpart of
+    :func:`test_through_crack_against_plane_strain`."""
+    if MPI.COMM_WORLD.size == 1:
+        pytest.skip("needs several ranks")
+    if "through" not in _CACHE:
+        _CACHE["through"] = solve_plate(THROUGH)
+    k = _CACHE["through"].k(z)
+    _same_k(k, _on_rank_0(lambda: solved_through_serial().k(z)))
+
+
+def solved_through_serial():
+    """The through crack on COMM_SELF (rank 0 only), cached."""
+    if "through-self" not in _CACHE:
+        _CACHE["through-self"] = solve_plate(THROUGH, MPI.COMM_SELF)
+    return _CACHE["through-self"]
 
 
 # ---------------------------------------------------------------- full size (slow)
 FINE = {"h_front": A / 16, "grading": 0.12, "h_max": 0.2, "r_out": 0.3 * A}
 
 
+#: Per-point tolerance of the fine mesh against Newman–Raju from 10° off the surface on:
+#: their equations' own ±5 %, but 6 % for the semi-elliptical a/c = 0.5 crack (measured
+#: −5.6 … −2.6 % at a/16, −5.2 … −2.8 % at a/24: within 5 % except 15° at a/16 and 170°
+#: at a/24; the same integral on the embedded ellipse of that aspect ratio is within 1.6 %
+#: of Irwin's exact K — docs/theory/fracture.md#surface-breaking-cracks-in-3d).
+FINE_TOL = {("semi_elliptical", 0.5): 0.06}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("kind", "a_c"), FAMILY)
 def test_newman_raju_fine_mesh(kind, a_c):
+    """Front a/16 (the benchmark's mesh, 19k–38k dofs): K_I within 3 % of Newman–Raju at
+    the deepest point and within ``FINE_TOL`` (5 %) at every point from 10° off the
+    surface on — every point, no mean; K_II, K_III below 1 % of K_I (zero by symmetry)."""
     sol = solved(kind, a_c, **FINE)
     p = sol.problem
     if kind == "corner":
-        phis = np.radians([10.0, 20.0, 30.0, 45.0, 60.0, 70.0, 80.0])
+        phis = np.radians([10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 70.0, 80.0])
     else:
-        phis = np.radians([10.0, 20.0, 30.0, 45.0, 60.0, 75.0, 90.0, 120.0, 150.0, 170.0])
-    k_I = np.array([sol.k(phi).K_I for phi in phis])
-    err = k_I / p.reference(phis) - 1.0
+        phis = np.radians(
+            [10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 75.0, 90.0, 120.0, 150.0, 165.0, 170.0]
+        )
+    ks = [sol.k(phi) for phi in phis]
+    err = np.array([k.K_I for k in ks]) / p.reference(phis) - 1.0
     if kind != "corner":
         assert abs(err[np.argmin(np.abs(phis - math.pi / 2))]) < 0.03, err
-    tol = 0.06 if (kind, a_c) == ("semi_elliptical", 0.5) else 0.05
-    assert np.all(np.abs(err) < tol), err
-    assert abs(float(np.mean(err))) < 0.05, err
+    assert np.all(np.abs(err) < FINE_TOL.get((kind, a_c), 0.05)), err
+    for k in ks:
+        assert max(abs(k.K_II), abs(k.K_III)) < 0.01 * k.K_I
