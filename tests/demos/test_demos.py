@@ -858,7 +858,7 @@ def test_knee3d_contact_carries_body_weight_and_tumour_volume(demo_runs):
         _check_png(o1 / f"knee3d_{name}.png")
 
 
-@pytest.mark.parametrize("demo", [d.stem for d in DEMOS])
+@pytest.mark.parametrize("demo", [pytest.param(d.stem, marks=_marks(d.stem)) for d in DEMOS])
 def test_demo_figures_pass_the_figure_check(demo_runs, demo):
     """Every picture a demo writes has its record beside it (bonecontact.plot.show) and
     passes the figure check: at most 5 % of a colour-mapped area saturated unless the
