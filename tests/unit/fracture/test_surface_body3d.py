@@ -12,11 +12,11 @@ volume re-meshed around the crack.
   semi-elliptical crack (a/t = 0.2) at the centre of its front face: K_I against Newman
   and Raju's equation (the reference of the OpenCASCADE plate of bonecontact.verification.
   surface_crack) at 20°, 45°, 90°, 135°, 160°.  a/c = 1, front a/10 (20k dofs): deepest
-  within 4 %, the others within 7 % (measured −3.7 % and −6.2 … −1.7 %, the same to 10⁻¹³
-  on 2 ranks; −2.7 % and −3.0 … +0.8 % with the interaction integral of a working copy of
-  front3d.py in progress on 2026-12-01); slow: a/c = 0.5,
+  within 4 %, the others within 7 % (measured with front3d of 7f6172c −2.6 % and
+  −3.1 … +0.7 %; with the front3d before it −3.7 % and −6.2 … −1.7 %, the same to 10⁻¹³
+  on 2 ranks); slow: a/c = 0.5,
   front a/14 (47k dofs): deepest within 4 %, the others within 8 % (measured −3.3 % and
-  −7.7 % at 20°, −3.3 … −3.2 % elsewhere with front3d of 7f6172c; −3.4 %, −6.4 … −2.9 %
+  −7.7 % at 20°, −4.3 … −3.2 % elsewhere with front3d of 7f6172c; −3.4 %, −6.4 … −2.9 %
   before; at a/10 −6.7 % deepest: the cut body's unstructured mesh scatters more
   than the OpenCASCADE plate's, −2.6 % there at a/10); K_II, K_III below 3 % of K_I;
 * a cylinder (radius 1, the crack plane normal to its axis, a = c = 0.15): the front's
