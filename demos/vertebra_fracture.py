@@ -26,7 +26,8 @@
 #    half of the endplate pulled, the anterior half pushed).  The tension criterion gives
 #    the fracture risk R = σ₁/σ_t of every cell; in this linear model R scales with the
 #    load, so the load factor at which R reaches 1 is 1/max R (printed with the place of
-#    the largest R: in the quick run in the bone around the tumour, at the cavity's wall).
+#    the largest R: in the quick run 1 mm above the clamped lower endplate behind the
+#    tumour for r = 5 mm — a support effect — and in the bone beside the cavity for 7 mm).
 # 2. **Crack.** A semicircular surface crack (depth and half-length 0.6 mm) is cut
 #    into the outer posterior wall at mid-height, where the wall over the tumour is
 #    thinnest, normal to the body's axis — the direction of the flexion stress there
