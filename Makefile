@@ -3,8 +3,9 @@
 #   make install      create .venv (Python >= 3.12, found automatically) and install the
 #                     package editable with its test extras; cheap when already done
 #   make demo         install if needed, then run demos/knee2d.py; DEMO=demos/<name>.py runs
-#                     another of the nine demos (knee2d, long_bone, knee_tumour, jaw_cyst,
-#                     vertebra_tumour, jaw3d, spine3d, knee3d, contact_api); results in
+#                     another of the eleven demos (knee2d, long_bone, knee_tumour, jaw_cyst,
+#                     vertebra_tumour, jaw3d, spine3d, knee3d, knee3d_gait, vertebra_fracture,
+#                     contact_api); results in
 #                     demos/results/<name>/
 #   make notebooks    install if needed, then run every demo as a notebook (build/notebooks/, also as .html)
 #                     and execute it headless with its figures inline (NOTEBOOKS="demos/x.py"
