@@ -436,7 +436,9 @@ class SetUpdate:
     def accept(self, st: PDASState, it: Iterate) -> bool:
         """Take the new sets, with the margins of every row to switching (for the
         speculative low-rank columns).  Returns ``True`` when the sets repeat an earlier
-        iteration's with unchanged bounds (cycling)."""
+        iteration's with unchanged bounds (cycling); the signs of the slip directions
+        count in 3D too (a node stuck by the reversal rule that slips again the other way
+        repeats no set: docs/theory/pdas.md#convergence-and-failure)."""
         bs, fric = self.bs, self.friction.active
         R = self.system.layout.rows_of
         margin = np.full(self.system.layout.n_rows, np.inf)
@@ -450,7 +452,7 @@ class SetUpdate:
             st.edges = it.new_edges
         if it.changed_sets + it.changed_t == 0:
             return False  # only 3D slip directions still turning: not a cycle
-        sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes() if bs == 2 else b"")
+        sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes())
         sig = set_signature(self.comm, sig + (st.edges.signature(),))
         if sig in st.seen:
             return True
