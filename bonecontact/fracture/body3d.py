@@ -346,6 +346,32 @@ def face_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.nd
     return 1 if total > 0 else -1
 
 
+def front_vertices(
+    msh: mesh.Mesh, facet_tags: mesh.MeshTags, face_tags: tuple[int, int]
+) -> npt.NDArray[np.float64]:
+    """Coordinates (m, 3) of the vertices shared by the two crack faces ``face_tags`` —
+    the front's — on every rank, sorted by coordinates (collective).
+
+    gmsh's ``Crack`` plugin duplicated the faces' other vertices (a copy on each face at
+    the same point), so the front is told by the vertex (its global index), not by its
+    coordinates (which would return every face node)."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, 0)
+    msh.topology.create_connectivity(0, tdim)  # entities_to_geometry of vertices
+    f2v = msh.topology.connectivity(tdim - 1, 0)
+    imap = msh.topology.index_map(0)
+    faces = []
+    for tag in face_tags:
+        facets = facet_tags.find(tag)
+        verts = np.unique([v for f in facets for v in f2v.links(f)]).astype(np.int32)
+        x = msh.geometry.x[mesh.entities_to_geometry(msh, 0, verts).ravel()].reshape(-1, 3)
+        g = np.concatenate(msh.comm.allgather(imap.local_to_global(verts)))
+        faces.append(dict(zip(g.tolist(), np.concatenate(msh.comm.allgather(x)).reshape(-1, 3))))
+    shared = set(faces[0]) & set(faces[1])
+    x = np.array([faces[0][g] for g in shared]).reshape(-1, 3)
+    return x[np.lexsort(x.T[::-1])]
+
+
 def _meshed(body: BodySurface, crack: Any, size: TipMesh, tags: Any, comm: MPI.Comm) -> Any:
     """:func:`_build` on rank 0 (one crack, or a list) and the mesh distributed; a gmsh
     failure is a :class:`MeshingError` on every rank."""

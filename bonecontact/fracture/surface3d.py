@@ -39,7 +39,7 @@ from dolfinx import mesh
 from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.common.errors import ParameterError
-from bonecontact.fracture.body3d import face_side_sign
+from bonecontact.fracture.body3d import face_side_sign, front_vertices
 from bonecontact.fracture.front3d import CrackBlock, EllipticalFront
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
@@ -520,31 +520,8 @@ def face_pair(block: CrackBlock) -> FacePair:
 
 def front_nodes(block: CrackBlock) -> npt.NDArray[np.float64]:
     """Coordinates of the front nodes — the vertices of both faces — on every rank, sorted
-    by coordinates (collective).
-
-    The faces' other vertices were duplicated by gmsh's ``Crack`` plugin: a copy on each
-    face at the same point, so the front is told by the vertex (its global index), not by
-    its coordinates (which would return every face node)."""
-    msh = block.mesh
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, 0)
-    msh.topology.create_connectivity(0, tdim)
-    f2v = msh.topology.connectivity(tdim - 1, 0)
-    imap = msh.topology.index_map(0)
-    faces = []
-    for name in ("crack_upper", "crack_lower"):
-        facets = block.facet_tags.find(block.groups[name])
-        verts = np.unique([v for f in facets for v in f2v.links(f)]).astype(np.int32)
-        x = msh.geometry.x[mesh.entities_to_geometry(msh, 0, verts).ravel()].reshape(-1, 3)
-        g = imap.local_to_global(verts)
-        faces.append(
-            dict(
-                zip(
-                    np.concatenate(msh.comm.allgather(g)).tolist(),
-                    np.concatenate(msh.comm.allgather(x)).reshape(-1, 3),
-                )
-            )
-        )
-    shared = set(faces[0]) & set(faces[1])
-    x = np.array([faces[0][g] for g in shared]).reshape(-1, 3)
-    return x[np.lexsort(x.T[::-1])]
+    by coordinates (collective; :func:`~bonecontact.fracture.body3d.front_vertices`)."""
+    groups = block.groups
+    return front_vertices(
+        block.mesh, block.facet_tags, (groups["crack_upper"], groups["crack_lower"])
+    )

@@ -35,7 +35,6 @@ from mpi4py import MPI
 
 import numpy as np
 import numpy.typing as npt
-from dolfinx import mesh
 
 from bonecontact.common.errors import CheckpointError, ParameterError
 from bonecontact.common.profiling import PhaseTimer
@@ -44,6 +43,7 @@ from bonecontact.fracture.body3d import (
     BodySurface,
     CrackedBody3D,
     body_surface,
+    front_vertices,
     mesh_body_with_planar_crack,
     mesh_body_with_planar_cracks,
 )
@@ -351,22 +351,9 @@ def check_cracked3d(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel
 
 
 def front_nodes(cb: CrackedBody3D) -> npt.NDArray[np.float64]:
-    """Coordinates of the front nodes (the nodes of both faces), on every rank
-    (collective)."""
-    msh = cb.mesh
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, 0)
-    msh.topology.create_connectivity(0, tdim)
-    f2v = msh.topology.connectivity(tdim - 1, 0)
-    scale = 1e-9 * cb.crack.a
-    keys = []
-    for tag in cb.face_tags:
-        facets = cb.facet_tags.find(tag)
-        verts = np.unique([v for f in facets for v in f2v.links(f)]).astype(np.int32)
-        x = msh.geometry.x[mesh.entities_to_geometry(msh, 0, verts).ravel()]
-        x = np.concatenate(msh.comm.allgather(x))
-        keys.append({tuple(np.round(p / scale).astype(np.int64)): p for p in x})
-    return np.array([keys[0][k] for k in keys[0].keys() & keys[1].keys()]).reshape(-1, 3)
+    """Coordinates of the front nodes (the vertices of both faces), on every rank, sorted
+    by coordinates (collective; :func:`~bonecontact.fracture.body3d.front_vertices`)."""
+    return front_vertices(cb.mesh, cb.facet_tags, cb.face_tags)
 
 
 def evaluate_front(
