@@ -46,6 +46,15 @@ tips = "end"
 region = "plate"
 """
 
+DISC3D = """
+[[crack]]
+shape = "disc"
+centre = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+radius = 1.0e-3
+region = "plate"
+"""
+
 FATIGUE = {"C": "1.0e-30", "m": "4.0", "da_max": "2.0e-4"}
 
 
@@ -132,7 +141,8 @@ def test_bad_value_names_table_and_key(tmp_path: Path, entries, key: str, text: 
     [
         ("propagate = true\nincrement = 1e-4\n", CRACK, 2, "propagate", "give one of them"),
         ("", "", 2, "fatigue", "add a [[crack]] or set initiate = true"),
-        ("", "", 3, "fatigue", "runs in 2D scenes"),
+        ("", "", 3, "fatigue", "add a [[crack]] or set initiate = true"),
+        ("", DISC3D, 3, "fatigue", "runs in 2D scenes, and in 3D with a semi-elliptical"),
         ('fatigue = "paris"\n', CRACK, 2, "fatigue", "must be a table [fracture.fatigue]"),
     ],
 )
