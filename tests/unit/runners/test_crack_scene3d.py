@@ -195,7 +195,7 @@ def test_closed_inclined_penny(block_dir: Path, beta_deg: float, mu: float, per_
     under the effective shear τ − μσ_n (uniform, along the shear: the Kassir–Sih sliding
     is parallel to τ), so K_II, K_III are Kassir–Sih's with τ_eff = σ(sinβcosβ − μcos²β),
     within 10 % of their maxima; K_I = 0: |K_I| ≤ 1 % of |σ|√(πa) with the default front
-    (a/10; measured 0.26–0.81 %), ≤ 2 % at a/6 (measured 1.15 %, 0.89 %).  The face
+    (a/10; measured 0.20–0.81 %), ≤ 2 % at a/6 (measured 1.15 %, 0.86 %).  The face
     term takes the recovered contact tractions (the raw multipliers scatter 0.2–0.8 MPa
     for σ_n = 0.5 MPa; with them |K_I| reached 3.4 % (45°, μ = 0) and 2.3 % (45°,
     μ = 0.3) of |σ|√(πa) at a/10)."""
