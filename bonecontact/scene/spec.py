@@ -292,7 +292,9 @@ class SolverOptions:
     linear
         ``"direct"`` (MUMPS LU) or ``"iterative"`` (Krylov + GAMG).
     tolerance
-        Stopping tolerance of the PDAS / nonlinear iterations (> 0).
+        Stopping tolerance of the PDAS / nonlinear iterations (> 0); it also sets the
+        contact solve's Krylov relative tolerance, ``min(1e-2 * tolerance, 1e-8)``
+        (:func:`bonecontact.contact.krylov.krylov_rtol`).
     max_iterations
         Maximum number of PDAS / nonlinear iterations per step (>= 1).
     """
