@@ -36,9 +36,11 @@ from bonecontact.mechanics.model import Mechanics
 __all__ = [
     "MASTER_TAG",
     "SLAVE_TAG",
+    "FaceData",
     "FaceTraction",
     "contact_tags",
     "crack_face_solver",
+    "face_data",
     "face_friction_law",
     "face_interface",
     "face_traction",
@@ -210,8 +212,40 @@ def face_traction(
     ``reach`` (the scatter of the multipliers next to a closed tip would show as K_I).
     The slave data are gathered (a face is small) and sorted by coordinates, so every
     rank fills its owned and ghost dofs without a scatter, the same on any number of
-    ranks.
+    ranks (:func:`_fill_faces`: only the pair's nodes are visited).
     """
+    plus = fem.Function(V, name="crack_face_traction_plus")
+    minus = fem.Function(V, name="crack_face_traction_minus")
+    masters = _master_blocks(V, itf)  # collective
+    face = face_data(V, itf, result, k, tips, radius, reach)
+    if face.slave_g.size:
+        _fill_faces(V, masters, face, (plus, minus))
+    return FaceTraction(plus, minus)
+
+
+class FaceData(NamedTuple):
+    """The slave nodes of a pair on every rank, sorted by coordinates: global blocks
+    ``slave_g``, coordinates ``x``, tractions ``t`` (recovered near the tips when asked);
+    the tips' coordinates and tractions."""
+
+    slave_g: npt.NDArray[np.int64]
+    x: npt.NDArray[np.float64]
+    t: npt.NDArray[np.float64]
+    tips: npt.NDArray[np.float64]
+    tip_t: npt.NDArray[np.float64]
+
+
+def face_data(
+    V: fem.FunctionSpace,
+    itf: ContactInterface,
+    result: PDASResult,
+    k: int = 0,
+    tips: npt.ArrayLike = (),
+    radius: float | None = None,
+    reach: float = 2.0,
+) -> FaceData:
+    """The face tractions of pair ``k`` gathered from every rank (collective; the
+    arguments as :func:`face_traction`'s)."""
     comm = V.mesh.comm
     bs = V.dofmap.index_map_bs
     lam_n = result.pressure[k]
@@ -222,37 +256,55 @@ def face_traction(
         [itf.global_blocks.astype(float), itf.coords[:, :bs], t, itf.weight, closed]
     )
     rows = np.concatenate(comm.allgather(rows)).reshape(-1, 3 + 2 * bs)
-    plus = fem.Function(V, name="crack_face_traction_plus")
-    minus = fem.Function(V, name="crack_face_traction_minus")
-    if rows.size == 0:
-        return FaceTraction(plus, minus)
     rows = rows[np.lexsort(rows[:, 1 : 1 + bs].T[::-1])]
     tips = np.asarray(tips, dtype=float).reshape(-1, bs)
     xs, ts = rows[:, 1 : 1 + bs], rows[:, 1 + bs : 1 + 2 * bs]
-    if radius is not None:
+    if rows.size == 0:
+        tip_t = np.zeros((len(tips), bs))
+    elif radius is not None:
         closed = rows[:, -1] > 0
         ts, tip_t = recovered_traction(xs, ts, rows[:, -2], closed, tips, radius, reach)
     else:
         tip_t = ts[[int(np.argmin(np.linalg.norm(xs - p, axis=1))) for p in tips]]
-    im = V.dofmap.index_map
-    n_local = im.size_local + im.num_ghosts
-    gblocks = im.local_to_global(np.arange(n_local, dtype=np.int32))
-    vp, vm = plus.x.array.reshape(-1, bs), minus.x.array.reshape(-1, bs)
-    slave_g = rows[:, 0].astype(np.int64)
-    is_slave = np.isin(gblocks, slave_g)
-    pos = {g: i for i, g in enumerate(slave_g)}
-    for b in np.flatnonzero(is_slave):
-        vp[b] = ts[pos[int(gblocks[b])]]
-    # master nodes: the other node at the same point
-    x = V.tabulate_dof_coordinates()[:, :bs]
-    scale = float(np.ptp(xs, axis=0).max()) or 1.0
-    key = lambda p: tuple(np.round(p / (1e-9 * scale)).astype(np.int64))  # noqa: E731
-    at = {key(p): tr for p, tr in zip(xs, ts, strict=True)}
-    for b in np.flatnonzero(~is_slave):
-        tr = at.get(key(x[b]))
-        if tr is not None:
-            vm[b] = -tr
-    for tip, tr in zip(tips, tip_t, strict=True):
-        for b in np.flatnonzero(np.linalg.norm(x - tip, axis=1) <= 1e-9 * scale):
-            vp[b], vm[b] = tr, -tr
-    return FaceTraction(plus, minus)
+    return FaceData(rows[:, 0].astype(np.int64), xs, ts, tips, tip_t.reshape(-1, bs))
+
+
+def _master_blocks(V: fem.FunctionSpace, itf: ContactInterface) -> npt.NDArray[np.int32]:
+    """Local blocks (owned and ghost) of the pair's master nodes: the columns of every
+    rank's rows of ``M̂`` (a master node that meets no slave facet has no traction to
+    take; collective)."""
+    bs = V.dofmap.index_map_bs
+    mine = np.unique(np.asarray(itf.qt_cols, dtype=np.int64) // bs)
+    every = np.unique(np.concatenate(V.mesh.comm.allgather(mine)))
+    loc = V.dofmap.index_map.global_to_local(every)
+    return loc[loc >= 0].astype(np.int32)
+
+
+def _fill_faces(
+    V: fem.FunctionSpace,
+    masters: npt.NDArray[np.int32],
+    face: FaceData,
+    fields: tuple[fem.Function, fem.Function],
+) -> None:
+    """The gathered slave tractions into ``plus`` on the local slave nodes and, negated,
+    into ``minus`` on the master nodes (``masters``) at the same point; the tips'
+    tractions (and their opposites) on the master nodes at the tips."""
+    from scipy.spatial import cKDTree
+
+    slave_g, xs, ts, tips, tip_t = face
+    bs = V.dofmap.index_map_bs
+    vp, vm = fields[0].x.array.reshape(-1, bs), fields[1].x.array.reshape(-1, bs)
+    loc = V.dofmap.index_map.global_to_local(slave_g)
+    vp[loc[loc >= 0]] = ts[loc >= 0]
+    masters = np.setdiff1d(masters, loc[loc >= 0])
+    if masters.size == 0:  # no master node on this rank
+        return
+    x = V.tabulate_dof_coordinates()[masters, :bs]
+    tol = 1e-9 * (float(np.ptp(xs, axis=0).max()) or 1.0)
+    dist, j = cKDTree(xs).query(x, distance_upper_bound=tol)
+    hit = dist <= tol
+    vm[masters[hit]] = -ts[j[hit]]
+    if len(tips):
+        dist, j = cKDTree(tips).query(x, distance_upper_bound=tol)
+        hit = dist <= tol
+        vp[masters[hit]], vm[masters[hit]] = tip_t[j[hit]], -tip_t[j[hit]]
