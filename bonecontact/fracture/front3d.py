@@ -11,8 +11,8 @@
   with both faces come from :mod:`bonecontact.fracture.body3d`.
 * :func:`front_interaction_integral` — K_I, K_II, K_III at one front point by the 3D
   domain interaction integral (Williams and anti-plane auxiliary fields in the
-  coordinates of the front's osculating circle, a ring × plateau q-function, the faces'
-  part of the boundary on a two-face model).
+  coordinates of the ellipse the front lies on, singular along the whole front, a ring ×
+  plateau q-function, the faces' part of the boundary on a two-face model).
 * :func:`front_displacement_correlation` — K from the face opening (the cheap cross-check).
 * :func:`penny_k`, :func:`irwin_k` — closed forms of a penny and an elliptical crack.
 
@@ -795,28 +795,27 @@ def _check_domain(block: CrackBlock, q: fem.Function, p0: np.ndarray) -> np.ndar
 def _auxiliary_displacement(
     x, const: dict, rho: float, mu: float, kappa: float, face=None, scale: float = 1.0
 ):
-    """The near-front field of unit K (``const["k"]`` = (K_I, K_II, K_III)) in the local
-    coordinates of the osculating circle of the front at the point (centre C = p₀ − ρe₁,
-    radius ρ, in the crack plane): x₁ = |x − C|_in-plane − ρ, x₂ = (x − p₀)·e₂, e₁(x) the
-    in-plane direction from C, e₃(x) = e₁(x) × e₂; on a straight front (ρ = ∞) its
-    tangent line: x₁ = (x − p₀)·e₁, e₁, e₃ constant.  Plane-strain Williams displacements
-    (modes I, II) and u₃ = (2K_III/μ)√(r/2π) sin(θ/2) (mode III).  ``face`` = ±1: the
-    field on the upper (θ → π) or lower (θ → −π) crack face, where atan2 cannot tell the
-    sides apart (x₂ is shifted by ±10⁻⁹ρ, or ±10⁻⁹ ``scale`` on a straight front)."""
+    """The near-front field of unit K (``const["k"]`` = (K_I, K_II, K_III)) in front
+    coordinates (x₁ ahead of the front, x₂ = (x − p₀)·e₂ normal to the crack plane, e₁(x),
+    e₃(x) = e₁(x) × e₂): on an elliptical front (``const`` holds its ``centre``, ``u``,
+    ``v`` and ``semi`` = (a, b)) its own coordinates (:func:`_ellipse_coordinates`: the
+    singular curve is the whole front, not only the point's neighbourhood); on a straight
+    front (ρ = ∞) its tangent line: x₁ = (x − p₀)·e₁, e₁, e₃ constant.  Plane-strain
+    Williams displacements (modes I, II) and u₃ = (2K_III/μ)√(r/2π) sin(θ/2) (mode III).
+    ``face`` = ±1: the field on the upper (θ → π) or lower (θ → −π) crack face, where
+    atan2 cannot tell the sides apart (x₂ is shifted by ±10⁻⁹b, or ±10⁻⁹ ``scale`` on a
+    straight front)."""
     e2 = const["e2"]
-    if math.isinf(rho):
-        d = x - const["p0"]
+    if "centre" in const:
+        x1, E1 = _ellipse_coordinates(x, const)
+        shift = 1e-9 * const["semi"][1]
+    elif math.isinf(rho):
         E1 = const["e1"]
-        x1, x2 = ufl.dot(d, E1), ufl.dot(d, e2)
+        x1 = ufl.dot(x - const["p0"], E1)
         shift = 1e-9 * scale
     else:
-        d = x - (const["p0"] - rho * const["e1"])
-        dn = ufl.dot(d, e2)
-        d_in = d - dn * e2
-        R = ufl.sqrt(ufl.dot(d_in, d_in))
-        E1 = d_in / R
-        x1, x2 = R - rho, dn
-        shift = 1e-9 * rho
+        raise ParameterError("front", "a curved front needs its ellipse (centre, axes)")
+    x2 = ufl.dot(x - const["p0"], e2)
     E3 = ufl.cross(E1, e2)
     if face is not None:  # on a crack face: θ → ±π from that side (x₂ = 0 on both faces)
         x2 = x2 + face * shift  # the faces lie in x₂ = 0 (to round-off)
@@ -829,6 +828,22 @@ def _auxiliary_displacement(
     u2 = cc * (k1 * sh * (kappa + 1 - 2 * ch**2) - k2 * ch * (kappa - 1 - 2 * sh**2))
     u3 = 4 * cc * k3 * sh
     return u1 * E1 + u2 * e2 + u3 * E3
+
+
+def _ellipse_coordinates(x, const: dict):
+    """(x₁, e₁(x)) of an elliptical front X²/a² + Y²/b² = 1 (X = (x − c)·u, Y = (x − c)·v)
+    in its homothetic coordinates: m = √(X²/a² + Y²/b²) (the front is m = 1), e₁ the unit
+    in-plane normal of the ellipse m = const through x, G = (X/a²) u + (Y/b²) v, and
+    x₁ = (m − 1) m/|G| — zero on the whole front, with ∇x₁ = e₁ there (so the auxiliary
+    field has unit K at every front point), the exact polar coordinates on a circle
+    (x₁ = R − a).  Smooth in the crack plane except at the centre."""
+    d = x - const["centre"]
+    a, b = const["semi"][0], const["semi"][1]
+    X, Y = ufl.dot(d, const["u"]), ufl.dot(d, const["v"])
+    G = (X / a**2) * const["u"] + (Y / b**2) * const["v"]
+    g = ufl.sqrt(ufl.dot(G, G))
+    m = ufl.sqrt((X / a) ** 2 + (Y / b) ** 2)
+    return (m - 1.0) * m / g, G / g
 
 
 def _branch(th, x1, x2, cut):
@@ -861,7 +876,8 @@ def front_interaction_integral(
     front, s the arc length from the point; ring falls linearly from 1 at ``r_in`` to 0 at
     ``r_out``, the plateau from 1 at |s| = ``length``/2 to 0 at ``length``.  The auxiliary
     fields are the plane-strain Williams fields (modes I, II) and the anti-plane field
-    (mode III) in the coordinates of the front's osculating circle at the point, and
+    (mode III) in the ellipse's own front coordinates (the tangent line on a straight
+    front), and
 
         K_I = E′ I_I / 2,  K_II = E′ I_II / 2,  K_III = μ I_III,  E′ = E/(1 − ν²),
 
@@ -904,9 +920,7 @@ def front_interaction_integral(
     e1, e2, _ = block.front.frame(phi)
     q, dx, norm = _domain(block, phi, (r_in, r_out, length), quadrature_degree)
     values = [("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0))]
-    cut = block.front.cut(phi) if isinstance(block.front, PolylineFront) else None
-    if cut is not None:
-        values.append(("cut", (cut[0], math.cos(cut[1]), math.sin(cut[1]))))
+    values += _front_values(block.front, phi)
     const = {
         k: fem.Constant(block.mesh, np.asarray(v, dtype=default_scalar_type)) for k, v in values
     }
@@ -915,6 +929,21 @@ def front_interaction_integral(
     return FrontSIF(
         float(phi), tuple(map(float, p0)), tuple(map(float, e1)), K_I, K_II, K_III, G, "interaction"
     )
+
+
+def _front_values(front: CrackFront, phi: float) -> list[tuple[str, tuple]]:
+    """The front's constants of the auxiliary field: an ellipse's centre, axes u, v and
+    semi-axes; a kinked polyline edge's cut (L, cos ψ, sin ψ)."""
+    if isinstance(front, EllipticalFront):
+        R = front.rotation
+        return [
+            ("centre", tuple(front.centre)),
+            ("u", tuple(R[0])),
+            ("v", tuple(R[1])),
+            ("semi", (front.a, front.b)),
+        ]
+    cut = front.cut(phi) if isinstance(front, PolylineFront) else None
+    return [] if cut is None else [("cut", (cut[0], math.cos(cut[1]), math.sin(cut[1])))]
 
 
 def _domain_sizes(

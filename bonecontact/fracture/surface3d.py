@@ -15,8 +15,8 @@
   front, the crack nodes — the mouth on the free surface included, the front excepted —
   split by gmsh's ``Crack`` plugin into the faces ``crack_upper`` (y > 0 side) and
   ``crack_lower``, like the interior cracks of :mod:`bonecontact.fracture.body3d`.
-* :func:`domain_length` — the integral's half-length along the front at a point: at most
-  a quarter of :func:`curvature_length` and its distance to the free surface.
+* :func:`domain_length` — the integral's half-length along the front at a point: the
+  ring radius, at most its distance to the free surface.
 
 Both fronts follow the front protocol of :mod:`bonecontact.fracture.front3d`
 (:class:`~bonecontact.fracture.front3d.CrackFront`) with ``closed = False``: the arc
@@ -51,7 +51,6 @@ __all__ = [
     "FacePair",
     "StraightFront",
     "SurfaceCrack",
-    "curvature_length",
     "domain_length",
     "face_pair",
     "front_nodes",
@@ -65,9 +64,6 @@ PLATE_GROUPS = {"left": 11, "right": 12, "bottom": 13, "top": 14, "back": 15, "f
 _CRACK_A, _CRACK_B, _MOUTH = 21, 22, 23
 #: The smallest domain half-length along the front, in front elements.
 MIN_DOMAIN_ELEMENTS = 2.0
-#: The largest domain half-length along the front, as a fraction of the front's
-#: :func:`curvature_length` (docs/theory/fracture.md#surface-breaking-cracks-in-3d).
-CURVATURE_LENGTH_FRACTION = 0.25
 
 
 # ------------------------------------------------------------------------ fronts
@@ -233,23 +229,12 @@ class StraightFront:
         return np.linspace(f, 1.0 - f, n)
 
 
-def curvature_length(front, phi: float, dphi: float = 1e-4) -> float:
-    """ℓ = κ/|dκ/ds| at ``phi`` (m): the arc length over which the front's curvature κ
-    changes by its own size (∞ on a circle or a straight front; an ellipse with
-    a/c = 0.5: 0.54–0.6a between 12° and 30° from the end of its minor axis)."""
-    k = [1.0 / float(front.radius_of_curvature(p)) for p in (phi - dphi, phi, phi + dphi)]
-    ds = float(front.arc_length(phi + dphi) - front.arc_length(phi - dphi))
-    dk = abs(k[2] - k[0]) / ds
-    return k[1] / dk if dk > 0.0 else math.inf
-
-
 def domain_length(front, phi: float, r_out: float, h_front: float) -> float:
     """Half-length along the front of the interaction-integral domain at ``phi``: r_out,
-    at most :data:`CURVATURE_LENGTH_FRACTION` of the front's :func:`curvature_length`
-    (the auxiliary field follows the osculating circle of the point, which leaves a front
-    of varying curvature) but not below :data:`MIN_DOMAIN_ELEMENTS` front elements, and
-    less near the free surface — the point's distance along the front to the surface,
-    so that q vanishes on it (the domain does not cross the free surface).
+    less near the free surface — the point's distance along the front to the surface, so
+    that q vanishes on it (the domain does not cross the surface).  (The auxiliary field
+    is singular along the whole elliptical front, so the front's changing curvature sets
+    no limit: docs/theory/fracture.md#surface-breaking-cracks-in-3d.)
 
     Raises
     ------
@@ -260,8 +245,7 @@ def domain_length(front, phi: float, r_out: float, h_front: float) -> float:
     """
     reach = front.corner_distance(phi)
     floor = MIN_DOMAIN_ELEMENTS * h_front
-    bend = max(CURVATURE_LENGTH_FRACTION * curvature_length(front, phi), floor)
-    length = min(r_out, bend, reach * (1.0 - 1e-6))  # q = 0 on the surface, not round-off
+    length = min(r_out, reach * (1.0 - 1e-6))  # q = 0 on the surface, not round-off
     if length < floor * (1.0 - 1e-9):
         raise ParameterError(
             "phi",

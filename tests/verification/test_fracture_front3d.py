@@ -9,9 +9,10 @@ q (ring r_out/2 … r_out, plateau along the front of half-length r_out).
 * Penny-shaped crack, radius a: K_I = 2σ√(a/π) at every front point.  Coarse mesh
   (front size a/16, grading 0.12): within 1.5 % at r_out = 0.3a (measured −0.4 %, +1.0 %,
   −0.2 % at φ = 0, 45°, 90°; the same to 1e-14 on 2 ranks).
-* Elliptical crack a/b = 2: Irwin's K_I(φ) within 3 % at r_out = 0.3b (front
-  size b/12.5, ~9 200 dofs; measured −2.3 % at the end of the major axis, where the
-  front's radius of curvature b²/a is smallest, −1.6 … +0.4 % elsewhere).
+* Elliptical crack a/b = 2: Irwin's K_I(φ) within 2.5 % at r_out = 0.3b (front
+  size b/12.5, ~9 200 dofs; measured −1.9 % at the end of the major axis, where the
+  front's radius of curvature b²/a is smallest, −1.1 … −0.1 % elsewhere; the auxiliary
+  field in the ellipse's own coordinates).
 * Slow: front a/32 (~46k dofs): within 1.5 % at φ = 0 … 90°, r_out = 0.3a and 0.45a agree
   within 0.5 %.
 * On several ranks the distributed result equals the serial one on the same gmsh mesh.
@@ -125,7 +126,7 @@ def test_elliptical_crack_irwin():
     phis = np.array([0.0, math.pi / 6, math.pi / 4, math.pi / 3, math.pi / 2])
     ref = irwin_k(SIGMA, 1.0, b, phis)
     ks = np.array([front_interaction_integral(u, blk, p, MAT, 0.3 * b).K_I for p in phis])
-    np.testing.assert_allclose(ks, ref, rtol=0.03)
+    np.testing.assert_allclose(ks, ref, rtol=0.025)
 
 
 def exact_near_front_field(msh, rho, K):
