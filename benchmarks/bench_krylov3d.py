@@ -25,7 +25,9 @@ below), ``+agg0`` / ``+agg2`` (aggressive coarsening on no / two levels; one by 
 ``+eig10`` (10 Chebyshev eigenvalue-estimate steps), ``+fv1`` (a V-cycle on the finest
 level, W-cycles below), ``+sm1x1`` (one Chebyshev step on the first coarse level),
 ``+cel<n>`` (a coarse grid of at most n equations; ``+cel50``: GAMG's default, the
-setting before 2026-11-27), e.g. ``loose1e-4+cheb1``.
+setting before 2026-11-27), ``+cmg`` / ``+cmgv`` (the compressed-aggregation hierarchy
+instead of GAMG, W- / V-cycles: ``LinearOptions.multigrid = "compressed"``), e.g.
+``loose1e-4+cheb1``.
 
 Usage (also under ``mpiexec -n 2``)::
 
@@ -53,7 +55,7 @@ from bench_contact3d import SIZES, linear_solve
 from common import machine, write_rows
 
 from bonecontact.common.linalg import set_solver_options, solver_options
-from bonecontact.contact.krylov import GAMG_OPTIONS, coarse_grid_limit
+from bonecontact.contact.krylov import GAMG_OPTIONS, coarse_grid_limit, set_multigrid
 from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
 
 COMM = MPI.COMM_WORLD
@@ -81,6 +83,8 @@ SUFFIXES: dict[str, dict[str, object]] = {
 #: V-cycle on the finest level (the first coarse level visited once per cycle, W-cycles
 #: below), ``sm1x1`` one Chebyshev step (instead of 2) on the first coarse level.
 LEVEL_SUFFIXES = ("fv1", "sm1x1")
+#: Suffixes choosing the multigrid (not PETSc options): kind and cycle.
+MULTIGRID_SUFFIXES = {"cmg": ("compressed", "w"), "cmgv": ("compressed", "v")}
 DEFAULTS = {"pc_mg_cycle_type": "w", "pc_gamg_threshold": 0.01}
 
 
@@ -90,7 +94,7 @@ def parse_variant(name: str, tight: float) -> tuple[float, dict[str, object]]:
     loose = tight if base == "tight" else float(base.removeprefix("loose"))
     opts: dict[str, object] = {}
     for sfx in suffixes:
-        if sfx in LEVEL_SUFFIXES:
+        if sfx in LEVEL_SUFFIXES or sfx in MULTIGRID_SUFFIXES:
             continue
         if sfx.startswith("cel") and sfx[3:].isdigit():  # coarse grid size, e.g. cel1000
             opts["pc_gamg_coarse_eq_limit"] = int(sfx[3:])
@@ -101,15 +105,19 @@ def parse_variant(name: str, tight: float) -> tuple[float, dict[str, object]]:
     return loose, opts
 
 
-def apply_variant(solver, loose: float, popts: dict[str, object]) -> None:
+def apply_variant(solver, loose: float, popts: dict[str, object], name: str = "") -> None:
     """Set the variant's options (the solver's own, :func:`set_solver_options`: options
-    of an earlier variant are reset to the defaults) and drop the preconditioner
-    (rebuilt at the next solve)."""
+    of an earlier variant are reset to the defaults) and its multigrid
+    (:data:`MULTIGRID_SUFFIXES`, GAMG without one) and drop the preconditioner (rebuilt
+    at the next solve)."""
     reset = {"mg_levels_ksp_max_it": 2, "pc_gamg_reuse_interpolation": False}
     reset |= {**GAMG_OPTIONS, "mg_coarse_sub_pc_type": "lu"}
     size = {"pc_gamg_coarse_eq_limit": coarse_grid_limit(solver.B.getSize()[0])}  # the solver's
     solver.ksp.getPC().reset()
     set_solver_options(solver.ksp, {**reset, **DEFAULTS, **size, **popts}, PREFIX)
+    found = [MULTIGRID_SUFFIXES[s] for s in name.split("+")[1:] if s in MULTIGRID_SUFFIXES]
+    kind, cycle = found[-1] if found else ("gamg", "w")
+    set_multigrid(solver.ksp, kind, cycle, False, solver.B.getSize()[0])
     solver.pc_reuse.forget()
     solver.loose_rtol = max(loose, solver.rtol)
 
@@ -158,7 +166,7 @@ def solve_once(pb, name: str, tight: float, ref: np.ndarray | None) -> tuple[dic
     """One cold contact solve with the variant ``name``: its CSV row and the displacement."""
     solver, integ = pb.integrator.contact, pb.integrator
     loose, popts = parse_variant(name, tight)
-    apply_variant(solver, loose, popts)
+    apply_variant(solver, loose, popts, name)
     level_hook(solver, name)
     solver.reset()
     integ.u.x.array[:] = 0.0

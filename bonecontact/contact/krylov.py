@@ -30,7 +30,8 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
-from bonecontact.common.linalg import configure_ksp, rigid_body_modes
+from bonecontact.common.linalg import configure_ksp, rigid_body_modes, solver_options
+from bonecontact.contact.compressed_mg import CompressedMGOptions, CompressedMultigrid
 from bonecontact.contact.reductions import global_count
 
 __all__ = [
@@ -42,7 +43,12 @@ __all__ = [
     "configure_condensed_ksp",
     "krylov_rtol",
     "reduction_decades",
+    "set_multigrid",
 ]
+
+#: The multigrid preconditioners of the condensed system: PETSc's GAMG, or the
+#: compressed-aggregation hierarchy of :mod:`bonecontact.contact.compressed_mg`.
+MULTIGRIDS = ("gamg", "compressed")
 
 #: GAMG options of the condensed system (:class:`~bonecontact.common.linalg.SolverOptions`:
 #: under the solver's own prefix; the command line overrides them under ``prefix``):
@@ -203,8 +209,11 @@ def configure_condensed_ksp(
     rtol: float,
     nonsymmetric: bool,
     max_it: int = 3000,
+    multigrid: str = "gamg",
+    cycle: str = "w",
 ) -> None:
-    """CG (GMRES if ``nonsymmetric``) + GAMG on the condensed matrix ``B``.
+    """CG (GMRES if ``nonsymmetric``) + multigrid on the condensed matrix ``B``
+    (:func:`set_multigrid`: GAMG or the compressed hierarchy, ``cycle`` ``"w"``/``"v"``).
 
     Sets the block size of ``B`` (the transformations lose it; GAMG aggregates nodes,
     not single rows, only with it), the near-nullspace of
@@ -220,11 +229,40 @@ def configure_condensed_ksp(
     nns.destroy()
     B.setOption(PETSc.Mat.Option.SPD, not nonsymmetric)
     gamg = {**GAMG_OPTIONS, "pc_gamg_coarse_eq_limit": coarse_grid_limit(B.getSize()[0])}
+    gamg["pc_mg_cycle_type"] = cycle
     configure_ksp(ksp, "iterative", rtol=rtol, prefix=prefix, max_it=max_it, options=gamg)
+    set_multigrid(ksp, multigrid, cycle, nonsymmetric, B.getSize()[0])
     if nonsymmetric:
         ksp.setType("gmres")  # the linearised slip rows are nonsymmetric
     ksp.setInitialGuessNonzero(True)
     ksp.setConvergenceHistory(length=max_it + 1, reset=True)  # (for reduction_decades)
+
+
+def set_multigrid(
+    ksp: PETSc.KSP, multigrid: str, cycle: str, nonsymmetric: bool, num_equations: int
+) -> None:
+    """Precondition ``ksp`` (its operators of ``num_equations`` with block size and
+    near-nullspace set) by GAMG (the options :func:`configure_condensed_ksp` set) or by
+    the compressed hierarchy (:class:`~bonecontact.contact.compressed_mg.CompressedMultigrid`,
+    a ``python`` PC; its coarse grid as GAMG's, :func:`coarse_grid_limit`)."""
+    if multigrid not in MULTIGRIDS:
+        raise ValueError(f"multigrid must be one of {MULTIGRIDS}, got {multigrid!r}")
+    pc = ksp.getPC()
+    if multigrid == "gamg":
+        if pc.getType() != "gamg":  # (GAMG reads its options when set from them)
+            pc.setType("gamg")
+            so = solver_options(ksp)
+            if so is not None:
+                with so.applied():
+                    ksp.setFromOptions()
+        return
+    opts = CompressedMGOptions(
+        cycle=cycle,
+        coarse_limit=coarse_grid_limit(num_equations),
+        esteig_ksp="gmres" if nonsymmetric else "cg",
+    )
+    pc.setType("python")
+    pc.setPythonContext(CompressedMultigrid(opts))
 
 
 def reduction_decades(ksp: PETSc.KSP) -> float:

@@ -345,7 +345,16 @@ class KrylovStrategy(RefactorStrategy):
         sy, prefix = self.system, options.prefix
         configure_ksp(self.ksp, "iterative", rtol=rtol, prefix=prefix, max_it=3000)
         configure_condensed_ksp(
-            self.ksp, self.B, V, sy.Qt, sy.T, prefix=prefix, rtol=rtol, nonsymmetric=nonsymmetric
+            self.ksp,
+            self.B,
+            V,
+            sy.Qt,
+            sy.T,
+            prefix=prefix,
+            rtol=rtol,
+            nonsymmetric=nonsymmetric,
+            multigrid=options.multigrid,
+            cycle=options.multigrid_cycle,
         )
 
     def finish(self, iterations: int) -> tuple[int, int]:

@@ -70,6 +70,14 @@ class LinearOptions:
     #: solve (docs/theory/pdas.md#inexact-solves).  0 (or a value not above the tight
     #: tolerance): every solve to the tight tolerance.
     loose_rtol: float = 1e-4
+    #: Iterative solver: the multigrid preconditioner — ``"gamg"`` (PETSc's, twelve coarse
+    #: unknowns per aggregate in 3D) or ``"compressed"`` (each aggregate's columns
+    #: compressed to the rank of the rigid modes there: six inside a body, up to twelve
+    #: at the interface; :mod:`bonecontact.contact.compressed_mg`,
+    #: docs/theory/pdas.md#compressed-coarse-grid).
+    multigrid: str = "gamg"
+    #: Iterative solver: multigrid cycle, ``"w"`` or ``"v"``.
+    multigrid_cycle: str = "w"
 
     def __post_init__(self) -> None:
         if self.strategy not in ("auto", "lowrank", "refactor"):
@@ -83,6 +91,10 @@ class LinearOptions:
                 f"pc_reuse_rows must be >= 0 and pc_reuse_growth >= 1, got "
                 f"{self.pc_reuse_rows} and {self.pc_reuse_growth}"
             )
+        if self.multigrid not in ("gamg", "compressed"):
+            raise ValueError(f"multigrid must be 'gamg' or 'compressed', got {self.multigrid!r}")
+        if self.multigrid_cycle not in ("w", "v"):
+            raise ValueError(f"multigrid_cycle must be 'w' or 'v', got {self.multigrid_cycle!r}")
         if not 0.0 <= self.loose_rtol < 1.0:
             raise ValueError(f"loose_rtol must be in [0, 1), got {self.loose_rtol}")
 

@@ -22,6 +22,7 @@ import pytest
 
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.krylov import PLAIN_RTOL, krylov_rtol
+from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
@@ -48,7 +49,7 @@ def test_scene_tolerance_to_krylov_rtol():
     assert krylov_rtol(1e-14) == pytest.approx(1e-16, rel=1e-12)
 
 
-def _clamped(dim: int, linear: str, rtol: float):
+def _clamped(dim: int, linear: str, rtol: float, options: PDASOptions | None = None):
     """Hertz by a prescribed approach of the curved body's top face (the block clamped at
     its base): a ≈ 0.05 R in 2D, 0.1 R in 3D."""
     if dim == 2:
@@ -67,18 +68,18 @@ def _clamped(dim: int, linear: str, rtol: float):
     itf = build_interface(
         m.V, md.facet_tags, pg[slave], pg["block_contact"], dirichlet_dofs=m.bc_dofs()
     )
-    contact = ContactSolver(m.V, [itf])
+    contact = ContactSolver(m.V, [itf], options)
     integ = Integrator(m, "static", 1.0, linear=linear, rtol=rtol, contact=contact)
     integ.step()
     return integ, m, None
 
 
-def _load_driven(dim: int, linear: str, rtol: float):
+def _load_driven(dim: int, linear: str, rtol: float, options: PDASOptions | None = None):
     """The load-driven problems of bonecontact.verification.load_driven (contrast 1e3)."""
     if dim == 2:
-        pb = half_disc_on_block_2d(COMM, 1e-4, linear=linear, rtol=rtol)
+        pb = half_disc_on_block_2d(COMM, 1e-4, linear=linear, rtol=rtol, options=options)
     else:
-        pb = sphere_on_block_3d(COMM, 6e-4, h_far=4.5e-3, linear=linear, rtol=rtol)
+        pb = sphere_on_block_3d(COMM, 6e-4, h_far=4.5e-3, linear=linear, rtol=rtol, options=options)
     pb.solve()
     return pb.integrator, pb.model, pb
 
