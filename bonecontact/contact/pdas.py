@@ -362,7 +362,10 @@ class ContactSolver:
         st = self._predict()
         loose = self.loose_rtol > self.rtol
         for k in range(1, self.max_iterations + 1):
-            it, its, extra, loose = self._solve_and_update_active(st, k, loose)
+            it, its, extra, now_loose = self._solve_and_update_active(st, k, loose)
+            if loose and not now_loose:
+                st.seen.clear()  # a cycle is one of tight solves: loose sets do not count
+            loose = now_loose
             self._update_friction_bounds(st, it, k)
             self._update_slip_sets(st, it)
             if self._check_convergence(st, it, k, its, extra) and not loose:
