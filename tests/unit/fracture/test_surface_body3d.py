@@ -15,10 +15,11 @@ volume re-meshed around the crack.
   within 4 %, the others within 7 % (measured with front3d of 7f6172c −2.6 % and
   −3.1 … +0.7 %; with the front3d before it −3.7 % and −6.2 … −1.7 %, the same to 10⁻¹³
   on 2 ranks); slow: a/c = 0.5,
-  front a/14 (47k dofs): deepest within 4 %, the others within 8 % (measured −3.3 % and
-  −7.7 % at 20°, −4.3 … −3.2 % elsewhere with front3d of 7f6172c; −3.4 %, −6.4 … −2.9 %
-  before; at a/10 −6.7 % deepest: the cut body's unstructured mesh scatters more
-  than the OpenCASCADE plate's, −2.6 % there at a/10); K_II, K_III below 3 % of K_I;
+  front a/14 (47k dofs): deepest within 4 %, the others within 6 % (measured −3.3 % and
+  −4.7 … −2.9 % with the auxiliary field in the ellipse's coordinates, 2026-12-02; −3.3 %
+  and −7.7 % at 20° with the osculating circle's of 7f6172c; at a/10 −6.7 % deepest: the
+  cut body's unstructured mesh scatters more than the OpenCASCADE plate's, −2.6 % there at
+  a/10); K_II, K_III below 3 % of K_I;
 * a cylinder (radius 1, the crack plane normal to its axis, a = c = 0.15): the front's
   ends stop short of the major axis (a convex surface), on the cylinder;
 * bad input: a centre away from the surface, a plane tangent to the surface.
@@ -210,7 +211,7 @@ def _solve(body, a: float, c: float, h: float):
     "c, h, deepest, along",
     [
         (0.2, 0.02, 0.04, 0.07),
-        pytest.param(0.4, 0.014, 0.04, 0.08, marks=pytest.mark.slow),
+        pytest.param(0.4, 0.014, 0.04, 0.06, marks=pytest.mark.slow),
     ],
 )
 def test_plate_k_against_newman_raju(
