@@ -30,7 +30,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _crack_scenes import PINNED_PLATE_HEAD, pinned_plate
 from cli_support import run_scene
+from coupled_support import gmsh_on_rank0
 from scipy.integrate import quad
 
 from bonecontact.fracture.fatigue import block_cycles
@@ -42,35 +44,9 @@ A0, DA = 0.006, 0.002  # m
 SIGMA, C, M = 1.0e6, 1.0e-30, 4.0
 TIP = 1.0e-4  # m
 
-SCENE = """format = 1
-[scene]
-name = "sent"
-mesh = "{mesh}"
-dimension = 2
-[analysis]
-kind = "static"
-load_steps = {steps}
-[[material]]
-name = "cortical"
-regions = ["plate"]
-model = "isotropic"
-E = 17.0e9
-nu = 0.3
-sigma_t = 133e6
-{K_Ic}
-[[dirichlet]]
-boundary = "pin_x"
-value = [0.0, "free"]
-[[dirichlet]]
-boundary = "pin_y"
-value = ["free", 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, {sigma}]
-[[traction]]
-boundary = "bottom"
-value = [0.0, -{sigma}]
-[[crack]]
+SCENE = (
+    PINNED_PLATE_HEAD
+    + """[[crack]]
 name = "c"
 points = [[0.0, 0.0], [{a0}, 0.0]]
 tips = "end"
@@ -87,29 +63,12 @@ da_max = {da}
 fields_every = 0
 checkpoint_every = {every}
 """
+)
 
 
 def _mesh(path: Path, h: float = 0.002) -> None:
     """The strip with its edge groups (pin_y, bottom, right, top, left, pin_x)."""
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    gmsh.option.setNumber("General.Terminal", 0)
-    try:
-        geo = gmsh.model.geo
-        corners = [(0.0, -H), (PIN, -H), (W, -H), (W, H), (0.0, H), (0.0, -H + PIN)]
-        p = [geo.addPoint(x, y, 0, h) for x, y in corners]
-        lines = [geo.addLine(p[i], p[(i + 1) % 6]) for i in range(6)]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        gmsh.model.addPhysicalGroup(2, [1], 1, name="plate")
-        names = ("pin_y", "bottom", "right", "top", "left", "pin_x")
-        for k, (name, line) in enumerate(zip(names, lines, strict=True)):
-            gmsh.model.addPhysicalGroup(1, [line], 2 + k, name=name)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+    gmsh_on_rank0(pinned_plate(0.0, W, H, PIN, h), path, 2)
 
 
 @pytest.fixture(scope="module")
@@ -122,9 +81,10 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _scene(folder: Path, name: str, fatigue: str = "", **kw) -> Path:
     values = {"steps": 1, "K_Ic": "", "every": 0, "fatigue": fatigue, "tip": TIP}
     path = folder / f"{name}.toml"
-    text = SCENE.format(
-        mesh=folder / "strip.msh", sigma=SIGMA, a0=A0, C=C, m=M, da=DA, **(values | kw)
-    )
+    values |= {"name": "sent", "E": 17.0e9, "nu": 0.3, "sigma": SIGMA, "minus_sigma": -SIGMA}
+    values = values | kw
+    values["material"] = values.pop("K_Ic")
+    text = SCENE.format(mesh=folder / "strip.msh", a0=A0, C=C, m=M, da=DA, **values)
     path.write_text(text)
     return path
 

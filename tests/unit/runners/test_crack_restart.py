@@ -35,7 +35,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _crack_scenes import PINNED_PLATE_HEAD, pinned_plate
 from cli_support import finish, rank_pids, run_scene, start_scene, wait_for_lines
+from coupled_support import gmsh_on_rank0
 
 from bonecontact.fracture.criteria import mts_angle, mts_equivalent_k
 
@@ -46,35 +48,9 @@ SIGMA = 1.0e6  # Pa
 A = 0.1 * W
 S45 = A / math.sqrt(2)
 
-SCENE = """format = 1
-[scene]
-name = "kink"
-mesh = "{mesh}"
-dimension = 2
-[analysis]
-kind = "static"
-load_steps = 4
-[[material]]
-name = "cortical"
-regions = ["plate"]
-model = "isotropic"
-E = 17.0e9
-nu = 0.3
-sigma_t = 133e6
-K_Ic = {K_Ic}
-[[dirichlet]]
-boundary = "pin_x"
-value = [0.0, "free"]
-[[dirichlet]]
-boundary = "pin_y"
-value = ["free", 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, {sigma}]
-[[traction]]
-boundary = "bottom"
-value = [0.0, -{sigma}]
-[[crack]]
+SCENE = (
+    PINNED_PLATE_HEAD
+    + """[[crack]]
 name = "c"
 points = [[{m}, {m}], [{p}, {p}]]
 region = "plate"
@@ -86,29 +62,12 @@ max_increments = 3
 fields_every = 0
 checkpoint_every = {every}
 """
+)
 
 
 def _mesh(path: Path, h: float = 0.002) -> None:
     """The plate with its edge groups (pin_y, bottom, right, top, left, pin_x)."""
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    gmsh.option.setNumber("General.Terminal", 0)
-    try:
-        geo = gmsh.model.geo
-        corners = [(-W, -H), (-W + PIN, -H), (W, -H), (W, H), (-W, H), (-W, -H + PIN)]
-        p = [geo.addPoint(x, y, 0, h) for x, y in corners]
-        lines = [geo.addLine(p[i], p[(i + 1) % 6]) for i in range(6)]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        gmsh.model.addPhysicalGroup(2, [1], 1, name="plate")
-        names = ("pin_y", "bottom", "right", "top", "left", "pin_x")
-        for k, (name, line) in enumerate(zip(names, lines, strict=True)):
-            gmsh.model.addPhysicalGroup(1, [line], 2 + k, name=name)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+    gmsh_on_rank0(pinned_plate(-W, W, H, PIN, h), path, 2)
 
 
 def _k_ic() -> float:
@@ -168,7 +127,8 @@ def case(tmp_path_factory: pytest.TempPathFactory) -> dict:
     tmp = tmp_path_factory.mktemp("crack_restart")
     mesh = tmp / "plate.msh"
     _mesh(mesh)
-    fmt = {"mesh": mesh, "K_Ic": _k_ic(), "sigma": SIGMA, "m": -S45, "p": S45}
+    fmt = {"name": "kink", "mesh": mesh, "steps": 4, "E": 17.0e9, "nu": 0.3, "sigma": SIGMA}
+    fmt |= {"minus_sigma": -SIGMA, "material": f"K_Ic = {_k_ic()}", "m": -S45, "p": S45}
     every, never = tmp / "every.toml", tmp / "never.toml"
     every.write_text(SCENE.format(every=1, **fmt))
     never.write_text(SCENE.format(every=0, **fmt))

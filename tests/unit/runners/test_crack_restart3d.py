@@ -23,6 +23,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from _crack_scenes import write_scene
 from coupled_support import gmsh_on_rank0, read_csv
 
 from bonecontact.common.errors import CheckpointError
@@ -48,20 +49,12 @@ def _text(mesh: Path, radius: float = A) -> str:
     return text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
 
 
-def _write(path: Path, text: str) -> Path:
-    if MPI.COMM_WORLD.rank == 0:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-    MPI.COMM_WORLD.barrier()
-    return path
-
-
 @pytest.fixture(scope="module")
 def case(tmp_path_factory) -> dict:
     comm = MPI.COMM_WORLD
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("restart3d")) if comm.rank == 0 else None))
     gmsh_on_rank0(lambda gmsh: crack_block_model(W), d / "block.msh", 3)
-    scene = _write(d / "scene.toml", _text(d / "block.msh"))
+    scene = write_scene(d / "scene.toml", _text(d / "block.msh"))
     out = d / "full"
     res = run_scene(load_scene(scene), comm, output=out, progress=False)
     assert res.status == "converged", res.summary.get("message")
@@ -104,7 +97,7 @@ def test_restart_from_step_2_gives_the_same_fronts(case: dict) -> None:
 
 def test_restart_with_another_crack_is_refused(case: dict) -> None:
     out = _copy_to(case, "other")
-    scene = _write(case["dir"] / "other.toml", _text(case["dir"] / "block.msh", 1.1 * A))
+    scene = write_scene(case["dir"] / "other.toml", _text(case["dir"] / "block.msh", 1.1 * A))
     before = (out / "fracture.csv").read_text()
     with pytest.raises(CheckpointError, match="semi_axes"):
         run_scene(load_scene(scene), MPI.COMM_WORLD, output=out, progress=False, restart=True)

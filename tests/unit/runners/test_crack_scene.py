@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _crack_scenes import PINNED_PLATE_HEAD, pinned_plate
+from coupled_support import gmsh_on_rank0
 
 pytestmark = pytest.mark.serial
 
@@ -39,35 +41,9 @@ W, H, PIN = 0.02, 0.04, 0.002  # m
 E, NU = 17.0e9, 0.3
 SIGMA = 1.0e6  # Pa
 
-SCENE = """format = 1
-[scene]
-name = "{name}"
-mesh = "{mesh}"
-dimension = 2
-[analysis]
-kind = "static"
-load_steps = {steps}
-[[material]]
-name = "cortical"
-regions = ["plate"]
-model = "isotropic"
-E = {E}
-nu = {nu}
-sigma_t = 133e6
-K_Ic = {K_Ic}
-[[dirichlet]]
-boundary = "pin_x"
-value = [0.0, "free"]
-[[dirichlet]]
-boundary = "pin_y"
-value = ["free", 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, {sigma}]
-[[traction]]
-boundary = "bottom"
-value = [0.0, {minus_sigma}]
-[[crack]]
+SCENE = (
+    PINNED_PLATE_HEAD
+    + """[[crack]]
 name = "c"
 points = {points}
 region = "plate"
@@ -75,29 +51,12 @@ coefficient = {friction}
 [output]
 fields_every = 0
 {extra}"""
+)
 
 
 def _mesh(path: Path, h: float = 0.002) -> None:
     """The plate with its edge groups (pin_y, bottom, right, top, left, pin_x)."""
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    gmsh.option.setNumber("General.Terminal", 0)
-    try:
-        geo = gmsh.model.geo
-        corners = [(-W, -H), (-W + PIN, -H), (W, -H), (W, H), (-W, H), (-W, -H + PIN)]
-        p = [geo.addPoint(x, y, 0, h) for x, y in corners]
-        lines = [geo.addLine(p[i], p[(i + 1) % 6]) for i in range(6)]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        gmsh.model.addPhysicalGroup(2, [1], 1, name="plate")
-        names = ("pin_y", "bottom", "right", "top", "left", "pin_x")
-        for k, (name, line) in enumerate(zip(names, lines, strict=True)):
-            gmsh.model.addPhysicalGroup(1, [line], 2 + k, name=name)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+    gmsh_on_rank0(pinned_plate(-W, W, H, PIN, h), path, 2)
 
 
 @pytest.fixture(scope="module")
@@ -126,7 +85,7 @@ def _scene(
             steps=steps,
             E=E,
             nu=NU,
-            K_Ic=K_Ic,
+            material=f"K_Ic = {K_Ic}",
             sigma=sigma,
             minus_sigma=-sigma,
             points=points,

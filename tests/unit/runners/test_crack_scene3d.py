@@ -47,6 +47,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from _crack_scenes import run_dir
 from cli_support import run_cli, run_scene
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 
@@ -104,10 +105,7 @@ def block_dir(tmp_path_factory) -> Path:
 
 
 def _run(block_dir: Path, name: str, **kw) -> tuple[dict, dict, Path]:
-    d = block_dir / name
-    if MPI.COMM_WORLD.rank == 0:
-        d.mkdir(exist_ok=True)
-    MPI.COMM_WORLD.barrier()
+    d = run_dir(block_dir, name)
     res = run_text(_text(str(block_dir / "block.msh"), **kw), d, d / "out")
     assert res.status == "converged", res.summary.get("message")
     return read_csv(d / "out" / "fracture.csv"), res.summary, d / "out"

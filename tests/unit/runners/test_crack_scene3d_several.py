@@ -31,6 +31,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from _crack_scenes import run_dir
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 from scipy.integrate import dblquad
 
@@ -77,10 +78,7 @@ def _pennies(x: float) -> str:
 
 
 def run_pennies(box_dir: Path, name: str, x: float) -> tuple[dict, np.ndarray, dict]:
-    d = box_dir / name
-    if MPI.COMM_WORLD.rank == 0:
-        d.mkdir(exist_ok=True)
-    MPI.COMM_WORLD.barrier()
+    d = run_dir(box_dir, name)
     text = crack_block_scene(
         str(box_dir / "box.msh"), _pennies(x), E=E, nu=NU, sigma=SIGMA, h=A / 8
     ).replace('"penny"', '"left"', 1)

@@ -27,6 +27,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from _crack_scenes import PINNED_PLATE_HEAD, pinned_plate, run_dir
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 from scipy.special import ellipe, ellipk
 
@@ -36,59 +37,40 @@ W, H, PIN = 0.1, 0.2, 0.004  # m
 E, NU, SIGMA = 17.0e9, 0.3, 1.0e6
 C_OUT = 0.005  # outer tip of the collinear cracks, m
 
-SCENE = """format = 1
-[scene]
-name = "{name}"
-mesh = "{mesh}"
-dimension = 2
-[analysis]
-kind = "static"
-load_steps = 1
-[[material]]
-name = "cortical"
-regions = ["plate"]
-model = "isotropic"
-E = {E}
-nu = {nu}
-sigma_t = 133e6
-K_Ic = 1.0e6
-[[dirichlet]]
-boundary = "pin_x"
-value = [0.0, "free"]
-[[dirichlet]]
-boundary = "pin_y"
-value = ["free", 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, {sigma}]
-[[traction]]
-boundary = "bottom"
-value = [0.0, -{sigma}]
-{cracks}
+SCENE = (
+    PINNED_PLATE_HEAD
+    + """{cracks}
 [output]
 fields_every = 0
 {extra}"""
+)
 
 
-def _plate(gmsh) -> None:
-    geo = gmsh.model.geo
-    h = W / 10
-    corners = [(-W, -H), (-W + PIN, -H), (W, -H), (W, H), (-W, H), (-W, -H + PIN)]
-    p = [geo.addPoint(x, y, 0, h) for x, y in corners]
-    lines = [geo.addLine(p[i], p[(i + 1) % 6]) for i in range(6)]
-    geo.addPlaneSurface([geo.addCurveLoop(lines)])
-    geo.synchronize()
-    gmsh.model.addPhysicalGroup(2, [1], 1, name="plate")
-    names = ("pin_y", "bottom", "right", "top", "left", "pin_x")
-    for k, (name, line) in enumerate(zip(names, lines, strict=True)):
-        gmsh.model.addPhysicalGroup(1, [line], 2 + k, name=name)
+def scene_text(
+    name: str, folder: Path, cracks: list[tuple[str, list]], extra: str = "", K_Ic=1.0e6
+) -> str:
+    """The scene ``name`` of the plate in ``folder`` with ``cracks`` (``K_Ic = None``:
+    none given)."""
+    material = "" if K_Ic is None else f"K_Ic = {float(K_Ic)!r}"
+    return SCENE.format(
+        name=name,
+        mesh=folder / "plate.msh",
+        steps=1,
+        E=E,
+        nu=NU,
+        material=material,
+        sigma=SIGMA,
+        minus_sigma=-SIGMA,
+        cracks=crack_tables(cracks),
+        extra=extra,
+    )
 
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
     comm = MPI.COMM_WORLD
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("several")) if comm.rank == 0 else None))
-    gmsh_on_rank0(_plate, d / "plate.msh", 2)
+    gmsh_on_rank0(pinned_plate(-W, W, H, PIN, W / 10), d / "plate.msh", 2)
     return d
 
 
@@ -99,19 +81,8 @@ def crack_tables(cracks: list[tuple[str, list]], extra: str = "") -> str:
 
 
 def _run(folder: Path, name: str, cracks: list[tuple[str, list]], extra: str = "") -> tuple:
-    d = folder / name
-    if MPI.COMM_WORLD.rank == 0:
-        d.mkdir(exist_ok=True)
-    MPI.COMM_WORLD.barrier()
-    text = SCENE.format(
-        name=name,
-        mesh=folder / "plate.msh",
-        E=E,
-        nu=NU,
-        sigma=SIGMA,
-        cracks=crack_tables(cracks),
-        extra=extra,
-    )
+    d = run_dir(folder, name)
+    text = scene_text(name, folder, cracks, extra)
     res = run_text(text, d, d / "out")
     assert res.status == "converged", res.summary.get("message")
     rows = read_csv(d / "out" / "fracture.csv")
@@ -201,15 +172,7 @@ def test_each_tip_grows_by_its_own_criterion_until_the_cracks_join(folder: Path)
         d.mkdir(exist_ok=True)
     MPI.COMM_WORLD.barrier()
     cracks = [("left", [[-c, 0.0], [-b, 0.0]]), ("right", [[b, 0.0], [c, 0.0]])]
-    text = SCENE.format(
-        name="grow",
-        mesh=folder / "plate.msh",
-        E=E,
-        nu=NU,
-        sigma=SIGMA,
-        cracks=crack_tables(cracks),
-        extra=extra,
-    ).replace("K_Ic = 1.0e6", f"K_Ic = {float(k_ic)!r}")
+    text = scene_text("grow", folder, cracks, extra, K_Ic=k_ic)
     res = run_text(text, d, d / "out")
     assert res.status == "converged", res.summary.get("message")
     rows = read_csv(d / "out" / "fracture.csv")
@@ -256,15 +219,7 @@ def test_several_cracks_grow_by_paris_per_block(folder: Path) -> None:
     if MPI.COMM_WORLD.rank == 0:
         d.mkdir(exist_ok=True)
     MPI.COMM_WORLD.barrier()
-    text = SCENE.format(
-        name="fatigue",
-        mesh=folder / "plate.msh",
-        E=E,
-        nu=NU,
-        sigma=SIGMA,
-        cracks=crack_tables(cracks),
-        extra=extra,
-    ).replace("K_Ic = 1.0e6\n", "")
+    text = scene_text("fatigue", folder, cracks, extra, K_Ic=None)
     res = run_text(text, d, d / "out")
     assert res.status == "converged", res.summary.get("message")
     table = np.loadtxt(d / "out" / "fracture.csv", delimiter=",", dtype=str, skiprows=1)
@@ -318,15 +273,7 @@ def test_several_cracks_grow_by_paris_per_block(folder: Path) -> None:
 def test_cracks_that_meet_are_refused_naming_file_and_both(
     folder: Path, second: list, key: str, where: str
 ) -> None:
-    text = SCENE.format(
-        name="refused",
-        mesh=folder / "plate.msh",
-        E=E,
-        nu=NU,
-        sigma=SIGMA,
-        cracks=crack_tables([("a", [[-0.002, 0.0], [0.002, 0.0]]), ("b", second)]),
-        extra="",
-    )
+    text = scene_text("refused", folder, [("a", [[-0.002, 0.0], [0.002, 0.0]]), ("b", second)], "")
     path = folder / "refused.toml"
     if MPI.COMM_WORLD.rank == 0:
         path.write_text(text)
@@ -347,15 +294,7 @@ def test_several_cracks_same_answer_on_1_2_3_ranks(folder: Path) -> None:
     inner, outer = collinear_k(b, c, SIGMA)
     extra = f"[fracture]\npropagate = true\nincrement = {DA}\nmax_increments = 8\n"
     cracks = [("left", [[-c, 0.0], [-b, 0.0]]), ("right", [[b, 0.0], [c, 0.0]])]
-    text = SCENE.format(
-        name="ranks",
-        mesh=folder / "plate.msh",
-        E=E,
-        nu=NU,
-        sigma=SIGMA,
-        cracks=crack_tables(cracks),
-        extra=extra,
-    ).replace("K_Ic = 1.0e6", f"K_Ic = {float(0.5 * (inner + outer))!r}")
+    text = scene_text("ranks", folder, cracks, extra, K_Ic=0.5 * (inner + outer))
     path = folder / "ranks.toml"
     path.write_text(text)
     tabs, dofs = [], []

@@ -37,6 +37,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from _crack_scenes import run_dir, surface_plate, surface_scene
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 
 from bonecontact.fracture.fatigue import ParisLaw
@@ -52,117 +53,21 @@ S = 1.0e6
 E, NU = 17.0e9, 0.3
 
 
-def _plate(t: float):
-    def build(gmsh) -> None:
-        occ = gmsh.model.occ
-        box = occ.addBox(-B, -H, -t, 2 * B, 2 * H, t)
-        w = min(0.5 * L, 0.6 * t)
-        pin = occ.addRectangle(-0.25 * L, -0.5 * (t + w), 0.0, 0.5 * L, w)
-        occ.rotate([(2, pin)], 0, 0, 0, 1, 0, 0, 0.5 * math.pi)  # into the plane y = 0
-        occ.translate([(2, pin)], 0.0, -H, 0.0)
-        occ.fragment([(3, box)], [(2, pin)])
-        occ.synchronize()
-        gmsh.model.addPhysicalGroup(3, [t_ for _, t_ in gmsh.model.getEntities(3)], 1, name="plate")
-        groups: dict[str, list[int]] = {}
-        for _, s in gmsh.model.getEntities(2):
-            x, y, z = occ.getCenterOfMass(2, s)
-            area = occ.getMass(2, s)
-            if abs(y + H) < 1e-9 * L and area < 0.26 * L**2:
-                name = "pin"
-            else:
-                hits = {
-                    "bottom": abs(y + H),
-                    "top": abs(y - H),
-                    "left": abs(x + B),
-                    "right": abs(x - B),
-                    "back": abs(z + t),
-                    "front": abs(z),
-                }
-                name = min(hits, key=hits.get)
-            groups.setdefault(name, []).append(s)
-        for k, (name, tags) in enumerate(sorted(groups.items()), start=2):
-            gmsh.model.addPhysicalGroup(2, tags, k, name=name)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.4 * L)
-
-    return build
-
-
-SCENE = """format = 1
-[scene]
-name = "surface_crack"
-mesh = "{mesh}"
-dimension = 3
-[analysis]
-kind = "static"
-load_steps = 1
-[[material]]
-name = "bone"
-regions = ["plate"]
-model = "isotropic"
-E = {E}
-nu = {nu}
-sigma_t = 133e6
-K_Ic = {K_Ic}
-[[dirichlet]]
-boundary = "pin"
-value = [0.0, 0.0, 0.0]
-[[traction]]
-boundary = "top"
-value = [0.0, {S}, 0.0]
-[[traction]]
-boundary = "bottom"
-value = [0.0, {minus_S}, 0.0]
-[fracture]
-tip_size = {h}
-tip_grading = 0.12
-{growth}
-[[crack]]
-name = "mouth"
-shape = "semi_elliptical"
-centre = {centre}
-normal = [0.0, 1.0, 0.0]
-depth = {a}
-half_length = {c}
-region = "plate"
-front_points = {points}
-[output]
-fields_every = 0
-"""
-
-
 def _text(mesh: Path, **kw) -> str:
-    v = {
-        "mesh": str(mesh),
-        "E": E,
-        "nu": NU,
-        "K_Ic": 1e9,
-        "S": S,
-        "minus_S": -S,
-        "h": A / 10,
-        "growth": "",
-        "centre": "[0.0, 0.0, 0.0]",
-        "a": A,
-        "c": A,
-        "points": 5,
-    }
-    v.update(kw)
-    return SCENE.format(**v)
+    return surface_scene(mesh, **({"E": E, "nu": NU, "S": S, "minus_S": -S, "a": A, "c": A} | kw))
 
 
 @pytest.fixture(scope="module")
 def plates(tmp_path_factory) -> Path:
     comm = MPI.COMM_WORLD
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("surface3d")) if comm.rank == 0 else None))
-    gmsh_on_rank0(_plate(T), d / "plate.msh", 3)
-    gmsh_on_rank0(_plate(0.4 * L), d / "thin.msh", 3)
+    gmsh_on_rank0(surface_plate(T), d / "plate.msh", 3)
+    gmsh_on_rank0(surface_plate(0.4 * L), d / "thin.msh", 3)
     return d
 
 
 def _run(d: Path, name: str, mesh: str = "plate.msh", **kw):
-    sub = d / name
-    if MPI.COMM_WORLD.rank == 0:
-        sub.mkdir(exist_ok=True)
-    MPI.COMM_WORLD.barrier()
+    sub = run_dir(d, name)
     res = run_text(_text(d / mesh, **kw), sub, sub / "out")
     return res, sub / "out"
 

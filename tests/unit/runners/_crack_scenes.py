@@ -1,0 +1,225 @@
+"""What the crack-scene tests share: the folder of one run, a scene written and run
+in-process (on ``MPI.COMM_WORLD`` or on rank 0 alone for a serial reference), the 2D
+plate held at its bottom-left corner with the head of its scenes, and the plate of the
+3D surface-crack scenes with its scene text.
+
+Not a test module (no ``test_`` prefix); the runner tests import it by name (pytest puts
+this folder on ``sys.path``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from bonecontact.runners import RunResult, run_scene
+from bonecontact.scene import load_scene
+
+L = 1e-3  # the surface-crack plate in millimetres
+PLATE_B = PLATE_H = 2.5 * L
+
+
+def run_dir(base: Path, name: str) -> Path:
+    """``base/name``, made on rank 0 (every rank waits for it)."""
+    d = base / name
+    if MPI.COMM_WORLD.rank == 0:
+        d.mkdir(parents=True, exist_ok=True)
+    MPI.COMM_WORLD.barrier()
+    return d
+
+
+def write_scene(path: Path, text: str) -> Path:
+    """``text`` written to ``path`` on rank 0 (every rank waits for it)."""
+    if MPI.COMM_WORLD.rank == 0:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def run_serial_on_rank0(scene: Path, out: Path, **kw) -> RunResult | None:
+    """The scene run on rank 0 alone (``MPI.COMM_SELF``): the serial reference of a
+    distributed run in the same session (the other ranks get ``None`` and sleep; they do
+    not compile the same forms at the same time)."""
+    res = None
+    if MPI.COMM_WORLD.rank == 0:
+        res = run_scene(load_scene(scene), MPI.COMM_SELF, output=out, progress=False, **kw)
+    idle_barrier(MPI.COMM_WORLD)
+    return res
+
+
+def idle_barrier(comm: MPI.Comm, pause: float = 0.02) -> None:
+    """A barrier whose waiting ranks sleep (a blocking MPI barrier polls, taking a core
+    from the rank they wait for when the ranks outnumber the cores)."""
+    req = comm.Ibarrier()
+    while not req.Test():
+        time.sleep(pause)
+
+
+def pinned_plate(x0: float, x1: float, half_height: float, pin: float, h: float):
+    """The gmsh builder (geo kernel, element size ``h``) of the 2D plate
+    [x0, x1] × [−H, H] of the crack scenes: cell group "plate" and the edge groups pin_y
+    (the first ``pin`` of the bottom edge), bottom, right, top, left and pin_x (the
+    lowest ``pin`` of the left edge), which hold the rigid motions at the bottom-left
+    corner (a uniform stress state satisfies them exactly)."""
+    H = half_height
+
+    def build(gmsh) -> None:
+        geo = gmsh.model.geo
+        corners = [(x0, -H), (x0 + pin, -H), (x1, -H), (x1, H), (x0, H), (x0, -H + pin)]
+        p = [geo.addPoint(x, y, 0, h) for x, y in corners]
+        lines = [geo.addLine(p[i], p[(i + 1) % 6]) for i in range(6)]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        gmsh.model.addPhysicalGroup(2, [1], 1, name="plate")
+        names = ("pin_y", "bottom", "right", "top", "left", "pin_x")
+        for k, (name, line) in enumerate(zip(names, lines, strict=True)):
+            gmsh.model.addPhysicalGroup(1, [line], 2 + k, name=name)
+
+    return build
+
+
+#: The head of a scene of the :func:`pinned_plate` (a template): cortical bone
+#: ("material": more material keys, e.g. ``K_Ic = …``, or empty), held on pin_x and
+#: pin_y, traction σ on top and −σ (``minus_sigma``) on bottom; a module appends its
+#: crack, fracture and output tables.
+PINNED_PLATE_HEAD = """format = 1
+[scene]
+name = "{name}"
+mesh = "{mesh}"
+dimension = 2
+[analysis]
+kind = "static"
+load_steps = {steps}
+[[material]]
+name = "cortical"
+regions = ["plate"]
+model = "isotropic"
+E = {E}
+nu = {nu}
+sigma_t = 133e6
+{material}
+[[dirichlet]]
+boundary = "pin_x"
+value = [0.0, "free"]
+[[dirichlet]]
+boundary = "pin_y"
+value = ["free", 0.0]
+[[traction]]
+boundary = "top"
+value = [0.0, {sigma}]
+[[traction]]
+boundary = "bottom"
+value = [0.0, {minus_sigma}]
+"""
+
+
+def surface_plate(t: float, size: float = 0.4 * L):
+    """The gmsh builder of the plate [−b, b] × [−h, h] × [−t, 0] (b = h = 2.5 mm) of the
+    surface-crack scenes: cell group "plate", facet groups top, bottom, left, right, back,
+    front and a 0.5 × 0.5 mm patch "pin" in the middle of the bottom face; boundary
+    facets ``size``."""
+
+    def build(gmsh) -> None:
+        occ = gmsh.model.occ
+        box = occ.addBox(-PLATE_B, -PLATE_H, -t, 2 * PLATE_B, 2 * PLATE_H, t)
+        w = min(0.5 * L, 0.6 * t)
+        pin = occ.addRectangle(-0.25 * L, -0.5 * (t + w), 0.0, 0.5 * L, w)
+        occ.rotate([(2, pin)], 0, 0, 0, 1, 0, 0, 0.5 * math.pi)  # into the plane y = 0
+        occ.translate([(2, pin)], 0.0, -PLATE_H, 0.0)
+        occ.fragment([(3, box)], [(2, pin)])
+        occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [t_ for _, t_ in gmsh.model.getEntities(3)], 1, name="plate")
+        groups: dict[str, list[int]] = {}
+        for _, s in gmsh.model.getEntities(2):
+            x, y, z = occ.getCenterOfMass(2, s)
+            area = occ.getMass(2, s)
+            if abs(y + PLATE_H) < 1e-9 * L and area < 0.26 * L**2:
+                name = "pin"
+            else:
+                hits = {
+                    "bottom": abs(y + PLATE_H),
+                    "top": abs(y - PLATE_H),
+                    "left": abs(x + PLATE_B),
+                    "right": abs(x - PLATE_B),
+                    "back": abs(z + t),
+                    "front": abs(z),
+                }
+                name = min(hits, key=hits.get)
+            groups.setdefault(name, []).append(s)
+        for k, (name, tags) in enumerate(sorted(groups.items()), start=2):
+            gmsh.model.addPhysicalGroup(2, tags, k, name=name)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+
+    return build
+
+
+#: A semi-elliptical ``[[crack]]`` "mouth" (normal y) in the plate of :func:`surface_plate`
+#: under traction S on top and −S on bottom, held on "pin".
+SURFACE_SCENE = """format = 1
+[scene]
+name = "surface_crack"
+mesh = "{mesh}"
+dimension = 3
+[analysis]
+kind = "static"
+load_steps = 1
+[[material]]
+name = "bone"
+regions = ["plate"]
+model = "isotropic"
+E = {E}
+nu = {nu}
+sigma_t = 133e6
+K_Ic = {K_Ic}
+[[dirichlet]]
+boundary = "pin"
+value = [0.0, 0.0, 0.0]
+[[traction]]
+boundary = "top"
+value = [0.0, {S}, 0.0]
+[[traction]]
+boundary = "bottom"
+value = [0.0, {minus_S}, 0.0]
+[fracture]
+tip_size = {h}
+tip_grading = 0.12
+{growth}
+[[crack]]
+name = "mouth"
+shape = "semi_elliptical"
+centre = {centre}
+normal = [0.0, 1.0, 0.0]
+depth = {a}
+half_length = {c}
+region = "plate"
+front_points = {points}
+[output]
+fields_every = 0
+"""
+
+
+def surface_scene(mesh: Path, **kw) -> str:
+    """:data:`SURFACE_SCENE` for ``mesh``: cortical bone (E = 17 GPa, ν = 0.3), S = 1 MPa,
+    a = c = 0.2 mm at the middle of the front face, front a/10, 5 points, K_Ic = 1 GPa√m
+    (no growth); ``kw`` replaces any of the placeholders."""
+    a = 0.2 * L
+    v = {
+        "mesh": str(mesh),
+        "E": 17.0e9,
+        "nu": 0.3,
+        "K_Ic": 1e9,
+        "S": 1.0e6,
+        "minus_S": -1.0e6,
+        "h": a / 10,
+        "growth": "",
+        "centre": "[0.0, 0.0, 0.0]",
+        "a": a,
+        "c": a,
+        "points": 5,
+    }
+    v.update(kw)
+    return SURFACE_SCENE.format(**v)
