@@ -24,7 +24,11 @@ free_step_cpu_s, contact_step_cpu_s, ratio_cpu (the same from the process's CPU 
 MUMPS runs on one thread, so these are far less sensitive to the load of a shared
 machine than the wall times); free_solve_s, the phase means (s per step in contact),
 n_pdas_iterations (mean per contact step), n_n_active (at the end), n_factorizations,
-n_columns (in the timed steps), machine, date.
+n_columns (in the timed steps), n_solves_per_step (base and final MUMPS solves, single
+right-hand side; n_final_per_step: the final ones) and n_blocks_per_step (multi-right-hand-side
+column blocks): counts that do
+not depend on the load; n_full_cap, n_full_used, n_full_peak_mib (the full columns kept:
+their cap, the most a set used, their peak memory), machine, date.
 
 Usage:  python benchmarks/bench_dynamic_cost.py [--sizes 5e-4,3e-4] [--steps 40]
         [--out benchmarks/results/dynamic_cost.csv]
@@ -115,7 +119,8 @@ def run(p: SphereImpact, contact: bool, steps: int, t_start: float, memory_ratio
     _instrument(integ, ph)
     times, cpu, its, cols0 = [], [], [], None
     lr = getattr(getattr(cs, "linear_solver", None), "lowrank", None)
-    f0 = (lr.factorizations, lr.columns, lr.prefetched) if lr is not None else (0, 0, 0)
+    counters = ("factorizations", "columns", "prefetched", "n_solves", "n_final", "n_blocks")
+    f0 = {c: getattr(lr, c) for c in counters} if lr is not None else {}
     for _ in range(steps):
         COMM.barrier()
         t0, c0 = time.perf_counter(), time.process_time()
@@ -133,10 +138,15 @@ def run(p: SphereImpact, contact: bool, steps: int, t_start: float, memory_ratio
     if contact:
         out["pdas_iterations"] = float(np.mean(its))
         out["n_active"] = cols0
-        out["factorizations"] = lr.factorizations - f0[0] if lr is not None else -1
-        out["columns"] = lr.columns - f0[1] if lr is not None else -1
-        out["prefetched"] = lr.prefetched - f0[2] if lr is not None else -1
+        for c in counters:  # (n_solves, n_blocks: per step below)
+            out[c] = getattr(lr, c) - f0[c] if lr is not None else -1
+        out["solves_per_step"] = out["n_solves"] / steps
+        out["blocks_per_step"] = out["n_blocks"] / steps
+        out["final_per_step"] = out["n_final"] / steps
         out["full_limit"] = lr.full_limit if lr is not None else -1
+        out["full_cap"] = lr.full_cap if lr is not None else -1
+        out["full_used"] = lr.full_used if lr is not None else -1
+        out["full_peak_mib"] = lr.full_bytes_peak / 2**20 if lr is not None else -1
     out["peak_rss_mib"] = COMM.allreduce(
         resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, op=MPI.MAX
     )
@@ -195,7 +205,9 @@ def main() -> None:
             row[f"{k}_s"] = con.get(k, 0.0)
             row[f"{k}_cpu_s"] = con.get(f"{k}_cpu", 0.0)
         for k in (
-            "pdas_iterations", "n_active", "factorizations", "columns", "prefetched", "full_limit"
+            "pdas_iterations", "n_active", "factorizations", "columns", "prefetched", "full_limit",
+            "solves_per_step", "blocks_per_step", "final_per_step", "full_cap", "full_used",
+            "full_peak_mib",
         ):  # fmt: skip
             row[f"n_{k}"] = con.get(k, 0)
         row["peak_rss_free_mib"] = before["peak_rss_mib"]  # (the process's peak: measured first)

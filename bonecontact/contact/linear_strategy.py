@@ -132,6 +132,7 @@ class LowRankStrategy:
             rebase_ratio=options.rebase_ratio,
             memory_ratio=options.memory_ratio,
             split=split,
+            full_ratio=options.full_ratio,
         )
         if split is not None:
             # a split basis factorises its own operator: Ã is not needed beside it (the

@@ -259,6 +259,11 @@ class LowRankActiveSetSolver:
         Memory of the column blocks, and of the column cache, each at most this
         fraction of the memory of the LU factors (blocks are computed in chunks; the
         cache limit is the smaller of this and ``max_columns``).
+    full_ratio
+        Memory bound of the full solution columns kept across contact solves (the final
+        field ``x_b + X y`` without a second solve), as a fraction of the LU factors'
+        memory: within it, the columns kept are sized by the expected contact zone
+        (:meth:`_size_full_columns`; docs/theory/pdas.md#full-columns-across-steps).
     split
         Optional ``(A, Qᵀ, T, Tᵀ, allowed, first)``: factorise the operator with only the
         contact rows ``allowed`` (this rank's rows; all rows of the support patch's
@@ -278,6 +283,7 @@ class LowRankActiveSetSolver:
         rebase_ratio: float = 1.0,
         memory_ratio: float = 0.05,
         split: tuple | None = None,
+        full_ratio: float = 0.25,
     ):
         self.split: SplitBasis | None = None
         if split is not None:
@@ -299,6 +305,7 @@ class LowRankActiveSetSolver:
         self.max_columns = int(max_columns)
         self.rebase_ratio = float(rebase_ratio)
         self.memory_ratio = float(memory_ratio)
+        self.full_ratio = float(full_ratio)
         self.block_limit = self.column_limit = self.max_columns
         # the contact rows of A (A·X is only ever needed there) and its columns at the
         # rows a set may fix (A·v is only ever needed for v zero elsewhere)
@@ -320,6 +327,15 @@ class LowRankActiveSetSolver:
         #: the final field of a solve is then ``x_b + X y`` without a second solve
         self.full_cols: dict[int, np.ndarray] = {}
         self.full_limit = 0
+        #: full columns within ``memory_ratio`` (the floor of :attr:`full_limit`), within
+        #: ``full_ratio`` (its cap), the most a finished solve used, and the largest
+        #: memory the kept ones took on any rank (bytes; reported)
+        self.full_floor = self.full_cap = self.full_used = 0
+        self.full_bytes_peak = 0.0
+        #: single-right-hand-side solves (base and final solves; the final ones also
+        #: apart) and multi-right-hand-side column blocks: counts that do not depend on
+        #: the load
+        self.n_solves = self.n_final = self.n_blocks = 0
         #: the last margins of the rows (:meth:`solve_set`), the fixed rows of the last
         #: contact solve's start, and the columns computed ahead (:meth:`_prefetch_rows`)
         self._margin: npt.NDArray[np.float64] | None = None
@@ -516,8 +532,13 @@ class LowRankActiveSetSolver:
             self.block_limit = self.column_limit = self.max_columns
             self.full_limit = 0
             return
-        # full columns kept for the final field: the same budget (collective minimum)
-        self.full_limit = global_op(self.comm, int(budget // (8.0 * max(self.nloc, 1))), MPI.MIN)
+        # full columns kept for the final field: this budget at least, the expected
+        # contact zone within ``full_ratio`` (collective minimum; :meth:`_size_full_columns`)
+        per_full = 8.0 * max(self.nloc, 1)
+        self.full_floor = global_op(self.comm, int(budget // per_full), MPI.MIN)
+        cap = self.full_ratio * self._factor_bytes()
+        self.full_cap = max(global_op(self.comm, int(cap // per_full), MPI.MIN), self.full_floor)
+        self.full_limit = self.full_floor
         per_column = DENSE_BLOCKS * 8.0 * max(self.nloc, 1)
         chunk = global_op(self.comm, int(budget // per_column), MPI.MIN)
         self.block_limit = max(chunk, MIN_BLOCK)
@@ -553,7 +574,21 @@ class LowRankActiveSetSolver:
         self._set_r0(r0)
         if self.base is None:
             self.factorize(initial if self.split is None else self.split.first)
+        self._size_full_columns(self.block_limit)
         self._base_solve(self._prefetch_rows(np.asarray(initial, dtype=bool)))
+
+    def _size_full_columns(self, k: int) -> None:
+        """The full columns kept (:attr:`full_limit`) before ``k`` new ones are
+        computed, sized by the expected contact zone: the columns the sets have needed
+        so far (the most a finished solve used, :attr:`full_used`, or all cached ones:
+        the zone of the previous steps and the rows computed ahead as about to close)
+        plus the ``k`` new ones, at least the ``memory_ratio`` budget and at most the
+        ``full_ratio`` one (docs/theory/pdas.md#full-columns-across-steps).  Without a
+        factors' memory (not MUMPS) no full column is kept."""
+        if self.full_cap == 0:
+            return
+        want = max(self.full_used, len(self.cache)) + k
+        self.full_limit = min(max(self.full_floor, want), self.full_cap)
 
     def _set_r0(self, r0: PETSc.Vec) -> None:
         """The right-hand side in the rows of the factorised operator."""
@@ -666,6 +701,7 @@ class LowRankActiveSetSolver:
             return
         t1 = time.perf_counter()
         self.ksp.solve(self._rhs, self._xb)
+        self.n_solves += 1
         t_solve = time.perf_counter() - t1
         axb = self.AL.createVecLeft()
         self.AL.mult(self._xb, axb)
@@ -712,6 +748,7 @@ class LowRankActiveSetSolver:
         Xm = _dense(self.comm, self.nloc, k + (rhs is not None))
         F = self.ksp.getPC().getFactorMatrix()
         F.matSolve(Rm, Xm)
+        self.n_blocks += 1
         KXm = self.AL.matMult(Xm)
         Xa = Xm.getDenseArray()
         if self.split is not None:
@@ -732,6 +769,8 @@ class LowRankActiveSetSolver:
         for M in (Rm, Xm, KXm):
             M.destroy()
         self.columns += k
+        full_bytes = 8.0 * self.nloc * len(self.full_cols)
+        self.full_bytes_peak = max(self.full_bytes_peak, global_op(self.comm, full_bytes, MPI.MAX))
         dt = global_op(self.comm, time.perf_counter() - t0, MPI.MAX)
         dt -= self.t_solve if rhs is not None else 0.0
         self.t_column = max(dt - self.t_block, 0.1 * dt) / k
@@ -890,6 +929,8 @@ class LowRankActiveSetSolver:
             extra = self._closest(active & self.base, margin, len(missing))
             room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
+        if missing:
+            self._size_full_columns(len(missing))
         if missing and len(self.full_cols) + len(missing) > self.full_limit:
             # room for this set's full columns: drop those of rows outside it (their reduced
             # columns stay cached; a set that needs one again takes the final solve)
@@ -1030,6 +1071,8 @@ class LowRankActiveSetSolver:
         """Write the full solution of the last :meth:`solve_set` into ``out``: ``x_b + X y``
         when every column of the set is kept in full (:attr:`full_cols`), else one solve."""
         cols, y = self._y
+        if not self._in_respond:
+            self.full_used = max(self.full_used, len(cols))
         if all(q in self.full_cols for q in cols):  # (the same on every rank)
             x = self._xb.array.copy()
             for q, yq in zip(cols, y):  # (no n × k temporary; numpy, not a threaded BLAS
@@ -1050,6 +1093,8 @@ class LowRankActiveSetSolver:
             forces[r[~base]] = y[mine[~base]]
             self._split_rhs(forces)
         self.ksp.solve(self._rhs, out)
+        self.n_solves += 1
+        self.n_final += 1
         if self.split is not None:
             out.array[:] = self._full(out)
 

@@ -48,6 +48,13 @@ class LinearOptions:
     #: about ``1 + memory_ratio`` linear solves of memory (0.05: the 65k 3D Hertz
     #: run's peak 1.64 -> 1.37 MUMPS solves, same sets and time; issue 28).
     memory_ratio: float = 0.05
+    #: Low-rank strategy: the full solution columns kept across contact solves (time and
+    #: load steps: the final field without a second solve) are as many as the expected
+    #: contact zone needs (the columns the sets needed so far plus the new ones: the
+    #: last steps' zone and the rows about to close), at least ``memory_ratio`` and at
+    #: most this fraction of the LU factors' memory; the peak is reported (summary.json
+    #: ``contact.full_columns_peak_mb``; docs/theory/pdas.md#full-columns-across-steps).
+    full_ratio: float = 0.25
     #: Low-rank strategy: factorise the operator with only the cold start's support patch
     #: in the contact basis and reach every other set by force columns
     #: (:class:`bonecontact.contact.lowrank.SplitBasis`; the full contact basis couples
@@ -86,6 +93,8 @@ class LinearOptions:
             )
         if not self.memory_ratio > 0.0:
             raise ValueError(f"memory_ratio must be positive, got {self.memory_ratio}")
+        if not self.full_ratio >= 0.0:
+            raise ValueError(f"full_ratio must be >= 0, got {self.full_ratio}")
         if self.pc_reuse_rows < 0.0 or not self.pc_reuse_growth >= 1.0:
             raise ValueError(
                 f"pc_reuse_rows must be >= 0 and pc_reuse_growth >= 1, got "
@@ -152,6 +161,13 @@ class SlipOptions:
     #: traction is prescribed along the previous slip direction and the direction
     #: iterated (Aitken-accelerated) to a fixed point.
     slip_3d: str = "newton"
+    #: Time and load steps: a friction node that slipped at the end of the last contact
+    #: solve starts the next one slipping along its last direction (3D Newton rows
+    #: linearised at its last traction and ξ) instead of sticking (the elastic trial
+    #: state).  Same solution; off by default: where the slip direction turns between
+    #: steps (the knee gait, a turning drag) the trial state's direction is the better
+    #: start (docs/theory/pdas.md#warm-started-friction).
+    warm_slip: bool = False
 
     def __post_init__(self) -> None:
         if self.slip_3d not in ("newton", "fixed_point"):

@@ -298,15 +298,23 @@ class ContactSolver:
 
         Per pair, on this rank's owned slave nodes (the order of ``interface.blocks``):
         ``active`` (bool), ``directions`` (slip directions, (n, gdim − 1)), ``lam_n_prev``
-        (previous normal multipliers, operator units) and ``work_gaps`` (gaps before the
-        next step, for the contact work); ``Uh`` the last solution in the nodal frames
-        (owned rows, a copy) and ``cold`` whether no step has been solved yet.
+        (previous normal multipliers, operator units), ``stick``, ``lam_t`` and ``xi``
+        (the friction state of the last step: stick set, tangential traction and
+        ``ξ``, operator units; a cold start's: every active node sticking, zeros) and
+        ``work_gaps`` (gaps before the next step, for the contact work); ``Uh`` the last
+        solution in the nodal frames (owned rows, a copy) and ``cold`` whether no step
+        has been solved yet.
         """
         own, w = self.system.layout.own, self.warm
+        zt = np.zeros_like(w.directions)
+        stick = w.active if w.stick is None else w.stick
         return {
             "active": [a.copy() for a in own(w.active)],
             "directions": [a.copy() for a in own(w.directions)],
             "lam_n_prev": [a.copy() for a in own(w.lam_n_prev)],
+            "stick": [a.copy() for a in own(stick)],
+            "lam_t": [a.copy() for a in own(zt if w.lam_t is None else w.lam_t)],
+            "xi": [a.copy() for a in own(zt if w.xi is None else w.xi)],
             "work_gaps": [g.copy() for g in self._work_gaps],
             "Uh": self.system.Uh.array.copy(),
             "cold": bool(w.cold),
@@ -320,11 +328,17 @@ class ContactSolver:
             parts = [np.asarray(a, dtype=dtype) for a in state[key]]
             return np.concatenate(parts) if parts else np.zeros(0, dtype)
 
+        tang = (lay.n_nodes, self.bs - 1)
+        # (a state without the friction keys: every active node starts sticking)
+        friction = "stick" in state and not state["cold"]
         self.warm = WarmStart(
             active=rep("active", bool),
-            directions=rep("directions", float).reshape(lay.n_nodes, self.bs - 1),
+            directions=rep("directions", float).reshape(tang),
             lam_n_prev=rep("lam_n_prev", float),
             cold=bool(state["cold"]),
+            stick=rep("stick", bool) if friction else None,
+            lam_t=rep("lam_t", float).reshape(tang) if friction else None,
+            xi=rep("xi", float).reshape(tang) if friction else None,
         )
         self._work_gaps = [np.asarray(g, dtype=float).copy() for g in state["work_gaps"]]
         self.system.Uh.array[:] = state["Uh"]
@@ -500,7 +514,13 @@ class ContactSolver:
             it = self.sets.iterate(st, sy.unknowns(), sy.contact_residual())
         an = st.an | st.edges.edge  # edge nodes touch (with zero pressure)
         self.warm = WarmStart(
-            active=an, directions=st.dirs, lam_n_prev=np.where(an, it.lam_n, 0.0), cold=False
+            active=an,
+            directions=st.dirs,
+            lam_n_prev=np.where(an, it.lam_n, 0.0),
+            cold=False,
+            stick=(st.stick & st.an) | st.edges.edge,  # (edge nodes start sticking)
+            lam_t=it.lam_t,
+            xi=it.z,
         )
         sy.write_solution(u)
         return self._result(
@@ -632,6 +652,24 @@ class ContactSolver:
                 work -= float((itf.D[:, None] * res.traction_t[k] * res.slip[k]).sum())
         self._work_gaps = gaps
         return work
+
+    def column_report(self) -> dict:
+        """Counts and memory of the low-rank strategy since set-up (empty with another
+        strategy): single-right-hand-side solves (base and final; final), column blocks,
+        columns, the full columns the largest set used, their cap and peak memory on
+        the largest rank (MB; docs/theory/pdas.md#full-columns-across-steps)."""
+        lr = getattr(self.linear_solver, "lowrank", None)
+        if lr is None:
+            return {}
+        return {
+            "base_and_final_solves": lr.n_solves,
+            "final_solves": lr.n_final,
+            "column_blocks": lr.n_blocks,
+            "columns": lr.columns,
+            "full_columns_used": lr.full_used,
+            "full_columns_cap": lr.full_cap,
+            "full_columns_peak_mb": lr.full_bytes_peak / 1.0e6,
+        }
 
     def destroy(self) -> None:
         """Free the PETSc objects."""

@@ -53,6 +53,12 @@ class WarmStart:
     directions: npt.NDArray[np.float64]  # slip directions, (NS, gdim − 1)
     lam_n_prev: npt.NDArray[np.float64]  # normal multipliers of the last step
     cold: bool = True  # no step solved yet: the cold-start rules apply
+    #: the friction state of the last step (docs/theory/pdas.md#warm-started-friction):
+    #: its stick set, tangential traction λ_t and ξ = λ_t + c_t Δu_t (NS, gdim − 1);
+    #: ``None``: every active friction node starts sticking
+    stick: npt.NDArray[np.bool_] | None = None
+    lam_t: npt.NDArray[np.float64] | None = None
+    xi: npt.NDArray[np.float64] | None = None
 
 
 @dataclass
@@ -137,16 +143,23 @@ class SetUpdate:
         self.bs = system.layout.bs
         self.comm = system.layout.comm
         self.newton_3d = self.bs == 3 and slip.slip_3d == "newton" and friction.any_active
+        self.warm_slip = bool(slip.warm_slip)
 
     # ------------------------------------------------------------------ start and rows
     def start(self, warm: WarmStart, xold: npt.NDArray[np.float64]) -> PDASState:
-        """The state at the start of a solve: the warm-started sets with every active
-        friction node sticking (the elastic trial state; the first solve shows where the
-        bound is exceeded)."""
+        """The state at the start of a solve: the warm-started active set; friction nodes
+        stick (the elastic trial state; the first solve shows where the bound is
+        exceeded), except, with ``warm_slip``, those that slipped at the end of the last
+        solve: they start slipping along their last direction, their 3D Newton rows
+        linearised at the last traction and ξ (the slip of the last step as the
+        predictor of this one's; docs/theory/pdas.md#warm-started-friction)."""
         ns = self.system.layout.n_nodes
+        stick, lam_t_k, z_k = self._warm_slip(warm)
         return PDASState(
             an=warm.active.copy(),
-            stick=warm.active & self.friction.active,
+            stick=stick,
+            lam_t_k=lam_t_k,
+            z_k=z_k,
             dirs=warm.directions.copy(),
             g=self.friction.step_bounds(warm.lam_n_prev),
             xold=xold,
@@ -155,6 +168,16 @@ class SetUpdate:
             edges=EdgeSets.empty(ns),
             switches=np.zeros(ns, dtype=int),
         )
+
+    def _warm_slip(self, warm: WarmStart) -> tuple:
+        """The stick set a solve starts from and the last traction and ξ of its slip
+        nodes (:meth:`start`); a slip node with ``ξ = 0`` starts sticking (no direction
+        to linearise at)."""
+        stick = warm.active & self.friction.active
+        if not self.warm_slip or warm.stick is None or not self.friction.any_active:
+            return stick, None, None
+        slip = stick & ~warm.stick & (np.linalg.norm(warm.xi, axis=1) > 0.0)
+        return stick & ~slip, warm.lam_t.copy(), warm.xi.copy()
 
     def fixed_rows(self, st: PDASState) -> npt.NDArray[np.bool_]:
         """Rows prescribed by the sets of ``st``: active normal rows, stick rows."""
@@ -301,9 +324,9 @@ class SetUpdate:
         if self.bs == 2:
             turned = 0
         elif self.newton_3d:
-            turned = self._newton_turns(st, it, both, new_dirs)
-            if turned:
-                self._hold_switches(st, new_an, new_stick, new_dirs)
+            turning, turned = self._newton_turns(st, it, both, new_dirs)
+            if turning + turned:  # (a node held is not converged: counted)
+                turned += self._hold_switches(st, new_an, new_stick, new_dirs)
         else:
             turned = global_count(
                 self.comm,
@@ -325,9 +348,16 @@ class SetUpdate:
         it: Iterate,
         both: npt.NDArray[np.bool_],
         new_dirs: npt.NDArray[np.float64],
-    ) -> int:
-        """3D Newton slip rows: slip nodes (ĝ > 0) whose direction still turns or whose
-        traction is not yet ``ĝ s``."""
+    ) -> tuple[int, int]:
+        """3D Newton slip rows: the slip nodes (ĝ > 0) whose direction still turns, and
+        those whose traction is not yet ``ĝ s`` (``s = ξ/|ξ|`` of this iterate).
+
+        Only the second count enters the convergence test: with the stick/slip sets
+        unchanged, a traction ``λ_t = ĝ ξ/|ξ|`` at every slip node is the slip condition
+        ``|ξ| λ_t − ĝ ξ = 0`` of this iterate to ``direction_tol`` (every other row of its
+        system holds exactly); how far the direction moved from the linearisation point
+        says how good that point was, not this iterate
+        (docs/theory/pdas.md#warm-started-friction)."""
         g, dirs = st.g, st.dirs
         bg = both & (g > 0.0)
         turned = global_count(
@@ -338,7 +368,7 @@ class SetUpdate:
             np.linalg.norm(it.lam_t[bg] - g[bg, None] * new_dirs[bg], axis=1)
             > self.direction_tol * gs
         )
-        return turned + global_count(self.comm, off)
+        return turned, global_count(self.comm, off)
 
     def _hold_reversed_releases(
         self, st: PDASState, it: Iterate, slip: npt.NDArray[np.bool_]
@@ -364,17 +394,19 @@ class SetUpdate:
         new_an: npt.NDArray[np.bool_],
         new_stick: npt.NDArray[np.bool_],
         new_dirs: npt.NDArray[np.float64],
-    ) -> None:
+    ) -> int:
         """3D Newton slip rows, while slip directions still turn: a node that already
         switched between stick and slip in this solve keeps its state (``new_stick``,
         ``new_dirs`` in place) until the directions have settled
         (docs/theory/pdas.md#active-set-rule).  Its indicator is taken on a linearisation
         point that is still moving; deciding on it toggles the node at the rim of the
-        friction disc.  Once no direction turns, the plain rule decides again."""
+        friction disc.  Once no direction turns, the plain rule decides again.  Returns
+        the number of nodes held (all ranks)."""
         fric = self.friction.active
         hold = (new_stick != st.stick) & new_an & st.an & fric & (st.switches >= 1)
         new_stick[hold] = st.stick[hold]
         new_dirs[hold] = st.dirs[hold]
+        return global_count(self.comm, hold)
 
     def update_edges(self, st: PDASState, it: Iterate) -> None:
         """The edge rule for friction nodes whose bound does not follow the current

@@ -612,6 +612,31 @@ class RunCounters:
 
 
 # ----------------------------------------------------------------------------- mechanics state
+#: contact warm-start fields a checkpoint may lack (written since the warm-started
+#: friction state; without them the friction state restarts cold)
+OPTIONAL_CONTACT_FIELDS = ("_stick", "_lam_t", "_xi")
+
+
+def contact_fields(bs: int) -> tuple[tuple[str, int], ...]:
+    """(key, components) of the per-node contact warm start in a checkpoint."""
+    t = bs - 1
+    return (("active", 1), ("directions", t), ("lam_n_prev", 1), ("stick", 1), ("lam_t", t),
+            ("xi", t))  # fmt: skip
+
+
+def _read_fields(viewer, order, fields: list) -> dict[str, npt.NDArray]:
+    """The per-node fields ``(name, ncomp, _)`` from ``viewer`` (collective); an
+    optional contact field missing from an older checkpoint is left out."""
+    new = {}
+    for name, ncomp, _ in fields:
+        try:
+            new[name] = order.read(viewer, name, ncomp)
+        except PETSc.Error:
+            if not name.endswith(OPTIONAL_CONTACT_FIELDS):
+                raise
+    return new
+
+
 def _fields(integ: Integrator, st: dict) -> list[tuple[str, int, npt.NDArray]]:
     """(name, ncomp, owned values) of every per-node field of the state."""
     bs = integ.model.V.dofmap.index_map_bs
@@ -622,7 +647,7 @@ def _fields(integ: Integrator, st: dict) -> list[tuple[str, int, npt.NDArray]]:
         return out
     out.append(("Uh", bs, c["Uh"]))
     for k, itf in enumerate(integ.contact.interfaces):
-        for key, ncomp in (("active", 1), ("directions", bs - 1), ("lam_n_prev", 1)):
+        for key, ncomp in contact_fields(bs):
             arr = np.zeros((n, ncomp))
             arr[itf.blocks] = np.asarray(c[key][k], dtype=float).reshape(-1, ncomp)
             out.append((f"contact{k}_{key}", ncomp, arr))
@@ -726,7 +751,7 @@ def read_checkpoint(path: Path, meta: dict[str, Any], integ: Integrator) -> RunC
     try:
         saved = order.read(viewer, "coordinates", gdim)
         _check_coordinates(path, saved, _owned_coordinates(integ.model.V), comm)
-        new = {name: order.read(viewer, name, ncomp) for name, ncomp, _ in _fields(integ, st)}
+        new = _read_fields(viewer, order, _fields(integ, st))
     finally:
         viewer.destroy()
         order.destroy()
@@ -761,6 +786,13 @@ def _fill_state(st: dict, new: dict[str, npt.NDArray], integ: Integrator, meta: 
         c["active"][k] = new[f"contact{k}_active"][itf.blocks, 0] > 0.5
         c["directions"][k] = new[f"contact{k}_directions"][itf.blocks]
         c["lam_n_prev"][k] = new[f"contact{k}_lam_n_prev"][itf.blocks, 0]
+        if f"contact{k}_stick" in new:  # (older checkpoints: the friction state is cold)
+            c["stick"][k] = new[f"contact{k}_stick"][itf.blocks, 0] > 0.5
+            c["lam_t"][k] = new[f"contact{k}_lam_t"][itf.blocks]
+            c["xi"][k] = new[f"contact{k}_xi"][itf.blocks]
+        else:
+            for key in ("stick", "lam_t", "xi"):
+                c.pop(key, None)
         if c["work_gaps"]:
             c["work_gaps"][k] = new[f"contact{k}_work_gaps"][itf.blocks, 0]
 

@@ -631,6 +631,7 @@ def run_info(
             "solver": "PDAS (semi-smooth Newton), dual mortar; Tresca/Coulomb friction "
             "(Coulomb fixed_point: outer = bound_updates, inner = pdas_iterations)",
             "setup_time_s": integ.contact.setup_time,
+            **integ.contact.column_report(),
         }
     if dynamic:
         b = integ.balance

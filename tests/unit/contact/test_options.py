@@ -25,6 +25,7 @@ VALUES = {
     "max_columns": 17,
     "rebase_ratio": 3.0,
     "memory_ratio": 0.25,
+    "full_ratio": 0.5,
     "split_basis": False,
     "pc_reuse_rows": 0.5,
     "pc_reuse_growth": 2.0,
@@ -40,12 +41,14 @@ VALUES = {
     "fp_tol": 1e-6,
     "direction_tol": 1e-5,
     "slip_3d": "fixed_point",
+    "warm_slip": True,
 }
 
 #: An invalid value for every field that is validated.
 BAD = {
     "strategy": "fastest",
     "memory_ratio": 0.0,
+    "full_ratio": -0.1,
     "pc_reuse_rows": -1.0,
     "pc_reuse_growth": 0.5,
     "loose_rtol": 1.0,
