@@ -183,7 +183,8 @@ TWO_RANKS_DEFAULT = {"contact_api"}
 
 
 #: demos whose notebook run is long even at the reduced size (vertebra_fracture: two
-#: tumour sizes, each four runs with re-meshed cracks, about 12 min on the loaded machine)
+#: tumour sizes, each a two-region risk run, a standing run and up to 12 fatigue blocks
+#: with re-meshed cracks: about 30 min serial at load 12-15)
 SLOW_NOTEBOOKS = {"vertebra_fracture"}
 
 
