@@ -53,30 +53,32 @@ class MultigridLevel:
 
 
 def local_block(A: PETSc.Mat) -> tuple[sp.csr_matrix, npt.NDArray[np.bool_]]:
-    """This rank's diagonal block of ``A`` (local rows and columns, explicit zeros
-    removed) and the rows without a nonzero off-diagonal entry anywhere (eliminated
-    or Dirichlet rows: identity rows that need no coarse correction)."""
-    r0, r1 = A.getOwnershipRange()
-    ia, ja, a = A.getValuesCSR()
-    rows = np.repeat(np.arange(r1 - r0), np.diff(ia))
-    off = (ja != rows + r0) & (a != 0.0)
-    isolated = np.bincount(rows[off], minlength=r1 - r0) == 0
-    keep = (ja >= r0) & (ja < r1) & (a != 0.0)
-    M = sp.csr_matrix((a[keep], (rows[keep], ja[keep] - r0)), shape=(r1 - r0, r1 - r0))
-    return M, isolated
+    """This rank's diagonal block of ``A`` with its entries squared (local rows and
+    columns; one copy of PETSc's arrays, squared in place) and the rows without a
+    nonzero off-diagonal entry in it (eliminated or Dirichlet rows: identity rows that
+    need no coarse correction; a row that couples only to other ranks' rows does not
+    occur: each row couples to its own node)."""
+    D = A.getDiagonalBlock() if A.getComm().getSize() > 1 else A
+    ia, ja, a = D.getValuesCSR()
+    n = D.getSize()[0]
+    rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(ia))
+    coupled = np.bincount(rows[(ja != rows) & (a != 0.0)], minlength=n) > 0
+    del rows
+    np.multiply(a, a, out=a)
+    return sp.csr_matrix((a, ja, ia), shape=(n, n)), ~coupled
 
 
 def strength_graph(
-    M: sp.csr_matrix, node_of_row: npt.NDArray[np.int64], n_nodes: int, threshold: float
+    M2: sp.csr_matrix, node_of_row: npt.NDArray[np.int64], n_nodes: int, threshold: float
 ) -> sp.csr_matrix:
-    """The symmetric strength graph of the nodes (boolean, no diagonal): nodes ``I ≠ J``
-    are strongly connected when the Frobenius norm of their block of ``M`` exceeds
-    ``threshold · sqrt(‖M_II‖ ‖M_JJ‖)``."""
+    """The symmetric strength graph of the nodes (boolean, no diagonal) from the squared
+    entries ``M2`` of a matrix ``M``: nodes ``I ≠ J`` are strongly connected when the
+    Frobenius norm of their block of ``M`` exceeds ``threshold · sqrt(‖M_II‖ ‖M_JJ‖)``."""
     R = sp.csr_matrix(
         (np.ones(len(node_of_row)), (node_of_row, np.arange(len(node_of_row)))),
-        shape=(n_nodes, M.shape[0]),
+        shape=(n_nodes, M2.shape[0]),
     )
-    F = (R @ M.multiply(M) @ R.T).tocoo()
+    F = (R @ M2 @ R.T).tocoo()
     d = np.sqrt(np.maximum(F.diagonal(), 1e-300))
     strong = (F.row != F.col) & (np.sqrt(F.data) > threshold * np.sqrt(d[F.row] * d[F.col]))
     G = sp.csr_matrix(
@@ -179,9 +181,10 @@ def coarsen(
     """One coarsening step of ``A`` (rows grouped into nodes by ``node_of_row``): the
     level of ``A`` with its prolongator, aggregates and their columns, ``Pᵀ A P``, the
     coarse near-nullspace and the aggregate of every coarse row."""
-    M, isolated = local_block(A)
+    M2, isolated = local_block(A)
     n_nodes = int(node_of_row.max(initial=-1)) + 1
-    G = strength_graph(M, node_of_row, n_nodes, threshold)
+    G = strength_graph(M2, node_of_row, n_nodes, threshold)
+    del M2
     skip = np.bincount(node_of_row, weights=(~isolated).astype(float), minlength=n_nodes) == 0
     agg, n_agg = aggregate(G, skip, distance)
     Z = Z.copy()
