@@ -8,7 +8,7 @@ How each step works: docs/meshing.md (two bones in a joint).  Units: m; y up.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +17,7 @@ from mpi4py import MPI
 import gmsh
 import numpy as np
 from dolfinx.io.gmsh import MeshData
+from scipy.spatial import cKDTree
 
 from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
 from bonecontact.meshing.stl import SurfaceRegion, cortical_inner_surface, select_triangles
@@ -37,6 +38,8 @@ __all__ = [
     "clip_surface",
     "joint_from_surfaces",
     "pose_on",
+    "refine_facets",
+    "smooth_surface",
     "vertical_gaps",
 ]
 
@@ -365,6 +368,67 @@ def clip_surface(surface: Surface, point: Sequence[float], normal: Sequence[floa
     return Surface(out.points, out.triangles, surface.source, surface.repairs + (note,))
 
 
+# ------------------------------------------------------------------------ smoothing
+def _umbrella(triangles: np.ndarray, n: int):
+    """The sparse operator that maps vertex values to the mean over each vertex's edge
+    neighbours."""
+    import scipy.sparse as sp
+
+    e = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    a = sp.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
+    a = ((a + a.T) > 0).astype(float)
+    return sp.diags(1.0 / np.asarray(a.sum(axis=1)).ravel()) @ a
+
+
+def smooth_surface(
+    surface: Surface,
+    iterations: int = 50,
+    *,
+    weights: Callable[[np.ndarray], np.ndarray] | None = None,
+    subdivide: int = 2,
+) -> Surface:
+    """A closed surface with its facets' kinks rounded (Taubin's λ|μ smoothing).
+
+    The triangles are first split into four ``subdivide`` times (linear: the shape is
+    kept), so that the smoothing has vertices between the scan's; then each of
+    ``iterations`` passes moves every vertex towards the mean of its neighbours by
+    ``λ w`` (λ = 0.5) and back by ``μ w`` (μ = -0.53), ``w`` in [0, 1] its weight from
+    ``weights(points)`` (default 1): the shrinking of plain Laplacian smoothing is
+    undone by the second step, so the surface keeps its volume and place while its
+    short-wavelength kinks fade.  Vertices of weight 0 stay (smooth only a region, e.g.
+    a bone's articular end, with a weight tapering to 0 around it).
+
+    Returns
+    -------
+    Surface
+        Closed and oriented as ``surface``; ``repairs`` notes the smoothing.
+    """
+
+    if int(iterations) != iterations or iterations < 0 or subdivide not in (0, 1, 2, 3):
+        raise ValueError(
+            f"iterations must be an integer >= 0 (got {iterations!r}) and subdivide 0-3 "
+            f"(got {subdivide!r})"
+        )
+    fine = surface
+    if subdivide:
+        poly = surface.to_pyvista().subdivide(subdivide, "linear")
+        tri = np.asarray(poly.faces).reshape(-1, 4)[:, 1:].astype(np.int64)
+        fine = orient_surface(merge_vertices(Surface(np.asarray(poly.points, float), tri)))
+    x = fine.points.copy()
+    w = np.ones(len(x)) if weights is None else np.clip(np.asarray(weights(x), float), 0, 1)
+    if w.shape != (len(x),):
+        raise ValueError(f"weights must return one value per point ({len(x)}), got {w.shape}")
+    mean = _umbrella(fine.triangles, len(x))
+    for _ in range(int(iterations)):
+        for factor in (0.5, -0.53):
+            x += (factor * w)[:, None] * (mean @ x - x)
+    note = f"subdivided {subdivide}x and smoothed (Taubin, {iterations} passes)"
+    out = Surface(x, fine.triangles, surface.source, surface.repairs + (note,))
+    if out.volume * surface.volume <= 0:  # pragma: no cover (a sign change: turned over)
+        raise MeshInputError(f"{surface.source}: the smoothing turned the surface over")
+    return out
+
+
 # ------------------------------------------------------------------------ cartilage
 @dataclass(frozen=True)
 class Cartilage:
@@ -391,6 +455,22 @@ class Cartilage:
         ``thickness``.  ``None``: a layer of uniform ``thickness``.
     clearance
         The gap left between the conformed surface and the other one (m, >= 0).
+    conform_along
+        ``"normal"``: the clearance is measured along each vertex normal;
+        ``"vertical"``: along +y, the direction a joint is loaded in, so that a vertical
+        approach by the clearance closes the whole conformed patch at once.
+    subchondral
+        With ``conform_to``: the cell group of bone under a cartilage of uniform
+        ``cartilage_thickness``: of the conformed thickness ``t`` the top
+        ``cartilage_thickness`` is cartilage, the rest (at least a fifth of
+        it) bone: the subchondral surface, not the cartilage,
+        follows the other bone.  ``None``: all of ``t`` is cartilage.
+    cartilage_thickness
+        The cartilage's thickness over the subchondral group (m).
+    refine
+        Times the remeshed articular facets are split into four (0, 1 or 2;
+        :func:`refine_facets`), the new vertices moved onto the bone's given surface
+        (closest point): a finer articular surface, the rest of the bone as remeshed.
     """
 
     name: str
@@ -399,9 +479,31 @@ class Cartilage:
     thickness: float
     conform_to: str | None = None
     clearance: float = 0.0
+    conform_along: str = "normal"
+    subchondral: str | None = None
+    cartilage_thickness: float | None = None
+    refine: int = 0
 
     def __post_init__(self) -> None:
         check_positive(thickness=self.thickness)
+        if self.refine not in (0, 1, 2):
+            raise ValueError(
+                f"cartilage {self.name!r}: refine must be 0, 1 or 2 (got {self.refine!r})"
+            )
+        if (self.subchondral is None) != (self.cartilage_thickness is None) or (
+            self.subchondral is not None and self.conform_to is None
+        ):
+            raise ValueError(
+                f"cartilage {self.name!r}: give subchondral and cartilage_thickness together, "
+                "with conform_to"
+            )
+        if self.cartilage_thickness is not None:
+            check_positive(cartilage_thickness=self.cartilage_thickness)
+        if self.conform_along not in ("normal", "vertical"):
+            raise ValueError(
+                f"cartilage {self.name!r}: conform_along must be 'normal' or 'vertical' "
+                f"(got {self.conform_along!r})"
+            )
         if not self.regions:
             raise ValueError(f"cartilage {self.name!r}: give at least one region")
         if not (math.isfinite(self.clearance) and self.clearance >= 0):
@@ -422,12 +524,15 @@ class CartilageLayer:
     surface's points followed by the offset points; triangles into ``points``: ``base``
     (the facets, the bone–cartilage interface, outward from the bone) and ``top`` (the
     offset facets, the articular surface, outward); they share the rim's vertices (the
-    layer tapers to nothing there).  ``facets``: the bone surface's triangles used."""
+    layer tapers to nothing there).  ``facets``: the bone surface's triangles used.
+    ``mid``: with a subchondral part, the bone–cartilage interface between ``base`` and
+    ``top`` (its points after the offset ones)."""
 
     points: np.ndarray
     base: np.ndarray
     top: np.ndarray
     facets: np.ndarray = field(repr=False)
+    mid: np.ndarray | None = None
 
     @property
     def volume(self) -> float:
@@ -441,6 +546,49 @@ class CartilageLayer:
         base, top = self.base.ravel(), self.top.ravel()
         _, first = np.unique(base, return_index=True)
         return np.linalg.norm(self.points[top[first]] - self.points[base[first]], axis=1)
+
+
+def refine_facets(surface: Surface, facets: np.ndarray) -> Surface:
+    """``surface`` with the triangles ``facets`` split into four at their edges'
+    midpoints (red) and the triangles around them that share one split edge split into
+    two (green; a triangle with two or three split edges is split red too, until none is
+    left): a conforming, consistently oriented surface, finer on ``facets``, with the
+    same shape (the new vertices lie on the old edges, numbered after the old ones)."""
+    tri = surface.triangles
+    red = np.zeros(len(tri), bool)
+    red[np.asarray(facets, np.int64)] = True
+    edges = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
+    key = edges[..., 0] * len(surface.points) + edges[..., 1]  # (m, 3): edge k = (k, k+1)
+    while True:
+        more = ~red & (np.isin(key, key[red]).sum(axis=1) >= 2)
+        if not more.any():
+            break
+        red |= more
+    split_keys, first = np.unique(key[red], return_index=True)
+    pairs = edges[red].reshape(-1, 2)[first]
+    mid = 0.5 * (surface.points[pairs[:, 0]] + surface.points[pairs[:, 1]])
+    m = len(surface.points) + np.searchsorted(split_keys, key, side="left")
+    split = np.isin(key, split_keys)
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, bc, ca = m[:, 0], m[:, 1], m[:, 2]
+    r, g = red, ~red & split.any(axis=1)
+    out = [tri[~red & ~split.any(axis=1)]]
+    out += [np.c_[a, ab, ca][r], np.c_[ab, b, bc][r], np.c_[ca, bc, c][r], np.c_[ab, bc, ca][r]]
+    for k, (p, q, o, mm) in enumerate(((a, b, c, ab), (b, c, a, bc), (c, a, b, ca))):
+        gk = g & split[:, k]
+        out += [np.c_[p, mm, o][gk], np.c_[mm, q, o][gk]]
+    points = np.vstack([surface.points, mid])
+    return Surface(points, np.vstack(out).astype(np.int64), surface.source, surface.repairs)
+
+
+def _refine_onto(surface: Surface, facets: np.ndarray, onto: Surface) -> Surface:
+    """:func:`refine_facets`, the new vertices moved to their closest points on
+    ``onto`` (the smooth surface ``surface`` was remeshed from)."""
+    n0 = len(surface.points)
+    fine = refine_facets(surface, facets)
+    _, on = onto.to_pyvista().find_closest_cell(fine.points[n0:], return_closest_point=True)
+    points = np.vstack([fine.points[:n0], np.asarray(on, float)])
+    return Surface(points, fine.triangles, fine.source, fine.repairs)
 
 
 def _rim_edges(tri: np.ndarray) -> np.ndarray:
@@ -476,9 +624,18 @@ def _ray_distances(origins: np.ndarray, dirs: np.ndarray, target: Surface) -> np
     """Distance along each ray ``origins + s dirs`` (unit ``dirs``, ``s > 0``) to its
     first crossing of the triangles of ``target`` (m; inf: no crossing; Moller-Trumbore,
     in chunks of rays)."""
+    return _ray_hits(origins, dirs, target)[0]
+
+
+def _ray_hits(
+    origins: np.ndarray, dirs: np.ndarray, target: Surface
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_ray_distances` and the triangle of ``target`` each ray crosses first (-1:
+    none)."""
     a, b, c = (target.points[target.triangles[:, k]] for k in range(3))
     e1, e2 = b - a, c - a
     out = np.full(len(origins), np.inf)
+    which = np.full(len(origins), -1, np.int64)
     for lo in range(0, len(origins), 256):
         o, d = origins[lo : lo + 256, None, :], dirs[lo : lo + 256, None, :]
         p = np.cross(d, e2)
@@ -491,8 +648,11 @@ def _ray_distances(origins: np.ndarray, dirs: np.ndarray, target: Surface) -> np
         v = np.einsum("rtk,rtk->rt", d, q) * inv
         s = np.einsum("rtk,tk->rt", q, e2) * inv
         hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (s > 0)
-        out[lo : lo + 256] = np.where(hit, s, np.inf).min(axis=1)
-    return out
+        dist = np.where(hit, s, np.inf)
+        first = dist.argmin(axis=1)
+        out[lo : lo + 256] = dist[np.arange(len(dist)), first]
+        which[lo : lo + 256] = np.where(np.isfinite(out[lo : lo + 256]), first, -1)
+    return out, which
 
 
 def _conformed_thickness(
@@ -501,12 +661,17 @@ def _conformed_thickness(
     thickness: float,
     conform: tuple[Surface, float],
     source: str,
+    along: str = "normal",
 ) -> np.ndarray:
     """Per-vertex thickness of a layer shaped to ``conform = (surface, clearance)``: the
-    distance along the normal to that surface less the clearance, at most ``thickness``;
-    refused where it would be below a tenth of ``thickness`` (the bones too close)."""
+    distance along the normal to that surface less the clearance (``along="vertical"``:
+    the clearance measured vertically, :func:`_vertical_thickness`), at most
+    ``thickness``; refused where it would be below a tenth of ``thickness`` (the bones
+    too close)."""
     target, clearance = conform
     t = np.minimum(_ray_distances(origins, normals, target) - clearance, thickness)
+    if along == "vertical":
+        t = _vertical_thickness(origins, normals, t, thickness, conform)
     if np.any(t < 0.1 * thickness):
         k = int(np.argmin(t))
         raise MeshInputError(
@@ -514,6 +679,95 @@ def _conformed_thickness(
             f"from the bone at {np.round(origins[k], 5).tolist()} m, less than the clearance "
             f"{clearance:.3g} m plus a tenth of the thickness: pose the bones further apart"
         )
+    return t
+
+
+def _vertical_thickness(
+    origins: np.ndarray,
+    normals: np.ndarray,
+    t: np.ndarray,
+    thickness: float,
+    conform: tuple[Surface, float],
+) -> np.ndarray:
+    """The thicknesses ``t`` (offsets along the unit ``normals``, first guesses) solved
+    so that the point ``origins + t normals`` lies ``clearance`` below ``target``
+    measured vertically (+y, the direction the joint is loaded in): Newton steps on the
+    vertical gap ``g(t)`` with the slope ``dg/dt = -n_y`` of a level target (12 steps,
+    each at most a quarter of ``thickness``).  Vertices whose normal is within 30° of
+    horizontal, or whose solution is beyond ``thickness`` or whose upward ray misses
+    ``target``, keep ``min(t, thickness)``."""
+    target, clearance = conform
+    ny = normals[:, 1]
+    move = ny > 0.5
+    t = np.minimum(t, thickness)
+    up = np.tile(UP, (len(t), 1))
+    for _ in range(12):
+        gap = _ray_distances(origins + t[:, None] * normals, up, target)
+        ok = move & np.isfinite(gap)
+        step = np.where(ok, (gap - clearance) / np.where(move, ny, 1.0), 0.0)
+        t = np.clip(t + np.clip(step, -0.25 * thickness, 0.25 * thickness), 0.0, thickness)
+    return t
+
+
+def _lower_under_target(
+    bone: np.ndarray,
+    verts: np.ndarray,
+    normals: np.ndarray,
+    t: np.ndarray,
+    top: np.ndarray,
+    conform: tuple[Surface, float],
+) -> np.ndarray:
+    """The vertically conformed thicknesses ``t`` (:func:`_vertical_thickness`) lowered
+    where a vertex of ``target`` is less than ``clearance`` above the layer's articular
+    triangles ``top`` (measured by a vertical ray down from it): between its own
+    vertices a triangle follows ``target`` only by its chord, and where ``target``
+    curves away (a convex condyle over it) the chord stands above ``target`` less the
+    clearance.  Each such target vertex lowers the three vertices of the triangle under
+    it by its deficit (along their normals, by deficit / n_y); the largest deficit
+    counts; up to 30 passes.  Lowering only: no gap becomes smaller than the clearance."""
+    target, clearance = conform
+    n0 = len(bone)
+    t = t.copy()
+    down = np.tile(-UP, (len(target.points), 1))
+    ny = np.maximum(normals[:, 1], 0.5)
+    for _ in range(30):
+        pts = np.vstack([bone, bone[verts] + t[:, None] * normals])
+        gap, tri = _ray_hits(target.points, down, Surface(pts, top, "layer"))
+        need = np.where(tri >= 0, clearance - gap, 0.0)
+        bad = need > 1e-3 * clearance
+        if not bad.any():
+            break
+        lower = np.zeros(len(pts))
+        for k in range(3):
+            np.maximum.at(lower, top[tri[bad], k], need[bad])
+        inner = lower[n0:]
+        t = np.maximum(t - inner / ny, 0.0)
+    return t
+
+
+def _thin_where_turned(
+    bone: np.ndarray,
+    verts: np.ndarray,
+    normals: np.ndarray,
+    t: np.ndarray,
+    top: np.ndarray,
+    facet_normals: np.ndarray,
+) -> np.ndarray:
+    """The thicknesses ``t`` of a conformed layer lowered by a fifth, 20 passes at most,
+    at the inner vertices of every articular triangle that the offset turned over (its
+    normal against its facet's ``facet_normals``): where the bone curves more tightly
+    than the layer is thick (a plateau's rim).  A layer of variable thickness can thin
+    there; a uniform layer is refused instead (:func:`cartilage_layer`)."""
+    n0 = len(bone)
+    t = t.copy()
+    for _ in range(20):
+        p = np.vstack([bone, bone[verts] + t[:, None] * normals])
+        nt = np.cross(p[top[:, 1]] - p[top[:, 0]], p[top[:, 2]] - p[top[:, 0]])
+        bad = np.einsum("ij,ij->i", nt, facet_normals) <= 0
+        if not bad.any():
+            break
+        k = np.unique(top[bad])
+        t[k[k >= n0] - n0] *= 0.8
     return t
 
 
@@ -549,6 +803,8 @@ def cartilage_layer(
     facets: np.ndarray,
     thickness: float,
     conform: tuple[Surface, float] | None = None,
+    along: str = "normal",
+    cartilage_thickness: float | None = None,
 ) -> CartilageLayer:
     """The layer of ``thickness`` (m) on the triangles ``facets`` of a closed surface.
 
@@ -558,6 +814,13 @@ def cartilage_layer(
     normal ray), and by ``thickness`` at most (where ``other`` is far or not crossed).
     The articular surface then follows ``other`` at the distance ``clearance`` (to the
     facets' resolution) where the two bones are close: the layers meet over a patch.
+    ``along="vertical"`` measures the clearance vertically instead (+y), lowers the
+    layer where a vertex of ``other`` is less than the clearance above it, keeps it no
+    steeper than 45° towards its rim and thins it where the offset would turn a facet
+    over (a vertical load then closes the patch at once).  With
+    ``cartilage_thickness`` the layer is split by a middle surface (``mid``): the top
+    ``cartilage_thickness`` of each offset is cartilage, the rest subchondral bone (at
+    least a fifth of the offset).
 
     Every inner vertex of the facets is offset outward along its normal (the
     area-weighted mean of the normals of its facets) by ``thickness``; the vertices of
@@ -586,13 +849,23 @@ def cartilage_layer(
     vn = vn[verts] / np.linalg.norm(vn[verts], axis=1, keepdims=True)
     t = np.full(len(verts), thickness)
     if conform is not None:
-        t = _conformed_thickness(surface.points[verts], vn, thickness, conform, surface.source)
+        t = _conformed_thickness(
+            surface.points[verts], vn, thickness, conform, surface.source, along
+        )
+    if conform is not None and along == "vertical":
+        # no steeper than 45 degrees towards the rim: no wall for the other layer to hit
+        rim_distance = cKDTree(surface.points[on_rim]).query(surface.points[verts])[0]
+        t = np.minimum(t, np.maximum(rim_distance, 0.1 * thickness))
     n0 = len(surface.points)
     new_id = np.arange(n0, dtype=np.int64)
     new_id[verts] = n0 + np.arange(len(verts))
     top = new_id[base]
+    if conform is not None and along == "vertical":
+        t = _lower_under_target(surface.points, verts, vn, t, top, conform)
     if conform is not None:
         t = _thin_where_crossing(surface.points, verts, vn, t, top, conform[0])
+    if conform is not None and along == "vertical":
+        t = _thin_where_turned(surface.points, verts, vn, t, top, fn)
     points = np.vstack([surface.points, surface.points[verts] + t[:, None] * vn])
     nt = np.cross(points[top[:, 1]] - points[top[:, 0]], points[top[:, 2]] - points[top[:, 0]])
     if np.any(np.einsum("ij,ij->i", nt, fn) <= 0):
@@ -600,7 +873,13 @@ def cartilage_layer(
             f"{surface.source}: a cartilage layer of {thickness:.3g} m turns a facet over "
             "(the facets curve more tightly than the thickness): use a thinner layer"
         )
-    layer = CartilageLayer(points, base, top, facets)
+    mid = None
+    if cartilage_thickness is not None:
+        sub = np.maximum(t - cartilage_thickness, 0.2 * t)
+        new_id[verts] = len(points) + np.arange(len(verts))
+        mid = new_id[base]
+        points = np.vstack([points, surface.points[verts] + sub[:, None] * vn])
+    layer = CartilageLayer(points, base, top, facets, mid)
     if layer.volume <= 0:
         raise MeshInputError(f"{surface.source}: the cartilage layer encloses no volume")
     return layer
@@ -668,6 +947,8 @@ def _bone_parts(
     regions = list(bone.regions)
     layer = None
     if bone.cartilage is not None:
+        for _ in range(bone.cartilage.refine):
+            outer = _refine_onto(outer, bone.cartilage.select(outer), bone.surface)
         facets = bone.cartilage.select(outer)
         if not len(facets):
             raise MeshInputError(
@@ -675,7 +956,10 @@ def _bone_parts(
                 "no triangle of the surface"
             )
         conform = _conform_target(bone.cartilage, done)
-        layer = cartilage_layer(outer, facets, bone.cartilage.thickness, conform)
+        cart = bone.cartilage
+        layer = cartilage_layer(
+            outer, facets, cart.thickness, conform, cart.conform_along, cart.cartilage_thickness
+        )
     keep = np.ones(len(outer.triangles), bool)
     if layer is not None:
         keep[layer.facets] = False
@@ -739,6 +1023,8 @@ def _add_bone(part: _BoneParts, tags: PhysicalGroups, next_node: int, facet_grou
         base, top = entity(part.layer.base), entity(part.layer.top)
         outer.append(base)
         layer_ents = (base, top)
+        if part.layer.mid is not None:
+            layer_ents = (base, entity(part.layer.mid), top)
         facet_groups.setdefault(part.cartilage.contact, []).append(top)
     next_node += len(x)
     kernel = m.geo
@@ -751,9 +1037,11 @@ def _add_bone(part: _BoneParts, tags: PhysicalGroups, next_node: int, facet_grou
         holes.append(kernel.addSurfaceLoop([e]))
     shell = kernel.addVolume([kernel.addSurfaceLoop(outer), *holes])
     cores = [kernel.addVolume([loop]) for loop in holes]
-    cart = None
+    cart, sub = None, None
     if layer_ents is not None:
-        cart = kernel.addVolume([kernel.addSurfaceLoop(list(layer_ents))])
+        cart = kernel.addVolume([kernel.addSurfaceLoop(list(layer_ents[-2:]))])
+    if layer_ents is not None and len(layer_ents) == 3:
+        sub = kernel.addVolume([kernel.addSurfaceLoop(list(layer_ents[:2]))])
     kernel.synchronize()
     if part.inner:
         tags(3, [shell], f"{part.name}_cortical")
@@ -762,6 +1050,8 @@ def _add_bone(part: _BoneParts, tags: PhysicalGroups, next_node: int, facet_grou
         tags(3, [shell], part.name)
     if cart is not None:
         tags(3, [cart], part.cartilage.name)
+    if sub is not None:
+        tags(3, [sub], part.cartilage.subchondral)
     return next_node
 
 
