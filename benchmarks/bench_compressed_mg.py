@@ -1,0 +1,129 @@
+"""The compressed-aggregation multigrid against GAMG on the 3D contact solve (issue 28).
+
+The load-driven 3D Hertz problem of ``bench_contact3d.py`` is built and solved once per
+process with one multigrid (``--variant``: ``gamg`` — PETSc's GAMG, W-cycles, the
+default; ``cmg`` — :mod:`bonecontact.contact.compressed_mg`, W-cycles; ``cmgv`` — the same,
+V-cycles; ``-rebuild``: the preconditioner rebuilt for every solve, ``pc_reuse_rows =
+0``), at the scene tolerance 1e-6 (final Krylov rtol 1e-8, loose 1e-4).  Per run:
+PDAS and CG iterations, preconditioner builds, PETSc operations of the contact solve
+(summed over the ranks), its wall time (busy machine: the load is recorded), the peak
+resident memory of the process (max over the ranks: one variant per process, so the
+peaks compare), the first level's aggregates by their columns and the hierarchy's rows
+and nonzeros (compressed), the Hertz errors and the equilibrium defect.
+
+Usage (one process per variant; also under ``mpiexec -n 2``)::
+
+    python benchmarks/bench_compressed_mg.py --size 65k --variant cmg
+
+Appends a row to ``results/compressed_mg.csv``.
+"""
+
+from __future__ import annotations
+
+import dolfinx_solver  # noqa: F401
+
+import argparse
+import os
+import resource
+import tempfile
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+from bench_contact3d import SIZES
+from common import machine, write_rows
+
+from bonecontact.contact.krylov import krylov_rtol
+from bonecontact.contact.options import LinearOptions, PDASOptions
+from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3d
+
+COMM = MPI.COMM_WORLD
+OUT = Path(__file__).parent / "results"
+VARIANTS = {
+    "gamg": ("gamg", "w", 0.25),
+    "cmg": ("compressed", "w", 0.25),
+    "cmgv": ("compressed", "v", 0.25),
+    "cmg-rebuild": ("compressed", "w", 0.0),
+    "cmgv-rebuild": ("compressed", "v", 0.0),
+}
+
+
+def hierarchy(solver) -> dict:
+    """Rows, nonzeros and first-level columns of the compressed hierarchy (empty for GAMG)."""
+    pc = solver.ksp.getPC()
+    ctx = pc.getPythonContext() if pc.getType() == "python" else None
+    if ctx is None:
+        return {"level_rows": "", "level_nnz": "", "columns_histogram": ""}
+    hist = np.bincount(ctx.ranks, minlength=13)
+    hist = COMM.allreduce(hist, op=MPI.SUM)
+    return {
+        "level_rows": "/".join(map(str, ctx.sizes)),
+        "level_nnz": "/".join(map(str, ctx.nonzeros)),
+        "columns_histogram": " ".join(f"{k}:{int(n)}" for k, n in enumerate(hist) if n),
+    }
+
+
+def run(label: str, variant: str, mesh_dir: Path) -> dict:
+    """One contact solve with the variant (module docstring): its row."""
+    h, h_far, mesher = SIZES[label]
+    kind, cycle, reuse = VARIANTS[variant]
+    lin = LinearOptions(multigrid=kind, multigrid_cycle=cycle, pc_reuse_rows=reuse)
+    options = PDASOptions(linear=lin)
+    pb = sphere_on_block_3d(
+        COMM, h, h_far=h_far, linear="iterative", rtol=krylov_rtol(1e-6), options=options,
+        mesh_file=mesh_dir / f"contact3d_{label}_{mesher}.msh", algorithm_3d=mesher,
+    )  # fmt: skip
+    load0 = os.getloadavg()[0]
+    COMM.barrier()
+    f0, t0 = PETSc.Log.getFlops(), time.perf_counter()
+    res = pb.solve()
+    t = COMM.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    flops = COMM.allreduce(PETSc.Log.getFlops() - f0, op=MPI.SUM)
+    err = hertz_errors(pb, res)
+    solver = pb.integrator.contact
+    peak = COMM.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, op=MPI.MAX)
+    row = {
+        "size": label,
+        "variant": variant,
+        "ranks": COMM.size,
+        "dofs": pb.model.num_dofs,
+        "pdas_iterations": res.iterations,
+        "cg_iterations": res.linear_iterations,
+        "per_pdas_iteration": "/".join(str(x.get("linear_iterations", 0)) for x in res.history),
+        "pc_builds": solver.pc_reuse.builds,
+        "gflops": round(flops / 1e9, 2),
+        "t_contact_s": round(t, 2),
+        "peak_mib_max_rank": round(peak, 1),
+        "active": err["active"],
+        "err_a": float(f"{err['a']:.4e}"),
+        "err_p0": float(f"{err['p0']:.4e}"),
+        "equilibrium": float(f"{err['equilibrium']:.1e}"),
+        **hierarchy(solver),
+        "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}",
+        "machine": machine(),
+        "time_utc": time.strftime("%H:%M", time.gmtime()),
+    }
+    pb.destroy()
+    return row
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--size", default="25k", help="label of bench_contact3d.SIZES")
+    p.add_argument("--variant", default="cmg", choices=sorted(VARIANTS))
+    p.add_argument(
+        "--mesh-dir", default=os.path.join(tempfile.gettempdir(), "bonecontact-bench-meshes")
+    )
+    p.add_argument("--out", default=str(OUT))
+    args = p.parse_args()
+    row = run(args.size, args.variant, Path(args.mesh_dir))
+    if COMM.rank == 0:
+        print("compressed_mg", row, flush=True)
+    write_rows(Path(args.out), "compressed_mg", [row])
+
+
+if __name__ == "__main__":
+    main()
