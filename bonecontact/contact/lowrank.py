@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg import lapack
 
+from bonecontact.common.blas import one_blas_thread
 from bonecontact.common.errors import RunError
 from bonecontact.common.linalg import configure_ksp, solver_options
 from bonecontact.contact.reductions import (
@@ -210,16 +211,18 @@ def solve_small_system(
     naming the global positions ``cols`` of the rows the near-null vector involves."""
     r, c = _equilibration(M)
     Me = M * r[:, None] * c[None, :]
-    lu, piv, info = lapack.dgetrf(Me)
-    norm1 = float(np.abs(Me).sum(axis=0).max())
-    rcond = lapack.dgecon(lu, norm1, norm="1")[0] if info == 0 else 0.0
+    with one_blas_thread():  # (threads cost more than they save here, and spin)
+        lu, piv, info = lapack.dgetrf(Me)
+        norm1 = float(np.abs(Me).sum(axis=0).max())
+        rcond = lapack.dgecon(lu, norm1, norm="1")[0] if info == 0 else 0.0
     if rcond < 1e-13:
         n = M.shape[0]
         raise SingularActiveSetError(
             f"the system of the active set is singular (condition number of the "
             f"{n}×{n} update > 1e13 after equilibration){_null_rows(Me, cols)}"
         )
-    return c * lapack.dgetrs(lu, piv, r * rhs)[0]
+    with one_blas_thread():
+        return c * lapack.dgetrs(lu, piv, r * rhs)[0]
 
 
 def _null_rows(Me: npt.NDArray, cols: list[int] | None) -> str:
@@ -867,8 +870,9 @@ class LowRankActiveSetSolver:
                 cols, (active, scale), (G, KG), (xN, wN), coupled, crow
             )
             y = solve_small_system(M, rhs, cols) * csc
-            xN += G @ y
-            wN -= KG @ y
+            with one_blas_thread():  # (small products: see solve_small_system)
+                xN += G @ y
+                wN -= KG @ y
             self._y = (cols, y)
         return xN, wN, {"columns": new_cols, "refactorized": refactorized, "size": len(cols)}
 
