@@ -263,7 +263,7 @@ class Integrator:
         coeffs, force_scale = self.scheme_coefficients()
         if kind == "dynamic":
             _ = model.M  # raises a clear error without density
-        self.A = model.combined_operator(*coeffs)
+        self._coeffs = coeffs
         self.M = model.M if kind == "dynamic" else None
         self._dM = None
         if mass_redistribution:
@@ -272,14 +272,26 @@ class Integrator:
             self.M = redistributed_mass(model, contact.slave_blocks)
             self._dM = self.M.duplicate(copy=True)
             self._dM.axpy(-1.0, model.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-            self.A.axpy(coeffs[0], self._dM, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        #: the step operator; ``None`` when released (static with contact: the contact
+        #: solver holds its own operator and a step needs ``A`` for two products only,
+        #: taken from the forms instead, :meth:`operator_product`; issue 28)
+        self.A: PETSc.Mat | None = self._assemble_operator()
+        self._b, self._w = self.A.createVecs()
+        #: ``A uⁿ⁺¹`` of the last step and that ``uⁿ⁺¹`` (owned), once ``A`` is released
+        self._Au: tuple[PETSc.Vec, np.ndarray] | None = None
         self._bc_local = model.bc_dofs()
         self._bc_rows = owned_global_rows(V, self._bc_local)
         self._bc_owned_local = self._bc_local[self._bc_local < model.num_owned]
         # decided collectively: a rank without constrained dofs must still take part
         # in the collective lifting product of the other ranks
         self._has_bc = model.mesh.comm.allreduce(int(self._bc_local.size)) > 0
-        self._A_bc: PETSc.Mat | None = self._eliminated_operator()
+        release = contact is not None and kind == "static"
+        #: the rows of A at the supports (kept when A is released: the reactions exactly)
+        self._A_rows = self._support_rows() if release else None
+        # (released: A itself becomes A_bc, never two matrices of its size at once)
+        self._A_bc: PETSc.Mat | None = self._eliminated_operator(in_place=release)
+        if release:
+            self.A = None
         self.contact = contact
         self.last_contact = None
         if contact is not None:
@@ -288,13 +300,12 @@ class Integrator:
                 self._A_bc, self._bc_rows, force_scale=force_scale, linear=linear, rtol=rtol
             )
             # the contact solver has built its own operators: no step needs A_bc again
-            # (the residual uses A); a solver that kept it holds its own reference
+            # (the residual uses A or its forms); a solver that kept it holds its own reference
             self._A_bc = None
         else:
             nns = rigid_body_modes(V) if linear == "iterative" else None
             self.ksp = create_solver(self._A_bc, linear, nns, rtol=rtol)
         self.setup_time = _time.perf_counter() - t0
-        self._b, self._w = self.A.createVecs()
         self._F = self._b.duplicate()
         self._rhs0 = self._b.duplicate()
         #: force residual r of the last step (owned entries): the support and contact forces
@@ -304,7 +315,6 @@ class Integrator:
         self.inertia = self._b.duplicate() if kind == "dynamic" else None
         if self.inertia is not None:
             self.inertia.zeroEntries()
-        self._coeffs = coeffs
         self.energy_balance = bool(energy_balance)
         self.last_balance: EnergyBalance | None = None
         self.balance = EnergyBalance()
@@ -314,12 +324,56 @@ class Integrator:
             self._reset_balance()
 
     # -------------------------------------------------------------- set-up
-    def _eliminated_operator(self) -> PETSc.Mat:
+    def _assemble_operator(self) -> PETSc.Mat:
+        """The step operator c_M M + c_K K + c_V Kv (with the redistributed mass's
+        change, if any; collective)."""
+        A = self.model.combined_operator(*self._coeffs)
+        if self._dM is not None:
+            A.axpy(self._coeffs[0], self._dM, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        return A
+
+    def _eliminated_operator(self, in_place: bool = False) -> PETSc.Mat:
         """A copy of the step operator with the Dirichlet rows and columns eliminated
-        (unit diagonal; collective)."""
-        A_bc = self.A.duplicate(copy=True)
+        (unit diagonal; collective; assembled again if the operator was released);
+        ``in_place``: the step operator itself, eliminated."""
+        if self.A is None:
+            A_bc = self._assemble_operator()
+        else:
+            A_bc = self.A if in_place else self.A.duplicate(copy=True)
         A_bc.zeroRowsColumns(self._bc_rows, diag=1.0)
         return A_bc
+
+    def _support_rows(self) -> PETSc.Mat:
+        """The rows of the step operator at this rank's Dirichlet dofs, all columns
+        (collective)."""
+        comm = self.A.getComm()
+        lo, hi = self.A.getOwnershipRangeColumn()
+        isrow = PETSc.IS().createGeneral(self._bc_rows, comm=comm)
+        iscol = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=comm)
+        try:
+            return self.A.createSubMatrix(isrow, iscol)
+        finally:
+            isrow.destroy()
+            iscol.destroy()
+
+    def operator_product(self, x: PETSc.Vec, out: PETSc.Vec) -> None:
+        """``out = A x`` for the step operator ``A`` (collective): the matrix product, or,
+        once ``A`` is released, the action of its forms
+        (:meth:`~bonecontact.mechanics.model.Mechanics.operator_action`; equal up to
+        round-off), zero without assembly for ``x = 0``."""
+        if self.A is not None:
+            self.A.mult(x, out)
+            return
+        comm = self.model.mesh.comm
+        if not comm.allreduce(bool(np.any(x.array_r != 0.0)), op=MPI.LOR):
+            out.set(0.0)
+            return
+        self.model.operator_action(self._coeffs, x, out)
+        if self._dM is not None:
+            dm = self._dM.createVecLeft()
+            self._dM.mult(x, dm)
+            out.axpy(self._coeffs[0], dm)
+            dm.destroy()
 
     @property
     def A_bc(self) -> PETSc.Mat:
@@ -413,7 +467,7 @@ class Integrator:
             return
         g = self._g
         self.model.dirichlet_values(t, g)
-        self.A.mult(g.x.petsc_vec, self._w)
+        self.operator_product(g.x.petsc_vec, self._w)
         b.axpy(-1.0, self._w)
         b.array[self._bc_owned_local] = g.x.array[self._bc_owned_local]
 
@@ -460,8 +514,15 @@ class Integrator:
         ``(A uⁿ⁺¹ − b)/c_K`` with ``b`` the right-hand side before Dirichlet lifting; nonzero
         only where supports and contact act (elsewhere: solver tolerance).  Dynamic runs
         also get the inertial term ``M(uⁿ⁺¹ − 2uⁿ + uⁿ⁻¹)/Δt²``."""
-        r = self.residual
-        self.A.mult(self.u.x.petsc_vec, r)
+        r, u = self.residual, self.u.x.petsc_vec
+        self.operator_product(u, r)
+        if self.A is None:
+            self._keep_product(r)  # (for the strain energy of this state)
+            # the supports' rows as the matrix product gives them (the reactions)
+            rows = self._A_rows.createVecLeft()
+            self._A_rows.mult(u, rows)
+            r.array[self._bc_owned_local] = rows.array_r
+            rows.destroy()
         r.axpy(-1.0, self._rhs0)
         r.scale(1.0 / self._coeffs[1])
         if self.inertia is not None:
@@ -494,8 +555,7 @@ class Integrator:
     def energy(self) -> Energy:
         """E = ½ vᵀMv + ½ uᵀKu for the current state (kinetic 0 unless dynamic)."""
         u = self.u_n.x.petsc_vec
-        K, scale = self._stiffness()
-        K.mult(u, self._w)
+        scale = self._stiffness_product(u, self._w)
         strain = 0.5 * scale * self._w.dot(u)
         kin = 0.0
         if self.kind == "dynamic":
@@ -504,14 +564,29 @@ class Integrator:
             kin = 0.5 * self._w.dot(v)
         return Energy(kin, strain)
 
-    def _stiffness(self) -> tuple[PETSc.Mat, float]:
-        """``(K', s)`` with ``K = s K'``: the step operator when it is a multiple of the
-        stiffness alone (no mass, no viscous term), else the model's ``K`` (assembled
-        once on demand; a static run then holds no second copy of its operator)."""
+    def _stiffness_product(self, u: PETSc.Vec, out: PETSc.Vec) -> float:
+        """``out = K' u`` and ``s`` with ``K = s K'``: ``K'`` the step operator when it is
+        a multiple of the stiffness alone (no mass, no viscous term; its product with
+        the last step's solution kept from the residual once ``A`` is released), else
+        the model's ``K`` (assembled once on demand; a static run then holds no second
+        copy of its operator)."""
         c_mass, c_elastic, c_viscous = self._coeffs
         if c_mass == 0.0 and c_viscous == 0.0 and self._dM is None:
-            return self.A, 1.0 / c_elastic
-        return self.model.K, 1.0
+            same = self._Au is not None and np.array_equal(self._Au[1], u.array_r)
+            if self.model.mesh.comm.allreduce(same, op=MPI.LAND):  # (collective choice)
+                self._Au[0].copy(out)
+            else:
+                self.operator_product(u, out)
+            return 1.0 / c_elastic
+        self.model.K.mult(u, out)
+        return 1.0
+
+    def _keep_product(self, Au: PETSc.Vec) -> None:
+        """Keep ``A uⁿ⁺¹`` (``Au``) and ``uⁿ⁺¹`` of the step just solved."""
+        if self._Au is None:
+            self._Au = (Au.duplicate(), np.empty(0))
+        Au.copy(self._Au[0])
+        self._Au = (self._Au[0], self.u.x.petsc_vec.array_r.copy())
 
     # ------------------------------------------------------- energy balance
     def contact_gaps(self, u: fem.Function | None = None) -> list[np.ndarray]:
@@ -587,9 +662,9 @@ class Integrator:
         if self._dM is not None:
             for obj in (self._dM, self.M):
                 obj.destroy()
-        for obj in (self.ksp, self.A, self._A_bc, self._b, self._w, self._F, self._rhs0):
+        for obj in (self.ksp, self.A, self._A_bc, self._A_rows, self._b, self._w, self._F):
             if obj is not None:
                 obj.destroy()
-        for obj in (self.residual, self.inertia):
+        for obj in (self._rhs0, self.residual, self.inertia, self._Au[0] if self._Au else None):
             if obj is not None:
                 obj.destroy()

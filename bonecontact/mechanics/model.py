@@ -36,6 +36,10 @@ from bonecontact.materials.constitutive import MaterialFields, material_fields
 from bonecontact.materials.laws import Material
 from bonecontact.mechanics.forces import FacetMeasures, facet_measures, force_traction
 
+#: Cells per form of :meth:`Mechanics.operator_action` (its coefficients are packed per
+#: form: ~0.5 kB per cell in 3D)
+ACTION_CHUNK = 16384
+
 __all__ = ["Mechanics", "Schedule", "constant_schedule"]
 
 Schedule = Callable[[float], float]
@@ -112,6 +116,7 @@ class Mechanics:
         self.dirichlet: list[_Dirichlet] = []
         self._mats = _Matrices()
         self._anp: dict | None = None
+        self._actions: dict[tuple[float, float, float], tuple] = {}  # (operator_action)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -364,25 +369,77 @@ class Mechanics:
         DB.diagonalScale(L=ws)
         return Bs.transposeMatMult(DB)
 
-    def combined_operator(self, c_mass: float, c_elastic: float, c_viscous: float) -> PETSc.Mat:
-        """c_M M + c_K K + c_V Kv assembled in one pass (nodal-pressure terms included)."""
+    def _operator_form(self, c_mass: float, c_elastic: float, c_viscous: float) -> ufl.Form:
+        """The bilinear form c_M m + c_K a⁽⁰⁾ + c_V a⁽¹⁾ (without the nodal-pressure terms)."""
         f = self.fields
-        u, v, dx = self._u, self._v, self.dx
+        u, v = self._u, self._v
         a = 0
         if c_mass:
             a = a + c_mass * mass_form(u, v, f.rho, ufl.dx)
         a = a + c_elastic * elastic_form(u, v, f.C, self.dim, ufl.dx)
         if c_viscous and f.has_viscosity:
             a = a + c_viscous * viscous_form(u, v, f.C_v, self.dim, ufl.dx)
-        A = self._assemble(a)
+        return a
+
+    def combined_operator(self, c_mass: float, c_elastic: float, c_viscous: float) -> PETSc.Mat:
+        """c_M M + c_K K + c_V Kv assembled in one pass (nodal-pressure terms included)."""
+        f = self.fields
+        A = self._assemble(self._operator_form(c_mass, c_elastic, c_viscous))
         if f.has_nodal_pressure:
             A.axpy(
                 1.0,
                 self._anp_matrix(c_elastic, c_viscous if f.has_viscosity else 0.0),
                 structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN,
             )
-        del dx
         return A
+
+    def operator_action(
+        self, coeffs: tuple[float, float, float], x: PETSc.Vec, out: PETSc.Vec
+    ) -> None:
+        """``out = (c_M M + c_K K + c_V Kv) x`` without the matrix (collective): the
+        action of the forms of :meth:`combined_operator` assembled as a vector, the
+        nodal-pressure terms as ``Bᵀ diag(c_K k/m² + c_V k_v/m²) B x``; the matrix
+        product's value up to round-off.  ``x`` and ``out``: owned entries in the layout
+        of the operator.  The compiled form is kept per ``coeffs`` (issue 28: a static
+        contact run releases its step operator and takes its products from here)."""
+        c_mass, c_elastic, c_viscous = (float(c) for c in coeffs)
+        w, forms, vec = self._action_forms((c_mass, c_elastic, c_viscous))
+        w.x.petsc_vec.array[:] = x.array_r
+        w.x.scatter_forward()
+        with vec.localForm() as loc:
+            loc.set(0.0)
+        for form in forms:
+            fem_petsc.assemble_vector(vec, form)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        out.array[:] = vec.array_r
+        if self.fields.has_nodal_pressure:
+            cv = c_viscous if self.fields.has_viscosity else 0.0
+            d = self._anp_setup()
+            y = d["B"].createVecLeft()
+            d["B"].mult(x, y)
+            y.array[:] *= c_elastic * d["w0"].array_r + cv * d["wv"].array_r
+            d["B"].multTransposeAdd(y, out, out)
+            y.destroy()
+
+    def _action_forms(self, coeffs: tuple[float, float, float]) -> tuple:
+        """``(w, forms, vector)``: the compiled action of :meth:`_operator_form` on the
+        function ``w``, one form per chunk of :data:`ACTION_CHUNK` owned cells (DOLFINx
+        packs the coefficients of all cells of a form at once: the Voigt stiffness
+        alone is 36 values per cell), and a vector to assemble it into (made once per
+        ``coeffs``; collective)."""
+        if coeffs not in self._actions:
+            w = fem.Function(self.V)
+            integrals = ufl.action(self._operator_form(*coeffs), w).integrals()
+            n = self.mesh.topology.index_map(self.mesh.topology.dim).size_local
+            count = self.mesh.comm.allreduce(-(-n // ACTION_CHUNK), op=MPI.MAX)  # (fem.form
+            forms = []  # is collective: the same number of forms on every rank)
+            for k in range(count):
+                cells = np.arange(k * ACTION_CHUNK, min((k + 1) * ACTION_CHUNK, n), dtype=np.int32)
+                data = [(1, cells)]  # (one object for all integrals: DOLFINx asks for it)
+                part = [i.reconstruct(subdomain_id=1, subdomain_data=data) for i in integrals]
+                forms.append(fem.form(ufl.Form(part)))
+            self._actions[coeffs] = (w, forms, fem_petsc.create_vector(self.V))
+        return self._actions[coeffs]
 
     @property
     def M(self) -> PETSc.Mat:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from bonecontact.common.profiling import map_large_allocations
 from bonecontact.common.version import __version__
 from bonecontact.meshing.ct import main as mesh_ct
 from bonecontact.meshing.stl import main as mesh_surface
@@ -211,6 +212,8 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["mesh-ct"]:  # its own parser (bonecontact.meshing.ct)
         return mesh_ct(argv[1:])
     args = _parser().parse_args(argv)
+    if args.command == "run":
+        map_large_allocations()  # freed matrices leave the resident set (issue 28)
     with warnings.catch_warnings():
         warnings.simplefilter("error" if args.strict else "always", PlausibilityWarning)
         warnings.showwarning = _warning_printer(comm)
