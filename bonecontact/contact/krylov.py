@@ -35,6 +35,7 @@ from bonecontact.contact.compressed_mg import CompressedMGOptions, CompressedMul
 from bonecontact.contact.reductions import global_count
 
 __all__ = [
+    "DEFAULT_REUSE_ROWS",
     "RESPONSE_RTOL",
     "PreconditionerReuse",
     "apply_inverse_transpose",
@@ -49,6 +50,13 @@ __all__ = [
 #: The multigrid preconditioners of the condensed system: PETSc's GAMG, or the
 #: compressed-aggregation hierarchy of :mod:`bonecontact.contact.compressed_mg`.
 MULTIGRIDS = ("gamg", "compressed")
+
+#: :class:`PreconditionerReuse` ``rows`` when the options leave it open: GAMG's
+#: preconditioner is kept across small set changes; the compressed hierarchy is rebuilt
+#: for every solve — kept, its final solves took 38–42 CG iterations at 200k dofs on 2
+#: ranks against 15 fresh (contact solve 79 → 50 iterations, 20.2 → 18.3 Gflop; 65k:
+#: 59 → 49, 6.3 → 5.5 Gflop; benchmarks/README.md, "Compressed coarse grid").
+DEFAULT_REUSE_ROWS = {"gamg": 0.25, "compressed": 0.0}
 
 #: GAMG options of the condensed system (:class:`~bonecontact.common.linalg.SolverOptions`:
 #: under the solver's own prefix; the command line overrides them under ``prefix``):

@@ -30,6 +30,7 @@ from dolfinx import fem
 from bonecontact.common.linalg import SolverOptions, configure_ksp
 from bonecontact.contact.condensed import CondensedSystem, lean_products
 from bonecontact.contact.krylov import (
+    DEFAULT_REUSE_ROWS,
     RESPONSE_RTOL,
     PreconditionerReuse,
     configure_condensed_ksp,
@@ -336,7 +337,10 @@ class KrylovStrategy(RefactorStrategy):
         V: fem.FunctionSpace,
         nonsymmetric: bool,
     ):
-        self.pc_reuse = PreconditionerReuse(options.pc_reuse_rows, options.pc_reuse_growth)
+        rows = options.pc_reuse_rows
+        if rows is None:
+            rows = DEFAULT_REUSE_ROWS[options.multigrid]
+        self.pc_reuse = PreconditionerReuse(rows, options.pc_reuse_growth)
         super().__init__(system, options, rtol, V, nonsymmetric)
 
     def _configure(
