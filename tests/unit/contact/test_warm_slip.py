@@ -157,3 +157,48 @@ def test_warm_started_friction_gives_the_cold_started_solution(dim, law, regime)
     bound = np.full(last.size, 0.3 * P0) if law == "tresca" else 0.3 * cold[-2]["p"]
     for s in (warm[-1], cold[-1]):
         _check_law(s, bound, DRAGS[regime])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_warm_friction_state_survives_a_restart(dim):
+    """``Integrator.state`` carries the friction state of the warm start (stick set,
+    ``λ_t``, ``ξ``: the checkpoint's fields): a run restored after step 2 repeats steps
+    3 and 4 of the uninterrupted run (the same PDAS iterations, displacements to 1e-12
+    of the largest); restored without those keys (an older checkpoint) it starts them
+    cold and reaches the same solution to the solver's tolerance."""
+    law = LAWS["coulomb"]
+
+    def integrator():
+        m, itf = _model(dim, DRAGS["slip"])
+        opts = PDASOptions(friction=law, max_iterations=60, slip=SlipOptions(warm_slip=True))
+        return m, Integrator(m, "static", 1.0, contact=ContactSolver(m.V, [itf], opts))
+
+    def steps(integ, m, k):
+        out = []
+        for _ in range(k):
+            integ.step()
+            n = m.V.dofmap.index_map.size_local * m.V.dofmap.index_map_bs
+            out.append((integ.last_contact.iterations, _g(integ.u.x.array[:n])))
+        return out
+
+    m, ref = integrator()
+    full = steps(ref, m, STEPS)
+    ref.destroy()
+    m, first = integrator()
+    steps(first, m, 2)
+    saved = first.state()
+    first.destroy()
+    old = {**saved, "contact": {k: v for k, v in saved["contact"].items()}}
+    for key in ("stick", "lam_t", "xi"):
+        del old["contact"][key]
+    for state, exact in ((saved, True), (old, False)):
+        m, again = integrator()
+        again.restore_state(state)
+        rest = steps(again, m, STEPS - 2)
+        again.destroy()
+        umax = float(np.abs(full[-1][1]).max())
+        for (its, u), (its_ref, u_ref) in zip(rest, full[2:]):
+            if exact:
+                assert its == its_ref
+            tol = 1e-12 if exact else TOL
+            assert np.abs(u - u_ref).max() <= tol * umax
