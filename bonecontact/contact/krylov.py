@@ -13,7 +13,8 @@ provides the three pieces the solver needs:
   bodies).  Without a near-nullspace GAMG sees only the constant vectors and CG needs
   4–5 times as many iterations; with one set of modes for the whole mesh 4 times.
 * :func:`configure_condensed_ksp` — the Krylov method and the GAMG options of the
-  condensed system (the size of its coarse grid: :func:`coarse_grid_limit`).
+  condensed system (the size of its coarse grid: :func:`coarse_grid_limit`), or the
+  compressed hierarchy of :mod:`~bonecontact.contact.compressed_mg` (:func:`set_multigrid`).
 * :class:`PreconditionerReuse` — when to keep the preconditioner of an earlier set
   (from an earlier PDAS iteration or time step) and when to rebuild it.
 
