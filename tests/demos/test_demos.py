@@ -183,8 +183,8 @@ TWO_RANKS_DEFAULT = {"contact_api"}
 
 
 #: demos whose notebook run is long even at the reduced size (vertebra_fracture: two
-#: tumour sizes, each a two-region risk run, a standing run and up to 12 fatigue blocks
-#: with re-meshed cracks: about 30 min serial at load 12-15)
+#: tumour sizes, each a two-region risk run, a standing run and up to 8 fatigue blocks
+#: with re-meshed cracks: 1 min 45 s at load 1-4, about 7 min at load 10)
 SLOW_NOTEBOOKS = {"vertebra_fracture"}
 
 
