@@ -27,7 +27,7 @@ from dolfinx import fem
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError, build_interface
 from bonecontact.contact.krylov import krylov_rtol
-from bonecontact.contact.options import PDASOptions
+from bonecontact.contact.options import LinearOptions, PDASOptions
 from bonecontact.contact.pdas import ContactSolver, PDASResult
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
@@ -373,6 +373,7 @@ def scene_integrator(scene: Scene, sm: SceneModel, dt: float, dynamic: bool) -> 
         options = PDASOptions(
             max_iterations=scene.solver.max_iterations,
             friction=[c.friction_law() for c in scene.contacts],
+            linear=LinearOptions(multigrid=scene.solver.multigrid),
         )
         contact = ContactSolver(model.V, sm.interfaces, options)
         contact.on_singular = singular_diagnosis(  # which body a singular set leaves free

@@ -57,6 +57,9 @@ UNHELD_MOTION_CHOICES = ("error", "warn")
 #: ``[analysis] scheme``: the time scheme of a dynamic analysis (bonecontact.mechanics.newmark)
 SCHEME_CHOICES = ("backward-difference", "stabilized-newmark")
 LINEAR_SOLVERS = ("direct", "iterative")
+#: ``[solver] multigrid``: the preconditioner of the iterative contact solve
+#: (:class:`bonecontact.contact.options.LinearOptions`).
+MULTIGRIDS = ("gamg", "compressed")
 FRICTION_LAWS = ("none", "tresca", "coulomb")
 COULOMB_UPDATES = ("previous_step", "fixed_point")
 LOAD_KINDS = ("traction", "pressure", "body_force", "force")
@@ -297,11 +300,16 @@ class SolverOptions:
         (:func:`bonecontact.contact.krylov.krylov_rtol`).
     max_iterations
         Maximum number of PDAS / nonlinear iterations per step (>= 1).
+    multigrid
+        The multigrid preconditioner of the iterative contact solve: ``"gamg"`` (PETSc's)
+        or ``"compressed"`` (:mod:`bonecontact.contact.compressed_mg`); ignored by
+        ``"direct"`` and by solves without contact.
     """
 
     linear: Literal["direct", "iterative"] = "direct"
     tolerance: float = 1e-10
     max_iterations: int = 50
+    multigrid: Literal["gamg", "compressed"] = "gamg"
 
 
 #: ``[solver]``.
@@ -311,6 +319,7 @@ SOLVER_TABLE = Table(
         Key("linear", "string", "direct", choices=LINEAR_SOLVERS),
         Key("tolerance", "number", 1e-10, minimum=0, exclusive=True),
         Key("max_iterations", "integer", 50, minimum=1),
+        Key("multigrid", "string", "gamg", choices=MULTIGRIDS),
     ),
 )
 

@@ -379,7 +379,21 @@ CASES: list[tuple[str, list[tuple], str | None, str | None, str]] = [
         [("set", ("solver", "preconditioner"), "ilu")],
         "preconditioner",
         "[solver]",
-        "allowed: linear, tolerance, max_iterations",
+        "allowed: linear, tolerance, max_iterations, multigrid",
+    ),
+    (
+        "solver-multigrid-value",
+        [("set", ("solver", "multigrid"), "ml")],
+        "multigrid",
+        "[solver]",
+        '"gamg", "compressed"',
+    ),
+    (
+        "solver-multigrid-type",
+        [("set", ("solver", "multigrid"), 2)],
+        "multigrid",
+        "[solver]",
+        "string",
     ),
     (
         "solver-linear-value",
@@ -1239,6 +1253,17 @@ def test_full_example(tmp_path, monkeypatch):
     np.testing.assert_allclose(scene.analysis.times(), [1.0])
 
     check_against_mesh(scene, EXAMPLE_GROUPS, 2, 2)
+
+
+@pytest.mark.parametrize("multigrid", [None, "gamg", "compressed"])
+def test_solver_multigrid_key(tmp_path, multigrid):
+    """``[solver] multigrid`` is read as given; absent, GAMG."""
+    doc = copy.deepcopy(BASE)
+    if multigrid is not None:
+        doc["solver"]["multigrid"] = multigrid
+    scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
+    assert scene.solver.multigrid == (multigrid or "gamg")
+    assert default_solver_options().multigrid == "gamg"
 
 
 def test_base_document_values(tmp_path):
