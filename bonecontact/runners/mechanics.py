@@ -658,14 +658,15 @@ def book_step(
 
 
 def summary_header(scene: Scene, sm: SceneModel, integ: Integrator, dt: float) -> dict[str, Any]:
-    """The first entries of summary.json: dofs, analysis, time step, set-up time and
-    linear solver."""
+    """The first entries of summary.json: dofs, analysis, time step, set-up time, linear
+    solver and the multigrid of the iterative contact solve."""
     return {
         "dofs": sm.model.num_dofs,
         "analysis": scene.analysis.kind,
         "dt": dt,
         "setup_time_s": integ.setup_time,
         "linear_solver": scene.solver.linear,
+        "multigrid": scene.solver.multigrid,
     }
 
 

@@ -68,7 +68,7 @@ def test_linear_response_equals_the_shifted_solve(solved, fraction, shift, monke
     linear response equal those of the whole shifted solve to 1e-7 of their change, and
     ``Ũ`` is kept.  The default tolerance (1e-4): the change of the force summed over the
     fixed rows (the cold start's patch stiffness) within 20 % of the tight one (measured
-    with the lifted load on 1-3 ranks: GAMG 0.02–13 %, compressed 0.002–0.4 %; with the
+    with the lifted load on 1-3 ranks: GAMG 0.02–13 %, compressed 0.001–0.4 %; with the
     fixed rows' values in the load, GAMG 0.02–14 % and compressed 114 % off; the whole shifted
     system solved again to 1e-4 of its own right-hand side, the method before that, 8 %
     to 27 times off: its error scales with the load, not the shift), in fewer Krylov

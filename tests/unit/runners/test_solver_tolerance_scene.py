@@ -141,3 +141,7 @@ def test_scene_tolerance_loosens_only_the_krylov_solves(tmp_path):
     its = {n: runs[n]["summary"]["linear_iterations"]["total"] for n in runs if n != "direct"}
     assert its["plain"] < its["default"]
     assert its["compressed"] != its["plain"], its  # the key reached the solver
+    assert [runs[n]["summary"]["multigrid"] for n in ("plain", "compressed")] == [
+        "gamg",
+        "compressed",
+    ]
