@@ -3,6 +3,9 @@ a freed large block leaves the resident set once large allocations are mapped.""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import time
 
 from mpi4py import MPI
@@ -14,7 +17,6 @@ from bonecontact.common.profiling import (
     PhaseTimer,
     map_large_allocations,
     peak_memory_mb,
-    resident_mib,
 )
 
 
@@ -71,7 +73,8 @@ def test_memory_per_dof_sees_an_allocation_and_its_release(owned):
     assert alloc[0] - before[0] >= 0.95 * nbytes / 2**20
     assert alloc[1] >= alloc[0]  # the peak so far holds the allocation
     assert rel[0] <= alloc[0] - 0.9 * nbytes / 2**20  # freed (large blocks go back to the OS)
-    assert rel[1] >= alloc[1]
+    # (the kernel's RSS counters are batched per thread, up to 64 pages: 0.25 MiB)
+    assert rel[1] >= alloc[1] - 1.0
     per = timer.memory_per_dof(comm, owned)
     assert list(per) == ["before", "allocate", "release"]
     want = max(comm.allgather(alloc[0] * 2**20 / owned))  # the largest rank's
@@ -79,21 +82,39 @@ def test_memory_per_dof_sees_an_allocation_and_its_release(owned):
     assert per["allocate"]["peak"] >= per["allocate"]["resident"] - 0.1
 
 
+#: run in a fresh interpreter, as `bonecontact run` calls it at its start: in a long-lived
+#: test worker other libraries' allocations (MPI transports, earlier tests) change the
+#: heap the setting acts on
+_FREED_BLOCK = """
+import numpy as np
+from bonecontact.common.profiling import map_large_allocations, resident_mib
+big = np.ones(24 * 2**17)  # 24 MiB, mapped; freeing it raises glibc's threshold
+del big
+if not map_large_allocations():
+    print("skip")
+else:
+    block = np.ones(16 * 2**17)  # 16 MiB, touched
+    after = np.ones(1000)  # (a heap block after it: the heap's top is not free)
+    before = resident_mib()[0]
+    del block
+    print(before - resident_mib()[0], after.sum())
+"""
+
+
+@pytest.mark.serial
 def test_freed_large_block_leaves_the_resident_set():
     """After :func:`map_large_allocations` a freed 16 MiB block goes back to the system,
     even after a larger mapped block was freed (glibc's own threshold then grows to that
     size: the 16 MiB came from the heap and, with a small block after it, stayed
     resident — a drop of 0 MiB without the setting)."""
-    big = np.ones(24 * 2**17)  # 24 MiB, mapped; freeing it raises glibc's threshold
-    del big
-    if not map_large_allocations():
-        pytest.skip("no glibc, or MALLOC_MMAP_THRESHOLD_ set by the user")
-    block = np.ones(16 * 2**17)  # 16 MiB, touched
-    after = np.ones(1000)  # (a heap block after it: the heap's top is not free)
-    before = resident_mib()[0]
-    del block
-    assert before - resident_mib()[0] >= 12.0
-    assert after.sum() == 1000.0
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_MMAP_THRESHOLD_"}
+    out = subprocess.run(
+        [sys.executable, "-c", _FREED_BLOCK], env=env, capture_output=True, text=True, check=True
+    ).stdout.split()
+    if out == ["skip"]:
+        pytest.skip("no glibc")
+    assert float(out[0]) >= 12.0
+    assert float(out[1]) == 1000.0
 
 
 def test_user_allocator_setting_is_left_alone(monkeypatch):
