@@ -344,6 +344,8 @@ class LowRankActiveSetSolver:
         self._margin: npt.NDArray[np.float64] | None = None
         self._start_prev: npt.NDArray[np.bool_] | None = None
         self.prefetched = 0
+        #: columns that filled the last chunk of a block on a miss (:meth:`_fill_chunk`)
+        self.filled = 0
         self._stack: tuple | None = None  # (:meth:`_stacked`)
         self.t_factor = 0.0
         self.t_column = 0.0
@@ -933,6 +935,8 @@ class LowRankActiveSetSolver:
             extra = self._closest(active & self.base, margin, len(missing))
             room = self.column_limit - len(self.cache) - len(missing)
             missing += extra[: max(room, 0)]
+        elif missing and margin is not None:  # (split basis: fill the last chunk)
+            missing += self._fill_chunk(active, margin, missing)
         if missing:
             self._size_full_columns(len(missing))
         if missing and len(self.full_cols) + len(missing) > self.full_limit:
@@ -943,6 +947,22 @@ class LowRankActiveSetSolver:
         if missing:
             self._compute_columns(missing)
         return diff, len(missing), refactorized
+
+    def _fill_chunk(
+        self, active: npt.NDArray[np.bool_], margin: npt.NDArray[np.float64], missing: list[int]
+    ) -> list[int]:
+        """Rows without a column closest to switching (:meth:`_prefetch_rows`: closing,
+        released or starting to slip) that fill the last chunk of the ``missing``
+        columns of a block computed anyway, within the cache limit (the sets of the next
+        iterations of a growing zone then need no block of their own)."""
+        n = (-len(missing)) % self.block_limit
+        n = min(n, self.column_limit - len(self.cache) - len(missing))
+        if n <= 0:
+            return []
+        cand = (active == self.base) & ~self._flags_of(missing)
+        fill = self._closest(cand, margin, n)
+        self.filled += len(fill)
+        return fill
 
     def _closest(
         self,
@@ -965,35 +985,52 @@ class LowRankActiveSetSolver:
 
     def _cached_mask(self) -> npt.NDArray[np.bool_]:
         """This rank's rows with a cached column."""
-        mask = np.zeros(self.L.size, dtype=bool)
-        q = np.fromiter(self.cache.keys(), dtype=np.int64, count=len(self.cache)) - self.offset
-        mask[q[(q >= 0) & (q < self.L.size)]] = True
-        return mask
+        return self._flags_of(list(self.cache))
 
     def _prefetch_rows(self, start: npt.NDArray[np.bool_]) -> list[int]:
-        """Open rows about to close whose columns are computed together with the base
-        solve of a contact solve starting from the fixed rows ``start`` (a growing
-        contact zone, e.g. an impact: docs/theory/pdas.md#columns-ahead).
+        """Rows whose columns are computed together with the base solve of a contact
+        solve starting from the fixed rows ``start`` (docs/theory/pdas.md#columns-ahead).
 
-        With ``g`` the rows fixed at this start and not at the previous one, the ``2g``
-        open rows (free in ``start`` and in the base) with the smallest margin of the
-        last solve (``|λ + c (u − g)|``, the distance to closing) must have columns; if
-        one has none, the open rows without a column closest to closing, as many as a
-        block holds besides the base solve (:attr:`block_limit` − 1), within the cache
-        limit.  A split basis only (its sets are reached by columns, never by a
-        rebase).  Collective; the same list on every rank."""
+        First the rows in which ``start`` differs from the base and that have no column
+        (the first set needs them: e.g. the tangential rows of nodes that closed in the
+        last step, sticking at the start).  Then, when there are such rows or the start
+        fixed rows ``g`` that the previous start did not and the ``2g`` open rows closest
+        to closing (the margin of the last solve, :attr:`_margin`) are not all cached,
+        the rows without a column closest to switching (below), up to
+        a block besides the base solve (:attr:`block_limit` − 1), within the cache limit.
+        A split basis only (its sets are reached by columns, never by a rebase).
+        Collective; the same list on every rank."""
         prev, self._start_prev = self._start_prev, start.copy()
         if self.split is None or self._margin is None or prev is None:
             return []
-        grown = global_count(self.comm, start & ~prev)
-        if grown == 0:
-            return []
-        open_rows = ~start & ~self.base
-        near = self._closest(open_rows, self._margin, 2 * grown, uncached=False)
-        if all(q in self.cache for q in near):  # (the cache is the same on every rank)
-            return []
         room = min(self.block_limit - 1, self.column_limit - len(self.cache))
-        return self._closest(open_rows, self._margin, room) if room > 0 else []
+        if room <= 0:
+            return []
+        cached = self._cached_mask()
+        sure = gather_rows(self.comm, np.flatnonzero((start != self.base) & ~cached) + self.offset)
+        sure_q = [int(q) for q in sure[0]][:room]
+        grown = global_count(self.comm, start & ~prev)
+        open_rows = ~start & ~self.base
+        if not sure_q:
+            if grown == 0:
+                return []
+            near = self._closest(open_rows, self._margin, 2 * grown, uncached=False)
+            if all(q in self.cache for q in near):  # (the cache is the same on every rank)
+                return []
+        # rows that need a column when they switch: open rows outside the base (fixed once
+        # their node closes: normal and, with friction, tangential rows) and rows fixed at
+        # the start and in the base (released, or a sticking node's tangential rows when
+        # it starts to slip: they are then replaced by the slip equations)
+        cand = open_rows | (start & self.base)
+        more = self._closest(cand & ~self._flags_of(sure_q), self._margin, room - len(sure_q))
+        return sure_q + more
+
+    def _flags_of(self, qs: list[int]) -> npt.NDArray[np.bool_]:
+        """This rank's rows among the global positions ``qs``."""
+        mask = np.zeros(self.L.size, dtype=bool)
+        q = np.asarray(qs, dtype=np.int64) - self.offset
+        mask[q[(q >= 0) & (q < self.L.size)]] = True
+        return mask
 
     def _make_room(self, k: int) -> None:
         """Room for ``k`` more full columns: when the kept ones and ``k`` exceed

@@ -467,16 +467,20 @@ class SetUpdate:
 
     def accept(self, st: PDASState, it: Iterate) -> bool:
         """Take the new sets, with the margins of every row to switching (for the
-        speculative low-rank columns).  Returns ``True`` when the sets repeat an earlier
-        iteration's with unchanged bounds (cycling); the signs of the slip directions
-        count in 3D too (a node stuck by the reversal rule that slips again the other way
-        repeats no set: docs/theory/pdas.md#convergence-and-failure)."""
+        speculative low-rank columns; an open friction node's tangential rows take the
+        margin of its normal row: they are needed once it closes).  Returns ``True``
+        when the sets repeat an earlier iteration's with unchanged bounds (cycling); the
+        signs of the slip directions count in 3D too (a node stuck by the reversal rule
+        that slips again the other way repeats no set:
+        docs/theory/pdas.md#convergence-and-failure)."""
         bs, fric = self.bs, self.friction.active
         R = self.system.layout.rows_of
         margin = np.full(self.system.layout.n_rows, np.inf)
         margin[R[0]] = np.abs(it.ind_n - it.eps)
+        shut = ~it.new_an & fric  # (an open node's rows are needed when it closes)
         for j in range(1, bs):
             margin[R[j][it.new_an & fric]] = np.abs(it.zn - st.g)[it.new_an & fric]
+            margin[R[j][shut]] = margin[R[0][shut]]
         st.margin = margin
         st.an, st.stick, st.dirs = it.new_an, it.new_stick, it.new_dirs
         st.lam_t_k, st.z_k = it.lam_t, it.z
