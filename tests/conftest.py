@@ -18,6 +18,8 @@ from mpi4py import MPI
 
 import pytest
 
+from bonecontact.common.linalg import release_petsc_garbage
+
 
 def pytest_collection_modifyitems(config, items):
     if MPI.COMM_WORLD.size == 1:
@@ -38,9 +40,15 @@ def pytest_collection_finish(session):
 
 @pytest.fixture(autouse=True)
 def _collective_teardown():
-    """Free PETSc/DOLFINx objects collectively and keep the ranks in step after each test."""
+    """Free PETSc/DOLFINx objects collectively and keep the ranks in step after each test.
+
+    In parallel petsc4py parks the objects Python frees until a collective clean-up: without
+    it every MUMPS factor of the session kept its MPI communicators and MPICH ran out of
+    them after about 400 factorisations (MUMPS INFOG(1) = -3 in whichever test came next).
+    """
     yield
     gc.collect()
+    release_petsc_garbage(MPI.COMM_WORLD, collect=False)
     MPI.COMM_WORLD.barrier()
 
 

@@ -17,6 +17,7 @@ from bonecontact.common.linalg import (
     configure_ksp,
     create_solver,
     owned_global_rows,
+    release_petsc_garbage,
     rigid_body_modes,
 )
 from bonecontact.common.profiling import PhaseTimer, peak_memory_mb
@@ -38,6 +39,7 @@ __all__ = [
     "owned_global_rows",
     "peak_memory_mb",
     "polygon_area",
+    "release_petsc_garbage",
     "rigid_body_modes",
     "signed_polygon_area",
 ]

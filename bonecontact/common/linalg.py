@@ -6,6 +6,7 @@ displacement block size, vectors share the DOLFINx layout.
 
 from __future__ import annotations
 
+import gc
 import itertools
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -331,3 +332,20 @@ def create_solver(
     with so.applied():
         ksp.setUp()
     return ksp
+
+
+def release_petsc_garbage(comm: MPI.Comm, collect: bool = True) -> None:
+    """Destroy the PETSc objects Python has freed on ``comm`` (collective: every rank of
+    ``comm`` at the same point).
+
+    In parallel petsc4py does not destroy an object Python frees: it parks it until a
+    collective ``PETSc.garbage_cleanup`` on its communicator.  Each parked MUMPS factor
+    keeps its duplicated MPI communicators, and MPICH runs out of them after about 400
+    factorisations on 2 ranks (MUMPS then fails with INFOG(1) = -3).  Every run loop calls
+    this after each step; with ``collect`` objects in reference cycles are collected
+    first (a full ``gc.collect()``, which the loops make every tenth step).
+    """
+    if comm.size > 1:
+        if collect:
+            gc.collect()
+        PETSc.garbage_cleanup(comm)
