@@ -36,7 +36,12 @@ from bonecontact.contact.krylov import (
     configure_condensed_ksp,
     reduction_decades,
 )
-from bonecontact.contact.lowrank import LowRankActiveSetSolver, SingularActiveSetError, null_pivots
+from bonecontact.contact.lowrank import (
+    LowRankActiveSetSolver,
+    SingularActiveSetError,
+    mumps_failure,
+    null_pivots,
+)
 from bonecontact.contact.options import LinearOptions
 from bonecontact.contact.reductions import global_any
 
@@ -312,6 +317,9 @@ class RefactorStrategy:
                 f"the system of the active set is singular ({nulls} "
                 f"null pivots: a body without support?)"
             )
+        failure = mumps_failure(self.ksp)
+        if failure is not None:
+            raise SingularActiveSetError(failure)
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             raise SingularActiveSetError(f"the linear solver diverged (reason {reason})")

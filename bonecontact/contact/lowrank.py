@@ -43,6 +43,7 @@ __all__ = [
     "LowRankActiveSetSolver",
     "SingularActiveSetError",
     "SplitBasis",
+    "mumps_failure",
     "null_pivots",
     "solve_small_system",
 ]
@@ -58,6 +59,23 @@ def null_pivots(ksp: PETSc.KSP) -> int:
     if pc.getType() != "lu" or pc.getFactorSolverType() != "mumps":
         return 0
     return int(pc.getFactorMatrix().getMumpsInfog(28))
+
+
+def mumps_failure(ksp: PETSc.KSP) -> str | None:
+    """What went wrong in the last MUMPS factorisation of ``ksp`` (``None``: nothing).
+
+    PETSc records a failed MUMPS factorisation without raising; a solve with it then fails
+    with INFOG(1) = -3 ("factorisation not done"), far from the cause.  Collective values:
+    INFOG is the same on every rank.
+    """
+    pc = ksp.getPC()
+    if pc.getType() != "lu" or pc.getFactorSolverType() != "mumps":
+        return None
+    F = pc.getFactorMatrix()
+    info1, info2 = int(F.getMumpsInfog(1)), int(F.getMumpsInfog(2))
+    if info1 >= 0:
+        return None
+    return f"MUMPS factorisation failed: INFOG(1) = {info1}, INFOG(2) = {info2}"
 
 
 #: Dense ``n_local × k`` arrays alive while a block of ``k`` columns is computed (right-hand
@@ -491,6 +509,9 @@ class LowRankActiveSetSolver:
                 f"the system of the active set is singular ({nulls} null pivots: "
                 f"a body without support?)"
             )
+        failure = mumps_failure(self.ksp)
+        if failure is not None:
+            raise SingularActiveSetError(failure)
         if self.B0 is self.A:
             self._release_operator()
         self.base = mask.copy()

@@ -12,12 +12,14 @@ from __future__ import annotations
 import dolfinx_solver  # noqa: F401
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import numpy as np
 import pytest
 import ufl
 
 from bonecontact.contact.interface import build_interface
+from bonecontact.contact.lowrank import mumps_failure
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
 from bonecontact.materials.laws import Isotropic
@@ -231,3 +233,53 @@ def test_singular_active_set_is_reported(strategy):
     assert info.value.history and info.value.history[0]["active"] > 0
     assert integ.step_count == 0
     integ.destroy()
+
+
+def _laplacian_1d(n: int):
+    """The 1D Laplacian (2, -1) of ``n`` rows, distributed over COMM."""
+    A = PETSc.Mat().createAIJ([[PETSc.DECIDE, n], [PETSc.DECIDE, n]], nnz=3, comm=COMM)
+    r0, r1 = A.getOwnershipRange()
+    for r in range(r0, r1):
+        cols = [c for c in (r - 1, r, r + 1) if 0 <= c < n]
+        A.setValues([r], cols, [2.0 if c == r else -1.0 for c in cols])
+    A.assemble()
+    return A
+
+
+@pytest.mark.parametrize("workspace", [None, -99])
+def test_failed_mumps_factorisation_is_reported(workspace):
+    """PETSc records a failed MUMPS factorisation without raising (a later solve fails with
+    INFOG(1) = -3, far from the cause): ``mumps_failure`` names it.  Starved of work space
+    (ICNTL(14) = -99 %) MUMPS stops with INFOG(1) = -9; with its defaults the same matrix
+    factorises and solves A x = A·1 to round-off."""
+    n = 400
+    A = _laplacian_1d(n)
+    ksp = PETSc.KSP().create(COMM)
+    ksp.setOptionsPrefix(f"lowrank_fail_{workspace}_".replace("-", "m"))
+    ksp.setOperators(A)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    opts = PETSc.Options(ksp.getOptionsPrefix())
+    if workspace is not None:
+        opts["mat_mumps_icntl_14"] = workspace
+    ksp.setFromOptions()
+    ksp.setUp()
+    failure = mumps_failure(ksp)
+    if workspace is None:
+        assert failure is None
+        one, x = A.createVecs()
+        one.set(1.0)
+        b = A.createVecLeft()
+        A.mult(one, b)
+        ksp.solve(b, x)
+        x.axpy(-1.0, one)
+        assert x.norm() < 1e-10 * np.sqrt(n)
+        for v in (one, x, b):
+            v.destroy()
+    else:
+        assert failure is not None and "INFOG(1) = -9" in failure
+        opts.delValue("mat_mumps_icntl_14")
+    ksp.destroy()
+    A.destroy()
