@@ -16,6 +16,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import dolfinx.mesh
 import pytest
 
 from bonecontact.common.linalg import release_petsc_garbage
@@ -38,15 +39,41 @@ def pytest_collection_finish(session):
     gc.freeze()
 
 
+#: The C++ meshes made on more than one rank since the last test ended (kept alive until
+#: the PETSc objects made on their communicators are destroyed).
+_PARALLEL_MESHES: list = []
+
+
+def _tracking_mesh_init(init):
+    """``dolfinx.mesh.Mesh.__init__`` that also records a parallel mesh's C++ object."""
+
+    def __init__(self, msh, domain):
+        init(self, msh, domain)
+        if msh.comm.size > 1:
+            _PARALLEL_MESHES.append(msh)
+
+    return __init__
+
+
+dolfinx.mesh.Mesh.__init__ = _tracking_mesh_init(dolfinx.mesh.Mesh.__init__)
+
+
 @pytest.fixture(autouse=True)
 def _collective_teardown():
     """Free PETSc/DOLFINx objects collectively and keep the ranks in step after each test.
 
-    In parallel petsc4py parks the objects Python frees until a collective clean-up: without
-    it every MUMPS factor of the session kept its MPI communicators and MPICH ran out of
-    them after about 400 factorisations (MUMPS INFOG(1) = -3 in whichever test came next).
+    In parallel petsc4py parks the PETSc objects Python frees until a collective clean-up
+    on their communicator, and DOLFINx gives every mesh a communicator of its own: without
+    a clean-up on each test's meshes every MUMPS factor of the session kept its MPI
+    communicators and MPICH ran out of them after about 400 factorisations (MUMPS
+    INFOG(1) = -3 in whichever test came next).  The meshes are recorded when made (in the
+    same order on every rank) and their communicators cleaned before they are released.
     """
     yield
+    gc.collect()
+    for msh in _PARALLEL_MESHES:
+        release_petsc_garbage(msh.comm, collect=False)
+    _PARALLEL_MESHES.clear()
     gc.collect()
     release_petsc_garbage(MPI.COMM_WORLD, collect=False)
     MPI.COMM_WORLD.barrier()

@@ -292,7 +292,7 @@ def run_coupled(
     with ckpt.stop:
         bar = progress_bar(comm, scene.name, len(times) - 1, first - 1, progress)
         try:
-            end = run_steps(hooks, first, len(times) - 1, bar, comm, resumed is None)
+            end = run_steps(hooks, first, len(times) - 1, bar, resumed is None)
         finally:
             table.close()
     status, message = end.status, end.message

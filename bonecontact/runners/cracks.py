@@ -917,7 +917,7 @@ def run_cracked(
     try:
         with ck.stop:
             bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)
-            end = run_steps(hooks, first, nsteps, bar, comm)
+            end = run_steps(hooks, first, nsteps, bar)
     finally:
         hooks.table.close()
     sm, integ, rec = hooks.sm, hooks.integ, hooks.rec

@@ -631,7 +631,7 @@ def run_cracked3d(
     try:
         with ck.stop:
             bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)
-            end = run_steps(hooks, first, nsteps, bar, comm)
+            end = run_steps(hooks, first, nsteps, bar)
     finally:
         table.close()
     info = summary_header(scene, sm, integ, dt)

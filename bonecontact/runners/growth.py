@@ -245,7 +245,7 @@ def run_growth(
     with ckpt.stop:
         bar = progress_bar(comm, scene.name, len(times) - 1, driver.steps, progress)
         try:
-            end = run_steps(hooks, driver.steps + 1, len(times) - 1, bar, comm, resumed is None)
+            end = run_steps(hooks, driver.steps + 1, len(times) - 1, bar, resumed is None)
         finally:
             table.close()
     status, message = end.status, end.message

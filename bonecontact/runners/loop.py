@@ -32,7 +32,6 @@ from mpi4py import MPI
 
 from tqdm import tqdm
 
-from bonecontact.common.linalg import release_petsc_garbage
 from bonecontact.plot.progress import progress_file
 from bonecontact.runners.checkpoint import CheckpointError
 
@@ -118,30 +117,19 @@ def progress_bar(comm: MPI.Comm, name: str, total: int, done: int, progress: boo
 
 
 def run_steps(
-    hooks: StepHooks,
-    first: int,
-    nsteps: int,
-    bar: tqdm,
-    comm: MPI.Comm,
-    fresh: bool | None = None,
+    hooks: StepHooks, first: int, nsteps: int, bar: tqdm, fresh: bool | None = None
 ) -> LoopResult:
-    """Make steps ``first`` .. ``nsteps`` through ``hooks`` (module docstring; collective
-    on ``comm``, the run's communicator).
+    """Make steps ``first`` .. ``nsteps`` through ``hooks`` (module docstring; collective).
 
     A ``fresh`` run (default: ``first == 1``) records the initial state first; a restarted
-    run starts after its checkpoint's step.  After each step the PETSc objects the step
-    freed are destroyed on ``comm`` (:func:`~bonecontact.common.linalg.release_petsc_garbage`:
-    without it a long parallel run runs out of MPI communicators).  Returns how the loop
-    ended.
+    run starts after its checkpoint's step.  Returns how the loop ended.
     """
     k = first
     try:
         if first == 1 if fresh is None else fresh:
             hooks.start()
         while k <= nsteps:
-            more = _one_step(hooks, k, nsteps, bar)
-            release_petsc_garbage(comm, collect=k % 10 == 0)
-            if not more:
+            if not _one_step(hooks, k, nsteps, bar):
                 return LoopResult("converged", None, k)
             if hooks.checkpoint(k, k == nsteps) and k < nsteps:
                 hooks.interrupted(k)

@@ -784,7 +784,7 @@ def run_model(
     first = integ.step_count + 1
     with ckpt.stop:
         bar = progress_bar(comm, scene.name, nsteps, first - 1, progress)
-        end = run_steps(hooks, first, nsteps, bar, comm)
+        end = run_steps(hooks, first, nsteps, bar)
     info.update(run_info(scene, sm, integ, ckpt.counters, dynamic, e0, t_start))
     info.update(ckpt.summary())
     if ckpt.time_s:

@@ -369,7 +369,7 @@ def _solve(run: SurfaceRun, crack: SurfaceBreakingCrack, comm, timer, outdir: Pa
     rec = Recorder(scene, sm, integ, comm, Path(outdir) / f"increment{inc}", False, None)
     counters = RunCounters()
     hooks = MechanicsSteps(integ, rec, timer, scene.output.fields_every, counters, dt, None)
-    end = run_steps(hooks, 1, nsteps, progress_bar(comm, scene.name, nsteps, 0, False), comm)
+    end = run_steps(hooks, 1, nsteps, progress_bar(comm, scene.name, nsteps, 0, False))
     info = summary_header(scene, sm, integ, dt)
     info.update(run_info(scene, sm, integ, counters, False, 0.0, time.perf_counter()))
     summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import itertools
 
-from mpi4py import MPI
-
 import pytest
 
 from bonecontact.runners.checkpoint import CheckpointError
@@ -93,7 +91,7 @@ CASES = list(
 def test_steps_records_and_checkpoints(n, first, again, last, signal):
     hooks = Toy(again, last, signal)
     bar = Bar()
-    end = run_steps(hooks, first, n, bar, MPI.COMM_WORLD)
+    end = run_steps(hooks, first, n, bar)
     # where the run ends: the last step, a cut-through, or a signal before the last step
     stops = [n]
     if last is not None and first <= last <= n:
@@ -132,7 +130,7 @@ def test_steps_records_and_checkpoints(n, first, again, last, signal):
 def test_a_failing_step_ends_the_run_with_its_message(fail, error, status, message):
     hooks = Toy(fail=fail, error=error)
     bar = Bar()
-    end = run_steps(hooks, 1, 4, bar, MPI.COMM_WORLD)
+    end = run_steps(hooks, 1, 4, bar)
     assert (end.status, end.message, end.step) == (status, message.format(k=fail), fail)
     assert _calls(hooks.log, "record") == list(range(1, fail))
     assert bar.closed and bar.n == fail - 1
@@ -141,5 +139,5 @@ def test_a_failing_step_ends_the_run_with_its_message(fail, error, status, messa
 def test_other_errors_are_raised():
     hooks = Toy(fail=2, error=ValueError)
     with pytest.raises(ValueError, match="no convergence"):
-        run_steps(hooks, 1, 3, bar := Bar(), MPI.COMM_WORLD)
+        run_steps(hooks, 1, 3, bar := Bar())
     assert _calls(hooks.log, "record") == [1] and bar.closed
