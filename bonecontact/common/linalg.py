@@ -339,11 +339,14 @@ def release_petsc_garbage(comm: MPI.Comm, collect: bool = True) -> None:
     ``comm`` at the same point).
 
     In parallel petsc4py does not destroy an object Python frees: it parks it until a
-    collective ``PETSc.garbage_cleanup`` on its communicator.  Each parked MUMPS factor
+    collective ``PETSc.garbage_cleanup`` on the object's own communicator, and DOLFINx
+    gives every mesh (and index map) a communicator of its own.  Each parked MUMPS factor
     keeps its duplicated MPI communicators, and MPICH runs out of them after about 400
-    factorisations on 2 ranks (MUMPS then fails with INFOG(1) = -3).  Every run loop calls
-    this after each step; with ``collect`` objects in reference cycles are collected
-    first (a full ``gc.collect()``, which the loops make every tenth step).
+    factorisations on 2 ranks (MUMPS then fails with INFOG(1) = -3).  Pass the mesh's
+    communicator of what you made (``mesh.comm``) while the mesh is alive; with
+    ``collect`` objects in reference cycles are collected first (a full ``gc.collect()``).
+    The package's own solvers are destroyed explicitly when replaced; this is for scripts
+    and test sessions that make many models on one set of ranks.
     """
     if comm.size > 1:
         if collect:
