@@ -34,6 +34,7 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.common.linalg import release_petsc_garbage
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.neoplasm.host import (
     CouplingError,
@@ -368,6 +369,7 @@ class _Analyses:
             self.signal = _signal_number(res.summary.get("signal", "SIGINT"))
             return False
         self.records.append(rec)
+        _release_analysis(self.result)  # only the last analysis's model is returned
         self.result = res
         self.last_summary = res.summary
         self.invalid = self.invalid or res.status == "invalid"  # the growth goes on
@@ -379,6 +381,18 @@ class _Analyses:
         t_start, timer = time.perf_counter(), PhaseTimer()
         sm = analysis_model(scene, hm, self.comm, timer, self.issues)
         return run_model(sm, self.comm, where, False, None, False, timer, t_start)
+
+
+def _release_analysis(res: RunResult | None) -> None:
+    """Destroy the PETSc objects of an analysis that is no longer needed, while its mesh is
+    alive (collective).  In parallel Python's collector would only park them on the mesh's
+    communicator, and a coupled run of a few hundred analyses on 2 ranks would run out of
+    MPI communicators (:func:`~bonecontact.common.linalg.release_petsc_garbage`)."""
+    if res is None or res.integrator is None:
+        return
+    msh = res.integrator.model.mesh
+    res.integrator.destroy()
+    release_petsc_garbage(msh.comm)
 
 
 def _analysis_risk(summary: dict[str, Any]) -> dict[str, Any]:
