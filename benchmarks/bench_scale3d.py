@@ -87,6 +87,7 @@ load_steps = 1
 linear = "{linear}"
 max_iterations = 40
 tolerance = {tolerance!r}
+multigrid = "{multigrid}"
 
 [[material]]
 name = "sphere"
@@ -177,11 +178,18 @@ def hertz_from_table(table: Path) -> dict[str, float]:
 
 
 def run_case(
-    label: str, ranks: int, linear: str, mesh: Path, keep: Path | None, tolerance: float = 1e-10
+    label: str,
+    ranks: int,
+    linear: str,
+    mesh: Path,
+    keep: Path | None,
+    tolerance: float = 1e-10,
+    multigrid: str = "gamg",
 ) -> dict:
     """Write the scene, run ``bonecontact run`` on ``ranks`` ranks, collect the figures.
     ``tolerance``: the scene's ``[solver] tolerance`` (the default 1e-10: Krylov rtol
-    1e-12; 1e-6: rtol 1e-8, the plain linear solve's; ``contact.krylov.krylov_rtol``)."""
+    1e-12; 1e-6: rtol 1e-8, the plain linear solve's; ``contact.krylov.krylov_rtol``);
+    ``multigrid``: its ``[solver] multigrid`` (``"gamg"`` or ``"compressed"``)."""
     work = Path(tempfile.mkdtemp(prefix=f"scale3d-{label}-")) if keep is None else keep
     work.mkdir(parents=True, exist_ok=True)
     results = work / "results"
@@ -191,6 +199,7 @@ def run_case(
         mesh=mesh,
         linear=linear,
         tolerance=float(tolerance),
+        multigrid=multigrid,
         E1=LOAD_DRIVEN_E,
         E2=LOAD_DRIVEN_STIFFNESS_RATIO * LOAD_DRIVEN_E,
         nu=LOAD_DRIVEN_NU,
@@ -206,6 +215,7 @@ def run_case(
     wall = time.perf_counter() - t0
     row: dict = {"label": label, "ranks": ranks, "linear": linear, "wall_s": round(wall, 2)}
     row["tolerance"] = float(tolerance)
+    row["multigrid"] = multigrid
     if proc.returncode != 0:
         row["status"] = f"failed (exit {proc.returncode}): " + proc.stderr.strip()[-300:]
         return row
@@ -318,6 +328,7 @@ def main() -> None:
         "--phase-budget", action="store_true", help="hold each phase to PHASE_BUDGET (B/dof)"
     )
     p.add_argument("--tolerance", type=float, default=1e-10, help="the scene's [solver] tolerance")
+    p.add_argument("--multigrid", default="gamg", help="the scene's [solver] multigrid")
     args = p.parse_args()
     within = True
     args.out.mkdir(parents=True, exist_ok=True)
@@ -327,7 +338,7 @@ def main() -> None:
         mesh = make_mesh(label, args.mesh_dir)
         for linear in args.linear.split(","):
             for n in map(int, args.ranks.split(",")):
-                row = run_case(label, n, linear, mesh, args.keep, args.tolerance)
+                row = run_case(label, n, linear, mesh, args.keep, args.tolerance, args.multigrid)
                 within = check_budget(row, args.out, args.budget) and within
                 within = check_phase_budget(row, args.phase_budget) and within
                 row["machine"] = info

@@ -21,6 +21,8 @@ Units: none (linear algebra).
 from __future__ import annotations
 
 import itertools
+import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 from petsc4py import PETSc
@@ -30,6 +32,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 __all__ = [
+    "Aggregation",
     "CompressedMultigrid",
     "MultigridLevel",
     "aggregate",
@@ -38,6 +41,17 @@ __all__ = [
 ]
 
 _COUNTER = itertools.count()
+
+
+@dataclass
+class Aggregation:
+    """A level's aggregation, kept across rebuilds of the hierarchy while the level's
+    nodes without a coarse correction stay the same: those nodes (``skip``), the
+    aggregate of every node and the number of aggregates (this rank's)."""
+
+    skip: npt.NDArray[np.bool_]
+    aggregates: npt.NDArray[np.int64]
+    count: int
 
 
 @dataclass
@@ -50,6 +64,7 @@ class MultigridLevel:
     P: PETSc.Mat | None = None
     aggregates: npt.NDArray[np.int64] | None = None
     ranks: npt.NDArray[np.int64] | None = None
+    aggregation: Aggregation | None = None
 
 
 def local_block(A: PETSc.Mat) -> tuple[sp.csr_matrix, npt.NDArray[np.bool_]]:
@@ -65,6 +80,18 @@ def local_block(A: PETSc.Mat) -> tuple[sp.csr_matrix, npt.NDArray[np.bool_]]:
     M2 = sp.csr_matrix((a, ja, ia), shape=(n, n))
     off = np.asarray(M2.sum(axis=1)).ravel() - M2.diagonal()  # exactly 0 without coupling
     return M2, ~(off > 0.0)
+
+
+def isolated_rows(A: PETSc.Mat) -> npt.NDArray[np.bool_]:
+    """The rows of ``A`` without a nonzero off-diagonal entry in this rank's diagonal
+    block (the isolated rows of :func:`local_block`, without the squared copy): rows
+    with at most one nonzero, which is then the diagonal (a row of a symmetric positive
+    semi-definite matrix with a zero diagonal is zero)."""
+    D = A.getDiagonalBlock() if A.getComm().getSize() > 1 else A
+    ia, _, a = D.getValuesCSR()
+    counts = np.add.reduceat(a != 0.0, ia[:-1], dtype=np.int32) if len(a) else 0
+    counts = np.where(np.diff(ia) > 0, counts, 0)  # (reduceat of an empty row: its next entry)
+    return counts <= 1
 
 
 def strength_graph(
@@ -117,6 +144,47 @@ def aggregate(
     return agg, count
 
 
+def aggregate_blocks(
+    agg_of_row: npt.NDArray[np.int64], n_agg: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """The aggregated rows grouped by aggregate (ascending rows within one) and where
+    every aggregate's group starts (``n_agg + 1`` bounds)."""
+    rows = np.flatnonzero(agg_of_row >= 0)
+    rows = rows[np.argsort(agg_of_row[rows], kind="stable")]
+    return rows, np.searchsorted(agg_of_row[rows], np.arange(n_agg + 1))
+
+
+def blocks_by_size(bounds: npt.NDArray[np.int64]) -> Iterator[npt.NDArray[np.int64]]:
+    """The aggregates grouped by their number of rows (one group per size, ascending
+    aggregates), so that each group's blocks stack into one array."""
+    sizes = np.diff(bounds)
+    order = np.argsort(sizes, kind="stable")
+    cuts = np.flatnonzero(np.diff(sizes[order])) + 1
+    yield from np.split(order, cuts)
+
+
+def block_svds(
+    Z: npt.NDArray[np.float64],
+    rows: npt.NDArray[np.int64],
+    bounds: npt.NDArray[np.int64],
+    rank_tol: float,
+) -> Iterator[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], tuple]]:
+    """Per group of equally sized aggregates (:func:`blocks_by_size`): the aggregates,
+    their rows ``(k, m)`` and the thin SVDs ``U, s, Vt`` of their near-nullspace blocks
+    ``Z[rows]`` (one stacked LAPACK call, the same per block as a call of its own) with
+    the number of singular values above ``rank_tol`` of the largest (0 for a zero block)."""
+    for group in blocks_by_size(bounds):
+        m = int(bounds[group[0] + 1] - bounds[group[0]])
+        block_rows = rows[bounds[group][:, None] + np.arange(m)]
+        if m == 0:
+            yield group, block_rows, None
+            continue
+        U, s, Vt = np.linalg.svd(Z[block_rows], full_matrices=False)
+        top = s[:, :1]
+        r = np.where(top[:, 0] > 0.0, (s > rank_tol * top).sum(axis=1), 0)
+        yield group, block_rows, (U, s, Vt, r)
+
+
 def compressed_prolongator(
     A: PETSc.Mat,
     Z: npt.NDArray[np.float64],
@@ -125,24 +193,19 @@ def compressed_prolongator(
     rank_tol: float,
 ) -> tuple[PETSc.Mat, npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """The prolongator whose columns are, per aggregate, the left singular vectors of
-    the near-nullspace block ``Z[rows]`` above ``rank_tol`` of its largest singular value.
+    the near-nullspace block ``Z[rows]`` above ``rank_tol`` of its largest singular value
+    (the blocks' SVDs stacked by size, :func:`block_svds`).
 
     Returns ``P`` (local rows of ``A`` × this rank's coarse columns), the coarse
     near-nullspace ``Z_c`` (``Σ Vᵀ`` per aggregate, so ``P Z_c = Z`` on the aggregated
     rows) and the number of columns of every aggregate."""
     comm = A.getComm().tompi4py()
-    rows = np.flatnonzero(agg_of_row >= 0)
-    rows = rows[np.argsort(agg_of_row[rows], kind="stable")]
-    bounds = np.searchsorted(agg_of_row[rows], np.arange(n_agg + 1))
+    rows, bounds = aggregate_blocks(agg_of_row, n_agg)
+    svds = list(block_svds(Z, rows, bounds, rank_tol))
     ranks = np.zeros(n_agg, np.int64)
-    vals, zc = [], []
-    for a in range(n_agg):
-        block = rows[bounds[a] : bounds[a + 1]]
-        U, s, Vt = np.linalg.svd(Z[block], full_matrices=False)
-        r = int((s > rank_tol * s[0]).sum()) if s.size and s[0] > 0.0 else 0
-        ranks[a] = r
-        vals.append(U[:, :r])
-        zc.append(s[:r, None] * Vt[:r])
+    for group, _, svd in svds:
+        if svd is not None:
+            ranks[group] = svd[3]
     offsets = np.concatenate([[0], np.cumsum(ranks)])
     n_c = int(offsets[-1])
     c0 = int(comm.exscan(n_c) or 0) if comm.size > 1 else 0
@@ -151,13 +214,18 @@ def compressed_prolongator(
     indptr = np.concatenate([[0], np.cumsum(row_nnz)]).astype(PETSc.IntType)
     indices = np.empty(indptr[-1], PETSc.IntType)
     data = np.empty(indptr[-1])
-    for a in range(n_agg):
-        r, block = int(ranks[a]), rows[bounds[a] : bounds[a + 1]]
-        if r == 0:
+    Zc = np.zeros((n_c, Z.shape[1]))
+    for group, block_rows, svd in svds:
+        if svd is None:
             continue
-        at = (indptr[block][:, None] + np.arange(r)).ravel()
-        indices[at] = np.tile(c0 + offsets[a] + np.arange(r), len(block))
-        data[at] = vals[a].ravel()
+        U, s, Vt, r = svd
+        keep = np.arange(s.shape[1]) < r[:, None]  # (k, columns)
+        at = indptr[block_rows][:, :, None] + np.arange(s.shape[1])  # (k, m, columns)
+        cols = c0 + offsets[group][:, None] + np.arange(s.shape[1])
+        mask = np.broadcast_to(keep[:, None, :], at.shape)
+        indices[at[mask]] = np.broadcast_to(cols[:, None, :], at.shape)[mask]
+        data[at[mask]] = U[mask]
+        Zc[(offsets[group][:, None] + np.arange(s.shape[1]))[keep]] = (s[..., None] * Vt)[keep]
     n = A.getLocalSize()[0]
     P = PETSc.Mat().createAIJ(
         size=((n, A.getSize()[0]), (n_c, comm.allreduce(n_c))),
@@ -165,8 +233,38 @@ def compressed_prolongator(
         comm=A.getComm(),
     )
     P.assemble()
-    Zc = np.concatenate(zc) if zc else np.zeros((0, Z.shape[1]))
     return P, Zc, ranks
+
+
+def node_skip(
+    isolated: npt.NDArray[np.bool_], node_of_row: npt.NDArray[np.int64], n_nodes: int
+) -> npt.NDArray[np.bool_]:
+    """The nodes all of whose rows are isolated (no coarse correction)."""
+    weights = (~isolated).astype(float)
+    return np.bincount(node_of_row, weights=weights, minlength=n_nodes) == 0
+
+
+def aggregation(
+    A: PETSc.Mat,
+    node_of_row: npt.NDArray[np.int64],
+    distance: int,
+    threshold: float,
+    kept: Aggregation | None,
+) -> tuple[Aggregation, npt.NDArray[np.bool_]]:
+    """The aggregation of ``A``'s nodes and its isolated rows: ``kept`` (an earlier
+    build's) when it has the same nodes without coarse correction — the operator
+    changed only in values, e.g. in the contact rows of another PDAS set — else a new
+    one from the strength graph (:func:`strength_graph`, :func:`aggregate`)."""
+    n_nodes = int(node_of_row.max(initial=-1)) + 1
+    if kept is not None and len(kept.skip) == n_nodes:
+        isolated = isolated_rows(A)
+        if np.array_equal(node_skip(isolated, node_of_row, n_nodes), kept.skip):
+            return kept, isolated
+    M2, isolated = local_block(A)
+    G = strength_graph(M2, node_of_row, n_nodes, threshold)
+    del M2
+    skip = node_skip(isolated, node_of_row, n_nodes)
+    return Aggregation(skip, *aggregate(G, skip, distance)), isolated
 
 
 def coarsen(
@@ -174,23 +272,21 @@ def coarsen(
     Z: npt.NDArray[np.float64],
     node_of_row: npt.NDArray[np.int64],
     distance: int,
-    threshold: float,
-    rank_tol: float,
+    opts: CompressedMGOptions,
+    kept: Aggregation | None = None,
 ) -> tuple[MultigridLevel, PETSc.Mat, npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """One coarsening step of ``A`` (rows grouped into nodes by ``node_of_row``): the
-    level of ``A`` with its prolongator, aggregates and their columns, ``Pᵀ A P``, the
-    coarse near-nullspace and the aggregate of every coarse row."""
-    M2, isolated = local_block(A)
-    n_nodes = int(node_of_row.max(initial=-1)) + 1
-    G = strength_graph(M2, node_of_row, n_nodes, threshold)
-    del M2
-    skip = np.bincount(node_of_row, weights=(~isolated).astype(float), minlength=n_nodes) == 0
-    agg, n_agg = aggregate(G, skip, distance)
+    """One coarsening step of ``A`` (rows grouped into nodes by ``node_of_row``; the
+    aggregation ``kept`` of an earlier build if it still applies, :func:`aggregation`):
+    the level of ``A`` with its prolongator, aggregation and columns per aggregate,
+    ``Pᵀ A P``, the coarse near-nullspace and the aggregate of every coarse row."""
+    agg, isolated = aggregation(A, node_of_row, distance, opts.threshold, kept)
     Z = Z.copy()
     Z[isolated] = 0.0  # identity rows: solved by the smoother, no coarse correction
-    P, Zc, ranks = compressed_prolongator(A, Z, agg[node_of_row], n_agg, rank_tol)
-    level = MultigridLevel(A, P, agg, ranks)
-    return level, A.ptap(P), Zc, np.repeat(np.arange(n_agg), ranks)
+    P, Zc, ranks = compressed_prolongator(
+        A, Z, agg.aggregates[node_of_row], agg.count, opts.rank_tol
+    )
+    level = MultigridLevel(A, P, agg.aggregates, ranks, agg)
+    return level, A.ptap(P), Zc, np.repeat(np.arange(agg.count), ranks)
 
 
 @dataclass(frozen=True)
@@ -213,14 +309,23 @@ class CompressedMGOptions:
     esteig_ksp: str = "cg"
     #: At most this many levels.
     max_levels: int = 10
+    #: Keep every level's aggregation across rebuilds while its nodes without coarse
+    #: correction stay the same (:func:`aggregation`): a new PDAS set changes the
+    #: operator in the contact rows only; the prolongators and Galerkin products are
+    #: computed anew from the kept aggregates.
+    reuse_aggregates: bool = True
 
     def __post_init__(self) -> None:
         if self.cycle not in ("v", "w"):
             raise ValueError(f"multigrid cycle must be 'v' or 'w', got {self.cycle!r}")
 
 
-def build_levels(A: PETSc.Mat, opts: CompressedMGOptions) -> list[MultigridLevel]:
-    """The hierarchy of ``A`` (its block size and near-nullspace set), finest first."""
+def build_levels(
+    A: PETSc.Mat, opts: CompressedMGOptions, kept: list[Aggregation] | None = None
+) -> list[MultigridLevel]:
+    """The hierarchy of ``A`` (its block size and near-nullspace set), finest first,
+    with the aggregations ``kept`` of an earlier build (level by level, while each
+    applies: :func:`aggregation`; the levels below a new one are aggregated anew)."""
     nns = A.getNearNullSpace()
     if nns is None or not nns.getVecs():
         raise ValueError("compressed multigrid: the operator has no near-nullspace")
@@ -228,11 +333,13 @@ def build_levels(A: PETSc.Mat, opts: CompressedMGOptions) -> list[MultigridLevel
     bs = A.getBlockSize()
     node_of_row = np.arange(A.getLocalSize()[0], dtype=np.int64) // bs
     levels = [MultigridLevel(A)]
+    kept = list(kept or [])
     while len(levels) < opts.max_levels and levels[-1].A.getSize()[0] > opts.coarse_limit:
         distance = 2 if len(levels) == 1 else 1
-        level, Ac, Z, node_of_row = coarsen(
-            levels[-1].A, Z, node_of_row, distance, opts.threshold, opts.rank_tol
-        )
+        old = kept[len(levels) - 1] if len(levels) <= len(kept) else None
+        level, Ac, Z, node_of_row = coarsen(levels[-1].A, Z, node_of_row, distance, opts, old)
+        if level.aggregation is not old:
+            kept = []  # (the coarser levels' nodes are this level's aggregates)
         if Ac.getSize()[0] >= 0.9 * level.A.getSize()[0]:
             level.P.destroy(), Ac.destroy()  # no coarsening any more
             break
@@ -315,6 +422,10 @@ class CompressedMultigrid:
     setup_flops
         This rank's operations of the last build: the Galerkin products, and the
         smoothers' eigenvalue estimates with the coarse factorisation.
+    builds, kept_levels, setup_seconds
+        Builds of the hierarchy, the levels over all builds whose aggregation was kept
+        from the build before (this rank's; ``reuse_aggregates``) and the wall time of
+        all builds on this rank.
     """
 
     def __init__(self, options: CompressedMGOptions | None = None):
@@ -326,13 +437,24 @@ class CompressedMultigrid:
         self.ranks: npt.NDArray[np.int64] = np.zeros(0, np.int64)
         self.aggregates: npt.NDArray[np.int64] = np.zeros(0, np.int64)
         self.setup_flops = (0.0, 0.0)
+        self.builds = 0
+        self.kept_levels = 0
+        self.setup_seconds = 0.0
 
     def setUp(self, pc: PETSc.PC) -> None:
         """Build the hierarchy of the PC's preconditioning matrix."""
+        t0 = time.perf_counter()
+        kept = self.kept_aggregations() if self.options.reuse_aggregates else None
         self._free()
         _, A = pc.getOperators()
         f0 = PETSc.Log.getFlops()
-        self.levels = build_levels(A, self.options)
+        self.levels = build_levels(A, self.options, kept)
+        self.builds += 1
+        self.kept_levels += sum(
+            1
+            for k, lev in enumerate(self.levels[:-1])
+            if kept and k < len(kept) and lev.aggregation is kept[k]
+        )
         f1 = PETSc.Log.getFlops()
         self.mg = multigrid_pc(self.levels, self.options)
         self.setup_flops = (f1 - f0, PETSc.Log.getFlops() - f1)
@@ -344,6 +466,12 @@ class CompressedMultigrid:
         none = np.zeros(0, np.int64)
         self.aggregates = first.aggregates if first.aggregates is not None else none
         self.ranks = first.ranks if first.ranks is not None else none
+        self.setup_seconds += time.perf_counter() - t0
+
+    def kept_aggregations(self) -> list[Aggregation] | None:
+        """The aggregations of the current hierarchy, finest first (``None``: none)."""
+        kept = [lev.aggregation for lev in self.levels[:-1]]
+        return kept if kept and all(a is not None for a in kept) else None
 
     def apply(self, pc: PETSc.PC, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """One cycle."""
