@@ -67,44 +67,73 @@ class MultigridLevel:
     aggregation: Aggregation | None = None
 
 
-def local_block(A: PETSc.Mat) -> tuple[sp.csr_matrix, npt.NDArray[np.bool_]]:
-    """This rank's diagonal block of ``A`` with its entries squared (local rows and
-    columns; one copy of PETSc's arrays, squared in place) and the rows without a
-    nonzero off-diagonal entry in it (eliminated or Dirichlet rows: identity rows that
-    need no coarse correction; a row that couples only to other ranks' rows does not
-    occur: each row couples to its own node)."""
+#: Rows of the rank's block read at once for the strength graph (node-aligned chunks: a
+#: copy of this many rows at a time instead of the whole block's CSR arrays).
+CHUNK_ROWS = 1 << 15
+
+
+def node_block_norms(
+    A: PETSc.Mat, node_of_row: npt.NDArray[np.int64], n_nodes: int
+) -> tuple[sp.csr_matrix, npt.NDArray[np.bool_]]:
+    """The squared Frobenius norms of the node blocks of this rank's diagonal block of
+    ``A`` (``F = R (A∘A) Rᵀ``, ``R`` the rows' nodes; node-aligned chunks of
+    :data:`CHUNK_ROWS` rows, so at most one chunk's entries are copied at a time) and
+    the rows without a nonzero off-diagonal entry there (eliminated or Dirichlet rows:
+    identity rows that need no coarse correction; a row that couples only to other
+    ranks' rows does not occur: each row couples to its own node)."""
     D = A.getDiagonalBlock() if A.getComm().getSize() > 1 else A
-    ia, ja, a = D.getValuesCSR()
     n = D.getSize()[0]
-    np.multiply(a, a, out=a)
-    M2 = sp.csr_matrix((a, ja, ia), shape=(n, n))
-    off = np.asarray(M2.sum(axis=1)).ravel() - M2.diagonal()  # exactly 0 without coupling
-    return M2, ~(off > 0.0)
+    dv = A.getDiagonal()
+    diag2 = dv.array**2  # (the squared block's diagonal)
+    dv.destroy()
+    R = sp.csr_matrix((np.ones(n), (node_of_row, np.arange(n))), shape=(n_nodes, n))
+    starts = np.flatnonzero(np.diff(node_of_row, prepend=-1))  # (first row of every node)
+    cuts = starts[np.searchsorted(starts, np.arange(0, n, CHUNK_ROWS))]
+    cuts = np.unique(np.concatenate([cuts, [n]]))
+    cols = PETSc.IS().createStride(n, 0, 1, comm=PETSc.COMM_SELF)
+    F, isolated = None, np.zeros(n, bool)
+    for r0, r1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+        rows = PETSc.IS().createStride(r1 - r0, r0, 1, comm=PETSc.COMM_SELF)
+        chunk = D.createSubMatrix(rows, cols)
+        ia, ja, a = chunk.getValuesCSR()
+        chunk.destroy(), rows.destroy()
+        np.multiply(a, a, out=a)
+        M2 = sp.csr_matrix((a, ja, ia), shape=(r1 - r0, n))
+        off = np.asarray(M2.sum(axis=1)).ravel() - diag2[r0:r1]  # exactly 0 without coupling
+        isolated[r0:r1] = ~(off > 0.0)
+        Rc = sp.csr_matrix(
+            (np.ones(r1 - r0), (node_of_row[r0:r1], np.arange(r1 - r0))), shape=(n_nodes, r1 - r0)
+        )
+        part = Rc @ M2 @ R.T
+        F = part if F is None else F + part
+        del ia, ja, a, M2
+    cols.destroy()
+    return (F if F is not None else sp.csr_matrix((n_nodes, n_nodes))), isolated
 
 
 def isolated_rows(A: PETSc.Mat) -> npt.NDArray[np.bool_]:
-    """The rows of ``A`` without a nonzero off-diagonal entry in this rank's diagonal
-    block (the isolated rows of :func:`local_block`, without the squared copy): rows
-    with at most one nonzero, which is then the diagonal (a row of a symmetric positive
-    semi-definite matrix with a zero diagonal is zero)."""
-    D = A.getDiagonalBlock() if A.getComm().getSize() > 1 else A
-    ia, _, a = D.getValuesCSR()
-    counts = np.add.reduceat(a != 0.0, ia[:-1], dtype=np.int32) if len(a) else 0
-    counts = np.where(np.diff(ia) > 0, counts, 0)  # (reduceat of an empty row: its next entry)
-    return counts <= 1
+    """The identity rows of ``A`` (no nonzero off-diagonal entry) without a copy of the
+    matrix: the rows ``i`` with ``(A x)_i = A_ii x_i`` exactly for a random positive
+    ``x`` (the zero entries of an identity row add exact zeros; a coupling changes the
+    product unless it cancels, of probability zero, or lies below the rounding of the
+    diagonal term, which the squared row sums of :func:`node_block_norms` miss too)."""
+    x, y = A.createVecs()
+    d = A.getDiagonal()
+    rng = np.random.default_rng(A.getComm().getRank())
+    x.array[:] = 1.0 + rng.random(x.getLocalSize())
+    A.mult(x, y)
+    isolated = y.array == d.array * x.array
+    for v in (x, y, d):
+        v.destroy()
+    return isolated
 
 
-def strength_graph(
-    M2: sp.csr_matrix, node_of_row: npt.NDArray[np.int64], n_nodes: int, threshold: float
-) -> sp.csr_matrix:
+def strength_graph(F: sp.csr_matrix, threshold: float) -> sp.csr_matrix:
     """The symmetric strength graph of the nodes (boolean, no diagonal) from the squared
-    entries ``M2`` of a matrix ``M``: nodes ``I ≠ J`` are strongly connected when the
-    Frobenius norm of their block of ``M`` exceeds ``threshold · sqrt(‖M_II‖ ‖M_JJ‖)``."""
-    R = sp.csr_matrix(
-        (np.ones(len(node_of_row)), (node_of_row, np.arange(len(node_of_row)))),
-        shape=(n_nodes, M2.shape[0]),
-    )
-    F = (R @ M2 @ R.T).tocoo()
+    Frobenius norms ``F`` of the node blocks of a matrix ``M``: nodes ``I ≠ J`` are
+    strongly connected when the norm of their block exceeds
+    ``threshold · sqrt(‖M_II‖ ‖M_JJ‖)``."""
+    F = F.tocoo()
     d = np.sqrt(np.maximum(F.diagonal(), 1e-300))
     strong = (F.row != F.col) & (np.sqrt(F.data) > threshold * np.sqrt(d[F.row] * d[F.col]))
     G = sp.csr_matrix(
@@ -260,9 +289,9 @@ def aggregation(
         isolated = isolated_rows(A)
         if np.array_equal(node_skip(isolated, node_of_row, n_nodes), kept.skip):
             return kept, isolated
-    M2, isolated = local_block(A)
-    G = strength_graph(M2, node_of_row, n_nodes, threshold)
-    del M2
+    F, isolated = node_block_norms(A, node_of_row, n_nodes)
+    G = strength_graph(F, threshold)
+    del F
     skip = node_skip(isolated, node_of_row, n_nodes)
     return Aggregation(skip, *aggregate(G, skip, distance)), isolated
 
