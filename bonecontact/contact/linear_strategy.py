@@ -29,6 +29,7 @@ from dolfinx import fem
 
 from bonecontact.common.linalg import SolverOptions, configure_ksp
 from bonecontact.contact.condensed import CondensedSystem, lean_products
+from bonecontact.contact.coupled_rows import CoupledGroup, krylov_groups, spring_split
 from bonecontact.contact.krylov import (
     DEFAULT_REUSE_ROWS,
     RESPONSE_RTOL,
@@ -279,13 +280,7 @@ class RefactorStrategy:
         updates = []
         for i in range(crow.shape[0]):  # (the groups of this rank's nodes)
             grows = [int(lay.local_rows[q]) + sy.start for q in crow[i]]
-            data = [self.B.getRow(r) for r in grows]
-            cols = data[0][0]
-            vals = np.array([d[1] for d in data])
-            if any(not np.array_equal(d[0], cols) for d in data):
-                raise RuntimeError(
-                    "contact: the rows of a slave node do not share their sparsity pattern"
-                )
+            cols, vals = self._node_rows(grows)
             rhs_loc = np.array([self._rhs.array[r - sy.start] for r in grows])
             new = Gc[i] @ vals
             for a in range(len(grows)):
@@ -297,6 +292,17 @@ class RefactorStrategy:
             for a, r in enumerate(grows):
                 self.B.setValues([r], cols, new[a], addv=PETSc.InsertMode.INSERT_VALUES)
         self.B.assemble()
+
+    def _node_rows(self, grows: list[int]) -> tuple[npt.NDArray, npt.NDArray[np.float64]]:
+        """The shared columns and the values (one row each) of the global rows ``grows``
+        of one slave node in ``B``."""
+        data = [self.B.getRow(r) for r in grows]
+        cols = data[0][0]
+        if any(not np.array_equal(d[0], cols) for d in data):
+            raise RuntimeError(
+                "contact: the rows of a slave node do not share their sparsity pattern"
+            )
+        return cols, np.array([d[1] for d in data])
 
     def _ksp_solve(self, rows: SetRows) -> None:
         """Factorise ``B`` and solve into ``Ũ``; a singular or failed solve raises."""
@@ -329,11 +335,35 @@ class RefactorStrategy:
             obj.destroy()
 
 
+#: GMRES restart of the systems with coupled rows (Krylov strategy): the P2 runs of
+#: issue 28 stopped after 60 iterations (compressed hierarchy, PETSc's restart 30).
+GMRES_RESTART = 100
+
+
+class _SumOperator:
+    """``y = P x + C x`` (a ``python`` Mat's context): the exact matrix of a system with
+    coupled rows, as the preconditioner's matrix ``P`` plus the rows ``C`` that differ."""
+
+    def __init__(self, P: PETSc.Mat):
+        self.P, self.C = P, None
+
+    def mult(self, mat: PETSc.Mat, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        self.P.mult(x, y)
+        self.C.multAdd(x, y, y)
+
+
 class KrylovStrategy(RefactorStrategy):
-    """Eliminate the fixed rows and solve by CG (GMRES with nonsymmetric slip rows) +
-    GAMG with the rigid-body modes in the nodal frames; the preconditioner of an
-    earlier set is kept while the set changes little
-    (:class:`~bonecontact.contact.krylov.PreconditionerReuse`)."""
+    """Eliminate the fixed rows and solve by CG + GAMG (or the compressed hierarchy) with
+    the rigid-body modes in the nodal frames; the preconditioner of an earlier set is
+    kept while the set changes little
+    (:class:`~bonecontact.contact.krylov.PreconditionerReuse`).
+
+    Coupled rows (3D Newton slip rows, edge nodes; docs/theory/pdas.md#friction-rows-in-
+    the-iterative-solver) are posed by :func:`~bonecontact.contact.coupled_rows.krylov_groups`;
+    ``B`` stays symmetric (the elastic rows plus the positive part of the slip springs)
+    and is the preconditioner's matrix, the exact system is ``B + C`` (``C`` the few
+    differing entries), solved by right-preconditioned GMRES.
+    """
 
     kind = "iterative"
 
@@ -350,6 +380,10 @@ class KrylovStrategy(RefactorStrategy):
             rows = DEFAULT_REUSE_ROWS[options.multigrid]
         self.pc_reuse = PreconditionerReuse(rows, options.pc_reuse_growth)
         super().__init__(system, options, rtol, V, nonsymmetric)
+        self._sum = _SumOperator(self.B)
+        self._op = PETSc.Mat().createPython(self.B.getSizes(), self._sum, comm=self.B.getComm())
+        self._op.setUp()
+        self._sym_type = self.ksp.getType()
 
     def _configure(
         self, options: LinearOptions, rtol: float, V: fem.FunctionSpace, nonsymmetric: bool
@@ -365,13 +399,83 @@ class KrylovStrategy(RefactorStrategy):
             sy.T,
             prefix=prefix,
             rtol=rtol,
-            nonsymmetric=nonsymmetric,
+            nonsymmetric=False,  # (B is symmetric; coupled rows are applied apart)
             multigrid=options.multigrid,
             cycle=options.multigrid_cycle,
         )
+        self.ksp.getPC().setUseAmat(False)  # (the multigrid smooths with B, not B + C)
+
+    def solve(self, rows: SetRows) -> SetSolution:
+        """The system of ``rows`` with its coupled rows in the Krylov form
+        (:func:`~bonecontact.contact.coupled_rows.krylov_groups`: the same solution)."""
+        fixed, values, groups = krylov_groups(rows.coupled, rows.fixed, rows.values)
+        if self._sum.C is not None:  # (the last system's; _replace_rows sets this one's)
+            self._sum.C.destroy()
+            self._sum.C = None
+        return super().solve(SetRows(fixed, values, rows.forces, groups or None, rows.margin))
+
+    def _replace_rows(self, groups: list[CoupledGroup] | None) -> None:
+        """The coupled groups of this rank (``None``: none; collective): scaled groups
+        add the positive part ``S`` of their spring to ``B`` and the rest ``K − S`` to
+        ``C``; other groups put their rows ``G B x − H x`` less ``B``'s into ``C``; the
+        right-hand side of the rows becomes ``G r − h``."""
+        sy, lay = self.system, self.system.layout
+        adds, diffs = [], []
+        for grp in groups or []:
+            grows = [int(lay.local_rows[q]) + sy.start for q in grp.rows]
+            if grp.scaled:
+                S, rest = spring_split(grp.H)
+                adds.append((grows, S))
+                diffs.append((grows, np.asarray(grows, dtype=PETSc.IntType), rest))
+            else:
+                cols, vals = self._node_rows(grows)
+                new = grp.G @ vals
+                new[:, [int(np.flatnonzero(cols == c)[0]) for c in grows]] -= grp.H
+                diffs.append((grows, cols, new - vals))
+            idx = np.asarray(grows) - sy.start
+            self._rhs.array[idx] = grp.G @ self._rhs.array[idx] - grp.h
+        for grows, S in adds:  # (no MatGetRow once values are set)
+            self.B.setValues(grows, grows, S.ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+        self.B.assemble()
+        self._sum.C = self._difference(diffs)
+
+    def _difference(self, diffs: list[tuple]) -> PETSc.Mat:
+        """The matrix ``C`` of ``B``'s layout with the rows ``(rows, cols, values)``."""
+        B, start = self.B, self.system.start
+        (n, N), (m, M) = B.getSizes()
+        nnz = np.zeros(n, dtype=PETSc.IntType)
+        for grows, cols, _ in diffs:
+            nnz[np.asarray(grows) - start] = len(cols)
+        C = PETSc.Mat().createAIJ(B.getSizes(), comm=B.getComm())
+        C.setPreallocationNNZ((np.minimum(nnz, m), np.minimum(nnz, M - m)))
+        for grows, cols, vals in diffs:
+            C.setValues(grows, cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
+        C.assemble()
+        return C
+
+    def _use_method(self) -> None:
+        """GMRES (right-preconditioned: its test is on the true residual) on ``B + C``
+        while a system has coupled rows, else the symmetric method on ``B``."""
+        ksp, nonsym = self.ksp, self._sum.C is not None
+        if nonsym and ksp.getType() != PETSc.KSP.Type.GMRES:
+            ksp.setType(PETSc.KSP.Type.GMRES)
+            ksp.setGMRESRestart(GMRES_RESTART)
+            ksp.setPCSide(PETSc.PC.Side.RIGHT)
+            ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        elif not nonsym and ksp.getType() != self._sym_type:
+            ksp.setType(self._sym_type)
+            ksp.setPCSide(PETSc.PC.Side.LEFT)
+            ksp.setNormType(PETSc.KSP.NormType.DEFAULT)
+        ksp.setOperators(self._op if nonsym else self.B, self.B)
 
     def finish(self, iterations: int) -> tuple[int, int]:
         return 0, 0
+
+    def destroy(self) -> None:
+        if self._sum.C is not None:
+            self._sum.C.destroy()
+        self._op.destroy()
+        super().destroy()
 
     def set_rtol(self, rtol: float) -> None:
         self.ksp.setTolerances(rtol=rtol)
@@ -450,10 +554,16 @@ class KrylovStrategy(RefactorStrategy):
     def _ksp_solve(self, rows: SetRows) -> None:
         """Keep or rebuild the preconditioner, solve; a kept one that fails is rebuilt and
         the solve repeated."""
-        self.ksp.setOperators(self.B)
-        replaced = rows.fixed.copy()
-        if rows.coupled is not None:
-            replaced[np.asarray(rows.coupled[0]).ravel()] = True
+        self._use_method()
+        coupled = np.zeros_like(rows.fixed)
+        for grp in rows.coupled or []:
+            coupled[grp.rows] = True
+        # (fixed and coupled rows apart: a stick row that slips changes the rows of B)
+        replaced = np.concatenate([rows.fixed, coupled])
+        if self._sum.C is not None:
+            # (the springs change B at every iteration, stiff ones by orders of magnitude
+            # beyond the kept smoother's bounds: 3D Tresca drag 4-5x the iterations)
+            self.pc_reuse.forget()
         kept = self.pc_reuse.decide(self.ksp, replaced)
         Uh = self.system.Uh
         try:
