@@ -433,7 +433,7 @@ def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> Surfa
 def _breaks_through(run: SurfaceRun, crack: SurfaceBreakingCrack) -> bool:
     """Whether the grown crack's front leaves the body (or its mouth cannot be cut)."""
     try:
-        cut = cut_mouth(run.body, crack, None)
+        cut = cut_mouth(run.body, crack, run.size)
     except ParameterError:
         return True
     return not bool(np.all(inside_body(run.body, _probe_points(cut, run.ligament))))

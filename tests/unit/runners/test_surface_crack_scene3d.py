@@ -25,6 +25,7 @@ half_length.  References:
   back face:
   status ``through``, the fragments the two halves of the plate (each 2b·h·t within 3 %:
   cells are counted by the side of their midpoint);
+* boundary facets five times the crack: one block grows it (not "through");
 * the crack surface and front VTK per increment; bad input: a centre off the surface.
 """
 
@@ -63,6 +64,7 @@ def plates(tmp_path_factory) -> Path:
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("surface3d")) if comm.rank == 0 else None))
     gmsh_on_rank0(surface_plate(T), d / "plate.msh", 3)
     gmsh_on_rank0(surface_plate(0.4 * L), d / "thin.msh", 3)
+    gmsh_on_rank0(surface_plate(T, size=1.0 * L), d / "coarse.msh", 3)
     return d
 
 
@@ -127,6 +129,20 @@ def test_through_the_thin_plate_reports_the_fragments(plates: Path) -> None:
     vols = [f["volume"] for f in g["fragments"]]
     np.testing.assert_allclose(vols, 2 * B * H * 0.4 * L, rtol=0.03)
     assert g["cycles"] > 0
+
+
+def test_grown_crack_on_coarse_facets_is_not_through(plates: Path) -> None:
+    """Boundary facets (1 mm) five times the crack (0.2 mm): the grown crack's mouth is cut
+    into the boundary refined near it, as the mesh is, so that the check for a front
+    leaving the body does not stop the run "through" after the first block (it did when
+    the mouth was cut into the unrefined facets: no facet edge crossed the small ellipse)."""
+    growth = f"[fracture.fatigue]\nC = 1e-20\nm = 2.0\nda_max = {0.04 * L}\nmax_blocks = 1"
+    centre = f"[{0.3137 * L}, 0.0, 0.0]"  # off the facets' vertices
+    res, _ = _run(plates, "coarse", mesh="coarse.msh", growth=growth, centre=centre)
+    assert res.status == "converged", res.summary.get("message")
+    g = res.summary["fracture"]["growth"]
+    assert g["status"] == "max_blocks" and g["increments"] == 1
+    assert g["history"][-1]["depth"] > A
 
 
 def test_centre_off_the_surface_is_refused(plates: Path) -> None:
