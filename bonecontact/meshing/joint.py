@@ -32,6 +32,7 @@ from bonecontact.meshing.surface_repair import (
 
 __all__ = [
     "Cartilage",
+    "FacetsOver",
     "JointBone",
     "Pose",
     "cartilage_layer",
@@ -431,6 +432,52 @@ def smooth_surface(
 
 # ------------------------------------------------------------------------ cartilage
 @dataclass(frozen=True)
+class FacetsOver:
+    """A region of an upper bone's facets (a :class:`Cartilage` region, as
+    :class:`~bonecontact.meshing.SurfaceRegion`): those facing down (normal within
+    ``cone`` degrees of -y) whose vertical ray down meets ``lower`` within ``max_gap`` on
+    a facet of ``lower`` facing up (within ``lower_cone`` of +y), and so do the rays
+    ``margin`` away from the centroid in ±x and ±z; with ``box = (lo, hi)`` only
+    centroids inside it (e.g. one compartment of a knee).  A layer on these facets lies over
+    the lower bone's articular surface (a contact pair's slave covered by its master)
+    and ends where the bones are ``max_gap`` apart (its tapered rim away from the
+    contact)."""
+
+    name: str
+    lower: Surface
+    max_gap: float
+    cone: float = 40.0
+    lower_cone: float = 60.0
+    margin: float = 0.0
+    box: tuple[Sequence[float], Sequence[float]] | None = None
+
+    def __post_init__(self) -> None:
+        check_positive(max_gap=self.max_gap)
+        if not (0 <= self.cone <= 90 and 0 <= self.lower_cone <= 90 and self.margin >= 0):
+            raise ValueError(
+                f"region {self.name!r}: cone and lower_cone must be in [0, 90] degrees and "
+                f"margin >= 0 (got {self.cone!r}, {self.lower_cone!r}, {self.margin!r})"
+            )
+
+    def select(self, centroids: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """Mask of the facets (centroids, unit normals) in the region."""
+        up = self.lower.triangle_normals()[:, 1]
+        mask = normals[:, 1] <= -math.cos(math.radians(self.cone))
+        if self.box is not None:
+            lo, hi = (np.asarray(v, float) for v in self.box)
+            mask &= np.all((centroids >= lo) & (centroids <= hi), axis=1)
+        m = self.margin
+        for dx, dz in ((0.0, 0.0), (m, 0.0), (-m, 0.0), (0.0, m), (0.0, -m)):
+            if mask.any():
+                o = centroids[mask] + [dx, 0.0, dz]
+                dist, tri = _ray_hits(o, np.tile(-UP, (len(o), 1)), self.lower)
+                ok = (tri >= 0) & (dist < self.max_gap)
+                ok[ok] &= up[tri[ok]] >= math.cos(math.radians(self.lower_cone))
+                mask[np.flatnonzero(mask)[~ok]] = False
+        return mask
+
+
+@dataclass(frozen=True)
 class Cartilage:
     """A cartilage layer on the articular facets of a bone (:func:`joint_from_surfaces`).
 
@@ -443,7 +490,8 @@ class Cartilage:
         ``[[contact]]`` (``"femur_contact"``).
     regions
         The articular facets of the bone surface: the triangles any of these regions
-        selects (several: e.g. one box per compartment of a joint).
+        selects (several: e.g. one box per compartment of a joint; :class:`FacetsOver`:
+        the facets over another bone).
     thickness
         Layer thickness (m), normal to the facets; with ``conform_to``, the largest
         thickness (where the other surface is far).
@@ -471,11 +519,15 @@ class Cartilage:
         Times the remeshed articular facets are split into four (0, 1 or 2;
         :func:`refine_facets`), the new vertices moved onto the bone's given surface
         (closest point): a finer articular surface, the rest of the bone as remeshed.
+    rim_slope
+        With ``conform_along="vertical"``: the layer is at most ``rim_slope`` times a
+        vertex's distance from the layer's rim thick (1: no steeper than 45° towards its
+        rim; 3: 72°, the steep outer wall of a meniscus).
     """
 
     name: str
     contact: str
-    regions: tuple[SurfaceRegion, ...]
+    regions: tuple[SurfaceRegion | FacetsOver, ...]
     thickness: float
     conform_to: str | None = None
     clearance: float = 0.0
@@ -483,9 +535,10 @@ class Cartilage:
     subchondral: str | None = None
     cartilage_thickness: float | None = None
     refine: int = 0
+    rim_slope: float = 1.0
 
     def __post_init__(self) -> None:
-        check_positive(thickness=self.thickness)
+        check_positive(thickness=self.thickness, rim_slope=self.rim_slope)
         if self.refine not in (0, 1, 2):
             raise ValueError(
                 f"cartilage {self.name!r}: refine must be 0, 1 or 2 (got {self.refine!r})"
@@ -805,6 +858,7 @@ def cartilage_layer(
     conform: tuple[Surface, float] | None = None,
     along: str = "normal",
     cartilage_thickness: float | None = None,
+    rim_slope: float = 1.0,
 ) -> CartilageLayer:
     """The layer of ``thickness`` (m) on the triangles ``facets`` of a closed surface.
 
@@ -816,7 +870,8 @@ def cartilage_layer(
     facets' resolution) where the two bones are close: the layers meet over a patch.
     ``along="vertical"`` measures the clearance vertically instead (+y), lowers the
     layer where a vertex of ``other`` is less than the clearance above it, keeps it no
-    steeper than 45° towards its rim and thins it where the offset would turn a facet
+    steeper than 45° towards its rim (``rim_slope`` = 1; thickness at most ``rim_slope``
+    times the distance from the rim) and thins it where the offset would turn a facet
     over (a vertical load then closes the patch at once).  With
     ``cartilage_thickness`` the layer is split by a middle surface (``mid``): the top
     ``cartilage_thickness`` of each offset is cartilage, the rest subchondral bone (at
@@ -855,7 +910,7 @@ def cartilage_layer(
     if conform is not None and along == "vertical":
         # no steeper than 45 degrees towards the rim: no wall for the other layer to hit
         rim_distance = cKDTree(surface.points[on_rim]).query(surface.points[verts])[0]
-        t = np.minimum(t, np.maximum(rim_distance, 0.1 * thickness))
+        t = np.minimum(t, np.maximum(rim_slope * rim_distance, 0.1 * thickness))
     n0 = len(surface.points)
     new_id = np.arange(n0, dtype=np.int64)
     new_id[verts] = n0 + np.arange(len(verts))
@@ -958,7 +1013,13 @@ def _bone_parts(
         conform = _conform_target(bone.cartilage, done)
         cart = bone.cartilage
         layer = cartilage_layer(
-            outer, facets, cart.thickness, conform, cart.conform_along, cart.cartilage_thickness
+            outer,
+            facets,
+            cart.thickness,
+            conform,
+            cart.conform_along,
+            cart.cartilage_thickness,
+            cart.rim_slope,
         )
     keep = np.ones(len(outer.triangles), bool)
     if layer is not None:
