@@ -170,8 +170,8 @@ endef
 
 MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 # On 3 or more ranks (2 cores oversubscribed) make test runs the tests of the code whose
-# results depend on the partition — contact, fracture, the runners (scenes, checkpoints,
-# restarts, reactions), the remesh input, the rigid-motion check (bodies joined across
+# results depend on the partition — contact, fracture, the 3D crack scenes, restarts on
+# another rank count, field output pieces and reactions, the remesh input, the rigid-motion check (bodies joined across
 # ranks), the contact robustness sample, the load-driven contact problems (bodies held
 # only by contact, the first touching node on a partition boundary) and the fracture
 # verification problems — and leaves out the tests marked growth (their 3-rank runs are
@@ -179,10 +179,16 @@ MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 # runs here).  Input parsing, materials, meshing, plotting, the mechanics-only
 # verifications, Hertz, friction and dynamic contact (the contact code they use is in
 # the 3-rank set; the Coulomb scene and the dynamic scene are also compared on 1 and 3
-# ranks by serial-session tests) and the crack-path verification run on 1 and 2 ranks.
-# make test-all runs everything on 3 ranks too.
+# ranks by serial-session tests), the crack-path verification and the other run-layer
+# tests (command line, 2D crack and growth scenes, coupled runs, result tables: their
+# parallel parts are those above) run on 1 and 2 ranks.  make test-all runs everything on
+# 3 ranks too.
 MPI3_SKIP  ?= growth or two_ranks
-MPI3_TESTS ?= tests/unit/contact tests/unit/fracture tests/unit/runners \
+MPI3_RUNNERS = test_crack3d_ranks test_crack_scene3d test_crack_scene3d_several \
+  test_crack_restart3d test_surface_crack_scene3d test_fracture_scene3d test_restart \
+  test_vtu_output test_forces
+MPI3_TESTS ?= tests/unit/contact tests/unit/fracture \
+  $(patsubst %,tests/unit/runners/%.py,$(MPI3_RUNNERS)) \
   tests/unit/neoplasm/test_remesh.py tests/unit/neoplasm/test_remesh_determinism.py \
   tests/unit/scene/test_rigid_motions.py tests/verification/test_robustness.py \
   tests/verification/test_load_driven.py tests/verification/test_load_driven_builder.py \
