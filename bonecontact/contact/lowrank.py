@@ -293,6 +293,11 @@ class LowRankActiveSetSolver:
         first argument ``A`` is then not used).
     """
 
+    #: column blocks solved with sparse right-hand sides (MUMPS only; otherwise, and for a
+    #: block with the base solve, dense): the same columns to round-off, in about half the
+    #: operations (docs/theory/pdas.md#sparse-right-hand-sides)
+    sparse_rhs: bool = True
+
     def __init__(
         self,
         A: PETSc.Mat,
@@ -401,9 +406,9 @@ class LowRankActiveSetSolver:
         iscol.destroy()
         return AC, cols
 
-    def _columns_of_ac(self, qs: list[int], xq: list[int]) -> npt.NDArray:
-        """``A e_q`` for the contact positions ``qs[j]``, ``j`` in ``xq``: this rank's rows of
-        those columns of :attr:`AC`, read from its entries (no product)."""
+    def _columns_of_ac(self, qs: list[int], xq: list[int]) -> tuple[npt.NDArray, ...]:
+        """``A e_q`` for the contact positions ``qs[j]``, ``j`` in ``xq``: this rank's entries
+        of those columns of :attr:`AC` as ``(local row, j, value)`` (no product)."""
         lo, hi = self.offset, self.offset + self.L.size
         col = np.full(len(qs), -1, dtype=np.int64)
         first = self.AC.getOwnershipRangeColumn()[0]
@@ -413,11 +418,9 @@ class LowRankActiveSetSolver:
         self.comm.Allreduce(MPI.IN_PLACE, col, op=MPI.MAX)
         ai, aj, av = self.AC.getValuesCSR()
         rows = np.repeat(np.arange(self.nloc), np.diff(ai))
-        out = np.zeros((self.nloc, len(qs)))
-        for j in xq:
-            hit = aj == col[j]
-            out[rows[hit], j] = av[hit]
-        return out
+        hits = [(j, aj == col[j]) for j in xq]
+        out = [(rows[h], np.full(int(h.sum()), j), av[h]) for j, h in hits]
+        return tuple(np.concatenate(a) for a in zip(*out))
 
     def _make_split(self, allowed: npt.NDArray[np.bool_], rows: npt.NDArray) -> SplitBasis:
         """The split basis with this rank's contact rows ``allowed`` in the contact basis."""
@@ -749,31 +752,29 @@ class LowRankActiveSetSolver:
             self._compute_block(qs[i : i + self.block_limit])
 
     def _compute_block(self, qs: list[int], rhs: PETSc.Vec | None = None) -> None:
-        """Columns for the global positions ``qs`` (X-type if in the base, W-type if not);
-        with ``rhs``, the base solve of that right-hand side in the same multi-right-hand-
-        side solve (one more column: :attr:`_xb` and its contact rows)."""
+        """Columns for the global positions ``qs`` (X-type if in the base, W-type if not),
+        in one MUMPS solve with sparse right-hand sides (:meth:`_rhs_entries`; the forward
+        substitution then only visits the part of the elimination tree that the columns'
+        few entries reach: docs/theory/pdas.md#sparse-right-hand-sides); with ``rhs``, the
+        base solve of that right-hand side in the same solve (one more, dense, column:
+        :attr:`_xb` and its contact rows; all right-hand sides dense then)."""
         t0 = time.perf_counter()
         k = len(qs)
-        lo, hi = self.offset, self.offset + self.L.size
-        Rm = _dense(self.comm, self.nloc, k + (rhs is not None))
-        R = Rm.getDenseArray(readonly=False)
-        in_base = self._flags(self.base, qs)
-        xq = [j for j in range(k) if in_base[j]]
-        if xq:  # (A times unit columns at contact rows: columns of AC)
-            R[:, :k] = -self._columns_of_ac(qs, xq)
-            R[self._fixed_local(self.base), :k] = 0.0
-        for j, q in enumerate(qs):
-            if lo <= q < hi:
-                R[self.L[q - lo], j] = self.diag_value if in_base[j] else 1.0
-        wq = [j for j in range(k) if not in_base[j]]
-        if self.split is not None and wq:
-            self._split_forces(qs, wq, R)
-        if rhs is not None:
-            R[:, k] = rhs.array_r
-        Rm.assemble()
+        entries = self._rhs_entries(qs)
         Xm = _dense(self.comm, self.nloc, k + (rhs is not None))
         F = self.ksp.getPC().getFactorMatrix()
-        F.matSolve(Rm, Xm)
+        sparse = self.sparse_rhs and self.ksp.getPC().getFactorSolverType() == "mumps"
+        if sparse and rhs is None:
+            Bt = self._centralised(*entries, k)
+            B = PETSc.Mat().createTranspose(Bt)
+        else:  # (a dense column, another factorisation package, or by choice)
+            Bt = B = _dense(self.comm, self.nloc, k + (rhs is not None))
+            R = B.getDenseArray(readonly=False)
+            np.add.at(R, entries[:2], entries[2])
+            if rhs is not None:
+                R[:, k] = rhs.array_r
+            B.assemble()
+        F.matSolve(B, Xm)
         self.n_blocks += 1
         KXm = self.AL.matMult(Xm)
         Xa = Xm.getDenseArray()
@@ -792,7 +793,7 @@ class LowRankActiveSetSolver:
         if rhs is not None:  # (the base solve's column)
             self._xb.array[:] = Xraw[:, k]
             self._xbN, self._AxbN = colN[:, k].copy(), kcolN[:, k].copy()
-        for M in (Rm, Xm, KXm):
+        for M in {id(M): M for M in (B, Bt, Xm, KXm)}.values():
             M.destroy()
         self.columns += k
         full_bytes = 8.0 * self.nloc * len(self.full_cols)
@@ -801,9 +802,63 @@ class LowRankActiveSetSolver:
         dt -= self.t_solve if rhs is not None else 0.0
         self.t_column = max(dt - self.t_block, 0.1 * dt) / k
 
-    def _split_forces(self, qs: list[int], wq: list[int], R: npt.NDArray) -> None:
-        """Force columns in a split basis: a unit contact force at a slave row ``q`` also
-        acts on the master side, ``e_q − Jᵀ e_q`` (:class:`SplitBasis`)."""
+    def _rhs_entries(self, qs: list[int]) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
+        """This rank's entries ``(local row, j, value)`` of the right-hand sides of the
+        columns ``qs`` (repeated entries add up; a column has a few dozen): for a row fixed
+        in the base (X-type) ``−A e_q`` off the base's fixed rows and ``δ`` at ``q``; for a
+        free one (W-type) a unit force at ``q``, with a split basis ``e_q − Jᵀ e_q`` off
+        the Dirichlet rows."""
+        k = len(qs)
+        lo, hi = self.offset, self.offset + self.L.size
+        in_base = self._flags(self.base, qs)
+        xq = [j for j in range(k) if in_base[j]]
+        wq = [j for j in range(k) if not in_base[j]]
+        own = np.array([j for j in range(k) if lo <= qs[j] < hi], dtype=np.int64)
+        q_own = np.array([qs[j] for j in own], dtype=np.int64) - lo
+        parts = [(self.L[q_own], own, np.where(in_base[own], self.diag_value, 1.0))]
+        if xq:  # (A times unit columns at contact rows: columns of AC)
+            r, c, v = self._columns_of_ac(qs, xq)
+            keep = ~np.isin(r, self._fixed_local(self.base))
+            parts.append((r[keep], c[keep], -v[keep]))
+        if self.split is not None and wq:
+            parts.append(self._split_forces(qs, wq))
+        r, c, v = (np.concatenate([np.asarray(p[i]) for p in parts]) for i in range(3))
+        r, c = r.astype(np.int64), c.astype(np.int64)
+        if self.split is not None and wq and self.bc_local.size:
+            drop = np.isin(r, self.bc_local) & ~in_base[c]
+            r, c, v = r[~drop], c[~drop], v[~drop]
+        return r, c, v
+
+    def _centralised(self, rows: npt.NDArray, cols: npt.NDArray, vals: npt.NDArray, k: int):
+        """The ``k × n`` sparse matrix with this rank's entries ``(cols, rows, vals)`` (local
+        rows of the operator as its columns; repeated entries summed), all of it on the
+        first rank: MUMPS takes sparse right-hand sides centralised."""
+        n = self._xb.getSize()
+        rows = rows + self.start
+        if self.comm.size > 1:
+            got = self.comm.gather((rows, cols, vals), root=0)
+            if self.comm.rank == 0:
+                rows, cols, vals = (np.concatenate([g[i] for g in got]) for i in range(3))
+        first = self.comm.rank == 0
+        if first:
+            order = np.lexsort((rows, cols))
+            key = cols[order] * n + rows[order]
+            uniq, start = np.unique(key, return_index=True)
+            data = np.add.reduceat(vals[order], start) if key.size else np.zeros(0)
+            indptr = np.searchsorted(uniq // n, np.arange(k + 1)) if k else np.zeros(1)
+            csr = (indptr.astype(PETSc.IntType), (uniq % n).astype(PETSc.IntType), data)
+        else:
+            csr = (np.zeros(1, dtype=PETSc.IntType), np.zeros(0, dtype=PETSc.IntType), np.zeros(0))
+        Bt = PETSc.Mat().createAIJ(
+            size=((k if first else 0, k), (n if first else 0, n)), csr=csr, comm=self.comm
+        )
+        Bt.assemble()
+        return Bt
+
+    def _split_forces(self, qs: list[int], wq: list[int]) -> tuple[npt.NDArray, ...]:
+        """The master side of force columns in a split basis: a unit contact force at a
+        slave row ``q`` also acts there, ``e_q − Jᵀ e_q`` (:class:`SplitBasis`); returns
+        this rank's entries of ``−Jᵀ e_q`` as ``(local row, j, value)``."""
         lo, hi = self.offset, self.offset + self.L.size
         mine = np.array([j for j in wq if lo <= qs[j] < hi], dtype=np.int64)
         rows = self.L[np.array([qs[j] for j in mine], dtype=np.int64) - lo] if mine.size else []
@@ -824,11 +879,10 @@ class LowRankActiveSetSolver:
         JtE = self.split.Jt.matMult(E)
         ai, aj, av = JtE.getValuesCSR()
         r = np.repeat(np.arange(self.nloc), np.diff(ai))
-        np.subtract.at(R, (r, aj.astype(np.int64)), av)
-        if self.bc_local.size:
-            R[np.ix_(self.bc_local, np.asarray(wq))] = 0.0
+        out = (r, aj.astype(np.int64), -av)
         JtE.destroy()
         E.destroy()
+        return out
 
     def solve_set(
         self,
