@@ -54,9 +54,10 @@ MULTIGRIDS = ("gamg", "compressed")
 
 #: :class:`PreconditionerReuse` ``rows`` when the options leave it open: GAMG's
 #: preconditioner is kept across small set changes; the compressed hierarchy is rebuilt
-#: for every solve — kept, its final solves took 38–42 CG iterations at 200k dofs on 2
-#: ranks against 15 fresh (contact solve 79 → 50 iterations, 20.2 → 18.3 Gflop; 65k:
-#: 59 → 49, 6.3 → 5.5 Gflop; benchmarks/README.md, "Compressed coarse grid").
+#: for every new set (kept only for the same set) — kept across sets, its final solves
+#: took 38–42 CG iterations at 200k dofs on 2 ranks against 15 fresh (contact solve
+#: 79 → 50 iterations, 20.2 → 18.3 Gflop; 65k: 59 → 49, 6.3 → 5.5 Gflop;
+#: benchmarks/README.md, "Compressed coarse grid").
 DEFAULT_REUSE_ROWS = {"gamg": 0.25, "compressed": 0.0}
 
 #: GAMG options of the condensed system (:class:`~bonecontact.common.linalg.SolverOptions`:
@@ -304,7 +305,9 @@ class PreconditionerReuse:
     otherwise it is rebuilt from ``B_A``.  The kept cycle smooths the finest level
     with ``B_A`` but the diagonal and eigenvalue bounds of ``B_C``; should that make it
     indefinite, CG stops within a few iterations and the caller rebuilds
-    (:meth:`forget`) and solves again.  ``rows = 0`` rebuilds every time.
+    (:meth:`forget`) and solves again.  ``rows = 0`` rebuilds for every other set and
+    keeps the preconditioner for the same set (e.g. the settled set's tight solve after
+    its loose one: the same matrix; slip rows' values may change, as with ``rows > 0``).
 
     Attributes
     ----------
@@ -325,11 +328,12 @@ class PreconditionerReuse:
         """Before a solve: keep the preconditioner (``True``) or rebuild it, and tell
         ``ksp``.  ``replaced`` marks this rank's contact rows that are fixed or replaced
         in the set of the solve (the counts are summed over the ranks)."""
-        keep = self._mask is not None and self.rows > 0.0
+        keep = self._mask is not None
         if keep:
             comm = ksp.getComm().tompi4py()
             changed = global_count(comm, replaced != self._mask)
-            keep = changed <= max(1, int(self.rows * global_count(comm, self._mask)))
+            n_c = global_count(comm, self._mask)
+            keep = changed <= (max(1, int(self.rows * n_c)) if self.rows > 0.0 else 0)
             keep = keep and self._last_rate <= self.growth * max(self._first_rate, 1.0)
         ksp.getPC().setReusePreconditioner(keep)
         if keep:
