@@ -15,74 +15,103 @@
 # # A vertebral body weakened by a tumour breaks by fatigue (3D)
 #
 # An idealised lumbar vertebral body — an elliptic cylinder 44 mm wide, 34 mm deep and 27 mm
-# high — holds an osteolytic tumour: a spherical cavity (the tumour tissue carries no load)
-# centred 6 mm behind the body's axis at mid-height, of radius r = 5 … 9 mm (growing as in
-# `demos/spine3d.py`, r(t) = 3 mm·e^{t/(30 days)}), which leaves 6 … 2 mm of bone between
-# the cavity and the posterior wall.  For every tumour size:
+# high — holds an osteolytic tumour: a ball centred 6 mm behind the body's axis at
+# mid-height, of radius r (growing as in `demos/spine3d.py`, r(t) = 3 mm·e^{t/(30 days)}),
+# which thins the bone between it and the posterior surface to 11 mm − r (3 … 0.5 mm for
+# r = 8 … 10.5 mm).  For every tumour size:
 #
-# 1. **Risk (two regions).**  The body is a closed cortical shell 0.38 mm thick (lateral wall
-#    and both endplates) around a cancellous core, clamped on its lower endplate and loaded
-#    on its upper endplate by the *lifting* load.  The tension criterion gives the risk
-#    R = σ₁/σ_t of every cell with its region's σ_t.
-# 2. **Crack.**  A semicircular surface crack (depth = half-length = 1 mm) is cut into the
-#    outer posterior wall where R is largest where the tumour thins it (|x| < r/2, middle
-#    half of the height), normal to the body's axis (the flexion stress there is axial).
-# 3. **Standing.**  Under the standing load the crack grows only where the σ₁′ equivalent K
-#    reaches K_Ic: it is arrested at once.
+# 1. **Risk (two regions and the tumour).**  The body is a closed cortical shell 0.38 mm
+#    thick (lateral wall and both endplates) around a cancellous core, clamped on its lower
+#    endplate and loaded on its upper endplate by the *lifting* load and by the *standing*
+#    load.  The tumour fills its cavity: soft (E = 0.5 MPa) but, over a lift of a few
+#    seconds, undrained — its water cannot leave through the bone — so it keeps its volume
+#    (bulk modulus of water, 2.2 GPa: ν = 0.49996, average-nodal-pressure formulation).
+#    Compressed with the body it is pressurised and pushes the thinned bone bridge outward.
+#    The tension criterion gives the risk R = σ₁/σ_t of every cell with its region's σ_t.
+# 2. **Crack.**  A semicircular surface crack (depth = half-length = 0.25 mm) is cut into
+#    the outer posterior wall where R is largest over the tumour (|x| < r/2, middle half of
+#    the height), normal to the body's axis.
+# 3. **Standing.**  Under the standing load the crack grows only where the σ₁′ equivalent
+#    K reaches K_Ic.
 # 4. **Flexion, repeated.**  Under repeated flexion (load ratio 0) it grows by a Paris law in
 #    blocks of cycles until it reaches K_Ic at the peak load (*fractured*) or runs through the
-#    wall into the cavity (*through*: the posterior wall is broken, `fragments` reported).
-#    The cycle count against the tumour size is the demo's result.
+#    bone bridge into the tumour (*through*: the posterior wall is broken, `fragments`
+#    reported).  The cycle count against the tumour size is the demo's final plot.
 #
 # **Published (data/materials.toml, with the sources there).**  Cancellous core: E = 723 MPa,
 # ν = 0.25 (Morgan, Bayraktar & Keaveny 2003 at ρ_app = 0.30 g/cm³), σ_t = 1.75 MPa
-# (Kopperdahl & Keaveny 1998).  Shell thickness 0.38 mm (Eswaran et al. 2006).  Loads
+# (Kopperdahl & Keaveny 1998).  Shell thickness 0.38 mm (Eswaran et al. 2006).  Cortical
+# tissue E = 17 GPa, σ_t = 133 MPa (Reilly & Burstein 1975).  Loads
 # (`[reference.lumbar_spine_loads]`): standing 500 N; flexion 1175 N with 7.5 N·m (the
 # follower loads and moment that reproduce in-vivo intradiscal pressures and fixator loads,
 # Rohlmann, Zander, Rao & Bergmann 2009); lifting = flexion × 2.3/1.1, the ratio of the
 # intradiscal pressures of lifting 20 kg with a flexed back and of standing flexed (Wilke et
-# al. 1999).  Paris exponent m = 4.4 (Nalla et al. 2005, human cortical bone).
+# al. 1999).  The tumour's bulk modulus: water's (`[reference.undrained_soft_tissue]`).
+# Paris exponent m = 4.4 (Nalla et al. 2005, human cortical bone).
 #
-# **Assumed.**  The shell's tissue has the cortical constants (E = 17 GPa, σ_t = 133 MPa).
-# The whole moment acts on the body (no posterior elements, ligaments or muscles: this
-# overstates the flexion tension of the posterior wall); the loads scale with the intradiscal
-# pressure.  K_Ic = 0.3 MPa√m of cancellous bone (of the order Cook & Zioupos 2009 measured,
-# not checked against their tables).  The Paris law of cancellous bone (none was found):
-# Nalla et al.'s cortical curve with ΔK scaled by K_Ic, da/dN = 3·10⁻⁵ m/cycle ·
-# (ΔK/K_Ic)^4.4 — the cycle counts compare tumour sizes, they are not predictions.  No bone
-# remodelling (repair of fatigue damage).
+# **Assumed.**  The whole moment acts on the body (no posterior elements, ligaments or
+# muscles: this overstates the flexion tension of the posterior wall); the loads scale
+# with the intradiscal pressure.  K_Ic = 0.3 MPa√m of cancellous bone (of the order Cook &
+# Zioupos 2009 measured, not checked against their tables).  The Paris law of cancellous
+# bone (none was found): Nalla et al.'s cortical curve with ΔK scaled by K_Ic, da/dN =
+# 3·10⁻⁵ m/cycle · (ΔK/K_Ic)^4.4 — the cycle counts compare tumour sizes, they are not
+# predictions.  A crack of 0.25 mm in cancellous bone is shorter than the trabecular
+# spacing that a continuum K presumes (about 1 mm).  No bone remodelling.
 #
-# **The crack runs in a body without the shell.**  The surface-crack machinery
-# (`bonecontact/fracture/surface_body3d.py`) re-meshes the body from its boundary as one
-# volume, one cell group, and the interaction integral takes one homogeneous material in its
-# domain; a crack in the posterior wall crosses the 0.38 mm shell within its first tenth of a
-# millimetre, so its integration domain would hold two materials.  The crack runs therefore
-# in the same body made of cancellous bone alone (the crack lies in cancellous bone; a lytic
-# lesion often destroys the shell over it).  Without the shell the core carries the whole
-# load: K is overstated and the cycle counts are low (conservative).
+# **The crack runs in cancellous bone alone, the tumour replaced by its pressure.**  The
+# surface-crack machinery (`bonecontact/fracture/surface_body3d.py`) re-meshes the body from
+# its boundary as one volume, one cell group, and the interaction integral takes one
+# homogeneous material in its domain; a crack in the posterior wall crosses the 0.38 mm
+# shell in its first tenth of a millimetre, so its integration domain would hold two
+# materials.  The crack therefore runs in the same body made of cancellous bone alone (a
+# lytic lesion often destroys the shell over it), with the tumour's mean pressure of the
+# two-region run of the same load on the cavity wall (flexion = lifting / 2.09: linear).
+# Without the shell the core carries the whole load: K is overstated (conservative).  Not
+# done: the shell kept through the crack stage.
 #
-# **What the quick run gives (2026-12-02; the notebook test 1 min 45 s at load 1-4).**  The
-# risk does *not* reach 1 anywhere under the published lifting load.  r = 8 mm (3 mm of bone
-# behind the cavity): largest risk 0.65, anterior just under the loaded endplate where the
-# stiff shell's rim meets the soft core (an effect of the idealised endplate load); on the
-# thinned posterior wall 0.24 (R = 1 at 4.2 times the lifting load), at the cavity 0.41.
-# r = 9 mm (2 mm): 0.85, 0.29 (3.4 times), 0.59.  The crack is therefore inserted where the
-# thinned wall's risk is largest although R < 1 there: a fatigue crack from a defect, not a
-# crack the static load starts.  Standing: K_V = 0.0005 / 0.0017 MPa√m, arrested.  Flexion:
-# K_V at the deepest point 0.0124 → 0.0185 MPa√m (r = 8) and 0.0096 (r = 9), far below
-# K_Ic; both break *through* the wall into the cavity (fragments reported): r = 8 mm after
-# 2.2·10⁷ cycles (4 blocks, depth 1 → 2.5 mm), r = 9 mm after 3.8·10⁷ (stopped in its
-# first block: the grown front would come within the integration domain's reach of the
-# cavity).  **The count does not fall with the
-# tumour size** here: the larger cavity leaves a thinner, more compliant posterior bridge
-# that carries less of the flexion tension (K 0.0096 against 0.0124 MPa√m), and the
-# assumed Paris law makes N ∝ K^−4.4.  A body that breaks sooner with a larger tumour needs
-# the shell in the crack stage, the moment shared with the posterior elements, or a crack
-# at the cavity; not done.  The full run (r = 5 … 9 mm, up to 30 blocks) was not run.
+# **What the quick run gives (2026-12-02, as a script, 15 min at load 12-15).**
+#
+# | r (mm) | bone behind the tumour (mm) | tumour pressure lifting / standing (MPa) | R on the thinned wall lifting / standing | largest R (where) | K_V standing (MPa√m) | K_V flexion, first → last block | flexion cycles to *through* |
+# |---|---|---|---|---|---|---|---|
+# | 9.8 | 1.2 | 0.550 / 0.158 | 0.48 / 0.17 | 0.90 (bone above the tumour, under the endplate) | 0.0019, arrested | 0.0196 → 0.0503 | 9.3·10⁵ (6 blocks) |
+# | 10.1 | 0.9 | 0.545 / 0.156 | 0.68 / 0.24 | 1.05 (anterior rim of the loaded endplate) | 0.0010, arrested | 0.0236 → 0.0495 | 4.0·10⁵ (4 blocks) |
+# | 10.4 | 0.6 | 0.537 / 0.153 | 0.66 / 0.22 | 0.90 (bone at the tumour's flank) | 0.0041, arrested | 0.0139 → 0.0310 | 3.6·10⁶ (3 blocks) |
+#
+# **The risk does not reach 1 on the thinned wall** under the published loads.  What drives
+# it: the lifting moment's tension of the posterior wall less the axial compression, and the
+# undrained tumour — squeezed with the body it is pressurised (0.54 MPa under lifting) and
+# pushes the thinned bridge outward.  On the same 4 mm mesh at r = 10 mm the undrained tumour
+# raises the wall's risk from 0.43 (an empty cavity; ν = 0.49, a drained tumour, the same)
+# to 0.61 (ν = 0.4999 in that probe); thinning the bridge raises it further (0.49 → 0.74
+# from r = 10 to 10.8 mm with 0.5 mm cells there).  It stays below 1, even when the tumour breaches the cortex (0.60 and
+# 0.64 at r = 11.2 and 11.5 mm): where the bridge is thinnest it is mostly the stiff
+# cortical shell, whose tensile strength is 76 times the cancellous one, so the largest
+# risk moves to the tumour's flanks where cancellous bone is left (the crack's place, x ≈
+# 5 mm).  These are loads of daily life, below one-load failure: R reaches 1 only at the
+# anterior rim of the loaded endplate (the idealised endplate load against the stiff
+# shell's edge) and in the bone between the tumour's top and the loaded endplate (0.8-1.0,
+# mesh dependent).  (With the compressive strength as well, `tension_compression`, the
+# anterior core is crushed under lifting, R = 2.4, for every size: the body carries the
+# whole lifting moment here, which overstates it.)  The crack is therefore inserted where
+# the thinned wall's risk is largest (R = 0.5-0.7, not 1): a fatigue crack from a defect,
+# grown by the repeated flexion, not a crack the static load starts.  Standing arrests it
+# (K_V ≤ 0.004 MPa√m ≪ K_Ic).
+#
+# **The cycle count does not fall steadily with the tumour size**: 9.3·10⁵ → 4.0·10⁵ cycles
+# from r = 9.8 to 10.1 mm (a thinner bridge: a shorter way through and a larger K), then
+# 3.6·10⁶ at r = 10.4 mm.  There the largest risk of the wall sits 3.4 mm below mid-height
+# at x = 5 mm, where 1.8 mm of bone is left (the thinnest 0.6 mm is mostly cortex, with
+# a low risk), and the crack starts there with a smaller K (0.014 against 0.024 MPa√m):
+# N ∝ K^−4.4 makes that a factor of ten.  The cycles follow where the crack starts, and the
+# rule "where R is largest" puts it on the flank as soon as the cortex is most of the
+# bridge.  The counts rest on the assumed Paris law (below), and the crack stage leaves
+# the shell out.
 #
 # `python demos/vertebra_fracture.py [OUTPUT_DIR]`, `mpiexec -n 2 python
-# demos/vertebra_fracture.py`, or as a notebook.  `BONECONTACT_DEMO_QUICK=1` runs two tumour
-# sizes (8 and 9 mm) with the same meshes, blocks of at most 0.8 mm, at most 8 blocks.  Units: SI.
+# demos/vertebra_fracture.py`, or as a notebook.  `BONECONTACT_DEMO_QUICK=1` runs three
+# tumour sizes (9.8, 10.1 and 10.4 mm: bridges of 1.2, 0.9 and 0.6 mm) with a coarser bridge
+# mesh (1 mm, not 0.6 mm) and blocks of at most 0.5 mm (not 0.2 mm); the full run has
+# r = 8, 9, 9.5, 10 and 10.5 mm.  Units: SI.
 
 # %%
 import json
@@ -97,7 +126,11 @@ import gmsh
 import numpy as np
 
 import bonecontact.plot as bp
-from bonecontact.materials.library import load_reference_values, load_strengths
+from bonecontact.materials.library import (
+    load_material_library,
+    load_reference_values,
+    load_strengths,
+)
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
@@ -110,11 +143,13 @@ QUICK = bp.quick_mode()
 A_VB, B_VB, H_VB = 22e-3, 17e-3, 27e-3  # semi-axes (lateral, antero-posterior), height
 Y_TUMOUR = -6e-3  # the tumour's centre: 6 mm behind the body's axis, mid-height
 R0, DAYS = 3e-3, 30.0  # r(t) = R0 exp(t / DAYS)
-RADII = [8e-3, 9e-3] if QUICK else [5e-3, 6e-3, 7e-3, 8e-3, 9e-3]
-H_MAX = 4e-3  # element size away from the shell and the crack
-TIP = 0.1e-3  # element size at the crack front
-A0 = 1.0e-3  # depth and half-length of the inserted crack
-DA_MAX = 0.8e-3 if QUICK else 0.5e-3
+RADII = [9.8e-3, 10.1e-3, 10.4e-3] if QUICK else [8e-3, 9e-3, 9.5e-3, 10e-3, 10.5e-3]
+H_MAX = 4e-3  # element size away from the shell, the bone bridge and the crack
+H_BRIDGE = 1.0e-3 if QUICK else 0.6e-3  # element size in the bone bridge behind the tumour
+H_CAVITY = 1.5e-3  # element size on the cavity of the crack runs
+TIP = 0.025e-3  # element size at the crack front
+A0 = 0.25e-3  # depth and half-length of the inserted crack
+DA_MAX = 0.5e-3 if QUICK else 0.2e-3
 BLOCKS = 8 if QUICK else 30
 
 ref = load_reference_values()
@@ -128,6 +163,9 @@ SIGMA_T_CANC = strength["cancellous_bone_vertebral"]["sigma_t"]
 SIGMA_T_CORT = strength["cortical_bone"]["sigma_t"]
 K_IC = ref["cancellous_fracture_toughness"]["K_Ic"]
 PARIS = ref["cancellous_fatigue_crack_growth"]
+E_TUMOUR = load_material_library()["tumour_lytic"]["E"]  # soft, near-fluid tissue
+K_WATER = ref["undrained_soft_tissue"]["bulk_modulus"]
+NU_TUMOUR = 0.5 - E_TUMOUR / (6.0 * K_WATER)  # undrained: the bulk modulus of its water
 M_PARIS = PARIS["m"]
 C_PARIS = PARIS["rate_at_K_Ic"] / K_IC**M_PARIS
 if comm.rank == 0:
@@ -141,48 +179,50 @@ if comm.rank == 0:
 
 # %% [markdown]
 # ## The body
-# gmsh builds the elliptic cylinder with the tumour cavity.  With `shell = True` it is cut
-# into the closed cortical shell (the lateral wall and both endplates, `SHELL` thick) and
-# the cancellous core; the mesh is refined to the shell's thickness on its surfaces.
+# gmsh builds the elliptic cylinder with the tumour.  With `shell = True` (the risk runs) it
+# is cut into the closed cortical shell (the lateral wall and both endplates, `SHELL` thick),
+# the cancellous core and the tumour, a volume of its own; without (the crack runs) it is
+# cancellous bone around an empty cavity.  The mesh is refined to the shell's thickness on
+# its surfaces and (risk runs) to `H_BRIDGE` in the bone bridge between the tumour and the
+# posterior wall; the crack runs refine the cavity (`H_CAVITY`) and near the crack front
+# (with the whole bridge refined, the crack's mouth cut into the finer boundary left a
+# degenerate facet and HXT failed).
 # Facet groups: `lower` (clamped), `upper` (loaded), `wall` (the outer lateral surface),
-# `cavity`.
+# `cavity` (the crack runs' tumour surface).
 
 
 # %%
-def _solids(radius: float, shell: bool) -> tuple[list[int], list[int]]:
-    """The OCC volumes of the core and of the shell (empty without ``shell``)."""
+def _solids(radius: float, shell: bool) -> dict[str, list[int]]:
+    """The OCC volumes by cell group: ``core``, ``shell`` and ``tumour`` (``shell``) or
+    ``vertebra`` (the body around the empty cavity)."""
     occ = gmsh.model.occ
     outer = occ.extrude([(2, occ.addDisk(0, 0, 0, A_VB, B_VB))], 0, 0, H_VB)
     pieces = [(3, t) for d, t in outer if d == 3]
-    if shell:
-        disk = occ.addDisk(0, 0, SHELL, A_VB - SHELL, B_VB - SHELL)
-        inner = occ.extrude([(2, disk)], 0, 0, H_VB - 2 * SHELL)
-        pieces, _ = occ.fragment(pieces, [(3, t) for d, t in inner if d == 3])
     ball = occ.addSphere(0, Y_TUMOUR, 0.5 * H_VB, radius)
-    occ.cut(pieces, [(3, ball)])
+    if not shell:
+        occ.cut(pieces, [(3, ball)])
+        occ.synchronize()
+        return {"vertebra": [t for _, t in gmsh.model.getEntities(3)]}
+    disk = occ.addDisk(0, 0, SHELL, A_VB - SHELL, B_VB - SHELL)
+    inner = occ.extrude([(2, disk)], 0, 0, H_VB - 2 * SHELL)
+    pieces, _ = occ.fragment(pieces, [(3, t) for d, t in inner if d == 3])
+    _, pieces_of = occ.fragment(pieces, [(3, ball)])
     occ.synchronize()
-    core, outer_shell = [], []
+    tumour = {t for _, t in pieces_of[-1]}
+    groups: dict[str, list[int]] = {"core": [], "shell": [], "tumour": sorted(tumour)}
     for _, t in gmsh.model.getEntities(3):
+        if t in tumour:
+            continue
         box = gmsh.model.getBoundingBox(3, t)
         inside = box[3] < A_VB - 0.5 * SHELL and box[2] > 0.5 * SHELL
-        (core if (inside or not shell) else outer_shell).append(t)
-    return core, outer_shell
+        groups["core" if inside else "shell"].append(t)
+    return groups
 
 
-def build_mesh(radius: float, path: Path, shell: bool) -> None:
-    """The vertebral body with the tumour cavity (rank 0): cell groups ``vertebra`` (no
-    shell) or ``core`` and ``shell``; facet groups ``lower``, ``upper``, ``wall``,
-    ``cavity``."""
-    gmsh.initialize()
-    gmsh.option.setNumber("General.Terminal", 0)
-    core, outer = _solids(radius, shell)
-    if shell:
-        gmsh.model.addPhysicalGroup(3, core, 1, name="core")
-        gmsh.model.addPhysicalGroup(3, outer, 2, name="shell")
-    else:
-        gmsh.model.addPhysicalGroup(3, core, 1, name="vertebra")
+def _facet_groups(volumes: list[int], radius: float) -> None:
+    """Facet groups of the body's boundary: lower, upper, wall, cavity (if any)."""
     groups: dict[str, list[int]] = {}
-    solids = [(3, t) for t in core + outer]
+    solids = [(3, t) for t in volumes]
     for _, s in gmsh.model.getBoundary(solids, combined=True, oriented=False):
         z = gmsh.model.occ.getCenterOfMass(2, abs(s))[2]
         box = gmsh.model.getBoundingBox(2, abs(s))
@@ -196,12 +236,50 @@ def build_mesh(radius: float, path: Path, shell: bool) -> None:
             name = "wall"
         groups.setdefault(name, []).append(abs(s))
     for k, name in enumerate(("lower", "upper", "wall", "cavity"), start=3):
-        gmsh.model.addPhysicalGroup(2, groups[name], k, name=name)
+        if name in groups:
+            gmsh.model.addPhysicalGroup(2, groups[name], k, name=name)
+
+
+def _bridge_size(radius: float) -> None:
+    """Element size H_BRIDGE in a box around the bone bridge behind the tumour."""
+    f = gmsh.model.mesh.field
+    box = f.add("Box")
+    bounds = dict(
+        XMin=-0.8 * radius,
+        XMax=0.8 * radius,
+        YMin=-B_VB - 1e-3,
+        YMax=Y_TUMOUR - radius + 3e-3,
+        ZMin=0.5 * H_VB - 0.8 * radius,
+        ZMax=0.5 * H_VB + 0.8 * radius,
+    )
+    for k, v in dict(VIn=H_BRIDGE, VOut=H_MAX, Thickness=3e-3, **bounds).items():
+        f.setNumber(box, k, v)
+    f.setAsBackgroundMesh(box)
+
+
+def build_mesh(radius: float, path: Path, shell: bool) -> None:
+    """The vertebral body with the tumour (rank 0): cell groups ``core``, ``shell`` and
+    ``tumour`` (``shell``) or ``vertebra`` around the empty cavity; facet groups
+    ``lower``, ``upper``, ``wall`` (and ``cavity`` without the shell)."""
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    volumes = _solids(radius, shell)
+    for k, (name, tags) in enumerate(volumes.items(), start=1):
+        gmsh.model.addPhysicalGroup(3, tags, k if name != "tumour" else 7, name=name)
+    _facet_groups([t for tags in volumes.values() for t in tags], radius)
     gmsh.option.setNumber("Mesh.MeshSizeMax", H_MAX)
     if shell:  # about three elements across the shell's surfaces' size
-        faces = gmsh.model.getBoundary([(3, t) for t in outer], combined=False, oriented=False)
+        faces = gmsh.model.getBoundary(
+            [(3, t) for t in volumes["shell"]], combined=False, oriented=False
+        )
         points = gmsh.model.getBoundary(faces, combined=False, oriented=False, recursive=True)
         gmsh.model.mesh.setSize(points, 3 * SHELL if not QUICK else 4 * SHELL)
+        _bridge_size(radius)
+    else:  # the cavity's facets: sagitta h²/(8r) below 0.03 mm
+        ball = gmsh.model.getBoundary([(3, t) for t in volumes["vertebra"]], oriented=False)
+        cavity = [f for f in ball if gmsh.model.getType(*f) == "Sphere"]
+        points = gmsh.model.getBoundary(cavity, combined=False, oriented=False, recursive=True)
+        gmsh.model.mesh.setSize(points, H_CAVITY)
     gmsh.model.mesh.generate(3)
     gmsh.write(str(path))
     gmsh.finalize()
@@ -212,7 +290,11 @@ def build_mesh(radius: float, path: Path, shell: bool) -> None:
 # The axial force F and the flexion moment M act on the upper endplate as a `[[force]]`
 # with `moment` (a traction varying linearly from back to front, docs/scene_format.md#force:
 # the front pressed harder), the lower endplate is clamped.  M is about the lateral (x)
-# axis; flexion presses the anterior side (y > 0), so M = (−M, 0, 0).
+# axis; flexion presses the anterior side (y > 0), so M = (−M, 0, 0).  In the risk runs the
+# tumour is a material (undrained: its ν from the bulk modulus of water, the
+# average-nodal-pressure formulation); in the crack runs, which mesh one cell group, it is
+# replaced by its pressure on the cavity wall (`[[pressure]]` on `cavity`), the mean
+# pressure of the tumour in the two-region run of the same load.
 
 # %%
 MATERIALS = {
@@ -230,6 +312,14 @@ model = "isotropic"
 E = 17.0e9
 nu = 0.3
 sigma_t = {SIGMA_T_CORT!r}
+[[material]]
+name = "tumour"
+regions = ["tumour"]
+model = "isotropic"
+E = {E_TUMOUR!r}
+nu = {NU_TUMOUR!r}
+formulation = "nodal_pressure"
+sigma_t = 1.0e12
 """,
     False: f"""[[material]]
 name = "cancellous"
@@ -258,6 +348,7 @@ value = [0.0, 0.0, 0.0]
 boundary = "upper"
 value = [0.0, 0.0, {force!r}]
 moment = [{moment!r}, 0.0, 0.0]
+{pressure}
 {fracture}
 [output]
 fields_every = {fields}
@@ -274,7 +365,8 @@ def crack_table(centre) -> str:
     )
 
 
-def run(name: str, mesh: Path, force: float, moment: float, fracture: str, shell=False):
+def run(name: str, mesh: Path, load: tuple, fracture: str, shell=False, pressure=0.0):
+    """One scene: ``load`` = (F, M); the tumour's ``pressure`` on the cavity (crack runs)."""
     d = output / name
     if comm.rank == 0:
         d.mkdir(parents=True, exist_ok=True)
@@ -282,8 +374,9 @@ def run(name: str, mesh: Path, force: float, moment: float, fracture: str, shell
             name=name,
             mesh=mesh,
             materials=MATERIALS[shell],
-            force=-force,
-            moment=-moment,
+            force=-load[0],
+            moment=-load[1],
+            pressure=f'[[pressure]]\nboundary = "cavity"\nvalue = {pressure!r}' if pressure else "",
             fracture=fracture,
             fields=1 if shell else 0,
         )
@@ -306,18 +399,30 @@ def run(name: str, mesh: Path, force: float, moment: float, fracture: str, shell
 # %%
 def risk_places(summary_dir: Path, radius: float) -> dict:
     """Rank 0: the largest risk on the posterior wall where it is thinned by the tumour
-    (|x| < r/2, middle half of the height), its cell midpoint, and the largest risk within
-    1.5 mm of the cavity."""
+    (|x| < r/2, middle half of the height), its cell midpoint, the largest risk of the bone
+    within 1.5 mm of the tumour, and the tumour's mean pressure (Pa, −tr σ/3 weighted by
+    volume)."""
     grid = bp.read_fields(summary_dir / "out" / "fields.pvd")
     risk = np.asarray(grid.cell_data["fracture_risk"])
     x = np.asarray(grid.cell_centers().points)
     rho = np.hypot(x[:, 0] / A_VB, x[:, 1] / B_VB)
     mid = np.abs(x[:, 2] - 0.5 * H_VB) < 0.25 * H_VB
     wall = mid & (rho > 1.0 - 1.5e-3 / B_VB) & (np.abs(x[:, 0]) < 0.5 * radius) & (x[:, 1] < 0.0)
-    lesion = np.linalg.norm(x - [0.0, Y_TUMOUR, 0.5 * H_VB], axis=1) < radius + 1.5e-3
+    d = np.linalg.norm(x - [0.0, Y_TUMOUR, 0.5 * H_VB], axis=1)
+    tumour = d < radius
+    lesion = ~tumour & (d < radius + 1.5e-3)
     k = int(np.argmax(np.where(wall, risk, -1.0)))
     j = int(np.argmax(np.where(lesion, risk, -1.0)))
-    return dict(wall_risk=float(risk[k]), wall_at=x[k], lesion_risk=float(risk[j]), lesion_at=x[j])
+    sigma = np.asarray(grid.cell_data["stress"]).reshape(-1, 3, 3)
+    vol = np.asarray(grid.compute_cell_sizes(length=False, area=False)["Volume"])
+    mean = -np.trace(sigma[tumour], axis1=1, axis2=2) / 3.0
+    return dict(
+        wall_risk=float(risk[k]),
+        wall_at=x[k],
+        lesion_risk=float(risk[j]),
+        lesion_at=x[j],
+        pressure=float(mean @ vol[tumour] / vol[tumour].sum()),
+    )
 
 
 def wall_point(p: np.ndarray) -> np.ndarray:
@@ -333,42 +438,56 @@ def wall_point(p: np.ndarray) -> np.ndarray:
 
 
 # %%
+def _risk_runs(r: float, tag: str, mesh: Path) -> tuple[dict, dict, dict]:
+    """The two-region runs under lifting and standing; the risk places of each."""
+    tension = '[fracture]\ncriterion = "tension"'
+    lift = run(f"risk_{tag}", mesh, (LIFT * F_FLEX, LIFT * M_FLEX), tension, shell=True)
+    run(f"risk_standing_{tag}", mesh, (F_STAND, 0.0), tension, shell=True)
+    places = None
+    if comm.rank == 0:
+        places = {k: risk_places(output / f"{k}_{tag}", r) for k in ("risk", "risk_standing")}
+    places = comm.bcast(places, root=0)
+    return lift, places["risk"], places["risk_standing"]
+
+
+def _crack_runs(tag: str, mesh: Path, centre, p_stand: float, p_flex: float):
+    """The crack under the standing load (grows where K_V ≥ K_Ic), then under repeated
+    flexion (Paris law); the tumour's pressure on the cavity with each load."""
+    crack = crack_table(centre)
+    head = f'[fracture]\ncriterion = "tension"\ntip_size = {TIP}\n'
+    grow = f"propagate = true\nincrement = {DA_MAX}\n"
+    stand = run(f"standing_{tag}", mesh, (F_STAND, 0.0), head + grow + crack, pressure=p_stand)
+    fatigue = (
+        f"[fracture.fatigue]\nC = {C_PARIS!r}\nm = {M_PARIS}\nda_max = {DA_MAX}\n"
+        f"max_blocks = {BLOCKS}\n"
+    )
+    flex = run(f"flexion_{tag}", mesh, (F_FLEX, M_FLEX), head + fatigue + crack, pressure=p_flex)
+    return stand["fracture"]["growth"], flex["fracture"]["growth"]
+
+
 def analyse(r: float) -> dict:
-    tag = f"r{r * 1e3:.0f}mm"
+    tag = f"r{r * 1e3:.1f}mm".replace(".", "_")
     meshes = {s: output / f"vertebra_{tag}_{'shell' if s else 'plain'}.msh" for s in (True, False)}
     if comm.rank == 0:
         meshes[True].parent.mkdir(parents=True, exist_ok=True)
         for s, m in meshes.items():
             build_mesh(r, m, s)
     comm.barrier()
-    tension = '[fracture]\ncriterion = "tension"'
-    lift = run(f"risk_{tag}", meshes[True], LIFT * F_FLEX, LIFT * M_FLEX, tension, shell=True)
-    places = risk_places(output / f"risk_{tag}", r) if comm.rank == 0 else None
-    places = comm.bcast(places, root=0)
+    lift, places, standing = _risk_runs(r, tag, meshes[True])
     centre = wall_point(places["wall_at"])
-    crack = crack_table(centre)
-    head = f"{tension}\ntip_size = {TIP}\n"
-    stand = run(
-        f"standing_{tag}",
-        meshes[False],
-        F_STAND,
-        0.0,
-        head + f"propagate = true\nincrement = {DA_MAX}\n" + crack,
-    )
-    fatigue = (
-        f"[fracture.fatigue]\nC = {C_PARIS!r}\nm = {M_PARIS}\nda_max = {DA_MAX}\n"
-        f"max_blocks = {BLOCKS}\n"
-    )
-    flex = run(f"flexion_{tag}", meshes[False], F_FLEX, M_FLEX, head + fatigue + crack)
-    g, sg = flex["fracture"]["growth"], stand["fracture"]["growth"]
+    p_flex = places["pressure"] / LIFT  # linear in the load: flexion = lifting / LIFT
+    sg, g = _crack_runs(tag, meshes[False], centre, standing["pressure"], p_flex)
     w = dict(
         radius=r,
         day=DAYS * math.log(r / R0),
-        wall=B_VB + Y_TUMOUR - r,
+        bridge=B_VB + Y_TUMOUR - r,
         max_risk=lift["fracture"]["max_risk"],
         risk_at=lift["fracture"]["location"],
         wall_risk=places["wall_risk"],
         lesion_risk=places["lesion_risk"],
+        standing_risk=standing["wall_risk"],
+        p_lift=places["pressure"],
+        p_stand=standing["pressure"],
         crack_centre=centre.tolist(),
         standing=sg["status"],
         K_standing=sg["history"][0]["K_V_deepest"],
@@ -383,15 +502,17 @@ def analyse(r: float) -> dict:
     )
     if comm.rank == 0:
         print(
-            f"r = {r * 1e3:.0f} mm (day {w['day']:.0f}), posterior bone over the tumour "
-            f"{w['wall'] * 1e3:.1f} mm.  Lifting: largest risk {w['max_risk']:.2f} at "
-            f"{np.round(np.array(w['risk_at']) * 1e3, 1)} mm, on the outer wall "
-            f"{w['wall_risk']:.2f} at {np.round(centre * 1e3, 1)} mm (the crack's centre; R = 1 "
-            f"at {1 / w['wall_risk']:.1f} x the lifting load), "
-            f"at the lesion {w['lesion_risk']:.2f}.  Standing: {w['standing']} (K_V "
-            f"{w['K_standing'] / 1e6:.4f} MPa m^0.5).  Flexion: K_V at the deepest point "
-            f"{w['K_flexion'][0] / 1e6:.4f} -> {w['K_flexion'][-1] / 1e6:.4f} MPa m^0.5, "
-            f"{w['status']} after {w['cycles']:.3g} cycles at depth {w['depth'][-1] * 1e3:.2f} mm"
+            f"r = {r * 1e3:.1f} mm (day {w['day']:.0f}), bone between tumour and posterior "
+            f"surface {w['bridge'] * 1e3:.1f} mm; tumour pressure {w['p_lift'] / 1e6:.3f} MPa "
+            f"lifting, {w['p_stand'] / 1e6:.3f} MPa standing.  Lifting: largest risk "
+            f"{w['max_risk']:.2f} at {np.round(np.array(w['risk_at']) * 1e3, 1)} mm, on the "
+            f"thinned wall {w['wall_risk']:.2f} at {np.round(places['wall_at'] * 1e3, 1)} mm "
+            f"(standing {w['standing_risk']:.2f}), in the bone at the tumour "
+            f"{w['lesion_risk']:.2f}.  Crack at {np.round(centre * 1e3, 1)} mm; standing: "
+            f"{w['standing']} (K_V {w['K_standing'] / 1e6:.4f} MPa m^0.5).  Flexion: K_V at "
+            f"the deepest point {w['K_flexion'][0] / 1e6:.4f} -> "
+            f"{w['K_flexion'][-1] / 1e6:.4f} MPa m^0.5, {w['status']} after "
+            f"{w['cycles']:.3g} cycles at depth {w['depth'][-1] * 1e3:.2f} mm"
         )
     return w
 
@@ -405,7 +526,10 @@ rows.append(analyse(RADII[0]))
 rows.append(analyse(RADII[1]))
 
 # %%
-for r in RADII[2:]:  # the full run's further sizes
+rows.append(analyse(RADII[2]))
+
+# %%
+for r in RADII[3:]:  # the full run's further sizes
     rows.append(analyse(r))
 
 # %% [markdown]
@@ -443,18 +567,18 @@ if comm.rank == 0:
 # %% [markdown]
 # ## The crack fronts
 # The semicircular crack in its plane (normal to the axis) seen from above, after every
-# block of flexion cycles, with the body's wall and the cavity's equator (dashed).
+# block of flexion cycles, with the body's wall and the tumour's section in that plane
+# (dashed).
 
 # %%
 if comm.rank == 0:
     fig, axes = plt.subplots(1, len(rows), figsize=(4.2 * len(rows), 3.8), squeeze=False)
     for ax, w in zip(axes[0], rows, strict=True):
-        t = np.linspace(0, 2 * np.pi, 200)
+        t = np.linspace(0, 2 * np.pi, 400)
         ax.plot(A_VB * np.cos(t) * 1e3, B_VB * np.sin(t) * 1e3, "k-", lw=1)  # wall
-        # the cavity's equator (the crack's plane may lie up to H/4 above or below it)
-        ax.plot(
-            w["radius"] * np.cos(t) * 1e3, (Y_TUMOUR + w["radius"] * np.sin(t)) * 1e3, "k--", lw=1
-        )
+        dz = w["crack_centre"][2] - 0.5 * H_VB  # the tumour's section in the crack's plane
+        rc = math.sqrt(max(w["radius"] ** 2 - dz**2, 0.0))
+        ax.plot(rc * np.cos(t) * 1e3, (Y_TUMOUR + rc * np.sin(t)) * 1e3, "k--", lw=1)
         c = np.array(w["crack_centre"][:2])
         inward = -c / np.linalg.norm(c)
         along = np.array([-inward[1], inward[0]])
@@ -463,11 +587,11 @@ if comm.rank == 0:
         for a, hl, n, col in zip(w["depth"], w["half_length"], w["history"], colours, strict=True):
             front = c + np.outer(hl * np.cos(phi), along) + np.outer(a * np.sin(phi), inward)
             ax.plot(front[:, 0] * 1e3, front[:, 1] * 1e3, color=col, label=f"N = {n:.2g}")
-        ax.set_xlim(-12, 12)
-        ax.set_ylim(-18, 4)
+        ax.set_xlim(c[0] * 1e3 - 2.5, c[0] * 1e3 + 2.5)
+        ax.set_ylim(c[1] * 1e3 - 0.5, c[1] * 1e3 + 3.0)
         ax.set_aspect("equal")
         bp.line_axes(ax, ("x", "mm"), ("y", "mm"))
-        ax.set_title(f"r = {w['radius'] * 1e3:.0f} mm: {w['status']}")
+        ax.set_title(f"r = {w['radius'] * 1e3:.1f} mm: {w['status']}")
         ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     bp.show(fig, output / "crack_fronts.png", dpi=120)

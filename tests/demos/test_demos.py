@@ -113,7 +113,7 @@ def _run_notebook(demo: Path, out_base: Path) -> _NotebookRun:
     try:
         client = nbclient.NotebookClient(
             nb,
-            timeout=900,
+            timeout=1800 if demo.stem in SLOW_NOTEBOOKS else 900,
             kernel_name="python3",
             resources={"metadata": {"path": str(demo.parent)}},
         )
@@ -182,9 +182,10 @@ def test_demos_exist():
 TWO_RANKS_DEFAULT = {"contact_api"}
 
 
-#: demos whose notebook run is long even at the reduced size (vertebra_fracture: two
-#: tumour sizes, each a two-region risk run, a standing run and up to 8 fatigue blocks
-#: with re-meshed cracks: 1 min 45 s at load 1-4, about 7 min at load 10)
+#: demos whose notebook run is long even at the reduced size (vertebra_fracture: three
+#: tumour sizes, each two two-region risk runs, a standing run and 2-6 fatigue blocks with
+#: re-meshed cracks; at load 15 one size's cell took more than 900 s: their cells may take
+#: 1800 s)
 SLOW_NOTEBOOKS = {"vertebra_fracture"}
 
 
@@ -558,6 +559,53 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     assert f1["normal_force"] / length == pytest.approx(p_lift / 3, rel=0.15)  # nu = 0.25
     assert f1["tangential_force"] <= mu * f1["normal_force"]
     _check_png(o1 / "vertebra_fragments.png")
+
+
+@pytest.mark.slow
+def test_vertebra_fracture_risk_and_cycles(demo_runs):
+    """Vertebra fracture demo, for every tumour size: the crack sits on the outer wall at
+    the angle and height of the cell of largest risk over the tumour (recomputed here from
+    the two-region risk field: |x| < r/2, middle half of the height, within 1.5 mm of the
+    surface); the undrained tumour is pressurised, more under lifting than standing (its
+    pressure from the same field); K_V at the deepest point rises as the crack deepens; the
+    crack breaks through the bone bridge and the two fragments fill the body (their
+    volumes sum to the elliptic cylinder minus the tumour within 3 %, the faceting).  The
+    cycles to fracture are not asserted to fall with the tumour size: they do not (the
+    place of largest risk moves off the thinnest bridge; the demo's text says why)."""
+    import bonecontact.plot as bp
+
+    r1, o1 = demo_runs["vertebra_fracture", 1]
+    assert r1.returncode == 0
+    rows = json.loads((o1 / "summary.json").read_text())["rows"]
+    assert len(rows) >= 3
+    a, b, h = 22e-3, 17e-3, 27e-3
+    for w in rows:
+        r = w["radius"]
+        tag = f"r{r * 1e3:.1f}mm".replace(".", "_")
+        grid = bp.read_fields(o1 / f"risk_{tag}" / "out" / "fields.pvd")
+        x = np.asarray(grid.cell_centers().points)
+        risk = np.asarray(grid.cell_data["fracture_risk"])
+        rho = np.hypot(x[:, 0] / a, x[:, 1] / b)
+        window = (
+            (np.abs(x[:, 2] - h / 2) < h / 4)
+            & (rho > 1 - 1.5e-3 / b)
+            & (np.abs(x[:, 0]) < r / 2)
+            & (x[:, 1] < 0)
+        )
+        k = int(np.argmax(np.where(window, risk, -1)))
+        c = np.asarray(w["crack_centre"])
+        assert np.hypot(c[0] / a, c[1] / b) == pytest.approx(1.0, abs=1e-12)
+        assert c[2] == pytest.approx(x[k, 2], abs=1e-12)
+        assert np.arctan2(c[1] / b, c[0] / a) == pytest.approx(
+            np.arctan2(x[k, 1] / b, x[k, 0] / a), abs=1e-12
+        )
+        assert w["wall_risk"] == pytest.approx(risk[k], rel=1e-12)
+        assert w["p_lift"] > w["p_stand"] > 0
+        assert np.all(np.diff(w["K_flexion"]) > 0)
+        assert w["status"] in ("through", "fractured")
+        body = np.pi * a * b * h - 4 / 3 * np.pi * r**3
+        assert sum(f["volume"] for f in w["fragments"]) == pytest.approx(body, rel=0.03)
+    assert all(w["cycles"] > 0 for w in rows)
 
 
 def _split_forces(out: Path) -> np.ndarray:
