@@ -4,12 +4,14 @@ One *base* set is factorised; the condensed system of any other active set is so
 exactly through a small dense system with one unknown per row in which the set differs
 from the base (a force that fixes a newly active row, a value that frees a released
 one, or a replaced 3D slip equation). Columns of the base's inverse are computed in
-blocks by MUMPS multi-right-hand-side solves when first needed and cached across
-iterations and steps; when they would cost more than a factorisation, the current set
+blocks by MUMPS multi-right-hand-side solves (with sparse right-hand sides: the forward
+substitution visits only the fronts their entries reach) when first needed and cached
+across iterations and steps; when they would cost more than a factorisation, the current set
 becomes the new base. With a :class:`SplitBasis` (the default) only the cold start's
 support patch is in the contact basis of the factorised operator, so its LU factors are
 those of the plain operator. The result equals refactorising every iteration, to
-round-off. Theory: docs/theory/pdas.md#low-rank-updates and #split-basis.
+round-off. Theory: docs/theory/pdas.md#low-rank-updates, #split-basis and
+#sparse-right-hand-sides.
 """
 
 from __future__ import annotations
