@@ -69,7 +69,8 @@
 # Without the shell the core carries the whole load: K is overstated (conservative).  Not
 # done: the shell kept through the crack stage.
 #
-# **What the quick run gives (2026-12-02, as a script, 15 min at load 12-15).**
+# **What the quick run gives (2026-12-02: as a script 15 min at load 12-15; as a notebook
+# the same numbers, 13 min at load 7-10).**
 #
 # | r (mm) | bone behind the tumour (mm) | tumour pressure lifting / standing (MPa) | R on the thinned wall lifting / standing | largest R (where) | K_V standing (MPa√m) | K_V flexion, first → last block | flexion cycles to *through* |
 # |---|---|---|---|---|---|---|---|

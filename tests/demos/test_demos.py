@@ -184,8 +184,8 @@ TWO_RANKS_DEFAULT = {"contact_api"}
 
 #: demos whose notebook run is long even at the reduced size (vertebra_fracture: three
 #: tumour sizes, each two two-region risk runs, a standing run and 2-6 fatigue blocks with
-#: re-meshed cracks; at load 15 one size's cell took more than 900 s: their cells may take
-#: 1800 s)
+#: re-meshed cracks: the notebook and its test 13 min at load 7-10; at load 15 one size's
+#: cell took more than 900 s: their cells may take 1800 s)
 SLOW_NOTEBOOKS = {"vertebra_fracture"}
 
 
