@@ -31,6 +31,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from bonecontact.contact.reductions import global_any, global_count
+
 __all__ = [
     "Aggregation",
     "CompressedMultigrid",
@@ -285,9 +287,15 @@ def aggregation(
     changed only in values, e.g. in the contact rows of another PDAS set — else a new
     one from the strength graph (:func:`strength_graph`, :func:`aggregate`)."""
     n_nodes = int(node_of_row.max(initial=-1)) + 1
-    if kept is not None and len(kept.skip) == n_nodes:
+    comm = A.getComm().tompi4py()
+    # (decided by all ranks together: isolated_rows is collective, and a rank that kept
+    # its aggregation while another did not left the ranks at different products: 2D
+    # Tresca + iterative on 2 ranks hung in ptap)
+    candidate = kept is not None and len(kept.skip) == n_nodes
+    if global_any(comm, candidate):
         isolated = isolated_rows(A)
-        if np.array_equal(node_skip(isolated, node_of_row, n_nodes), kept.skip):
+        same = candidate and np.array_equal(node_skip(isolated, node_of_row, n_nodes), kept.skip)
+        if global_count(comm, np.array([not same])) == 0:
             return kept, isolated
     F, isolated = node_block_norms(A, node_of_row, n_nodes)
     G = strength_graph(F, threshold)
