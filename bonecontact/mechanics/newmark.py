@@ -39,8 +39,9 @@ def make_integrator(scheme: str, model: Mechanics, kind: str, dt: float, **kwarg
 
 
 def _ldot(a: PETSc.Vec, b: PETSc.Vec) -> float:
-    """This rank's part of aᵀb."""
-    return float(np.dot(a.array_r, b.array_r))
+    """This rank's part of aᵀb (NumPy's own loop: ``np.dot`` calls BLAS, whose threads
+    spun on a loaded machine for 5.7 ms a call at 126k dofs, 14 % of a free step)."""
+    return float(np.einsum("i,i->", a.array_r, b.array_r))
 
 
 def _all_finite(u: fem.Function) -> bool:
