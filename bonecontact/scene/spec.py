@@ -301,15 +301,15 @@ class SolverOptions:
     max_iterations
         Maximum number of PDAS / nonlinear iterations per step (>= 1).
     multigrid
-        The multigrid preconditioner of the iterative contact solve: ``"gamg"`` (PETSc's)
-        or ``"compressed"`` (:mod:`bonecontact.contact.compressed_mg`); ignored by
-        ``"direct"`` and by solves without contact.
+        The multigrid preconditioner of the iterative contact solve: ``"compressed"``
+        (:mod:`bonecontact.contact.compressed_mg`, the default) or ``"gamg"`` (PETSc's);
+        ignored by ``"direct"`` and by solves without contact.
     """
 
     linear: Literal["direct", "iterative"] = "direct"
     tolerance: float = 1e-10
     max_iterations: int = 50
-    multigrid: Literal["gamg", "compressed"] = "gamg"
+    multigrid: Literal["gamg", "compressed"] = "compressed"
 
 
 #: ``[solver]``.
@@ -319,7 +319,7 @@ SOLVER_TABLE = Table(
         Key("linear", "string", "direct", choices=LINEAR_SOLVERS),
         Key("tolerance", "number", 1e-10, minimum=0, exclusive=True),
         Key("max_iterations", "integer", 50, minimum=1),
-        Key("multigrid", "string", "gamg", choices=MULTIGRIDS),
+        Key("multigrid", "string", "compressed", choices=MULTIGRIDS),
     ),
 )
 

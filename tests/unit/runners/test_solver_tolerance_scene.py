@@ -96,7 +96,7 @@ def test_scene_tolerance_loosens_only_the_krylov_solves(tmp_path):
     for name, linear, tol, mg in (
         ("direct", "direct", "", ""),
         ("default", "iterative", "", ""),
-        ("plain", "iterative", "tolerance = 1e-6", ""),
+        ("plain", "iterative", "tolerance = 1e-6", 'multigrid = "gamg"'),
         ("compressed", "iterative", "tolerance = 1e-6", 'multigrid = "compressed"'),
     ):
         scene = tmp_path / f"{name}.toml"

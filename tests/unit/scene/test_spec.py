@@ -1257,13 +1257,13 @@ def test_full_example(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("multigrid", [None, "gamg", "compressed"])
 def test_solver_multigrid_key(tmp_path, multigrid):
-    """``[solver] multigrid`` is read as given; absent, GAMG."""
+    """``[solver] multigrid`` is read as given; absent, the compressed hierarchy."""
     doc = copy.deepcopy(BASE)
     if multigrid is not None:
         doc["solver"]["multigrid"] = multigrid
     scene = load_scene(write(tmp_path, doc), allow_contact=True, allow_friction=True)
-    assert scene.solver.multigrid == (multigrid or "gamg")
-    assert default_solver_options().multigrid == "gamg"
+    assert scene.solver.multigrid == (multigrid or "compressed")
+    assert default_solver_options().multigrid == "compressed"
 
 
 def test_base_document_values(tmp_path):
