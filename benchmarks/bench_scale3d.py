@@ -184,7 +184,7 @@ def run_case(
     mesh: Path,
     keep: Path | None,
     tolerance: float = 1e-10,
-    multigrid: str = "gamg",
+    multigrid: str = "compressed",
 ) -> dict:
     """Write the scene, run ``bonecontact run`` on ``ranks`` ranks, collect the figures.
     ``tolerance``: the scene's ``[solver] tolerance`` (the default 1e-10: Krylov rtol
@@ -328,7 +328,7 @@ def main() -> None:
         "--phase-budget", action="store_true", help="hold each phase to PHASE_BUDGET (B/dof)"
     )
     p.add_argument("--tolerance", type=float, default=1e-10, help="the scene's [solver] tolerance")
-    p.add_argument("--multigrid", default="gamg", help="the scene's [solver] multigrid")
+    p.add_argument("--multigrid", default="compressed", help="the scene's [solver] multigrid")
     args = p.parse_args()
     within = True
     args.out.mkdir(parents=True, exist_ok=True)
