@@ -78,13 +78,18 @@ def test_one_operator_of_its_size_is_kept(problem, strategy):
 @pytest.mark.parametrize("problem,strategy", CASES)
 def test_restore_gives_the_operator_exactly(problem, strategy):
     """``B`` changed in its stripes (rows and columns eliminated with another diagonal,
-    contact rows overwritten) and restored equals ``Ã`` recomputed by its triple product
-    from the integrator's operator, entry by entry (difference exactly zero)."""
+    contact rows overwritten) and restored equals the ``Ã`` it was handed entry by entry
+    (difference exactly zero); that ``Ã`` is its triple product recomputed from the
+    integrator's operator to round-off (a parallel product may sum the off-rank parts in
+    another order: 2⁻¹⁰ = 4e-17 of the norm, seen once on 3 ranks)."""
     pb = _problem(problem, strategy)
     solver, integ = pb.integrator.contact, pb.integrator
     sy, B = solver.system, solver.B
-    reference = transformed_operator(integ.A_bc, sy.Qt, sy.Tt)
-    assert _max_diff(B, reference) == 0.0  # (Ã handed over unchanged)
+    recomputed = transformed_operator(integ.A_bc, sy.Qt, sy.Tt)
+    scale = recomputed.norm(PETSc.NormType.INFINITY)
+    assert _max_diff(B, recomputed) <= 1e-14 * scale  # (Ã handed over unchanged)
+    recomputed.destroy()
+    reference = B.copy()
     rng = np.random.default_rng(7 + COMM.rank)
     stripes = sy.stripe_rows()
     for trial in range(2):
