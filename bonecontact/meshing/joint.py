@@ -908,7 +908,8 @@ def cartilage_layer(
             surface.points[verts], vn, thickness, conform, surface.source, along
         )
     if conform is not None and along == "vertical":
-        # no steeper than 45 degrees towards the rim: no wall for the other layer to hit
+        # no steeper than rim_slope (1: 45 degrees) towards the rim: no wall for the other
+        # layer to hit
         rim_distance = cKDTree(surface.points[on_rim]).query(surface.points[verts])[0]
         t = np.minimum(t, np.maximum(rim_slope * rim_distance, 0.1 * thickness))
     n0 = len(surface.points)
