@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
+from two_blocks import P0, W, friction_blocks
 
 from bonecontact.contact.coupled_rows import krylov_groups, spring_split
 from bonecontact.contact.friction import FrictionLaw, slip_newton_rows, with_normal_row
@@ -41,10 +42,8 @@ from bonecontact.contact.pdas import ContactSolver
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
-from bonecontact.meshing import shapes as meshing
 
 COMM = MPI.COMM_WORLD
-W, H, P0 = 0.02, 0.01, 1.0e5
 DT, STEPS = 2.0e-4, {"static": 1, "dynamic": 4}
 TOL = 1e-8  # (module docstring)
 #: Krylov iterations of one solve at most (measured ≤ 59; the failure mode: 3000, or a
@@ -66,13 +65,7 @@ def _law(name: str, kind: str) -> FrictionLaw:
 
 def _blocks(dim: int, kind: str, law: FrictionLaw, linear: str, multigrid: str):
     """The two blocks (module docstring), their contact solver and integrator."""
-    if dim == 2:
-        md = meshing.two_blocks_2d(
-            COMM, h_lower=W / 9, h_upper=W / 16, width=W, lower_height=H, upper_height=H
-        )
-    else:
-        md = meshing.two_boxes_3d(COMM, h_lower=W / 4, h_upper=W / 6)
-    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    md, pg = friction_blocks(COMM, dim)
     soft = Isotropic(E=20.0e6, nu=0.3, rho=1100.0)
     lower = Isotropic(E=17.0e9, nu=0.3) if kind == "static" else soft
     mats = {pg["lower"]: lower, pg["upper"]: soft}

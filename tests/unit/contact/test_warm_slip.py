@@ -22,6 +22,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from two_blocks import P0, W, friction_blocks
 
 from bonecontact.contact.friction import FrictionLaw
 from bonecontact.contact.interface import build_interface
@@ -30,10 +31,8 @@ from bonecontact.contact.pdas import ContactSolver
 from bonecontact.materials.laws import Isotropic
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
-from bonecontact.meshing import shapes as meshing
 
 COMM = MPI.COMM_WORLD
-W, H, P0 = 0.02, 0.01, 1.0e5
 STEPS = 4  # (step 1 presses, steps 2-4 drag)
 #: drag amplitudes (m) of the last step: most active nodes stick / slip
 DRAGS = {"stick": 4.0e-6, "slip": 6.0e-5}
@@ -46,13 +45,7 @@ def _g(x) -> np.ndarray:
 
 def _model(dim: int, drag: float):
     """The two blocks (module docstring) and their interface."""
-    if dim == 2:
-        md = meshing.two_blocks_2d(
-            COMM, h_lower=W / 9, h_upper=W / 16, width=W, lower_height=H, upper_height=H
-        )
-    else:
-        md = meshing.two_boxes_3d(COMM, h_lower=W / 4, h_upper=W / 6)
-    pg = {k: v.tag for k, v in md.physical_groups.items()}
+    md, pg = friction_blocks(COMM, dim)
     mats = {pg["lower"]: Isotropic(E=17.0e9, nu=0.3), pg["upper"]: Isotropic(E=20.0e6, nu=0.3)}
     m = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)
     for c in range(dim):

@@ -40,3 +40,20 @@ def partial_liftoff_model(comm: MPI.Comm = MPI.COMM_WORLD):
     x = ufl.SpatialCoordinate(md.mesh)
     m.add_traction(pg["top"], ufl.as_vector([0.0, -P0 * (1.0 - 1.2 * x[0] / W)]))
     return md, pg, m
+
+
+def friction_blocks(comm: MPI.Comm, dim: int):
+    """The two blocks of the friction tests (2D: upper W/16, lower W/9; 3D: boxes at
+    W/6 and W/4) before any material or load.
+
+    Returns
+    -------
+    The mesh data and the physical-group tags by name.
+    """
+    if dim == 2:
+        md = meshing.two_blocks_2d(
+            comm, h_lower=W / 9, h_upper=W / 16, width=W, lower_height=H, upper_height=H
+        )
+    else:
+        md = meshing.two_boxes_3d(comm, h_lower=W / 4, h_upper=W / 6)
+    return md, {k: v.tag for k, v in md.physical_groups.items()}
