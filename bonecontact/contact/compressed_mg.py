@@ -67,19 +67,23 @@ class MultigridLevel:
     aggregates: npt.NDArray[np.int64] | None = None
     ranks: npt.NDArray[np.int64] | None = None
     aggregation: Aggregation | None = None
+    #: the rows of ``A`` without a coarse correction (identity rows) at the last build
+    isolated: npt.NDArray[np.bool_] | None = None
 
 
-#: Rows of the rank's block read at once for the strength graph (node-aligned chunks: a
-#: copy of this many rows at a time instead of the whole block's CSR arrays).
-CHUNK_ROWS = 1 << 15
+#: Entries of the rank's block read at once for the strength graph (node-aligned chunks
+#: of rows holding about this many entries on average: a copy of one chunk at a time
+#: instead of the whole block's CSR arrays; 2^18 entries, about 20 MiB of transient
+#: copies and products — 2^15 rows at a time were +60 MiB at 65k dofs, the run's peak).
+CHUNK_ENTRIES = 1 << 18
 
 
 def node_block_norms(
     A: PETSc.Mat, node_of_row: npt.NDArray[np.int64], n_nodes: int
 ) -> tuple[sp.csr_matrix, npt.NDArray[np.bool_]]:
     """The squared Frobenius norms of the node blocks of this rank's diagonal block of
-    ``A`` (``F = R (A∘A) Rᵀ``, ``R`` the rows' nodes; node-aligned chunks of
-    :data:`CHUNK_ROWS` rows, so at most one chunk's entries are copied at a time) and
+    ``A`` (``F = R (A∘A) Rᵀ``, ``R`` the rows' nodes; node-aligned chunks of about
+    :data:`CHUNK_ENTRIES` entries, so at most one chunk's entries are copied at a time) and
     the rows without a nonzero off-diagonal entry there (eliminated or Dirichlet rows:
     identity rows that need no coarse correction; a row that couples only to other
     ranks' rows does not occur: each row couples to its own node)."""
@@ -90,10 +94,12 @@ def node_block_norms(
     dv.destroy()
     R = sp.csr_matrix((np.ones(n), (node_of_row, np.arange(n))), shape=(n_nodes, n))
     starts = np.flatnonzero(np.diff(node_of_row, prepend=-1))  # (first row of every node)
-    cuts = starts[np.searchsorted(starts, np.arange(0, n, CHUNK_ROWS))]
+    per_row = D.getInfo()["nz_used"] / max(n, 1)
+    chunk_rows = max(int(CHUNK_ENTRIES / max(per_row, 1.0)), 1)
+    cuts = starts[np.searchsorted(starts, np.arange(0, n, chunk_rows))]
     cuts = np.unique(np.concatenate([cuts, [n]]))
     cols = PETSc.IS().createStride(n, 0, 1, comm=PETSc.COMM_SELF)
-    F, isolated = None, np.zeros(n, bool)
+    parts, isolated = [], np.zeros(n, bool)
     for r0, r1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
         rows = PETSc.IS().createStride(r1 - r0, r0, 1, comm=PETSc.COMM_SELF)
         chunk = D.createSubMatrix(rows, cols)
@@ -106,11 +112,14 @@ def node_block_norms(
         Rc = sp.csr_matrix(
             (np.ones(r1 - r0), (node_of_row[r0:r1], np.arange(r1 - r0))), shape=(n_nodes, r1 - r0)
         )
-        part = Rc @ M2 @ R.T
-        F = part if F is None else F + part
-        del ia, ja, a, M2
+        part = (Rc @ M2 @ R.T).tocoo()  # (the chunk's node rows: disjoint from the others')
+        parts.append((part.row, part.col, part.data))
+        del ia, ja, a, M2, part
     cols.destroy()
-    return (F if F is not None else sp.csr_matrix((n_nodes, n_nodes))), isolated
+    if not parts:
+        return sp.csr_matrix((n_nodes, n_nodes)), isolated
+    r, c, v = (np.concatenate(k) for k in zip(*parts))
+    return sp.csr_matrix((v, (r, c)), shape=(n_nodes, n_nodes)), isolated
 
 
 def isolated_rows(A: PETSc.Mat) -> npt.NDArray[np.bool_]:
@@ -322,7 +331,7 @@ def coarsen(
     P, Zc, ranks = compressed_prolongator(
         A, Z, agg.aggregates[node_of_row], agg.count, opts.rank_tol
     )
-    level = MultigridLevel(A, P, agg.aggregates, ranks, agg)
+    level = MultigridLevel(A, P, agg.aggregates, ranks, agg, isolated)
     return level, A.ptap(P), Zc, np.repeat(np.arange(agg.count), ranks)
 
 
@@ -351,10 +360,27 @@ class CompressedMGOptions:
     #: operator in the contact rows only; the prolongators and Galerkin products are
     #: computed anew from the kept aggregates.
     reuse_aggregates: bool = True
+    #: When told that the operator changed only in eliminated rows since the last build
+    #: (:meth:`CompressedMultigrid.allow_update`): update the kept hierarchy instead of
+    #: building it anew — the prolongators from the kept aggregates, the coarse
+    #: operators only in the aggregates whose rows changed (:func:`update_levels`;
+    #: with ``reuse_aggregates`` only).
+    local_update: bool = True
 
     def __post_init__(self) -> None:
         if self.cycle not in ("v", "w"):
             raise ValueError(f"multigrid cycle must be 'v' or 'w', got {self.cycle!r}")
+
+
+def fine_near_nullspace(A: PETSc.Mat) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """The near-nullspace of ``A`` as this rank's rows × vectors and the node of every
+    row (rows grouped by ``A``'s block size)."""
+    nns = A.getNearNullSpace()
+    if nns is None or not nns.getVecs():
+        raise ValueError("compressed multigrid: the operator has no near-nullspace")
+    Z = np.array([v.getArray(readonly=True) for v in nns.getVecs()]).T.copy()
+    node_of_row = np.arange(A.getLocalSize()[0], dtype=np.int64) // A.getBlockSize()
+    return Z, node_of_row
 
 
 def build_levels(
@@ -363,12 +389,7 @@ def build_levels(
     """The hierarchy of ``A`` (its block size and near-nullspace set), finest first,
     with the aggregations ``kept`` of an earlier build (level by level, while each
     applies: :func:`aggregation`; the levels below a new one are aggregated anew)."""
-    nns = A.getNearNullSpace()
-    if nns is None or not nns.getVecs():
-        raise ValueError("compressed multigrid: the operator has no near-nullspace")
-    Z = np.array([v.getArray(readonly=True) for v in nns.getVecs()]).T.copy()
-    bs = A.getBlockSize()
-    node_of_row = np.arange(A.getLocalSize()[0], dtype=np.int64) // bs
+    Z, node_of_row = fine_near_nullspace(A)
     levels = [MultigridLevel(A)]
     kept = list(kept or [])
     while len(levels) < opts.max_levels and levels[-1].A.getSize()[0] > opts.coarse_limit:
@@ -383,6 +404,183 @@ def build_levels(
         levels[-1] = level
         levels.append(MultigridLevel(Ac))
     return levels
+
+
+def columns_of(
+    P: PETSc.Mat, ranks: npt.NDArray[np.int64], aggregates: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64]:
+    """The global columns of ``P`` (this rank's, ascending) of the given ascending
+    aggregates of this rank (``ranks``: columns per aggregate, in aggregate order)."""
+    offsets = np.concatenate([[0], np.cumsum(ranks)])
+    counts = ranks[aggregates]
+    first = np.repeat(offsets[aggregates], counts)
+    within = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    return P.getOwnershipRangeColumn()[0] + first + within
+
+
+def column_restriction(P: PETSc.Mat, cols: npt.NDArray[np.int64]) -> PETSc.Mat:
+    """``P`` with the entries outside the (global) columns ``cols`` removed."""
+    ia, ja, a = P.getValuesCSR()
+    keep = np.isin(ja, cols)
+    n = len(ia) - 1
+    counts = np.bincount(np.repeat(np.arange(n), np.diff(ia))[keep], minlength=n)
+    Pa = PETSc.Mat().createAIJ(
+        size=P.getSizes(),
+        csr=(np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType), ja[keep], a[keep]),
+        comm=P.getComm(),
+    )
+    Pa.assemble()
+    return Pa
+
+
+def new_columns(
+    Ac: PETSc.Mat, ja: npt.NDArray, new_of_local: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64]:
+    """The new global index of the columns ``ja`` of ``Ac`` (this rank's entries;
+    ``-1``: none), from every rank's ``new_of_local`` (the new index of each of its
+    columns; collective: another rank's by a scatter)."""
+    c0, c1 = Ac.getOwnershipRangeColumn()
+    own = (ja >= c0) & (ja < c1)
+    new = np.full(len(ja), -1, PETSc.IntType)
+    new[own] = new_of_local[ja[own] - c0]
+    if Ac.getComm().getSize() == 1:
+        return new
+    remote = np.unique(ja[~own]).astype(PETSc.IntType)
+    x = Ac.createVecRight()
+    x.array[:] = new_of_local  # (exact: indices below 2^53)
+    y = PETSc.Vec().createSeq(len(remote), comm=PETSc.COMM_SELF)
+    where = PETSc.IS().createGeneral(remote, comm=PETSc.COMM_SELF)
+    scatter = PETSc.Scatter().create(x, where, y, None)
+    scatter.scatter(x, y, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+    new[~own] = y.array[np.searchsorted(remote, ja[~own])].astype(PETSc.IntType)
+    for obj in (x, y, where, scatter):
+        obj.destroy()
+    return new
+
+
+def csr_entries(M: PETSc.Mat) -> tuple[npt.NDArray, ...]:
+    """This rank's entries of ``M`` by local row: (row, global column, value)."""
+    ia, ja, v = M.getValuesCSR()
+    return np.repeat(np.arange(len(ia) - 1, dtype=PETSc.IntType), np.diff(ia)), ja, v
+
+
+def kept_entries(
+    Ac: PETSc.Mat, new_of_old: npt.NDArray[np.int64], r0: int
+) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
+    """The entries of ``Ac`` (this rank's rows) whose row and column are kept
+    (``new_of_old``, :func:`update_galerkin`), by new local row (``r0``: the new first
+    row of this rank): (row, column, value)."""
+    ia, ja, v = Ac.getValuesCSR()
+    cols = new_columns(Ac, ja, new_of_old)
+    del ja
+    rows = new_of_old[np.repeat(np.arange(len(ia) - 1, dtype=PETSc.IntType), np.diff(ia))]
+    keep = (rows >= 0) & (cols >= 0)
+    return (rows[keep] - r0).astype(PETSc.IntType), cols[keep], v[keep]
+
+
+def set_rows(M: PETSc.Mat, rows: npt.NDArray, cols: npt.NDArray, vals: npt.NDArray) -> None:
+    """Insert entries grouped by ascending local row (columns in any order) into ``M``."""
+    n = M.getLocalSize()[0]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
+    M.setValuesCSR(indptr.astype(PETSc.IntType), cols.astype(PETSc.IntType), vals)
+
+
+#: Expected fill of ``A P_c`` relative to ``A`` and ``P_c`` (PETSc's default 2 reserves
+#: room for twice ``A``'s entries; the product has few columns).
+MATMULT_FILL = 0.05
+
+
+def update_galerkin(
+    A: PETSc.Mat,
+    P: PETSc.Mat,
+    Ac: PETSc.Mat,
+    new_of_old: npt.NDArray[np.int64],
+    cols: npt.NDArray[np.int64],
+) -> PETSc.Mat:
+    """``Pᵀ A P`` from the earlier product ``Ac`` where only the coarse columns ``cols``
+    (this rank's, global, of ``P``) are new (their aggregates' rows of ``A`` or of the
+    near-nullspace changed); every other column is one of ``Ac``'s (``new_of_old``: the
+    new index of each of this rank's columns of ``Ac``, ``-1``: replaced) with the same
+    entries in the same rows.  ``W = Pᵀ A P_c`` (``P_c``: ``P``'s columns ``cols``) gives
+    the new columns, ``Wᵀ`` (``A`` symmetric) their rows; the pattern is that of the
+    product (the entries of ``A`` and ``P`` as stored)."""
+    Pa = column_restriction(P, cols)
+    APa = A.matMult(Pa, fill=MATMULT_FILL)
+    W = P.transposeMatMult(APa)
+    Wt = W.transpose(PETSc.Mat())
+    for m in (Pa, APa):
+        m.destroy()
+    c0, c1 = P.getOwnershipRangeColumn()
+    in_cols = np.zeros(c1 - c0, bool)
+    in_cols[cols - c0] = True
+    rw, cw, vw = csr_entries(W)
+    fresh = ~in_cols[rw]  # (the rows of cols come from Wᵀ)
+    parts = [kept_entries(Ac, new_of_old, c0), csr_entries(Wt), (rw[fresh], cw[fresh], vw[fresh])]
+    for m in (W, Wt):
+        m.destroy()
+    d_nnz, o_nnz = np.zeros(c1 - c0, np.int64), np.zeros(c1 - c0, np.int64)
+    for r, c, _ in parts:
+        diag = (c >= c0) & (c < c1)
+        d_nnz += np.bincount(r[diag], minlength=c1 - c0)
+        o_nnz += np.bincount(r[~diag], minlength=c1 - c0)
+    N = P.getSize()[1]
+    new = PETSc.Mat().createAIJ(
+        size=((c1 - c0, N), (c1 - c0, N)),
+        nnz=(d_nnz.astype(PETSc.IntType), o_nnz.astype(PETSc.IntType)),
+        comm=P.getComm(),
+    )
+    for r, c, v in parts:
+        set_rows(new, r, c, v)
+    new.assemble()
+    return new
+
+
+def update_levels(levels: list[MultigridLevel], opts: CompressedMGOptions) -> bool:
+    """Update the hierarchy ``levels`` of an operator that changed since its build only
+    in rows and columns turned into identity rows or back (eliminated contact rows of
+    another PDAS set): per level, the prolongator anew from the kept aggregation with
+    the new identity rows, and the coarse operator anew only in the columns (and rows)
+    of the aggregates whose rows or near-nullspace changed (:func:`update_galerkin`; the
+    others' entries are those of the new product: their rows of ``A`` and ``P`` did not
+    change).  Returns ``False`` (collective; the hierarchy is then to be built anew)
+    when a level's nodes without coarse correction changed (another aggregation)."""
+    comm = levels[0].A.getComm().tompi4py()
+    Z, node_of_row = fine_near_nullspace(levels[0].A)
+    changed = None
+    for k, lev in enumerate(levels[:-1]):
+        agg = lev.aggregation
+        isolated = isolated_rows(lev.A)
+        same = np.array_equal(node_skip(isolated, node_of_row, len(agg.skip)), agg.skip)
+        if global_count(comm, np.array([not same])) > 0:
+            return False
+        moved = isolated != lev.isolated if changed is None else changed
+        Z[isolated] = 0.0
+        agg_of_row = agg.aggregates[node_of_row]
+        P, Zc, ranks = compressed_prolongator(lev.A, Z, agg_of_row, agg.count, opts.rank_tol)
+        hit = np.zeros(agg.count, bool)
+        hit[agg_of_row[moved & (agg_of_row >= 0)]] = True
+        hit |= ranks != lev.ranks
+        old_cols = np.repeat(np.where(hit, -1, ranks), lev.ranks)  # (-1 or the count)
+        new_of_old = np.full(len(old_cols), -1, np.int64)
+        new_of_old[old_cols >= 0] = columns_of(P, ranks, np.flatnonzero(~hit))
+        cols = columns_of(P, ranks, np.flatnonzero(hit))
+        Ac = update_galerkin(lev.A, P, levels[k + 1].A, new_of_old, cols)
+        levels[k + 1].A.destroy()
+        lev.P.destroy()
+        levels[k + 1].A, lev.P, lev.isolated, lev.ranks = Ac, P, isolated, ranks
+        changed = np.zeros(P.getLocalSize()[1], bool)
+        changed[cols - P.getOwnershipRangeColumn()[0]] = True
+        Z, node_of_row = Zc, np.repeat(np.arange(agg.count), ranks)
+    return global_count(comm, np.array([not same_depth(levels, opts)])) == 0
+
+
+def same_depth(levels: list[MultigridLevel], opts: CompressedMGOptions) -> bool:
+    """Whether :func:`build_levels` would stop coarsening where ``levels`` end (an
+    updated hierarchy's coarse sizes may differ from the built one's)."""
+    sizes = [lev.A.getSize()[0] for lev in levels]
+    deep = all(n > opts.coarse_limit for n in sizes[:-1])
+    shrink = all(c < 0.9 * f for f, c in zip(sizes[:-1], sizes[1:]))
+    return deep and shrink and (sizes[-1] <= opts.coarse_limit or len(sizes) == opts.max_levels)
 
 
 def _coarse_options(nranks: int) -> dict[str, object]:
@@ -463,6 +661,8 @@ class CompressedMultigrid:
         Builds of the hierarchy, the levels over all builds whose aggregation was kept
         from the build before (this rank's; ``reuse_aggregates``) and the wall time of
         all builds on this rank.
+    updates
+        The builds that updated the kept hierarchy (``local_update``).
     """
 
     def __init__(self, options: CompressedMGOptions | None = None):
@@ -477,21 +677,31 @@ class CompressedMultigrid:
         self.builds = 0
         self.kept_levels = 0
         self.setup_seconds = 0.0
+        self.updates = 0
+        self._update_allowed = False
+
+    def allow_update(self, allowed: bool) -> None:
+        """Tell the next set-up whether the operator differs from that of the last
+        build only in rows and columns eliminated (identity rows) in one and not in the
+        other — then the hierarchy may be updated (``local_update``) — or otherwise."""
+        self._update_allowed = bool(allowed)
 
     def setUp(self, pc: PETSc.PC) -> None:
-        """Build the hierarchy of the PC's preconditioning matrix."""
+        """Build the hierarchy of the PC's preconditioning matrix (or update it:
+        :meth:`allow_update`)."""
         t0 = time.perf_counter()
-        kept = self.kept_aggregations() if self.options.reuse_aggregates else None
-        self._free()
         _, A = pc.getOperators()
         f0 = PETSc.Log.getFlops()
-        self.levels = build_levels(A, self.options, kept)
+        if not self._update(A):
+            kept = self.kept_aggregations() if self.options.reuse_aggregates else None
+            self._free()
+            self.levels = build_levels(A, self.options, kept)
+            self.kept_levels += sum(
+                1
+                for k, lev in enumerate(self.levels[:-1])
+                if kept and k < len(kept) and lev.aggregation is kept[k]
+            )
         self.builds += 1
-        self.kept_levels += sum(
-            1
-            for k, lev in enumerate(self.levels[:-1])
-            if kept and k < len(kept) and lev.aggregation is kept[k]
-        )
         f1 = PETSc.Log.getFlops()
         self.mg = multigrid_pc(self.levels, self.options)
         self.setup_flops = (f1 - f0, PETSc.Log.getFlops() - f1)
@@ -504,6 +714,24 @@ class CompressedMultigrid:
         self.aggregates = first.aggregates if first.aggregates is not None else none
         self.ranks = first.ranks if first.ranks is not None else none
         self.setup_seconds += time.perf_counter() - t0
+
+    def _update(self, A: PETSc.Mat) -> bool:
+        """Update the kept hierarchy of ``A`` in place if allowed and possible
+        (:func:`update_levels`)."""
+        allowed, self._update_allowed = self._update_allowed, False
+        opts = self.options
+        if not (allowed and opts.local_update and opts.reuse_aggregates and len(self.levels) > 1):
+            return False
+        if self.levels[0].A.handle != A.handle:
+            return False
+        if self.mg is not None:
+            self.mg.destroy()
+            self.mg = None
+        if not update_levels(self.levels, self.options):
+            return False
+        self.updates += 1
+        self.kept_levels += len(self.levels) - 1
+        return True
 
     def kept_aggregations(self) -> list[Aggregation] | None:
         """The aggregations of the current hierarchy, finest first (``None``: none)."""
@@ -524,6 +752,10 @@ class CompressedMultigrid:
 
     def destroy(self, pc: PETSc.PC) -> None:
         """Free the hierarchy."""
+        self._free()
+
+    def reset(self, pc: PETSc.PC) -> None:
+        """Free the hierarchy (``PCReset``, e.g. ``KSPReset``: the next set-up builds it)."""
         self._free()
 
     def _free(self) -> None:

@@ -39,6 +39,7 @@ __all__ = [
     "DEFAULT_REUSE_ROWS",
     "RESPONSE_RTOL",
     "PreconditionerReuse",
+    "allow_hierarchy_update",
     "apply_inverse_transpose",
     "coarse_grid_limit",
     "condensed_near_nullspace",
@@ -273,6 +274,17 @@ def set_multigrid(
     )
     pc.setType("python")
     pc.setPythonContext(CompressedMultigrid(opts))
+
+
+def allow_hierarchy_update(ksp: PETSc.KSP, allowed: bool) -> None:
+    """Tell the compressed hierarchy of ``ksp`` (if it has one) whether its next set-up
+    may update it (:meth:`~bonecontact.contact.compressed_mg.CompressedMultigrid.allow_update`:
+    the operator changed since its build only in eliminated rows and columns)."""
+    pc = ksp.getPC()
+    if pc.getType() == "python":
+        ctx = pc.getPythonContext()
+        if isinstance(ctx, CompressedMultigrid):
+            ctx.allow_update(allowed)
 
 
 def reduction_decades(ksp: PETSc.KSP) -> float:

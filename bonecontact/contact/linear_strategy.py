@@ -34,6 +34,7 @@ from bonecontact.contact.krylov import (
     DEFAULT_REUSE_ROWS,
     RESPONSE_RTOL,
     PreconditionerReuse,
+    allow_hierarchy_update,
     configure_condensed_ksp,
     reduction_decades,
 )
@@ -384,6 +385,7 @@ class KrylovStrategy(RefactorStrategy):
         self._op = PETSc.Mat().createPython(self.B.getSizes(), self._sum, comm=self.B.getComm())
         self._op.setUp()
         self._sym_type = self.ksp.getType()
+        self._plain_build = False  # (B of the last build had no springs; none yet)
 
     def _configure(
         self, options: LinearOptions, rtol: float, V: fem.FunctionSpace, nonsymmetric: bool
@@ -564,7 +566,10 @@ class KrylovStrategy(RefactorStrategy):
             # (the springs change B at every iteration, stiff ones by orders of magnitude
             # beyond the kept smoother's bounds: 3D Tresca drag 4-5x the iterations)
             self.pc_reuse.forget()
+        plain = self._sum.C is None
+        allow_hierarchy_update(self.ksp, plain and self._plain_build)
         kept = self.pc_reuse.decide(self.ksp, replaced)
+        self._plain_build = plain if not kept else self._plain_build
         Uh = self.system.Uh
         try:
             with self._products():

@@ -83,12 +83,19 @@ def _geometry(integ, m, dim: int) -> dict:
 
 
 def _run(
-    kind: str, dim: int, linear: str, cycle: str = "w", multigrid: str = "compressed", keep=True
+    kind: str,
+    dim: int,
+    linear: str,
+    cycle: str = "w",
+    multigrid: str = "compressed",
+    keep=True,
+    update=True,
 ) -> dict:
     """One contact solve: displacement (owned), pressure, status, PDAS and CG iterations
-    and, with the compressed hierarchy (aggregations kept across rebuilds: ``keep``), its
-    first level, its builds and the geometry of the nodes."""
-    key = (kind, dim, linear, cycle, multigrid, keep)
+    and, with the compressed hierarchy (aggregations kept across rebuilds: ``keep``;
+    hierarchies updated for a new set: ``update``), its first level, its builds and the
+    geometry of the nodes."""
+    key = (kind, dim, linear, cycle, multigrid, keep, update)
     if key in _CACHE:
         return _CACHE[key]
     options = None
@@ -96,7 +103,7 @@ def _run(
         lin = LinearOptions(multigrid=multigrid, multigrid_cycle=cycle)
         options = PDASOptions(linear=lin)
     build = _load_driven if kind == "load-driven" else _clamped
-    made = functools.partial(CompressedMGOptions, reuse_aggregates=keep)
+    made = functools.partial(CompressedMGOptions, reuse_aggregates=keep, local_update=update)
     saved, krylov.CompressedMGOptions = krylov.CompressedMGOptions, made
     try:
         integ, m, _ = build(dim, linear, RTOL if linear == "iterative" else 1e-12, options)
@@ -116,7 +123,7 @@ def _run(
         ctx = integ.contact.ksp.getPC().getPythonContext()
         assert isinstance(ctx, CompressedMultigrid)
         out |= {"sizes": list(ctx.sizes), "ranks": ctx.ranks.copy()}
-        out |= {"builds": ctx.builds, "kept_levels": ctx.kept_levels}
+        out |= {"builds": ctx.builds, "kept_levels": ctx.kept_levels, "updates": ctx.updates}
         out |= {"aggregates": ctx.aggregates.copy(), **_geometry(integ, m, dim)}
     integ.destroy()
     _CACHE[key] = out
@@ -278,4 +285,121 @@ def test_aggregation_kept_only_while_the_skipped_nodes_stay():
     assert new is not first and np.array_equal(isolated, iso)
     assert new.aggregates[6] == -1 and new.skip[6] and new.skip.sum() == 1
     for obj in (A, B, C):
+        obj.destroy()
+
+
+@pytest.mark.parametrize("kind,dim", [(k, d) for k in ("load-driven", "clamped") for d in (2, 3)])
+def test_updated_hierarchy_gives_the_answer_of_a_built_one(kind, dim):
+    """A new PDAS set updates the kept hierarchy (``local_update``, the default) instead
+    of building it anew: the same sets node by node, PDAS iterations and CG iterations
+    per PDAS iteration as with every hierarchy built (the same preconditioner up to
+    rounding), the displacement to 1e-10 and the pressure to 1e-9; every build after
+    the first is an update (measured: all)."""
+    updated, built = _run(kind, dim, "iterative"), _run(kind, dim, "iterative", update=False)
+    assert updated["status"] == built["status"]
+    assert updated["pdas"] == built["pdas"]
+    assert updated["its"] == built["its"]
+    assert _rel_max(updated["u"], built["u"]) < 1e-10
+    assert _rel_max(updated["p"], built["p"]) < 1e-9
+    assert built["updates"] == 0 and updated["builds"] == built["builds"] >= 2
+    assert updated["updates"] == updated["builds"] - 1
+
+
+def _nodal_modes(n_nodes: int, bs: int) -> PETSc.NullSpace:
+    """Translations and ``x``-weighted translations of a chain of nodes (``x`` the
+    node's global index): six independent vectors per aggregate of two or more nodes."""
+    start = COMM.exscan(n_nodes) or 0
+    x = (start + np.arange(n_nodes, dtype=float)) / 10.0
+    vecs = []
+    for weight in (np.ones(n_nodes), x):
+        for c in range(bs):
+            v = PETSc.Vec().createMPI((n_nodes * bs, None), comm=COMM)
+            arr = np.zeros(n_nodes * bs)
+            arr[c::bs] = weight
+            v.array[:] = arr
+            vecs.append(v)
+    return PETSc.NullSpace().create(vectors=vecs, comm=COMM)
+
+
+def _free_levels(levels: list, B: PETSc.Mat) -> None:
+    """Destroy the levels' prolongators and coarse operators (not the fine ``B``)."""
+    for lev in levels:
+        if lev.P is not None:
+            lev.P.destroy()
+        if lev.A.handle != B.handle:
+            lev.A.destroy()
+
+
+def _eliminated(A0: PETSc.Mat, B: PETSc.Mat, rows: list[int]) -> None:
+    """``B ← A0`` with the (this rank's, local) ``rows`` eliminated symmetrically, in
+    place as the contact solver does (same pattern)."""
+    A0.copy(B, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+    start = B.getOwnershipRange()[0]
+    B.zeroRowsColumns(np.asarray(rows, PETSc.IntType) + start, diag=4.0)
+
+
+@pytest.mark.parametrize(
+    "first,second",
+    [
+        ([], [4, 10, 11]),  # rows eliminated
+        ([4, 10, 11], [7]),  # eliminated rows restored, another one eliminated
+        ([30, 31, 33, 34, 36, 37], []),  # restored: two of three rows of three nodes
+        ([], [30, 31, 33, 34, 36, 37]),  # an aggregate loses columns (rank 6 → fewer)
+    ],
+)
+def test_update_equals_a_new_build(first, second):
+    """The hierarchy of an operator with rows ``first`` eliminated, updated after the
+    same matrix changed to rows ``second`` eliminated (:func:`update_levels`), against a
+    hierarchy built anew from it with the same aggregations: the same levels and sizes,
+    the prolongators exactly, the coarse operators to 1e-14 of their norm (the changed
+    entries are summed in another order); the update is taken (it returns ``True``),
+    and in each case some aggregate's columns change (the coarse level's size)."""
+    bs, n_nodes = 3, 60
+    opts = CompressedMGOptions(coarse_limit=24)
+    A0 = _chain(n_nodes, bs, np.zeros(n_nodes * bs, bool))
+    B = A0.duplicate(copy=True)
+    B.setBlockSize(bs)
+    nns = _nodal_modes(n_nodes, bs)
+    B.setNearNullSpace(nns)
+    _eliminated(A0, B, first)
+    levels = compressed_mg.build_levels(B, opts)
+    columns = levels[0].ranks.copy()
+    _eliminated(A0, B, second)
+    assert compressed_mg.update_levels(levels, opts)
+    assert not np.array_equal(levels[0].ranks, columns)  # (each case: 96 ↔ 95 or 94 rows)
+    fresh = compressed_mg.build_levels(B, opts, [lev.aggregation for lev in levels[:-1]])
+    assert len(levels) == len(fresh) >= 3
+    for got, ref in zip(levels, fresh):
+        assert got.A.getSizes() == ref.A.getSizes()
+        if ref.P is not None:
+            assert np.array_equal(got.ranks, ref.ranks)
+            diff = got.P.copy()
+            diff.axpy(-1.0, ref.P)
+            assert diff.norm(PETSc.NormType.INFINITY) == 0.0
+            diff.destroy()
+        if got.A.handle != B.handle:
+            diff = got.A.copy()
+            diff.axpy(-1.0, ref.A)
+            assert diff.norm() <= 1e-14 * ref.A.norm()
+            diff.destroy()
+    _free_levels(levels + fresh, B)
+    for obj in (A0, B, nns):
+        obj.destroy()
+
+
+def test_update_refused_when_a_node_loses_its_coarse_correction():
+    """All rows of a node eliminated after the build: another aggregation is needed, the
+    update returns ``False`` (the caller builds anew)."""
+    bs, n_nodes = 3, 60
+    opts = CompressedMGOptions(coarse_limit=24)
+    A0 = _chain(n_nodes, bs, np.zeros(n_nodes * bs, bool))
+    B = A0.duplicate(copy=True)
+    B.setBlockSize(bs)
+    nns = _nodal_modes(n_nodes, bs)
+    B.setNearNullSpace(nns)
+    levels = compressed_mg.build_levels(B, opts)
+    _eliminated(A0, B, [9, 10, 11])
+    assert not compressed_mg.update_levels(levels, opts)
+    _free_levels(levels, B)
+    for obj in (A0, B, nns):
         obj.destroy()
