@@ -34,11 +34,11 @@ from bonecontact.fracture.advance3d import (
     advance_mixed_front,
     advance_polygon_front,
     extend_surface,
+    mid_edge_modes,
 )
 from bonecontact.fracture.body3d import body_surface, mesh_body_with_planar_crack
 from bonecontact.fracture.crack3d import (
     PlanarCrack,
-    TriangulatedCrack,
     planar_crack_from_table,
     triangulated_from_polygon,
 )
@@ -196,22 +196,6 @@ def kassir_sih_modes(
     return np.column_stack([k1, k2, k3])
 
 
-def _mid_edge_modes(
-    crack: TriangulatedCrack, cb, u, material: Isotropic, h: float
-) -> npt.NDArray[np.float64]:
-    """(K_I, K_II, K_III) at the middle of every front edge, shape (N, 3)."""
-    front = crack.front()
-    phis = crack.front_parameters(1)
-    r_out = 4 * h
-    length = min(r_out, min(front.corner_distance(float(p)) for p in phis) - h)
-    blk = cb.block()
-    out = []
-    for p in phis:
-        k = front_interaction_integral(u, blk, float(p), material, r_out, None, length)
-        out.append((k.K_I, k.K_II, k.K_III))
-    return np.asarray(out)
-
-
 def _solve_block(cb, material: Isotropic, sigma: float):
     m = Mechanics(cb.mesh, material, cb.cell_tags, cb.facet_tags)
     for name, comp in (("xmin", 0), ("ymin", 1), ("zmin", 2)):
@@ -246,7 +230,8 @@ def grow_inclined_penny(
     for _ in range(increments):
         cb, _md = mesh_body_with_planar_crack(body, crack, TipMesh(h_front, grading), comm)
         m, integ = _solve_block(cb, material, 1.0)
-        k = _mid_edge_modes(crack, cb, integ.u, material, h_front)
+        sifs = mid_edge_modes(crack, cb.block(), integ.u, material, h_front)
+        k = np.array([(f.K_I, f.K_II, f.K_III) for f in sifs])
         integ.destroy()
         adv: MixedAdvance = advance_mixed_front(crack.vertices, crack.normals2, k, da)
         rec.cracks.append(crack)

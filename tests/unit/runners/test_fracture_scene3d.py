@@ -25,7 +25,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import numpy as np
 import pytest
+from _crack_scenes import run_serial_on_rank0
 from coupled_support import gmsh_on_rank0, read_csv, refine_near, run_text
 
 from bonecontact.scene import SceneError, load_scene
@@ -116,6 +118,27 @@ def test_risk_is_goodier_at_the_equator(cavity_run: Path) -> None:
     hist = read_csv(cavity_run / "history.csv")
     assert hist["max_risk"][-1] == pytest.approx(fr["max_risk"], rel=1e-12)
     assert hist["max_risk_z"][-1] == pytest.approx(z, abs=1e-15)
+
+
+def test_same_risk_on_any_rank_count(cavity_run: Path) -> None:
+    """The distributed run against the serial run of the same scene and mesh: the risk
+    maximum, its cell midpoint, the crack normal and history.csv's columns to 1e-10."""
+    if MPI.COMM_WORLD.size == 1:
+        pytest.skip("compares a distributed run with a serial one")
+    ser = run_serial_on_rank0(cavity_run.parent / "scene.toml", cavity_run.parent / "ser")
+    ser_dir = cavity_run.parent / "ser"
+    if ser is not None:
+        assert ser.status == "converged"
+    MPI.COMM_WORLD.barrier()
+    got = json.loads((cavity_run / "summary.json").read_text())["fracture"]
+    ref = json.loads((ser_dir / "summary.json").read_text())["fracture"]
+    assert got["max_risk"] == pytest.approx(ref["max_risk"], rel=1e-10)
+    np.testing.assert_allclose(got["location"], ref["location"], rtol=0, atol=1e-10 * W)
+    np.testing.assert_allclose(got["crack_normal"], ref["crack_normal"], rtol=0, atol=1e-10)
+    assert got["initiated"] == ref["initiated"] and got["mode"] == ref["mode"]
+    h_got, h_ref = read_csv(cavity_run / "history.csv"), read_csv(ser_dir / "history.csv")
+    for key, scale in (("max_risk", 1.0), ("max_risk_x", W), ("max_risk_y", W), ("max_risk_z", W)):
+        np.testing.assert_allclose(h_got[key], h_ref[key], rtol=1e-10, atol=1e-10 * scale)
 
 
 @pytest.mark.parametrize(
