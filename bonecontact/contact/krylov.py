@@ -271,6 +271,7 @@ def set_multigrid(
         cycle=cycle,
         coarse_limit=coarse_grid_limit(num_equations),
         esteig_ksp="gmres" if nonsymmetric else "cg",
+        coarse_factor="lu" if nonsymmetric else "cholesky",
     )
     pc.setType("python")
     pc.setPythonContext(CompressedMultigrid(opts))
