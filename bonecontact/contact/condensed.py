@@ -186,7 +186,7 @@ class CondensedSystem:
         T = rotation_matrix(V, interfaces)
         Tt = T.transpose(PETSc.Mat())  # (transpose() without an argument is in place)
         with lean_products(layout.comm, all_at_once=True):
-            At = transformed_operator(A, Qt, Tt)
+            At = transformed_operator(A, Qt, Tt, cleared=True)
         start = bs * V.dofmap.index_map.local_range[0]
         bc = np.asarray(bc_rows if bc_rows is not None else [], dtype=PETSc.IntType)
         D = np.concatenate([itf.D for itf in interfaces] + [np.zeros(0)])
@@ -356,27 +356,44 @@ def operator_stripes(A: PETSc.Mat, rows: npt.NDArray) -> PETSc.Mat:
     a copy of ``A``."""
     comm = A.getComm()
     lo, hi = A.getOwnershipRange()
-    ri, rj, rv = row_block(A, rows).getValuesCSR()
+    rows64 = np.asarray(rows, dtype=np.int64)
+    block = row_block(A, rows)
+    ri, rj, rv = block.getValuesCSR()
+    block.destroy()
+    keep = rv != 0.0
+    row_part = (np.repeat(rows64 - lo, np.diff(ri))[keep], rj[keep], rv[keep])
+    del ri, rj, rv, keep
     isall = PETSc.IS().createStride(hi - lo, first=lo, step=1, comm=comm)
     iscol = PETSc.IS().createGeneral(rows, comm=comm)
     cols = A.createSubMatrix(isall, iscol)
     ci, cj, cv = cols.getValuesCSR()
     for obj in (isall, iscol, cols):
         obj.destroy()
-    all_rows = np.concatenate(comm.tompi4py().allgather(np.asarray(rows, dtype=np.int64)))
+    all_rows = np.concatenate(comm.tompi4py().allgather(rows64)).astype(PETSc.IntType)
     in_rows = np.zeros(hi - lo, dtype=bool)
-    in_rows[np.asarray(rows, dtype=np.int64) - lo] = True
-    r_i = np.repeat(np.asarray(rows, dtype=np.int64), np.diff(ri))
-    c_i = np.repeat(np.arange(lo, hi, dtype=np.int64), np.diff(ci))
-    keep_r = rv != 0.0
-    keep_c = (cv != 0.0) & ~in_rows[c_i - lo]  # (entries of the rows are in the first part)
-    I = np.concatenate([r_i[keep_r], c_i[keep_c]]).astype(PETSc.IntType)
-    J = np.concatenate([rj[keep_r].astype(np.int64), all_rows[cj[keep_c]]]).astype(PETSc.IntType)
-    V = np.concatenate([rv[keep_r], cv[keep_c]])
-    S = PETSc.Mat().create(comm=comm)
-    S.setSizes(A.getSizes())
-    S.setType(PETSc.Mat.Type.AIJ)
-    S.setPreallocationCOO(I, J)
-    S.setValuesCOO(V)
+    in_rows[rows64 - lo] = True
+    c_i = np.repeat(np.arange(hi - lo, dtype=PETSc.IntType), np.diff(ci))
+    keep = (cv != 0.0) & ~in_rows[c_i]  # (entries of the rows are in the first part)
+    col_part = (c_i[keep], all_rows[cj[keep]], cv[keep])
+    del ci, cj, cv, c_i, keep
+    return _csr_matrix(A, *(np.concatenate(k) for k in zip(row_part, col_part)))
+
+
+def _csr_matrix(
+    A: PETSc.Mat, local_rows: npt.NDArray, cols: npt.NDArray, values: npt.NDArray
+) -> PETSc.Mat:
+    """A matrix of ``A``'s sizes and layout with the entries (this rank's local row,
+    global column, value), no two at the same place, from its rows' CSR arrays (a COO
+    assembly would keep two index arrays of 8 bytes per entry for as long as the
+    matrix lives)."""
+    order = np.lexsort((cols, local_rows))
+    n = A.getLocalSize()[0]
+    counts = np.bincount(local_rows, minlength=n)
+    indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+    S = PETSc.Mat().createAIJ(
+        size=A.getSizes(),
+        csr=(indptr, cols[order].astype(PETSc.IntType), values[order]),
+        comm=A.getComm(),
+    )
     S.assemble()
     return S

@@ -956,21 +956,26 @@ def basis_transform(V: fem.FunctionSpace, interfaces: list[ContactInterface]) ->
     return _csr_matrix(comm, n_local, n_global, start, rows, cols, vals)
 
 
-def transformed_operator(A: PETSc.Mat, Qt: PETSc.Mat, Tt: PETSc.Mat) -> PETSc.Mat:
+def transformed_operator(
+    A: PETSc.Mat, Qt: PETSc.Mat, Tt: PETSc.Mat, cleared: bool = False
+) -> PETSc.Mat:
     """``T Q A Qᵀ Tᵀ``: the operator in the dual basis and the nodal frames.
 
     One triple product with ``P = Qᵀ Tᵀ`` (both factors are the identity outside the
     slave rows, so ``P`` costs little) instead of two: at 10⁶ dofs the second product of
     the whole matrix and the intermediate ``Â = Q A Qᵀ`` held beside ``A`` were seconds
-    and a matrix's memory.  The product is returned as a plain copy: PETSc's product
-    record would otherwise hold a reference to ``A`` (and ``P``) for as long as the result
-    lives, so an ``A`` its owner releases after set-up could never be freed.  (Clearing
-    the record instead, ``MatProductClear``, saves the copy's transient matrix but the
-    GAMG solve of the result then takes other iterations: 67 -> 69 at 65k dofs.)
+    and a matrix's memory.  PETSc's product record would hold a reference to ``A`` (and
+    ``P``) for as long as the result lives, so an ``A`` its owner releases after set-up
+    could never be freed: the product is returned as a plain copy, or as it is when the
+    caller has made its record be cleared (``cleared``: inside
+    :func:`~bonecontact.contact.condensed.lean_products`; no copy, whose transient was the
+    set-up's peak: +470 MiB per rank at 1M dofs on 2 ranks, issue 28).
     """
     P = Qt.matMult(Tt)
     try:
         product = A.PtAP(P)
+        if cleared:
+            return product
         try:
             return product.duplicate(copy=True)
         finally:

@@ -169,6 +169,7 @@ class ContactSolver:
         force_scale: float = 1.0,
         linear: str = "direct",
         rtol: float = 1e-12,
+        release_operator: bool = False,
     ) -> None:
         """Transform and factorise (or precondition) the operator of the time step.
 
@@ -186,6 +187,10 @@ class ContactSolver:
             ``"direct"`` or ``"iterative"``.
         rtol
             Krylov tolerance (iterative solver).
+        release_operator
+            The caller needs ``A`` no more: it is destroyed as soon as it is transformed
+            (collective), unless the low-rank solver's split basis keeps it — the
+            set-up's peak then holds one matrix of ``A``'s size less (issue 28).
         """
         t0 = time.perf_counter()
         opts = self.options
@@ -203,8 +208,11 @@ class ContactSolver:
         self.sets = SetUpdate(sy, self.friction, opts.active_set, opts.slip)
         self.gap_tol = self._gap_tolerance()
         self.reset()
+        split = self._split_basis(A)
+        if release_operator and strategy_name(opts.linear.strategy, linear) != "lowrank":
+            A.destroy()  # (only its transformation is needed from here on)
         self.linear_solver = make_strategy(
-            sy, opts.linear, linear, rtol, self.V, self.sets.newton_3d, self._split_basis(A)
+            sy, opts.linear, linear, rtol, self.V, self.sets.newton_3d, split
         )
         self.rtol = float(rtol)
         # inexact PDAS (docs/theory/pdas.md#inexact-solves): frictionless iterative only
@@ -670,6 +678,15 @@ class ContactSolver:
             "full_columns_cap": lr.full_cap,
             "full_columns_peak_mb": lr.full_bytes_peak / 1.0e6,
         }
+
+    def release_work(self) -> None:
+        """Free the iterative solver's preconditioner (its multigrid hierarchy; collective):
+        the next solve builds it anew.  A direct solver keeps its factorisation."""
+        ls = self.linear_solver
+        if ls is None or getattr(ls, "kind", None) != "iterative":
+            return
+        ls.pc_reuse.forget()
+        ls.ksp.reset()
 
     def destroy(self) -> None:
         """Free the PETSc objects."""

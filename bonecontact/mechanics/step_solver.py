@@ -44,10 +44,13 @@ class StepSolver(Protocol):
         force_scale: float = 1.0,
         linear: str = "direct",
         rtol: float = 1e-12,
+        release_operator: bool = False,
     ) -> None:
         """Take the step operator ``A`` (Dirichlet rows and columns eliminated), its owned
         global Dirichlet rows, the factor turning its forces into physical ones, the
-        linear solver (``"direct"`` / ``"iterative"``) and its Krylov tolerance."""
+        linear solver (``"direct"`` / ``"iterative"``) and its Krylov tolerance;
+        ``release_operator``: the caller needs ``A`` no more (the solver may destroy it
+        once it has built what it needs from it)."""
         ...
 
     def solve(self, b: PETSc.Vec, u: fem.Function) -> StepResult:

@@ -119,16 +119,30 @@ class StressFields:
         T = fem.functionspace(msh, ("DG", 0, (3, 3)))
         S = fem.functionspace(msh, ("DG", 0))
         P = fem.functionspace(msh, ("DG", 0, (3,)))
+        self._spaces = (T, S, P)
+        self._expr = fem.Expression(sigma, T.element.interpolation_points)
+        self._allocate()
+
+    def _allocate(self) -> None:
+        T, S, P = self._spaces
         self.stress = fem.Function(T, name="stress")
         self.von_mises = fem.Function(S, name="von_mises")
         self.principal = fem.Function(P, name="principal_stress")
-        self._expr = fem.Expression(sigma, T.element.interpolation_points)
+
+    def release(self) -> None:
+        """Free the three fields' values until the next :meth:`update` (the attributes
+        are ``None`` meanwhile): 13 values per cell, which a run between two records —
+        its solves — does not need (issue 28: 104 MiB per rank at 1M dofs on 2 ranks)."""
+        self.stress = self.von_mises = self.principal = None
 
     def update(self) -> None:
-        """Re-evaluate from the current state, in chunks of cells (evaluated at once, the
-        expression's coefficients of every cell — 48 values per cell in 3D — would be
-        packed together, 43 MiB at 118k cells, and the symmetric part, deviator and
-        eigenvalues three more arrays of 9 values per cell; issue 28)."""
+        """Re-evaluate from the current state (the fields made again if released), in
+        chunks of cells (evaluated at once, the expression's coefficients of every cell —
+        48 values per cell in 3D — would be packed together, 43 MiB at 118k cells, and the
+        symmetric part, deviator and eigenvalues three more arrays of 9 values per cell;
+        issue 28)."""
+        if self.stress is None:
+            self._allocate()
         imap = self.stress.function_space.mesh.topology.index_map(
             self.stress.function_space.mesh.topology.dim
         )
