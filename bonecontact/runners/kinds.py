@@ -18,6 +18,11 @@ from mpi4py import MPI
 
 from bonecontact.runners.coupled import check_coupled, run_coupled
 from bonecontact.runners.cracks import check_cracked, is_crack_scene, run_cracked
+from bonecontact.runners.front_growth3d import (
+    check_interior_growth,
+    grows_interior_crack,
+    run_interior_growth,
+)
 from bonecontact.runners.growth import build_growth, run_growth
 from bonecontact.runners.mechanics import SceneModel, build_model, run_mechanics
 from bonecontact.runners.results import RunResult
@@ -82,6 +87,8 @@ def _check_crack(scene: Scene, comm: MPI.Comm) -> SceneModel | None:
     any other crack (:mod:`~bonecontact.runners.cracks`)."""
     if scene.dimension == 3 and has_surface_crack(scene):
         return check_surface_crack(scene, comm)
+    if grows_interior_crack(scene):
+        return check_interior_growth(scene, comm)
     return check_cracked(scene, comm)
 
 
@@ -89,11 +96,9 @@ def _run_crack(
     scene: Scene, comm: MPI.Comm, output: Path | None, progress: bool, restart: Restart
 ) -> RunResult:
     if scene.dimension == 3 and has_surface_crack(scene):
-        if restart:
-            raise SceneError(
-                scene.path, "[[crack]]", "shape", "a surface-crack run has no restart yet"
-            )
-        return run_surface_crack(scene, comm, output, progress)
+        return run_surface_crack(scene, comm, output, progress, restart)
+    if grows_interior_crack(scene):
+        return run_interior_growth(scene, comm, output, progress, restart)
     return run_cracked(scene, comm, output, progress, restart)
 
 

@@ -57,6 +57,7 @@ from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import RunCounters
 from bonecontact.runners.crack_fatigue import FatigueProgress, paris_law
 from bonecontact.runners.cracks3d import front_nodes, write_front
+from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.loop import progress_bar, run_steps
 from bonecontact.runners.mechanics import (
     MechanicsSteps,
@@ -194,18 +195,28 @@ def _material(scene: Scene, region: str) -> tuple[Isotropic, float | None]:
     return spec.material, (float(k_ic) if k_ic else None)
 
 
-def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
-    """Read the mesh, take the body's surface, cut the crack's mouth into it (to check
-    it: a :class:`SceneError` naming the key on every rank) and set the front mesh."""
-    _refuse(scene)
+def body_and_material(
+    scene: Scene, comm: MPI.Comm
+) -> tuple[BodySurface, Isotropic, float | None, dict[str, tuple[int, int]]]:
+    """The scene mesh's body around the (first) crack, its isotropic material and K_Ic,
+    and the mesh's groups (collective; a :class:`SceneError` on every rank)."""
     spec = scene.cracks[0]
-    fr = scene.fracture if scene.fracture is not None else FractureSpec()
     md0, groups = read_mesh(scene, comm)
     try:
         body = body_surface(md0.mesh, md0.cell_tags, md0.facet_tags, groups, spec.region)
     except ParameterError as exc:
         raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
     material, k_ic = _material(scene, spec.region)
+    return body, material, k_ic, groups
+
+
+def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
+    """Read the mesh, take the body's surface, cut the crack's mouth into it (to check
+    it: a :class:`SceneError` naming the key on every rank) and set the front mesh."""
+    _refuse(scene)
+    spec = scene.cracks[0]
+    fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    body, material, k_ic, groups = body_and_material(scene, comm)
     crack = spec.crack
     h = fr.tip_size if fr.tip_size is not None else crack.b / 10
     size = TipMesh(h, fr.tip_grading if fr.tip_grading is not None else 0.12)
@@ -286,7 +297,9 @@ def _deepest_parameter(cut: CutBody) -> float:
     return 0.5 * math.pi if c.half_length >= c.depth else 0.0
 
 
-def _tractions(sm: SceneModel, integ: Any, cb: CrackedBody3D, reach: float) -> tuple | None:
+def crack_tractions(sm: SceneModel, integ: Any, cb: CrackedBody3D, reach: float) -> tuple | None:
+    """The contact tractions on the faces of the crack (the model's last pair) when it
+    has active nodes, else ``None`` (open: traction-free)."""
     k = len(sm.interfaces) - 1
     result = integ.last_contact
     if result is None or int(result.n_active[k]) == 0:
@@ -335,44 +348,84 @@ def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float
 
 
 def _build(run: SurfaceRun, crack: SurfaceBreakingCrack, comm: MPI.Comm, timer: PhaseTimer):
-    """The body meshed with ``crack`` and its scene model with the face pair last."""
-    scene = run.scene
+    """The body meshed with ``crack`` (and its mesh data)."""
     try:
         with timer.phase("mesh_read"):
             cb, md, _ = mesh_body_with_surface_crack(run.body, crack, run.size, comm)
     except (MeshingError, ParameterError) as exc:
-        raise _error(scene, getattr(exc, "key", "depth"), str(exc)) from None
-    sm = build_model(run.original, comm, timer, mesh=(md, run.groups))
+        raise _error(run.scene, getattr(exc, "key", "depth"), str(exc)) from None
+    return cb, md
+
+
+def cracked_model(
+    scene: Scene,
+    cb: CrackedBody3D,
+    md: Any,
+    groups: dict,
+    pair: str,
+    comm,
+    timer: PhaseTimer,
+    key: str | None = "depth",
+) -> SceneModel:
+    """The scene model on the cracked mesh with the crack's face pair last (``scene``
+    holds that pair as its last contact; the model is built without it, then the pair
+    of the two faces is added); a pair that cannot be built is a :class:`SceneError` on
+    the crack's ``key``."""
+    original = dataclasses.replace(scene, contacts=tuple(scene.contacts)[:-1])
+    sm = build_model(original, comm, timer, mesh=(md, groups))
     try:
         with timer.phase("mortar_geometry"):
-            sm.interfaces.append(face_interface(sm.model, cb, _pair_name(run.name)))
+            sm.interfaces.append(face_interface(sm.model, cb, pair))
     except ContactInputError as exc:
-        raise _error(scene, "depth", str(exc)) from None
-    return cb, sm
+        raise _error(scene, key, str(exc)) from None
+    return sm
 
 
 def check_surface_crack(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
     """Every check of a surface-crack scene, the cracked mesh and the face pair included
     (nothing written); the scene model on that mesh."""
     run = prepare_surface(scene, comm)
-    return _build(run, run.crack, comm, PhaseTimer())[1]
+    timer = PhaseTimer()
+    cb, md = _build(run, run.crack, comm, timer)
+    return cracked_model(run.scene, cb, md, run.groups, _pair_name(run.name), comm, timer)
 
 
-def _solve(run: SurfaceRun, crack: SurfaceBreakingCrack, comm, timer, outdir: Path, inc: int):
-    """Mesh the body with ``crack`` and solve the analysis (collective); the fields and
-    tables of the solve go to ``outdir/increment<inc>``."""
-    scene = run.scene
-    cb, sm = _build(run, crack, comm, timer)
+def solve_cracked(
+    scene: Scene,
+    cb: CrackedBody3D,
+    md: Any,
+    groups: dict,
+    pair: str,
+    comm,
+    timer,
+    outdir: Path,
+    key: str | None = "depth",
+):
+    """Solve the analysis of ``scene`` (its last contact the crack's face pair) on the
+    cracked mesh (collective); the fields and tables of the solve go to ``outdir``.
+    Returns (scene model, integrator, summary of the solve)."""
+    sm = cracked_model(scene, cb, md, groups, pair, comm, timer, key)
     nsteps, dt = analysis_steps(scene)
     integ = scene_integrator(scene, sm, dt, False)
     integ.set_initial(None, sm.v0)
-    rec = Recorder(scene, sm, integ, comm, Path(outdir) / f"increment{inc}", False, None)
+    rec = Recorder(scene, sm, integ, comm, Path(outdir), False, None)
     counters = RunCounters()
     hooks = MechanicsSteps(integ, rec, timer, scene.output.fields_every, counters, dt, None)
     end = run_steps(hooks, 1, nsteps, progress_bar(comm, scene.name, nsteps, 0, False))
     info = summary_header(scene, sm, integ, dt)
     info.update(run_info(scene, sm, integ, counters, False, 0.0, time.perf_counter()))
     summary = finish_run(scene, sm, rec, timer, comm, end.status, end.message, info)
+    return sm, integ, summary
+
+
+def _solve(run: SurfaceRun, crack: SurfaceBreakingCrack, comm, timer, outdir: Path, inc: int):
+    """Mesh the body with ``crack`` and solve the analysis (collective); the fields and
+    tables of the solve go to ``outdir/increment<inc>``."""
+    cb, md = _build(run, crack, comm, timer)
+    out = Path(outdir) / f"increment{inc}"
+    sm, integ, summary = solve_cracked(
+        run.scene, cb, md, run.groups, _pair_name(run.name), comm, timer, out
+    )
     return cb, sm, integ, summary
 
 
@@ -387,6 +440,40 @@ class Growth:
     status: str | None = None
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
+    rows: int = 0  # fracture.csv rows written
+
+    def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
+        """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
+        return {
+            "kind": "surface_crack",
+            "initial": dataclasses.asdict(initial),
+            "crack": dataclasses.asdict(self.crack),
+            "cycles": self.cycles,
+            "fatigue": self.fatigue.state(),
+            "history": self.history,
+            "rows": self.rows,
+        }
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> Growth:
+        """The growth a checkpoint stored (its ``increment`` the next to solve)."""
+        c = state["crack"]
+        vec = {
+            k: None if c[k] is None else tuple(map(float, c[k]))
+            for k in ("centre", "normal", "axis")
+        }
+        crack = SurfaceBreakingCrack(
+            vec["centre"], vec["normal"], float(c["depth"]), float(c["half_length"]), vec["axis"]
+        )
+        return cls(
+            crack,
+            int(state["increment"]),
+            float(state["cycles"]),
+            None,
+            FatigueProgress.from_state(state["fatigue"]),
+            list(state["history"]),
+            int(state["rows"]),
+        )
 
 
 def _three_points(records: list[SurfaceRecord], cut: CutBody) -> np.ndarray:
@@ -471,10 +558,14 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
 
 
 def _fragments(cb: CrackedBody3D) -> list[dict[str, Any]]:
-    """Volumes of the body on either side of the crack plane (collective)."""
-    msh = cb.mesh
-    n = np.asarray(cb.crack.normal, dtype=float)
-    c = np.asarray(cb.crack.crack.centre, dtype=float)
+    return fragments(cb.mesh, cb.crack.crack.centre, cb.crack.normal)
+
+
+def fragments(msh: Any, centre: Any, normal: Any) -> list[dict[str, Any]]:
+    """Volumes of the body on either side of the plane through ``centre`` normal to
+    ``normal`` (collective)."""
+    n = np.asarray(normal, dtype=float)
+    c = np.asarray(centre, dtype=float)
     tdim = msh.topology.dim
     cells = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
     side = np.sign((mesh.compute_midpoints(msh, tdim, cells) - c) @ n)
@@ -503,13 +594,57 @@ def write_crack_surface(path: Path, cut: CutBody) -> None:
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+def _start(run: SurfaceRun, comm: MPI.Comm, outdir: Path, restart) -> Growth:
+    """A fresh growth, or the one of the checkpoint ``restart`` (fracture.csv cut to its
+    rows)."""
+    if not restart:
+        return Growth(run.crack)
+    initial = dataclasses.asdict(run.crack)
+    state = find_growth_state(
+        comm, outdir, restart, "surface_crack", initial, run.crack.half_length
+    )
+    return Growth.from_state(state)
+
+
+def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTable):
+    """Solve, evaluate and advance until a stop; returns (status, message, fragments)."""
+    fr = run.fracture
+    grows = fr.propagate or fr.fatigue is not None
+    every = run.scene.output.checkpoint_every
+    while True:
+        cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
+        if summary["status"] != "converged":
+            return summary["status"], summary.get("message"), None
+        with timer.phase("fracture"):
+            traction = crack_tractions(sm, integ, cb, run.r_out)
+            records = evaluate(integ.u, cb, run, g.increments, g.cycles, traction)
+        stop = _advance(run, g, records, cb.crack) if grows else "stationary"
+        mark = stop or "grows"
+        table.rows([dataclasses.replace(r, cycles=g.cycles, status=mark) for r in records])
+        g.rows += len(records)
+        if comm.rank == 0:
+            write_crack_surface(outdir / f"crack_surface_{records[0].increment}.vtk", cb.crack)
+            write_front(outdir / f"crack_front_{records[0].increment}.vtk", records)
+        integ.destroy()
+        if stop is not None:
+            g.status = stop
+            frags = _fragments(cb) if stop in ("fractured", "through") else None
+            return "converged", None, frags
+        if every > 0 and g.increments % every == 0:
+            with timer.phase("checkpoint"):
+                save_growth_state(comm, outdir, g.increments, g.state(run.crack))
+
+
 def run_surface_crack(
     scene: Scene,
     comm: MPI.Comm = MPI.COMM_WORLD,
     output: Path | None = None,
     progress: bool = True,
+    restart: str | Path | bool | None = None,
 ) -> RunResult:
-    """Validate, build and run a 3D scene with a surface crack (module docstring)."""
+    """Validate, build and run a 3D scene with a surface crack (module docstring);
+    ``restart``: continue from the newest (``True``) or the named growth checkpoint
+    (:mod:`~bonecontact.runners.growth_state3d`)."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare_surface(scene, comm)
@@ -518,30 +653,10 @@ def run_surface_crack(
         outdir.mkdir(parents=True, exist_ok=True)
     fr = run.fracture
     grows = fr.propagate or fr.fatigue is not None
-    g = Growth(run.crack)
-    table = RecordTable(comm, outdir / "fracture.csv", SURFACE_COLUMNS)
-    fragments, status, message = None, "converged", None
+    g = _start(run, comm, outdir, restart)
+    table = RecordTable(comm, outdir / "fracture.csv", SURFACE_COLUMNS, append=bool(restart))
     try:
-        while True:
-            cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
-            if summary["status"] != "converged":
-                status, message = summary["status"], summary.get("message")
-                break
-            with timer.phase("fracture"):
-                traction = _tractions(sm, integ, cb, run.r_out)
-                records = evaluate(integ.u, cb, run, g.increments, g.cycles, traction)
-            stop = _advance(run, g, records, cb.crack) if grows else "stationary"
-            mark = stop or "grows"
-            table.rows([dataclasses.replace(r, cycles=g.cycles, status=mark) for r in records])
-            if comm.rank == 0:
-                write_crack_surface(outdir / f"crack_surface_{records[0].increment}.vtk", cb.crack)
-                write_front(outdir / f"crack_front_{records[0].increment}.vtk", records)
-            integ.destroy()
-            if stop is not None:
-                g.status = stop
-                if stop in ("fractured", "through"):
-                    fragments = _fragments(cb)
-                break
+        status, message, fragments = _grow(run, g, comm, timer, outdir, table)
     finally:
         table.close()
     info = {

@@ -185,17 +185,19 @@ def missing_strength(spec: FractureSpec, strengths: Mapping[str, float]) -> str 
 
 def _check_dimension(spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec] = ()) -> None:
     """Automatic insertion runs in 2D only; propagation and fatigue in 2D, and in 3D with
-    a surface crack (``shape = "semi_elliptical"``, V: issue 26)."""
+    a surface crack (``shape = "semi_elliptical"``); propagation also with an interior
+    planar crack (issue 26)."""
     surface = any(isinstance(c.crack, SurfaceBreakingCrack) for c in cracks)
+    allowed = {"propagate": bool(cracks), "fatigue": surface, "initiate": False}
     for key in ("propagate", "initiate", "fatigue"):
-        if dim != 2 and getattr(spec, key) and not (surface and key != "initiate"):
+        if dim != 2 and getattr(spec, key) and not allowed[key]:
             raise SceneError(
                 None,
                 "[fracture]",
                 key,
                 "runs in 2D scenes, and in 3D with a semi-elliptical surface [[crack]] "
-                "(propagate, fatigue) in this version (3D otherwise: the risk, and K along "
-                "the front of a given planar [[crack]]; docs/theory/fracture.md)",
+                "(propagate, fatigue) or a planar interior [[crack]] (propagate) in this "
+                "version (3D otherwise: the risk; docs/theory/fracture.md)",
             )
 
 

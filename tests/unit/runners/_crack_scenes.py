@@ -15,6 +15,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import numpy as np
+
 from bonecontact.runners import RunResult, run_scene
 from bonecontact.scene import load_scene
 
@@ -223,3 +225,43 @@ def surface_scene(mesh: Path, **kw) -> str:
     }
     v.update(kw)
     return SURFACE_SCENE.format(**v)
+
+
+def read_table(path: Path) -> dict[str, np.ndarray]:
+    """The numeric columns of a CSV table (the crack-name column left out)."""
+    with open(path) as f:
+        names = f.readline().strip().split(",")
+    raw = np.loadtxt(path, delimiter=",", dtype=str, skiprows=1, ndmin=2)
+    out = {}
+    for j, name in enumerate(names):
+        try:
+            out[name] = raw[:, j].astype(float)
+        except ValueError:
+            out[name] = raw[:, j]
+    return out
+
+
+def column_scale(key: str, table: dict[str, np.ndarray]) -> float:
+    """What a column is measured against: the largest |K| of the table for every K column
+    (a mode that vanishes by symmetry, or the cross-check of a closed crack, is round-off
+    of the others), 360 for angles, else the column's largest magnitude."""
+    if key.startswith("K_"):
+        cols = [table[k] for k in table if k.startswith("K_") and table[k].dtype.kind == "f"]
+        return float(np.max(np.abs(np.concatenate(cols))))
+    if key.endswith("_deg"):
+        return 360.0
+    return float(np.max(np.abs(table[key]), initial=0.0)) or 1.0
+
+
+def same_tables(got: Path, ref: Path, rtol: float = 1e-10) -> None:
+    """Every column of ``got`` equals ``ref``'s: text exactly, numbers to rtol of their
+    scale (:func:`column_scale`)."""
+    a, b = read_table(got), read_table(ref)
+    assert list(a) == list(b)
+    for key, col in b.items():
+        assert a[key].shape == col.shape, key
+        if col.dtype.kind in "US":
+            assert list(a[key]) == list(col), key
+            continue
+        scale = column_scale(key, b)
+        np.testing.assert_allclose(a[key], col, rtol=rtol, atol=rtol * scale, err_msg=key)

@@ -45,12 +45,12 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import numpy as np
 import pytest
 from _crack_scenes import (
     L,
     run_dir,
     run_serial_on_rank0,
+    same_tables,
     surface_plate,
     surface_scene,
     write_scene,
@@ -124,46 +124,6 @@ def meshes(tmp_path_factory) -> Path:
     return d
 
 
-def _table(path: Path) -> dict[str, np.ndarray]:
-    """The numeric columns of a CSV table (the crack-name column left out)."""
-    with open(path) as f:
-        names = f.readline().strip().split(",")
-    raw = np.loadtxt(path, delimiter=",", dtype=str, skiprows=1, ndmin=2)
-    out = {}
-    for j, name in enumerate(names):
-        try:
-            out[name] = raw[:, j].astype(float)
-        except ValueError:
-            out[name] = raw[:, j]
-    return out
-
-
-def _scale(key: str, table: dict[str, np.ndarray]) -> float:
-    """What a column is measured against: the largest |K| of the table for every K column
-    (a mode that vanishes by symmetry, or the cross-check of a closed crack, is round-off
-    of the others), 360 for angles, else the column's largest magnitude."""
-    if key.startswith("K_"):
-        cols = [table[k] for k in table if k.startswith("K_") and table[k].dtype.kind == "f"]
-        return float(np.max(np.abs(np.concatenate(cols))))
-    if key.endswith("_deg"):
-        return 360.0
-    return float(np.max(np.abs(table[key]), initial=0.0)) or 1.0
-
-
-def _same_tables(got: Path, ref: Path) -> None:
-    """Every column of ``got`` equals ``ref``'s: text exactly, numbers to RTOL of their
-    scale (:func:`_scale`)."""
-    a, b = _table(got), _table(ref)
-    assert list(a) == list(b)
-    for key, col in b.items():
-        assert a[key].shape == col.shape, key
-        if col.dtype.kind in "US":
-            assert list(a[key]) == list(col), key
-            continue
-        scale = _scale(key, b)
-        np.testing.assert_allclose(a[key], col, rtol=RTOL, atol=RTOL * scale, err_msg=key)
-
-
 def _same_summary(got: dict, ref: dict) -> None:
     """The same dofs, status and (growth runs) history, numbers to RTOL."""
     assert got["status"] == ref["status"] == "converged"
@@ -202,7 +162,7 @@ def _run_case(meshes: Path, runs: dict, name: str) -> Path:
 @pytest.mark.parametrize("name", list(CASES))
 def test_same_answer_as_serial(meshes: Path, runs: dict, name: str) -> None:
     d = _run_case(meshes, runs, name)
-    _same_tables(d / "par" / "fracture.csv", d / "ser" / "fracture.csv")
+    same_tables(d / "par" / "fracture.csv", d / "ser" / "fracture.csv")
     got = json.loads((d / "par" / "summary.json").read_text())
     ref = json.loads((d / "ser" / "summary.json").read_text())
     _same_summary(got, ref)
@@ -222,4 +182,4 @@ def test_serial_checkpoint_continued_on_n_ranks(meshes: Path, runs: dict) -> Non
     )
     assert res.status == "converged", res.summary.get("message")
     assert res.summary["restarted_from"]["step"] == 1
-    _same_tables(out / "fracture.csv", d / "ser" / "fracture.csv")
+    same_tables(out / "fracture.csv", d / "ser" / "fracture.csv")

@@ -1,0 +1,106 @@
+"""Restart of a growing surface crack (runners.growth_state3d, docs/checkpoint.md).
+
+The semi-elliptical surface crack of test_surface_crack_scene3d.py (a = c = 0.2 mm in a
+plate 1 mm thick, front a/6, three points) grown by two blocks of the Paris law
+(da/dN = C ΔK², the fastest point 0.03 mm per block), a checkpoint after every increment
+(``checkpoint_every = 1``).  The uninterrupted run is the serial one (rank 0 on
+COMM_SELF; on one rank the run itself); its checkpoint before increment 1 is continued
+on every rank of the session: fracture.csv (cut to the checkpoint's rows, then
+appended), the growth history, the cycles and the final crack equal the uninterrupted
+run's to 1e-10 of each column's largest value (the checkpoint's floats read back exactly
+and the re-meshed body is the same on any number of ranks; on the same rank count the
+continued run equals the uninterrupted one bit for bit).  A checkpoint of another crack
+is refused (CheckpointError) before the table is touched.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+from mpi4py import MPI
+
+import pytest
+from _crack_scenes import L, run_dir, same_tables, surface_plate, surface_scene, write_scene
+from coupled_support import gmsh_on_rank0
+
+from bonecontact.common.errors import CheckpointError
+from bonecontact.runners import run_scene
+from bonecontact.scene import load_scene
+
+GROWTH = f"[fracture.fatigue]\nC = 1e-20\nm = 2.0\nda_max = {0.03 * L}\nmax_blocks = 2"
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory) -> Path:
+    """The serial run (on rank 0 alone when the session has more ranks)."""
+    comm = MPI.COMM_WORLD
+    d = Path(comm.bcast(str(tmp_path_factory.mktemp("srestart")) if comm.rank == 0 else None))
+    gmsh_on_rank0(surface_plate(1.0 * L), d / "plate.msh", 3)
+    text = surface_scene(d / "plate.msh", h=0.2 * L / 6, points=3, growth=GROWTH)
+    text = text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
+    scene = write_scene(d / "scene.toml", text)
+    if comm.rank == 0:
+        sub = MPI.COMM_SELF if comm.size > 1 else comm
+        res = run_scene(load_scene(scene), sub, output=d / "full", progress=False)
+        assert res.status == "converged", res.summary.get("message")
+    comm.barrier()
+    return d
+
+
+def _continued(d: Path, name: str, checkpoint: str) -> Path:
+    out = run_dir(d, name)
+    if MPI.COMM_WORLD.rank == 0:
+        shutil.rmtree(out)
+        shutil.copytree(d / "full", out)
+    MPI.COMM_WORLD.barrier()
+    ck = out / "checkpoints" / checkpoint
+    res = run_scene(
+        load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck
+    )
+    assert res.status == "converged", res.summary.get("message")
+    return out
+
+
+def test_checkpoints_written(uninterrupted: Path) -> None:
+    full = json.loads((uninterrupted / "full" / "summary.json").read_text())
+    g = full["fracture"]["growth"]
+    assert g["status"] == "max_blocks" and g["increments"] == 2
+    ck = sorted(p.name for p in (uninterrupted / "full" / "checkpoints").iterdir())
+    assert ck == ["increment_00001", "increment_00002"]
+    state = json.loads((uninterrupted / "full" / "checkpoints" / ck[0] / "growth.json").read_text())
+    assert state["increment"] == 1 and state["rows"] == 3 and len(state["history"]) == 1
+
+
+@pytest.mark.parametrize("checkpoint", ["increment_00001", "increment_00002"])
+def test_restart_equals_the_uninterrupted_run(uninterrupted: Path, checkpoint: str) -> None:
+    out = _continued(uninterrupted, f"continued_{checkpoint}", checkpoint)
+    full = uninterrupted / "full"
+    same_tables(out / "fracture.csv", full / "fracture.csv")
+    if MPI.COMM_WORLD.size == 1:  # the same rank count: bit for bit
+        assert (out / "fracture.csv").read_bytes() == (full / "fracture.csv").read_bytes()
+    got = json.loads((out / "summary.json").read_text())["fracture"]
+    ref = json.loads((full / "summary.json").read_text())["fracture"]
+    g, r = got["growth"], ref["growth"]
+    assert (g["status"], g["increments"]) == (r["status"], r["increments"])
+    assert g["cycles"] == pytest.approx(r["cycles"], rel=1e-10)
+    for hg, hr in zip(g["history"], r["history"], strict=True):
+        for key, v in hr.items():
+            assert hg[key] == pytest.approx(v, rel=1e-10, abs=1e-300), key
+    final_g, final_r = got["crack"]["final"], ref["crack"]["final"]
+    for key in ("depth", "half_length"):
+        assert final_g[key] == pytest.approx(final_r[key], rel=1e-10), key
+
+
+def test_checkpoint_of_another_crack_is_refused(uninterrupted: Path) -> None:
+    d = uninterrupted
+    out = run_dir(d, "other")
+    if MPI.COMM_WORLD.rank == 0:
+        shutil.rmtree(out)
+        shutil.copytree(d / "full", out)
+    text = surface_scene(d / "plate.msh", h=0.2 * L / 6, points=3, growth=GROWTH, a=0.19 * L)
+    scene = write_scene(out / "other.toml", text)
+    ck = out / "checkpoints" / "increment_00001"
+    with pytest.raises(CheckpointError, match="depth"):
+        run_scene(load_scene(scene), MPI.COMM_WORLD, output=out, progress=False, restart=ck)
