@@ -42,6 +42,7 @@ __all__ = [
     "RESPLIT_GROWTH",
     "SOLVE_RATE",
     "SOLVE_RATE_PARALLEL",
+    "SPARSE_BLOCKS",
     "LowRankActiveSetSolver",
     "SingularActiveSetError",
     "SplitBasis",
@@ -83,6 +84,10 @@ def mumps_failure(ksp: PETSc.KSP) -> str | None:
 #: Dense ``n_local × k`` arrays alive while a block of ``k`` columns is computed (right-hand
 #: sides, solutions, A times them, a copy for the rows, MUMPS's work space).
 DENSE_BLOCKS = 5
+#: The same for a block with sparse right-hand sides: the solutions, the solver's own copy
+#: of them and its work space (the right-hand sides are a sparse matrix, and the split
+#: basis's correction is taken at the contact rows only: no other ``n_local × k`` array).
+SPARSE_BLOCKS = 3
 #: Smallest chunk of columns and smallest cache (columns), whatever the memory.
 MIN_BLOCK = 16
 #: Rate of a block of columns (forward and backward substitutions) relative to a
@@ -154,8 +159,19 @@ class SplitBasis:
         TN = T.matMult(NR)  # (NR = Qᵀ − Q_Pᵀ: the coupling of the non-patch rows)
         self.J = _plain(TN.matMult(Tt))
         self.Jt = self.J.transpose(PETSc.Mat())
+        self._jt: tuple[npt.NDArray, ...] | None = None
         for M in (QtP, NR, TN, P):
             M.destroy()
+
+    def jt_entries(self) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
+        """This rank's entries of ``Jᵀ`` as ``(local row, global column, value)`` (kept:
+        a force column's master side is a column of it, :meth:`LowRankActiveSetSolver.
+        _split_forces`, without a product per block)."""
+        if self._jt is None:
+            ai, aj, av = self.Jt.getValuesCSR()
+            rows = np.repeat(np.arange(ai.size - 1, dtype=np.int64), np.diff(ai))
+            self._jt = (rows, aj.astype(np.int64), av.copy())
+        return self._jt
 
     def destroy(self) -> None:
         for M in (self.K, self.J, self.Jt):
@@ -334,10 +350,11 @@ class LowRankActiveSetSolver:
         self.rebase_ratio = float(rebase_ratio)
         self.memory_ratio = float(memory_ratio)
         self.full_ratio = float(full_ratio)
-        self.block_limit = self.column_limit = self.max_columns
+        self.block_limit = self.column_limit = self.sparse_limit = self.max_columns
         # the contact rows of A (A·X is only ever needed there) and its columns at the
         # rows a set may fix (A·v is only ever needed for v zero elsewhere)
         self.AL = self._contact_rows(A)
+        self.JL = self._contact_rows(self.split.J) if self.split is not None else None
         self.AC, self._cols = self._fixed_columns(A)
         self.B0 = self._base_matrix(A)
         self.prefix = prefix
@@ -560,7 +577,7 @@ class LowRankActiveSetSolver:
         """
         budget = self.memory_ratio * self._factor_bytes()
         if not np.isfinite(budget):
-            self.block_limit = self.column_limit = self.max_columns
+            self.block_limit = self.column_limit = self.sparse_limit = self.max_columns
             self.full_limit = 0
             return
         # full columns kept for the final field: this budget at least, the expected
@@ -573,6 +590,9 @@ class LowRankActiveSetSolver:
         per_column = DENSE_BLOCKS * 8.0 * max(self.nloc, 1)
         chunk = global_op(self.comm, int(budget // per_column), MPI.MIN)
         self.block_limit = max(chunk, MIN_BLOCK)
+        per_sparse = SPARSE_BLOCKS * 8.0 * max(self.nloc, 1)
+        chunk = global_op(self.comm, int(budget // per_sparse), MPI.MIN)
+        self.sparse_limit = max(chunk, self.block_limit)
         cached = global_op(self.comm, int(budget // (4 * 8.0 * max(self.L.size, 1))), MPI.MIN)
         self.column_limit = min(self.max_columns, max(cached, MIN_BLOCK))
 
@@ -671,12 +691,13 @@ class LowRankActiveSetSolver:
         allowed = self.split.allowed | np.isin(self._node, nodes)
         first = self.split.first
         self.split.destroy()
-        for obj in (self.ksp, self.B0, self.AL, self.AC):
+        for obj in (self.ksp, self.B0, self.AL, self.JL, self.AC):
             obj.destroy()
         self.split = self._make_split(allowed, self.L)
         self.split.first = first
         self.A = self.split.K
         self.AL = self._contact_rows(self.A)
+        self.JL = self._contact_rows(self.split.J)
         self.AC, self._cols = self._fixed_columns(self.A)
         self.B0 = self._base_matrix(self.A)
         self.ksp = self._make_ksp()
@@ -749,9 +770,19 @@ class LowRankActiveSetSolver:
 
     def _compute_columns(self, qs: list[int]) -> None:
         """Columns for the global positions ``qs``, in chunks of at most
-        ``block_limit`` (memory)."""
-        for i in range(0, len(qs), self.block_limit):
-            self._compute_block(qs[i : i + self.block_limit])
+        :meth:`_chunk` (memory)."""
+        chunk = self._chunk()
+        for i in range(0, len(qs), chunk):
+            self._compute_block(qs[i : i + chunk])
+
+    def _sparse(self) -> bool:
+        """Are blocks without a base solve solved with sparse right-hand sides?"""
+        return self.sparse_rhs and self.ksp.getPC().getFactorSolverType() == "mumps"
+
+    def _chunk(self) -> int:
+        """Columns of a block on a miss: :attr:`sparse_limit` with sparse right-hand sides
+        (fewer dense arrays per column), else :attr:`block_limit`."""
+        return self.sparse_limit if self._sparse() else self.block_limit
 
     def _compute_block(self, qs: list[int], rhs: PETSc.Vec | None = None) -> None:
         """Columns for the global positions ``qs`` (X-type if in the base, W-type if not),
@@ -759,35 +790,23 @@ class LowRankActiveSetSolver:
         substitution then only visits the part of the elimination tree that the columns'
         few entries reach: docs/theory/pdas.md#sparse-right-hand-sides); with ``rhs``, the
         base solve of that right-hand side in the same solve (one more, dense, column:
-        :attr:`_xb` and its contact rows; all right-hand sides dense then)."""
+        :attr:`_xb` and its contact rows; :meth:`_rhs_matrix`)."""
         t0 = time.perf_counter()
         k = len(qs)
-        entries = self._rhs_entries(qs)
         Xm = _dense(self.comm, self.nloc, k + (rhs is not None))
         F = self.ksp.getPC().getFactorMatrix()
-        sparse = self.sparse_rhs and self.ksp.getPC().getFactorSolverType() == "mumps"
-        if sparse and rhs is None:
-            Bt = self._centralised(*entries, k)
-            B = PETSc.Mat().createTranspose(Bt)
-        else:  # (a dense column, another factorisation package, or by choice)
-            Bt = B = _dense(self.comm, self.nloc, k + (rhs is not None))
-            R = B.getDenseArray(readonly=False)
-            np.add.at(R, entries[:2], entries[2])
-            if rhs is not None:
-                R[:, k] = rhs.array_r
-            B.assemble()
+        B, Bt = self._rhs_matrix(self._rhs_entries(qs), k, rhs)
         F.matSolve(B, Xm)
         self.n_blocks += 1
         KXm = self.AL.matMult(Xm)
-        Xa = Xm.getDenseArray()
-        if self.split is not None:
-            JX = self.split.J.matMult(Xm)
-            Xa = Xa - JX.getDenseArray()
+        Xraw = Xm.getDenseArray()
+        colN = Xraw[self.L, :]  # (this rank's contact rows of the columns, contact basis:
+        if self.JL is not None:  # (I − J) X there, J at the contact rows only)
+            JX = self.JL.matMult(Xm)
+            colN = colN - JX.getDenseArray()
             JX.destroy()
-        colN = Xa[self.L, :]  # (this rank's contact rows of the columns)
         kcolN = KXm.getDenseArray()
         keep_full = len(self.full_cols) + k <= self.full_limit  # (same on every rank)
-        Xraw = Xm.getDenseArray()
         for j, q in enumerate(qs):
             self.cache[q] = (colN[:, j].copy(), kcolN[:, j].copy())
             if keep_full:
@@ -803,6 +822,35 @@ class LowRankActiveSetSolver:
         dt = global_op(self.comm, time.perf_counter() - t0, MPI.MAX)
         dt -= self.t_solve if rhs is not None else 0.0
         self.t_column = max(dt - self.t_block, 0.1 * dt) / k
+
+    def _rhs_matrix(
+        self, entries: tuple[npt.NDArray, ...], k: int, rhs: PETSc.Vec | None
+    ) -> tuple[PETSc.Mat, PETSc.Mat]:
+        """The right-hand sides of a block (``entries`` of :meth:`_rhs_entries`, and the
+        base solve's ``rhs`` as column ``k``) as the matrix ``B`` handed to the solve, and
+        the matrix to destroy with it.  Sparse (MUMPS): a ``MATTRANSPOSEVIRTUAL`` of a
+        ``k × n`` matrix on the first rank; on one rank a block with the base solve is
+        sparse too, its dense column among the sparse ones (15 columns and the base solve
+        at 126k dofs: 0.23-0.30 s against 0.28-0.35 s with all of them dense,
+        docs/theory/pdas.md#sparse-right-hand-sides); with more ranks that column would
+        be gathered to the first rank, so the block is dense.  Otherwise a dense
+        ``n_local × (k + 1)`` matrix."""
+        if self._sparse() and (rhs is None or self.comm.size == 1):
+            r, c, v = entries
+            if rhs is not None:
+                dense = np.flatnonzero(rhs.array_r)
+                r = np.concatenate([r, dense])
+                c = np.concatenate([c, np.full(dense.size, k, dtype=np.int64)])
+                v = np.concatenate([v, rhs.array_r[dense]])
+            Bt = self._centralised(r, c, v, k + (rhs is not None))
+            return PETSc.Mat().createTranspose(Bt), Bt
+        B = _dense(self.comm, self.nloc, k + (rhs is not None))
+        R = B.getDenseArray(readonly=False)
+        np.add.at(R, entries[:2], entries[2])
+        if rhs is not None:
+            R[:, k] = rhs.array_r
+        B.assemble()
+        return B, B
 
     def _rhs_entries(self, qs: list[int]) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
         """This rank's entries ``(local row, j, value)`` of the right-hand sides of the
@@ -860,31 +908,21 @@ class LowRankActiveSetSolver:
     def _split_forces(self, qs: list[int], wq: list[int]) -> tuple[npt.NDArray, ...]:
         """The master side of force columns in a split basis: a unit contact force at a
         slave row ``q`` also acts there, ``e_q − Jᵀ e_q`` (:class:`SplitBasis`); returns
-        this rank's entries of ``−Jᵀ e_q`` as ``(local row, j, value)``."""
+        this rank's entries of ``−Jᵀ e_q`` as ``(local row, j, value)``: the entries of
+        ``Jᵀ`` (:meth:`SplitBasis.jt_entries`) in the global columns of the rows ``q``."""
         lo, hi = self.offset, self.offset + self.L.size
-        mine = np.array([j for j in wq if lo <= qs[j] < hi], dtype=np.int64)
-        rows = self.L[np.array([qs[j] for j in mine], dtype=np.int64) - lo] if mine.size else []
-        # E: one unit entry per force column (sparse; J has few entries per row)
-        indptr = np.zeros(self.nloc + 1, dtype=np.int64)
-        order = np.argsort(np.asarray(rows, dtype=np.int64), kind="stable")
-        np.add.at(indptr, np.asarray(rows, dtype=np.int64)[order] + 1, 1)
-        E = PETSc.Mat().createAIJ(
-            size=((self.nloc, PETSc.DECIDE), (PETSc.DECIDE, len(qs))),
-            csr=(
-                np.cumsum(indptr).astype(PETSc.IntType),
-                mine[order].astype(PETSc.IntType),
-                np.ones(mine.size),
-            ),
-            comm=self.comm,
-        )
-        E.assemble()
-        JtE = self.split.Jt.matMult(E)
-        ai, aj, av = JtE.getValuesCSR()
-        r = np.repeat(np.arange(self.nloc), np.diff(ai))
-        out = (r, aj.astype(np.int64), -av)
-        JtE.destroy()
-        E.destroy()
-        return out
+        col = np.full(len(qs), -1, dtype=np.int64)
+        for j in wq:
+            if lo <= qs[j] < hi:
+                col[j] = self.start + int(self.L[qs[j] - lo])
+        self.comm.Allreduce(MPI.IN_PLACE, col, op=MPI.MAX)
+        jw = np.asarray(wq, dtype=np.int64)
+        order = np.argsort(col[jw])
+        g_sorted, j_sorted = col[jw][order], jw[order]
+        rows, cols, vals = self.split.jt_entries()
+        sel = np.isin(cols, g_sorted)
+        j = j_sorted[np.searchsorted(g_sorted, cols[sel])]
+        return rows[sel], j, -vals[sel]
 
     def solve_set(
         self,
@@ -1032,7 +1070,7 @@ class LowRankActiveSetSolver:
         released or starting to slip) that fill the last chunk of the ``missing``
         columns of a block computed anyway, within the cache limit (the sets of the next
         iterations of a growing zone then need no block of their own)."""
-        n = (-len(missing)) % self.block_limit
+        n = (-len(missing)) % self._chunk()
         n = min(n, self.column_limit - len(self.cache) - len(missing))
         if n <= 0:
             return []
@@ -1235,6 +1273,7 @@ class LowRankActiveSetSolver:
     def destroy(self) -> None:
         if self.split is not None:
             self.split.destroy()
+            self.JL.destroy()
         if self._r0_orig is not None:
             self._r0_orig.destroy()
         for obj in (
