@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from two_blocks import partial_liftoff_model
 
+from bonecontact.contact.condensed import lean_products
 from bonecontact.contact.interface import build_interface, transformed_operator
 from bonecontact.contact.pdas import ContactSolver
 from bonecontact.mechanics.integrator import Integrator
@@ -30,12 +31,12 @@ def _model():
     return partial_liftoff_model(COMM)
 
 
-def _contact_integrator(linear: str) -> Integrator:
+def _contact_integrator(linear: str, dt: float = 1.0) -> Integrator:
     md, pg, m = _model()
     itf = build_interface(
         m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
     )
-    return Integrator(m, "static", 1.0, linear=linear, contact=ContactSolver(m.V, [itf]))
+    return Integrator(m, "static", dt, linear=linear, contact=ContactSolver(m.V, [itf]))
 
 
 @pytest.fixture(scope="module")
@@ -114,3 +115,74 @@ def test_released_step_operator_gives_the_same_residual_and_energy(solved, linea
     assert integ.energy().strain == pytest.approx(energy, rel=1e-12)
     ref.destroy()
     A.destroy()
+
+
+class _Spy(ContactSolver):
+    """A contact solver that remembers the operator it was set up with."""
+
+    def setup(self, A, *args, **kwargs):
+        self.given = A
+        super().setup(A, *args, **kwargs)
+
+
+@pytest.mark.parametrize("linear", ["direct", "iterative"])
+def test_set_up_destroys_the_operator_unless_the_split_basis_keeps_it(linear):
+    """The integrator lets the contact solver destroy ``A_bc`` once transformed (issue 28):
+    the iterative solver does, the low-rank solver's split basis keeps it; either way the
+    step gives the displacement of the integrator of the fixture (to round-off)."""
+    md, pg, m = _model()
+    itf = build_interface(
+        m.V, md.facet_tags, pg["upper_contact"], pg["lower_contact"], dirichlet_dofs=m.bc_dofs()
+    )
+    spy = _Spy(m.V, [itf])
+    integ = Integrator(m, "static", 1.0, linear=linear, contact=spy)
+    assert (spy.given.handle == 0) is (linear == "iterative")
+    integ.step()
+    ref = _contact_integrator(linear)
+    ref.step()
+    diff = integ.u.x.petsc_vec.copy()
+    diff.axpy(-1.0, ref.u.x.petsc_vec)
+    assert diff.norm() <= 1e-12 * ref.u.x.petsc_vec.norm()
+    for obj in (diff, integ, ref):
+        obj.destroy()
+
+
+def test_cleared_product_is_returned_without_a_copy(solved):
+    """Made inside ``lean_products`` (its record cleared), ``T Q A Qᵀ Tᵀ`` holds no
+    reference to ``A`` either, and equals the copy made outside (exactly)."""
+    integ = solved["iterative"]
+    A = integ.A_bc
+    Qt, Tt = integ.contact.Qt, integ.contact.system.Tt
+    before = A.getRefCount()
+    with lean_products(A.getComm().tompi4py(), all_at_once=True):
+        At = transformed_operator(A, Qt, Tt, cleared=True)
+    assert A.getRefCount() == before
+    assert At.getRefCount() == 1
+    with lean_products(A.getComm().tompi4py(), all_at_once=True):
+        copy = transformed_operator(A, Qt, Tt)
+    copy.axpy(-1.0, At)
+    assert copy.norm() == 0.0
+    for M in (At, copy):
+        M.destroy()
+
+
+@pytest.mark.parametrize("linear", ["direct", "iterative"])
+def test_released_solver_work_solves_the_next_step_the_same(linear):
+    """After ``release_solver_work`` (the iterative solver's preconditioner freed, a direct
+    factorisation kept) the next load step gives the active set and displacement of an
+    integrator that kept everything (to the Krylov tolerance)."""
+    runs = []
+    for release in (False, True):
+        integ = _contact_integrator(linear, dt=0.5)  # (two load steps)
+        integ.step()
+        if release:
+            integ.release_solver_work()
+        integ.step()
+        runs.append(integ)
+    kept, freed = runs
+    assert all(np.array_equal(a, b) for a, b in zip(kept.contact.active, freed.contact.active))
+    diff = freed.u.x.petsc_vec.copy()
+    diff.axpy(-1.0, kept.u.x.petsc_vec)
+    assert diff.norm() <= 1e-9 * kept.u.x.petsc_vec.norm()
+    for obj in (diff, *runs):
+        obj.destroy()
