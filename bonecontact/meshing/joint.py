@@ -506,7 +506,12 @@ class Cartilage:
     conform_along
         ``"normal"``: the clearance is measured along each vertex normal;
         ``"vertical"``: along +y, the direction a joint is loaded in, so that a vertical
-        approach by the clearance closes the whole conformed patch at once.
+        approach by the clearance closes the whole conformed patch at once;
+        ``"lowered"``: the articular surface is the other surface lowered by the
+        clearance: every inner vertex moves straight up (not along its normal) to the
+        clearance below the other surface, so the layer's thickness is the vertical gap
+        to the other bone less the clearance (at most ``thickness``, at least a tenth
+        of it, else refused), and no facet can turn over.
     subchondral
         With ``conform_to``: the cell group of bone under a cartilage of uniform
         ``cartilage_thickness``: of the conformed thickness ``t`` the top
@@ -520,9 +525,9 @@ class Cartilage:
         :func:`refine_facets`), the new vertices moved onto the bone's given surface
         (closest point): a finer articular surface, the rest of the bone as remeshed.
     rim_slope
-        With ``conform_along="vertical"``: the layer is at most ``rim_slope`` times a
-        vertex's distance from the layer's rim thick (1: no steeper than 45° towards its
-        rim; 3: 72°, the steep outer wall of a meniscus).
+        With ``conform_along="vertical"`` or ``"lowered"``: the layer is at most
+        ``rim_slope`` times a vertex's distance from the layer's rim thick (1: no
+        steeper than 45° towards its rim; 3: 72°, the steep outer wall of a meniscus).
     """
 
     name: str
@@ -552,9 +557,10 @@ class Cartilage:
             )
         if self.cartilage_thickness is not None:
             check_positive(cartilage_thickness=self.cartilage_thickness)
-        if self.conform_along not in ("normal", "vertical"):
+        if self.conform_along not in ("normal", "vertical", "lowered"):
             raise ValueError(
-                f"cartilage {self.name!r}: conform_along must be 'normal' or 'vertical' "
+                f"cartilage {self.name!r}: conform_along must be 'normal', 'vertical' or "
+                f"'lowered' "
                 f"(got {self.conform_along!r})"
             )
         if not self.regions:
@@ -769,6 +775,7 @@ def _lower_under_target(
     t: np.ndarray,
     top: np.ndarray,
     conform: tuple[Surface, float],
+    probes: np.ndarray | None = None,
 ) -> np.ndarray:
     """The vertically conformed thicknesses ``t`` (:func:`_vertical_thickness`) lowered
     where a vertex of ``target`` is less than ``clearance`` above the layer's articular
@@ -777,15 +784,19 @@ def _lower_under_target(
     curves away (a convex condyle over it) the chord stands above ``target`` less the
     clearance.  Each such target vertex lowers the three vertices of the triangle under
     it by its deficit (along their normals, by deficit / n_y); the largest deficit
-    counts; up to 30 passes.  Lowering only: no gap becomes smaller than the clearance."""
+    counts; up to 30 passes.  Lowering only: no gap becomes smaller than the clearance.
+    ``probes``: the points of ``target`` to cast the rays from (default its vertices;
+    :func:`_surface_probes` adds points on its edges and facets, where an edge of
+    ``target`` passes over an edge of the layer between both surfaces' vertices)."""
     target, clearance = conform
     n0 = len(bone)
     t = t.copy()
-    down = np.tile(-UP, (len(target.points), 1))
+    probes = target.points if probes is None else probes
+    down = np.tile(-UP, (len(probes), 1))
     ny = np.maximum(normals[:, 1], 0.5)
     for _ in range(30):
         pts = np.vstack([bone, bone[verts] + t[:, None] * normals])
-        gap, tri = _ray_hits(target.points, down, Surface(pts, top, "layer"))
+        gap, tri = _ray_hits(probes, down, Surface(pts, top, "layer"))
         need = np.where(tri >= 0, clearance - gap, 0.0)
         bad = need > 1e-3 * clearance
         if not bad.any():
@@ -796,6 +807,22 @@ def _lower_under_target(
         inner = lower[n0:]
         t = np.maximum(t - inner / ny, 0.0)
     return t
+
+
+def _surface_probes(surface: Surface, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Points of ``surface`` whose horizontal position (x, z) is within ``lo``–``hi``:
+    its vertices, the points at a quarter, half and three quarters of each edge, and
+    each facet's centroid (to find where it dips below another piecewise-flat surface
+    between both surfaces' vertices)."""
+    tri = surface.triangles
+    p = surface.points
+    pts = [p, p[tri].mean(axis=1)]
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        for w in (0.25, 0.5, 0.75):
+            pts.append((1 - w) * p[tri[:, a]] + w * p[tri[:, b]])
+    pts = np.vstack(pts)
+    inside = np.all((pts[:, [0, 2]] >= lo[[0, 2]]) & (pts[:, [0, 2]] <= hi[[0, 2]]), axis=1)
+    return pts[inside]
 
 
 def _thin_where_turned(
@@ -831,12 +858,14 @@ def _thin_where_crossing(
     t: np.ndarray,
     top: np.ndarray,
     target: Surface,
+    step: float | None = None,
 ) -> np.ndarray:
     """The conformed thicknesses ``t`` of the inner vertices ``verts`` (unit ``normals``)
     of a layer on the points ``bone``, lowered where an articular triangle (``top``,
     into ``bone`` followed by the offset points) still crosses ``target``: it may bulge
     between the vertices by more than the clearance (its facets' chord).  Each pass
-    lowers the crossing triangles' inner vertices by a quarter (at most 30 passes)."""
+    lowers the crossing triangles' inner vertices by a quarter, or by ``step`` (m) if
+    given (at most 30 passes)."""
     other = target.to_pyvista()
     n0 = len(bone)
     t = t.copy()
@@ -847,7 +876,43 @@ def _thin_where_crossing(
             break
         cells = np.asarray(hits["ContactCells"])
         bad = np.unique(top[cells[cells >= 0]])
-        t[bad[bad >= n0] - n0] *= 0.75
+        k = bad[bad >= n0] - n0
+        t[k] = t[k] * 0.75 if step is None else np.maximum(t[k] - step, 0.0)
+    return t
+
+
+def _shaped_thickness(
+    surface: Surface,
+    verts: np.ndarray,
+    dirs: np.ndarray,
+    facets: tuple[np.ndarray, np.ndarray],
+    thickness: float,
+    conform: tuple[Surface, float],
+    along: str,
+    rim_cap: np.ndarray,
+) -> np.ndarray:
+    """The offsets (m, along the unit ``dirs``) of the inner vertices ``verts`` of a layer
+    conformed to ``conform = (other, clearance)`` (:func:`cartilage_layer`); ``facets`` =
+    (the articular triangles into the bone's points followed by the offset ones, the
+    facets' normals); ``rim_cap``: the largest offset of each vertex allowed by the rim's
+    slope (vertical and lowered layers)."""
+    bone, (top, fn) = surface.points, facets
+    t = _conformed_thickness(bone[verts], dirs, thickness, conform, surface.source, along)
+    if along != "normal":
+        # no steeper than rim_slope (1: 45 degrees) towards the rim: no wall for the other
+        # layer to hit
+        t = np.minimum(t, np.maximum(rim_cap, 0.1 * thickness))
+        probes = None
+        if along == "lowered":
+            region = bone[np.unique(top[top < len(bone)])]
+            probes = _surface_probes(conform[0], region.min(axis=0), region.max(axis=0))
+        t = _lower_under_target(bone, verts, dirs, t, top, conform, probes)
+    # lowered: the layer is the other surface's copy, so it crosses only by the chords'
+    # error left over: lowered in steps of a fifth of the clearance, not of the thickness
+    step = 0.2 * conform[1] if along == "lowered" and conform[1] > 0 else None
+    t = _thin_where_crossing(bone, verts, dirs, t, top, conform[0], step)
+    if along == "vertical":
+        t = _thin_where_turned(bone, verts, dirs, t, top, fn)
     return t
 
 
@@ -872,7 +937,11 @@ def cartilage_layer(
     layer where a vertex of ``other`` is less than the clearance above it, keeps it no
     steeper than 45° towards its rim (``rim_slope`` = 1; thickness at most ``rim_slope``
     times the distance from the rim) and thins it where the offset would turn a facet
-    over (a vertical load then closes the patch at once).  With
+    over (a vertical load then closes the patch at once).  ``along="lowered"`` offsets
+    every inner vertex straight up instead of along its normal, to ``clearance`` below
+    ``other`` (the articular surface is ``other`` lowered by the clearance, lowered
+    further where a vertex of ``other`` dips below its facets' chords), with the same
+    rim slope; its top facets project onto the bone's, so none turns over.  With
     ``cartilage_thickness`` the layer is split by a middle surface (``mid``): the top
     ``cartilage_thickness`` of each offset is cartilage, the rest subchondral bone (at
     least a fifth of the offset).
@@ -902,29 +971,24 @@ def cartilage_layer(
     for k in range(3):
         np.add.at(vn, base[:, k], fn)
     vn = vn[verts] / np.linalg.norm(vn[verts], axis=1, keepdims=True)
-    t = np.full(len(verts), thickness)
-    if conform is not None:
-        t = _conformed_thickness(
-            surface.points[verts], vn, thickness, conform, surface.source, along
-        )
-    if conform is not None and along == "vertical":
-        # no steeper than rim_slope (1: 45 degrees) towards the rim: no wall for the other
-        # layer to hit
-        rim_distance = cKDTree(surface.points[on_rim]).query(surface.points[verts])[0]
-        t = np.minimum(t, np.maximum(rim_slope * rim_distance, 0.1 * thickness))
+    if along == "lowered":  # offset straight up: the top facets project onto the base's
+        vn = np.tile(UP, (len(verts), 1))
     n0 = len(surface.points)
     new_id = np.arange(n0, dtype=np.int64)
     new_id[verts] = n0 + np.arange(len(verts))
     top = new_id[base]
-    if conform is not None and along == "vertical":
-        t = _lower_under_target(surface.points, verts, vn, t, top, conform)
+    t = np.full(len(verts), thickness)
     if conform is not None:
-        t = _thin_where_crossing(surface.points, verts, vn, t, top, conform[0])
-    if conform is not None and along == "vertical":
-        t = _thin_where_turned(surface.points, verts, vn, t, top, fn)
+        rim_distance = cKDTree(surface.points[on_rim]).query(surface.points[verts])[0]
+        t = _shaped_thickness(
+            surface, verts, vn, (top, fn), thickness, conform, along, rim_slope * rim_distance
+        )
     points = np.vstack([surface.points, surface.points[verts] + t[:, None] * vn])
     nt = np.cross(points[top[:, 1]] - points[top[:, 0]], points[top[:, 2]] - points[top[:, 0]])
-    if np.any(np.einsum("ij,ij->i", nt, fn) <= 0):
+    # turned over: against its facet; lowered, the facet and its top project alike (a top
+    # facet may tilt the other way, but its side facing up must stay up)
+    ref = fn * [0.0, 1.0, 0.0] if along == "lowered" else fn
+    if np.any(np.einsum("ij,ij->i", nt, ref) <= 0):
         raise MeshInputError(
             f"{surface.source}: a cartilage layer of {thickness:.3g} m turns a facet over "
             "(the facets curve more tightly than the thickness): use a thinner layer"
@@ -985,6 +1049,8 @@ def _conform_target(cart: Cartilage, done: Sequence[_BoneParts]) -> tuple[Surfac
         return None
     for part in done:
         if part.name == cart.conform_to and part.layer is not None:
+            if cart.conform_along == "lowered":
+                return _lowered_target(part), cart.clearance
             return _outer_surface(part), cart.clearance
     names = [p.name for p in done if p.layer is not None]
     raise MeshInputError(
@@ -1032,6 +1098,21 @@ def _bone_parts(
     t = bone.cortical_thickness
     inner = [] if t is None else cortical_inner_surface(outer, t, h)
     return _BoneParts(bone.name, points, patches, inner, layer, bone.cartilage)
+
+
+def _lowered_target(part: _BoneParts) -> Surface:
+    """The surface a ``"lowered"`` layer follows: the other bone's outer surface
+    (cartilage included) together with its bone surface (bare and under its cartilage)
+    lowered by its cartilage's thickness (not a closed surface: rays and collisions take
+    the nearer of the two).  Where that bone is bare, or its layer tapers towards its rim,
+    the layer beneath then stays the clearance below a full-thickness layer and the gap
+    opens: no bare bone or tapered rim in the contact."""
+    tri = [*part.patches.values(), part.layer.base]
+    n = len(part.points)
+    low = part.points - part.cartilage.thickness * UP
+    bone = np.vstack(tri) + n
+    outer = _outer_surface(part)
+    return Surface(np.vstack([part.points, low]), np.vstack([outer.triangles, bone]), part.name)
 
 
 def _outer_surface(part: _BoneParts) -> Surface:
