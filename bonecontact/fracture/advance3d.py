@@ -209,7 +209,6 @@ def advance_mixed_front(
     da_max: float,
     exponent: float = 2.0,
     smooth: bool = True,
-    k_ic: float | None = None,
 ) -> MixedAdvance:
     """Advance a closed polyline front under mixed mode by the σ₁′ criterion.
 
@@ -228,9 +227,6 @@ def advance_mixed_front(
         n of Δa_i = Δa_max (K_V,i/K_V,max)^n.
     smooth
         Average φ₀ and Δa over each vertex and its two neighbours.
-    k_ic
-        Toughness: vertices with K_V < K_Ic hold (before the smoothing; ``None``: every
-        vertex advances).
 
     Raises
     ------
@@ -248,8 +244,6 @@ def advance_mixed_front(
     kv = equivalent_k(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     phi0, psi0 = sigma1_kink(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     da = da_max * (kv / kv.max()) ** exponent
-    if k_ic is not None:
-        da = np.where(kv >= k_ic, da, 0.0)
     if smooth:
         phi0, da = _smooth(phi0), _smooth(da)
     e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))

@@ -1,27 +1,23 @@
-"""Growth of an interior planar crack in a 3D scene (``[fracture] propagate = true``;
-docs/scene_format.md#fracture, docs/theory/fracture.md#front-growth-in-3d-scenes).
+"""Growth of interior planar cracks in a 3D scene (``[fracture] propagate = true``;
+docs/scene_format.md#growing-an-interior-3d-crack).
 
-The ``[[crack]]`` (disc, ellipse or convex polygon) becomes a polygon (a disc or an
-ellipse: the polygon of N = max(6, ⌊P/(6 h_f)⌋) vertices on its front, P the perimeter,
-so that every edge holds the integration domain) and then a
-:class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.  Every increment cuts the
-crack into the scene's body (:func:`~bonecontact.fracture.body3d.mesh_body_with_planar_crack`:
-two faces, a contact pair), solves the scene's analysis, takes K_I, K_II, K_III at the
-middle of every front edge (:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and
-advances the vertices by the σ₁′ criterion with Δa_i = Δa (K_V,i/K_V,max)² once a vertex
-reaches K_Ic (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`: every vertex
-moves, those below K_Ic by their smaller rate; a vertex that held would leave a
-degenerate strip); the crack surface is extended by the strip between the two fronts.
-It stops when no vertex reaches K_Ic
-(``arrested``), after ``max_increments`` advances (``max_increments``), or when the grown
-front would come within the integration domain and two front elements of the body's
-surface (``fractured``: under load control K grows with the crack, so it runs through;
-the fragments are the body on either side of the crack plane).  ``fracture.csv`` has a
-row per increment and front point, ``crack_surface_<k>.vtk`` the crack surface and
-``crack_front_<k>.vtk`` the front with its K of increment k, ``increment<k>/`` the fields
-and tables of each solve; with ``checkpoint_every`` the growth state after every n-th
-increment (:mod:`~bonecontact.runners.growth_state3d`), from which a restart continues on
-any number of ranks.  One crack per scene (several: not yet).
+Every ``[[crack]]`` (disc, ellipse or convex polygon) becomes a polygon (a disc or an
+ellipse: N = max(6, ⌊P/(6 h_f)⌋) vertices on its front, P the perimeter: every edge holds
+the integration domain), a :class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.
+Every increment cuts the cracks into the scene's body (two faces and a contact pair
+each), solves the analysis, takes K_I, K_II, K_III at the middle of every front edge
+(:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and advances every crack with a
+vertex at K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest
+of all fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`: all its
+vertices move; one that held would leave a degenerate strip), extending its surface by
+the strip between the fronts.  Stops: ``arrested`` (no vertex at K_Ic),
+``max_increments``, ``fractured`` (a grown front would come within the integration
+domain and two front elements of the body's surface: under load control it runs
+through; fragments: the body on either side of that crack's plane), ``joined`` (as
+near another crack).  ``fracture.csv``: a row per increment, crack and mid-edge;
+``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` (several: ``crack_front_<name>_<k>``)
+and ``increment<k>/`` per increment; with ``checkpoint_every`` the growth state
+(:mod:`~bonecontact.runners.growth_state3d`) to restart from on any number of ranks.
 """
 
 from __future__ import annotations
@@ -46,7 +42,12 @@ from bonecontact.fracture.advance3d import (
     sigma1_kink,
     vertex_directions,
 )
-from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, mesh_body_with_planar_crack
+from bonecontact.fracture.body3d import (
+    BodySurface,
+    CrackedBody3D,
+    mesh_body_with_planar_crack,
+    mesh_body_with_planar_cracks,
+)
 from bonecontact.fracture.crack3d import (
     PlanarCrack,
     TriangulatedCrack,
@@ -81,6 +82,7 @@ __all__ = [
 #: Columns of ``fracture.csv`` of a growing interior crack (a row per increment and edge).
 GROWTH3D_COLUMNS = (
     "increment",
+    "crack",
     "point",
     "s",
     "x",
@@ -102,6 +104,7 @@ class EdgeRecord:
     edge."""
 
     increment: int
+    crack: str
     point: int
     s: float
     x: float
@@ -121,10 +124,10 @@ class EdgeRecord:
 
 @dataclasses.dataclass(frozen=True)
 class InteriorRun:
-    """What a growing interior crack needs besides the scene model."""
+    """What growing interior cracks need besides the scene model."""
 
-    scene: Scene  # with the crack's face pair added
-    name: str
+    scene: Scene  # with the cracks' face pairs added last, in the scene's order
+    names: tuple[str, ...]
     body: BodySurface
     material: Any
     size: TipMesh
@@ -141,20 +144,21 @@ class InteriorRun:
 
 @dataclasses.dataclass
 class Growth:
-    """The state of the growing crack between solves."""
+    """The state of the growing cracks between solves."""
 
-    crack: TriangulatedCrack
+    cracks: list[TriangulatedCrack]
     increments: int = 0
     status: str | None = None
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
     rows: int = 0  # fracture.csv rows written
+    at: int = 0  # the crack that stopped the growth (fractured, joined)
 
-    def state(self, initial: TriangulatedCrack) -> dict[str, Any]:
+    def state(self, initial: list[TriangulatedCrack]) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
         return {
             "kind": "interior_crack",
             "initial": _geometry(initial),
-            "crack": dataclasses.asdict(self.crack),
+            "cracks": [dataclasses.asdict(c) for c in self.cracks],
             "history": self.history,
             "rows": self.rows,
         }
@@ -162,22 +166,28 @@ class Growth:
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> Growth:
         """The growth a checkpoint stored (its ``increment`` the next to solve)."""
-        c = state["crack"]
-        crack = TriangulatedCrack(
-            tuple(tuple(map(float, p)) for p in c["points"]),
-            tuple(tuple(map(int, q)) for q in c["patches"]),
-            tuple(map(int, c["front_ids"])),
-            tuple(tuple(map(float, n)) for n in c["normals2"]),
-            None if c["cuts"] is None else tuple(tuple(map(float, k)) for k in c["cuts"]),
-            tuple(map(float, c["normal"])),
-        )
+        cracks = [_crack_from_state(c) for c in state["cracks"]]
         hist = list(state["history"])
-        return cls(crack, int(state["increment"]), None, hist, int(state["rows"]))
+        return cls(cracks, int(state["increment"]), None, hist, int(state["rows"]))
 
 
-def _geometry(crack: TriangulatedCrack) -> dict[str, Any]:
-    """The initial polygon as a checkpoint compares it with the scene's."""
-    return {"vertices": crack.vertices.tolist(), "normal": list(crack.normal)}
+def _crack_from_state(c: dict[str, Any]) -> TriangulatedCrack:
+    return TriangulatedCrack(
+        tuple(tuple(map(float, p)) for p in c["points"]),
+        tuple(tuple(map(int, q)) for q in c["patches"]),
+        tuple(map(int, c["front_ids"])),
+        tuple(tuple(map(float, n)) for n in c["normals2"]),
+        None if c["cuts"] is None else tuple(tuple(map(float, k)) for k in c["cuts"]),
+        tuple(map(float, c["normal"])),
+    )
+
+
+def _geometry(cracks: list[TriangulatedCrack]) -> dict[str, Any]:
+    """The initial polygons as a checkpoint compares them with the scene's."""
+    return {
+        "vertices": [c.vertices.tolist() for c in cracks],
+        "normal": [list(c.normal) for c in cracks],
+    }
 
 
 def grows_interior_crack(scene: Scene) -> bool:
@@ -199,8 +209,8 @@ def _error(scene: Scene, index: int, key: str | None, text: str) -> SceneError:
 
 
 def _refuse(scene: Scene) -> None:
-    if len(scene.cracks) > 1:
-        raise _error(scene, 1, "name", "3D growth of several cracks is not yet supported")
+    if len({c.region for c in scene.cracks}) > 1:
+        raise _error(scene, 1, "region", "the cracks of a 3D scene lie in one body (one region)")
     if scene.analysis.kind != "static":
         raise SceneError(
             str(scene.path),
@@ -238,20 +248,43 @@ def _reaches_surface(run: InteriorRun, V: np.ndarray, directions: np.ndarray) ->
     return not bool(np.all(inside_body(run.body, _probes(V, directions, run.ligament))))
 
 
-def prepare_interior(scene: Scene, comm: MPI.Comm) -> tuple[InteriorRun, TriangulatedCrack]:
+def prepare_interior(scene: Scene, comm: MPI.Comm) -> tuple[InteriorRun, list[TriangulatedCrack]]:
     """Read the mesh and the body's surface, take the material and its K_Ic, the front
-    mesh and the crack as a polygon; refuse a front within the ligament of the surface
-    (a :class:`SceneError` on every rank)."""
+    mesh and the cracks as polygons; refuse a front within the ligament of the surface or
+    of another crack (a :class:`SceneError` on every rank)."""
     _refuse(scene)
-    spec = scene.cracks[0]
     fr = scene.fracture if scene.fracture is not None else FractureSpec()
     body, material, k_ic, groups = body_and_material(scene, comm)
-    h = fr.tip_size if fr.tip_size is not None else spec.crack.b / 10
+    h = fr.tip_size if fr.tip_size is not None else min(c.crack.b for c in scene.cracks) / 10
     size = TipMesh(h, fr.tip_grading if fr.tip_grading is not None else 0.12)
+    cracks = [_polygon(scene, i, h) for i in range(len(scene.cracks))]
+    pairs = tuple(
+        c.face_pair(_pair_name(c.name), "crack_upper", "crack_lower") for c in scene.cracks
+    )
+    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + pairs)
+    names = tuple(c.name for c in scene.cracks)
+    run = InteriorRun(scene2, names, body, material, size, groups, fr, float(k_ic))
+    for i, crack in enumerate(cracks):
+        V = crack.vertices
+        stop = _meets(run, cracks, i, V, vertex_directions(V, crack.normal))
+        if stop is not None:
+            where = "the body's surface" if stop == "fractured" else "another crack"
+            raise _error(
+                scene,
+                i,
+                scene.cracks[i].crack.size_key,
+                f"the crack's front comes within {run.ligament:.3g} m of {where} (the "
+                "integration domain and two front elements): a smaller crack or tip_size",
+            )
+    return run, cracks
+
+
+def _polygon(scene: Scene, index: int, h: float) -> TriangulatedCrack:
+    """The ``index``-th crack as a polygon whose edges hold the integration domain."""
     try:
-        crack = as_polygon(spec.crack, h)
+        crack = as_polygon(scene.cracks[index].crack, h)
     except ParameterError as exc:
-        raise _error(scene, 0, exc.key, str(exc)) from None
+        raise _error(scene, index, exc.key, str(exc)) from None
     if min(crack.front().edge_lengths) < 6.0 * h:
         raise SceneError(
             str(scene.path),
@@ -260,19 +293,41 @@ def prepare_interior(scene: Scene, comm: MPI.Comm) -> tuple[InteriorRun, Triangu
             f"the front's edges ({min(crack.front().edge_lengths):.3g} m) must hold the "
             f"integration domain (6 front elements of {h:.3g} m): a smaller tip_size",
         )
-    pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
-    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
-    run = InteriorRun(scene2, spec.name, body, material, size, groups, fr, float(k_ic))
-    V = crack.vertices
-    if _reaches_surface(run, V, vertex_directions(V, crack.normal)):
-        raise _error(
-            scene,
-            0,
-            spec.crack.size_key,
-            f"the crack's front comes within {run.ligament:.3g} m of the body's surface (the "
-            "integration domain and two front elements): a smaller crack or tip_size",
-        )
-    return run, crack
+    return crack
+
+
+def _meets(run: InteriorRun, cracks: list, i: int, V: np.ndarray, d: np.ndarray) -> str | None:
+    """``fractured`` when the front ``V`` of crack ``i`` (advancing along ``d``) comes
+    within the ligament of the body's surface, ``joined`` when within it of another
+    crack's surface, else ``None``."""
+    if _reaches_surface(run, V, d):
+        return "fractured"
+    probes = np.concatenate([V, _probes(V, d, run.ligament)])
+    for j, other in enumerate(cracks):
+        if j != i and _surface_distance(probes, other) < run.ligament:
+            return "joined"
+    return None
+
+
+def _surface_distance(points: np.ndarray, crack: TriangulatedCrack) -> float:
+    """Distance from ``points`` (n, 3) to the patches of ``crack`` (m): to a patch's plane
+    where a point projects inside it, else to its edges."""
+    P = np.asarray(crack.points, dtype=float)
+    best = np.full(len(points), np.inf)
+    for patch in crack.patches:
+        Q = P[list(patch)]
+        n = np.cross(Q[1] - Q[0], Q[2] - Q[0])
+        n /= np.linalg.norm(n)
+        h = (points - Q[0]) @ n
+        foot = points - h[:, None] * n
+        inside = np.ones(len(points), dtype=bool)
+        for a, b in zip(Q, np.roll(Q, -1, axis=0), strict=True):
+            inside &= np.cross(b - a, foot - a) @ n >= 0
+            t = np.clip((points - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+            edge = np.linalg.norm(points - (a + t[:, None] * (b - a)), axis=1)
+            best = np.minimum(best, edge)
+        best = np.where(inside, np.minimum(best, np.abs(h)), best)
+    return float(best.min())
 
 
 def _pair_name(name: str) -> str:
@@ -280,24 +335,34 @@ def _pair_name(name: str) -> str:
 
 
 def check_interior_growth(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
-    """Every check of a growing interior crack, the cracked mesh and the face pair
+    """Every check of growing interior cracks, the cracked mesh and the face pairs
     included (nothing written); the scene model on that mesh."""
-    run, crack = prepare_interior(scene, comm)
+    run, cracks = prepare_interior(scene, comm)
     timer = PhaseTimer()
-    cb, md = _mesh(run, crack, comm, timer)
-    key = scene.cracks[0].crack.size_key
-    return cracked_model(run.scene, cb, md, run.groups, _pair_name(run.name), comm, timer, key)
+    cbs, md = _mesh(run, cracks, comm, timer)
+    return cracked_model(run.scene, _faces(run, cbs), md, run.groups, comm, timer, _key(run))
 
 
-def _mesh(run: InteriorRun, crack: TriangulatedCrack, comm: MPI.Comm, timer: PhaseTimer):
+def _key(run: InteriorRun) -> str:
+    return run.scene.cracks[0].crack.size_key
+
+
+def _faces(run: InteriorRun, cbs: list[CrackedBody3D]) -> list[tuple[CrackedBody3D, str]]:
+    return [(cb, _pair_name(name)) for cb, name in zip(cbs, run.names, strict=True)]
+
+
+def _mesh(run: InteriorRun, cracks: list[TriangulatedCrack], comm: MPI.Comm, timer: PhaseTimer):
     try:
         with timer.phase("mesh_read"):
-            return mesh_body_with_planar_crack(run.body, crack, run.size, comm)
+            if len(cracks) == 1:
+                cb, md = mesh_body_with_planar_crack(run.body, cracks[0], run.size, comm)
+                return [cb], md
+            return mesh_body_with_planar_cracks(run.body, cracks, run.size, comm)
     except MeshingError as exc:
         raise _error(run.scene, 0, "tip_size", str(exc)) from None
 
 
-def evaluate(u: Any, cb: CrackedBody3D, run: InteriorRun, inc: int, traction) -> list:
+def evaluate(u: Any, cb: CrackedBody3D, run: InteriorRun, name: str, inc: int, traction) -> list:
     """K at the middle of every front edge, K_V and the σ₁′ kink (collective)."""
     crack: TriangulatedCrack = cb.crack
     sifs = mid_edge_modes(crack, cb.block(), u, run.material, run.size.h_tip, traction)
@@ -306,36 +371,44 @@ def evaluate(u: Any, cb: CrackedBody3D, run: InteriorRun, inc: int, traction) ->
     out = []
     for i, (f, phi) in enumerate(zip(sifs, phis, strict=True)):
         kv = float(equivalent_k(f.K_I, f.K_II, f.K_III))
-        kink = float(sigma1_kink(f.K_I, f.K_II, f.K_III)[0][0])
+        kink = math.degrees(float(sigma1_kink(f.K_I, f.K_II, f.K_III)[0][0]))
         s = float(front.arc_length(float(phi)) - front.arc_length(0.0))
         x, y, z = f.point
-        out.append(
-            EdgeRecord(inc, i, s, x, y, z, f.K_I, f.K_II, f.K_III, f.G, kv, math.degrees(kink))
-        )
+        out.append(EdgeRecord(inc, name, i, s, x, y, z, f.K_I, f.K_II, f.K_III, f.G, kv, kink))
     return out
 
 
-def _advance(run: InteriorRun, g: Growth, records: list[EdgeRecord]) -> str | None:
-    """The stop after this solve, or the next crack in ``g`` (``None``: grow)."""
-    K = np.array([(r.K_I, r.K_II, r.K_III) for r in records])
-    kv = np.array([r.K_V for r in records])
+def _advance(run: InteriorRun, g: Growth, records: list[list[EdgeRecord]]) -> str | None:
+    """The stop after this solve, or the next cracks in ``g`` (``None``: grow): every
+    crack with a vertex at K_Ic advances, its largest step Δa (K_V,max,i/K_V,max)²."""
+    K = [np.array([(r.K_I, r.K_II, r.K_III) for r in rec]) for rec in records]
+    kv = np.concatenate([[r.K_V for r in rec] for rec in records])
     g.history.append(
         {
             "increment": g.increments,
             "K_V_max": float(kv.max()),
             "K_V_min": float(kv.min()),
-            "mean_radius": _mean_radius(g.crack),
+            "mean_radius": _mean_radius(g.cracks[0]),
         }
     )
-    kv_vertex = equivalent_k(*(0.5 * (K + np.roll(K, 1, axis=0))).T)
-    if float(kv_vertex.max()) < run.K_Ic or float(kv.min()) <= 0.0:
+    kv_vertex = [equivalent_k(*(0.5 * (k + np.roll(k, 1, axis=0))).T) for k in K]
+    grows = [float(v.max()) >= run.K_Ic for v in kv_vertex]
+    if not any(grows) or float(kv.min()) <= 0.0:
         return "arrested"
     if g.increments >= run.fracture.max_increments:
         return "max_increments"
-    adv = advance_mixed_front(g.crack.vertices, g.crack.normals2, K, float(run.fracture.increment))
-    if _reaches_surface(run, adv.vertices, adv.directions):
-        return "fractured"
-    g.crack, g.increments = extend_surface(g.crack, adv.vertices), g.increments + 1
+    top = max(float(v.max()) for v in kv_vertex)
+    new = list(g.cracks)
+    for i, crack in enumerate(g.cracks):
+        if grows[i]:
+            da = float(run.fracture.increment) * (float(kv_vertex[i].max()) / top) ** 2
+            adv = advance_mixed_front(crack.vertices, crack.normals2, K[i], da)
+            stop = _meets(run, g.cracks, i, adv.vertices, adv.directions)
+            if stop is not None:
+                g.at = i
+                return stop
+            new[i] = extend_surface(crack, adv.vertices)
+    g.cracks, g.increments = new, g.increments + 1
     return None
 
 
@@ -344,9 +417,13 @@ def _mean_radius(crack: TriangulatedCrack) -> float:
     return float(np.mean(np.linalg.norm(V - V.mean(axis=0), axis=1)))
 
 
-def write_crack_surface(path: Path, crack: TriangulatedCrack) -> None:
-    """The crack surface as legacy VTK polygons (its planar patches)."""
-    P, patches = crack.points, crack.patches
+def write_crack_surface(path: Path, cracks: list[TriangulatedCrack]) -> None:
+    """The crack surfaces as legacy VTK polygons (their planar patches)."""
+    P, patches, base = [], [], 0
+    for c in cracks:
+        P += list(c.points)
+        patches += [tuple(base + i for i in q) for q in c.patches]
+        base += len(c.points)
     lines = ["# vtk DataFile Version 3.0", "crack surface", "ASCII", "DATASET POLYDATA"]
     lines += [f"POINTS {len(P)} double"] + [" ".join(repr(float(c)) for c in p) for p in P]
     lines += [f"POLYGONS {len(patches)} {sum(len(q) + 1 for q in patches)}"]
@@ -355,39 +432,44 @@ def write_crack_surface(path: Path, crack: TriangulatedCrack) -> None:
 
 
 def _increment(run: InteriorRun, g: Growth, comm, timer, outdir: Path, table: RecordTable):
-    """Mesh, solve, evaluate, advance and write one increment; returns (stop, cb, summary)
-    (``summary``: the solve's, when it did not converge)."""
-    cb, md = _mesh(run, g.crack, comm, timer)
+    """Mesh, solve, evaluate, advance and write one increment; returns (stop, the meshes
+    seen from each crack, summary) (``summary``: the solve's, when it did not converge)."""
+    cbs, md = _mesh(run, g.cracks, comm, timer)
     out = outdir / f"increment{g.increments}"
-    key = run.scene.cracks[0].crack.size_key
+    faces = _faces(run, cbs)
     sm, integ, summary = solve_cracked(
-        run.scene, cb, md, run.groups, _pair_name(run.name), comm, timer, out, key
+        run.scene, faces, md, run.groups, comm, timer, out, _key(run)
     )
     if summary["status"] != "converged":
         integ.destroy()
-        return None, cb, summary
+        return None, cbs, summary
+    records = []
     with timer.phase("fracture"):
-        traction = crack_tractions(sm, integ, cb, 4.0 * run.size.h_tip)
-        records = evaluate(integ.u, cb, run, g.increments, traction)
+        for i, (cb, name) in enumerate(zip(cbs, run.names, strict=True)):
+            back = i - len(cbs)
+            traction = crack_tractions(sm, integ, cb, 4.0 * run.size.h_tip, back)
+            records.append(evaluate(integ.u, cb, run, name, g.increments, traction))
     integ.destroy()
-    crack, inc = g.crack, g.increments
+    cracks, inc = g.cracks, g.increments
     stop = _advance(run, g, records)
-    table.rows([dataclasses.replace(r, status=stop or "grows") for r in records])
-    g.rows += len(records)
+    rows = [dataclasses.replace(r, status=stop or "grows") for rec in records for r in rec]
+    table.rows(rows)
+    g.rows += len(rows)
     if comm.rank == 0:
-        write_crack_surface(outdir / f"crack_surface_{inc}.vtk", crack)
-        write_front(outdir / f"crack_front_{inc}.vtk", records)
-    return stop, cb, None
+        write_crack_surface(outdir / f"crack_surface_{inc}.vtk", cracks)
+        for name, rec in zip(run.names, records, strict=True):
+            tag = "" if len(cracks) == 1 else f"{_pair_name(name)}_"
+            write_front(outdir / f"crack_front_{tag}{inc}.vtk", rec)
+    return stop, cbs, None
 
 
-def _start(run: InteriorRun, crack: TriangulatedCrack, comm, outdir: Path, restart) -> Growth:
+def _start(run: InteriorRun, cracks: list, comm, outdir: Path, restart) -> Growth:
     """A fresh growth, or the one of the checkpoint ``restart`` (fracture.csv cut to its
     rows)."""
     if not restart:
-        return Growth(crack)
-    state = find_growth_state(
-        comm, outdir, restart, "interior_crack", _geometry(crack), crack.front().a
-    )
+        return Growth(list(cracks))
+    size = max(c.front().a for c in cracks)
+    state = find_growth_state(comm, outdir, restart, "interior_crack", _geometry(cracks), size)
     return Growth.from_state(state)
 
 
@@ -403,26 +485,26 @@ def run_interior_growth(
     (:mod:`~bonecontact.runners.growth_state3d`)."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
-    run, crack = prepare_interior(scene, comm)
+    run, cracks = prepare_interior(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     if comm.rank == 0:
         outdir.mkdir(parents=True, exist_ok=True)
-    g = _start(run, crack, comm, outdir, restart)
+    g = _start(run, cracks, comm, outdir, restart)
     table = RecordTable(comm, outdir / "fracture.csv", GROWTH3D_COLUMNS, append=bool(restart))
     status, message, frags = "converged", None, None
     every = scene.output.checkpoint_every
     try:
         while g.status is None:
-            stop, cb, failed = _increment(run, g, comm, timer, outdir, table)
+            stop, cbs, failed = _increment(run, g, comm, timer, outdir, table)
             if failed is not None:
                 status, message = failed["status"], failed.get("message")
                 break
             g.status = stop
             if stop == "fractured":
-                V = g.crack.vertices
-                frags = fragments(cb.mesh, V.mean(axis=0), np.asarray(g.crack.normal))
+                c = g.cracks[g.at]
+                frags = fragments(cbs[0].mesh, c.vertices.mean(axis=0), np.asarray(c.normal))
             elif stop is None and every > 0 and g.increments % every == 0:
-                save_growth_state(comm, outdir, g.increments, g.state(crack))
+                save_growth_state(comm, outdir, g.increments, g.state(cracks))
     finally:
         table.close()
     info = _summary(run, g, frags, timer, comm, t_start, message)
@@ -432,16 +514,21 @@ def run_interior_growth(
 
 
 def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dict[str, Any]:
+    cracks = [
+        {
+            "name": name,
+            "shape": "grown",
+            "normal": list(c.normal),
+            "front_size": run.size.h_tip,
+            "front": c.vertices.tolist(),
+        }
+        for name, c in zip(run.names, g.cracks, strict=True)
+    ]
     info: dict[str, Any] = {
         "wall_time_s": time.perf_counter() - t_start,
         "fracture": {
-            "crack": {
-                "name": run.name,
-                "shape": "grown",
-                "normal": list(g.crack.normal),
-                "front_size": run.size.h_tip,
-                "front": g.crack.vertices.tolist(),
-            },
+            "crack": cracks[0],
+            "cracks": cracks,
             "growth": {
                 "rule": "propagate",
                 "criterion": "sigma1_prime",
@@ -450,6 +537,7 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "K_Ic": run.K_Ic,
                 "history": g.history,
                 "fractured": g.status == "fractured",
+                "stopped_by": run.names[g.at] if g.status in ("fractured", "joined") else None,
                 "fragments": frags,
             },
         },

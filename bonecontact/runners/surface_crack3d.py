@@ -297,10 +297,12 @@ def _deepest_parameter(cut: CutBody) -> float:
     return 0.5 * math.pi if c.half_length >= c.depth else 0.0
 
 
-def crack_tractions(sm: SceneModel, integ: Any, cb: CrackedBody3D, reach: float) -> tuple | None:
-    """The contact tractions on the faces of the crack (the model's last pair) when it
-    has active nodes, else ``None`` (open: traction-free)."""
-    k = len(sm.interfaces) - 1
+def crack_tractions(
+    sm: SceneModel, integ: Any, cb: CrackedBody3D, reach: float, back: int = -1
+) -> tuple | None:
+    """The contact tractions on the faces of the crack (the model's pair ``back`` from
+    the end; −1 the last) when it has active nodes, else ``None`` (open: traction-free)."""
+    k = len(sm.interfaces) + back
     result = integ.last_contact
     if result is None or int(result.n_active[k]) == 0:
         return None
@@ -359,23 +361,23 @@ def _build(run: SurfaceRun, crack: SurfaceBreakingCrack, comm: MPI.Comm, timer: 
 
 def cracked_model(
     scene: Scene,
-    cb: CrackedBody3D,
+    faces: list[tuple[CrackedBody3D, str]],
     md: Any,
     groups: dict,
-    pair: str,
     comm,
     timer: PhaseTimer,
     key: str | None = "depth",
 ) -> SceneModel:
-    """The scene model on the cracked mesh with the crack's face pair last (``scene``
-    holds that pair as its last contact; the model is built without it, then the pair
-    of the two faces is added); a pair that cannot be built is a :class:`SceneError` on
-    the crack's ``key``."""
-    original = dataclasses.replace(scene, contacts=tuple(scene.contacts)[:-1])
+    """The scene model on the cracked mesh with the cracks' face pairs last (``faces``:
+    each crack's view of the mesh and its pair's name; ``scene`` holds those pairs as its
+    last contacts: the model is built without them, then the pairs of the faces are
+    added); a pair that cannot be built is a :class:`SceneError` on the crack's ``key``."""
+    original = dataclasses.replace(scene, contacts=tuple(scene.contacts)[: -len(faces)])
     sm = build_model(original, comm, timer, mesh=(md, groups))
     try:
         with timer.phase("mortar_geometry"):
-            sm.interfaces.append(face_interface(sm.model, cb, pair))
+            for cb, pair in faces:
+                sm.interfaces.append(face_interface(sm.model, cb, pair))
     except ContactInputError as exc:
         raise _error(scene, key, str(exc)) from None
     return sm
@@ -387,24 +389,23 @@ def check_surface_crack(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneM
     run = prepare_surface(scene, comm)
     timer = PhaseTimer()
     cb, md = _build(run, run.crack, comm, timer)
-    return cracked_model(run.scene, cb, md, run.groups, _pair_name(run.name), comm, timer)
+    return cracked_model(run.scene, [(cb, _pair_name(run.name))], md, run.groups, comm, timer)
 
 
 def solve_cracked(
     scene: Scene,
-    cb: CrackedBody3D,
+    faces: list[tuple[CrackedBody3D, str]],
     md: Any,
     groups: dict,
-    pair: str,
     comm,
     timer,
     outdir: Path,
     key: str | None = "depth",
 ):
-    """Solve the analysis of ``scene`` (its last contact the crack's face pair) on the
-    cracked mesh (collective); the fields and tables of the solve go to ``outdir``.
-    Returns (scene model, integrator, summary of the solve)."""
-    sm = cracked_model(scene, cb, md, groups, pair, comm, timer, key)
+    """Solve the analysis of ``scene`` (its last contacts the cracks' face pairs,
+    :func:`cracked_model`) on the cracked mesh (collective); the fields and tables of the
+    solve go to ``outdir``.  Returns (scene model, integrator, summary of the solve)."""
+    sm = cracked_model(scene, faces, md, groups, comm, timer, key)
     nsteps, dt = analysis_steps(scene)
     integ = scene_integrator(scene, sm, dt, False)
     integ.set_initial(None, sm.v0)
@@ -423,9 +424,8 @@ def _solve(run: SurfaceRun, crack: SurfaceBreakingCrack, comm, timer, outdir: Pa
     tables of the solve go to ``outdir/increment<inc>``."""
     cb, md = _build(run, crack, comm, timer)
     out = Path(outdir) / f"increment{inc}"
-    sm, integ, summary = solve_cracked(
-        run.scene, cb, md, run.groups, _pair_name(run.name), comm, timer, out
-    )
+    faces = [(cb, _pair_name(run.name))]
+    sm, integ, summary = solve_cracked(run.scene, faces, md, run.groups, comm, timer, out)
     return cb, sm, integ, summary
 
 
