@@ -235,11 +235,19 @@ class CondensedSystem:
 
     def contact_residual(self) -> npt.NDArray[np.float64]:
         """This rank's contact rows of ``w = T F̂ − Ã Ũ`` (a product with the contact
-        rows of ``Ã`` only, :attr:`AtL`)."""
+        rows of ``Ã`` only, :attr:`AtL`, or, once ``Ã`` is taken over, with its stripes,
+        whose contact rows are those rows: the same sums, exactly)."""
+        rows = self.layout.local_rows
+        if self.stripes is not None:
+            full = self.stripes.createVecLeft()
+            self.stripes.mult(self.Uh, full)
+            w = self.r0.array_r[rows] - full.array_r[rows]
+            full.destroy()
+            return w
         AtL = self._contact_rows()
         wl = AtL.createVecLeft()
         AtL.mult(self.Uh, wl)
-        w = self.r0.array_r[self.layout.local_rows] - wl.array_r
+        w = self.r0.array_r[rows] - wl.array_r
         wl.destroy()
         return w
 
@@ -254,19 +262,21 @@ class CondensedSystem:
     def take_operator(self, stripes: bool = True) -> PETSc.Mat:
         """Hand ``Ã`` over to a solver that changes it in place (collective).
 
-        The system keeps ``Ã``'s contact rows (:attr:`AtL`) and its stripes
-        (:attr:`stripes`: the entries in the contact and Dirichlet rows and columns, the
-        only ones a set's elimination or replaced rows change), from which
-        :meth:`restore_operator` makes the changed matrix ``Ã`` again; :attr:`At` is
-        ``None`` afterwards.  One matrix of ``Ã``'s size is kept instead of two.
+        The system keeps ``Ã``'s stripes (:attr:`stripes`: the entries in the contact and
+        Dirichlet rows and columns, the only ones a set's elimination or replaced rows
+        change), from which :meth:`restore_operator` makes the changed matrix ``Ã`` again
+        and whose contact rows give :meth:`contact_residual`; :attr:`At` is ``None``
+        afterwards.  One matrix of ``Ã``'s size is kept instead of two.
         ``stripes=False``: a caller that never restores ``Ã`` (nor needs
-        :meth:`operator_product`) leaves the stripes out.
+        :meth:`operator_product`) leaves the stripes out and keeps the contact rows
+        (:attr:`AtL`) only.
         """
         if self.At is None:
             raise RuntimeError("contact: the condensed operator has been taken over already")
-        self._contact_rows()
         if stripes:
             self.stripes = operator_stripes(self.At, self.stripe_rows())
+        else:
+            self._contact_rows()
         At, self.At = self.At, None
         return At
 

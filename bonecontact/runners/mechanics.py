@@ -463,7 +463,7 @@ class Recorder:
         if not tables:
             if self.fields_written != step:
                 self._write_fields(t)
-            self._release(self.stress)
+            self._free_output()
             return
         forces = self._reaction_values(step)
         self.writer.history([row + risk + forces for row in self._history_rows(step, t)])
@@ -471,7 +471,14 @@ class Recorder:
         if write_fields:
             self._write_fields(t)
             self.fields_written = step
+        self._free_output()
+
+    def _free_output(self) -> None:
+        """After a record: the stress fields (:meth:`_release`) and, in a static run, the
+        field writer's mesh in VTK form until the next record."""
         self._release(self.stress)
+        if self.integ.kind == "static":
+            self.writer.release_fields()
 
     def _release(self, fields: StressFields | StrainMonitor) -> None:
         """Free the cell fields of a record (the stress and its invariants, or the

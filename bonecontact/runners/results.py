@@ -542,6 +542,12 @@ class ResultsWriter:
             self._xdmf.write_function(f, t)
         self._vtk.write(t, functions)
 
+    def release_fields(self) -> None:
+        """Free what the field writer keeps for the next save (the binary pieces' mesh in
+        VTK form), made again then (issue 28)."""
+        if self._vtk is not None:
+            self._vtk.release()
+
     # ------------------------------------------------------------ summary
     def summary(self, status: str, **info) -> dict:
         """Write summary.json (rank 0) and return its content."""

@@ -161,6 +161,11 @@ class VtuSeries:
             _write_pvd(self.path, self.times)
         self.comm.barrier()
 
+    def release(self) -> None:
+        """Free the mesh's VTK form (connectivity, offsets, point maps: about 42 bytes per
+        cell) until the next :meth:`write` makes it again (issue 28)."""
+        self._piece = None
+
     def _arrays(self, functions: Sequence[fem.Function]) -> tuple[list[_Array], list[_Array]]:
         """Point and cell data arrays of ``functions`` (views of their arrays)."""
         point, cell = [], []
