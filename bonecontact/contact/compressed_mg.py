@@ -37,6 +37,7 @@ from bonecontact.contact.reductions import global_any, global_count
 __all__ = [
     "Aggregation",
     "CompressedMultigrid",
+    "KeptColumns",
     "MultigridLevel",
     "aggregate",
     "compressed_prolongator",
@@ -70,6 +71,8 @@ class MultigridLevel:
     aggregation: Aggregation | None = None
     #: the rows of ``A`` without a coarse correction (identity rows) at the last build
     isolated: npt.NDArray[np.bool_] | None = None
+    #: the coarse near-nullspace ``Z_c`` of ``P`` (``None`` on the coarsest)
+    Zc: npt.NDArray[np.float64] | None = None
 
 
 #: Entries of the rank's block read at once for the strength graph (node-aligned chunks
@@ -199,6 +202,8 @@ def blocks_by_size(bounds: npt.NDArray[np.int64]) -> Iterator[npt.NDArray[np.int
     """The aggregates grouped by their number of rows (one group per size, ascending
     aggregates), so that each group's blocks stack into one array."""
     sizes = np.diff(bounds)
+    if sizes.size == 0:
+        return
     order = np.argsort(sizes, kind="stable")
     cuts = np.flatnonzero(np.diff(sizes[order])) + 1
     yield from np.split(order, cuts)
@@ -226,32 +231,51 @@ def block_svds(
         yield group, block_rows, (U, s, Vt, r)
 
 
+@dataclass
+class KeptColumns:
+    """A level's prolongator and coarse near-nullspace from an earlier build, the columns
+    per aggregate, and the aggregates whose near-nullspace block changed since (``hit``):
+    the others keep their columns (:func:`compressed_prolongator`)."""
+
+    P: PETSc.Mat
+    ranks: npt.NDArray[np.int64]
+    Zc: npt.NDArray[np.float64]
+    hit: npt.NDArray[np.bool_]
+    #: the new local row of each of ``P``'s local rows (``-1``: none; ``None``: the same)
+    row_map: npt.NDArray[np.int64] | None = None
+
+
 def compressed_prolongator(
     A: PETSc.Mat,
     Z: npt.NDArray[np.float64],
     agg_of_row: npt.NDArray[np.int64],
     n_agg: int,
     rank_tol: float,
+    kept: KeptColumns | None = None,
 ) -> tuple[PETSc.Mat, npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """The prolongator whose columns are, per aggregate, the left singular vectors of
     the near-nullspace block ``Z[rows]`` above ``rank_tol`` of its largest singular value
-    (the blocks' SVDs stacked by size, :func:`block_svds`).
+    (the blocks' SVDs stacked by size, :func:`block_svds`; with ``kept``, only those of
+    the aggregates ``kept.hit``, the others' columns and coarse near-nullspace copied
+    from ``kept``, renumbered).
 
     Returns ``P`` (local rows of ``A`` × this rank's coarse columns), the coarse
     near-nullspace ``Z_c`` (``Σ Vᵀ`` per aggregate, so ``P Z_c = Z`` on the aggregated
     rows) and the number of columns of every aggregate."""
     comm = A.getComm().tompi4py()
-    rows, bounds = aggregate_blocks(agg_of_row, n_agg)
+    todo = np.ones(n_agg, bool) if kept is None else kept.hit
+    ids = np.flatnonzero(todo)
+    pos = np.full(n_agg + 1, -1, np.int64)  # (pos[-1] = -1: rows without aggregate)
+    pos[ids] = np.arange(len(ids))
+    rows, bounds = aggregate_blocks(pos[agg_of_row], len(ids))
     svds = list(block_svds(Z, rows, bounds, rank_tol))
-    ranks = np.zeros(n_agg, np.int64)
+    ranks = np.zeros(n_agg, np.int64) if kept is None else kept.ranks.copy()
     for group, _, svd in svds:
-        if svd is not None:
-            ranks[group] = svd[3]
+        ranks[ids[group]] = svd[3] if svd is not None else 0
     offsets = np.concatenate([[0], np.cumsum(ranks)])
     n_c = int(offsets[-1])
     c0 = int(comm.exscan(n_c) or 0) if comm.size > 1 else 0
-    row_nnz = np.zeros(len(agg_of_row), np.int64)
-    row_nnz[rows] = np.repeat(ranks, np.diff(bounds))
+    row_nnz = np.where(agg_of_row >= 0, ranks[agg_of_row], 0)
     indptr = np.concatenate([[0], np.cumsum(row_nnz)]).astype(PETSc.IntType)
     indices = np.empty(indptr[-1], PETSc.IntType)
     data = np.empty(indptr[-1])
@@ -260,13 +284,16 @@ def compressed_prolongator(
         if svd is None:
             continue
         U, s, Vt, r = svd
+        first = offsets[ids[group]][:, None]
         keep = np.arange(s.shape[1]) < r[:, None]  # (k, columns)
         at = indptr[block_rows][:, :, None] + np.arange(s.shape[1])  # (k, m, columns)
-        cols = c0 + offsets[group][:, None] + np.arange(s.shape[1])
+        cols = c0 + first + np.arange(s.shape[1])
         mask = np.broadcast_to(keep[:, None, :], at.shape)
         indices[at[mask]] = np.broadcast_to(cols[:, None, :], at.shape)[mask]
         data[at[mask]] = U[mask]
-        Zc[(offsets[group][:, None] + np.arange(s.shape[1]))[keep]] = (s[..., None] * Vt)[keep]
+        Zc[(first + np.arange(s.shape[1]))[keep]] = (s[..., None] * Vt)[keep]
+    if kept is not None:
+        copy_kept_columns(kept, agg_of_row, offsets, c0, (indptr, indices, data), Zc)
     n = A.getLocalSize()[0]
     P = PETSc.Mat().createAIJ(
         size=((n, A.getSize()[0]), (n_c, comm.allreduce(n_c))),
@@ -275,6 +302,37 @@ def compressed_prolongator(
     )
     P.assemble()
     return P, Zc, ranks
+
+
+def copy_kept_columns(
+    kept: KeptColumns,
+    agg_of_row: npt.NDArray[np.int64],
+    offsets: npt.NDArray[np.int64],
+    c0: int,
+    csr: tuple[npt.NDArray, npt.NDArray, npt.NDArray],
+    Zc: npt.NDArray[np.float64],
+) -> None:
+    """Into the new prolongator's ``csr`` (rows sized) and ``Zc``: the entries and coarse
+    near-nullspace rows of the aggregates not in ``kept.hit``, from ``kept`` (their
+    columns moved from the old first column of the aggregate to the new, ``offsets``)."""
+    indptr, indices, data = csr
+    ia, ja, a = kept.P.getValuesCSR()
+    old = np.concatenate([[0], np.cumsum(kept.ranks)])
+    shift = c0 + offsets[:-1] - kept.P.getOwnershipRangeColumn()[0] - old[:-1]  # per aggregate
+    n_old = len(ia) - 1
+    new_row = np.arange(n_old) if kept.row_map is None else kept.row_map
+    agg = np.where(new_row >= 0, agg_of_row[np.maximum(new_row, 0)], -1)
+    copy = (agg >= 0) & ~kept.hit[np.maximum(agg, 0)]
+    row = np.repeat(np.arange(n_old, dtype=PETSc.IntType), np.diff(ia))
+    sel = copy[row]
+    row = row[sel]
+    dest = indptr[new_row[row]] + (np.flatnonzero(sel) - ia[row])
+    indices[dest] = ja[sel] + shift[agg[row]]
+    data[dest] = a[sel]
+    same = np.flatnonzero(~kept.hit)
+    counts = kept.ranks[same]
+    within = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    Zc[np.repeat(offsets[same], counts) + within] = kept.Zc[np.repeat(old[same], counts) + within]
 
 
 def node_skip(
@@ -332,7 +390,7 @@ def coarsen(
     P, Zc, ranks = compressed_prolongator(
         A, Z, agg.aggregates[node_of_row], agg.count, opts.rank_tol
     )
-    level = MultigridLevel(A, P, agg.aggregates, ranks, agg, isolated)
+    level = MultigridLevel(A, P, agg.aggregates, ranks, agg, isolated, Zc)
     return level, A.ptap(P), Zc, np.repeat(np.arange(agg.count), ranks)
 
 
@@ -446,29 +504,27 @@ def column_restriction(P: PETSc.Mat, cols: npt.NDArray[np.int64]) -> PETSc.Mat:
     return Pa
 
 
-def new_columns(
-    Ac: PETSc.Mat, ja: npt.NDArray, new_of_local: npt.NDArray[np.int64]
-) -> npt.NDArray[np.int64]:
-    """The new global index of the columns ``ja`` of ``Ac`` (this rank's entries;
-    ``-1``: none), from every rank's ``new_of_local`` (the new index of each of its
-    columns; collective: another rank's by a scatter)."""
-    c0, c1 = Ac.getOwnershipRangeColumn()
-    own = (ja >= c0) & (ja < c1)
-    new = np.full(len(ja), -1, PETSc.IntType)
-    new[own] = new_of_local[ja[own] - c0]
+def remote_columns(
+    Ac: PETSc.Mat, ja: npt.NDArray, new_of_local: npt.NDArray
+) -> tuple[npt.NDArray, npt.NDArray]:
+    """The other ranks' columns among ``ja`` (``Ac``'s, this rank's entries; ascending)
+    and their new global indices (``-1``: none) from their ranks' ``new_of_local``
+    (the new index of each of a rank's columns; collective: a scatter; empty on one rank)."""
+    none = np.zeros(0, PETSc.IntType)
     if Ac.getComm().getSize() == 1:
-        return new
-    remote = np.unique(ja[~own]).astype(PETSc.IntType)
+        return none, none
+    c0, c1 = Ac.getOwnershipRangeColumn()
+    remote = np.unique(ja[(ja < c0) | (ja >= c1)]).astype(PETSc.IntType)
     x = Ac.createVecRight()
     x.array[:] = new_of_local  # (exact: indices below 2^53)
     y = PETSc.Vec().createSeq(len(remote), comm=PETSc.COMM_SELF)
     where = PETSc.IS().createGeneral(remote, comm=PETSc.COMM_SELF)
     scatter = PETSc.Scatter().create(x, where, y, None)
     scatter.scatter(x, y, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
-    new[~own] = y.array[np.searchsorted(remote, ja[~own])].astype(PETSc.IntType)
+    mapped = y.array.astype(PETSc.IntType)
     for obj in (x, y, where, scatter):
         obj.destroy()
-    return new
+    return remote, mapped
 
 
 def csr_entries(M: PETSc.Mat) -> tuple[npt.NDArray, ...]:
@@ -477,30 +533,90 @@ def csr_entries(M: PETSc.Mat) -> tuple[npt.NDArray, ...]:
     return np.repeat(np.arange(len(ia) - 1, dtype=PETSc.IntType), np.diff(ia)), ja, v
 
 
-def kept_entries(
-    Ac: PETSc.Mat, new_of_old: npt.NDArray[np.int64], r0: int
-) -> tuple[npt.NDArray, npt.NDArray, npt.NDArray]:
-    """The entries of ``Ac`` (this rank's rows) whose row and column are kept
-    (``new_of_old``, :func:`update_galerkin`), by new local row (``r0``: the new first
-    row of this rank): (row, column, value)."""
+#: Entries of the old coarse operator mapped at once by an update (bounds the update's
+#: transient arrays: mapping all at once made the update the 65k run's peak, +18 MiB).
+UPDATE_CHUNK = 1 << 17
+
+
+@dataclass
+class OldEntries:
+    """The entries of an earlier coarse operator (this rank's rows, CSR) and how its
+    rows and columns map to the new operator (:func:`update_galerkin`)."""
+
+    ia: npt.NDArray
+    ja: npt.NDArray
+    v: npt.NDArray
+    col_range: tuple[int, int]  # (this rank's old columns)
+    new_row: npt.NDArray  # (new local row of each old local row, -1: none)
+    new_col: npt.NDArray  # (new global index of each of this rank's old columns, -1: none)
+    remote: tuple[npt.NDArray, npt.NDArray]  # (other ranks' old columns, their new index)
+
+    def chunks(self) -> Iterator[tuple[npt.NDArray, npt.NDArray, npt.NDArray]]:
+        """The kept entries (row and column kept), rows of about :data:`UPDATE_CHUNK` old
+        entries at a time, by new local row: (row, new global column, value)."""
+        c0, c1 = self.col_range
+        remote, mapped = self.remote
+        ia, n = self.ia, len(self.ia) - 1
+        cuts = np.searchsorted(ia, np.arange(UPDATE_CHUNK, ia[-1], UPDATE_CHUNK))
+        cuts = np.unique(np.concatenate([[0], cuts, [n]]))
+        for r0, r1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+            e0, e1 = int(ia[r0]), int(ia[r1])
+            j = self.ja[e0:e1]
+            rows = np.repeat(np.arange(r0, r1), np.diff(ia[r0 : r1 + 1]))
+            own = (j >= c0) & (j < c1)
+            cols = np.full(e1 - e0, -1, PETSc.IntType)
+            cols[own] = self.new_col[j[own] - c0]
+            if remote.size:
+                cols[~own] = mapped[np.searchsorted(remote, j[~own])]
+            r = self.new_row[rows]
+            keep = (r >= 0) & (cols >= 0)
+            yield r[keep], cols[keep], self.v[e0:e1][keep]
+
+
+def old_entries(Ac: PETSc.Mat, new_of_old: npt.NDArray[np.int64], r0: int) -> OldEntries:
+    """The entries of ``Ac`` and their map (``new_of_old``: the new global index of each
+    of this rank's rows and columns, ``-1``: replaced; ``r0``: the new first local row)."""
     ia, ja, v = Ac.getValuesCSR()
-    cols = new_columns(Ac, ja, new_of_old)
-    del ja
-    rows = new_of_old[np.repeat(np.arange(len(ia) - 1, dtype=PETSc.IntType), np.diff(ia))]
-    keep = (rows >= 0) & (cols >= 0)
-    return (rows[keep] - r0).astype(PETSc.IntType), cols[keep], v[keep]
+    new_col = new_of_old.astype(PETSc.IntType)
+    new_row = np.where(new_of_old >= 0, new_of_old - r0, -1).astype(PETSc.IntType)
+    rng = Ac.getOwnershipRangeColumn()
+    return OldEntries(ia, ja, v, rng, new_row, new_col, remote_columns(Ac, ja, new_col))
 
 
 def set_rows(M: PETSc.Mat, rows: npt.NDArray, cols: npt.NDArray, vals: npt.NDArray) -> None:
     """Insert entries grouped by ascending local row (columns in any order) into ``M``."""
     n = M.getLocalSize()[0]
     indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
-    M.setValuesCSR(indptr.astype(PETSc.IntType), cols.astype(PETSc.IntType), vals)
+    M.setValuesCSR(indptr.astype(PETSc.IntType), np.asarray(cols, dtype=PETSc.IntType), vals)
 
 
 #: Expected fill of ``A P_c`` relative to ``A`` and ``P_c`` (PETSc's default 2 reserves
 #: room for twice ``A``'s entries; the product has few columns).
 MATMULT_FILL = 0.05
+
+
+def new_columns_part(
+    A: PETSc.Mat, P: PETSc.Mat, cols: npt.NDArray[np.int64]
+) -> list[tuple[npt.NDArray, npt.NDArray, npt.NDArray]]:
+    """The entries of ``Pᵀ A P`` in the columns ``cols`` (this rank's, global) and their
+    rows, by local row: ``Wᵀ = (A P_c)ᵀ P`` (``P_c``: ``P``'s columns ``cols``; the
+    transpose of the small ``A P_c``, not of ``P``) gives the rows, ``W`` the columns
+    outside them (``A`` symmetric)."""
+    Pa = column_restriction(P, cols)
+    APa = A.matMult(Pa, fill=MATMULT_FILL)
+    Wt = APa.transposeMatMult(P)
+    W = Wt.transpose(PETSc.Mat())
+    for m in (Pa, APa):
+        m.destroy()
+    c0, c1 = P.getOwnershipRangeColumn()
+    in_cols = np.zeros(c1 - c0, bool)
+    in_cols[cols - c0] = True
+    rw, cw, vw = csr_entries(W)
+    fresh = ~in_cols[rw]  # (the rows of cols come from Wᵀ)
+    parts = [csr_entries(Wt), (rw[fresh], cw[fresh], vw[fresh])]
+    for m in (W, Wt):
+        m.destroy()
+    return parts
 
 
 def update_galerkin(
@@ -514,25 +630,17 @@ def update_galerkin(
     (this rank's, global, of ``P``) are new (their aggregates' rows of ``A`` or of the
     near-nullspace changed); every other column is one of ``Ac``'s (``new_of_old``: the
     new index of each of this rank's columns of ``Ac``, ``-1``: replaced) with the same
-    entries in the same rows.  ``W = Pᵀ A P_c`` (``P_c``: ``P``'s columns ``cols``) gives
-    the new columns, ``Wᵀ`` (``A`` symmetric) their rows; the pattern is that of the
-    product (the entries of ``A`` and ``P`` as stored)."""
-    Pa = column_restriction(P, cols)
-    APa = A.matMult(Pa, fill=MATMULT_FILL)
-    Wt = APa.transposeMatMult(P)  # (transposes the small A P_c, not P)
-    W = Wt.transpose(PETSc.Mat())
-    for m in (Pa, APa):
-        m.destroy()
+    entries in the same rows (:func:`new_columns_part` gives the new ones).  The pattern
+    is that of the product (the entries of ``A`` and ``P`` as stored).  ``Ac`` is
+    destroyed once its entries are read; they are mapped and inserted in chunks
+    (:data:`UPDATE_CHUNK`), so the old and the new product and their entries are not
+    held at once."""
+    parts = new_columns_part(A, P, cols)
     c0, c1 = P.getOwnershipRangeColumn()
-    in_cols = np.zeros(c1 - c0, bool)
-    in_cols[cols - c0] = True
-    rw, cw, vw = csr_entries(W)
-    fresh = ~in_cols[rw]  # (the rows of cols come from Wᵀ)
-    parts = [kept_entries(Ac, new_of_old, c0), csr_entries(Wt), (rw[fresh], cw[fresh], vw[fresh])]
-    for m in (W, Wt):
-        m.destroy()
+    old = old_entries(Ac, new_of_old, c0)
+    Ac.destroy()
     d_nnz, o_nnz = np.zeros(c1 - c0, np.int64), np.zeros(c1 - c0, np.int64)
-    for r, c, _ in parts:
+    for r, c, _ in itertools.chain(parts, old.chunks()):
         diag = (c >= c0) & (c < c1)
         d_nnz += np.bincount(r[diag], minlength=c1 - c0)
         o_nnz += np.bincount(r[~diag], minlength=c1 - c0)
@@ -542,7 +650,7 @@ def update_galerkin(
         nnz=(d_nnz.astype(PETSc.IntType), o_nnz.astype(PETSc.IntType)),
         comm=P.getComm(),
     )
-    for r, c, v in parts:
+    for r, c, v in itertools.chain(parts, old.chunks()):  # (disjoint entries)
         set_rows(new, r, c, v)
     new.assemble()
     return new
@@ -559,7 +667,7 @@ def update_levels(levels: list[MultigridLevel], opts: CompressedMGOptions) -> bo
     when a level's nodes without coarse correction changed (another aggregation)."""
     comm = levels[0].A.getComm().tompi4py()
     Z, node_of_row = fine_near_nullspace(levels[0].A)
-    changed = None
+    changed, row_map = None, None
     for k, lev in enumerate(levels[:-1]):
         agg = lev.aggregation
         isolated = isolated_rows(lev.A)
@@ -569,20 +677,20 @@ def update_levels(levels: list[MultigridLevel], opts: CompressedMGOptions) -> bo
         moved = isolated != lev.isolated if changed is None else changed
         Z[isolated] = 0.0
         agg_of_row = agg.aggregates[node_of_row]
-        P, Zc, ranks = compressed_prolongator(lev.A, Z, agg_of_row, agg.count, opts.rank_tol)
         hit = np.zeros(agg.count, bool)
         hit[agg_of_row[moved & (agg_of_row >= 0)]] = True
-        hit |= ranks != lev.ranks
+        kept = KeptColumns(lev.P, lev.ranks, lev.Zc, hit, row_map)
+        P, Zc, ranks = compressed_prolongator(lev.A, Z, agg_of_row, agg.count, opts.rank_tol, kept)
+        lev.P.destroy()  # (its kept columns copied: not held through the product)
         old_cols = np.repeat(np.where(hit, -1, ranks), lev.ranks)  # (-1 or the count)
         new_of_old = np.full(len(old_cols), -1, np.int64)
         new_of_old[old_cols >= 0] = columns_of(P, ranks, np.flatnonzero(~hit))
         cols = columns_of(P, ranks, np.flatnonzero(hit))
-        Ac = update_galerkin(lev.A, P, levels[k + 1].A, new_of_old, cols)
-        levels[k + 1].A.destroy()
-        lev.P.destroy()
-        levels[k + 1].A, lev.P, lev.isolated, lev.ranks = Ac, P, isolated, ranks
+        Ac = update_galerkin(lev.A, P, levels[k + 1].A, new_of_old, cols)  # (frees the old)
+        levels[k + 1].A, lev.P, lev.isolated, lev.ranks, lev.Zc = Ac, P, isolated, ranks, Zc
         changed = np.zeros(P.getLocalSize()[1], bool)
         changed[cols - P.getOwnershipRangeColumn()[0]] = True
+        row_map = np.where(new_of_old >= 0, new_of_old - P.getOwnershipRangeColumn()[0], -1)
         Z, node_of_row = Zc, np.repeat(np.arange(agg.count), ranks)
     return global_count(comm, np.array([not same_depth(levels, opts)])) == 0
 
