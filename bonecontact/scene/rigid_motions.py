@@ -843,8 +843,13 @@ def singular_diagnosis(
             "bodies": bodies,
             "geo": geo,
             "supports": dirichlet_sets(scene, msh, md.facet_tags, tags, bodies, geo, comm),
+            # a pair whose groups the run made itself (a crack's faces, inside one body)
+            # holds no motion between bodies:
             "masters": [
-                _present(msh, md.facet_tags, tags[c.master], bodies, comm) for c in scene.contacts
+                _present(msh, md.facet_tags, tags[c.master], bodies, comm)
+                if c.master in tags
+                else []
+                for c in scene.contacts
             ],
             "body": _block_bodies(V, bodies),
             "metric": _metric(bodies, geo),

@@ -487,6 +487,38 @@ def test_singular_active_set_names_the_free_body(meshes, case):
     assert sorted(r for r in report.split("; ") if r) == sorted(want[e] for e in expected)
 
 
+def test_diagnosis_of_a_pair_the_run_made(meshes):
+    """A pair whose groups are not among the scene's (a crack's faces, made by the run
+    inside one body) holds nothing in the diagnosis — and does not stop it: with the
+    master group left out, every active node of the disc's pair holds nothing, so the
+    rotation and the translation are reported as with no active node."""
+    comm = MPI.COMM_WORLD
+    text = _scene_text(
+        meshes["half_disc"],
+        2,
+        DISC,
+        {**CLAMP2, "cyl_top": "x"},
+        DISC_CONTACT,
+        extra='unheld_motion = "warn"',
+    )
+    path = meshes["half_disc"].parent / "made.toml"
+    if comm.rank == 0:
+        path.write_text(text)
+    comm.barrier()
+    scene = load_scene(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sm = build_model(scene, comm)
+    groups = {k: v for k, v in sm.groups.items() if k != "block_contact"}
+    diagnose = singular_diagnosis(scene, sm.mesh_data, groups, sm.model.V, sm.interfaces, comm)
+    on = np.ones(len(sm.interfaces[0].coords), dtype=bool)
+    report = diagnose([on], [on])
+    assert sorted(r for r in report.split("; ") if r) == [
+        'body "cylinder": rotation about the point (0, 0.01) is not held',
+        'body "cylinder": translation along y is not held',
+    ]
+
+
 @pytest.mark.serial
 def test_singular_run_says_which_body(meshes, tmp_shared_path):
     """The half disc with x fixed on its loaded edge, run anyway (``"warn"``): the first
