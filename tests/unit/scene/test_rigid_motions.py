@@ -448,13 +448,9 @@ ACTIVE_CASES = {
 }
 
 
-@pytest.mark.parametrize("case", sorted(ACTIVE_CASES))
-def test_singular_active_set_names_the_free_body(meshes, case):
-    """:func:`singular_diagnosis` (what a singular PDAS system reports) on given active
-    sets: the rotation about the centre (0, R) is held by no set of frictionless nodes on
-    the arc, the vertical translation only by active nodes, everything by sticking ones."""
-    comm = MPI.COMM_WORLD
-    group, nodes, stick, expected = ACTIVE_CASES[case]
+def _half_disc_model(meshes, group: str, name: str, comm):
+    """The half disc on the block with x fixed on ``group``, built anyway (``"warn"``):
+    its scene and model (the scene file ``<name>.toml`` beside the mesh)."""
     text = _scene_text(
         meshes["half_disc"],
         2,
@@ -463,14 +459,24 @@ def test_singular_active_set_names_the_free_body(meshes, case):
         DISC_CONTACT,
         extra='unheld_motion = "warn"',
     )
-    path = meshes["half_disc"].parent / "active.toml"
+    path = meshes["half_disc"].parent / f"{name}.toml"
     if comm.rank == 0:
         path.write_text(text)
     comm.barrier()
     scene = load_scene(path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sm = build_model(scene, comm)
+        return scene, build_model(scene, comm)
+
+
+@pytest.mark.parametrize("case", sorted(ACTIVE_CASES))
+def test_singular_active_set_names_the_free_body(meshes, case):
+    """:func:`singular_diagnosis` (what a singular PDAS system reports) on given active
+    sets: the rotation about the centre (0, R) is held by no set of frictionless nodes on
+    the arc, the vertical translation only by active nodes, everything by sticking ones."""
+    comm = MPI.COMM_WORLD
+    group, nodes, stick, expected = ACTIVE_CASES[case]
+    scene, sm = _half_disc_model(meshes, group, "active", comm)
     itf = sm.interfaces[0]
     x = itf.coords
     on = {
@@ -493,22 +499,7 @@ def test_diagnosis_of_a_pair_the_run_made(meshes):
     master group left out, every active node of the disc's pair holds nothing, so the
     rotation and the translation are reported as with no active node."""
     comm = MPI.COMM_WORLD
-    text = _scene_text(
-        meshes["half_disc"],
-        2,
-        DISC,
-        {**CLAMP2, "cyl_top": "x"},
-        DISC_CONTACT,
-        extra='unheld_motion = "warn"',
-    )
-    path = meshes["half_disc"].parent / "made.toml"
-    if comm.rank == 0:
-        path.write_text(text)
-    comm.barrier()
-    scene = load_scene(path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        sm = build_model(scene, comm)
+    scene, sm = _half_disc_model(meshes, "cyl_top", "made", comm)
     groups = {k: v for k, v in sm.groups.items() if k != "block_contact"}
     diagnose = singular_diagnosis(scene, sm.mesh_data, groups, sm.model.V, sm.interfaces, comm)
     on = np.ones(len(sm.interfaces[0].coords), dtype=bool)
