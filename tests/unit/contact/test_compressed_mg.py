@@ -360,6 +360,17 @@ def _eliminated(A0: PETSc.Mat, B: PETSc.Mat, rows: list[int]) -> None:
     B.zeroRowsColumns(np.asarray(rows, PETSc.IntType) + start, diag=4.0)
 
 
+def _chain_to_update(n_nodes: int = 60, bs: int = 3):
+    """The chain operator ``A0`` (nothing eliminated), its copy ``B`` to eliminate rows
+    in, with the nodal modes as near-nullspace, and those modes."""
+    A0 = _chain(n_nodes, bs, np.zeros(n_nodes * bs, bool))
+    B = A0.duplicate(copy=True)
+    B.setBlockSize(bs)
+    nns = _nodal_modes(n_nodes, bs)
+    B.setNearNullSpace(nns)
+    return A0, B, nns
+
+
 @pytest.mark.parametrize(
     "first,second",
     [
@@ -379,13 +390,8 @@ def test_update_equals_a_new_build(first, second):
     entries are summed in another order); the update is taken (it returns ``True``),
     and in each case that changes rows some aggregate's columns change (the coarse
     level's size); also when nothing changed, or only on one rank."""
-    bs, n_nodes = 3, 60
     opts = CompressedMGOptions(coarse_limit=24)
-    A0 = _chain(n_nodes, bs, np.zeros(n_nodes * bs, bool))
-    B = A0.duplicate(copy=True)
-    B.setBlockSize(bs)
-    nns = _nodal_modes(n_nodes, bs)
-    B.setNearNullSpace(nns)
+    A0, B, nns = _chain_to_update()
     if first == "rank 0":
         first, second = [], second if COMM.rank == 0 else []
     _eliminated(A0, B, first)
@@ -418,13 +424,8 @@ def test_update_equals_a_new_build(first, second):
 def test_update_refused_when_a_node_loses_its_coarse_correction():
     """All rows of a node eliminated after the build: another aggregation is needed, the
     update returns ``False`` (the caller builds anew)."""
-    bs, n_nodes = 3, 60
     opts = CompressedMGOptions(coarse_limit=24)
-    A0 = _chain(n_nodes, bs, np.zeros(n_nodes * bs, bool))
-    B = A0.duplicate(copy=True)
-    B.setBlockSize(bs)
-    nns = _nodal_modes(n_nodes, bs)
-    B.setNearNullSpace(nns)
+    A0, B, nns = _chain_to_update()
     levels = compressed_mg.build_levels(B, opts)
     _eliminated(A0, B, [9, 10, 11])
     assert not compressed_mg.update_levels(levels, opts)
