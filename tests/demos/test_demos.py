@@ -868,6 +868,8 @@ def test_knee3d_contact_carries_body_weight_and_tumour_volume(demo_runs):
     w = 1000.0
     r1, o1 = demo_runs["knee3d", 1]
     assert r1.returncode == 0, r1.stderr[-2000:]
+    # the shipped mesh was used (named by the hash of the demo's GEOMETRY and the scans)
+    assert not (o1 / "knee_bones.msh").exists(), "stale data/scenes/knee3d_joint_*.msh"
     s = json.loads((o1 / "summary.json").read_text())
     assert s["status"] == "converged" and s["small_strain_valid"] is True
     assert "allow_large_strain" not in (o1 / "knee3d.toml").read_text()
