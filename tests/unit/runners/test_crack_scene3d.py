@@ -30,8 +30,9 @@ docs/theory/fracture.md#3d-crack-fronts):
   a/6; slow: β = 30° and 45°, μ = 0 and 0.3 with the default front a/10, |K_I| ≤ 1 %.
 * a square crack of side 2a (a = 0.75 mm), front a/6: K_I at the mid-sides between the
   inscribed penny and the tunnel crack (measured 0.727 … 0.737σ√(πa)), the four equal
-  within 1.5 % (measured 0.8 %).  Slow: a regular 24-gon (circumradius a, front a/25)
-  against the equal-area penny within 3.5 % (measured −3.0 … +0.9 %).
+  within 1.5 % (measured 0.8 %).  Slow: regular 24- and 12-gons (circumradius a, front
+  a/25) against the first-order mid-edge K (Rice's front perturbation of the inscribed
+  penny: +ln 2/n) within 3.5 % and 2.5 % (measured −2.5 … +1.3 %, −1.6 … −0.8 %).
 * bad input: a crack (disc or polygon) larger than the block, crossing its surface,
   reaching into another cell group, a polygon whose edges are too short for the front
   size, exit 2 naming the key; 2 and 3 ranks give the serial K (serial test).
@@ -54,6 +55,7 @@ from coupled_support import gmsh_on_rank0, read_csv, run_text
 from bonecontact.fracture.front3d import irwin_k
 from bonecontact.runners.dispatch import check
 from bonecontact.scene import SceneError, load_scene
+from bonecontact.verification.planar_crack import polygon_mid_side_k
 from bonecontact.verification.problems import crack_block_model, crack_block_scene
 
 A = 1.0e-3  # crack radius, m
@@ -276,22 +278,36 @@ def test_square_crack(block_dir: Path) -> None:
     assert crack["length"] <= AS - AS / 6 + 1e-15  # the domain stops a front element short
 
 
+#: regular n-gons of circumradius a against the first-order mid-side K_I: (n, front size
+#: a/per_a, bound per point, bound on the mean); measured below
+POLYGONS = [(24, 25, 0.035, 0.01), (12, 25, 0.025, 0.02)]
+
+
 @pytest.mark.slow
-def test_regular_24gon(block_dir: Path) -> None:
-    """A regular 24-gon of circumradius a = 1 mm normal to the load, front a/25 (the
-    domain along an edge, 0.13a from the middle to the corners less a front element,
-    spans 2.3 front elements), K at every mid-edge: the equal-area penny,
-    2σ√(a_eff/π) with πa_eff² = 6a² sin 15° × 2 (a_eff = 0.9943a) within 3.5 % at every
-    point (measured −3.0 … +0.9 %) and 1.5 % on average (measured −0.6 %).  The
-    inscribed (0.9914a) and circumscribed (a) pennies are 0.14 % and 0.29 % away: the
-    mesh cannot tell them apart.  Its fast sibling is :func:`test_square_crack` (the same
-    code path at a/6, against the penny and tunnel-crack bounds)."""
-    tab, _, _ = _run(block_dir, "24gon", geometry=_polygon(_regular(24, A)), h=A / 25, points=1)
-    a_eff = math.sqrt(12 * math.sin(math.pi / 12) / math.pi) * A
-    ref = 2 * SIGMA * math.sqrt(a_eff / math.pi)
-    assert len(tab["K_I"]) == 24
-    np.testing.assert_allclose(tab["K_I"], ref, rtol=0.035)
-    assert abs(np.mean(tab["K_I"]) / ref - 1) < 0.015
+@pytest.mark.parametrize(("n", "per_a", "rtol", "mean_tol"), POLYGONS)
+def test_regular_polygon(block_dir: Path, n: int, per_a: int, rtol: float, mean_tol: float):
+    """A regular n-gon of circumradius a = 1 mm normal to the load, K at every mid-edge,
+    against K_I of Rice's first-order front perturbation of the inscribed penny
+    (bonecontact.verification.planar_crack: +ln 2/n, +2.90 % (n = 24), +5.85 % (n = 12);
+    the straight sides lack the circle's curvature).  Not the equal-area penny: it lies
+    2.75 % (n = 24) and 5.23 % (n = 12) below the mid-edge value (this test's reference
+    until 2026-12-02, passed then only through a front integral of the continuous q
+    plateau; the front trace of the P1 q that the volume integral uses, 84dc996, raised
+    the 24-gon's K by 3.2 %: on every edge the front nodes' trace integrates to 0.969 of
+    the continuous plateau).
+
+    24-gon at a/25 (the domain along an edge 2.3 front elements): −2.5 … +1.3 % (mean
+    −0.16 %); at a/40 −1.1 … +0.7 % (mean −0.22 %).  12-gon at a/25 (5.5 elements):
+    −1.6 … −0.8 % (mean −1.30 %); at a/40 mean −1.66 %: what first order leaves out at
+    n = 12 (its second order, a quarter of it at n = 24).  The block adds about as much
+    to the penny as the mesh takes (the disc at a/25: −0.5 … +0.3 %, mean −0.05 %).  Its
+    fast sibling is :func:`test_square_crack` (the same code path at a/6)."""
+    h = A / per_a
+    tab, _, _ = _run(block_dir, f"{n}gon", geometry=_polygon(_regular(n, A)), h=h, points=1)
+    ref = polygon_mid_side_k(SIGMA, A, n)
+    assert len(tab["K_I"]) == n
+    np.testing.assert_allclose(tab["K_I"], ref, rtol=rtol)
+    assert abs(np.mean(tab["K_I"]) / ref - 1) < mean_tol
     assert np.max(np.abs(tab["K_II"])) < 0.03 * ref
 
 
