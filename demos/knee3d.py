@@ -47,7 +47,8 @@
 # for 8 days with two analyses (days 4 and 8) and a coarser tumour surface (1.5 mm),
 # instead of 24 days with three analyses (days 8, 16, 24; 1 mm).  Time on this 2-core
 # machine, shared with other jobs (load 3–8, 2026-12-02): quick about 90 s as a notebook on
-# 1 rank (building the mesh instead of using the shipped one: 240 s more).
+# 1 rank, full 225 s on 1 rank (2.5 GB; building the mesh instead of using the shipped
+# one: 240 s more).
 # Units: SI.
 #
 # ## Mechanics
@@ -486,8 +487,11 @@ analyses = res.summary["coupling"]["analyses"]
 # What to expect (quick run, 2026-12-02): the femur turns 4.75° and the gaps under the
 # condyles go from 10.5 and 14.1 mm to 4.5 mm; the femur's contact force is $W$ to
 # 1e-8, the tibia receives 999.1 N vertically; two contact patches, one per condyle,
-# 626 mm² and 401 nodes together, the peak pressure 4.08 MPa at the medial patch's
-# centre, the mean 1.72 MPa; the total normal force 1072 N.  The tumour
+# 626 mm² and 401 nodes together, the peak pressure 4.08 MPa in the medial patch
+# (4.5 mm inside the layer's edge on the side of the tibial spine; the next nodes
+# 4.04, 3.92 MPa), the mean 1.72 MPa; the total normal force 1072 N.  Full run: the
+# same to the printed digits at days 8, 16 and 24 (peak 4.08, 4.08, 4.07 MPa) while the
+# tumour grows from 3.8 to 6.3 mm in radius.  The tumour
 # grows 16 mm below the plateau, under the cortical plate and the cartilage: it does
 # not change the contact (the peak and the area equal to the printed digits at every
 # analysis): the figure's title states the change.
