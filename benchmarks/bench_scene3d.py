@@ -32,12 +32,14 @@ peak resident memory of a rank (``ru_maxrss``: the process's peak so far; the si
 from small to large, so with one case per process, as ``run_all.sh`` runs them, it is the
 peak of that row's size).
 
-* ``knee``: the knee of ``demos/knee3d.py`` (``bonecontact.meshing.joint``: the femur
-  posed on the tibia, both cut 40 mm from the joint, 2 mm cortex and cartilage layers in
-  Coulomb contact), 700 N on the femur, a tumour in the proximal tibia; 8 days in 4-day
-  steps, an analysis at each.  Accuracy: the contact force of the last analysis on the
-  femur and on the tibia against the body weight (``force_err_femur``,
-  ``force_err_tibia``: F/W - 1 from the internal forces K u of the cartilage surfaces).
+* ``knee``: the knee of ``demos/knee3d.py`` as it was until 2026-12-02
+  (``bonecontact.meshing.joint``: the unsmoothed femur posed on the tibia, both cut 40 mm
+  from the joint, 2 mm cortex and uniform 2 mm cartilage layers in Coulomb contact; the
+  demo now ships a valid knee with a lowered tibial layer), 700 N on the femur, a tumour
+  in the proximal tibia; 8 days in 4-day steps, an analysis at each.  Accuracy: the
+  contact force of the last analysis on the femur and on the tibia against the body
+  weight (``force_err_femur``, ``force_err_tibia``: F/W - 1 from the internal forces K u
+  of the cartilage surfaces).
 
 Accuracy (``lame``): the cyst cavity of ``tests/unit/runners/test_coupled3d.py``, a cyst
 grown for one year at the centre of a ball of radius 20 mm clamped at its surface, mesh
@@ -334,7 +336,7 @@ fields_every = 1
 
 
 def knee(work: Path, size: tuple) -> tuple[str, dict]:
-    """demos/knee3d.py's knee: the shipped femur posed on the tibia (``pose_on``, 4.5 mm
+    """demos/knee3d.py's former knee: the shipped femur posed on the tibia (``pose_on``, 4.5 mm
     for two 2 mm cartilage layers), both cut 40 mm from the joint, 2 mm cortex, the
     demo's cartilage facet rules, Coulomb pair (mu 0.1, femur slave), 700 N on the
     femur's cut (guided u_x = u_z = 0), tibia held at its cut; the 3 mm tumour 16 mm below
