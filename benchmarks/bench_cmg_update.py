@@ -8,7 +8,14 @@ variant, alternating over ``--rounds`` rounds so that all see the same machine l
 * ``before``: every hierarchy built anew for a new set (``local_update = False``) and
   the coarsest level factorised by LU — the code before 2026-12-02 10:00 UTC;
 * ``update``: new sets update the kept hierarchy (``local_update``), LU;
-* ``after``: the defaults (update, Cholesky coarse factor).
+* ``previous``: update, Cholesky — the defaults before 2026-12-02 13:30 UTC;
+* ``unscaled``: ``after`` with the warm start as it is;
+* ``after``: the defaults: update, Cholesky coarse factor by MUMPS
+  (``coarse_solver``), the smoothers' intervals kept by updates (``reuse_bounds``),
+  the rescaled warm start (``KrylovStrategy.scale_guess``).
+
+(``before``/``update``/``previous`` as the code was: PETSc's own coarse factorisation,
+the intervals estimated at every set-up, the warm start as it is.)
 
 Per solve: PDAS and CG iterations (per PDAS iteration), builds and of them updates,
 PETSc operations (summed over the ranks; independent of the load), wall time, CPU time
@@ -50,10 +57,26 @@ from bonecontact.verification.load_driven import hertz_errors, sphere_on_block_3
 
 COMM = MPI.COMM_WORLD
 OUT = Path(__file__).parent / "results"
+#: The defaults before 2026-12-02 13:30 UTC: PETSc's own coarse factorisation, every
+#: set-up estimating the smoothers' intervals, the warm start as it is.
+OLD = {"coarse_solver": "petsc", "reuse_bounds": False, "scale_guess": False}
 VARIANTS = {
-    "before": {"local_update": False, "coarse_factor": "lu"},
-    "update": {"local_update": True, "coarse_factor": "lu"},
-    "after": {"local_update": True, "coarse_factor": "cholesky"},
+    "before": {"local_update": False, "coarse_factor": "lu", **OLD},
+    "update": {"local_update": True, "coarse_factor": "lu", **OLD},
+    "previous": {"local_update": True, "coarse_factor": "cholesky", **OLD},
+    "unscaled": {
+        "local_update": True,
+        "coarse_factor": "cholesky",
+        "coarse_solver": "mumps",
+        "reuse_bounds": True,
+        "scale_guess": False,
+    },
+    "after": {
+        "local_update": True,
+        "coarse_factor": "cholesky",
+        "coarse_solver": "mumps",
+        "reuse_bounds": True,
+    },
 }
 
 
@@ -63,7 +86,9 @@ def solve_once(pb, name: str, ref: np.ndarray | None) -> tuple[dict, np.ndarray]
     pc = solver.ksp.getPC()
     ctx = pc.getPythonContext()
     ctx.destroy(pc)  # (a cold start: no hierarchy, no aggregation kept)
-    ctx.options = dataclasses.replace(ctx.options, **VARIANTS[name])
+    fields = dict(VARIANTS[name])
+    solver.linear_solver.scale_guess = fields.pop("scale_guess", True)
+    ctx.options = dataclasses.replace(ctx.options, **fields)
     solver.pc_reuse.forget()
     solver.reset()
     integ.u.x.array[:] = 0.0

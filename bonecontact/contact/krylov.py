@@ -46,6 +46,7 @@ __all__ = [
     "configure_condensed_ksp",
     "krylov_rtol",
     "reduction_decades",
+    "scale_initial_guess",
     "set_multigrid",
 ]
 
@@ -296,6 +297,54 @@ def reduction_decades(ksp: PETSc.KSP) -> float:
     if len(hist) < 2 or not hist[-1] > 0.0 or not hist[0] > 0.0:
         return 0.0
     return float(max(np.log10(hist[0] / hist[-1]), 0.0))
+
+
+#: :func:`scale_initial_guess` keeps a warm start whose best factor is within this of 1:
+#: then its error is where the set changed, not in its overall size, and a factor
+#: near 1 only spreads that error over the field (measured on the 4.5k-dof clamped 3D
+#: problem: 0.998 took the second solve from 5 to 6 CG iterations; the load-driven
+#: 65k-dof hemisphere's 0.063 took it from 15 to 11).
+SCALE_KEEP_WITHIN = 0.1
+
+
+def scale_initial_guess(
+    B: PETSc.Mat,
+    rhs: PETSc.Vec,
+    x: PETSc.Vec,
+    eliminated: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    keep_within: float = SCALE_KEEP_WITHIN,
+) -> float:
+    """Rescale the warm start ``x`` of the symmetric system ``B x = rhs`` in place
+    (docs/theory/pdas.md#scaled-warm-start): with ``y`` = ``x`` with the eliminated rows
+    zeroed, ``x ← α y + s`` where ``s`` holds ``values`` in the eliminated rows (this
+    rank's local indices ``eliminated``: ``B``'s decoupled scaled identity rows, solved
+    exactly by their values) and ``α = yᵀ(rhs − B s) / yᵀ B y`` minimises the energy norm
+    of the error on that line (``yᵀ B s = 0``: the columns of eliminated rows are zero).
+    ``α`` is 0 for ``y = 0`` (a first solve), 1 when ``x`` solves the system already,
+    ``1/c`` when ``x`` is ``c`` times its solution.  ``x`` is left as it is when
+    ``|α − 1| ≤ keep_within`` (:data:`SCALE_KEEP_WITHIN`).  One product with ``B``.
+
+    Returns
+    -------
+    float
+        The factor ``α``.
+    """
+    y = x.copy()
+    y.array[eliminated] = 0.0
+    By = y.duplicate()
+    B.mult(y, By)
+    den = By.dot(y)
+    alpha = rhs.dot(y) / den if den > 0.0 else 0.0
+    By.destroy()
+    if abs(alpha - 1.0) <= keep_within:
+        y.destroy()
+        return float(alpha)
+    y.scale(alpha)
+    y.array[eliminated] = values
+    y.copy(x)
+    y.destroy()
+    return float(alpha)
 
 
 @dataclass

@@ -91,12 +91,15 @@ def _run(
     keep=True,
     update=True,
     factor="cholesky",
+    solver="mumps",
+    bounds=True,
 ) -> dict:
     """One contact solve: displacement (owned), pressure, status, PDAS and CG iterations
     and, with the compressed hierarchy (aggregations kept across rebuilds: ``keep``;
     hierarchies updated for a new set: ``update``; coarsest level factorised by
-    ``factor``), its first level, its builds and the geometry of the nodes."""
-    key = (kind, dim, linear, cycle, multigrid, keep, update, factor)
+    ``factor`` by ``solver``; updated hierarchies keep their smoothers' intervals:
+    ``bounds``), its first level, its builds and the geometry of the nodes."""
+    key = (kind, dim, linear, cycle, multigrid, keep, update, factor, solver, bounds)
     if key in _CACHE:
         return _CACHE[key]
     options = None
@@ -105,7 +108,12 @@ def _run(
         options = PDASOptions(linear=lin)
     build = _load_driven if kind == "load-driven" else _clamped
     made = functools.partial(
-        CompressedMGOptions, reuse_aggregates=keep, local_update=update, coarse_factor=factor
+        CompressedMGOptions,
+        reuse_aggregates=keep,
+        local_update=update,
+        coarse_factor=factor,
+        coarse_solver=solver,
+        reuse_bounds=bounds,
     )
     saved, krylov.CompressedMGOptions = krylov.CompressedMGOptions, made
     try:
@@ -179,9 +187,11 @@ def test_coarse_grid_has_the_columns_of_the_rigid_motions(kind, dim):
 def test_kept_aggregations_keep_the_answer_and_iterations(kind, dim):
     """Aggregations kept across the rebuilds of the PDAS sets (the default): the direct
     path's set and answer, every build after the first keeps every level's aggregation,
-    at most one CG iteration more in all than aggregating anew at every build (measured:
-    equal or fewer), and at most 10 % more than GAMG's path (measured 2D 48/52, 32/33;
-    3D 32/37, 29/27)."""
+    at most two CG iterations more in all than aggregating anew at every build
+    (measured: equal, and 48 against 46 on the 2D load-driven case since the rescaled
+    warm start, which took the fresh hierarchies' second solve from 12 to 10 iterations
+    and left the kept ones' at 11), and at most 10 % more than GAMG's path (measured
+    2D 48/51, 32/33; 3D 32/37, 29/27)."""
     direct = _run(kind, dim, "direct")
     kept, fresh = _run(kind, dim, "iterative"), _run(kind, dim, "iterative", keep=False)
     gamg = _run(kind, dim, "iterative", multigrid="gamg")
@@ -194,7 +204,7 @@ def test_kept_aggregations_keep_the_answer_and_iterations(kind, dim):
     assert kept["builds"] >= direct["pdas"] and levels >= 1
     assert kept["kept_levels"] == (kept["builds"] - 1) * levels
     assert fresh["kept_levels"] == 0
-    assert sum(kept["its"]) <= sum(fresh["its"]) + 1
+    assert sum(kept["its"]) <= sum(fresh["its"]) + 2
     assert sum(kept["its"]) <= 1.1 * sum(gamg["its"])
 
 
@@ -297,8 +307,11 @@ def test_updated_hierarchy_gives_the_answer_of_a_built_one(kind, dim):
     of building it anew: the same sets node by node, PDAS iterations and CG iterations
     per PDAS iteration as with every hierarchy built (the same preconditioner up to
     rounding), the displacement to 1e-10 and the pressure to 1e-9; every build after
-    the first is an update (measured: all)."""
-    updated, built = _run(kind, dim, "iterative"), _run(kind, dim, "iterative", update=False)
+    the first is an update (measured: all).  Both with the smoothers' intervals
+    estimated at every set-up (an update keeps them by default: compared in
+    :func:`test_kept_smoother_intervals_give_the_answer_of_new_estimates`)."""
+    updated = _run(kind, dim, "iterative", bounds=False)
+    built = _run(kind, dim, "iterative", update=False, bounds=False)
     assert updated["status"] == built["status"]
     assert updated["pdas"] == built["pdas"]
     assert updated["its"] == built["its"]
@@ -321,10 +334,67 @@ def test_cholesky_coarse_grid_gives_the_answer_of_lu(kind, dim):
     assert _rel_max(chol["p"], lu["p"]) < 1e-9
 
 
+@pytest.mark.parametrize(
+    "kind,dim,factor",
+    [(k, d, f) for k in ("load-driven", "clamped") for d in (2, 3) for f in ("cholesky", "lu")],
+)
+def test_mumps_coarse_grid_gives_the_answer_of_petscs(kind, dim, factor):
+    """The coarsest level factorised by MUMPS (the default) against PETSc's own
+    factorisation of the same kind: the same sets, PDAS and CG iterations per PDAS
+    iteration, displacement to 1e-10, pressure to 1e-9 (two direct solves of the same
+    coarse system; measured at 65k dofs 3e-14)."""
+    mumps = _run(kind, dim, "iterative", factor=factor)
+    petsc = _run(kind, dim, "iterative", factor=factor, solver="petsc")
+    assert mumps["status"] == petsc["status"]
+    assert mumps["pdas"] == petsc["pdas"]
+    assert mumps["its"] == petsc["its"]
+    assert _rel_max(mumps["u"], petsc["u"]) < 1e-10
+    assert _rel_max(mumps["p"], petsc["p"]) < 1e-9
+
+
+@pytest.mark.parametrize("kind,dim", [(k, d) for k in ("load-driven", "clamped") for d in (2, 3)])
+def test_kept_smoother_intervals_give_the_answer_of_new_estimates(kind, dim):
+    """Updated hierarchies keeping every level's Chebyshev interval from the build (the
+    default) against intervals estimated anew at every set-up: the same sets and PDAS
+    iterations, at most one CG iteration more in all, displacement and pressure within
+    the Krylov tolerance's 1e-6 of each other (measured: the same iterations)."""
+    kept, new = _run(kind, dim, "iterative"), _run(kind, dim, "iterative", bounds=False)
+    assert kept["updates"] >= 1
+    assert kept["status"] == new["status"]
+    assert kept["pdas"] == new["pdas"]
+    assert sum(kept["its"]) <= sum(new["its"]) + 1
+    assert _rel_max(kept["u"], new["u"]) < 1e-6
+    assert _rel_max(kept["p"], new["p"]) < 1e-6
+
+
+@pytest.mark.parametrize("n", [50, 400])
+def test_chebyshev_interval_of_a_laplacian(n):
+    """The smoother's interval of the 1D Laplacian (Dirichlet ends), whose Jacobi-scaled
+    eigenvalues are ``1 − cos(kπ/(n+1))``: from 10 CG steps the largest estimate ``e`` is
+    at most the largest eigenvalue (a Ritz value) and within 2 % of it, and the interval
+    is ``(0.05 e, 1.05 e)``, covering the largest eigenvalue."""
+    A = PETSc.Mat().createAIJ(((PETSc.DECIDE, n), (PETSc.DECIDE, n)), nnz=(3, 2), comm=COMM)
+    r0, r1 = A.getOwnershipRange()
+    for i in range(r0, r1):
+        cols = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
+        A.setValues([i], cols, [2.0 if j == i else -1.0 for j in cols])
+    A.assemble()
+    lam = 1.0 + np.cos(np.pi / (n + 1))
+    lo, hi = compressed_mg.chebyshev_bounds(A, 10, "cg")
+    A.destroy()
+    e = hi / 1.05
+    assert lo == pytest.approx(0.05 * e, rel=1e-12)
+    assert 0.98 * lam <= e <= lam * (1.0 + 1e-10)
+    assert hi >= lam
+
+
 def test_coarse_factor_is_checked():
-    """An unknown coarse factorisation is refused, naming the allowed ones."""
+    """An unknown coarse factorisation or factoring package is refused, naming the
+    allowed ones."""
     with pytest.raises(ValueError, match="'cholesky' or 'lu'"):
         CompressedMGOptions(coarse_factor="qr")
+    with pytest.raises(ValueError, match="'mumps' or 'petsc'"):
+        CompressedMGOptions(coarse_solver="superlu")
 
 
 def _nodal_modes(n_nodes: int, bs: int) -> PETSc.NullSpace:
