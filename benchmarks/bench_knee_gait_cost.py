@@ -25,14 +25,26 @@ small dense systems and set logic (``solve`` minus those); columns ``*_cpu_s``, 
 step.  The ``phases_s`` of both
 runs' summary.json are copied into the row (wall, whole run).
 
+``--dt`` replaces the scene's step (20 ms): the zone's growth (steps up to
+``SETTLED`` = 0.18 s, the load rising to 2.5 W at 0.15 s) is then spread over more
+steps.  Reported: the ratio of the steps after the first (``ratio_cpu``), of the growing
+steps (t < 0.18 s) and of the settled ones (t ≥ 0.18 s), and of every step including the
+first (``ratio_cpu_all``; not like for like: the contact run's first step carries the
+split basis's factorisation and the cold start's columns, the free run factorises in its
+set-up, outside the steps); ``--json`` writes the row with every
+step's CPU time of both runs and the column blocks of each step (size, with the base
+solve or not) to a JSON file, the load (``os.getloadavg``) before and after each run.
+
 Usage:  python benchmarks/bench_knee_gait_cost.py [--h-mm 3.4 --refine 1] [--t-end 0.6]
-        [--memory-ratio 0.05] [--out benchmarks/results/knee_gait_cost.csv]
+        [--dt 0.02] [--memory-ratio 0.05] [--out benchmarks/results/knee_gait_cost.csv]
+        [--json benchmarks/results/knee_gait_cost_dt.json]
 """
 
 import dolfinx_solver  # noqa: F401
 
 import argparse
 import json
+import os
 import re
 import sys
 import time
@@ -54,6 +66,8 @@ COMM = MPI.COMM_WORLD
 ROOT = Path(__file__).resolve().parent.parent
 DEMO = ROOT / "demos" / "knee3d_gait.py"
 SCENE = ROOT / "data" / "scenes" / "knee3d_gait.toml"
+#: time (s) from which the gait's contact zone has settled (no column block after it)
+SETTLED = 0.18
 
 
 def build_mesh(h_mm: float, out: Path) -> Path:
@@ -99,10 +113,13 @@ def refined(mesh: Path, times: int) -> Path:
     return out
 
 
-def scene_file(mesh: Path, out: Path, contact: bool, t_end: float) -> Path:
-    """The shipped gait scene on ``mesh`` (with or without its contact pair)."""
+def scene_file(mesh: Path, out: Path, contact: bool, t_end: float, dt: float = 0.0) -> Path:
+    """The shipped gait scene on ``mesh`` (with or without its contact pair; with the
+    step ``dt`` if > 0)."""
     text = SCENE.read_text().replace('mesh = "knee3d_gait.msh"', f'mesh = "{mesh}"')
     text = re.sub(r"\nt_end = .*\n", f"\nt_end = {t_end}\n", text, count=1)
+    if dt > 0:
+        text = re.sub(r"\ndt = .*\n", f"\ndt = {dt}\n", text, count=1)
     if not contact:
         text = text.replace(text[text.index("[[contact]]") : text.index("[[dirichlet]]")], "")
     path = out / f"knee3d_gait_{'contact' if contact else 'free'}.toml"
@@ -118,9 +135,12 @@ class StepClock:
     def __init__(self):
         self.cpu: list[float] = []
         self.wall: list[float] = []
+        #: per step, the column blocks of the contact solver: (columns, with the base solve)
+        self.blocks: list[list[tuple[int, bool]]] = []
         f = StabilizedNewmark.step
 
         def step(integ, *a, **k):
+            self.blocks.append([])
             c0, t0 = time.process_time(), time.perf_counter()
             try:
                 return f(integ, *a, **k)
@@ -133,6 +153,12 @@ class StepClock:
 
     def restore(self) -> None:
         StabilizedNewmark.step = self._orig
+
+    def per_step(self) -> np.ndarray:
+        """CPU time of every step (s, max over ranks)."""
+        cpu = np.asarray(self.cpu, dtype=np.float64)
+        COMM.Allreduce(MPI.IN_PLACE, cpu, op=MPI.MAX)
+        return cpu
 
     def means(self) -> tuple[float, float, int]:
         """Mean CPU and wall time of the steps after the first, their number."""
@@ -161,6 +187,14 @@ def run(scene: Path, out: Path, memory_ratio: float) -> tuple[dict, StepClock, P
     ]
     for cls, name, _ in saved:
         ph.wrap(cls, name, name.strip("_"))
+    block = LowRankActiveSetSolver._compute_block
+    saved.append((LowRankActiveSetSolver, "_compute_block", block))
+
+    def logged_block(self, qs, rhs=None):
+        clock.blocks[-1].append((len(qs), rhs is not None))
+        return block(self, qs, rhs)
+
+    LowRankActiveSetSolver._compute_block = logged_block
     try:
         res = run_scene(load_scene(scene), COMM, output=out, progress=False)
     finally:
@@ -173,6 +207,22 @@ def run(scene: Path, out: Path, memory_ratio: float) -> tuple[dict, StepClock, P
     return res.summary, clock, ph
 
 
+def split_ratios(free: np.ndarray, contact: np.ndarray, dt: float) -> dict:
+    """Contact/free CPU ratios of the steps after the first, of the growing steps
+    (t < :data:`SETTLED`), of the settled ones and of every step (with the first)."""
+    t = dt * np.arange(1, contact.size + 1)
+    grow = (t < SETTLED - 1e-9) & (np.arange(contact.size) > 0)
+    settled = t >= SETTLED - 1e-9
+    out = {
+        "ratio_cpu_growing": float(contact[grow].mean() / free[grow].mean()),
+        "ratio_cpu_settled": float(contact[settled].mean() / free[settled].mean()),
+        "ratio_cpu_all": float(contact.sum() / free.sum()),  # (not like for like: below)
+        "extra_growing_s": float((contact[grow] - free[grow]).sum()),
+        "extra_settled_s": float((contact[settled] - free[settled]).sum()),
+    }
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--h-mm", type=float, default=3.4, help="element size (mm)")
@@ -181,16 +231,20 @@ def main() -> None:
     ap.add_argument("--memory-ratio", type=float, default=0.05)
     ap.add_argument("--work", default="/tmp/knee_gait_cost", help="meshes and run outputs")
     ap.add_argument("--out", default="benchmarks/results/knee_gait_cost.csv")
+    ap.add_argument("--dt", type=float, default=0.02, help="time step (s)")
+    ap.add_argument("--json", default="", help="also write the row and per-step data here")
     a = ap.parse_args()
     work = Path(a.work) / f"h{a.h_mm}"
     t0 = time.perf_counter()
     mesh = refined(build_mesh(a.h_mm, work), a.refine)
     t_mesh = time.perf_counter() - t0
-    rows = {}
+    rows, loads = {}, []
     for contact in (False, True):
-        scene = scene_file(mesh, work, contact, a.t_end)
+        scene = scene_file(mesh, work, contact, a.t_end, a.dt)
         out = work / ("contact" if contact else "free")
+        loads.append(os.getloadavg()[0])
         rows[contact] = run(scene, out, a.memory_ratio)
+    loads.append(os.getloadavg()[0])
     (s_free, c_free, _), (s_con, c_con, ph) = rows[False], rows[True]
     cpu_f, wall_f, n_f = c_free.means()
     cpu_c, wall_c, n_c = c_con.means()
@@ -207,6 +261,10 @@ def main() -> None:
         free_step_cpu_s=cpu_f,
         contact_step_cpu_s=cpu_c,
         ratio_cpu=cpu_c / cpu_f,
+        dt=a.dt,
+        **split_ratios(c_free.per_step(), c_con.per_step(), a.dt),
+        blocks=sum(len(b) for b in c_con.blocks),
+        columns=sum(k for b in c_con.blocks for k, _ in b),
         free_step_s=wall_f,
         contact_step_s=wall_c,
         ratio=wall_c / wall_f,
@@ -217,10 +275,14 @@ def main() -> None:
     row["phases_contact"] = json.dumps(s_con.get("phases_s", {}))
     row["phases_free"] = json.dumps(s_free.get("phases_s", {}))
     row["machine"] = machine() + " (busy)"
+    row["load_1min"] = "/".join(f"{v:.1f}" for v in loads)
     if COMM.rank == 0:
         print({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})
     out = Path(a.out)
     write_rows(out.parent, out.stem, [row])
+    if a.json and COMM.rank == 0:
+        data = {**row, "free_cpu": c_free.cpu, "contact_cpu": c_con.cpu, "blocks": c_con.blocks}
+        Path(a.json).write_text(json.dumps(data, indent=1))
 
 
 if __name__ == "__main__":
