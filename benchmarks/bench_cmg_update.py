@@ -9,9 +9,12 @@ variant, alternating over ``--rounds`` rounds so that all see the same machine l
   the coarsest level factorised by LU — the code before 2026-12-02 10:00 UTC;
 * ``update``: new sets update the kept hierarchy (``local_update``), LU;
 * ``previous``: update, Cholesky — the defaults before 2026-12-02 13:30 UTC;
-* ``unscaled``: ``after`` with the warm start as it is;
-* ``after``: the defaults: update, Cholesky coarse factor by MUMPS
-  (``coarse_solver``), the smoothers' intervals kept by updates (``reuse_bounds``),
+* ``unscaled``: ``after`` with the warm start as it is, coarse factor by MUMPS;
+* ``petsc_coarse``: ``after`` with PETSc's own coarse factorisation;
+* ``mumps_coarse``: ``after`` with the coarse factorisation by MUMPS;
+* ``after``: the defaults: update, Cholesky coarse factor (``coarse_solver = "auto"``:
+  MUMPS on several ranks, PETSc's own on one), the smoothers' intervals kept by
+  updates (``reuse_bounds``),
   the rescaled warm start (``KrylovStrategy.scale_guess``).
 
 (``before``/``update``/``previous`` as the code was: PETSc's own coarse factorisation,
@@ -71,10 +74,22 @@ VARIANTS = {
         "reuse_bounds": True,
         "scale_guess": False,
     },
-    "after": {
+    "petsc_coarse": {
+        "local_update": True,
+        "coarse_factor": "cholesky",
+        "coarse_solver": "petsc",
+        "reuse_bounds": True,
+    },
+    "mumps_coarse": {
         "local_update": True,
         "coarse_factor": "cholesky",
         "coarse_solver": "mumps",
+        "reuse_bounds": True,
+    },
+    "after": {
+        "local_update": True,
+        "coarse_factor": "cholesky",
+        "coarse_solver": "auto",
         "reuse_bounds": True,
     },
 }
