@@ -22,7 +22,11 @@ volume re-meshed around the crack.
   a/10); K_II, K_III below 3 % of K_I;
 * a cylinder (radius 1, the crack plane normal to its axis, a = c = 0.15): the front's
   ends stop short of the major axis (a convex surface), on the cylinder;
-* bad input: a centre away from the surface, a plane tangent to the surface.
+* bad input: a centre away from the surface, a plane tangent to the surface;
+* the nearest boundary triangle (the crack centre's facet) by distance: against the closed
+  forms for a right triangle and against a dense sampling of random triangles; a centre on
+  a large facet whose centroid is farther than a small facet of another surface nearby
+  (the vertebra demo's wall and cavity) is accepted on its own facet.
 
 Every case runs on 1, 2 and 3 ranks against the same references (the mesh is built on
 rank 0 from the boundary gathered in a canonical order: the same mesh on every count).
@@ -48,9 +52,11 @@ from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface3d import PLATE_GROUPS, domain_length
 from bonecontact.fracture.surface_body3d import (
     SNAP_FRACTION,
+    crack_frame,
     cut_mouth,
     inside_body,
     mesh_body_with_surface_crack,
+    triangle_distance,
 )
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
@@ -178,6 +184,48 @@ def test_bad_input_names_the_key(plate) -> None:
         cut_mouth(plate, SurfaceBreakingCrack((0.0, 0.0, -0.5), (0.0, 1.0, 0.0), 0.1, 0.1))
     with pytest.raises(ParameterError, match="normal"):
         cut_mouth(plate, SurfaceBreakingCrack((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.1, 0.1))
+
+
+@pytest.mark.parametrize(
+    "x, d",
+    [
+        ((0.2, 0.2, 0.5), 0.5),  # above the inside: the plane
+        ((2.0, 0.0, 0.0), 1.0),  # beyond a corner
+        ((-1.0, -1.0, 0.0), math.sqrt(2.0)),  # beyond the right-angle corner
+        ((1.0, 1.0, 0.0), math.sqrt(0.5)),  # beyond the hypotenuse
+        ((0.5, -1.0, 2.0), math.sqrt(5.0)),  # off an edge and the plane
+    ],
+)
+def test_triangle_distance_closed_form(x, d: float) -> None:
+    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
+    assert triangle_distance(tri, np.array(x))[0] == pytest.approx(d, rel=1e-14)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_triangle_distance_against_sampling(seed: int) -> None:
+    """Never above the distance of the nearest of 20k sampled points of the triangle,
+    below it by less than the sampling's spacing."""
+    rng = np.random.default_rng(seed)
+    tri = rng.normal(size=(6, 3, 3))
+    x = rng.normal(size=3) * 2.0
+    w = rng.dirichlet(np.ones(3), size=20000)
+    for t, d in zip(tri, triangle_distance(tri, x), strict=True):
+        sampled = np.linalg.norm(w @ t - x, axis=1).min()
+        h = np.linalg.norm(t - np.roll(t, 1, axis=0), axis=1).max()
+        assert d <= sampled + 1e-12 and sampled - d < 0.05 * h
+
+
+def test_centre_on_a_large_facet_next_to_a_small_one() -> None:
+    """A centre on an 8 mm facet (its centroid 1.67 mm off) with a 1 mm facet of another
+    surface 1.2 mm below it (centroid 1.50 mm off): the frame's centre stays where it was given."""
+    nodes = np.array(
+        [[-4.0, -2.0, 0.0], [4.0, -2.0, 0.0], [0.0, 6.0, 0.0]]
+        + [[0.0, -0.5, -1.2], [1.0, -0.5, -1.2], [0.0, 0.5, -1.2]]
+    )
+    conn = np.array([[0, 1, 2], [3, 4, 5]])
+    crack = SurfaceBreakingCrack((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), 0.25, 0.25)
+    _, placed = crack_frame(crack, nodes, conn)
+    np.testing.assert_allclose(placed.centre, crack.centre, atol=1e-15)
 
 
 def _solve(body, a: float, c: float, h: float):
