@@ -281,7 +281,8 @@ def main() -> None:
     out = Path(a.out)
     write_rows(out.parent, out.stem, [row])
     if a.json and COMM.rank == 0:
-        data = {**row, "free_cpu": c_free.cpu, "contact_cpu": c_con.cpu, "blocks": c_con.blocks}
+        steps = {"free_cpu": c_free.cpu, "contact_cpu": c_con.cpu, "step_blocks": c_con.blocks}
+        data = {**row, **steps}
         Path(a.json).write_text(json.dumps(data, indent=1))
 
 
