@@ -316,7 +316,10 @@ def copy_kept_columns(
 ) -> None:
     """Into the new prolongator's ``csr`` (rows sized) and ``Zc``: the entries and coarse
     near-nullspace rows of the aggregates not in ``kept.hit``, from ``kept`` (their
-    columns moved from the old first column of the aggregate to the new, ``offsets``)."""
+    columns moved from the old first column of the aggregate to the new, ``offsets``),
+    in chunks of rows (:func:`row_chunks`): the copy's index arrays of the whole
+    prolongator were the 65k-dof run's peak (19 MiB above the resident memory, at the
+    first update of the hierarchy; issue 28)."""
     indptr, indices, data = csr
     ia, ja, a = kept.P.getValuesCSR()
     old = np.concatenate([[0], np.cumsum(kept.ranks)])
@@ -325,12 +328,14 @@ def copy_kept_columns(
     new_row = np.arange(n_old) if kept.row_map is None else kept.row_map
     agg = np.where(new_row >= 0, agg_of_row[np.maximum(new_row, 0)], -1)
     copy = (agg >= 0) & ~kept.hit[np.maximum(agg, 0)]
-    row = np.repeat(np.arange(n_old, dtype=PETSc.IntType), np.diff(ia))
-    sel = copy[row]
-    row = row[sel]
-    dest = indptr[new_row[row]] + (np.flatnonzero(sel) - ia[row])
-    indices[dest] = ja[sel] + shift[agg[row]]
-    data[dest] = a[sel]
+    for r0, r1 in row_chunks(ia):  # (the index temporaries of one chunk at a time)
+        e0, e1 = int(ia[r0]), int(ia[r1])
+        row = np.repeat(np.arange(r0, r1, dtype=PETSc.IntType), np.diff(ia[r0 : r1 + 1]))
+        sel = copy[row]
+        row = row[sel]
+        dest = indptr[new_row[row]] + (e0 + np.flatnonzero(sel) - ia[row])
+        indices[dest] = ja[e0:e1][sel] + shift[agg[row]]
+        data[dest] = a[e0:e1][sel]
     same = np.flatnonzero(~kept.hit)
     counts = kept.ranks[same]
     within = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
@@ -413,15 +418,14 @@ class CompressedMGOptions:
     #: 280 → 115 Mflop per set-up, the same iterations) or ``"lu"`` (nonsymmetric).
     coarse_factor: str = "cholesky"
     #: Who factorises the coarsest level: ``"mumps"``, PETSc's own (``"petsc"``), or
-    #: ``"auto"``: MUMPS when the operator lives on several ranks (the coarse grid is
-    #: then factorised on one of them while the others wait), PETSc's own on one rank.
-    #: The factorisation is redone at every build and update; PETSc's own Cholesky of
-    #: the AIJ coarse operator took 0.10–0.11 s of CPU per set-up at 65k dofs (1620
-    #: equations, 0.26 million nonzeros), MUMPS's 0.018 s, with a coarse solve of
-    #: 0.9 ms against 0.45 ms (two per cycle); the same CG iterations.  MUMPS's copies
-    #: of the operator and its workspace raised the 65k-dof run's peak by 2–4 MiB
-    #: (399.0–400.4 against 397.5 MiB, above the 417 MB = 397.7 MiB of issue 28's
-    #: peer), hence PETSc's own on one rank.
+    #: ``"auto"``: MUMPS (on several ranks the coarse grid is factorised on one of them
+    #: while the others wait).  The factorisation is redone at every build and update;
+    #: PETSc's own Cholesky of the AIJ coarse operator took 0.10–0.11 s of CPU per
+    #: set-up at 65k dofs (1620 equations, 0.26 million nonzeros), MUMPS's 0.018 s,
+    #: with a coarse solve of 0.9 ms against 0.45 ms (two per cycle); the same CG
+    #: iterations.  MUMPS's memory left the 65k-dof run's peak (the first update's
+    #: copy of the kept prolongator, :func:`copy_kept_columns`) 3.4 MiB higher:
+    #: 394.8 MiB with the copy by chunks, below the 417 MB = 397.7 MiB of issue 28's peer.
     coarse_solver: str = "auto"
     #: Chebyshev/Jacobi smoothing steps per level and visit.
     smooth_steps: int = 2
@@ -557,9 +561,19 @@ def csr_entries(M: PETSc.Mat) -> tuple[npt.NDArray, ...]:
     return np.repeat(np.arange(len(ia) - 1, dtype=PETSc.IntType), np.diff(ia)), ja, v
 
 
-#: Entries of the old coarse operator mapped at once by an update (bounds the update's
-#: transient arrays: mapping all at once made the update the 65k run's peak, +18 MiB).
+#: Entries of the old coarse operator mapped, or of the kept prolongator copied, at once
+#: by an update (bounds the update's transient arrays: mapping all at once made the
+#: update the 65k run's peak, +18 MiB; so did the copy, +19 MiB).
 UPDATE_CHUNK = 1 << 17
+
+
+def row_chunks(ia: npt.NDArray) -> Iterator[tuple[int, int]]:
+    """Consecutive row ranges ``[r0, r1)`` of a CSR row pointer ``ia`` holding about
+    :data:`UPDATE_CHUNK` entries each (a row is never split)."""
+    n = len(ia) - 1
+    cuts = np.searchsorted(ia, np.arange(UPDATE_CHUNK, ia[-1], UPDATE_CHUNK))
+    cuts = np.unique(np.concatenate([[0], cuts, [n]]))
+    yield from zip(cuts[:-1].tolist(), cuts[1:].tolist())
 
 
 @dataclass
@@ -580,10 +594,8 @@ class OldEntries:
         entries at a time, by new local row: (row, new global column, value)."""
         c0, c1 = self.col_range
         remote, mapped = self.remote
-        ia, n = self.ia, len(self.ia) - 1
-        cuts = np.searchsorted(ia, np.arange(UPDATE_CHUNK, ia[-1], UPDATE_CHUNK))
-        cuts = np.unique(np.concatenate([[0], cuts, [n]]))
-        for r0, r1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+        ia = self.ia
+        for r0, r1 in row_chunks(ia):
             e0, e1 = int(ia[r0]), int(ia[r1])
             j = self.ja[e0:e1]
             rows = np.repeat(np.arange(r0, r1), np.diff(ia[r0 : r1 + 1]))
@@ -732,15 +744,15 @@ def _coarse_options(
     nranks: int, factor: str = "cholesky", solver: str = "auto"
 ) -> dict[str, object]:
     """PETSc options of the coarse solve: the factorisation ``factor`` (``"cholesky"`` or
-    ``"lu"``) by ``solver`` (``"mumps"``, PETSc's own ``"petsc"``, or ``"auto"``: MUMPS on
-    several ranks, PETSc's own on one), on one rank
+    ``"lu"``) by ``solver`` (``"mumps"``, PETSc's own ``"petsc"``, or ``"auto"``: MUMPS),
+    on one rank
     (telescope) when there are several.  PETSc's own is ordered by quotient minimum
     degree (the coarse operators have no block size: nested dissection of their scalar
     graph gave 1.3–1.6 times the fill of GAMG's block-ordered coarse grid of the same
     size and nonzeros, QMD the same); MUMPS orders by its own choice."""
     lu: dict[str, object] = {"ksp_type": "preonly", "pc_type": factor}
     if solver == "auto":
-        solver = "mumps" if nranks > 1 else "petsc"
+        solver = "mumps"
     if solver == "mumps":
         lu["pc_factor_mat_solver_type"] = "mumps"
     else:

@@ -452,14 +452,18 @@ def _chain_to_update(n_nodes: int = 60, bs: int = 3):
         ("rank 0", [4, 10, 11]),  # changed on the first rank only (others: nothing)
     ],
 )
-def test_update_equals_a_new_build(first, second):
+@pytest.mark.parametrize("chunk", [compressed_mg.UPDATE_CHUNK, 7])
+def test_update_equals_a_new_build(first, second, chunk, monkeypatch):
     """The hierarchy of an operator with rows ``first`` eliminated, updated after the
     same matrix changed to rows ``second`` eliminated (:func:`update_levels`), against a
     hierarchy built anew from it with the same aggregations: the same levels and sizes,
     the prolongators exactly, the coarse operators to 1e-14 of their norm (the changed
     entries are summed in another order); the update is taken (it returns ``True``),
     and in each case that changes rows some aggregate's columns change (the coarse
-    level's size); also when nothing changed, or only on one rank."""
+    level's size); also when nothing changed, or only on one rank.  The update's old
+    entries are mapped and the kept prolongator copied in chunks of ``chunk`` entries
+    (7: many chunks of a few rows each, as the large meshes' updates)."""
+    monkeypatch.setattr(compressed_mg, "UPDATE_CHUNK", chunk)
     opts = CompressedMGOptions(coarse_limit=24)
     A0, B, nns = _chain_to_update()
     if first == "rank 0":
