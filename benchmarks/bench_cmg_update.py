@@ -13,7 +13,7 @@ variant, alternating over ``--rounds`` rounds so that all see the same machine l
 * ``petsc_coarse``: ``after`` with PETSc's own coarse factorisation;
 * ``mumps_coarse``: ``after`` with the coarse factorisation by MUMPS;
 * ``after``: the defaults: update, Cholesky coarse factor (``coarse_solver = "auto"``:
-  MUMPS on several ranks, PETSc's own on one), the smoothers' intervals kept by
+  MUMPS; before 2026-12-02 14:25 UTC PETSc's own on one rank), the smoothers' intervals kept by
   updates (``reuse_bounds``),
   the rescaled warm start (``KrylovStrategy.scale_guess``).
 
