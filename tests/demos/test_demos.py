@@ -183,8 +183,8 @@ TWO_RANKS_DEFAULT = {"contact_api"}
 
 
 #: demos whose notebook run is long even at the reduced size (vertebra_fracture: three
-#: tumour sizes, each two two-region risk runs, a standing run and 2-6 fatigue blocks with
-#: re-meshed cracks: the notebook and its test 13 min at load 7-10; at load 15 one size's
+#: tumour sizes, each two two-region risk runs, a standing run and 5-8 fatigue blocks with
+#: re-meshed cracks: the notebook 11.4 min at load 2-3, 13 min at load 7-10; at load 15 one size's
 #: cell took more than 900 s: their cells may take 1800 s)
 SLOW_NOTEBOOKS = {"vertebra_fracture"}
 
@@ -561,45 +561,66 @@ def test_vertebra_tumour_risk_and_fracture(demo_runs):
     _check_png(o1 / "vertebra_fragments.png")
 
 
+def _ball_averaged_risk(grid, cells, pool, radius):
+    """The risk of each of ``cells`` averaged by volume over the ``pool`` cells whose
+    midpoints lie within ``radius`` of its midpoint (brute force over all distances)."""
+    x = np.asarray(grid.cell_centers().points)
+    risk = np.asarray(grid.cell_data["fracture_risk"])
+    vol = np.asarray(grid.compute_cell_sizes(length=False, area=False)["Volume"])
+    out = np.empty(len(cells))
+    for n, i in enumerate(cells):
+        near = pool[np.linalg.norm(x[pool] - x[i], axis=1) <= radius]
+        out[n] = risk[near] @ vol[near] / vol[near].sum()
+    return out
+
+
 @pytest.mark.slow
 def test_vertebra_fracture_risk_and_cycles(demo_runs):
     """Vertebra fracture demo, for every tumour size: the crack sits on the outer wall at
-    the angle and height of the cell of largest risk over the tumour (recomputed here from
-    the two-region risk field: |x| < r/2, middle half of the height, within 1.5 mm of the
-    surface); the undrained tumour is pressurised, more under lifting than standing (its
+    the angle and height of the core cell of largest risk averaged over a 1 mm ball
+    (recomputed here from the two-region risk field by brute force: |x| < r, middle half of
+    the height, within 1.5 mm of the surface, cancellous core only); under the published
+    lifting load it stays below 1, and the load multiple at which it reaches 1 is its
+    inverse; the undrained tumour is pressurised, more under lifting than standing (its
     pressure from the same field); K_V at the deepest point rises as the crack deepens; the
     crack breaks through the bone bridge and the two fragments fill the body (their
     volumes sum to the elliptic cylinder minus the tumour within 3 %, the faceting).  The
-    cycles to fracture are not asserted to fall with the tumour size: they do not (the
-    place of largest risk moves off the thinnest bridge; the demo's text says why)."""
+    cycles to fracture are not asserted to fall with the tumour size."""
     import bonecontact.plot as bp
 
     r1, o1 = demo_runs["vertebra_fracture", 1]
     assert r1.returncode == 0
     rows = json.loads((o1 / "summary.json").read_text())["rows"]
     assert len(rows) >= 3
-    a, b, h = 22e-3, 17e-3, 27e-3
+    a, b, h, s, yt = 22e-3, 17e-3, 27e-3, 0.38e-3, -6e-3
     for w in rows:
         r = w["radius"]
         tag = f"r{r * 1e3:.1f}mm".replace(".", "_")
         grid = bp.read_fields(o1 / f"risk_{tag}" / "out" / "fields.pvd")
         x = np.asarray(grid.cell_centers().points)
-        risk = np.asarray(grid.cell_data["fracture_risk"])
-        rho = np.hypot(x[:, 0] / a, x[:, 1] / b)
-        window = (
-            (np.abs(x[:, 2] - h / 2) < h / 4)
-            & (rho > 1 - 1.5e-3 / b)
-            & (np.abs(x[:, 0]) < r / 2)
+        core = (
+            (np.hypot(x[:, 0] / (a - s), x[:, 1] / (b - s)) < 1)
+            & (x[:, 2] > s)
+            & (x[:, 2] < h - s)
+            & (np.linalg.norm(x - [0, yt, h / 2], axis=1) >= r)
+        )
+        window = np.flatnonzero(
+            core
+            & (np.abs(x[:, 2] - h / 2) < h / 4)
+            & (np.hypot(x[:, 0] / a, x[:, 1] / b) > 1 - 1.5e-3 / b)
+            & (np.abs(x[:, 0]) < r)
             & (x[:, 1] < 0)
         )
-        k = int(np.argmax(np.where(window, risk, -1)))
+        avg = _ball_averaged_risk(grid, window, np.flatnonzero(core), 1e-3)
+        k = window[int(np.argmax(avg))]
         c = np.asarray(w["crack_centre"])
         assert np.hypot(c[0] / a, c[1] / b) == pytest.approx(1.0, abs=1e-12)
         assert c[2] == pytest.approx(x[k, 2], abs=1e-12)
         assert np.arctan2(c[1] / b, c[0] / a) == pytest.approx(
             np.arctan2(x[k, 1] / b, x[k, 0] / a), abs=1e-12
         )
-        assert w["wall_risk"] == pytest.approx(risk[k], rel=1e-12)
+        assert w["wall_risk"] == pytest.approx(avg.max(), rel=1e-12)
+        assert w["wall_risk"] < 1 and w["load_multiple"] == pytest.approx(1 / avg.max())
         assert w["p_lift"] > w["p_stand"] > 0
         assert np.all(np.diff(w["K_flexion"]) > 0)
         assert w["status"] in ("through", "fractured")
