@@ -31,6 +31,7 @@ from petsc4py import PETSc
 
 import numpy as np
 import pytest
+from laplacian import laplacian_1d
 from test_krylov_tolerance import _clamped, _load_driven, _rel_max
 
 from bonecontact.contact import compressed_mg, krylov
@@ -373,12 +374,7 @@ def test_chebyshev_interval_of_a_laplacian(n):
     eigenvalues are ``1 − cos(kπ/(n+1))``: from 10 CG steps the largest estimate ``e`` is
     at most the largest eigenvalue (a Ritz value) and within 2 % of it, and the interval
     is ``(0.05 e, 1.05 e)``, covering the largest eigenvalue."""
-    A = PETSc.Mat().createAIJ(((PETSc.DECIDE, n), (PETSc.DECIDE, n)), nnz=(3, 2), comm=COMM)
-    r0, r1 = A.getOwnershipRange()
-    for i in range(r0, r1):
-        cols = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
-        A.setValues([i], cols, [2.0 if j == i else -1.0 for j in cols])
-    A.assemble()
+    A = laplacian_1d(n, COMM)
     lam = 1.0 + np.cos(np.pi / (n + 1))
     lo, hi = compressed_mg.chebyshev_bounds(A, 10, "cg")
     A.destroy()

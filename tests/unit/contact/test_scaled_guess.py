@@ -18,6 +18,7 @@ from petsc4py import PETSc
 
 import numpy as np
 import pytest
+from laplacian import laplacian_1d
 
 from bonecontact.contact.krylov import scale_initial_guess
 from bonecontact.verification.load_driven import sphere_on_block_3d
@@ -30,12 +31,8 @@ def _laplacian(n: int = 400) -> tuple[PETSc.Mat, np.ndarray]:
     """The 1D Laplacian (Dirichlet ends) with every 37th row eliminated as the PDAS
     eliminates rows (row and column zeroed, diagonal 3): the matrix and this rank's
     eliminated local rows."""
-    A = PETSc.Mat().createAIJ(((PETSc.DECIDE, n), (PETSc.DECIDE, n)), nnz=(3, 2), comm=COMM)
+    A = laplacian_1d(n, COMM)
     r0, r1 = A.getOwnershipRange()
-    for i in range(r0, r1):
-        cols = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
-        A.setValues([i], cols, [2.0 if j == i else -1.0 for j in cols])
-    A.assemble()
     rows = np.arange(0, n, 37, dtype=PETSc.IntType)
     A.zeroRowsColumns(rows, diag=3.0)
     mine = rows[(rows >= r0) & (rows < r1)] - r0
