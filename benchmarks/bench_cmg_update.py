@@ -12,7 +12,7 @@ variant, alternating over ``--rounds`` rounds so that all see the same machine l
 * ``unscaled``: ``after`` with the warm start as it is, coarse factor by MUMPS;
 * ``petsc_coarse``: ``after`` with PETSc's own coarse factorisation;
 * ``mumps_coarse``: ``after`` with the coarse factorisation by MUMPS;
-* ``after``: the defaults: update, Cholesky coarse factor (``coarse_solver = "auto"``:
+* ``after``: the defaults: update, Cholesky coarse factor (``coarse_solver = "mumps"``:
   MUMPS; before 2026-12-02 14:25 UTC PETSc's own on one rank), the smoothers' intervals kept by
   updates (``reuse_bounds``),
   the rescaled warm start (``KrylovStrategy.scale_guess``).
@@ -89,7 +89,7 @@ VARIANTS = {
     "after": {
         "local_update": True,
         "coarse_factor": "cholesky",
-        "coarse_solver": "auto",
+        "coarse_solver": "mumps",
         "reuse_bounds": True,
     },
 }

@@ -1,11 +1,11 @@
-"""Small 2D geometry helpers shared by the contact, neoplasm and run layers."""
+"""Small geometry helpers shared by the contact, neoplasm, fracture and run layers."""
 
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["cross2", "polygon_area", "signed_polygon_area"]
+__all__ = ["cross2", "point_triangle_distance", "polygon_area", "signed_polygon_area"]
 
 
 def cross2(a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -59,3 +59,50 @@ def polygon_area(points: npt.ArrayLike) -> float:
         ``abs(signed_polygon_area(points))``.
     """
     return abs(signed_polygon_area(points))
+
+
+def point_triangle_distance(
+    p: npt.ArrayLike, t: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
+    """Euclidean distance from points to triangles in 3D, pairwise.
+
+    The distance from the triangle's plane where the point's projection falls inside the
+    triangle (barycentric coordinates), else from the nearest of its three edges.
+
+    Parameters
+    ----------
+    p : array_like, shape (k, 3) or (3,)
+        The points; one point is measured against every triangle.
+    t : ndarray, shape (k, 3, 3)
+        The triangles' corners (triangle, corner, coordinate).
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The distance of point i from triangle i.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    p = np.broadcast_to(np.asarray(p, dtype=np.float64), (len(t), 3))
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    ab, ac = b - a, c - a
+    n = np.cross(ab, ac)
+    nn = np.maximum(np.einsum("ij,ij->i", n, n), 1e-300)
+    d = np.einsum("ij,ij->i", p - a, n) / nn  # signed offset from the plane / |n|
+    v0 = p - d[:, None] * n - a
+    d00, d01, d11 = (
+        np.einsum("ij,ij->i", ab, ab),
+        np.einsum("ij,ij->i", ab, ac),
+        np.einsum("ij,ij->i", ac, ac),
+    )
+    d20, d21 = np.einsum("ij,ij->i", v0, ab), np.einsum("ij,ij->i", v0, ac)
+    den = np.maximum(d00 * d11 - d01 * d01, 1e-300)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+    dist = np.where(inside, np.abs(d) * np.sqrt(nn), np.inf)
+    for s0, s1 in ((a, b), (b, c), (c, a)):
+        e = s1 - s0
+        ee = np.maximum(np.einsum("ij,ij->i", e, e), 1e-300)
+        u = np.clip(np.einsum("ij,ij->i", p - s0, e) / ee, 0.0, 1.0)
+        dist = np.minimum(dist, np.linalg.norm(s0 + u[:, None] * e - p, axis=1))
+    return dist

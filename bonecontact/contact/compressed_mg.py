@@ -417,16 +417,16 @@ class CompressedMGOptions:
     #: symmetric operator are symmetric; half of LU's fill and operations: 65k dofs,
     #: 280 → 115 Mflop per set-up, the same iterations) or ``"lu"`` (nonsymmetric).
     coarse_factor: str = "cholesky"
-    #: Who factorises the coarsest level: ``"mumps"``, PETSc's own (``"petsc"``), or
-    #: ``"auto"``: MUMPS (on several ranks the coarse grid is factorised on one of them
-    #: while the others wait).  The factorisation is redone at every build and update;
+    #: Who factorises the coarsest level: MUMPS (``"mumps"``) or PETSc's own
+    #: (``"petsc"``); on several ranks the coarse grid is factorised on one of them while
+    #: the others wait.  The factorisation is redone at every build and update;
     #: PETSc's own Cholesky of the AIJ coarse operator took 0.10–0.11 s of CPU per
     #: set-up at 65k dofs (1620 equations, 0.26 million nonzeros), MUMPS's 0.018 s,
     #: with a coarse solve of 0.9 ms against 0.45 ms (two per cycle); the same CG
     #: iterations.  MUMPS's memory left the 65k-dof run's peak (the first update's
     #: copy of the kept prolongator, :func:`copy_kept_columns`) 3.4 MiB higher:
     #: 394.8 MiB with the copy by chunks, below the 417 MB = 397.7 MiB of issue 28's peer.
-    coarse_solver: str = "auto"
+    coarse_solver: str = "mumps"
     #: Chebyshev/Jacobi smoothing steps per level and visit.
     smooth_steps: int = 2
     #: Chebyshev eigenvalue-estimate steps and their Krylov method (``"cg"`` for
@@ -458,10 +458,9 @@ class CompressedMGOptions:
             raise ValueError(
                 f"multigrid coarse_factor must be 'cholesky' or 'lu', got {self.coarse_factor!r}"
             )
-        if self.coarse_solver not in ("auto", "mumps", "petsc"):
+        if self.coarse_solver not in ("mumps", "petsc"):
             raise ValueError(
-                "multigrid coarse_solver must be 'auto', 'mumps' or 'petsc', got "
-                f"{self.coarse_solver!r}"
+                f"multigrid coarse_solver must be 'mumps' or 'petsc', got {self.coarse_solver!r}"
             )
         if self.cycle not in ("v", "w"):
             raise ValueError(f"multigrid cycle must be 'v' or 'w', got {self.cycle!r}")
@@ -741,18 +740,15 @@ def same_depth(levels: list[MultigridLevel], opts: CompressedMGOptions) -> bool:
 
 
 def _coarse_options(
-    nranks: int, factor: str = "cholesky", solver: str = "auto"
+    nranks: int, factor: str = "cholesky", solver: str = "mumps"
 ) -> dict[str, object]:
     """PETSc options of the coarse solve: the factorisation ``factor`` (``"cholesky"`` or
-    ``"lu"``) by ``solver`` (``"mumps"``, PETSc's own ``"petsc"``, or ``"auto"``: MUMPS),
-    on one rank
+    ``"lu"``) by ``solver`` (``"mumps"`` or PETSc's own ``"petsc"``), on one rank
     (telescope) when there are several.  PETSc's own is ordered by quotient minimum
     degree (the coarse operators have no block size: nested dissection of their scalar
     graph gave 1.3–1.6 times the fill of GAMG's block-ordered coarse grid of the same
     size and nonzeros, QMD the same); MUMPS orders by its own choice."""
     lu: dict[str, object] = {"ksp_type": "preonly", "pc_type": factor}
-    if solver == "auto":
-        solver = "mumps"
     if solver == "mumps":
         lu["pc_factor_mat_solver_type"] = "mumps"
     else:

@@ -32,6 +32,7 @@ import numpy.typing as npt
 from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.common.errors import ParameterError
+from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
 from bonecontact.fracture.front3d import EllipticalFront
@@ -47,7 +48,6 @@ __all__ = [
     "cut_mouth",
     "inside_body",
     "mesh_body_with_surface_crack",
-    "triangle_distance",
 ]
 
 #: A vertex closer to the crack plane than this fraction of the mean edge is moved onto it.
@@ -182,31 +182,10 @@ def _refine_near(nodes, conn, tags, size, levels: int = 6):
     return nodes, conn, tags
 
 
-def _segment_distance(u: np.ndarray, v: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Distance of ``x`` from each segment u-v (rows)."""
-    e = v - u
-    t = np.clip(((x - u) * e).sum(axis=1) / (e * e).sum(axis=1), 0.0, 1.0)
-    return np.linalg.norm(u + t[:, None] * e - x, axis=1)
-
-
-def triangle_distance(tri: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Distance of the point ``x`` from each triangle ``tri`` (shape (n, 3, 3)): from its
-    plane where the projection falls inside it, else from its nearest edge."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    m = np.cross(b - a, c - a)
-    s = ((x - a) * m).sum(axis=1) / (m * m).sum(axis=1)
-    p = x - s[:, None] * m
-    inside = np.ones(len(tri), dtype=bool)
-    for u, v in ((a, b), (b, c), (c, a)):
-        inside &= (np.cross(v - u, p - u) * m).sum(axis=1) >= 0.0
-    edge = np.minimum.reduce([_segment_distance(u, v, x) for u, v in ((a, b), (b, c), (c, a))])
-    return np.where(inside, np.abs(s) * np.linalg.norm(m, axis=1), edge)
-
-
 def _nearest_triangle(nodes: np.ndarray, conn: np.ndarray, x: np.ndarray) -> int:
     """The boundary triangle nearest to ``x`` (by distance, not by centroid: a large facet's
     centroid can lie farther than a small facet's of another surface nearby)."""
-    return int(np.argmin(triangle_distance(nodes[conn], x)))
+    return int(np.argmin(point_triangle_distance(x, nodes[conn])))
 
 
 def crack_frame(

@@ -24,6 +24,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.meshing.session import gmsh_session
 from bonecontact.neoplasm.host import (
     CouplingError,
@@ -287,38 +288,6 @@ def _winding(
     return out
 
 
-def _point_triangle_distance(
-    p: npt.NDArray[np.float64], t: npt.NDArray[np.float64]
-) -> npt.NDArray[np.float64]:
-    """Distance from points ``p`` ``(k, 3)`` to triangles ``t`` ``(k, 3, 3)`` (pairwise)."""
-    a, b, c = t[:, 0], t[:, 1], t[:, 2]
-    ab, ac = b - a, c - a
-    n = np.cross(ab, ac)
-    nn = np.maximum(np.einsum("ij,ij->i", n, n), 1e-300)
-    # projection onto the plane, barycentric coordinates
-    d = np.einsum("ij,ij->i", p - a, n) / nn
-    q = p - d[:, None] * n
-    v0 = q - a
-    d00, d01, d11 = (
-        np.einsum("ij,ij->i", ab, ab),
-        np.einsum("ij,ij->i", ab, ac),
-        np.einsum("ij,ij->i", ac, ac),
-    )
-    d20, d21 = np.einsum("ij,ij->i", v0, ab), np.einsum("ij,ij->i", v0, ac)
-    den = np.maximum(d00 * d11 - d01 * d01, 1e-300)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
-    dist = np.where(inside, np.abs(d) * np.sqrt(nn), np.inf)
-    for s0, s1 in ((a, b), (b, c), (c, a)):
-        e = s1 - s0
-        u = np.clip(
-            np.einsum("ij,ij->i", p - s0, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300), 0, 1
-        )
-        dist = np.minimum(dist, np.linalg.norm(s0 + u[:, None] * e - p, axis=1))
-    return dist
-
-
 def _distance_to_surface(
     pts: npt.NDArray[np.float64], x: npt.NDArray[np.float64], tri: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.float64]:
@@ -334,7 +303,7 @@ def _distance_to_surface(
     face = np.fromiter((f for c in cands for f in c), dtype=np.int64, count=int(counts.sum()))
     for s in range(0, len(point), 1 << 18):  # all pairs at once, in chunks
         i, f = point[s : s + (1 << 18)], face[s : s + (1 << 18)]
-        np.minimum.at(out, i, _point_triangle_distance(pts[i], x[tri[f]]))
+        np.minimum.at(out, i, point_triangle_distance(pts[i], x[tri[f]]))
     return out
 
 

@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 
 from bonecontact.common.constants import R_GAS, SECONDS_PER_DAY, SECONDS_PER_YEAR
-from bonecontact.common.geometry import cross2, polygon_area, signed_polygon_area
+from bonecontact.common.geometry import (
+    cross2,
+    point_triangle_distance,
+    polygon_area,
+    signed_polygon_area,
+)
 
 SQUARE = [[0.0, 0.0], [2.0, 0.0], [2.0, 3.0], [0.0, 3.0]]  # counter-clockwise, area 6
 
@@ -32,3 +40,40 @@ def test_constants():
     assert R_GAS == 8.314462618
     assert SECONDS_PER_DAY == 86400.0
     assert SECONDS_PER_YEAR == 365.25 * 86400.0 == 31557600.0
+
+
+@pytest.mark.parametrize(
+    "x, d",
+    [
+        ((0.2, 0.2, 0.5), 0.5),  # above the inside: the plane
+        ((2.0, 0.0, 0.0), 1.0),  # beyond a corner
+        ((-1.0, -1.0, 0.0), math.sqrt(2.0)),  # beyond the right-angle corner
+        ((1.0, 1.0, 0.0), math.sqrt(0.5)),  # beyond the hypotenuse
+        ((0.5, -1.0, 2.0), math.sqrt(5.0)),  # off an edge and the plane
+    ],
+)
+def test_point_triangle_distance_closed_form(x, d: float) -> None:
+    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
+    assert point_triangle_distance(np.array(x), tri)[0] == pytest.approx(d, rel=1e-14)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_point_triangle_distance_against_sampling(seed: int) -> None:
+    """Never above the distance of the nearest of 20k sampled points of the triangle,
+    below it by less than the sampling's spacing."""
+    rng = np.random.default_rng(seed)
+    tri = rng.normal(size=(6, 3, 3))
+    x = rng.normal(size=3) * 2.0
+    w = rng.dirichlet(np.ones(3), size=20000)
+    for t, d in zip(tri, point_triangle_distance(x, tri), strict=True):
+        sampled = np.linalg.norm(w @ t - x, axis=1).min()
+        h = np.linalg.norm(t - np.roll(t, 1, axis=0), axis=1).max()
+        assert d <= sampled + 1e-12 and sampled - d < 0.05 * h
+
+
+def test_point_triangle_distance_pairwise():
+    """Point i against triangle i: the same as measuring each pair alone."""
+    rng = np.random.default_rng(7)
+    tri, p = rng.normal(size=(5, 3, 3)), rng.normal(size=(5, 3))
+    one = [point_triangle_distance(p[k], tri[k : k + 1])[0] for k in range(5)]
+    np.testing.assert_allclose(point_triangle_distance(p, tri), one, rtol=1e-15)

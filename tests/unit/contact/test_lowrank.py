@@ -17,6 +17,7 @@ from petsc4py import PETSc
 import numpy as np
 import pytest
 import ufl
+from laplacian import laplacian_1d
 
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.lowrank import mumps_failure
@@ -235,17 +236,6 @@ def test_singular_active_set_is_reported(strategy):
     integ.destroy()
 
 
-def _laplacian_1d(n: int):
-    """The 1D Laplacian (2, -1) of ``n`` rows, distributed over COMM."""
-    A = PETSc.Mat().createAIJ([[PETSc.DECIDE, n], [PETSc.DECIDE, n]], nnz=3, comm=COMM)
-    r0, r1 = A.getOwnershipRange()
-    for r in range(r0, r1):
-        cols = [c for c in (r - 1, r, r + 1) if 0 <= c < n]
-        A.setValues([r], cols, [2.0 if c == r else -1.0 for c in cols])
-    A.assemble()
-    return A
-
-
 @pytest.mark.parametrize("workspace", [None, -99])
 def test_failed_mumps_factorisation_is_reported(workspace):
     """PETSc records a failed MUMPS factorisation without raising (a later solve fails with
@@ -253,7 +243,7 @@ def test_failed_mumps_factorisation_is_reported(workspace):
     (ICNTL(14) = -99 %) MUMPS stops with INFOG(1) = -9; with its defaults the same matrix
     factorises and solves A x = A·1 to round-off."""
     n = 400
-    A = _laplacian_1d(n)
+    A = laplacian_1d(n, COMM)
     ksp = PETSc.KSP().create(COMM)
     ksp.setOptionsPrefix(f"lowrank_fail_{workspace}_".replace("-", "m"))
     ksp.setOperators(A)

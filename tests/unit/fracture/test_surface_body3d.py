@@ -56,7 +56,6 @@ from bonecontact.fracture.surface_body3d import (
     cut_mouth,
     inside_body,
     mesh_body_with_surface_crack,
-    triangle_distance,
 )
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
@@ -184,35 +183,6 @@ def test_bad_input_names_the_key(plate) -> None:
         cut_mouth(plate, SurfaceBreakingCrack((0.0, 0.0, -0.5), (0.0, 1.0, 0.0), 0.1, 0.1))
     with pytest.raises(ParameterError, match="normal"):
         cut_mouth(plate, SurfaceBreakingCrack((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.1, 0.1))
-
-
-@pytest.mark.parametrize(
-    "x, d",
-    [
-        ((0.2, 0.2, 0.5), 0.5),  # above the inside: the plane
-        ((2.0, 0.0, 0.0), 1.0),  # beyond a corner
-        ((-1.0, -1.0, 0.0), math.sqrt(2.0)),  # beyond the right-angle corner
-        ((1.0, 1.0, 0.0), math.sqrt(0.5)),  # beyond the hypotenuse
-        ((0.5, -1.0, 2.0), math.sqrt(5.0)),  # off an edge and the plane
-    ],
-)
-def test_triangle_distance_closed_form(x, d: float) -> None:
-    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
-    assert triangle_distance(tri, np.array(x))[0] == pytest.approx(d, rel=1e-14)
-
-
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_triangle_distance_against_sampling(seed: int) -> None:
-    """Never above the distance of the nearest of 20k sampled points of the triangle,
-    below it by less than the sampling's spacing."""
-    rng = np.random.default_rng(seed)
-    tri = rng.normal(size=(6, 3, 3))
-    x = rng.normal(size=3) * 2.0
-    w = rng.dirichlet(np.ones(3), size=20000)
-    for t, d in zip(tri, triangle_distance(tri, x), strict=True):
-        sampled = np.linalg.norm(w @ t - x, axis=1).min()
-        h = np.linalg.norm(t - np.roll(t, 1, axis=0), axis=1).max()
-        assert d <= sampled + 1e-12 and sampled - d < 0.05 * h
 
 
 def test_centre_on_a_large_facet_next_to_a_small_one() -> None:
