@@ -209,6 +209,7 @@ def advance_mixed_front(
     da_max: float,
     exponent: float = 2.0,
     smooth: bool = True,
+    weights: npt.ArrayLike | None = None,
 ) -> MixedAdvance:
     """Advance a closed polyline front under mixed mode by the σ₁′ criterion.
 
@@ -227,6 +228,9 @@ def advance_mixed_front(
         n of Δa_i = Δa_max (K_V,i/K_V,max)^n.
     smooth
         Average φ₀ and Δa over each vertex and its two neighbours.
+    weights
+        The vertices' growth weights w_i in [0, 1] (shape (N,)): Δa_i = Δa_max w_i instead
+        of (K_V,i/K_V,max)^n (fatigue: the Paris rate over the largest rate).
 
     Raises
     ------
@@ -243,7 +247,8 @@ def advance_mixed_front(
     K_vertex = 0.5 * (K + np.roll(K, 1, axis=0))
     kv = equivalent_k(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     phi0, psi0 = sigma1_kink(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
-    da = da_max * (kv / kv.max()) ** exponent
+    w = (kv / kv.max()) ** exponent if weights is None else np.asarray(weights, dtype=float)
+    da = da_max * w
     if smooth:
         phi0, da = _smooth(phi0), _smooth(da)
     e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))

@@ -15,6 +15,7 @@ import math
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from bonecontact.fracture.fatigue import ParisLaw, block_cycles
 from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
@@ -26,6 +27,8 @@ __all__ = [
     "FatigueRecord",
     "block_end",
     "bound_to_separation",
+    "growth_stop",
+    "growth_weights",
     "paris_law",
     "plain_rows",
     "tip_key",
@@ -126,6 +129,36 @@ def _text_key(text: str) -> TipKey:
 def paris_law(spec: FatigueSpec) -> ParisLaw:
     """The Paris law of ``[fracture.fatigue]``."""
     return ParisLaw(spec.C, spec.m, spec.delta_K_th, spec.R)
+
+
+def growth_weights(
+    k_eq: npt.ArrayLike, spec: FatigueSpec | None, K_Ic: float | None
+) -> npt.NDArray[np.float64]:
+    """The growth weights of the front points of a 3D crack (surface and interior runners):
+    under fatigue (``spec``) the Paris rates da/dN of ΔK from the peak ``k_eq`` (zero at or
+    below ΔK_th), under one load (K_eq/K_eq,max)² at the points with K_eq ≥ K_Ic, else 0.
+    The advance of a point is the increment × its weight / the largest weight."""
+    k = np.asarray(k_eq, dtype=float)
+    if spec is not None:
+        return paris_law(spec).rate(k)
+    grows = k >= (K_Ic or math.inf)
+    return np.where(grows, (k / k.max()) ** 2, 0.0)
+
+
+def growth_stop(
+    k_max: float, lead: float, spec: FatigueSpec | None, K_Ic: float | None, done: int, most: int
+) -> str | None:
+    """The stop of a growing 3D crack after ``done`` increments (``None``: grow on):
+    ``fractured`` under fatigue when the largest K (``k_max``) reaches K_Ic (the crack runs
+    unstably), ``arrested`` when the largest weight ``lead`` (:func:`growth_weights`) is 0,
+    ``max_blocks`` (fatigue) or ``max_increments`` once ``done`` reaches ``most``."""
+    if spec is not None and K_Ic and k_max >= K_Ic:
+        return "fractured"
+    if lead <= 0.0:
+        return "arrested"
+    if done >= most:
+        return "max_blocks" if spec is not None else "max_increments"
+    return None
 
 
 def _stop(k_eq: np.ndarray, rates: np.ndarray, K_Ic: float | None, blocks: int, most: int) -> str:

@@ -1,5 +1,5 @@
-"""Growth of interior planar cracks in a 3D scene (``[fracture] propagate = true``;
-docs/scene_format.md#growing-an-interior-3d-crack).
+"""Growth of interior planar cracks in a 3D scene (``[fracture] propagate = true`` or
+``[fracture.fatigue]``; docs/scene_format.md#growing-an-interior-3d-crack).
 
 Every ``[[crack]]`` (disc, ellipse or convex polygon) becomes a polygon (a disc or an
 ellipse: N = max(6, ⌊P/(6 h_f)⌋) vertices on its front, P the perimeter: every edge holds
@@ -10,11 +10,18 @@ each), solves the analysis, takes K_I, K_II, K_III at the middle of every front 
 vertex at K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest
 of all fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`: all its
 vertices move; one that held would leave a degenerate strip), extending its surface by
-the strip between the fronts.  Stops: ``arrested`` (no vertex at K_Ic),
+the strip between the fronts.  Under fatigue every solve is a block end: the vertices'
+Paris rates of ΔK = (1 − R) K_V (:func:`~bonecontact.runners.crack_fatigue.growth_weights`,
+shared with the surface crack) give Δa_i = Δa_max rate_i/rate_max and the block's cycles
+(:class:`~bonecontact.runners.crack_fatigue.FatigueProgress`); its stops are those of
+:func:`~bonecontact.runners.crack_fatigue.growth_stop` (``fractured`` at K_Ic, ``arrested``
+below the threshold, ``max_blocks``) and ``through`` (near the surface), ``joined``,
+``partly_arrested`` (a vertex of a growing front would not move).  Stops under one load:
+``arrested`` (no vertex at K_Ic),
 ``max_increments``, ``fractured`` (a grown front would come within the integration
 domain and two front elements of the body's surface: under load control it runs
 through; fragments: the body on either side of that crack's plane), ``joined`` (as
-near another crack).  ``fracture.csv``: a row per increment, crack and mid-edge;
+near another crack).  ``fracture.csv``: a row per increment, crack and mid-edge (with the cycles);
 ``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` (several: ``crack_front_<name>_<k>``)
 and ``increment<k>/`` per increment; with ``checkpoint_every`` the growth state
 (:mod:`~bonecontact.runners.growth_state3d`) to restart from on any number of ranks.
@@ -57,6 +64,7 @@ from bonecontact.fracture.crack3d import (
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import inside_body
 from bonecontact.meshing.builder import MeshingError
+from bonecontact.runners.crack_fatigue import FatigueProgress, growth_stop, growth_weights
 from bonecontact.runners.cracks3d import write_front
 from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.mechanics import SceneModel
@@ -82,6 +90,7 @@ __all__ = [
 #: Columns of ``fracture.csv`` of a growing interior crack (a row per increment and edge).
 GROWTH3D_COLUMNS = (
     "increment",
+    "cycles",
     "crack",
     "point",
     "s",
@@ -117,6 +126,7 @@ class EdgeRecord:
     K_V: float
     kink_deg: float
     status: str = "grows"
+    cycles: float = 0.0  # the cumulative cycles N at this block end (fatigue; else 0)
 
     def row(self) -> list[Any]:
         return [getattr(self, c) for c in GROWTH3D_COLUMNS]
@@ -133,7 +143,7 @@ class InteriorRun:
     size: TipMesh
     groups: dict[str, tuple[int, int]]
     fracture: FractureSpec
-    K_Ic: float
+    K_Ic: float | None  # optional under fatigue
 
     @property
     def ligament(self) -> float:
@@ -151,7 +161,9 @@ class Growth:
     status: str | None = None
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
     rows: int = 0  # fracture.csv rows written
-    at: int = 0  # the crack that stopped the growth (fractured, joined)
+    at: int = 0  # the crack that stopped the growth (fractured, through, joined)
+    cycles: float = 0.0
+    fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
 
     def state(self, initial: list[TriangulatedCrack]) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -161,6 +173,8 @@ class Growth:
             "cracks": [dataclasses.asdict(c) for c in self.cracks],
             "history": self.history,
             "rows": self.rows,
+            "cycles": self.cycles,
+            "fatigue": self.fatigue.state(),
         }
 
     @classmethod
@@ -168,7 +182,15 @@ class Growth:
         """The growth a checkpoint stored (its ``increment`` the next to solve)."""
         cracks = [_crack_from_state(c) for c in state["cracks"]]
         hist = list(state["history"])
-        return cls(cracks, int(state["increment"]), None, hist, int(state["rows"]))
+        return cls(
+            cracks,
+            int(state["increment"]),
+            None,
+            hist,
+            int(state["rows"]),
+            cycles=float(state.get("cycles", 0.0)),
+            fatigue=FatigueProgress.from_state(state.get("fatigue")),
+        )
 
 
 def _crack_from_state(c: dict[str, Any]) -> TriangulatedCrack:
@@ -191,12 +213,13 @@ def _geometry(cracks: list[TriangulatedCrack]) -> dict[str, Any]:
 
 
 def grows_interior_crack(scene: Scene) -> bool:
-    """Whether this module runs the scene: 3D, ``propagate``, planar interior cracks."""
+    """Whether this module runs the scene: 3D, ``propagate`` or ``[fracture.fatigue]``,
+    planar interior cracks."""
     fr = scene.fracture
     return (
         scene.dimension == 3
         and fr is not None
-        and fr.propagate
+        and (fr.propagate or fr.fatigue is not None)
         and bool(scene.cracks)
         and all(isinstance(c.crack, PlanarCrack) for c in scene.cracks)
     )
@@ -263,7 +286,8 @@ def prepare_interior(scene: Scene, comm: MPI.Comm) -> tuple[InteriorRun, list[Tr
     )
     scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + pairs)
     names = tuple(c.name for c in scene.cracks)
-    run = InteriorRun(scene2, names, body, material, size, groups, fr, float(k_ic))
+    k_ic = float(k_ic) if k_ic else None
+    run = InteriorRun(scene2, names, body, material, size, groups, fr, k_ic)
     for i, crack in enumerate(cracks):
         V = crack.vertices
         stop = _meets(run, cracks, i, V, vertex_directions(V, crack.normal))
@@ -379,35 +403,75 @@ def evaluate(u: Any, cb: CrackedBody3D, run: InteriorRun, name: str, inc: int, t
 
 
 def _advance(run: InteriorRun, g: Growth, records: list[list[EdgeRecord]]) -> str | None:
-    """The stop after this solve, or the next cracks in ``g`` (``None``: grow): every
-    crack with a vertex at K_Ic advances, its largest step Δa (K_V,max,i/K_V,max)²."""
+    """The stop after this solve (a block end under fatigue), or the next cracks in ``g``
+    (``None``: grow): the vertices' growth weights (:func:`growth_weights`: the Paris
+    rates, or (K_V/K_V,max)² at K_Ic), the cycles of the block just made (fatigue), the
+    stop (:func:`growth_stop`), then every crack with a weight above 0 advances."""
     K = [np.array([(r.K_I, r.K_II, r.K_III) for r in rec]) for rec in records]
     kv = np.concatenate([[r.K_V for r in rec] for rec in records])
+    kv_vertex = [equivalent_k(*(0.5 * (k + np.roll(k, 1, axis=0))).T) for k in K]
+    fat = run.fracture.fatigue
+    flat = growth_weights(np.concatenate(kv_vertex), fat, run.K_Ic)
+    lead = float(flat.max(initial=0.0))
+    if fat is not None:
+        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, lead)
     g.history.append(
         {
             "increment": g.increments,
+            "cycles": g.cycles,
             "K_V_max": float(kv.max()),
             "K_V_min": float(kv.min()),
             "mean_radius": _mean_radius(g.cracks[0]),
         }
     )
-    kv_vertex = [equivalent_k(*(0.5 * (k + np.roll(k, 1, axis=0))).T) for k in K]
-    grows = [float(v.max()) >= run.K_Ic for v in kv_vertex]
-    if not any(grows) or float(kv.min()) <= 0.0:
-        return "arrested"
-    if g.increments >= run.fracture.max_increments:
-        return "max_increments"
-    top = max(float(v.max()) for v in kv_vertex)
+    most = fat.max_blocks if fat is not None else run.fracture.max_increments
+    stop = growth_stop(float(kv.max()), lead, fat, run.K_Ic, g.increments, most)
+    if stop is not None or float(kv.min()) <= 0.0:
+        g.at = int(np.argmax([float(v.max()) for v in kv_vertex]))
+        return stop or "arrested"
+    weights = _vertex_weights(kv_vertex, flat, fat is not None)
+    return _grow_fronts(run, g, K, weights)
+
+
+def _vertex_weights(kv_vertex: list[np.ndarray], flat: np.ndarray, fatigue: bool) -> list:
+    """Each crack's vertex weights, the largest of all 1 (``None``: the crack holds):
+    fatigue: the rates over the largest; one load: (K_V/K_V,max)² at every vertex of a
+    crack with a vertex at K_Ic (all its vertices move: one that held would leave a
+    degenerate strip)."""
+    top = float(np.concatenate(kv_vertex).max())
+    parts = np.split(flat, np.cumsum([len(v) for v in kv_vertex])[:-1])
+    out = []
+    for v, w in zip(kv_vertex, parts, strict=True):
+        if float(w.max()) <= 0.0:
+            out.append(None)
+        else:
+            out.append(w / float(flat.max()) if fatigue else (v / top) ** 2)
+    return out
+
+
+def _grow_fronts(run: InteriorRun, g: Growth, K: list, weights: list) -> str | None:
+    """Advance every crack with weights by the increment (fatigue: Δa_max) times them;
+    a stop when a front would come near the surface (``fractured``; fatigue: ``through``,
+    the block's cycles at its start rate added) or another crack (``joined``), or, under
+    fatigue, when a vertex of a growing front holds (``partly_arrested``: its strip would
+    be degenerate)."""
+    fat = run.fracture.fatigue
+    step = float(fat.da_max if fat is not None else run.fracture.increment)
     new = list(g.cracks)
     for i, crack in enumerate(g.cracks):
-        if grows[i]:
-            da = float(run.fracture.increment) * (float(kv_vertex[i].max()) / top) ** 2
-            adv = advance_mixed_front(crack.vertices, crack.normals2, K[i], da)
-            stop = _meets(run, g.cracks, i, adv.vertices, adv.directions)
-            if stop is not None:
-                g.at = i
-                return stop
-            new[i] = extend_surface(crack, adv.vertices)
+        if weights[i] is None:
+            continue
+        adv = advance_mixed_front(crack.vertices, crack.normals2, K[i], step, weights=weights[i])
+        stop = _meets(run, g.cracks, i, adv.vertices, adv.directions)
+        if stop is None and float(adv.da.min()) <= 0.0:
+            stop = "partly_arrested"
+        if stop is not None:
+            g.at = i
+            if fat is not None and stop == "fractured":
+                g.cycles += step / float(g.fatigue.lead_rate[-1])
+                stop = "through"
+            return stop
+        new[i] = extend_surface(crack, adv.vertices)
     g.cracks, g.increments = new, g.increments + 1
     return None
 
@@ -452,7 +516,8 @@ def _increment(run: InteriorRun, g: Growth, comm, timer, outdir: Path, table: Re
     integ.destroy()
     cracks, inc = g.cracks, g.increments
     stop = _advance(run, g, records)
-    rows = [dataclasses.replace(r, status=stop or "grows") for rec in records for r in rec]
+    mark = stop or "grows"
+    rows = [dataclasses.replace(r, status=mark, cycles=g.cycles) for rec in records for r in rec]
     table.rows(rows)
     g.rows += len(rows)
     if comm.rank == 0:
@@ -500,7 +565,7 @@ def run_interior_growth(
                 status, message = failed["status"], failed.get("message")
                 break
             g.status = stop
-            if stop == "fractured":
+            if stop in _BROKEN:
                 c = g.cracks[g.at]
                 frags = fragments(cbs[0].mesh, c.vertices.mean(axis=0), np.asarray(c.normal))
             elif stop is None and every > 0 and g.increments % every == 0:
@@ -511,6 +576,11 @@ def run_interior_growth(
     summary = run_summary(scene.name, status, comm, info["wall_time_s"], **info)
     write_summary(comm, outdir, summary)
     return RunResult(status, summary, None, outdir)
+
+
+#: The stops that break the body (fragments reported), and those that name a crack.
+_BROKEN = ("fractured", "through")
+_STOPPED_BY = ("fractured", "through", "joined", "partly_arrested")
 
 
 def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dict[str, Any]:
@@ -524,20 +594,22 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
         }
         for name, c in zip(run.names, g.cracks, strict=True)
     ]
+    fatigue = run.fracture.fatigue is not None
     info: dict[str, Any] = {
         "wall_time_s": time.perf_counter() - t_start,
         "fracture": {
             "crack": cracks[0],
             "cracks": cracks,
             "growth": {
-                "rule": "propagate",
+                "rule": "fatigue" if fatigue else "propagate",
                 "criterion": "sigma1_prime",
                 "status": g.status,
                 "increments": g.increments,
+                "cycles": g.cycles if fatigue else None,
                 "K_Ic": run.K_Ic,
                 "history": g.history,
-                "fractured": g.status == "fractured",
-                "stopped_by": run.names[g.at] if g.status in ("fractured", "joined") else None,
+                "fractured": g.status in _BROKEN,
+                "stopped_by": run.names[g.at] if g.status in _STOPPED_BY else None,
                 "fragments": frags,
             },
         },

@@ -55,7 +55,7 @@ from bonecontact.fracture.surface_body3d import (
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import RunCounters
-from bonecontact.runners.crack_fatigue import FatigueProgress, paris_law
+from bonecontact.runners.crack_fatigue import FatigueProgress, growth_stop, growth_weights
 from bonecontact.runners.cracks3d import front_nodes, write_front
 from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.loop import progress_bar, run_steps
@@ -484,25 +484,15 @@ def _three_points(records: list[SurfaceRecord], cut: CutBody) -> np.ndarray:
 
 
 def _rates(run: SurfaceRun, kv: np.ndarray) -> np.ndarray:
-    """The growth weights of the three points: Paris rates (fatigue) or (K_V/K_V,max)² of
-    the points at K_Ic (one load)."""
-    fat = run.fracture.fatigue
-    if fat is not None:
-        return paris_law(fat).rate(kv)
-    grows = kv >= (run.K_Ic or math.inf)
-    return np.where(grows, (kv / kv.max()) ** 2, 0.0)
+    """The growth weights of the three points (:func:`growth_weights`)."""
+    return growth_weights(kv, run.fracture.fatigue, run.K_Ic)
 
 
 def _stop(run: SurfaceRun, g: Growth, kv: np.ndarray, rates: np.ndarray) -> str | None:
     fat = run.fracture.fatigue
-    if fat is not None and run.K_Ic and float(kv.max()) >= run.K_Ic:
-        return "fractured"
-    if float(rates.max(initial=0.0)) <= 0.0:
-        return "arrested"
     most = fat.max_blocks if fat is not None else run.fracture.max_increments
-    if g.increments >= most:
-        return "max_blocks" if fat is not None else "max_increments"
-    return None
+    lead = float(rates.max(initial=0.0))
+    return growth_stop(float(kv.max()), lead, fat, run.K_Ic, g.increments, most)
 
 
 def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> SurfaceBreakingCrack:

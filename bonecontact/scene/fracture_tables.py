@@ -20,7 +20,7 @@ import numpy as np
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import Crack2D, crack_gap, points_in_polygon
-from bonecontact.fracture.crack3d import SurfaceBreakingCrack, planar_crack_from_table
+from bonecontact.fracture.crack3d import planar_crack_from_table
 from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.spec import (
     CRACK3D_TABLE,
@@ -185,19 +185,18 @@ def missing_strength(spec: FractureSpec, strengths: Mapping[str, float]) -> str 
 
 def _check_dimension(spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec] = ()) -> None:
     """Automatic insertion runs in 2D only; propagation and fatigue in 2D, and in 3D with
-    a surface crack (``shape = "semi_elliptical"``); propagation also with an interior
-    planar crack (issue 26)."""
-    surface = any(isinstance(c.crack, SurfaceBreakingCrack) for c in cracks)
-    allowed = {"propagate": bool(cracks), "fatigue": surface, "initiate": False}
+    a ``[[crack]]`` (a semi-elliptical surface crack or planar interior cracks; issue
+    26)."""
+    allowed = {"propagate": bool(cracks), "fatigue": bool(cracks), "initiate": False}
     for key in ("propagate", "initiate", "fatigue"):
         if dim != 2 and getattr(spec, key) and not allowed[key]:
             raise SceneError(
                 None,
                 "[fracture]",
                 key,
-                "runs in 2D scenes, and in 3D with a semi-elliptical surface [[crack]] "
-                "(propagate, fatigue) or a planar interior [[crack]] (propagate) in this "
-                "version (3D otherwise: the risk; docs/theory/fracture.md)",
+                "runs in 2D scenes, and in 3D with a [[crack]] (a semi-elliptical surface "
+                "crack or planar interior cracks) in this version (3D otherwise: the "
+                "risk; docs/theory/fracture.md)",
             )
 
 

@@ -126,6 +126,26 @@ def test_mode_one_mixed_advance_is_the_planar_advance():
     np.testing.assert_allclose(adv.da, da, rtol=1e-13)
 
 
+def test_weights_replace_the_power_rule():
+    """Given weights w: Δa = Δa_max w (averaged over three vertices), the direction as
+    without them; w = (K_V/K_V,max)² is the default rule (the fatigue weights are the
+    Paris rates over the largest)."""
+    crack = _octagon_crack()
+    k = np.linspace(1.0, 1.5, 8)
+    K = np.column_stack([k, 0.1 * k, 0 * k])
+    plain = advance_mixed_front(crack.vertices, crack.normals2, K, 0.1)
+    same = advance_mixed_front(
+        crack.vertices, crack.normals2, K, 0.1, weights=(plain.k_v / plain.k_v.max()) ** 2
+    )
+    np.testing.assert_allclose(same.vertices, plain.vertices, atol=1e-13)
+    w = np.array([1.0, 0.5, 0.0, 0.0, 0.0, 0.25, 0.5, 0.75])
+    adv = advance_mixed_front(crack.vertices, crack.normals2, K, 0.1, weights=w)
+    expect = 0.1 * (np.roll(w, 1) + w + np.roll(w, -1)) / 3
+    np.testing.assert_allclose(adv.da, expect, rtol=1e-13)
+    assert adv.da[3] == 0.0  # a vertex whose neighbours hold too does not move
+    np.testing.assert_allclose(adv.directions, plain.directions, atol=1e-13)
+
+
 @pytest.mark.parametrize("k2", [0.3, -1.0])
 def test_uniform_shear_kinks_every_vertex_by_the_criterion(k2):
     """Equal (K_I, K_II, 0) on every edge of a planar octagon: every vertex moves by Δa

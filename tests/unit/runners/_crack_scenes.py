@@ -9,16 +9,20 @@ this folder on ``sys.path``).
 
 from __future__ import annotations
 
+import json
 import math
+import shutil
 import time
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
+from coupled_support import gmsh_on_rank0
 
 from bonecontact.runners import RunResult, run_scene
 from bonecontact.scene import load_scene
+from bonecontact.verification.problems import crack_block_model
 
 L = 1e-3  # the surface-crack plate in millimetres
 PLATE_B = PLATE_H = 2.5 * L
@@ -51,6 +55,68 @@ def run_serial_on_rank0(scene: Path, out: Path, **kw) -> RunResult | None:
         res = run_scene(load_scene(scene), MPI.COMM_SELF, output=out, progress=False, **kw)
     idle_barrier(MPI.COMM_WORLD)
     return res
+
+
+def block_mesh(tmp_path_factory, name: str, half_width: float) -> Path:
+    """A fresh folder (the same on every rank) holding ``block.msh``, the block
+    [−W, W]³ of the interior-crack scenes (``crack_block_model``, W = ``half_width``)."""
+    comm = MPI.COMM_WORLD
+    d = Path(comm.bcast(str(tmp_path_factory.mktemp(name)) if comm.rank == 0 else None))
+    gmsh_on_rank0(lambda gmsh: crack_block_model(half_width), d / "block.msh", 3)
+    return d
+
+
+def run_in(base: Path, name: str, text: str) -> tuple[RunResult, Path]:
+    """The scene ``text`` written to ``base/name/scene.toml`` and run on every rank into
+    ``base/name/out``."""
+    d = run_dir(base, name)
+    scene = write_scene(d / "scene.toml", text)
+    res = run_scene(load_scene(scene), MPI.COMM_WORLD, output=d / "out", progress=False)
+    return res, d
+
+
+def serial_reference(d: Path) -> Path:
+    """The serial run of ``d/scene.toml`` whose distributed run wrote ``d/out``: on one
+    rank that run itself, else the scene run on rank 0 alone into ``d/ser``."""
+    if MPI.COMM_WORLD.size == 1:
+        return d / "out"
+    ser = run_serial_on_rank0(d / "scene.toml", d / "ser")
+    if ser is not None:
+        assert ser.status == "converged", ser.summary.get("message")
+    return d / "ser"
+
+
+def same_growth(out: Path, ref: Path, length: float) -> tuple[dict, dict]:
+    """The growth run in ``out`` equals the one in ``ref``: fracture.csv to 1e-10
+    (:func:`same_tables`), the stop, the cycles (fatigue) to 1e-10 and the final front to
+    1e-10 ``length``; returns both summaries' ``fracture``."""
+    same_tables(out / "fracture.csv", ref / "fracture.csv")
+    got = json.loads((out / "summary.json").read_text())["fracture"]
+    want = json.loads((ref / "summary.json").read_text())["fracture"]
+    assert got["growth"]["status"] == want["growth"]["status"]
+    assert got["growth"]["increments"] == want["growth"]["increments"]
+    cycles = want["growth"].get("cycles")
+    if cycles is not None:
+        assert abs(got["growth"]["cycles"] - cycles) <= 1e-10 * cycles
+    front = np.asarray(want["crack"]["front"])
+    np.testing.assert_allclose(got["crack"]["front"], front, rtol=0, atol=1e-10 * length)
+    return got, want
+
+
+def continued_run(d: Path, serial: Path, k: int) -> tuple[RunResult, Path]:
+    """The growth run ``serial`` copied to ``d/continued<k>`` and continued there on every
+    rank from its checkpoint before increment ``k`` (``d/scene.toml``)."""
+    out = d / f"continued{k}"
+    if MPI.COMM_WORLD.rank == 0:
+        shutil.rmtree(out, ignore_errors=True)
+        shutil.copytree(serial, out)
+    MPI.COMM_WORLD.barrier()
+    ck = out / "checkpoints" / f"increment_{k:05d}"
+    res = run_scene(
+        load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck
+    )
+    assert res.status == "converged", res.summary.get("message")
+    return res, out
 
 
 def idle_barrier(comm: MPI.Comm, pause: float = 0.02) -> None:

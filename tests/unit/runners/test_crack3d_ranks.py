@@ -25,7 +25,11 @@ test_surface_crack_scene3d.py):
   thick, front a/6, 3 points) grown by one block of the Paris law: K of the first solve,
   the cycles of the block, the grown crack (the body re-meshed around it) and its K.  The
   growth under one load (``propagate``) takes the same path but for the rates of the
-  three points (``(K_V/K_V,max)²`` of those at K_Ic).
+  three points (``(K_V/K_V,max)²`` of those at K_Ic);
+* ``interior fatigue``: a penny (radius a, front a/7: the heptagon)
+  grown by one block of the Paris law (m = 3, R = 0.1): K of every mid-edge, the block's
+  cycles, the grown front (re-meshed) and its K (test_crack_fatigue_scene3d.py checks it
+  against the closed form).
 
 The corner and through cracks and the front advance of a penny (verification modules)
 have their own rank comparisons: tests/verification/test_fracture_surface3d.py
@@ -108,10 +112,23 @@ def _surface_fatigue(d: Path) -> str:
     return surface_scene(d / "plate.msh", h=0.2 * L / 6, points=3, growth=growth)
 
 
+def _interior_fatigue(d: Path) -> str:
+    """One block of da/dN = C ΔK³ (R = 0.1) advancing the fastest vertex by 0.1a."""
+    geometry = f"centre = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = {A!r}"
+    text = crack_block_scene(
+        str(d / "block.msh"), geometry, E=17.0e9, nu=0.3, sigma=1.0e6, h=A / 7, points=1
+    )
+    growth = (
+        f"[fracture.fatigue]\nC = 1e-20\nm = 3.0\nR = 0.1\nda_max = {0.1 * A!r}\nmax_blocks = 1"
+    )
+    return text.replace("[[crack]]", f"{growth}\n[[crack]]", 1)
+
+
 CASES = {
     "interior": _interior,
     "closed": _closed,
     "surface_fatigue": _surface_fatigue,
+    "interior_fatigue": _interior_fatigue,
 }
 
 

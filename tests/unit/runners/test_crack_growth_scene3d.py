@@ -28,8 +28,8 @@ The stops: K_Ic = 0.1 MPa√m, above every K: ``arrested`` after one solve; the 
 x = 2.28a, its nearest edge 0.80a from the face x = 4a, the ligament (integration domain
 and two front elements) 6h = 0.75a: the first advance of 0.1a would leave less,
 ``fractured`` after one solve, the two fragments summing to the block's volume.
-Refused (exit 2): a front within the ligament of the surface, fatigue with an interior
-crack.
+Refused (exit 2): a front within the ligament of the surface (fatigue of an interior
+crack: test_crack_fatigue_scene3d.py).
 
 Two pennies (radius a at x = ±2a, front a/8, Δa = 0.1a, two advances) grow together
 (``runners.front_growth3d``: one mesh, a face pair each): each stays in its plane within
@@ -43,22 +43,29 @@ interaction at a gap of 2a is below the mesh's scatter), on 2 and 3 ranks as on 
 
 from __future__ import annotations
 
-import json
 import math
-import shutil
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 import pytest
-from _crack_scenes import run_dir, run_serial_on_rank0, same_tables, write_scene
-from coupled_support import gmsh_on_rank0
+from _crack_scenes import (
+    block_mesh,
+    continued_run,
+    run_dir,
+    run_in,
+    run_serial_on_rank0,
+    same_growth,
+    same_tables,
+    serial_reference,
+    write_scene,
+)
 
 from bonecontact.runners import run_scene
 from bonecontact.scene import SceneError, load_scene
 from bonecontact.verification.front_advance import grow_inclined_penny
-from bonecontact.verification.problems import crack_block_model, crack_block_scene
+from bonecontact.verification.problems import crack_block_scene
 
 A = 1.0e-3
 W = 4 * A
@@ -78,16 +85,11 @@ def _scene(mesh: Path, *, centre=(0.0, 0.0, 0.0), k_ic=1e4, steps=2, extra="") -
 
 @pytest.fixture(scope="module")
 def mesh(tmp_path_factory) -> Path:
-    comm = MPI.COMM_WORLD
-    d = Path(comm.bcast(str(tmp_path_factory.mktemp("growth3d")) if comm.rank == 0 else None))
-    gmsh_on_rank0(lambda gmsh: crack_block_model(W), d / "block.msh", 3)
-    return d
+    return block_mesh(tmp_path_factory, "growth3d", W)
 
 
 def _run(mesh: Path, name: str, **kw) -> tuple[object, Path]:
-    d = run_dir(mesh, name)
-    scene = write_scene(d / "scene.toml", _scene(mesh / "block.msh", **kw))
-    res = run_scene(load_scene(scene), MPI.COMM_WORLD, output=d / "out", progress=False)
+    res, d = run_in(mesh, name, _scene(mesh / "block.msh", **kw))
     return res, d
 
 
@@ -145,25 +147,13 @@ def test_same_as_the_library_growth(grown) -> None:
 
 @pytest.fixture(scope="module")
 def serial(grown) -> Path:
-    """The serial run of the grown scene (rank 0 on COMM_SELF; on one rank the run)."""
-    _, d = grown
-    if MPI.COMM_WORLD.size == 1:
-        return d / "out"
-    ser = run_serial_on_rank0(d / "scene.toml", d / "ser")
-    if ser is not None:
-        assert ser.status == "converged"
-    return d / "ser"
+    return serial_reference(grown[1])
 
 
 def test_same_answer_on_any_rank_count(grown, serial: Path) -> None:
     if MPI.COMM_WORLD.size == 1:
         pytest.skip("compares a distributed run with a serial one")
-    _, d = grown
-    same_tables(d / "out" / "fracture.csv", d / "ser" / "fracture.csv")
-    got = json.loads((d / "out" / "summary.json").read_text())["fracture"]
-    ref = json.loads((d / "ser" / "summary.json").read_text())["fracture"]
-    assert got["growth"]["status"] == ref["growth"]["status"]
-    np.testing.assert_allclose(got["crack"]["front"], ref["crack"]["front"], rtol=0, atol=1e-10 * A)
+    same_growth(grown[1] / "out", serial, A)
 
 
 def test_restart_from_the_serial_checkpoint(grown, serial: Path) -> None:
@@ -171,24 +161,9 @@ def test_restart_from_the_serial_checkpoint(grown, serial: Path) -> None:
     the session gives the serial run's fracture.csv and final front."""
     _, d = grown
     for k in (1, 2):
-        out = run_dir(d, f"continued{k}")
-        if MPI.COMM_WORLD.rank == 0:
-            shutil.rmtree(out)
-            shutil.copytree(serial, out)
-        MPI.COMM_WORLD.barrier()
-        ck = out / "checkpoints" / f"increment_{k:05d}"
-        res = run_scene(
-            load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck
-        )
-        assert res.status == "converged", res.summary.get("message")
-        same_tables(out / "fracture.csv", serial / "fracture.csv")
-        ref = json.loads((serial / "summary.json").read_text())["fracture"]
-        got = res.summary["fracture"]
-        assert got["growth"]["status"] == ref["growth"]["status"] == "max_increments"
-        assert got["growth"]["increments"] == 2
-        np.testing.assert_allclose(
-            got["crack"]["front"], ref["crack"]["front"], rtol=0, atol=1e-10 * A
-        )
+        _, out = continued_run(d, serial, k)
+        got, _ = same_growth(out, serial, A)
+        assert got["growth"]["status"] == "max_increments" and got["growth"]["increments"] == 2
 
 
 def _two(mesh: Path) -> str:
@@ -266,18 +241,11 @@ def test_stops(mesh: Path, name: str, kw: dict, status: str) -> None:
 
 
 @pytest.mark.parametrize(
-    ("kw", "extra", "table", "key"),
-    [
-        ({"centre": (2.4 * A, 0.0, 0.0)}, "", "[[crack]]", "radius"),
-        ({}, "fatigue", "[fracture]", "fatigue"),
-    ],
+    ("kw", "table", "key"),
+    [({"centre": (2.4 * A, 0.0, 0.0)}, "[[crack]]", "radius")],
 )
-def test_refused(mesh: Path, kw: dict, extra: str, table: str, key: str) -> None:
+def test_refused(mesh: Path, kw: dict, table: str, key: str) -> None:
     text = _scene(mesh / "block.msh", **kw)
-    if extra == "fatigue":
-        text = text.replace("propagate = true", "propagate = false").replace(
-            "[[crack]]", "[fracture.fatigue]\nC = 1e-20\nm = 2.0\nda_max = 1e-4\n[[crack]]"
-        )
     d = run_dir(mesh, f"refused_{key}")
     scene = write_scene(d / "scene.toml", text)
     with pytest.raises(SceneError) as err:

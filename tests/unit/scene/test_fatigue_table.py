@@ -142,7 +142,6 @@ def test_bad_value_names_table_and_key(tmp_path: Path, entries, key: str, text: 
         ("propagate = true\nincrement = 1e-4\n", CRACK, 2, "propagate", "give one of them"),
         ("", "", 2, "fatigue", "add a [[crack]] or set initiate = true"),
         ("", "", 3, "fatigue", "add a [[crack]] or set initiate = true"),
-        ("", DISC3D, 3, "fatigue", "runs in 2D scenes, and in 3D with a semi-elliptical"),
         ('fatigue = "paris"\n', CRACK, 2, "fatigue", "must be a table [fracture.fatigue]"),
     ],
 )
@@ -155,6 +154,14 @@ def test_fatigue_in_a_wrong_scene_names_fracture(
     exc = _error(path)
     assert (exc.table, exc.key) == ("[fracture]", key), str(exc)
     assert text in exc.message, str(exc)
+
+
+def test_fatigue_of_an_interior_3d_crack_is_read(tmp_path: Path) -> None:
+    """A 3D disc with ``[fracture.fatigue]`` reads (it grows by blocks of cycles:
+    runners.front_growth3d); without a crack fatigue stays refused (above)."""
+    scene = load_scene(_scene(tmp_path, crack=DISC3D, dim=3))
+    assert scene.fracture.fatigue == FatigueSpec(1.0e-30, 4.0, 2.0e-4)
+    assert len(scene.cracks) == 1 and not scene.fracture.propagate
 
 
 @pytest.mark.serial  # spawns its own process: not under mpiexec
