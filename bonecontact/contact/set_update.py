@@ -82,7 +82,9 @@ class PDASState:
         default_factory=lambda: [None, 1.0]
     )  # 3D slip directions: residual, relaxation
     history: list[dict] = field(default_factory=list)
-    seen: set = field(default_factory=set)
+    #: the sets of earlier iterations (fingerprints) with, in 3D, the points their slip
+    #: rows were linearised at (:meth:`SetUpdate.accept`)
+    seen: dict = field(default_factory=dict)
     lin_total: int = 0
     n_bound: int = 0
 
@@ -405,7 +407,7 @@ class SetUpdate:
         fric = self.friction.active
         hold = (new_stick != st.stick) & new_an & st.an & fric & (st.switches >= 1)
         new_stick[hold] = st.stick[hold]
-        new_dirs[hold] = st.dirs[hold]
+        new_dirs[hold & st.stick] = st.dirs[hold & st.stick]
         return global_count(self.comm, hold)
 
     def update_edges(self, st: PDASState, it: Iterate) -> None:
@@ -490,7 +492,33 @@ class SetUpdate:
             return False  # only 3D slip directions still turning: not a cycle
         sig = (st.an.tobytes(), st.stick.tobytes(), np.sign(st.dirs).tobytes())
         sig = set_signature(self.comm, sig + (st.edges.signature(),))
-        if sig in st.seen:
+        point = self._linearisation(st)
+        earlier = st.seen.setdefault(sig, [])
+        if any(self._same_point(point, old) for old in earlier):
             return True
-        st.seen.add(sig)
+        earlier.append(point)
         return False
+
+    def _linearisation(self, st: PDASState) -> npt.NDArray[np.float64] | None:
+        """What, besides the sets, the next system depends on (``None``: nothing, as in
+        2D): in 3D the slip rows' point, per slip node with a bound and per edge node —
+        with Newton rows ``λ^k/ĝ`` and ``ξ^k/max(|ξ^k|, ĝ)`` (scale-free), with the
+        direction fixed point the direction ``s``."""
+        if self.bs != 3 or not self.friction.any_active:
+            return None
+        on = (st.an & self.friction.active & ~st.stick & (st.g > 0.0)) | st.edges.edge
+        if not self.newton_3d:
+            return st.dirs[on].copy()
+        g = st.g[on, None]
+        zn = np.linalg.norm(st.z_k[on], axis=1)[:, None]
+        scale = np.maximum(np.maximum(zn, g), 1e-300)
+        return np.hstack([st.lam_t_k[on] / np.maximum(g, 1e-300), st.z_k[on] / scale])
+
+    def _same_point(
+        self, a: npt.NDArray[np.float64] | None, b: npt.NDArray[np.float64] | None
+    ) -> bool:
+        """Whether two linearisation points (:meth:`_linearisation`, of the same sets)
+        agree to ``direction_tol`` on every rank (collective)."""
+        if a is None or b is None:
+            return True
+        return global_max(self.comm, np.abs(a - b), 0.0) <= self.direction_tol
