@@ -454,6 +454,7 @@ def update_edge_sets(
     zn: npt.NDArray[np.float64],
     tol: float,
     comm: MPI.Comm | None = None,
+    turn_tol: float = np.inf,
 ) -> EdgeSets:
     """The edge rule (docs/theory/pdas.md#edge-of-the-contact-zone): new normal, stick and
     edge sets (``new_an``, ``new_stick``, ``new_dirs`` updated in place).
@@ -464,7 +465,9 @@ def update_edge_sets(
       penetrates again (in ``new_an``, not in ``an``) becomes an edge node, slipping
       along ``ξ/|ξ|``;
     * an edge node whose friction traction ``β = λ_t · s`` exceeds the bound
-      (``β > ĝ``) returns to the active set (slip); one that slipped against ``s``
+      (``β > ĝ``) returns to the active set (slip), unless its direction ``ξ/|ξ|`` turned
+      by more than ``turn_tol`` (3D): then ``β`` was taken along a direction it does not
+      slip in, and it stays with the new direction; one that slipped against ``s``
       (``(ξ − λ_t) · s = c_t Δu_t · s < 0``) returns to the active set and sticks; with
       ``β < 0`` it opens; otherwise it stays and its direction follows ``ξ``.  When an
       edge node leaves, the other nodes keep their sets for one iteration: the traction
@@ -478,7 +481,9 @@ def update_edge_sets(
     turn = (edge | enter) & (zn > 0.0)
     new_dirs[turn] = z[turn] / zn[turn, None]
     beta = (lam_t * new_dirs).sum(axis=1)
-    up = edge & (beta > g + tol)
+    # (3D: a β measured along a direction the node no longer slips in decides nothing)
+    turned = np.linalg.norm(new_dirs - dirs, axis=1) > turn_tol
+    up = edge & (beta > g + tol) & ~turned
     # slipped against the direction of its traction (c_t Δu_t · s < 0): sticks
     back = edge & ~up & (((z - lam_t) * dirs).sum(axis=1) < -tol)
     down = edge & ~back & (beta < -tol)

@@ -422,6 +422,7 @@ class SetUpdate:
         it.new_edges = update_edge_sets(
             st.an, it.new_an, st.stick, it.new_stick, it.new_dirs, st.dirs, st.edges, rigid,
             st.g, it.lam_t, it.z, it.zn, 1e-10 * gs, self.comm,
+            turn_tol=self.direction_tol if self.bs == 3 else np.inf,
         )  # fmt: skip
         old, new = st.edges.edge, it.new_edges.edge
         moved = (new_an != it.new_an) | (new_stick != it.new_stick)
