@@ -89,7 +89,9 @@ def serial_reference(d: Path) -> Path:
 def same_growth(out: Path, ref: Path, length: float) -> tuple[dict, dict]:
     """The growth run in ``out`` equals the one in ``ref``: fracture.csv to 1e-10
     (:func:`same_tables`), the stop, the cycles (fatigue) to 1e-10 and the final front to
-    1e-10 ``length``; returns both summaries' ``fracture``."""
+    1e-10 ``length``; returns both summaries' ``fracture``.  Every rank waits for rank 0
+    first: it writes summary.json after the run's last collective."""
+    idle_barrier(MPI.COMM_WORLD)
     same_tables(out / "fracture.csv", ref / "fracture.csv")
     got = json.loads((out / "summary.json").read_text())["fracture"]
     want = json.loads((ref / "summary.json").read_text())["fracture"]
