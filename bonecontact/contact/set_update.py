@@ -474,8 +474,10 @@ class SetUpdate:
         margin of its normal row: they are needed once it closes).  Returns ``True``
         when the sets repeat an earlier iteration's with unchanged bounds (cycling); the
         signs of the slip directions count in 3D too (a node stuck by the reversal rule
-        that slips again the other way repeats no set:
-        docs/theory/pdas.md#convergence-and-failure)."""
+        that slips again the other way repeats no set), and in 3D the point the slip rows
+        are linearised at must repeat as well (:meth:`_linearisation`): the same sets
+        with other slip directions are another system
+        (docs/theory/pdas.md#convergence-and-failure)."""
         bs, fric = self.bs, self.friction.active
         R = self.system.layout.rows_of
         margin = np.full(self.system.layout.n_rows, np.inf)
