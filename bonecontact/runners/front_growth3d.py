@@ -10,18 +10,15 @@ each), solves the analysis, takes K_I, K_II, K_III at the middle of every front 
 vertex at K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest
 of all fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`: all its
 vertices move; one that held would leave a degenerate strip), extending its surface by
-the strip between the fronts.  Under fatigue every solve is a block end: the vertices'
-Paris rates of ΔK = (1 − R) K_V (:func:`~bonecontact.runners.crack_fatigue.growth_weights`,
-shared with the surface crack) give Δa_i = Δa_max rate_i/rate_max and the block's cycles
-(:class:`~bonecontact.runners.crack_fatigue.FatigueProgress`); its stops are those of
-:func:`~bonecontact.runners.crack_fatigue.growth_stop` (``fractured`` at K_Ic, ``arrested``
-below the threshold, ``max_blocks``) and ``through`` (near the surface), ``joined``,
-``partly_arrested`` (a vertex of a growing front would not move).  Stops under one load:
-``arrested`` (no vertex at K_Ic),
-``max_increments``, ``fractured`` (a grown front would come within the integration
-domain and two front elements of the body's surface: under load control it runs
-through; fragments: the body on either side of that crack's plane), ``joined`` (as
-near another crack).  ``fracture.csv``: a row per increment, crack and mid-edge (with the cycles);
+the strip between the fronts.  Under fatigue every solve is a block end: Δa_i = Δa_max
+rate_i/rate_max by the Paris rates (:func:`~bonecontact.runners.crack_fatigue.growth_weights`,
+shared with the surface crack), the cycles by ``FatigueProgress``
+(docs/theory/fracture.md#fatigue-of-interior-3d-cracks).  Stops: ``arrested``,
+``max_increments`` / ``max_blocks``, ``fractured`` (one load: a grown front would come
+within the integration domain and two front elements of the body's surface, where it runs
+through; fatigue: K_V reaches K_Ic), ``through`` (fatigue: near the surface), ``joined``
+(near another crack), ``partly_arrested`` (fatigue: a vertex of a growing front holds).
+``fracture.csv``: a row per increment, crack and mid-edge (with the cycles);
 ``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` (several: ``crack_front_<name>_<k>``)
 and ``increment<k>/`` per increment; with ``checkpoint_every`` the growth state
 (:mod:`~bonecontact.runners.growth_state3d`) to restart from on any number of ranks.
