@@ -37,7 +37,8 @@ within 1.5 % of the library's growth, test_crack_growth_scene3d.py; the circle's
 * stops: ΔK_th above every ΔK: ``arrested`` after one solve (no cycles); K_Ic below the
   peak K: ``fractured`` after one solve, fragments reported; the penny at x = 2.28a (its
   first block would bring it within the ligament of the face x = 4a): ``through`` after
-  one solve, the block's cycles Δa_max/(da/dN)_max at its start rate.
+  one solve, the block's cycles Δa_max/(da/dN)_max at its start rate; ΔK_th just below
+  the largest vertex ΔK (one vertex grows, five hold): ``partly_arrested``.
 """
 
 from __future__ import annotations
@@ -200,3 +201,20 @@ def test_stops(mesh: Path, name: str, kw: dict, status: str) -> None:
         assert g["stopped_by"] == "penny"
     if status == "fractured":
         assert kv.max() >= 1e4
+
+
+def test_a_partly_arrested_front_stops(mesh: Path, grown) -> None:
+    """ΔK_th just below the largest vertex ΔK of the grown run's first solve (the same
+    mesh): only that vertex has a rate, its neighbours move by the three-vertex average,
+    the others hold — a degenerate strip, so the run stops ``partly_arrested`` after one
+    solve, naming the crack."""
+    first = read_table(grown[1] / "out" / "fracture.csv")
+    K = np.stack([first["K_I"], first["K_II"], first["K_III"]], axis=1)[:8]
+    top = float((1 - R) * equivalent_k(*(0.5 * (K + np.roll(K, 1, axis=0))).T).max())
+    res, d = _run(mesh, "partly", extra=f"delta_K_th = {0.9999 * top!r}")
+    g = res.summary["fracture"]["growth"]
+    assert g["status"] == "partly_arrested" and g["increments"] == 0
+    assert g["stopped_by"] == "penny" and g["fragments"] is None and g["cycles"] == 0.0
+    t = read_table(d / "out" / "fracture.csv")
+    np.testing.assert_allclose(t["K_I"], first["K_I"][:8], rtol=1e-10)
+    assert set(t["status"]) == {"partly_arrested"}
