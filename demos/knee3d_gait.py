@@ -17,7 +17,7 @@
 # The knee of `demos/knee3d.py` — the shipped femur and tibia scans posed on each other,
 # cut 40 mm from the joint, each bone a cortical shell around cancellous bone with a 2 mm
 # cartilage layer on its articular facets, the two layers in a **Coulomb contact pair**
-# ($\mu = 0.1$) — without the tumour, loaded by the tibiofemoral force of the stance
+# ($\mu = 0.02$) — without the tumour, loaded by the tibiofemoral force of the stance
 # phase of walking and solved as a **dynamic** problem with the **contact-stabilised
 # Newmark scheme** (`[analysis] scheme = "stabilized-newmark"`).  We follow the contact
 # force against the applied load, the energy balance, and the cost of a time step with
@@ -26,8 +26,11 @@
 # `python demos/knee3d_gait.py [OUTPUT_DIR]`, `mpiexec -n 2 python demos/knee3d_gait.py`,
 # or as a notebook.  `BONECONTACT_DEMO_QUICK=1` runs the stance phase (0–0.6 s) on the
 # 5 mm mesh (7083 dofs), the full run on the 4 mm mesh (11 793 dofs), both with
-# Δt = 20 ms (30 steps; with Δt = 10 ms the PDAS cycles in one step at t = 0.09 s on the
-# 4 mm mesh, see *Materials*).  Units: SI.
+# Δt = 5 ms (120 steps).  Why 5 ms: on this knee the scheme's error against a fine-step
+# reference (`benchmarks/README.md`, *Knee gait: error against wall time*) is about 1 % at
+# 5 ms (strain energy 1.2 %, contact force 0.8 %) but 2.0–2.1 % at 10 ms and 2.1 % / 5.1 %
+# at 20 ms: the trapezoidal rule keeps the structural modes that the femur's landing
+# excites, where ωΔt ≫ 1.  Units: SI.
 #
 # ## Mechanics
 # Each bone is a Kelvin–Voigt solid, $\sigma = \mathbb C\,e(u) + \tau_v\,\mathbb C\,e(\dot u)$,
@@ -68,14 +71,12 @@
 # cartilage $E = 10$ MPa, $\nu = 0.4$, $\rho = 1100$ kg/m³; Kelvin–Voigt time
 # $\tau_v = 2$ ms everywhere (cartilage is poro-viscoelastic; a short relaxation time
 # damps the landing of the femur on the plateau in the first step, over the 0.5 mm
-# clearance the mesh leaves, instead of letting it bounce).  $\mu = 0.1$, cartilage on
-# cartilage without its synovial lubrication (as `demos/knee3d.py`).  With the
-# boundary-lubricated $\mu = 0.02$ of `data/scenes/knee2d_gait.toml` the PDAS of this
-# scheme cycles in one step near the first peak (5 mm mesh, t = 0.14–0.16 s, Δt = 10 and
-# 20 ms: one node of the edge of the contact zone alternates between stick and slip;
-# measured 2026-11-28), and with $\mu = 0.1$ on the 4 mm mesh at Δt = 10 ms (t = 0.09 s): a
-# known limit of the set rules with the redistributed mass (docs/scene_format.md,
-# `[analysis] scheme`).
+# clearance the mesh leaves, instead of letting it bounce).  $\mu = 0.02$, cartilage on
+# cartilage in boundary lubrication (as `data/scenes/knee2d_gait.toml`; `demos/knee3d.py`
+# takes 0.1, without the synovial fluid).  The PDAS converges at every step for μ = 0.02
+# and 0.1, Δt = 5–20 ms, on the 3.4, 4 and 5 mm meshes (`tests/verification/
+# test_knee_gait_friction.py`; until 2026-12-02 a repeated active set was taken for a
+# cycle while the slip rows' linearisation point still moved, docs/theory/pdas.md).
 #
 # **Limits.**  As in `demos/knee3d.py`: the scanned surfaces are incongruent, the
 # contact patches a few elements wide, the cartilage strains far beyond the small-strain
@@ -116,11 +117,11 @@ quick = bp.quick_mode()
 
 MM = 1e-3
 W = 700.0  # N, body weight
-MU = 0.1  # Coulomb coefficient between the cartilage layers (see the text)
+MU = 0.02  # Coulomb coefficient between the cartilage layers (see the text)
 CARTILAGE, CORTEX, KEEP = 2 * MM, 2 * MM, 40 * MM
 H = 5 * MM if quick else 4 * MM  # element size
 CLEARANCE = 0.5 * MM
-DT = 0.02  # s
+DT = 0.005  # s: the step at which the scheme's error is about 1 % (see the text)
 T_END = 0.6  # s: the stance phase
 #: the load factor f(t) (times W): Bergmann et al. 2014, average walking, read and rounded
 GAIT = [(0.0, 0.3), (0.15, 2.5), (0.30, 1.7), (0.47, 2.6), (0.62, 0.4)]

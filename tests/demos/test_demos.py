@@ -996,16 +996,20 @@ def test_demo_figures_pass_the_figure_check(demo_runs, demo):
 
 
 def test_knee3d_gait_dynamic_coulomb_newmark(demo_runs):
-    """3D knee through the stance phase (demos/knee3d_gait.py, quick: 5 mm mesh, Δt = 20 ms,
-    scheme = "stabilized-newmark", Coulomb μ = 0.1): the mean load of every step is
+    """3D knee through the stance phase (demos/knee3d_gait.py, quick: 5 mm mesh, Δt = 5 ms,
+    scheme = "stabilized-newmark", Coulomb μ = 0.02): the mean load of every step is
     −W (f(tⁿ) + f(tⁿ⁺¹))/2 of the gait curve (recomputed here from the curve's points, 1e-9);
-    the tibia's cut carries the applied load within 1 % at every step (the knee passes it
-    through the contact; the femur's inertia is ~2 N, measured ≤ 0.3 %); the contact is
+    the momentum balance closes at every step: the tibia's reaction = the applied load + the
+    inertial force Σ M a (1e-6 of the largest load); the knee passes the load through the
+    contact: the tibia carries it within 1 % from t = 0.1 s (measured 0.76 %; before, the
+    femur, which lands on the cartilage over the 0.5 mm clearance in the first step,
+    vibrates on it: the inertial force alternates ±20 N, 7 % of the load, at first and
+    ±5 N by 0.2 s); the contact is
     closed in every step; stick and slip both occur and |tangential force| ≤ μ × normal
     force (5 % slack: the bound is the previous step's pressure); the energy balance
     closes (1e-9 of the load's work) with no numerical dissipation (the Newmark scheme with
     the redistributed mass) and the contact work never grows (≤ 0 and non-increasing)."""
-    w, mu = 700.0, 0.1
+    w, mu = 700.0, 0.02
     gait = np.array([(0.0, 0.3), (0.15, 2.5), (0.30, 1.7), (0.47, 2.6), (0.62, 0.4)])
     r1, o1 = demo_runs["knee3d_gait", 1]
     assert r1.returncode == 0, r1.stderr[-2000:]
@@ -1015,7 +1019,9 @@ def test_knee3d_gait_dynamic_coulomb_newmark(demo_runs):
     t, dt = h["time"][1:], s["dt"]
     mean_f = 0.5 * (np.interp(t - dt, *gait.T) + np.interp(t, *gait.T))
     assert np.allclose(-h["load_y"][1:], w * mean_f, rtol=1e-9)
-    assert np.allclose(h["reaction_tibia_base_y"][1:], -h["load_y"][1:], rtol=0.01)
+    reaction, load, inertia = h["reaction_tibia_base_y"][1:], -h["load_y"][1:], h["inertia_y"][1:]
+    assert np.abs(reaction - inertia - load).max() < 1e-6 * load.max()
+    assert np.allclose(reaction[t >= 0.1], load[t >= 0.1], rtol=0.01)
     assert (h["n_active"][1:] > 0).all()
     assert h["n_stick"].max() > 0 and h["n_slip"].max() > 0
     assert (h["tangential_force"] <= mu * h["normal_force"] * 1.05 + 1e-9).all()
