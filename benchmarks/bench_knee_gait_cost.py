@@ -11,7 +11,8 @@ every size: on 2026-12-02 3.0, 3.3, 3.5 and 3.7 mm failed in gmsh (overlapping f
 a segment through a facet), 3.6 mm had one degenerate tetrahedron, 1.6 mm turned the
 cartilage layer over; 3.4 mm refined once is 126,234 dofs (the default), 3.8 mm 96,924.
 The scene is ``data/scenes/knee3d_gait.toml``
-(stabilized-newmark, Coulomb μ = 0.1, Δt = 20 ms, MUMPS) on that mesh, run by
+(stabilized-newmark, Coulomb μ = 0.02, Δt = 5 ms, MUMPS; μ = 0.1 and Δt = 20 ms before
+2026-12-02 18:00 UTC) on that mesh, run by
 ``run_scene`` (the function ``bonecontact run`` calls) twice: with the contact pair and
 without it (the ``[[contact]]`` table removed; the femur then falls through the tibia,
 which does not change the cost of a step).  ``--t-end`` shortens the stance phase.
@@ -25,7 +26,7 @@ small dense systems and set logic (``solve`` minus those); columns ``*_cpu_s``, 
 step.  The ``phases_s`` of both
 runs' summary.json are copied into the row (wall, whole run).
 
-``--dt`` replaces the scene's step (20 ms): the zone's growth (steps up to
+``--dt`` replaces the scene's step (5 ms): the zone's growth (steps up to
 ``SETTLED`` = 0.18 s, the load rising to 2.5 W at 0.15 s) is then spread over more
 steps.  Reported: the ratio of the steps after the first (``ratio_cpu``), of the growing
 steps (t < 0.18 s) and of the settled ones (t ≥ 0.18 s), and of every step including the
@@ -36,7 +37,7 @@ step's CPU time of both runs and the column blocks of each step (size, with the 
 solve or not) to a JSON file, the load (``os.getloadavg``) before and after each run.
 
 Usage:  python benchmarks/bench_knee_gait_cost.py [--h-mm 3.4 --refine 1] [--t-end 0.6]
-        [--dt 0.02] [--memory-ratio 0.05] [--out benchmarks/results/knee_gait_cost.csv]
+        [--dt 0.005] [--memory-ratio 0.05] [--out benchmarks/results/knee_gait_cost.csv]
         [--json benchmarks/results/knee_gait_cost_dt.json]
 """
 
@@ -48,6 +49,7 @@ import os
 import re
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 from mpi4py import MPI
@@ -231,9 +233,11 @@ def main() -> None:
     ap.add_argument("--memory-ratio", type=float, default=0.05)
     ap.add_argument("--work", default="/tmp/knee_gait_cost", help="meshes and run outputs")
     ap.add_argument("--out", default="benchmarks/results/knee_gait_cost.csv")
-    ap.add_argument("--dt", type=float, default=0.02, help="time step (s)")
+    ap.add_argument("--dt", type=float, default=0.0, help="time step (s); 0: the scene's")
     ap.add_argument("--json", default="", help="also write the row and per-step data here")
     a = ap.parse_args()
+    if a.dt <= 0:
+        a.dt = float(tomllib.loads(SCENE.read_text())["analysis"]["dt"])
     work = Path(a.work) / f"h{a.h_mm}"
     t0 = time.perf_counter()
     mesh = refined(build_mesh(a.h_mm, work), a.refine)

@@ -42,6 +42,7 @@ __all__ = [
     "read_host_geometry3d",
     "sphere_surface",
     "surface_volume",
+    "write_host_geometry3d",
 ]
 
 #: Smallest clearance between the neoplasm and its host body's surface, in units of the
@@ -109,6 +110,22 @@ def read_host_geometry3d(path: str | Path) -> HostGeometry3D:
     if not cells:
         raise CouplingError(f"{path}: no 3D cell groups")
     return HostGeometry3D(x, cells, facets)
+
+
+def write_host_geometry3d(g: HostGeometry3D, path: str | Path) -> None:
+    """Write ``g`` as a gmsh file (format 4.1): its cell and facet groups as named physical
+    groups with their tags, readable by :func:`read_host_geometry3d`; serial (call on one
+    rank)."""
+    with gmsh_session("host_geometry"):
+        m = gmsh.model
+        m.mesh.addNodes(0, m.addDiscreteEntity(0), np.arange(1, len(g.x) + 1), g.x.ravel())
+        for dim, groups, kind in ((3, g.cells, 4), (2, g.facets, 2)):
+            for name, (tag, cells) in groups.items():
+                e = m.addDiscreteEntity(dim)
+                m.mesh.addElementsByType(e, kind, [], (np.asarray(cells) + 1).ravel())
+                m.addPhysicalGroup(dim, [e], tag, name=name)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
 
 
 # ----------------------------------------------------------------------------- neoplasm surface

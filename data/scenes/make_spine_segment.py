@@ -13,11 +13,14 @@ import dolfinx_solver  # noqa: F401  (before dolfinx / mpi4py)
 import sys
 from pathlib import Path
 
-import gmsh
 import numpy as np
 from matplotlib.path import Path as PolygonPath
 
-from bonecontact.neoplasm.host3d import HostGeometry3D, read_host_geometry3d
+from bonecontact.neoplasm.host3d import (
+    HostGeometry3D,
+    read_host_geometry3d,
+    write_host_geometry3d,
+)
 
 NUCLEUS_SHARE = 0.44
 TARGET = Path(__file__).resolve().parent / "spine_segment.msh"
@@ -46,25 +49,8 @@ def split_disc(g: HostGeometry3D, share: float) -> None:
     g.cells["nucleus"] = (1 + max(t for t, _ in g.cells.values()), tets[inside])
 
 
-def write_msh(g: HostGeometry3D, path: Path) -> None:
-    """``g`` as a gmsh file: its cell and facet groups as named physical groups."""
-    gmsh.initialize()
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add("spine_segment")
-    m = gmsh.model
-    m.mesh.addNodes(0, m.addDiscreteEntity(0), np.arange(1, len(g.x) + 1), g.x.ravel())
-    for dim, groups, kind in ((3, g.cells, 4), (2, g.facets, 2)):
-        for name, (tag, cells) in groups.items():
-            e = m.addDiscreteEntity(dim)
-            m.mesh.addElementsByType(e, kind, [], (cells + 1).ravel())
-            m.addPhysicalGroup(dim, [e], tag, name=name)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.write(str(path))
-    gmsh.finalize()
-
-
 if __name__ == "__main__":
     geo = read_host_geometry3d(sys.argv[1])
     split_disc(geo, NUCLEUS_SHARE)
-    write_msh(geo, TARGET)
+    write_host_geometry3d(geo, TARGET)
     print(f"{TARGET}: " + ", ".join(f"{k} {len(t)}" for k, (_, t) in geo.cells.items()))

@@ -31,7 +31,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import gmsh
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -41,6 +40,7 @@ from bonecontact.neoplasm.host3d import (
     build_host_mesh3d,
     read_host_geometry3d,
     sphere_surface,
+    write_host_geometry3d,
 )
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
@@ -334,23 +334,6 @@ def _signed_volumes(x: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]))
 
 
-def write_geometry(g: HostGeometry3D, path: Path) -> None:
-    """Rank 0: ``g`` as a gmsh file, its groups as named physical groups."""
-    gmsh.initialize()
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add("l4")
-    m = gmsh.model
-    m.mesh.addNodes(0, m.addDiscreteEntity(0), np.arange(1, len(g.x) + 1), g.x.ravel())
-    for dim, groups, kind in ((3, g.cells, 4), (2, g.facets, 2)):
-        for name, (tag, cells) in groups.items():
-            e = m.addDiscreteEntity(dim)
-            m.mesh.addElementsByType(e, kind, [], (cells + 1).ravel())
-            m.addPhysicalGroup(dim, [e], tag, name=name)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.write(str(path))
-    gmsh.finalize()
-
-
 def lesion_mesh(scale: float, cavity: bool, level: int, path: Path) -> float:
     """L4 with an ellipsoid of ``scale`` times the core's half-extents as a hole
     (``cavity``) or as a cell group ``lesion`` (the intact reference on the same mesh),
@@ -371,7 +354,7 @@ def lesion_mesh(scale: float, cavity: bool, level: int, path: Path) -> float:
         h = read_host_geometry3d(coarse)
         for _ in range(level):
             h = refine_uniform(h)
-        write_geometry(h, path)
+        write_host_geometry3d(h, path)
     COMM.barrier()
     return hm.neoplasm_area
 
