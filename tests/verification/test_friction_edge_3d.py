@@ -27,8 +27,8 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from recorded_solves import recorded_solves
 
-from bonecontact.contact.pdas import ContactSolver
 from bonecontact.verification import robustness
 from bonecontact.verification.robustness import Config, run_config, same_answer
 
@@ -59,16 +59,7 @@ def tresca_defect(results: list, bound: float, comm: MPI.Comm) -> float:
 
 def run_recording(cfg: Config, folder, comm: MPI.Comm, monkeypatch) -> tuple:
     """:func:`run_config` with every contact solve's result kept."""
-    results = []
-    solve = ContactSolver.solve
-
-    def recording(self, b, u):
-        res = solve(self, b, u)
-        results.append(res)
-        return res
-
-    with monkeypatch.context() as m:
-        m.setattr(ContactSolver, "solve", recording)
+    with recorded_solves(monkeypatch) as results:
         rec = run_config(cfg, folder, comm)
     return rec, results
 

@@ -36,8 +36,8 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from recorded_solves import recorded_solves
 
-from bonecontact.contact.pdas import ContactSolver
 from bonecontact.meshing import SurfaceRegion, anatomy_surface
 from bonecontact.meshing.joint import (
     Cartilage,
@@ -162,16 +162,7 @@ def energy_defect(h: dict[str, np.ndarray]) -> float:
 
 def run_gait(scene: Path, out: Path, comm: MPI.Comm, monkeypatch) -> tuple:
     """Run the scene on ``comm``; returns its RunResult and every contact solve's result."""
-    results = []
-    solve = ContactSolver.solve
-
-    def recording(self, b, u):
-        res = solve(self, b, u)
-        results.append(res)
-        return res
-
-    with monkeypatch.context() as m:
-        m.setattr(ContactSolver, "solve", recording)
+    with recorded_solves(monkeypatch) as results:
         run = run_scene(load_scene(scene), comm, output=out, progress=False)
     return run, results
 
