@@ -27,10 +27,10 @@
 # or as a notebook.  `BONECONTACT_DEMO_QUICK=1` runs the stance phase (0–0.6 s) on the
 # 5 mm mesh (7083 dofs), the full run on the 4 mm mesh (11 793 dofs), both with
 # Δt = 5 ms (120 steps).  Why 5 ms: on this knee the scheme's error against a fine-step
-# reference (`benchmarks/README.md`, *Knee gait: error against wall time*) is about 1 % at
-# 5 ms (strain energy 1.2 %, contact force 0.8 %) but 2.0–2.1 % at 10 ms and 2.1 % / 5.1 %
-# at 20 ms: the trapezoidal rule keeps the structural modes that the femur's landing
-# excites, where ωΔt ≫ 1.  Units: SI.
+# reference (`benchmarks/README.md`, *Knee gait: error against wall time*, μ = 0.02) is
+# about 1 % at 5 ms (strain energy 1.0 %, contact force 0.7 %) but 2.0 % / 2.3 % at 10 ms
+# and 3.7 % / 5.5 % at 20 ms: the trapezoidal rule keeps the structural modes that the
+# femur's landing excites, where ωΔt ≫ 1.  Units: SI.
 #
 # ## Mechanics
 # Each bone is a Kelvin–Voigt solid, $\sigma = \mathbb C\,e(u) + \tau_v\,\mathbb C\,e(\dot u)$,
