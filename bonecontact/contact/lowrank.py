@@ -48,6 +48,7 @@ __all__ = [
     "SingularActiveSetError",
     "SplitBasis",
     "mumps_failure",
+    "mumps_workspace_short",
     "null_pivots",
     "solve_small_system",
 ]
@@ -80,6 +81,25 @@ def mumps_failure(ksp: PETSc.KSP) -> str | None:
     if info1 >= 0:
         return None
     return f"MUMPS factorisation failed: INFOG(1) = {info1}, INFOG(2) = {info2}"
+
+
+#: MUMPS errors (INFOG(1)) of a work space estimated too small in the analysis: integer
+#: or real work space of the factorisation or the solution, send or receive buffers.  A
+#: factorisation that fails with one of them is redone with ICNTL(14), the extra work
+#: space in per cent of the estimate, raised to 40, 80, 160 (at most ``WORKSPACE_RETRIES`` times):
+#: the estimate can fall short on several ranks when the pivoting differs from the
+#: analysis's guess (a 3-rank restart of a surface-crack scene, INFOG(1) = -9).
+MUMPS_WORKSPACE_ERRORS = frozenset({-8, -9, -11, -14, -17, -20})
+WORKSPACE_RETRIES = 3
+
+
+def mumps_workspace_short(ksp: PETSc.KSP) -> bool:
+    """Whether the last MUMPS factorisation of ``ksp`` failed for lack of work space
+    (:data:`MUMPS_WORKSPACE_ERRORS`; collective: INFOG is the same on every rank)."""
+    pc = ksp.getPC()
+    if pc.getType() != "lu" or pc.getFactorSolverType() != "mumps":
+        return False
+    return int(pc.getFactorMatrix().getMumpsInfog(1)) in MUMPS_WORKSPACE_ERRORS
 
 
 #: Dense ``n_local × k`` arrays alive while a block of ``k`` columns is computed (right-hand
@@ -359,6 +379,8 @@ class LowRankActiveSetSolver:
         self.AC, self._cols = self._fixed_columns(A)
         self.B0 = self._base_matrix(A)
         self.prefix = prefix
+        #: ICNTL(14) after a factorisation ran out of work space (``None``: MUMPS's own)
+        self.workspace: int | None = None
         self.ksp = self._make_ksp()
         self.resplits = 0
         self._new_pattern = True
@@ -462,9 +484,30 @@ class LowRankActiveSetSolver:
 
     def _make_ksp(self) -> PETSc.KSP:
         ksp = PETSc.KSP().create(self.comm)
-        # (icntl 24: detect null pivots)
-        configure_ksp(ksp, "direct", prefix=self.prefix, options={"mat_mumps_icntl_24": 1})
+        # (icntl 24: detect null pivots; icntl 14: extra work space after a shortfall)
+        options: dict[str, object] = {"mat_mumps_icntl_24": 1}
+        if self.workspace is not None:
+            options["mat_mumps_icntl_14"] = self.workspace
+        configure_ksp(ksp, "direct", prefix=self.prefix, options=options)
         return ksp
+
+    def _set_up_factor(self) -> None:
+        """Factorise :attr:`B0` in :attr:`ksp`; a factorisation that ran out of work space
+        is redone by a new solver with ICNTL(14) doubled (:data:`MUMPS_WORKSPACE_ERRORS`)."""
+        for attempt in range(WORKSPACE_RETRIES + 1):
+            self.ksp.setOperators(self.B0)
+            try:
+                with solver_options(self.ksp).applied():  # (the MUMPS options are read here)
+                    self.ksp.setUp()
+            except PETSc.Error as exc:
+                raise SingularActiveSetError(
+                    f"LU factorisation failed (PETSc error {exc.ierr})"
+                ) from None
+            if attempt == WORKSPACE_RETRIES or not mumps_workspace_short(self.ksp):
+                return
+            self.workspace = 2 * max(self.workspace or 20, 20)
+            self.ksp.destroy()
+            self.ksp = self._make_ksp()
 
     # ------------------------------------------------------------------ small utilities
     def _local(self, qs: list[int] | npt.NDArray) -> tuple[npt.NDArray, npt.NDArray]:
@@ -518,14 +561,7 @@ class LowRankActiveSetSolver:
             self.A.copy(self.B0, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         rows = (self._fixed_local(mask).astype(np.int64) + self.start).astype(PETSc.IntType)
         self.B0.zeroRowsColumns(rows, diag=self.diag_value)
-        self.ksp.setOperators(self.B0)
-        try:
-            with solver_options(self.ksp).applied():  # (the MUMPS options are read here)
-                self.ksp.setUp()
-        except PETSc.Error as exc:
-            raise SingularActiveSetError(
-                f"LU factorisation failed (PETSc error {exc.ierr})"
-            ) from None
+        self._set_up_factor()
         nulls = null_pivots(self.ksp)
         if nulls:
             raise SingularActiveSetError(

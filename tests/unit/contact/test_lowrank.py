@@ -20,7 +20,7 @@ import ufl
 from laplacian import laplacian_1d
 
 from bonecontact.contact.interface import build_interface
-from bonecontact.contact.lowrank import mumps_failure
+from bonecontact.contact.lowrank import LowRankActiveSetSolver, mumps_failure
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
 from bonecontact.materials.laws import Isotropic
@@ -273,3 +273,26 @@ def test_failed_mumps_factorisation_is_reported(workspace):
         opts.delValue("mat_mumps_icntl_14")
     ksp.destroy()
     A.destroy()
+
+
+def test_factorisation_short_of_work_space_is_redone(monkeypatch):
+    """A base factorisation starved of work space (ICNTL(14) = −99 %: MUMPS stops with
+    INFOG(1) = −9) is redone with ICNTL(14) = 40 % and gives the answer of an ordinary run
+    (displacement to 1e-12, the same PDAS iterations and active sets)."""
+    m, itf = _hertz()
+    ref = _run(m, itf)[0]
+    made = []
+    init = LowRankActiveSetSolver.__init__
+
+    def starved(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        self.workspace = -99
+        self.ksp.destroy()
+        self.ksp = self._make_ksp()
+        made.append(self)
+
+    monkeypatch.setattr(LowRankActiveSetSolver, "__init__", starved)
+    got = _run(m, itf)[0]
+    assert made and all(s.workspace == 40 for s in made)
+    assert _rel(got["u"], ref["u"]) < 1e-12
+    assert got["its"] == ref["its"] and got["sets"] == ref["sets"]
