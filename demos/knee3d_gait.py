@@ -74,7 +74,8 @@
 # clearance the mesh leaves, instead of letting it bounce).  $\mu = 0.02$, cartilage on
 # cartilage in boundary lubrication (as `data/scenes/knee2d_gait.toml`; `demos/knee3d.py`
 # takes 0.1, without the synovial fluid).  The PDAS converges at every step for μ = 0.02
-# and 0.1, Δt = 5–20 ms, on the 3.4, 4 and 5 mm meshes (`tests/verification/
+# and 0.1 at Δt = 10 and 20 ms on the 3.4, 4 and 5 mm meshes, at 5 ms on the 5 mm one
+# (measured; the 3.4 mm mesh refined once at 5 ms with μ = 0.02) (`tests/verification/
 # test_knee_gait_friction.py`; until 2026-12-02 a repeated active set was taken for a
 # cycle while the slip rows' linearisation point still moved, docs/theory/pdas.md).
 #
