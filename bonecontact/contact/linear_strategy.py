@@ -18,6 +18,7 @@ All three have the interface of :class:`LinearStrategy`.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
@@ -27,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
-from bonecontact.common.linalg import SolverOptions, configure_ksp
+from bonecontact.common.linalg import SolverOptions, configure_ksp, set_solver_options
 from bonecontact.contact.condensed import CondensedSystem, lean_products
 from bonecontact.contact.coupled_rows import CoupledGroup, krylov_groups, spring_split
 from bonecontact.contact.krylov import (
@@ -44,6 +45,7 @@ from bonecontact.contact.lowrank import (
     SingularActiveSetError,
     mumps_failure,
     null_pivots,
+    retry_workspace,
 )
 from bonecontact.contact.options import LinearOptions
 from bonecontact.contact.reductions import global_any
@@ -199,6 +201,9 @@ class RefactorStrategy:
         self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(system.layout.comm)
         self.ksp.setOptionsPrefix(options.prefix)
+        self._prefix = options.prefix
+        #: MUMPS ICNTL(14) after a factorisation ran out of work space (``None``: MUMPS's own)
+        self.workspace: int | None = None
         self._configure(options, rtol, V, nonsymmetric)
         self.ksp.setFromOptions()
         self._rhs = self.B.createVecLeft()
@@ -307,14 +312,23 @@ class RefactorStrategy:
         return cols, np.array([d[1] for d in data])
 
     def _ksp_solve(self, rows: SetRows) -> None:
-        """Factorise ``B`` and solve into ``Ũ``; a singular or failed solve raises."""
-        self.ksp.setOperators(self.B)
-        try:
-            self.ksp.solve(self._rhs, self.system.Uh)
-        except PETSc.Error as exc:
-            raise SingularActiveSetError(
-                f"linear solve failed (singular system? PETSc error {exc.ierr})"
-            ) from None
+        """Factorise ``B`` and solve into ``Ũ``; a factorisation that ran out of MUMPS work
+        space is redone with ICNTL(14) doubled (:func:`~bonecontact.contact.lowrank.
+        retry_workspace`, as the low-rank solver's); a singular or failed solve raises."""
+        for attempt in itertools.count():
+            self.ksp.setOperators(self.B)
+            try:
+                self.ksp.solve(self._rhs, self.system.Uh)
+            except PETSc.Error as exc:
+                raise SingularActiveSetError(
+                    f"linear solve failed (singular system? PETSc error {exc.ierr})"
+                ) from None
+            workspace = retry_workspace(self.ksp, self.workspace, attempt)
+            if workspace is None:
+                break
+            self.workspace = workspace
+            set_solver_options(self.ksp, {"mat_mumps_icntl_14": workspace}, self._prefix)
+            self.ksp.getPC().reset()  # (a new factor, which reads ICNTL(14))
         self._check()
 
     def _check(self) -> None:

@@ -50,6 +50,7 @@ __all__ = [
     "mumps_failure",
     "mumps_workspace_short",
     "null_pivots",
+    "retry_workspace",
     "solve_small_system",
 ]
 
@@ -100,6 +101,18 @@ def mumps_workspace_short(ksp: PETSc.KSP) -> bool:
     if pc.getType() != "lu" or pc.getFactorSolverType() != "mumps":
         return False
     return int(pc.getFactorMatrix().getMumpsInfog(1)) in MUMPS_WORKSPACE_ERRORS
+
+
+def retry_workspace(ksp: PETSc.KSP, workspace: int | None, attempt: int) -> int | None:
+    """The ICNTL(14) with which to redo the last MUMPS factorisation of ``ksp``: twice
+    ``workspace`` (at least 40 %) if it ran out of work space and ``attempt`` (0 for the
+    first factorisation) is below :data:`WORKSPACE_RETRIES`, else ``None`` (keep it).
+
+    Shared by the low-rank solver's base factorisation and the refactorising strategy
+    (:class:`~bonecontact.contact.linear_strategy.RefactorStrategy`).  Collective."""
+    if attempt >= WORKSPACE_RETRIES or not mumps_workspace_short(ksp):
+        return None
+    return 2 * max(workspace or 20, 20)
 
 
 #: Dense ``n_local × k`` arrays alive while a block of ``k`` columns is computed (right-hand
@@ -493,7 +506,7 @@ class LowRankActiveSetSolver:
 
     def _set_up_factor(self) -> None:
         """Factorise :attr:`B0` in :attr:`ksp`; a factorisation that ran out of work space
-        is redone by a new solver with ICNTL(14) doubled (:data:`MUMPS_WORKSPACE_ERRORS`)."""
+        is redone by a new solver with ICNTL(14) doubled (:func:`retry_workspace`)."""
         for attempt in range(WORKSPACE_RETRIES + 1):
             self.ksp.setOperators(self.B0)
             try:
@@ -503,9 +516,10 @@ class LowRankActiveSetSolver:
                 raise SingularActiveSetError(
                     f"LU factorisation failed (PETSc error {exc.ierr})"
                 ) from None
-            if attempt == WORKSPACE_RETRIES or not mumps_workspace_short(self.ksp):
+            workspace = retry_workspace(self.ksp, self.workspace, attempt)
+            if workspace is None:
                 return
-            self.workspace = 2 * max(self.workspace or 20, 20)
+            self.workspace = workspace
             self.ksp.destroy()
             self.ksp = self._make_ksp()
 

@@ -19,7 +19,10 @@ import pytest
 import ufl
 from laplacian import laplacian_1d
 
+from bonecontact.common.linalg import set_solver_options
+from bonecontact.contact import linear_strategy
 from bonecontact.contact.interface import build_interface
+from bonecontact.contact.linear_strategy import RefactorStrategy
 from bonecontact.contact.lowrank import LowRankActiveSetSolver, mumps_failure
 from bonecontact.contact.options import PDASOptions
 from bonecontact.contact.pdas import ContactConvergenceError, ContactSolver
@@ -296,3 +299,29 @@ def test_factorisation_short_of_work_space_is_redone(monkeypatch):
     assert made and all(s.workspace == 40 for s in made)
     assert _rel(got["u"], ref["u"]) < 1e-12
     assert got["its"] == ref["its"] and got["sets"] == ref["sets"]
+
+
+def test_refactorisation_short_of_work_space_is_redone(monkeypatch):
+    """The refactorising strategy shares the retry: its factorisations starved of work space
+    (ICNTL(14) = −99 %: INFOG(1) = −9) are redone with ICNTL(14) = 40 % and give the
+    ordinary refactorising run's answer (displacement to 1e-12, the same PDAS iterations
+    and active sets); without the retry the run stops with INFOG(1) = −9."""
+    m, itf = _hertz()
+    ref = _run(m, itf, strategy="refactor")[0]
+    made = []
+    init = RefactorStrategy.__init__
+
+    def starved(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        set_solver_options(self.ksp, {"mat_mumps_icntl_14": -99}, "bc_")
+        self.workspace = -99
+        made.append(self)
+
+    monkeypatch.setattr(RefactorStrategy, "__init__", starved)
+    got = _run(m, itf, strategy="refactor")[0]
+    assert made and all(s.workspace == 40 for s in made)
+    assert _rel(got["u"], ref["u"]) < 1e-12
+    assert got["its"] == ref["its"] and got["sets"] == ref["sets"]
+    monkeypatch.setattr(linear_strategy, "retry_workspace", lambda *args: None)
+    with pytest.raises(ContactConvergenceError, match=r"INFOG\(1\) = -9"):
+        _run(m, itf, strategy="refactor")
