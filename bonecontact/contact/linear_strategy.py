@@ -18,7 +18,6 @@ All three have the interface of :class:`LinearStrategy`.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
@@ -28,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
 
-from bonecontact.common.linalg import SolverOptions, configure_ksp, set_solver_options
+from bonecontact.common.linalg import SolverOptions, configure_ksp
 from bonecontact.contact.condensed import CondensedSystem, lean_products
 from bonecontact.contact.coupled_rows import CoupledGroup, krylov_groups, spring_split
 from bonecontact.contact.krylov import (
@@ -43,9 +42,9 @@ from bonecontact.contact.krylov import (
 from bonecontact.contact.lowrank import (
     LowRankActiveSetSolver,
     SingularActiveSetError,
+    factorise_with_workspace_retry,
     mumps_failure,
     null_pivots,
-    retry_workspace,
 )
 from bonecontact.contact.options import LinearOptions
 from bonecontact.contact.reductions import global_any
@@ -201,7 +200,6 @@ class RefactorStrategy:
         self.B.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         self.ksp = PETSc.KSP().create(system.layout.comm)
         self.ksp.setOptionsPrefix(options.prefix)
-        self._prefix = options.prefix
         #: MUMPS ICNTL(14) after a factorisation ran out of work space (``None``: MUMPS's own)
         self.workspace: int | None = None
         self._configure(options, rtol, V, nonsymmetric)
@@ -313,22 +311,17 @@ class RefactorStrategy:
 
     def _ksp_solve(self, rows: SetRows) -> None:
         """Factorise ``B`` and solve into ``Ũ``; a factorisation that ran out of MUMPS work
-        space is redone with ICNTL(14) doubled (:func:`~bonecontact.contact.lowrank.
-        retry_workspace`, as the low-rank solver's); a singular or failed solve raises."""
-        for attempt in itertools.count():
+        space is redone with ICNTL(14) doubled (as the low-rank solver's:
+        :func:`~bonecontact.contact.lowrank.factorise_with_workspace_retry`); a singular
+        or failed solve raises."""
+
+        def solve() -> None:
             self.ksp.setOperators(self.B)
-            try:
-                self.ksp.solve(self._rhs, self.system.Uh)
-            except PETSc.Error as exc:
-                raise SingularActiveSetError(
-                    f"linear solve failed (singular system? PETSc error {exc.ierr})"
-                ) from None
-            workspace = retry_workspace(self.ksp, self.workspace, attempt)
-            if workspace is None:
-                break
-            self.workspace = workspace
-            set_solver_options(self.ksp, {"mat_mumps_icntl_14": workspace}, self._prefix)
-            self.ksp.getPC().reset()  # (a new factor, which reads ICNTL(14))
+            self.ksp.solve(self._rhs, self.system.Uh)
+
+        self.workspace = factorise_with_workspace_retry(
+            self.ksp, solve, self.workspace, "linear solve (singular system?)"
+        )
         self._check()
 
     def _check(self) -> None:

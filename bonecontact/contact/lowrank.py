@@ -17,6 +17,7 @@ round-off. Theory: docs/theory/pdas.md#low-rank-updates, #split-basis and
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -28,7 +29,7 @@ from scipy.linalg.blas import daxpy as _daxpy
 
 from bonecontact.common.blas import one_blas_thread
 from bonecontact.common.errors import RunError
-from bonecontact.common.linalg import configure_ksp, solver_options
+from bonecontact.common.linalg import configure_ksp, set_solver_options, solver_options
 from bonecontact.contact.reductions import (
     gather_rows,
     global_any,
@@ -47,6 +48,7 @@ __all__ = [
     "LowRankActiveSetSolver",
     "SingularActiveSetError",
     "SplitBasis",
+    "factorise_with_workspace_retry",
     "mumps_failure",
     "mumps_workspace_short",
     "null_pivots",
@@ -107,12 +109,35 @@ def retry_workspace(ksp: PETSc.KSP, workspace: int | None, attempt: int) -> int 
     """The ICNTL(14) with which to redo the last MUMPS factorisation of ``ksp``: twice
     ``workspace`` (at least 40 %) if it ran out of work space and ``attempt`` (0 for the
     first factorisation) is below :data:`WORKSPACE_RETRIES`, else ``None`` (keep it).
-
-    Shared by the low-rank solver's base factorisation and the refactorising strategy
-    (:class:`~bonecontact.contact.linear_strategy.RefactorStrategy`).  Collective."""
+    Collective."""
     if attempt >= WORKSPACE_RETRIES or not mumps_workspace_short(ksp):
         return None
     return 2 * max(workspace or 20, 20)
+
+
+def factorise_with_workspace_retry(
+    ksp: PETSc.KSP, factorise: Callable[[], None], workspace: int | None, what: str
+) -> int | None:
+    """Run ``factorise`` (a set-up or solve of ``ksp`` that factorises with MUMPS); while
+    the factorisation runs out of work space, redo it with a new factor and ICNTL(14)
+    doubled (:func:`retry_workspace`).  Shared by the low-rank solver's base factorisation
+    and the refactorising strategy
+    (:class:`~bonecontact.contact.linear_strategy.RefactorStrategy`).
+
+    Returns the ICNTL(14) in force afterwards (``workspace`` if no retry was needed); a
+    PETSc error raises :class:`SingularActiveSetError` naming ``what``.  Collective."""
+    for attempt in range(WORKSPACE_RETRIES + 1):
+        try:
+            factorise()
+        except PETSc.Error as exc:
+            raise SingularActiveSetError(f"{what} failed (PETSc error {exc.ierr})") from None
+        more = retry_workspace(ksp, workspace, attempt)
+        if more is None:
+            break
+        workspace = more
+        set_solver_options(ksp, {"mat_mumps_icntl_14": workspace})
+        ksp.getPC().reset()  # (a new factor, which reads ICNTL(14))
+    return workspace
 
 
 #: Dense ``n_local × k`` arrays alive while a block of ``k`` columns is computed (right-hand
@@ -506,22 +531,16 @@ class LowRankActiveSetSolver:
 
     def _set_up_factor(self) -> None:
         """Factorise :attr:`B0` in :attr:`ksp`; a factorisation that ran out of work space
-        is redone by a new solver with ICNTL(14) doubled (:func:`retry_workspace`)."""
-        for attempt in range(WORKSPACE_RETRIES + 1):
+        is redone with ICNTL(14) doubled (:func:`factorise_with_workspace_retry`)."""
+
+        def set_up() -> None:
             self.ksp.setOperators(self.B0)
-            try:
-                with solver_options(self.ksp).applied():  # (the MUMPS options are read here)
-                    self.ksp.setUp()
-            except PETSc.Error as exc:
-                raise SingularActiveSetError(
-                    f"LU factorisation failed (PETSc error {exc.ierr})"
-                ) from None
-            workspace = retry_workspace(self.ksp, self.workspace, attempt)
-            if workspace is None:
-                return
-            self.workspace = workspace
-            self.ksp.destroy()
-            self.ksp = self._make_ksp()
+            with solver_options(self.ksp).applied():  # (the MUMPS options are read here)
+                self.ksp.setUp()
+
+        self.workspace = factorise_with_workspace_retry(
+            self.ksp, set_up, self.workspace, "LU factorisation"
+        )
 
     # ------------------------------------------------------------------ small utilities
     def _local(self, qs: list[int] | npt.NDArray) -> tuple[npt.NDArray, npt.NDArray]:

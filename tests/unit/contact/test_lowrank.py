@@ -20,7 +20,7 @@ import ufl
 from laplacian import laplacian_1d
 
 from bonecontact.common.linalg import set_solver_options
-from bonecontact.contact import linear_strategy
+from bonecontact.contact import lowrank
 from bonecontact.contact.interface import build_interface
 from bonecontact.contact.linear_strategy import RefactorStrategy
 from bonecontact.contact.lowrank import LowRankActiveSetSolver, mumps_failure
@@ -322,6 +322,6 @@ def test_refactorisation_short_of_work_space_is_redone(monkeypatch):
     assert made and all(s.workspace == 40 for s in made)
     assert _rel(got["u"], ref["u"]) < 1e-12
     assert got["its"] == ref["its"] and got["sets"] == ref["sets"]
-    monkeypatch.setattr(linear_strategy, "retry_workspace", lambda *args: None)
+    monkeypatch.setattr(lowrank, "retry_workspace", lambda *args: None)
     with pytest.raises(ContactConvergenceError, match=r"INFOG\(1\) = -9"):
         _run(m, itf, strategy="refactor")
