@@ -38,12 +38,15 @@ from bonecontact.fracture.williams import PlaneState
 from bonecontact.materials.laws import Isotropic
 
 __all__ = [
+    "K_UNITS",
+    "LENGTH_UNITS",
     "CrackFatigueBody",
     "FatigueBody",
     "FatigueResult",
     "ParisLaw",
     "block_cycles",
     "grow_by_fatigue",
+    "paris_coefficient_si",
 ]
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(8)
@@ -52,6 +55,52 @@ _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(8)
 def _positive(key: str, value: float) -> None:
     if not (math.isfinite(value) and value > 0):
         raise ParameterError(key, f"must be a positive number, got {value!r}")
+
+
+#: Units in which published ΔK are given, in Pa·√m (MN·m^-3/2 = MPa·√m).
+K_UNITS: dict[str, float] = {
+    "Pa*m^0.5": 1.0,
+    "MPa*m^0.5": 1.0e6,
+    "MPa*mm^0.5": 1.0e6 * math.sqrt(1.0e-3),
+    "ksi*in^0.5": 6.894757293168361e6 * math.sqrt(0.0254),
+}
+#: Units in which published crack growth per cycle is given, in m.
+LENGTH_UNITS: dict[str, float] = {"m": 1.0, "mm": 1.0e-3, "um": 1.0e-6, "in": 0.0254}
+
+
+def paris_coefficient_si(
+    C: float, m: float, k_unit: str = "MPa*m^0.5", length_unit: str = "m"
+) -> float:
+    """The Paris coefficient in SI units ((m/cycle)/(Pa·√m)^m) of a published law.
+
+    A law da/dN = C ΔK^m with da in ``length_unit`` per cycle and ΔK in ``k_unit``
+    gives the same rates as C_SI ΔK_SI^m with C_SI = C · L / K^m, L and K the two units
+    in m and Pa·√m: ΔK in MPa·√m multiplies C by 10^(-6m)
+    (docs/theory/fracture.md#material-constants-of-cortical-bone).
+
+    Parameters
+    ----------
+    C, m
+        The published coefficient and exponent.
+    k_unit
+        A key of :data:`K_UNITS`.
+    length_unit
+        A key of :data:`LENGTH_UNITS`.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown unit or a C or m that is not a positive number.
+    """
+    _positive("C", C)
+    _positive("m", m)
+    if k_unit not in K_UNITS:
+        raise ParameterError("k_unit", f"must be one of {sorted(K_UNITS)}, got {k_unit!r}")
+    if length_unit not in LENGTH_UNITS:
+        raise ParameterError(
+            "length_unit", f"must be one of {sorted(LENGTH_UNITS)}, got {length_unit!r}"
+        )
+    return C * LENGTH_UNITS[length_unit] / K_UNITS[k_unit] ** m
 
 
 @dataclass(frozen=True)
