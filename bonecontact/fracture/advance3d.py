@@ -173,7 +173,8 @@ def equivalent_k(k_i: npt.ArrayLike, k_ii: npt.ArrayLike, k_iii: npt.ArrayLike):
 @dataclass(frozen=True)
 class MixedAdvance:
     """One mixed-mode advance: the new front vertices, Δa, φ₀, ψ₀ and the unit
-    direction of every vertex, and K_V at the vertices."""
+    direction of every vertex, K_V at the vertices, and which vertices hold (weight 0:
+    their new vertex is the old one, exactly)."""
 
     vertices: npt.NDArray[np.float64]
     da: npt.NDArray[np.float64]
@@ -181,6 +182,7 @@ class MixedAdvance:
     twist: npt.NDArray[np.float64]
     directions: npt.NDArray[np.float64]
     k_v: npt.NDArray[np.float64]
+    held: npt.NDArray[np.bool_]
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -200,6 +202,13 @@ def _vertex_frames(V: np.ndarray, normals2: np.ndarray) -> tuple[np.ndarray, np.
 
 def _smooth(x: np.ndarray) -> np.ndarray:
     return (np.roll(x, 1, axis=0) + x + np.roll(x, -1, axis=0)) / 3.0
+
+
+def _smooth_growing(da: np.ndarray, held: np.ndarray) -> np.ndarray:
+    """Δa averaged over each growing vertex and its growing neighbours (the held ones 0);
+    with none held exactly :func:`_smooth`."""
+    grows = np.where(held, 0.0, 1.0)
+    return np.where(held, 0.0, _smooth(da) / np.maximum(_smooth(grows), 1.0 / 3.0))
 
 
 def advance_mixed_front(
@@ -230,7 +239,10 @@ def advance_mixed_front(
         Average φ₀ and Δa over each vertex and its two neighbours.
     weights
         The vertices' growth weights w_i in [0, 1] (shape (N,)): Δa_i = Δa_max w_i instead
-        of (K_V,i/K_V,max)^n (fatigue: the Paris rate over the largest rate).
+        of (K_V,i/K_V,max)^n (fatigue: the Paris rate over the largest rate).  A vertex of
+        weight 0 holds: Δa_i = 0 and its new vertex is the old one; the average of Δa over
+        three vertices then runs over the vertex and its neighbours that grow (with no
+        vertex held, the plain three-vertex average).
 
     Raises
     ------
@@ -248,12 +260,15 @@ def advance_mixed_front(
     kv = equivalent_k(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     phi0, psi0 = sigma1_kink(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     w = (kv / kv.max()) ** exponent if weights is None else np.asarray(weights, dtype=float)
-    da = da_max * w
+    held = w <= 0.0
+    da = np.where(held, 0.0, da_max * w)
     if smooth:
-        phi0, da = _smooth(phi0), _smooth(da)
+        phi0 = _smooth(phi0)
+        da = _smooth_growing(da, held)
     e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))
     d = np.cos(phi0)[:, None] * e1 + np.sin(phi0)[:, None] * e2
-    return MixedAdvance(on_grid(V + da[:, None] * d, da_max), da, phi0, psi0, d, kv)
+    new = np.where(held[:, None], V, on_grid(V + da[:, None] * d, da_max))
+    return MixedAdvance(new, da, phi0, psi0, d, kv, held)
 
 
 def _oriented(tri: np.ndarray, up: np.ndarray) -> tuple[bool, np.ndarray]:
@@ -264,32 +279,51 @@ def _oriented(tri: np.ndarray, up: np.ndarray) -> tuple[bool, np.ndarray]:
     return bool(n @ up > 0), (n if n @ up > 0 else -n)
 
 
-def extend_surface(crack: TriangulatedCrack, new_vertices: npt.ArrayLike) -> TriangulatedCrack:
+def extend_surface(
+    crack: TriangulatedCrack, new_vertices: npt.ArrayLike, held: npt.ArrayLike | None = None
+) -> TriangulatedCrack:
     """The crack grown to the front ``new_vertices`` (N, 3): the strip between the old and
     the new front as four triangles per edge, from the sides of the quadrilateral
     (V_k, V_k+1, V′_k+1, V′_k) to its centroid (a twisted quadrilateral keeps a symmetric
     triangle on the new edge); the new front's e₂ the normal of the triangle on the new
-    edge, and its kink (L, ψ): L the
-    strip's width along the new e₁, ψ the direction of the old surface behind the old
-    edge seen in the new frame."""
+    edge, and its kink (L, ψ): L the strip's width along the new e₁, ψ the direction of
+    the old surface behind the old edge seen in the new frame.
+
+    ``held`` (N booleans): those vertices stay where they are and keep their point (no new
+    point); an edge with one held end gets the one triangle (V_k, V_k+1, the moved end's
+    new vertex), an edge with both ends held no strip: it keeps its e₂ and kink (the first
+    polygon's edge the kink (0, π): straight behind).  No triangle has zero area."""
     P = np.asarray(crack.points, dtype=float)
     old = np.asarray(crack.front_ids)
     W = np.asarray(new_vertices, dtype=float)
     N = len(old)
-    new = np.arange(len(P), len(P) + N)
-    mid = np.arange(len(P) + N, len(P) + 2 * N)
+    hold = np.zeros(N, dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    moving = np.flatnonzero(~hold)
+    new = old.copy()
+    new[moving] = len(P) + np.arange(len(moving))
+    P2 = np.concatenate([P, W[moving]])
     quads = [(old[k], old[(k + 1) % N], new[(k + 1) % N], new[k]) for k in range(N)]
-    P2 = np.concatenate([P, W, [np.mean(np.concatenate([P, W])[list(q)], axis=0) for q in quads]])
+    full = [k for k in range(N) if not (hold[k] or hold[(k + 1) % N])]
+    mid = dict(zip(full, range(len(P2), len(P2) + len(full)), strict=True))
+    centres = [np.mean(P2[list(quads[k])], axis=0) for k in full]
+    P2 = np.concatenate([P2, np.reshape(centres, (-1, 3))])
     e2_old = np.asarray(crack.normals2, dtype=float)
     t_old = _unit(np.roll(P[old], -1, axis=0) - P[old])
     e1_old = np.cross(t_old, e2_old)
     patches, normals2, cuts = list(crack.patches), [], []
     for k, (a, b, b2, a2) in enumerate(quads):
-        for p, q in ((a, b), (b, b2), (a2, a), (b2, a2)):
-            tri = (p, q, mid[k])
+        if hold[k] and hold[(k + 1) % N]:  # no strip: the edge as it was
+            normals2.append(e2_old[k])
+            cuts.append(crack.cuts[k] if crack.cuts is not None else (0.0, math.pi))
+            continue
+        if k in mid:
+            tris = [(p, q, mid[k]) for p, q in ((a, b), (b, b2), (a2, a), (b2, a2))]
+        else:  # one end held: one triangle, the new edge its side (a2, b2)
+            tris = [(a, b, b2) if a2 == a else (a, b, a2)]
+        for tri in tris:
             ccw, n = _oriented(P2[list(tri)], e2_old[k])
             patches.append(tuple(int(i) for i in (tri if ccw else tri[::-1])))
-        normals2.append(n)  # the last triangle, (b2, a2, centre), holds the new edge
+        normals2.append(n)  # the last triangle holds the new edge
         t = _unit(P2[b2] - P2[a2])
         e1 = np.cross(t, n)
         width = float((0.5 * (P2[a2] + P2[b2]) - 0.5 * (P2[a] + P2[b])) @ e1)
@@ -300,7 +334,7 @@ def extend_surface(crack: TriangulatedCrack, new_vertices: npt.ArrayLike) -> Tri
         tuple(patches),
         tuple(int(i) for i in new),
         tuple(tuple(map(float, n)) for n in normals2),
-        tuple(cuts),
+        tuple(tuple(map(float, c)) for c in cuts),
         crack.normal,
     )
 

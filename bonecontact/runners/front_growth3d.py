@@ -9,16 +9,20 @@ each), solves the analysis, takes K_I, K_II, K_III at the middle of every front 
 (:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and advances every crack with a
 vertex at K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest
 of all fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`: all its
-vertices move; one that held would leave a degenerate strip), extending its surface by
-the strip between the fronts.  Under fatigue every solve is a block end: Δa_i = Δa_max
-rate_i/rate_max by the Paris rates (:func:`~bonecontact.runners.crack_fatigue.growth_weights`,
-shared with the surface crack), the cycles by ``FatigueProgress``
-(docs/theory/fracture.md#fatigue-of-interior-3d-cracks).  Stops: ``arrested``,
-``max_increments`` / ``max_blocks``, ``fractured`` (one load: a grown front would come
-within the integration domain and two front elements of the body's surface, where it runs
-through; fatigue: K_V reaches K_Ic), ``through`` (fatigue: near the surface), ``joined``
-(near another crack), ``partly_arrested`` (fatigue: a vertex of a growing front holds).
-``fracture.csv``: a row per increment, crack and mid-edge (with the cycles);
+vertices move), extending its surface by the strip between the fronts.  Under fatigue
+every solve is a block end: Δa_i = Δa_max rate_i/rate_max by the Paris rates
+(:func:`~bonecontact.runners.crack_fatigue.growth_weights`, shared with the surface
+crack), the cycles by ``FatigueProgress``
+(docs/theory/fracture.md#fatigue-of-interior-3d-cracks); a vertex of rate 0 (ΔK at or
+below ΔK_th) holds: it keeps its point, the strip is a triangle next to it and absent
+between two held vertices (:func:`~bonecontact.fracture.advance3d.extend_surface`).
+Stops: ``arrested`` (no vertex of any front grows), ``max_increments`` /
+``max_blocks``, ``fractured`` (one load: a grown front would come within the integration
+domain and two front elements of the body's surface, where it runs through; fatigue: K_V
+reaches K_Ic), ``through`` (fatigue: near the surface), ``joined`` (near another crack).
+``fracture.csv``: a row per increment, crack and mid-edge (with the cycles, the advance
+``da`` of the edge's first vertex after that solve, ``holds`` for an edge that does not
+move);
 ``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` (several: ``crack_front_<name>_<k>``)
 and ``increment<k>/`` per increment; with ``checkpoint_every`` the growth state
 (:mod:`~bonecontact.runners.growth_state3d`) to restart from on any number of ranks.
@@ -101,6 +105,7 @@ GROWTH3D_COLUMNS = (
     "K_V",
     "kink_deg",
     "status",
+    "da",
 )
 
 
@@ -124,6 +129,7 @@ class EdgeRecord:
     kink_deg: float
     status: str = "grows"
     cycles: float = 0.0  # the cumulative cycles N at this block end (fatigue; else 0)
+    da: float = 0.0  # the advance of vertex `point` (the edge's first) after this solve
 
     def row(self) -> list[Any]:
         return [getattr(self, c) for c in GROWTH3D_COLUMNS]
@@ -399,11 +405,14 @@ def evaluate(u: Any, cb: CrackedBody3D, run: InteriorRun, name: str, inc: int, t
     return out
 
 
-def _advance(run: InteriorRun, g: Growth, records: list[list[EdgeRecord]]) -> str | None:
+def _advance(
+    run: InteriorRun, g: Growth, records: list[list[EdgeRecord]]
+) -> tuple[str | None, list[np.ndarray]]:
     """The stop after this solve (a block end under fatigue), or the next cracks in ``g``
-    (``None``: grow): the vertices' growth weights (:func:`growth_weights`: the Paris
-    rates, or (K_V/K_V,max)² at K_Ic), the cycles of the block just made (fatigue), the
-    stop (:func:`growth_stop`), then every crack with a weight above 0 advances."""
+    (``None``: grow), and the advance of every crack's vertices (zeros at a stop): the
+    vertices' growth weights (:func:`growth_weights`: the Paris rates, or (K_V/K_V,max)²
+    at K_Ic), the cycles of the block just made (fatigue), the stop
+    (:func:`growth_stop`), then every crack with a weight above 0 advances."""
     K = [np.array([(r.K_I, r.K_II, r.K_III) for r in rec]) for rec in records]
     kv = np.concatenate([[r.K_V for r in rec] for rec in records])
     kv_vertex = [equivalent_k(*(0.5 * (k + np.roll(k, 1, axis=0))).T) for k in K]
@@ -423,18 +432,20 @@ def _advance(run: InteriorRun, g: Growth, records: list[list[EdgeRecord]]) -> st
     )
     most = fat.max_blocks if fat is not None else run.fracture.max_increments
     stop = growth_stop(float(kv.max()), lead, fat, run.K_Ic, g.increments, most)
+    still = [np.zeros(len(v)) for v in kv_vertex]
     if stop is not None or float(kv.min()) <= 0.0:
         g.at = int(np.argmax([float(v.max()) for v in kv_vertex]))
-        return stop or "arrested"
+        return stop or "arrested", still
     weights = _vertex_weights(kv_vertex, flat, fat is not None)
-    return _grow_fronts(run, g, K, weights)
+    return _grow_fronts(run, g, K, weights, still)
 
 
 def _vertex_weights(kv_vertex: list[np.ndarray], flat: np.ndarray, fatigue: bool) -> list:
     """Each crack's vertex weights, the largest of all 1 (``None``: the crack holds):
-    fatigue: the rates over the largest; one load: (K_V/K_V,max)² at every vertex of a
-    crack with a vertex at K_Ic (all its vertices move: one that held would leave a
-    degenerate strip)."""
+    fatigue: the rates over the largest (a vertex of rate 0, at or below ΔK_th, holds:
+    :func:`~bonecontact.fracture.advance3d.advance_mixed_front`); one load:
+    (K_V/K_V,max)² at every vertex of a crack with a vertex at K_Ic (all its vertices
+    move)."""
     top = float(np.concatenate(kv_vertex).max())
     parts = np.split(flat, np.cumsum([len(v) for v in kv_vertex])[:-1])
     out = []
@@ -446,31 +457,33 @@ def _vertex_weights(kv_vertex: list[np.ndarray], flat: np.ndarray, fatigue: bool
     return out
 
 
-def _grow_fronts(run: InteriorRun, g: Growth, K: list, weights: list) -> str | None:
-    """Advance every crack with weights by the increment (fatigue: Δa_max) times them;
-    a stop when a front would come near the surface (``fractured``; fatigue: ``through``,
-    the block's cycles at its start rate added) or another crack (``joined``), or, under
-    fatigue, when a vertex of a growing front holds (``partly_arrested``: its strip would
-    be degenerate)."""
+def _grow_fronts(
+    run: InteriorRun, g: Growth, K: list, weights: list, still: list[np.ndarray]
+) -> tuple[str | None, list[np.ndarray]]:
+    """Advance every crack with weights by the increment (fatigue: Δa_max) times them
+    (its vertices of weight 0 hold: the strip only where the front moves,
+    :func:`~bonecontact.fracture.advance3d.extend_surface`); a stop when a front would
+    come near the surface (``fractured``; fatigue: ``through``, the block's cycles at its
+    start rate added) or another crack (``joined``).  Returns the stop and the vertices'
+    advances (``still``, zeros, at a stop)."""
     fat = run.fracture.fatigue
     step = float(fat.da_max if fat is not None else run.fracture.increment)
-    new = list(g.cracks)
+    new, advances = list(g.cracks), list(still)
     for i, crack in enumerate(g.cracks):
         if weights[i] is None:
             continue
         adv = advance_mixed_front(crack.vertices, crack.normals2, K[i], step, weights=weights[i])
         stop = _meets(run, g.cracks, i, adv.vertices, adv.directions)
-        if stop is None and float(adv.da.min()) <= 0.0:
-            stop = "partly_arrested"
         if stop is not None:
             g.at = i
             if fat is not None and stop == "fractured":
                 g.cycles += step / float(g.fatigue.lead_rate[-1])
                 stop = "through"
-            return stop
-        new[i] = extend_surface(crack, adv.vertices)
+            return stop, still
+        new[i] = extend_surface(crack, adv.vertices, adv.held)
+        advances[i] = adv.da
     g.cracks, g.increments = new, g.increments + 1
-    return None
+    return None, advances
 
 
 def _mean_radius(crack: TriangulatedCrack) -> float:
@@ -512,9 +525,12 @@ def _increment(run: InteriorRun, g: Growth, comm, timer, outdir: Path, table: Re
             records.append(evaluate(integ.u, cb, run, name, g.increments, traction))
     integ.destroy()
     cracks, inc = g.cracks, g.increments
-    stop = _advance(run, g, records)
-    mark = stop or "grows"
-    rows = [dataclasses.replace(r, status=mark, cycles=g.cycles) for rec in records for r in rec]
+    stop, advances = _advance(run, g, records)
+    rows = [
+        dataclasses.replace(r, status=_mark(stop, da, k), cycles=g.cycles, da=float(da[k]))
+        for rec, da in zip(records, advances, strict=True)
+        for k, r in enumerate(rec)
+    ]
     table.rows(rows)
     g.rows += len(rows)
     if comm.rank == 0:
@@ -523,6 +539,14 @@ def _increment(run: InteriorRun, g: Growth, comm, timer, outdir: Path, table: Re
             tag = "" if len(cracks) == 1 else f"{_pair_name(name)}_"
             write_front(outdir / f"crack_front_{tag}{inc}.vtk", rec)
     return stop, cbs, None
+
+
+def _mark(stop: str | None, da: np.ndarray, k: int) -> str:
+    """The status of edge ``k`` (vertex k to k + 1): the stop, else ``holds`` when both
+    its ends hold, else ``grows``."""
+    if stop is not None:
+        return stop
+    return "holds" if da[k] == 0.0 and da[(k + 1) % len(da)] == 0.0 else "grows"
 
 
 def _start(run: InteriorRun, cracks: list, comm, outdir: Path, restart) -> Growth:
@@ -577,7 +601,7 @@ def run_interior_growth(
 
 #: The stops that break the body (fragments reported), and those that name a crack.
 _BROKEN = ("fractured", "through")
-_STOPPED_BY = ("fractured", "through", "joined", "partly_arrested")
+_STOPPED_BY = ("fractured", "through", "joined")
 
 
 def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dict[str, Any]:

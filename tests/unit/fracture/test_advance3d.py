@@ -129,7 +129,8 @@ def test_mode_one_mixed_advance_is_the_planar_advance():
 def test_weights_replace_the_power_rule():
     """Given weights w: Δa = Δa_max w (averaged over three vertices), the direction as
     without them; w = (K_V/K_V,max)² is the default rule (the fatigue weights are the
-    Paris rates over the largest)."""
+    Paris rates over the largest).  A vertex of weight 0 holds (its point exactly the
+    old one) and the average runs over the growing vertices only."""
     crack = _octagon_crack()
     k = np.linspace(1.0, 1.5, 8)
     K = np.column_stack([k, 0.1 * k, 0 * k])
@@ -137,13 +138,67 @@ def test_weights_replace_the_power_rule():
     same = advance_mixed_front(
         crack.vertices, crack.normals2, K, 0.1, weights=(plain.k_v / plain.k_v.max()) ** 2
     )
-    np.testing.assert_allclose(same.vertices, plain.vertices, atol=1e-13)
+    np.testing.assert_array_equal(same.vertices, plain.vertices)
+    assert not plain.held.any()
     w = np.array([1.0, 0.5, 0.0, 0.0, 0.0, 0.25, 0.5, 0.75])
     adv = advance_mixed_front(crack.vertices, crack.normals2, K, 0.1, weights=w)
-    expect = 0.1 * (np.roll(w, 1) + w + np.roll(w, -1)) / 3
+    expect = 0.1 * np.array([2.25 / 3, 1.5 / 2, 0, 0, 0, 0.75 / 2, 1.5 / 3, 2.25 / 3])
     np.testing.assert_allclose(adv.da, expect, rtol=1e-13)
-    assert adv.da[3] == 0.0  # a vertex whose neighbours hold too does not move
+    np.testing.assert_array_equal(adv.held, w == 0)
+    np.testing.assert_array_equal(adv.vertices[w == 0], crack.vertices[w == 0])
+    moved = np.linalg.norm(adv.vertices - crack.vertices, axis=1)
+    np.testing.assert_allclose(moved, expect, rtol=1e-9)
     np.testing.assert_allclose(adv.directions, plain.directions, atol=1e-13)
+
+
+def _area(P: np.ndarray, ids) -> float:
+    """The signed area of the polygon ``ids`` of ``P`` about +z."""
+    Q = P[list(ids)]
+    return 0.5 * np.sum(np.cross(Q - Q[0], np.roll(Q, -1, axis=0) - Q[0]), axis=0) @ [0, 0, 1]
+
+
+@pytest.mark.parametrize(
+    "w",
+    [
+        [1.0, 0.5, 0.0, 0.0, 0.0, 0.25, 0.5, 0.75],  # three held in a row
+        [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0],  # every other vertex held
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],  # one vertex grows alone
+    ],
+)
+def test_held_vertices_keep_their_points(w):
+    """A held vertex keeps its point on the new front: an edge with one held end gets one
+    triangle, an edge with both ends held none (its e₂ and kink kept); no triangle of zero
+    area, every strip triangle counter-clockwise about +z, and the strips cover the area
+    between the old and the new front; a second advance from the grown crack (its kinks
+    read back) holds the same way."""
+    w = np.asarray(w)
+    crack = _octagon_crack()
+    k = np.linspace(1.0, 1.4, 8)
+    K = np.column_stack([k, 0 * k, 0 * k])
+    adv = advance_mixed_front(crack.vertices, crack.normals2, K, 0.2, weights=w)
+    grown = extend_surface(crack, adv.vertices, adv.held)
+    held = w == 0
+    both = held & np.roll(held, -1)  # edge k: vertex k to k + 1
+    one = held ^ np.roll(held, -1)
+    P = np.asarray(grown.points)
+    assert len(P) == 8 + int((~held).sum()) + int((~(held | np.roll(held, -1))).sum())
+    np.testing.assert_array_equal(np.asarray(grown.front_ids)[held], np.arange(8)[held])
+    np.testing.assert_array_equal(grown.vertices, adv.vertices)
+    assert len(grown.patches) == 1 + int(one.sum()) + 4 * int((~(held | np.roll(held, -1))).sum())
+    strips = [_area(P, t) for t in grown.patches[1:]]
+    assert min(strips) > 1e-3 * 0.2**2
+    assert sum(strips) == pytest.approx(
+        _area(P, grown.front_ids) - _area(P, crack.front_ids), rel=1e-12
+    )
+    e2 = np.asarray(grown.normals2)
+    np.testing.assert_allclose(e2, np.tile([0.0, 0.0, 1.0], (8, 1)), atol=1e-12)
+    cuts = np.asarray(grown.cuts)
+    np.testing.assert_array_equal(cuts[both], np.tile([0.0, math.pi], (int(both.sum()), 1)))
+    assert np.all(cuts[~both, 0] > 0) and np.allclose(np.abs(cuts[~both, 1]), math.pi)
+    again = advance_mixed_front(grown.vertices, grown.normals2, K, 0.2, weights=w)
+    twice = extend_surface(grown, again.vertices, again.held)
+    np.testing.assert_array_equal(np.asarray(twice.cuts)[both], cuts[both])
+    np.testing.assert_array_equal(twice.vertices[held], crack.vertices[held])
 
 
 @pytest.mark.parametrize("k2", [0.3, -1.0])

@@ -37,8 +37,12 @@ within 1.5 % of the library's growth, test_crack_growth_scene3d.py; the circle's
 * stops: ΔK_th above every ΔK: ``arrested`` after one solve (no cycles); K_Ic below the
   peak K: ``fractured`` after one solve, fragments reported; the penny at x = 2.28a (its
   first block would bring it within the ligament of the face x = 4a): ``through`` after
-  one solve, the block's cycles Δa_max/(da/dN)_max at its start rate; ΔK_th just below
-  the largest vertex ΔK (one vertex grows, five hold): ``partly_arrested``.
+  one solve, the block's cycles Δa_max/(da/dN)_max at its start rate;
+* per-point arrest: ΔK_th just below the largest vertex ΔK: that vertex grows alone (by
+  Δa_max: the three-vertex average runs over growing vertices only), the seven others
+  hold — their points exactly the octagon's, the strip two triangles — and the grown
+  crack meshes and solves (one block, ``max_blocks``); the interior ellipse partly below
+  the threshold is test_crack_fatigue_hold3d.py.
 """
 
 from __future__ import annotations
@@ -203,18 +207,34 @@ def test_stops(mesh: Path, name: str, kw: dict, status: str) -> None:
         assert kv.max() >= 1e4
 
 
-def test_a_partly_arrested_front_stops(mesh: Path, grown) -> None:
+def test_one_vertex_grows_alone(mesh: Path, grown) -> None:
     """ΔK_th just below the largest vertex ΔK of the grown run's first solve (the same
-    mesh): only that vertex has a rate, its neighbours move by the three-vertex average,
-    the others hold — a degenerate strip, so the run stops ``partly_arrested`` after one
-    solve, naming the crack."""
+    mesh): only that vertex has a rate; it moves by Δa_max, the others keep their points
+    (the old code stopped ``partly_arrested`` here), and the crack with two one-triangle
+    strips is meshed and solved again."""
     first = read_table(grown[1] / "out" / "fracture.csv")
     K = np.stack([first["K_I"], first["K_II"], first["K_III"]], axis=1)[:8]
-    top = float((1 - R) * equivalent_k(*(0.5 * (K + np.roll(K, 1, axis=0))).T).max())
-    res, d = _run(mesh, "partly", extra=f"delta_K_th = {0.9999 * top!r}")
+    kv = equivalent_k(*(0.5 * (K + np.roll(K, 1, axis=0))).T)
+    top = int(np.argmax(kv))
+    res, d = _run(
+        mesh, "partly", blocks=1, extra=f"delta_K_th = {0.9999 * (1 - R) * float(kv[top])!r}"
+    )
     g = res.summary["fracture"]["growth"]
-    assert g["status"] == "partly_arrested" and g["increments"] == 0
-    assert g["stopped_by"] == "penny" and g["fragments"] is None and g["cycles"] == 0.0
+    assert g["status"] == "max_blocks" and g["increments"] == 1 and g["cycles"] > 0
     t = read_table(d / "out" / "fracture.csv")
-    np.testing.assert_allclose(t["K_I"], first["K_I"][:8], rtol=1e-10)
-    assert set(t["status"]) == {"partly_arrested"}
+    np.testing.assert_allclose(t["K_I"][:8], first["K_I"][:8], rtol=1e-10)
+    da = np.zeros(8)
+    da[top] = DA
+    np.testing.assert_allclose(t["da"][:8], da, rtol=1e-12, atol=0)
+    edges = ["holds"] * 8
+    edges[top] = edges[top - 1] = "grows"  # the two edges at the vertex
+    assert list(t["status"][:8]) == edges and set(t["status"][8:]) == {"max_blocks"}
+    state = json.loads((d / "out/checkpoints/increment_00001/growth.json").read_text())
+    crack = state["cracks"][0]
+    assert len(crack["patches"]) == 1 + 2  # the octagon and two triangles
+    V = np.asarray(res.summary["fracture"]["crack"]["front"])
+    V0 = np.asarray(crack["points"])[:8]  # the octagon
+    moved = np.linalg.norm(V - V0, axis=1)
+    assert moved[top] == pytest.approx(DA, rel=1e-9)
+    np.testing.assert_array_equal(np.delete(V, top, axis=0), np.delete(V0, top, axis=0))
+    assert np.all(np.isfinite(t["K_I"][8:])) and t["K_I"][8:].min() > 0
