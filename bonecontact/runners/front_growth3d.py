@@ -6,16 +6,17 @@ ellipse: N = max(6, ⌊P/(6 h_f)⌋) vertices on its front, P the perimeter: eve
 the integration domain), a :class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.
 Every increment cuts the cracks into the scene's body (two faces and a contact pair
 each), solves the analysis, takes K_I, K_II, K_III at the middle of every front edge
-(:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and advances every crack with a
-vertex at K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest
-of all fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`: all its
-vertices move), extending its surface by the strip between the fronts.  Under fatigue
-every solve is a block end: Δa_i = Δa_max rate_i/rate_max by the Paris rates
+(:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and advances the vertices at
+K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest of all
+fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`), extending the
+surface by the strip between the fronts.  Under fatigue every solve is a block end:
+Δa_i = Δa_max rate_i/rate_max by the Paris rates
 (:func:`~bonecontact.runners.crack_fatigue.growth_weights`, shared with the surface
 crack), the cycles by ``FatigueProgress``
-(docs/theory/fracture.md#fatigue-of-interior-3d-cracks); a vertex of rate 0 (ΔK at or
-below ΔK_th) holds: it keeps its point, the strip is a triangle next to it and absent
-between two held vertices (:func:`~bonecontact.fracture.advance3d.extend_surface`).
+(docs/theory/fracture.md#fatigue-of-interior-3d-cracks).  A vertex of weight 0 (below
+K_Ic; ΔK at or below ΔK_th) holds: it keeps its point, the strip is a triangle next to
+it and absent between two held vertices
+(:func:`~bonecontact.fracture.advance3d.extend_surface`).
 Stops: ``arrested`` (no vertex of any front grows), ``max_increments`` /
 ``max_blocks``, ``fractured`` (one load: a grown front would come within the integration
 domain and two front elements of the body's surface, where it runs through; fatigue: K_V
@@ -436,25 +437,19 @@ def _advance(
     if stop is not None or float(kv.min()) <= 0.0:
         g.at = int(np.argmax([float(v.max()) for v in kv_vertex]))
         return stop or "arrested", still
-    weights = _vertex_weights(kv_vertex, flat, fat is not None)
+    weights = _vertex_weights(kv_vertex, flat)
     return _grow_fronts(run, g, K, weights, still)
 
 
-def _vertex_weights(kv_vertex: list[np.ndarray], flat: np.ndarray, fatigue: bool) -> list:
-    """Each crack's vertex weights, the largest of all 1 (``None``: the crack holds):
-    fatigue: the rates over the largest (a vertex of rate 0, at or below ΔK_th, holds:
-    :func:`~bonecontact.fracture.advance3d.advance_mixed_front`); one load:
-    (K_V/K_V,max)² at every vertex of a crack with a vertex at K_Ic (all its vertices
-    move)."""
-    top = float(np.concatenate(kv_vertex).max())
+def _vertex_weights(kv_vertex: list[np.ndarray], flat: np.ndarray) -> list:
+    """Each crack's vertex weights (:func:`growth_weights` ``flat`` of all the fronts),
+    the largest of all 1, ``None`` for a crack that holds: fatigue the rates over the
+    largest, one load (K_V/K_V,max)² at the vertices at K_Ic; a vertex of weight 0 (at or
+    below ΔK_th; below K_Ic) holds
+    (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`)."""
     parts = np.split(flat, np.cumsum([len(v) for v in kv_vertex])[:-1])
-    out = []
-    for v, w in zip(kv_vertex, parts, strict=True):
-        if float(w.max()) <= 0.0:
-            out.append(None)
-        else:
-            out.append(w / float(flat.max()) if fatigue else (v / top) ** 2)
-    return out
+    top = float(flat.max())
+    return [None if float(w.max()) <= 0.0 else w / top for w in parts]
 
 
 def _grow_fronts(
