@@ -10,9 +10,10 @@
   near-front field, the twist angle ψ₀ and K_V = K_I/2 + ½√(K_I² + 5.336K_II² + 4K_III²).
 * :func:`advance_mixed_front` — a closed polyline front under mixed mode: every vertex
   moves by Δa_i = Δa_max (K_V,i/K_V,max)^n in the direction cos φ₀ e₁ + sin φ₀ e₂ of its
-  frame (φ₀ and Δa smoothed over three vertices), and :func:`extend_surface` adds the
-  strip between the old and the new front to a
-  :class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.
+  frame (φ₀ and Δa smoothed over three vertices; a vertex of growth weight 0 holds), and
+  :func:`extend_surface` adds the strip between the old and the new front to a
+  :class:`~bonecontact.fracture.crack3d.TriangulatedCrack` (a held vertex keeps its
+  point: one triangle on an edge with one held end, none between two held vertices).
 """
 
 from __future__ import annotations
