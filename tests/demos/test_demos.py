@@ -23,6 +23,7 @@ import json
 import os
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -603,6 +604,23 @@ def _thinned_wall_site(out: Path, run: str, r: float) -> tuple[float, np.ndarray
     return float(avg.max()), x[window[int(np.argmax(avg))]]
 
 
+def _core_is_one_bone(scene: Path) -> None:
+    """The cancellous core of a vertebra_fracture scene is the library's density-consistent
+    pair: E from Morgan et al.'s vertebral E-density relation at the entry's apparent
+    density, which is that of Kopperdahl & Keaveny's strength specimens, and a tensile yield
+    strain (sigma_t / E + offset) within 2 SD of theirs (the rho = 0.30 core, 723 MPa with
+    the same sigma_t, is 8 SD off)."""
+    lib = tomllib.loads((ROOT / "data" / "materials.toml").read_text())
+    ref = lib["reference"]["trabecular_yield_strain_vertebral"]
+    core = next(
+        m for m in tomllib.loads(scene.read_text())["material"] if m["name"] == "cancellous"
+    )
+    rho = ref["apparent_density"] / 1000.0
+    assert core["E"] == pytest.approx(4730e6 * rho**1.56, rel=1e-6)
+    eps_y = core["sigma_t"] / core["E"] + ref["offset"]
+    assert eps_y == pytest.approx(ref["tension"], abs=2 * ref["tension_sd"])
+
+
 @pytest.mark.slow
 def test_vertebra_fracture_risk_and_cycles(demo_runs):
     """Vertebra fracture demo, for every tumour size with a crack: the crack sits on the
@@ -613,10 +631,11 @@ def test_vertebra_fracture_risk_and_cycles(demo_runs):
     same field); K_V at the deepest point rises as the crack deepens; the crack breaks
     through the bone bridge and the two fragments fill the body (their volumes sum to the
     elliptic cylinder minus the tumour within 3 %, the faceting); the cycles to fracture
-    fall with the tumour size.  As the tumour grows on (the growth sizes, lifting run only)
-    R̄ (recomputed the same way) rises with the size; the load multiple at which the wall
-    reaches R̄ = 1 is 1/R̄; the reported r* is where the straight line between the two
-    sizes that bracket R̄ = 1 crosses it, and there is none if R̄ stays below 1."""
+    of the largest size are below those of the smallest; the core is the density-consistent
+    pair of the library (`_core_is_one_bone`).  As the tumour grows on (the growth sizes,
+    lifting run only) R̄ (recomputed the same way) rises with the size; the load multiple at
+    which the wall reaches R̄ = 1 is 1/R̄; the reported r* is where the straight line between
+    the two sizes that bracket R̄ = 1 crosses it, and there is none if R̄ stays below 1."""
     r1, o1 = demo_runs["vertebra_fracture", 1]
     assert r1.returncode == 0
     summary = json.loads((o1 / "summary.json").read_text())
@@ -626,23 +645,34 @@ def test_vertebra_fracture_risk_and_cycles(demo_runs):
     for w in rows:
         r = w["radius"]
         tag = f"r{r * 1e3:.1f}mm".replace(".", "_")
+        for run in (f"risk_{tag}", f"flexion_{tag}"):
+            _core_is_one_bone(o1 / run / "scene.toml")
         risk, at = _thinned_wall_site(o1, f"risk_{tag}", r)
-        c = np.asarray(w["crack_centre"])
-        assert np.hypot(c[0] / a, c[1] / b) == pytest.approx(1.0, abs=1e-12)
-        assert c[2] == pytest.approx(at[2], abs=1e-12)
-        assert np.arctan2(c[1] / b, c[0] / a) == pytest.approx(
+        p = np.asarray(w["wall_point"])
+        assert np.hypot(p[0] / a, p[1] / b) == pytest.approx(1.0, abs=1e-12)
+        assert p[2] == pytest.approx(at[2], abs=1e-12)
+        assert np.arctan2(p[1] / b, p[0] / a) == pytest.approx(
             np.arctan2(at[1] / b, at[0] / a), abs=1e-12
         )
+        # the crack's centre: that point on the plane of the nearest 4 mm wall facet, no
+        # farther than the facets' sagitta (16 mm²/(8 · 24 mm) < 0.09 mm), inward
+        c = np.asarray(w["crack_centre"])
+        assert np.linalg.norm(c - p) < 0.09e-3
+        assert np.hypot(c[0] / a, c[1] / b) <= 1.0
         assert w["wall_risk"] == pytest.approx(risk, rel=1e-12)
         assert w["p_lift"] > w["p_stand"] > 0
         assert np.all(np.diff(w["K_flexion"]) > 0)
         assert w["status"] in ("through", "fractured")
         body = np.pi * a * b * h - 4 / 3 * np.pi * r**3
         assert sum(f["volume"] for f in w["fragments"]) == pytest.approx(body, rel=0.03)
+    # the largest tumour's wall breaks sooner than the smallest's; between neighbouring sizes
+    # the count follows the crack's start K at its place on the flank (N ~ K^-4.4) and need
+    # not fall (r = 9.8 -> 10.1 mm: K 0.0191 -> 0.0179 MPa m^0.5, 1.11 -> 1.34e6 cycles)
     cycles = [w["cycles"] for w in sorted(rows, key=lambda w: w["radius"])]
-    assert cycles[-1] > 0 and np.all(np.diff(cycles) < 0), cycles
+    assert 0 < cycles[-1] < cycles[0], cycles
     for w in growth:
         r = w["radius"]
+        _core_is_one_bone(o1 / f"growth_r{r * 1e3:.2f}mm".replace(".", "_") / "scene.toml")
         risk, at = _thinned_wall_site(o1, f"growth_r{r * 1e3:.2f}mm".replace(".", "_"), r)
         assert w["wall_risk"] == pytest.approx(risk, rel=1e-12)
         np.testing.assert_allclose(w["wall_at"], at, atol=1e-12)
