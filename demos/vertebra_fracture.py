@@ -94,9 +94,9 @@
 # done: the shell kept through the crack stage.
 #
 # **What the quick run gives (2026-12-02, the consistent core; 1 rank as a script 9 min
-# 16 s at load 3, as a notebook inside its tests 12 min 57 s at load 0.1-1.8, 5 passed).**  R̄ is the core's risk averaged over a ball of 1 mm radius (below);
-# λ = 1/R̄ on the wall is the multiple of the lifting load at which the thinned wall reaches
-# R̄ = 1.
+# 16 s at load 3, as a notebook inside its tests 12 min 57 s at load 0.1-1.8, 5 passed).**
+# R̄ is the core's risk averaged over a ball of 1 mm radius (below); λ = 1/R̄ on the wall is
+# the multiple of the lifting load at which the thinned wall reaches R̄ = 1.
 #
 # | r (mm) | bone behind the tumour (mm) | tumour pressure lifting / standing (MPa) | R̄ on the thinned wall lifting / standing | λ (× lifting) | largest R̄ of the core (one cell's R) | K_V standing (MPa√m) | K_V flexion, first → last block | flexion cycles to *through* |
 # |---|---|---|---|---|---|---|---|---|
@@ -112,16 +112,16 @@
 # grown by repeated flexion.  The averaged risk does not depend on the mesh the way one
 # cell's does: with the full run's 0.6 mm cells in the bridge instead of 1 mm the wall's
 # R̄ is 0.34, 0.38, 0.44 (+5 … +11 %), with 0.3 mm cells 0.44 at r = 10.4 mm, while one
-# cell's largest value hops between 0.95 and 1.19 at the anterior rim of the loaded
-# endplate (the idealised load): averaged it is at most 0.73 there; nowhere in the core does
-# R̄ reach 1 (largest 0.72-0.84 quick, 0.77-0.83 full, in the bone on the tumour's top,
-# under the loaded endplate).  What drives the wall's risk: the lifting moment's tension
-# of the posterior wall less the axial compression, and the undrained tumour — squeezed
-# with the body it is pressurised (0.60 MPa under lifting) and pushes the thinned bridge
-# outward (with the former 723 MPa core, on a 4 mm mesh at r = 10 mm, one cell's R on the
-# wall 0.43 with an empty cavity, 0.61 undrained).  Where the bridge is thinnest it is
-# mostly the stiff cortical shell, whose tensile strength is 76 times the cancellous one,
-# so the largest R̄ sits on the tumour's flanks (x ≈ ±5-8 mm, inside |x| < r: the body is
+# cell's largest value hops with the mesh (0.95 on the tumour's top; 1.19 and 1.04 at the
+# anterior rim of the loaded endplate, the idealised load, where the averaged risk is at
+# most 0.73); nowhere in the core does R̄ reach 1 (largest 0.72-0.84 quick, 0.77-0.83 full,
+# in the bone on the tumour's top, under the loaded endplate).  What drives the wall's
+# risk: the lifting moment's tension of the posterior wall less the axial compression, and
+# the undrained tumour — squeezed with the body it is pressurised (0.60 MPa under lifting)
+# and pushes the thinned bridge outward (with the former 723 MPa core, on a 4 mm mesh at
+# r = 10 mm, one cell's R on the wall 0.43 with an empty cavity, 0.61 undrained).  Where the
+# bridge is thinnest it is mostly the stiff cortical shell, whose tensile strength is 76
+# times the cancellous one, so the largest R̄ sits on the tumour's flanks (x ≈ ±5-8 mm, inside |x| < r: the body is
 # symmetric in x, the side the mesh decides), not behind the tumour's centre.  (With the
 # compressive strength as well, `tension_compression`, the anterior core is crushed under
 # lifting for every size: the body carries the whole lifting moment here, which overstates
@@ -163,9 +163,9 @@
 # behind the tumour's centre the core is thinner than the ball and from r = 10.62 mm on
 # there is none.  Elsewhere in the core the averaged risk is largest in the bone on the
 # tumour's top, under the loaded endplate (0.72-0.94 quick, 0.75-0.95 full, z ≈ 23-24 mm):
-# below 1 too.  What would bring the wall to R̄ = 1 at
-# r = 10.98 mm (full mesh, R̄ = 0.56): 1.78 times the lifting load (an intradiscal pressure
-# of about 4.1 MPa against the 2.3 MPa of lifting 20 kg), or σ_t = 0.98 MPa at E = 326 MPa
+# below 1 too.  What would bring the wall to R̄ = 1 at r = 10.98 mm (full mesh, R̄ = 0.56):
+# 1.78 times the lifting load (an intradiscal pressure of about 4.1 MPa against the 2.3 MPa
+# of lifting 20 kg), or σ_t = 0.98 MPa at E = 326 MPa
 # — a yield strain of 0.50 %, seven standard deviations below the measured 0.78 %: not a
 # bone of the data.  Weaker bone means a lower density, with E and σ_t falling together
 # (the yield strain stays): no published apparent density of osteoporotic L4 trabecular
