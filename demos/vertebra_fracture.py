@@ -121,11 +121,12 @@
 # and pushes the thinned bridge outward (with the former 723 MPa core, on a 4 mm mesh at
 # r = 10 mm, one cell's R on the wall 0.43 with an empty cavity, 0.61 undrained).  Where the
 # bridge is thinnest it is mostly the stiff cortical shell, whose tensile strength is 76
-# times the cancellous one, so the largest R̄ sits on the tumour's flanks (x ≈ ±5-8 mm, inside |x| < r: the body is
-# symmetric in x, the side the mesh decides), not behind the tumour's centre.  (With the
-# compressive strength as well, `tension_compression`, the anterior core is crushed under
-# lifting for every size: the body carries the whole lifting moment here, which overstates
-# it.)  Standing arrests the crack (K_V ≤ 0.003 MPa√m ≪ K_Ic).
+# times the cancellous one, so the largest R̄ sits on the tumour's flanks (x ≈ ±5-8 mm,
+# inside |x| < r: the body is symmetric in x, the side the mesh decides), not behind the
+# tumour's centre.  (With the compressive strength as well, `tension_compression`, the
+# anterior core is crushed under lifting for every size: the body carries the whole
+# lifting moment here, which overstates it.)  Standing arrests the crack (K_V ≤ 0.003
+# MPa√m ≪ K_Ic).
 #
 # **The growth alone does not bring the wall to R̄ = 1.**  Lifting runs of the growing
 # tumour up to a bridge of 0.02 mm (quick: 1 mm cells in the bridge; full: 0.6 mm cells and
