@@ -1,32 +1,24 @@
 """Growth of interior planar cracks in a 3D scene (``[fracture] propagate = true`` or
 ``[fracture.fatigue]``; docs/scene_format.md#growing-an-interior-3d-crack).
 
-Every ``[[crack]]`` (disc, ellipse or convex polygon) becomes a polygon (a disc or an
-ellipse: N = max(6, ⌊P/(6 h_f)⌋) vertices on its front, P the perimeter: every edge holds
-the integration domain), a :class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.
-Every increment cuts the cracks into the scene's body (two faces and a contact pair
-each), solves the analysis, takes K_I, K_II, K_III at the middle of every front edge
-(:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and advances the vertices at
-K_Ic by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² with K_V,max the largest of all
-fronts (:func:`~bonecontact.fracture.advance3d.advance_mixed_front`), extending the
-surface by the strip between the fronts.  Under fatigue every solve is a block end:
-Δa_i = Δa_max rate_i/rate_max by the Paris rates
-(:func:`~bonecontact.runners.crack_fatigue.growth_weights`, shared with the surface
-crack), the cycles by ``FatigueProgress``
-(docs/theory/fracture.md#fatigue-of-interior-3d-cracks).  A vertex of weight 0 (below
-K_Ic; ΔK at or below ΔK_th) holds: it keeps its point, the strip is a triangle next to
-it and absent between two held vertices
+Every ``[[crack]]`` (disc, ellipse or convex polygon) becomes a polygon with every front
+edge longer than its integration domain, a
+:class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.  Every increment cuts the cracks
+into the body (two faces and a contact pair each), solves, takes K_I, K_II, K_III at the
+middle of every front edge (:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and
+advances the vertices by the σ₁′ criterion, Δa_i = Δa (K_V,i/K_V,max)² one load, or by
+the Paris rates under fatigue (:func:`~bonecontact.runners.crack_fatigue.growth_weights`),
+the cycles by ``FatigueProgress`` (docs/theory/fracture.md#fatigue-of-interior-3d-cracks).
+A vertex of weight 0 (below K_Ic; ΔK at or below ΔK_th) holds its point
 (:func:`~bonecontact.fracture.advance3d.extend_surface`).
-Stops: ``arrested`` (no vertex of any front grows), ``max_increments`` /
-``max_blocks``, ``fractured`` (one load: a grown front would come within the integration
-domain and two front elements of the body's surface, where it runs through; fatigue: K_V
-reaches K_Ic), ``through`` (fatigue: near the surface), ``joined`` (near another crack).
+Stops: ``arrested``, ``max_increments`` / ``max_blocks``, ``fractured`` (a front reaches
+the body's surface under one load; K_V reaches K_Ic under fatigue), ``through`` (fatigue:
+near the surface), ``joined`` (near another crack).
 ``fracture.csv``: a row per increment, crack and mid-edge (with the cycles, the advance
-``da`` of the edge's first vertex after that solve, ``holds`` for an edge that does not
-move);
-``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` (several: ``crack_front_<name>_<k>``)
-and ``increment<k>/`` per increment; with ``checkpoint_every`` the growth state
-(:mod:`~bonecontact.runners.growth_state3d`) to restart from on any number of ranks.
+``da`` of the edge's first vertex, ``holds`` for an edge that does not move);
+``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` and ``increment<k>/`` per increment;
+with ``checkpoint_every`` the growth state (:mod:`~bonecontact.runners.growth_state3d`)
+to restart from on any number of ranks.
 """
 
 from __future__ import annotations
