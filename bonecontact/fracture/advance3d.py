@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.crack import segments_intersect
 from bonecontact.fracture.crack3d import TriangulatedCrack
 from bonecontact.fracture.front3d import CrackBlock, FrontSIF, front_interaction_integral
 from bonecontact.materials.laws import Isotropic
@@ -36,6 +37,7 @@ __all__ = [
     "advance_polygon_front",
     "equivalent_k",
     "extend_surface",
+    "front_defects",
     "mid_edge_modes",
     "on_grid",
     "sigma1_kink",
@@ -338,6 +340,41 @@ def extend_surface(
         tuple(tuple(map(float, c)) for c in cuts),
         crack.normal,
     )
+
+
+def front_defects(vertices: npt.ArrayLike, normal: npt.ArrayLike) -> str | None:
+    """What keeps a closed front from being a convex polygon seen along ``normal`` (its
+    vertices projected on the plane normal to it), ``None`` when it is one.
+
+    The mid-edge K (:func:`mid_edge_modes`) and the advance (:func:`vertex_directions`)
+    take a convex front: every other edge beyond the integration ring of an edge.  A
+    vertex where the front turns to the right (clockwise about ``normal``) or folds back
+    on itself, and two edges that cross or touch, are named (vertex k as ``point`` k of
+    ``fracture.csv``, edge k from vertex k to k + 1), e.g. ``"turns right at vertices 3,
+    4; edges 2 and 6 cross"``.
+    """
+    V = np.asarray(vertices, dtype=float)
+    n = _unit(np.asarray(normal, dtype=float))
+    u = _unit(np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))]))
+    P = np.column_stack([V @ u, V @ np.cross(n, u)])
+    d = np.roll(P, -1, axis=0) - P  # edge k: vertex k to k + 1
+    before = np.roll(d, 1, axis=0)  # edge k − 1, into vertex k
+    cross = before[:, 0] * d[:, 1] - before[:, 1] * d[:, 0]
+    dot = np.sum(before * d, axis=1)
+    scale = np.linalg.norm(before, axis=1) * np.linalg.norm(d, axis=1)
+    right = np.flatnonzero((cross < 0) | ((cross <= 1e-12 * scale) & (dot < 0)))
+    N = len(P)
+    pairs = [
+        (i, j)
+        for i in range(N)
+        for j in range(i + 2, N - (i == 0))
+        if segments_intersect(P[i], P[(i + 1) % N], P[j], P[(j + 1) % N])
+    ]
+    parts = []
+    if len(right):
+        parts.append("turns right at vertices " + ", ".join(map(str, right)))
+    parts += [f"edges {i} and {j} cross" for i, j in pairs]
+    return "; ".join(parts) if parts else None
 
 
 def mid_edge_modes(

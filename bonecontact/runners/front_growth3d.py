@@ -2,7 +2,7 @@
 ``[fracture.fatigue]``; docs/scene_format.md#growing-an-interior-3d-crack).
 
 Every ``[[crack]]`` (disc, ellipse or convex polygon) becomes a polygon with every front
-edge longer than its integration domain, a
+edge longer than its integration domain (an ellipse's edges equally long), a
 :class:`~bonecontact.fracture.crack3d.TriangulatedCrack`.  Every increment cuts the cracks
 into the body (two faces and a contact pair each), solves, takes K_I, K_II, K_III at the
 middle of every front edge (:func:`~bonecontact.fracture.advance3d.mid_edge_modes`) and
@@ -13,7 +13,8 @@ A vertex of weight 0 (below K_Ic; ΔK at or below ΔK_th) holds its point
 (:func:`~bonecontact.fracture.advance3d.extend_surface`).
 Stops: ``arrested``, ``max_increments`` / ``max_blocks``, ``fractured`` (a front reaches
 the body's surface under one load; K_V reaches K_Ic under fatigue), ``through`` (fatigue:
-near the surface), ``joined`` (near another crack).
+near the surface), ``joined`` (near another crack), ``not_convex`` (an advanced front that
+is not a convex polygon: the last good one kept, ``front_defect`` names the vertices).
 ``fracture.csv``: a row per increment, crack and mid-edge (with the cycles, the advance
 ``da`` of the edge's first vertex, ``holds`` for an edge that does not move);
 ``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` and ``increment<k>/`` per increment;
@@ -39,6 +40,7 @@ from bonecontact.fracture.advance3d import (
     advance_mixed_front,
     equivalent_k,
     extend_surface,
+    front_defects,
     mid_edge_modes,
     sigma1_kink,
     vertex_directions,
@@ -77,6 +79,7 @@ from bonecontact.scene.spec import FractureSpec
 __all__ = [
     "GROWTH3D_COLUMNS",
     "check_interior_growth",
+    "equal_chords",
     "grows_interior_crack",
     "run_interior_growth",
 ]
@@ -160,6 +163,7 @@ class Growth:
     at: int = 0  # the crack that stopped the growth (fractured, through, joined)
     cycles: float = 0.0
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
+    defect: str | None = None  # why an advanced front was refused (stop not_convex)
 
     def state(self, initial: list[TriangulatedCrack]) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -240,19 +244,66 @@ def _refuse(scene: Scene) -> None:
 
 
 def as_polygon(crack: PlanarCrack, h_front: float) -> TriangulatedCrack:
-    """The crack as a one-patch triangulated polygon: a polygon as it is, a disc or an
-    ellipse the polygon of N = max(6, ⌊P/(6 h_f)⌋) vertices on its front at the parameters
-    2π(k + ½)/N (counter-clockwise about the normal)."""
+    """The crack as a one-patch triangulated polygon: a polygon as it is; a disc the
+    polygon of N vertices on its circle at the parameters 2π(k + ½)/N, an ellipse the
+    inscribed N-gon of equal edges (:func:`equal_chords`; N even), N the largest from
+    max(6, ⌊P/(6 h_f)⌋) (P the perimeter) down to 6 whose edges hold 6 h_f
+    (counter-clockwise about the normal)."""
     if crack.vertices is None:
         front = crack.front()
         phi = np.linspace(0.0, 2 * math.pi, 721)
         pts = front.point(phi)
         perimeter = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        step = 1 if crack.a == crack.b else 2
         n = max(6, int(perimeter / (6.0 * h_front)))
-        V = front.point(2 * math.pi * (np.arange(n) + 0.5) / n)
+        n -= n % step
+        t = _vertex_parameters(crack, n)
+        while n - step >= 6 and _chord(crack.a, crack.b, t) < 6.0 * h_front:
+            n -= step
+            t = _vertex_parameters(crack, n)
+        V = front.point(t)
         table = {"shape": "polygon", "vertices": V.tolist(), "normal": list(crack.normal)}
         crack = planar_crack_from_table(table)
     return triangulated_from_polygon(crack)
+
+
+def _vertex_parameters(crack: PlanarCrack, n: int) -> np.ndarray:
+    """The parameters of the n vertices of a disc's or an ellipse's polygon."""
+    if crack.a == crack.b:
+        return 2 * math.pi * (np.arange(n) + 0.5) / n
+    return equal_chords(crack.a, crack.b, n)
+
+
+def _chord(a: float, b: float, t: np.ndarray) -> float:
+    """The shortest edge of the polygon of the ellipse points at the parameters ``t``."""
+    p = np.column_stack([a * np.cos(t), b * np.sin(t)])
+    return float(np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1).min())
+
+
+def equal_chords(a: float, b: float, n: int, iterations: int = 60) -> np.ndarray:
+    """The parameters t_k of the n-gon inscribed in the ellipse (a cos t, b sin t) whose
+    edges are equally long, its edge from vertex n − 1 to vertex 0 across the end of the
+    major axis (symmetric about both axes for even n).
+
+    From equal arc lengths (vertex k at (k + ½)P/n from the end of the axis a), each
+    iteration gives edge k the arc Δs_k ∝ Δs_k/c_k (c_k its chord): the chords of a
+    smooth curve vary slowly with the arc, and the spread of the edges falls by about
+    the square of the step's change every iteration (to round-off in a few).
+    """
+    t = np.linspace(0.0, 2 * math.pi, 40001)
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(a * np.diff(np.cos(t)), b * np.diff(np.sin(t))))])
+    total = float(s[-1])
+    arcs = np.full(n, total / n)  # arc k: vertex k to k + 1
+    for _ in range(iterations):
+        at = np.mod(0.5 * arcs[-1] + np.concatenate([[0.0], np.cumsum(arcs[:-1])]), total)
+        tk = np.interp(at, s, t)
+        p = np.column_stack([a * np.cos(tk), b * np.sin(tk)])
+        chords = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
+        if np.ptp(chords) <= 1e-13 * chords.max():
+            break
+        arcs = arcs / chords
+        arcs *= total / arcs.sum()
+    return tk
 
 
 def _probes(V: np.ndarray, directions: np.ndarray, reach: float) -> np.ndarray:
@@ -451,8 +502,10 @@ def _grow_fronts(
     (its vertices of weight 0 hold: the strip only where the front moves,
     :func:`~bonecontact.fracture.advance3d.extend_surface`); a stop when a front would
     come near the surface (``fractured``; fatigue: ``through``, the block's cycles at its
-    start rate added) or another crack (``joined``).  Returns the stop and the vertices'
-    advances (``still``, zeros, at a stop)."""
+    start rate added) or another crack (``joined``), or an advanced front that is not a
+    convex polygon in the crack plane (``not_convex``, :func:`front_defects`: the
+    increment, crack and vertices in ``g.defect``).  Returns the stop and the vertices'
+    advances (``still``, zeros, at a stop: the cracks stay the last good ones)."""
     fat = run.fracture.fatigue
     step = float(fat.da_max if fat is not None else run.fracture.increment)
     new, advances = list(g.cracks), list(still)
@@ -460,6 +513,14 @@ def _grow_fronts(
         if weights[i] is None:
             continue
         adv = advance_mixed_front(crack.vertices, crack.normals2, K[i], step, weights=weights[i])
+        defect = front_defects(adv.vertices, crack.normal)
+        if defect is not None:
+            g.at = i
+            g.defect = (
+                f"crack {run.names[i]!r}, increment {g.increments}: the advanced front is not "
+                f"a convex polygon ({defect}); the front before it kept"
+            )
+            return "not_convex", still
         stop = _meets(run, g.cracks, i, adv.vertices, adv.directions)
         if stop is not None:
             g.at = i
@@ -588,7 +649,7 @@ def run_interior_growth(
 
 #: The stops that break the body (fragments reported), and those that name a crack.
 _BROKEN = ("fractured", "through")
-_STOPPED_BY = ("fractured", "through", "joined")
+_STOPPED_BY = ("fractured", "through", "joined", "not_convex")
 
 
 def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dict[str, Any]:
@@ -618,6 +679,7 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "history": g.history,
                 "fractured": g.status in _BROKEN,
                 "stopped_by": run.names[g.at] if g.status in _STOPPED_BY else None,
+                "front_defect": g.defect,
                 "fragments": frags,
             },
         },
