@@ -95,7 +95,7 @@ from bonecontact.common.constants import SECONDS_PER_YEAR
 from bonecontact.common.resources import data_file
 from bonecontact.fracture import cell_stresses, risk_field
 from bonecontact.materials.laws import Isotropic
-from bonecontact.materials.library import load_strengths
+from bonecontact.materials.library import load_material_library, load_strengths
 from bonecontact.mechanics.integrator import Integrator
 from bonecontact.mechanics.model import Mechanics
 from bonecontact.meshing.io import read_gmsh_mesh
@@ -385,6 +385,9 @@ BITE, TOOTH = 3.0e6, 10 * MM  # the occlusal traction (Pa) and the tooth width (
 F_APPLIED = BITE * (PATCH[1] - PATCH[0]) * TOOTH  # N
 CLAMP_ZONE = 5 * MM
 cortical_strength = load_strengths()["cortical_bone"]
+E_CORTICAL = load_material_library()["cortical_bone"]["E"]  # the same bone as the strength
+#: the (E, sigma_t) pair of the risk (tests/unit/materials/test_strength_pairs.py)
+RISK_PAIRS = {"cortical": (E_CORTICAL, cortical_strength["sigma_t"])}
 
 
 def bite_risk(msh_path: Path, scale: float) -> tuple[float, tuple[float, float], str]:
@@ -393,7 +396,7 @@ def bite_risk(msh_path: Path, scale: float) -> tuple[float, tuple[float, float],
     _, md = read_gmsh_mesh(msh_path, comm, 2)
     tag = {name: g.tag for name, g in md.physical_groups.items()}
     mats = {
-        tag["cortical"]: Isotropic(E=17.0e9, nu=0.3),
+        tag["cortical"]: Isotropic(E=E_CORTICAL, nu=0.3),
         tag["cancellous"]: Isotropic(E=1.0e9, nu=0.25),
     }
     model = Mechanics(md.mesh, mats, md.cell_tags, md.facet_tags)

@@ -74,7 +74,8 @@
 # `docs/theory/mortar.md`, `docs/theory/pdas.md`; no cartilage layer and no capsule: the facets of these
 # surfaces are bone on bone), the rest of the surface free (the ligaments and the
 # muscles are not modelled).  Materials (data/materials.toml): cortical bone $E = 17$ GPa,
-# $\nu = 0.3$; vertebral cancellous bone $E = 723$ MPa, $\nu = 0.25$; the disc's annulus
+# $\nu = 0.3$; vertebral cancellous bone $E = 326$ MPa, $\nu = 0.25$ (the density of its
+# measured strength, see *Fracture risk*); the disc's annulus
 # $E = 4.2$ MPa, $\nu = 0.45$ and its nucleus $E = 1$ MPa, $\nu = 0.499$ (nearly
 # incompressible, with the average-nodal-pressure formulation), the values of Table 1 of
 # a published lumbar model (BioMed Research International 2013, 705185: annulus ground
@@ -88,11 +89,20 @@
 # $\nu = 0.49$, with the average-nodal-pressure formulation (no locking).
 #
 # **Fracture risk.**  `[fracture]` evaluates in every analysis the initiation risk of
-# each cell, $R = \max(\sigma_1, 0)/\sigma_t$ (docs/theory/fracture.md), with the tensile
-# strengths of data/materials.toml: cortical bone 133 MPa (`[strength.cortical_bone]`),
-# vertebral cancellous bone 1.75 MPa (`[strength.cancellous_bone_vertebral]`).  The disc
-# (10 MPa) and the tumour (1 MPa) get values only because every material needs one; we
-# read the risk of the bone's cells, $R = 1$ being where a crack would start.
+# each cell, $R = \max(\sigma_1, 0)/\sigma_t$ (docs/theory/fracture.md), with the modulus
+# and the tensile strength of one bone each (data/materials.toml; the pairs are checked by
+# tests/unit/materials/test_strength_pairs.py): cortical bone 17 GPa and 133 MPa, both
+# along the osteons (`[material|strength.cortical_bone]`, Reilly & Burstein 1975);
+# vertebral cancellous bone 1.75 MPa, the tensile yield stress Kopperdahl & Keaveny (1998)
+# measured at an apparent density of 0.18 g/cm³, with the modulus of that density, 326 MPa
+# (Morgan et al.'s $E = 4730\,\rho^{1.56}$ MPa;
+# `[material|strength.cancellous_bone_vertebral_018]`): a yield strain
+# $\sigma_t/E + 0.2\,\%$ of 0.74 % against the measured $0.78 \pm 0.04\,\%$.  Until
+# 2026-12-03 the core was 723 MPa (the same relation at 0.30 g/cm³) with the same
+# strength, a yield strain of 0.44 %: a stiffer core took more of the load and its risk
+# was 1.5 times today's (below).  The disc (10 MPa) and the tumour (1 MPa) get values
+# only because every material needs one (`strength_pair_exception` in the scene); we read
+# the risk of the bone's cells, $R = 1$ being where a crack would start.
 #
 # **The load.**  The traction on the upper endplate $\Gamma$ of L3 is normal to the
 # horizontal, $t = -q(x)\,e_y$, and varies linearly from back to front,
@@ -145,6 +155,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import bonecontact.plot as bp
+from bonecontact.materials.library import load_material_library, load_strengths
 from bonecontact.meshing import SurfaceRegion, anatomy_surface
 from bonecontact.meshing.builder import PhysicalGroups, generate
 from bonecontact.meshing.stl import cortical_inner_surface, select_triangles
@@ -179,6 +190,14 @@ N_BINS = 6  # facet groups of the loaded endplate
 DISC_LEVELS = 2  # refinements of the disc's faces (the endplate fans of the surfaces)
 FACET_LEVELS = 2  # refinements of the articular facets (the contact pairs' surfaces)
 FACET_PAIRS = ("facet_zneg", "facet_zpos")  # the facet joints (z < 0, z > 0)
+#: bone: the stiffness and the strength of one bone each (data/materials.toml, see
+#: "Fracture risk"): the cancellous core at the apparent density of its measured strength
+LIBRARY, STRENGTH = load_material_library(), load_strengths()
+CORE, CORTICAL = "cancellous_bone_vertebral_018", "cortical_bone"
+E_CANC, NU_CANC = LIBRARY[CORE]["E"], LIBRARY[CORE]["nu"]
+SIGMA_T_CANC = STRENGTH[CORE]["sigma_t"]
+E_CORT, NU_CORT = LIBRARY[CORTICAL]["E"], LIBRARY[CORTICAL]["nu"]
+SIGMA_T_CORT = STRENGTH[CORTICAL]["sigma_t"]
 t0 = time.perf_counter()
 if comm.rank == 0:
     output.mkdir(parents=True, exist_ok=True)
@@ -508,21 +527,22 @@ load_steps = 1
 name = "cortical"
 regions = ["L3_cortical", "L4_cortical"]
 model = "isotropic"
-E = 17.0e9
-nu = 0.3
-sigma_t = 133.0e6
+E = {E_CORT!r}
+nu = {NU_CORT!r}
+sigma_t = {SIGMA_T_CORT!r}
 
 [[material]]
 name = "cancellous"
 regions = ["L3_cancellous", "L4_cancellous"]
 model = "isotropic"
-E = 723.05e6
-nu = 0.25
-sigma_t = 1.75e6
+E = {E_CANC!r}
+nu = {NU_CANC!r}
+sigma_t = {SIGMA_T_CANC!r}
 
 [[material]]
 name = "annulus"
 regions = ["annulus"]
+# strength_pair_exception: not bone; a tensile strength that only keeps R defined
 model = "isotropic"
 E = 4.2e6
 nu = 0.45
@@ -531,6 +551,7 @@ sigma_t = 10.0e6
 [[material]]
 name = "nucleus"
 regions = ["nucleus"]
+# strength_pair_exception: not bone; a tensile strength that only keeps R defined
 model = "isotropic"
 E = 1.0e6
 nu = 0.499
@@ -540,6 +561,7 @@ sigma_t = 10.0e6
 [[material]]
 name = "tumour"
 regions = ["tumour"]
+# strength_pair_exception: not bone; an arbitrary strength that only keeps R defined
 model = "isotropic"
 E = 0.5e6
 nu = 0.49
@@ -621,25 +643,28 @@ if comm.rank == 0:
 # largest von Mises stress of the bone cells within 2 mm of the tumour (cell centroids
 # within $R + 2$ mm of its centre, the tumour's own cells excluded).
 #
-# What to expect (quick run, 2026-11-28): the disc is four thousand times softer than the
+# What to expect (quick run, 2026-12-03): the disc is four thousand times softer than the
 # cortex, so the segment's shortening is the disc's: L3 sinks 0.26 mm (and tilts 0.7°
 # forwards: the endplates are not parallel and the load is not centred over the disc),
-# the L4 endplate only 4.6 µm; the tumour softens the L4 body, so its endplate sinks a
-# little more as it grows (4.59, 4.64 µm at R = 3.6, 4.3 mm).  The largest fracture risk
-# of L4 next to the tumour rises as it grows (0.118, 0.129), far from 1 under standing
+# the L4 endplate only 6.0 µm; the tumour softens the L4 body, so its endplate sinks a
+# little more as it grows (6.03, 6.07 µm at R = 3.6, 4.3 mm).  The largest fracture risk
+# of L4 next to the tumour rises as it grows (0.075, 0.082), far from 1 under standing
 # load with these strengths.  On the coarse quick mesh the largest risk of all L4 is one
-# cancellous cell against the cortex (0.16), a mesh value; the risk within 2 mm of the
-# tumour is the number to follow.  The disc's strain measure is 7.2–7.6 % (in the
+# cancellous cell against the cortex (0.115), a mesh value; the risk within 2 mm of the
+# tumour is the number to follow.  (With the former 723 MPa core: 4.59, 4.64 µm; risk
+# next to the tumour 0.118, 0.129; of all L4 0.16.)  The disc's strain measure is 7.2–7.6 % (in the
 # nucleus; the largest cell value 10.3 %, 0.06 % of the nucleus' volume beyond 10 %):
 # within the small-strain range, so the run is valid as shipped.  Full run (days 6–24,
-# R = 3.6–6.3 mm): L3 sinks 0.263–0.268 mm, the L4 endplate 4.46, 4.52, 4.59, 4.73 µm,
-# the risk next to the tumour 0.108, 0.119, 0.137, 0.142; strain measure 7.1–8.1 % (in
+# R = 3.6–6.3 mm): L3 sinks 0.267–0.271 mm, the L4 endplate 5.81, 5.86, 5.92, 6.04 µm,
+# the risk next to the tumour 0.067, 0.074, 0.085, 0.088 (also the largest of all L4);
+# strain measure 7.1–8.1 % (in
 # the nucleus), at most 0.25 % of the nucleus' volume beyond 10 %; the largest single
 # cell reaches 11–43 % (one sliver on the jagged nucleus–annulus boundary, which moves
 # with each rebuild of the disc): the measure, not one cell, is what judges the run.
 #
 # The facet joints touch lightly in standing: of the 9 slave nodes of each side that lie
-# over the master one is closed and carries 2.8–3.0 N (the run prints them); the disc
+# over the master one is closed and carries 2.7–2.9 N (quick run; 2.2–2.9 N full; the
+# run prints them); the disc
 # carries the rest.  They carry more load in extension (with a 15 N·m extension moment,
 # `M_FLEX = -15`, in the former homogeneous-disc model one node of each side closed and
 # each pair carried 271–273 N, mostly sideways; its peak pressure, 149 MPa, is one node's
@@ -667,21 +692,24 @@ if comm.rank == 0:
 #   share $= b/c_0$ to first order.  Published: micro-FE of human vertebral bodies with
 #   simulated lytic lesions under axial compression, stiffness 3 % to 30 % lower for
 #   lesions of 4 % to 35 % of the body, linearly related (Costa et al. 2020, Bone Reports
-#   12:100257): a loss of 0.75–0.87 per unit share.  Quick run: 1.77 per unit share, from
+#   12:100257): a loss of 0.75–0.87 per unit share.  Quick run: 1.20 per unit share, from
 #   two small tumours (0.8 % and 1.4 % of the body, below the published range) whose
-#   difference is close to the remeshing noise of the subsidence; full run 1.69 from four
-#   (0.8–4.3 % of the body).  Measured directly
-#   (tests/verification/test_spine_validation.py, the quick mesh without a tumour and
-#   with one of 6.5 mm or 9 mm, 4.5 % and 12 % of the body): losses of 6.3 % and 16.9 %,
-#   1.39 and 1.41 per unit share.  Linear in the share, as published, but 1.6 times the
-#   published slope: outside its range.  The
+#   difference is close to the remeshing noise of the subsidence; full run 1.12 from four
+#   (0.8–4.3 % of the body); 1.77 and 1.69 with the former 723 MPa core.  Measured
+#   directly (tests/verification/test_spine_validation.py, the quick mesh without a tumour
+#   and with one of 6.5 mm or 9 mm, 4.5 % and 12 % of the body), with the 723 MPa core
+#   that test keeps (it computes no risk): losses of 6.3 % and 16.9 %, 1.39 and 1.41 per
+#   unit share, 1.6 times the published slope; with this demo's 326 MPa core (the same
+#   runs, 2026-12-03) 4.0 % and 12.1 %, 0.89 and 1.01 per unit share, 2–16 % above the
+#   published top.  Linear in the share, as published, but above its range.  The
 #   tumour sits centrally under the nucleus, where the disc's pressure loads the endplate
 #   most, and the load passes through a disc rather than a rigid plate: both make the loss
 #   larger than in a body compressed between plates.
 #
 # **Limits of this model.**  No ligaments, no muscles, no annulus fibres, linear
 # materials: a standing, axially compressed segment only.  The bone's strains stay below
-# 0.1 %, and the load reaching L4 is fixed by equilibrium (the test checks the reaction),
+# 0.12 % (from the cell stresses; cancellous bone, 0.05 % in the cortex), and the load
+# reaching L4 is fixed by equilibrium (the test checks the reaction),
 # so the bone stresses around the tumour are in the model's range; how the disc spreads
 # that load over the endplate is what the disc model affects.
 

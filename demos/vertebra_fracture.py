@@ -404,6 +404,7 @@ sigma_t = {SIGMA_T_CORT!r}
 [[material]]
 name = "tumour"
 regions = ["tumour"]
+# strength_pair_exception: not bone; a strength so high that the tumour's R stays 0
 model = "isotropic"
 E = {E_TUMOUR!r}
 nu = {NU_TUMOUR!r}
