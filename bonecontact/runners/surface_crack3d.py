@@ -16,10 +16,11 @@ one load; ``[fracture.fatigue]`` by the Paris rates of ΔK = (1 − R)K_V per bl
 and solves the analysis again.  It stops at arrest, at the increment or block limit, when
 K_V reaches K_Ic under fatigue (``fractured``: the crack runs unstably) or when the grown
 front would leave the body (``through``: it reaches the far surface); the two last report
-the fragments, the body on either side of the crack plane.  ``fracture.csv`` has a row
-per increment and front point, ``crack_surface_<k>.vtk`` the crack surface and
-``crack_front_<k>.vtk`` the front with its K after increment k, ``increment<k>/`` the
-fields and tables of each solve.
+the fragments, the body on either side of the crack plane.  A grown crack that cannot
+be cut while its front stays inside, or K that cannot be evaluated, ends the run
+``failed`` with the reason.  ``fracture.csv`` has a row per increment and front point,
+``crack_surface_<k>.vtk`` the crack surface and ``crack_front_<k>.vtk`` the front with
+its K after increment k, ``increment<k>/`` the fields and tables of each solve.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ import numpy as np
 import ufl
 from dolfinx import fem, mesh
 
-from bonecontact.common.errors import ParameterError
+from bonecontact.common.errors import ParameterError, RunError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.advance3d import equivalent_k, sigma1_kink
@@ -257,9 +258,10 @@ def _pair_name(name: str) -> str:
 
 
 def _probe_points(cut: CutBody, h: float) -> np.ndarray:
-    """Points ``h`` ahead of the inner 80 % of the front."""
+    """Points ``h`` ahead of the inner 80 % of the front and of its deepest point."""
     p0, p1 = cut.arc.phi_range
     phi = np.linspace(p0 + 0.1 * (p1 - p0), p1 - 0.1 * (p1 - p0), 17)
+    phi = np.append(phi, _deepest_parameter(cut))
     return cut.arc.point(phi) + h * cut.arc.normals(phi)
 
 
@@ -507,13 +509,69 @@ def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> Surfa
     )
 
 
-def _breaks_through(run: SurfaceRun, crack: SurfaceBreakingCrack) -> bool:
-    """Whether the grown crack's front leaves the body (or its mouth cannot be cut)."""
+def breaks_through(run: SurfaceRun, crack: SurfaceBreakingCrack) -> bool:
+    """Whether the grown ``crack`` has broken through the body (``through``): a point
+    :attr:`SurfaceRun.ligament` ahead of its front — the inner 80 % of the front and the
+    deepest point — lies outside the body (the front leaves it, or less ligament is left
+    than the integration domain and two front elements need).  The front is the arc of
+    its mouth cut into the body's surface; when that cut fails, the arc of the crack's
+    ellipse inside the body through the deepest point (:func:`_sampled_probes`).
+
+    Raises
+    ------
+    RunError
+        The mouth cannot be cut and the front stays inside the body with the ligament to
+        spare: not a break-through but a geometry failure (the message names the crack,
+        its depth and half-length and why the cut failed).
+    """
     try:
         cut = cut_mouth(run.body, crack, run.size)
-    except ParameterError:
-        return True
+    except ParameterError as exc:
+        probes = _sampled_probes(run, crack)
+        if probes is None or not bool(np.all(inside_body(run.body, probes))):
+            return True
+        raise RunError(
+            f"crack {run.name!r}: the grown crack (depth {crack.depth:.6g} m, half-length "
+            f"{crack.half_length:.6g} m, centre {_xyz(crack.centre)}) cannot be cut into the "
+            f"body's surface ({exc}); its front stays inside the body with the ligament of "
+            f"{run.ligament:.3g} m to spare, so it has not broken through"
+        ) from None
     return not bool(np.all(inside_body(run.body, _probe_points(cut, run.ligament))))
+
+
+def _xyz(p: Any) -> str:
+    return "(" + ", ".join(f"{float(v):.6g}" for v in p) + ")"
+
+
+def _sampled_probes(run: SurfaceRun, crack: SurfaceBreakingCrack) -> np.ndarray | None:
+    """Without a cut mouth: the probe points of :func:`breaks_through` on the crack's
+    ellipse x(φ) = C + c cos φ t + a sin φ d (t the crack's ``axis``, d = n × t its inward
+    depth direction, as :func:`~bonecontact.fracture.surface_body3d.crack_frame` sets them),
+    the front being the arc through the deepest point (φ = π/2) inside the body, found on
+    720 points; ``None`` when the deepest point lies outside the body."""
+    n, t = np.asarray(crack.normal, dtype=float), np.asarray(crack.axis, dtype=float)
+    d, C = np.cross(n, t), np.asarray(crack.centre, dtype=float)
+    a, c = crack.depth, crack.half_length
+
+    def ellipse(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cs, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        normal = a * cs * t + c * sn * d
+        return C + c * cs * t + a * sn * d, normal / np.linalg.norm(normal, axis=1)[:, None]
+
+    N = 720
+    phi = 0.5 * math.pi + 2.0 * math.pi * (np.arange(N) - N // 2) / N  # φ = π/2 at N // 2
+    inside = inside_body(run.body, ellipse(phi)[0])
+    if not inside[N // 2]:
+        return None
+    lo, hi = N // 2, N // 2
+    while lo > 0 and inside[lo - 1]:
+        lo -= 1
+    while hi < N - 1 and inside[hi + 1]:
+        hi += 1
+    p0, p1 = phi[lo], phi[hi]
+    probe = np.append(np.linspace(p0 + 0.1 * (p1 - p0), p1 - 0.1 * (p1 - p0), 17), 0.5 * math.pi)
+    x, e1 = ellipse(probe)
+    return x + run.ligament * e1
 
 
 def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutBody) -> str | None:
@@ -539,7 +597,7 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
         return stop
     step = fat.da_max if fat is not None else run.fracture.increment
     nxt = _grown(g.crack, step, rates)
-    if _breaks_through(run, nxt):
+    if breaks_through(run, nxt):
         if fat is not None:  # the last block at the rate of its start
             g.cycles += step / float(rates.max())
         return "through"
@@ -597,7 +655,11 @@ def _start(run: SurfaceRun, comm: MPI.Comm, outdir: Path, restart) -> Growth:
 
 
 def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTable):
-    """Solve, evaluate and advance until a stop; returns (status, message, fragments)."""
+    """Solve, evaluate and advance until a stop; returns (status, message, fragments).
+    A solve that does not converge, K that cannot be evaluated at a front point or a
+    grown crack that cannot be cut (:func:`breaks_through`) end the run ``"failed"``
+    with the message, the increments before written (growth status ``failed`` and
+    fracture.csv rows marked so when the last solve's K were written)."""
     fr = run.fracture
     grows = fr.propagate or fr.fatigue is not None
     every = run.scene.output.checkpoint_every
@@ -605,10 +667,20 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
         cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
         if summary["status"] != "converged":
             return summary["status"], summary.get("message"), None
-        with timer.phase("fracture"):
-            traction = crack_tractions(sm, integ, cb, run.r_out)
-            records = evaluate(integ.u, cb, run, g.increments, g.cycles, traction)
-        stop = _advance(run, g, records, cb.crack) if grows else "stationary"
+        try:
+            with timer.phase("fracture"):
+                traction = crack_tractions(sm, integ, cb, run.r_out)
+                records = evaluate(integ.u, cb, run, g.increments, g.cycles, traction)
+        except (ParameterError, RunError) as exc:
+            integ.destroy()
+            g.status = "failed"
+            return "failed", f"{_where(run, g)}: no K at the front: {exc}", None
+        failure = None
+        try:
+            stop = _advance(run, g, records, cb.crack) if grows else "stationary"
+        except RunError as exc:
+            failure = f"{exc}; the run stops after increment {g.increments} (written)"
+            stop = "failed"
         mark = stop or "grows"
         table.rows([dataclasses.replace(r, cycles=g.cycles, status=mark) for r in records])
         g.rows += len(records)
@@ -619,10 +691,19 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
         if stop is not None:
             g.status = stop
             frags = _fragments(cb) if stop in ("fractured", "through") else None
-            return "converged", None, frags
+            return ("converged", None, frags) if failure is None else ("failed", failure, None)
         if every > 0 and g.increments % every == 0:
             with timer.phase("checkpoint"):
                 save_growth_state(comm, outdir, g.increments, g.state(run.crack))
+
+
+def _where(run: SurfaceRun, g: Growth) -> str:
+    """The crack and increment a failure message names."""
+    c = g.crack
+    return (
+        f"crack {run.name!r}, increment {g.increments} (depth {c.depth:.6g} m, half-length "
+        f"{c.half_length:.6g} m)"
+    )
 
 
 def run_surface_crack(
