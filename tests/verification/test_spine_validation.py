@@ -20,6 +20,11 @@ linear in the lesion's share; with the cortical shell at its measured thickness
 (0.29–0.35 mm, two studies) the slope reaches into the published band, with the shipped
 2 mm cortex it lies below it (documented).  The nucleus pressure per mean axial stress,
 p / (F/A), has no published value we could read; its band is documented, not published.
+
+The cancellous core keeps E = 723 MPa (``[material.cancellous_bone_vertebral]``, apparent
+density 0.30 g/cm3; no strength, no risk here); the demo's core is 326 MPa since 2026-12-03
+(the density of its strength), with which these runs give other numbers (docs/validation.md,
+"Sensitivity to the core's modulus": the plate slopes fall below the published band).
 """
 
 from __future__ import annotations
