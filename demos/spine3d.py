@@ -100,7 +100,7 @@
 # $\sigma_t/E + 0.2\,\%$ of 0.74 % against the measured $0.78 \pm 0.04\,\%$.  Until
 # 2026-12-03 the core was 723 MPa (the same relation at 0.30 g/cm³) with the same
 # strength, a yield strain of 0.44 %: a stiffer core took more of the load and its risk
-# was 1.5 times today's (below).  The disc (10 MPa) and the tumour (1 MPa) get values
+# was about 1.6 times today's (below).  The disc (10 MPa) and the tumour (1 MPa) get values
 # only because every material needs one (`strength_pair_exception` in the scene); we read
 # the risk of the bone's cells, $R = 1$ being where a crack would start.
 #
@@ -652,8 +652,9 @@ if comm.rank == 0:
 # load with these strengths.  On the coarse quick mesh the largest risk of all L4 is one
 # cancellous cell against the cortex (0.115), a mesh value; the risk within 2 mm of the
 # tumour is the number to follow.  (With the former 723 MPa core: 4.59, 4.64 µm; risk
-# next to the tumour 0.118, 0.129; of all L4 0.16.)  The disc's strain measure is 7.2–7.6 % (in the
-# nucleus; the largest cell value 10.3 %, 0.06 % of the nucleus' volume beyond 10 %):
+# next to the tumour 0.118, 0.129; of all L4 0.16.)  The disc's strain measure is
+# 7.2–7.6 % (in the nucleus; the largest cell value 10.3 %, 0.06 % of the nucleus' volume
+# beyond 10 %):
 # within the small-strain range, so the run is valid as shipped.  Full run (days 6–24,
 # R = 3.6–6.3 mm): L3 sinks 0.267–0.271 mm, the L4 endplate 5.81, 5.86, 5.92, 6.04 µm,
 # the risk next to the tumour 0.067, 0.074, 0.085, 0.088 (also the largest of all L4);
