@@ -656,15 +656,21 @@ def _start(run: SurfaceRun, comm: MPI.Comm, outdir: Path, restart) -> Growth:
 
 def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTable):
     """Solve, evaluate and advance until a stop; returns (status, message, fragments).
-    A solve that does not converge, K that cannot be evaluated at a front point or a
-    grown crack that cannot be cut (:func:`breaks_through`) end the run ``"failed"``
+    A solve that does not converge, K that cannot be evaluated at a front point, a grown
+    crack that cannot be cut (:func:`breaks_through`) or meshed end the run ``"failed"``
     with the message, the increments before written (growth status ``failed`` and
     fracture.csv rows marked so when the last solve's K were written)."""
     fr = run.fracture
     grows = fr.propagate or fr.fatigue is not None
     every = run.scene.output.checkpoint_every
     while True:
-        cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
+        try:
+            cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
+        except SceneError as exc:  # the given crack's is an input error, a grown one's not
+            if g.increments == 0:
+                raise
+            g.status = "failed"
+            return "failed", f"{_where(run, g)}: the grown crack cannot be meshed: {exc}", None
         if summary["status"] != "converged":
             return summary["status"], summary.get("message"), None
         try:

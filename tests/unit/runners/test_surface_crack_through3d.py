@@ -20,7 +20,8 @@ depth a has broken through iff a + ℓ > t.
   ``through``): the message names the crack and why, growth status ``failed``, not
   fractured, no fragments; fracture.csv holds the first solve's rows marked ``failed``
   with finite K; a run whose K cannot be evaluated (the front moved off its mesh) ends
-  ``failed`` naming the front point.  1, 2 and 3 ranks.
+  ``failed`` naming the front point; a grown crack that gmsh cannot mesh ends ``failed``
+  (before: a SceneError, an input error, mid-run).  1, 2 and 3 ranks.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from coupled_support import gmsh_on_rank0, read_csv
 
 from bonecontact.common.errors import ParameterError, RunError
 from bonecontact.fracture.surface_body3d import cut_mouth
+from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners import run_scene, surface_crack3d
 from bonecontact.runners.surface_crack3d import breaks_through, prepare_surface
 from bonecontact.scene import load_scene
@@ -177,3 +179,26 @@ def test_run_whose_k_cannot_be_evaluated_fails(plates: Path, monkeypatch) -> Non
     msg = res.summary["message"]
     assert "no K at the front" in msg and "holds no cell" in msg and "phi = " in msg, msg
     assert len(read_csv(out / "fracture.csv")["K_I"]) == 0  # no row of the failed K
+
+
+def test_run_whose_grown_crack_cannot_be_meshed_fails(plates: Path, monkeypatch) -> None:
+    """The first block's crack is cut but gmsh fails on it: the run fails (it was a
+    SceneError on ``depth``, an input error, with no summary.json); the first solve's rows
+    stay, summary.json has the grown crack (the one to solve next) as the final one."""
+    real = surface_crack3d.mesh_body_with_surface_crack
+
+    def mesh(body, crack, size, comm):
+        if crack.depth > A * (1 + 1e-9):
+            raise MeshingError("forced meshing failure (test)")
+        return real(body, crack, size, comm)
+
+    monkeypatch.setattr(surface_crack3d, "mesh_body_with_surface_crack", mesh)
+    res, out = _run(_scene(plates, "plate.msh", "meshfail", growth=_fatigue(), h=A / 6))
+    assert res.status == "failed"
+    msg = res.summary["message"]
+    assert "increment 1" in msg and "cannot be meshed" in msg and "forced" in msg, msg
+    g = res.summary["fracture"]["growth"]
+    assert g["status"] == "failed" and g["increments"] == 1
+    assert res.summary["fracture"]["crack"]["final"]["depth"] > A
+    tab = read_csv(out / "fracture.csv")
+    assert np.all(tab["increment"] == 0) and np.all(np.isfinite(tab["K_I"]))
