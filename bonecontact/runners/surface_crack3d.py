@@ -17,8 +17,8 @@ and solves the analysis again.  It stops at arrest, at the increment or block li
 K_V reaches K_Ic under fatigue (``fractured``: the crack runs unstably) or when the grown
 front would leave the body (``through``: it reaches the far surface); the two last report
 the fragments, the body on either side of the crack plane.  A grown crack that cannot
-be cut while its front stays inside, or K that cannot be evaluated, ends the run
-``failed`` with the reason.  ``fracture.csv`` has a row per increment and front point,
+be cut while its front stays inside, or meshed, or K that cannot be evaluated, ends the
+run ``failed`` with the reason.  ``fracture.csv`` has a row per increment and front point,
 ``crack_surface_<k>.vtk`` the crack surface and ``crack_front_<k>.vtk`` the front with
 its K after increment k, ``increment<k>/`` the fields and tables of each solve.
 """
