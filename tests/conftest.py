@@ -31,6 +31,25 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip)
 
 
+#: Whether this rank's session failed (set at its end; read when pytest unconfigures).
+_SESSION_FAILED = False
+
+
+def pytest_sessionfinish(session, exitstatus):
+    global _SESSION_FAILED
+    _SESSION_FAILED = exitstatus not in (0, 5)  # 5: nothing collected
+
+
+def pytest_unconfigure(config):
+    """Under MPI, a rank whose session failed (``-x`` stops it at its first failure) aborts
+    the job once it has printed its report: the other ranks would otherwise wait in the next
+    test's collective until the suite's time-out."""
+    if _SESSION_FAILED and MPI.COMM_WORLD.size > 1:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        MPI.COMM_WORLD.Abort(1)
+
+
 def pytest_collection_finish(session):
     """Move everything alive after collection (modules, compiled forms, parameter sets) to
     the collector's permanent generation: the ``gc.collect()`` after each test then scans

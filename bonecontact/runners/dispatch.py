@@ -62,10 +62,13 @@ def run_scene(
     -------
     RunResult
         ``status`` is ``"converged"`` or ``"failed"`` (then ``summary["message"]``
-        says why; the last good state is in the output files).
+        says why; the last good state is in the output files).  The output files
+        that rank 0 writes are complete on return on every rank (a barrier).
     """
     output = None if output is None else Path(output)
-    return choose_kind(scene).run(scene, comm, output, progress, restart)
+    result = choose_kind(scene).run(scene, comm, output, progress, restart)
+    comm.barrier()  # every rank may read summary.json and the tables on return
+    return result
 
 
 #: :func:`run_scene` under its short name
