@@ -57,6 +57,10 @@ def _table(path: Path) -> np.ndarray:
     return np.array([[_num(v) for v in r] for r in rows])
 
 
+#: The length (m) that turns the largest force of a run into its scale of moments.
+MOMENT_ARM = 1e-3
+
+
 def _force_scaled(path: Path, scale: np.ndarray) -> np.ndarray:
     """Per-column comparison scales, the reaction/load/inertia columns of a history.csv
     measured against the largest force (moment) of the run: a support that carries
@@ -64,6 +68,7 @@ def _force_scaled(path: Path, scale: np.ndarray) -> np.ndarray:
     with open(path) as f:
         header = next(csv.reader(f))
     scale = scale.copy()
+    largest = {}
     for moment in (False, True):
         cols = [
             j
@@ -72,7 +77,11 @@ def _force_scaled(path: Path, scale: np.ndarray) -> np.ndarray:
             and (c.rsplit("_", 1)[-1] in ("mx", "my", "mz")) == moment
         ]
         if cols:
-            scale[cols] = scale[cols].max()
+            largest[moment] = scale[cols].max()
+            # a run without moments has moments at the round-off of its forces times the
+            # lengths of the model: measure them against the largest force times 1 mm
+            floor = largest.get(False, 0.0) * MOMENT_ARM if moment else 0.0
+            scale[cols] = max(largest[moment], floor)
     return scale
 
 
