@@ -501,10 +501,12 @@ def _master_surface_mortar(
     stats: dict[str, float],
     local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
     shift: npt.NDArray[np.float64] | None = None,
+    coincident: float | None = None,
 ) -> _MortarData:
     """Gather the master facets near each rank's slave facets and integrate the owned slave
     facets (moved by ``shift``, if given) against them within the search distances
-    ``radius``; phase times and counts are added to ``stats``."""
+    ``radius`` (only the coincident ones, see :func:`build_interface`); phase times and
+    counts are added to ``stats``."""
     comm, gdim = V.mesh.comm, V.mesh.geometry.dim
     t0 = time.perf_counter()
     xs = surf.x if shift is None else surf.x + shift
@@ -526,6 +528,7 @@ def _master_surface_mortar(
         m_f,
         search_radius=radius,
         slave_node_mask=mask if mask.any() else None,
+        coincident=coincident,
     )
     for key, value in contrib.pairs.timings.items():
         stats[f"t_{key}"] = value
@@ -722,14 +725,18 @@ def _surface_pair_mortar(
     local_master: tuple[np.ndarray, np.ndarray, np.ndarray],
     labels: _PairLabels,
     approach: bool,
+    coincident: float | None = None,
 ) -> _MortarData:
     """The mortar integrals of a slave surface against a master surface: searched from
     where the surfaces are closest, and (``approach``) evaluated after the rigid
-    approach that closes the smallest gap (collective)."""
+    approach that closes the smallest gap (collective); ``coincident``: see
+    :func:`build_interface`."""
     comm = V.mesh.comm
     sep = surface_separation(comm, surf.x, surf.facets, surf.measure, local_master[1], surf.normals)
     radius = _slave_search_radius(surf, search_radius, _search_extension(sep))
-    mortar = _master_surface_mortar(V, surf, mask, radius, stats, local_master)
+    mortar = _master_surface_mortar(
+        V, surf, mask, radius, stats, local_master, coincident=coincident
+    )
     if mortar.covered <= 0.0:
         r_max = comm.allreduce(float(radius.max(initial=0.0)), op=MPI.MAX)
         raise _nothing_opposite(labels, r_max, sep)
@@ -764,6 +771,7 @@ def build_interface(
     shared_nodes: str = "refuse",
     groups: tuple[str, str] | None = None,
     approach: bool = False,
+    coincident: float | None = None,
 ) -> ContactInterface:
     """Build a contact interface (collective).
 
@@ -805,6 +813,11 @@ def build_interface(
         smallest gap (:func:`approach_vector`), the gaps corrected by that translation
         so that they still measure from the initial position
         (docs/theory/pdas.md#bodies-that-start-apart).
+    coincident
+        Surfaces that lie on each other node by node (a crack's faces): a slave facet is
+        paired only with master facets whose vertices are its own to this distance (m),
+        not with every one whose projection overlaps it (``None``;
+        :func:`~bonecontact.contact.mortar_assembly.coincident_pairs`).
 
     Raises
     ------
@@ -827,7 +840,17 @@ def build_interface(
     else:
         labels = _PairLabels.of(name, slave, master, groups)
         mortar = _two_surface_mortar(
-            V, facet_tags, master, surf, mask, labels, shared_nodes, search_radius, stats, approach
+            V,
+            facet_tags,
+            master,
+            surf,
+            mask,
+            labels,
+            shared_nodes,
+            search_radius,
+            stats,
+            approach,
+            coincident,
         )
     # nodes carrying a multiplier, initial interpenetration
     carries = _multiplier_nodes(surf, mortar.d)
@@ -848,6 +871,7 @@ def _two_surface_mortar(
     search_radius: float | None,
     stats: dict[str, float],
     approach: bool,
+    coincident: float | None = None,
 ) -> _MortarData:
     """The mortar integrals of a slave surface against master facets (the arguments of
     :func:`build_interface`): nodes shared by both surfaces refused or, with
@@ -860,7 +884,9 @@ def _two_surface_mortar(
     if shared_nodes == "no_multiplier":
         mask, shared = mask | shared, np.zeros_like(shared)
     _check_master(comm, labels, local_master, shared)
-    return _surface_pair_mortar(V, surf, mask, search_radius, stats, local_master, labels, approach)
+    return _surface_pair_mortar(
+        V, surf, mask, search_radius, stats, local_master, labels, approach, coincident
+    )
 
 
 def _distributed_interface(

@@ -37,7 +37,7 @@ from mpi4py import MPI
 import numpy as np
 from tqdm import tqdm
 
-from bonecontact.common.errors import ParameterError
+from bonecontact.common.errors import ParameterError, RunError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_cracks
@@ -256,14 +256,26 @@ def with_cracks(run: CrackRun, specs: tuple[CrackSpec, ...], initiated: bool = F
 
 
 def build_cracked(
-    scene: Scene, run: CrackRun, cracks: list[Crack2D], comm: MPI.Comm, timer: PhaseTimer
+    scene: Scene,
+    run: CrackRun,
+    cracks: list[Crack2D],
+    comm: MPI.Comm,
+    timer: PhaseTimer,
+    made: str | None = None,
 ) -> tuple[SceneModel, list[CrackedMesh]]:
     """The scene model on the body meshed around ``cracks`` (one per ``run.specs``), with
-    their face pairs last (in the order of the cracks); the mesh viewed from each crack."""
+    their face pairs last (in the order of the cracks); the mesh viewed from each crack.
+
+    A crack that cannot be cut into the body, meshed or paired is a :class:`SceneError`
+    naming its table when it is the scene's (``made`` ``None``), else — a crack the run
+    made (``made``: ``"inserted"``, ``"grown"``) — a :class:`RunError` naming the crack,
+    its points and the reason (the run ends ``"failed"``)."""
     try:
         with timer.phase("mesh_read"):
             cms, md = mesh_body_with_cracks(run.body, cracks, run.tip_mesh, comm)
     except (ParameterError, MeshingError) as exc:
+        if made is not None:
+            raise _run_error(run, cracks, None, made, "cannot be meshed", exc) from None
         raise _scene_error(scene, 0, run.spec, exc, "points", run.initiated) from None
     sm = build_model(scene, comm, timer, mesh=(md, run.groups))
     for i, cm in enumerate(cms):
@@ -271,8 +283,24 @@ def build_cracked(
             with timer.phase("mortar_geometry"):
                 sm.interfaces.append(face_interface(sm.model, cm, run.pair(i)))
         except ContactInputError as exc:
+            if made is not None:
+                raise _run_error(run, cracks, i, made, "faces cannot be paired", exc) from None
             raise _scene_error(scene, i, run.specs[i], exc, "points", run.initiated) from None
     return sm, cms
+
+
+def _run_error(
+    run: CrackRun, cracks: list[Crack2D], i: int | None, made: str, what: str, exc: Exception
+) -> RunError:
+    """The failure of a crack the run inserted or grew (:func:`build_cracked`)."""
+    which = range(len(cracks)) if i is None else [i]
+    names = ", ".join(
+        f"{run.specs[j].name!r} (points "
+        + ", ".join(f"({x:.6g}, {y:.6g})" for x, y in cracks[j].points)
+        + ")"
+        for j in which
+    )
+    return RunError(f"the {made} crack {names}: {what}: {exc}")
 
 
 def check_cracked(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
@@ -649,10 +677,17 @@ class CrackSteps(MechanicsSteps):
 
     def remesh(self, k: int, stem: str) -> Verdict:
         """The body meshed around the current crack, the model rebuilt on it at the state
-        before step ``k``: the same step again."""
+        before step ``k``: the same step again.  A crack that cannot be meshed or paired
+        ends the run ``"failed"`` (:class:`RunError`), the last model's state kept."""
+        made = "inserted" if stem == "fields_initiated" else "grown"
+        try:
+            built = build_cracked(self.scene, self.run, self.cracks, self.comm, self.timer, made)
+        except RunError:
+            self.state.status = "failed"
+            raise
         self.integ.destroy()
         self.rec.writer.close()
-        self.sm, self.cms = build_cracked(self.scene, self.run, self.cracks, self.comm, self.timer)
+        self.sm, self.cms = built
         self.start_model(k - 1, stem)
         return Verdict.AGAIN
 

@@ -31,6 +31,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytestmark = pytest.mark.serial
@@ -365,3 +366,97 @@ def test_initiation_in_a_mesh_of_two_regions_is_refused(tmp_path: Path) -> None:
     res = _check(path)
     assert res.returncode == 2, res.stderr
     assert '[fracture], key "initiate"' in res.stderr and "one cell group" in res.stderr, res.stderr
+
+
+# --------------------------------------------------- initiated, then grown (2026-12-03)
+#: Bowie's factor F(a/R) of one radial crack at a hole in a plate under uniaxial tension
+#: normal to it, K_I = F σ √(πa) (Tada, Paris and Irwin's table), at the lengths the
+#: initiated crack grows through: 0.1R (as inserted: one increment long) to 0.4R.
+BOWIE = {0.1: 2.73, 0.2: 2.30, 0.3: 2.04, 0.4: 1.86}
+GROWTH = "propagate = true\nincrement = 1.0e-4\nmax_increments = 3"
+K_IC = 1.0e6  # below K_I of the inserted crack at t = 0.75 (2.3 MPa √m): it grows
+
+
+def _growth_scene(folder: Path, mesh: Path) -> Path:
+    path = _scene(folder, mesh, GROWTH)
+    text = path.read_text().replace(f"sigma_t = {SIGMA_T}", f"sigma_t = {SIGMA_T}\nK_Ic = {K_IC}")
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def grown(mesh: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    tmp = tmp_path_factory.mktemp("kirsch_initiation_grown")
+    res = _run(_growth_scene(tmp, mesh), tmp / "out")
+    assert res.returncode == 0, res.stderr
+    return tmp / "out"
+
+
+def test_initiated_crack_grows_with_bowies_k(grown: Path) -> None:
+    """The crack inserted at the hole edge at t = 0.75 (one increment Δa = 0.1R long)
+    grows at that load by three increments, straight (within 1°) along the symmetry
+    line (within two cells), its faces
+    paired (the run went on: a face pair with a gap is refused), and K_I at every length
+    a = 0.1R … 0.4R is Bowie's F σ√(πa) within 2 % (measured −1.1, +1.1, +0.7, −0.4 %;
+    finite width W = 20R: below 0.5 %); K_II within 0.5 % of K_I (measured ≤ 0.27 %);
+    the face gaps after each solve are not negative."""
+    fr = _initiation(grown)
+    crack = fr["crack"]
+    assert fr["initiation"]["step"] == 3 and fr["initiation"]["length"] == pytest.approx(1e-4)
+    assert crack["propagation"]["increments"] == 3
+    assert crack["propagation"]["status"] == "max_increments"
+    pts = np.array(crack["points"])
+    assert len(pts) == 5 and np.abs(pts[:, 1]).max() < R / 40  # on y = 0 (two cells)
+    step = np.diff(pts, axis=0)
+    assert np.all(np.abs(step[:, 1]) < math.tan(math.radians(1.0)) * np.abs(step[:, 0]))
+    rows = [r for r in csv.DictReader(open(grown / "fracture.csv")) if int(r["step"]) == 3]
+    assert [int(r["increment"]) for r in rows] == [0, 1, 2, 3]
+    sigma = 0.75 * SIGMA
+    for r in rows:
+        a = float(r["length"])
+        F = float(r["K_I"]) / (sigma * math.sqrt(math.pi * a))
+        assert F == pytest.approx(BOWIE[round(a / R, 6)], rel=0.02), (a, F)
+        assert abs(float(r["K_II"])) < 0.005 * float(r["K_I"])
+    gaps = [float(r["gap"]) for r in csv.DictReader(open(grown / "contact_initiated.csv"))]
+    assert min(gaps) > -1e-9 * R
+
+
+@pytest.mark.parametrize("n", [2, pytest.param(3, marks=pytest.mark.slow)])
+def test_ranks_grow_the_initiated_crack_alike(
+    grown: Path, mesh: Path, tmp_path: Path, n: int
+) -> None:
+    res = _run(_growth_scene(tmp_path, mesh), tmp_path / "out", n)
+    assert res.returncode == 0, res.stderr
+    a, b = _initiation(grown)["crack"], _initiation(tmp_path / "out")["crack"]
+    assert np.array(b["points"]) == pytest.approx(np.array(a["points"]), abs=1e-12)
+    ka = [float(r["K_I"]) for r in csv.DictReader(open(grown / "fracture.csv"))]
+    kb = [float(r["K_I"]) for r in csv.DictReader(open(tmp_path / "out" / "fracture.csv"))]
+    assert kb == pytest.approx(ka, rel=1e-8)
+
+
+def test_a_crack_the_run_made_that_cannot_be_cut_fails_naming_it(mesh: Path, tmp_path: Path):
+    """A crack the run inserted or grew that cannot be cut into the body, meshed or
+    paired ends the run ``"failed"`` (a RunError naming the crack, its points and the
+    reason), not as an input error of ``[fracture] initiation_length`` (exit 2) as
+    before; the scene's own crack stays an input error."""
+    from mpi4py import MPI
+
+    from bonecontact.common.errors import RunError
+    from bonecontact.common.profiling import PhaseTimer
+    from bonecontact.fracture.crack import Crack2D
+    from bonecontact.runners.cracks import build_cracked, prepare, with_cracks
+    from bonecontact.scene import SceneError, load_scene
+    from bonecontact.scene.spec import CrackSpec
+
+    scene = load_scene(_growth_scene(tmp_path, mesh))
+    run = prepare(scene, MPI.COMM_SELF)
+    inserted = Crack2D(np.array([[0.01, 0.0], [0.011, 0.0]]), "both")
+    run = with_cracks(run, (CrackSpec("initiated", inserted, "plate", 0.0),), True)
+    out = Crack2D(np.array([[0.01, 0.0], [0.011, 0.0], [W + 1e-3, 0.0]]), "both")  # past x = W
+    for made in ("inserted", "grown"):
+        with pytest.raises(RunError, match=f"the {made} crack 'initiated'") as err:
+            build_cracked(scene, run, [out], MPI.COMM_SELF, PhaseTimer(), made)
+        assert "(points (0.01, 0), (0.011, 0), (0.021, 0))" in str(err.value)
+        assert "cannot be meshed: " in str(err.value) and "not inside the body" in str(err.value)
+    with pytest.raises(SceneError, match="initiation_length"):
+        build_cracked(scene, run, [out], MPI.COMM_SELF, PhaseTimer())

@@ -22,6 +22,7 @@ from mortar_meshes import (
 from bonecontact.contact.geometry import nodal_normals, normalise
 from bonecontact.contact.mortar_assembly import (
     assemble_mortar,
+    coincident_pairs,
     integrate_segment_pairs,
     integrate_triangle_pairs,
 )
@@ -305,3 +306,24 @@ def test_fast_path_equals_all_pairs_quadrature_3d():
     np.testing.assert_allclose(res.covered_area, res.facet_area, rtol=1e-12)
     np.testing.assert_allclose(row_sums(res, len(xs)), res.d, atol=1e-12 * scale)
     assert np.ptp(res.gap / res.d) > 0.005  # the gap really varies over the interface
+
+
+def test_coincident_pairs_are_the_facets_on_each_other():
+    """``coincident_pairs``: segments and triangles whose vertices are the slave's (in any
+    order) are kept; one moved by 10 tolerances, or sharing only a vertex (the adjacent
+    facet at a kink), is not."""
+    tol = 1e-10
+    s2 = np.array([[[0.0, 0.0], [1.0, 0.0]]] * 4)
+    m2 = np.array(
+        [
+            [[1.0, 0.0], [0.0, 0.0]],  # the same, reversed
+            [[0.0, 0.5 * tol], [1.0, 0.0]],  # within the tolerance
+            [[0.0, 10 * tol], [1.0, 0.0]],  # moved
+            [[1.0, 0.0], [1.3, 0.9]],  # shares a vertex only
+        ]
+    )
+    assert coincident_pairs(s2, m2, tol).tolist() == [True, True, False, False]
+    tri = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    s3 = np.array([tri] * 3)
+    m3 = np.array([tri[[2, 0, 1]], tri + [0.0, 0.0, 10 * tol], tri[[0, 1]].tolist() + [[1, 1, 0]]])
+    assert coincident_pairs(s3, m3, tol).tolist() == [True, False, False]

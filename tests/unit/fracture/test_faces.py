@@ -145,3 +145,110 @@ def test_recovered_traction_removes_the_scatter_next_to_the_tip(dim):
     closed[np.argmin(np.linalg.norm(x, axis=1))] = False  # the node next to the tip opens
     t_open, _ = recovered_traction(x, noisy, w, closed, tips, 0.03)
     np.testing.assert_array_equal(t_open[zone], noisy[zone])
+
+
+# ------------------------------------------- faces of inserted and grown (kinked) cracks
+# A vertebral body's section (mm): the 30 x 24 mm outline with a tumour cavity (a
+# 48-gon of radius 8.7 mm about (0, 12) mm, a vertex at its top), as
+# demos/vertebra_tumour.py; the cracks are the kind the runs insert and grow: Δa =
+# 0.5 mm increments, each turned by its own kink (up to ±90 degrees, as a closed crack's
+# MTS kinks of ±70-82 degrees did in the vertebra run that failed with a nodal gap of
+# -2.7 mm between its coincident faces).
+MM = 1e-3
+DA = 0.5 * MM
+HOLE_C, HOLE_R, HOLE_N = (0.0, 12.0 * MM), 8.7 * MM, 48
+
+
+def _cavity_body():
+    from bonecontact.fracture.body import BodyOutline
+
+    outer = np.array([[-15.0, 0.0], [15.0, 0.0], [15.0, 24.0], [-15.0, 24.0]]) * MM
+    phi = 2 * np.pi * np.arange(HOLE_N) / HOLE_N
+    hole = np.column_stack([HOLE_C[0] + HOLE_R * np.cos(phi), HOLE_C[1] + HOLE_R * np.sin(phi)])
+    names = {1: "lower_endplate", 2: "walls", 3: "upper_endplate", 4: "lesion"}
+    tags = (np.array([1, 2, 3, 2], np.int32), np.full(HOLE_N, 4, np.int32))
+    return BodyOutline((outer, hole), tags, names, ("vertebral_body", 10), 2.0 * MM)
+
+
+def _path(start, headings_deg, tips):
+    """A crack from ``start`` (m) in Δa segments of the given headings (degrees)."""
+    from bonecontact.fracture.crack import Crack2D
+
+    pts = [np.asarray(start, dtype=float)]
+    for h in headings_deg:
+        pts.append(pts[-1] + DA * np.array([math.cos(math.radians(h)), math.sin(math.radians(h))]))
+    return Crack2D(np.array(pts), tips)
+
+
+HOLE_TOP = (HOLE_C[0], HOLE_C[1] + HOLE_R)  # a vertex of the cavity's polygon
+CRACKS = {
+    # from the cavity's top, grown up to the endplate and then turned by 70-90 degrees
+    # each increment (the path of the failed vertebra run)
+    "cavity_kinked": (HOLE_TOP, [90, 90, 88, 85, 3, 0, -70, 5, -80, 10, -85], "end"),
+    "cavity_straight": (HOLE_TOP, [90, 90], "end"),  # as inserted, one increment grown
+    # from the free wall, zig-zagging by ±80 degrees
+    "surface_kinked": ((-15.0 * MM, 18.0 * MM), [0, 80, 0, -80, 0, 80, 10], "end"),
+    # inside the body (two tips), turned by 90 degrees at every vertex
+    "interior_kinked": ((9.6 * MM, 1.5 * MM), [0, 90, 0, 90, 180, 90, 0], "both"),
+    "interior_straight": ((10.0 * MM, 2.0 * MM), [30, 30], "both"),
+}
+MESHES = {"coarse": TipMesh(DA / 2, 0.5), "fine": TipMesh(DA / 16, 0.25)}
+
+
+def _cracked_model(case: str, size: str):
+    from bonecontact.fracture.body import mesh_body_with_cracks
+    from bonecontact.mechanics.model import Mechanics
+
+    start, headings, tips = CRACKS[case]
+    crack = _path(start, headings, tips)
+    (cm,), md = mesh_body_with_cracks(_cavity_body(), [crack], MESHES[size], COMM)
+    return cm, Mechanics(md.mesh, MAT, md.cell_tags, md.facet_tags)
+
+
+def _gather_max(values) -> float:
+    return COMM.allreduce(float(np.max(np.abs(values), initial=0.0)), op=MPI.MAX)
+
+
+@pytest.mark.parametrize("size", list(MESHES))
+@pytest.mark.parametrize("case", list(CRACKS))
+def test_faces_of_inserted_and_grown_cracks_lie_on_each_other(case: str, size: str) -> None:
+    """Every crack face pair as the runs build it (edge cracks from the cavity and from the
+    free wall, interior cracks; straight and turned by 70-90 degrees at every increment;
+    coarse and fine tips): the nodal gaps are zero to round-off (1e-12 of the 30 mm body),
+    the opposite face covers the slave face once (measure ratio 1 to 1e-12), and every
+    slave node but the tips carries a multiplier."""
+    from bonecontact.fracture.faces import face_interface
+
+    cm, m = _cracked_model(case, size)
+    itf = face_interface(m, cm)
+    assert _gather_max(itf.gap) <= 1e-12 * 30 * MM
+    assert itf.covered_area / itf.slave_area == pytest.approx(1.0, abs=1e-12)
+    assert itf.slave_area == pytest.approx(cm.crack.length, rel=1e-12)
+    plus = cm.facet_tags.find(cm.face_tags[0])
+    owned = plus[plus < cm.mesh.topology.index_map(1).size_local]
+    n_facets = COMM.allreduce(int(owned.size))
+    n_tips = len(cm.crack.tip_ends)
+    # an open polyline of n facets has n + 1 nodes; the tips carry no multiplier
+    assert COMM.allreduce(itf.num_owned) == n_facets + 1 - n_tips
+
+
+@pytest.mark.parametrize("case", ["cavity_kinked", "surface_kinked", "interior_kinked"])
+def test_default_pairing_of_a_kinked_crack_misses_its_opposite_face(case: str) -> None:
+    """What the faces had before 2026-12-03: paired with every master facet whose
+    projection along the averaged nodal normals overlaps (three facet sizes' search), a
+    facet at a sharp kink also took the adjacent facet of the other leg or the opposite
+    face of a leg a few facets away: nonzero gaps between coincident faces (or the
+    interpenetration refused), while the pairing of the runs has none."""
+    from bonecontact.contact.interface import ContactInputError, build_interface
+
+    cm, m = _cracked_model(case, "coarse")
+    try:
+        itf = build_interface(
+            m.V, contact_tags(cm), SLAVE_TAG, MASTER_TAG, shared_nodes="no_multiplier"
+        )
+    except ContactInputError as exc:
+        assert "interpenetrate initially" in str(exc)
+        return
+    wrong = _gather_max(itf.gap) > 1e-3 * DA
+    over = abs(itf.covered_area / itf.slave_area - 1.0) > 1e-6
+    assert wrong or over
