@@ -26,7 +26,7 @@
 #   make benchmarks   install if needed, then benchmarks/run_all.sh
 #   make clean        remove caches, test logs, docs/api, build/ and demos/results;  make distclean  also removes .venv
 #
-# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=1800
+# Variables you may override:  PYTHON=/path/to/python3.12  MPI_SIZES="2 3"  TEST_TIMEOUT=2400
 # (seconds, each pytest session)  SERIAL_WORKERS=2 (pytest-xdist processes of the serial
 # session; 0: none)  MPI3_SKIP="growth or two_ranks" (markers left out on 3+ ranks by make
 # test; empty: none)
@@ -46,7 +46,7 @@ LOG_DIR      := $(VENV)/test-logs
 DOCS_DIR     := docs/api
 MPI_SIZES    ?= 2 3
 SERIAL_WORKERS ?= 2
-TEST_TIMEOUT ?= 1800
+TEST_TIMEOUT ?= 2400
 PYTEST_ARGS  ?=
 
 # Keep MPI ranks from each starting a full set of BLAS/OpenMP threads.
