@@ -155,7 +155,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import bonecontact.plot as bp
-from bonecontact.materials.library import load_material_library, load_strengths
+from bonecontact.materials.library import stiffness_and_strength
 from bonecontact.meshing import SurfaceRegion, anatomy_surface
 from bonecontact.meshing.builder import PhysicalGroups, generate
 from bonecontact.meshing.stl import cortical_inner_surface, select_triangles
@@ -192,12 +192,9 @@ FACET_LEVELS = 2  # refinements of the articular facets (the contact pairs' surf
 FACET_PAIRS = ("facet_zneg", "facet_zpos")  # the facet joints (z < 0, z > 0)
 #: bone: the stiffness and the strength of one bone each (data/materials.toml, see
 #: "Fracture risk"): the cancellous core at the apparent density of its measured strength
-LIBRARY, STRENGTH = load_material_library(), load_strengths()
 CORE, CORTICAL = "cancellous_bone_vertebral_018", "cortical_bone"
-E_CANC, NU_CANC = LIBRARY[CORE]["E"], LIBRARY[CORE]["nu"]
-SIGMA_T_CANC = STRENGTH[CORE]["sigma_t"]
-E_CORT, NU_CORT = LIBRARY[CORTICAL]["E"], LIBRARY[CORTICAL]["nu"]
-SIGMA_T_CORT = STRENGTH[CORTICAL]["sigma_t"]
+E_CANC, NU_CANC, SIGMA_T_CANC = stiffness_and_strength(CORE)
+E_CORT, NU_CORT, SIGMA_T_CORT = stiffness_and_strength(CORTICAL)
 t0 = time.perf_counter()
 if comm.rank == 0:
     output.mkdir(parents=True, exist_ok=True)

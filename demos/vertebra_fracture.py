@@ -214,6 +214,7 @@ from bonecontact.materials.library import (
     load_material_library,
     load_reference_values,
     load_strengths,
+    stiffness_and_strength,
 )
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
@@ -247,8 +248,7 @@ LIFT = LOADS["idp_lifting_flexed"] / LOADS["idp_flexed_standing"]  # Wilke et al
 SHELL = ref["vertebral_cortical_shell"]["thickness"]
 #: the cancellous core: stiffness and strength of one bone (apparent density 0.18 g/cm³)
 CORE = "cancellous_bone_vertebral_018"
-E_CANC, NU_CANC = (load_material_library()[CORE][k] for k in ("E", "nu"))
-SIGMA_T_CANC = strength[CORE]["sigma_t"]
+E_CANC, NU_CANC, SIGMA_T_CANC = stiffness_and_strength(CORE)
 SIGMA_T_CORT = strength["cortical_bone"]["sigma_t"]
 K_IC = ref["cancellous_fracture_toughness"]["K_Ic"]
 PARIS = ref["cancellous_fatigue_crack_growth"]

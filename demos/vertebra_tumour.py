@@ -100,7 +100,7 @@ import numpy as np
 
 import bonecontact.plot as bp
 from bonecontact.common.constants import SECONDS_PER_DAY
-from bonecontact.materials.library import load_material_library, load_strengths
+from bonecontact.materials.library import stiffness_and_strength
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
@@ -121,12 +121,9 @@ days, every = 24, (6 if quick else 4)  # growth time, days between analyses
 #: bone: the stiffness and the strength of one bone each (data/materials.toml): the
 #: cancellous core at the apparent density of its measured strength, the cortical shell
 #: along the osteons (both from Reilly & Burstein)
-LIBRARY, STRENGTH = load_material_library(), load_strengths()
 CORE, SHELL = "cancellous_bone_vertebral_018", "cortical_bone"
-E_CANC, NU_CANC = LIBRARY[CORE]["E"], LIBRARY[CORE]["nu"]
-SIGMA_T_CANC = STRENGTH[CORE]["sigma_t"]
-E_CORT, NU_CORT = LIBRARY[SHELL]["E"], LIBRARY[SHELL]["nu"]
-SIGMA_T_CORT = STRENGTH[SHELL]["sigma_t"]
+E_CANC, NU_CANC, SIGMA_T_CANC = stiffness_and_strength(CORE)
+E_CORT, NU_CORT, SIGMA_T_CORT = stiffness_and_strength(SHELL)
 if comm.rank == 0:
     output.mkdir(parents=True, exist_ok=True)
 comm.barrier()

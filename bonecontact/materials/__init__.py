@@ -18,8 +18,10 @@ from bonecontact.materials.library import (
     DATA_DIR,
     MATERIALS_FILE,
     METADATA_KEYS,
+    BoneProperties,
     load_material_library,
     load_reference_values,
+    stiffness_and_strength,
 )
 
 __all__ = [
@@ -27,6 +29,7 @@ __all__ = [
     "FORMULATIONS",
     "MATERIALS_FILE",
     "METADATA_KEYS",
+    "BoneProperties",
     "Isotropic",
     "Material",
     "MaterialError",
@@ -38,5 +41,6 @@ __all__ = [
     "load_reference_values",
     "material_fields",
     "plane_strain_block",
+    "stiffness_and_strength",
     "voigt_rotation",
 ]

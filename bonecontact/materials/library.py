@@ -11,7 +11,7 @@ from __future__ import annotations
 import tomllib
 from importlib.resources.abc import Traversable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from bonecontact.common.resources import data_dir
 
@@ -20,10 +20,12 @@ __all__ = [
     "MATERIALS_FILE",
     "METADATA_KEYS",
     "STRENGTH_KEYS",
+    "BoneProperties",
     "load_material_library",
     "load_reference_values",
     "load_strengths",
     "material_strength",
+    "stiffness_and_strength",
 ]
 
 #: the folder of the shipped data (package ``bonecontact.data``; a Path on disk)
@@ -138,3 +140,50 @@ def material_strength(
             raise KeyError(f"strength.{name}.{key}: missing (a positive number is needed)")
         out[key] = float(v)
     return out
+
+
+class BoneProperties(NamedTuple):
+    """The modulus, Poisson's ratio and tensile strength of one bone (Pa, –, Pa)."""
+
+    E: float
+    nu: float
+    sigma_t: float
+
+
+def stiffness_and_strength(name: str, path: str | Path | None = None) -> BoneProperties:
+    """E and ν of ``[material.<name>]`` with σ_t of ``[strength.<name>]``: one bone's pair.
+
+    A fracture risk R = σ₁/σ_t is a strain criterion (σ_t/E is the strain at which the
+    tissue yields), so the modulus and the strength must come from the same bone; this
+    reads both from the same library entry name.
+
+    Parameters
+    ----------
+    name
+        Library name with both a ``[material.<name>]`` and a ``[strength.<name>]`` table.
+    path
+        TOML file to read (default: the shipped ``materials.toml``).
+
+    Raises
+    ------
+    KeyError
+        Naming the file, the table and the missing key (or the names that have both).
+    """
+    where = MATERIALS_FILE if path is None else Path(path)
+    material, strength = load_material_library(path), load_strengths(path)
+    if name not in material or name not in strength:
+        both = sorted(set(material) & set(strength))
+        raise KeyError(
+            f"{where}: no [material.{name}] with [strength.{name}]; names with both: {both}"
+        )
+    values = {
+        **{k: material[name].get(k) for k in ("E", "nu")},
+        "sigma_t": strength[name].get("sigma_t"),
+    }
+    for key, v in values.items():
+        if not isinstance(v, (int, float)) or not v > 0:
+            table = "strength" if key == "sigma_t" else "material"
+            raise KeyError(
+                f"{where}: [{table}.{name}] {key}: missing (a positive number is needed)"
+            )
+    return BoneProperties(*(float(values[k]) for k in ("E", "nu", "sigma_t")))

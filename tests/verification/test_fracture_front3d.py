@@ -47,8 +47,7 @@ from bonecontact.fracture.front3d import (
     penny_k,
 )
 from bonecontact.materials.laws import Isotropic
-from bonecontact.mechanics.integrator import Integrator
-from bonecontact.mechanics.model import Mechanics
+from bonecontact.verification.crack_octant import solve_crack_octant
 
 MAT = Isotropic(E=1.0, nu=0.3)
 SIGMA = 1.0
@@ -58,17 +57,7 @@ PHIS = (0.0, math.pi / 4, math.pi / 2)
 def solve_octant(front, h_front, comm, grading=0.12, h_max=None):
     h_max = front.a if h_max is None else h_max
     blk = mesh_crack_octant(front, 4.0 * front.a, h_front, grading, h_max, comm)
-    m = Mechanics(blk.mesh, MAT, blk.cell_tags, blk.facet_tags)
-    g = blk.groups
-    m.add_dirichlet(m.facets(g["sym_x"]), 0, 0.0)
-    m.add_dirichlet(m.facets(g["sym_y"]), 1, 0.0)
-    m.add_dirichlet(m.facets(g["ligament"]), 2, 0.0)
-    m.add_traction(g["top"], (0.0, 0.0, SIGMA))
-    integ = Integrator(m, "static", 1.0)
-    integ.step()
-    u = integ.u.copy()
-    integ.destroy()
-    return blk, u
+    return blk, solve_crack_octant(blk, MAT, SIGMA)
 
 
 @pytest.fixture(scope="module")

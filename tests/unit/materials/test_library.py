@@ -12,6 +12,7 @@ from bonecontact.materials.library import (
     load_material_library,
     load_reference_values,
     load_strengths,
+    stiffness_and_strength,
 )
 
 MODELS = {
@@ -88,3 +89,27 @@ def test_missing_source_is_an_error(tmp_shared_path):
     MPI.COMM_WORLD.barrier()
     with pytest.raises(ValueError, match="source"):
         load_material_library(path)
+
+
+def test_stiffness_and_strength_of_one_bone(tmp_shared_path):
+    """E, nu of [material.<name>] with sigma_t of [strength.<name>] (Morgan's 326 MPa at
+    0.18 g/cm3 with Kopperdahl & Keaveny's 1.75 MPa; Reilly & Burstein's 17 GPa / 133 MPa),
+    and a name without a strength table, or a table without sigma_t, refused by name."""
+    core = stiffness_and_strength("cancellous_bone_vertebral_018")
+    assert core.E == pytest.approx(4730e6 * 0.18**1.56, rel=1e-3)
+    assert (core.nu, core.sigma_t) == (
+        load_material_library()["cancellous_bone_vertebral_018"]["nu"],
+        1.75e6,
+    )
+    assert stiffness_and_strength("cortical_bone")[::2] == (17.0e9, 133.0e6)
+    with pytest.raises(KeyError, match=r"no \[material.cartilage\] with \[strength.cartilage\]"):
+        stiffness_and_strength("cartilage")
+    path = tmp_shared_path / "pair.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(
+            '[material.b]\nmodel = "isotropic"\nE = 1e9\nnu = 0.3\nsource = "a test table"\n'
+            '[strength.b]\nsigma_c = 1e6\nsource = "a test table"\n'
+        )
+    MPI.COMM_WORLD.barrier()
+    with pytest.raises(KeyError, match=r"pair.toml: \[strength.b\] sigma_t: missing"):
+        stiffness_and_strength("b", path)
