@@ -23,6 +23,7 @@ corner of a polygonal front; one homogeneous isotropic material around the front
 from __future__ import annotations
 
 import math
+import weakref
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -696,16 +697,16 @@ def _q_values(front, x, phi0, r_in, r_out, l_in, l_out) -> np.ndarray:
     return ring * along
 
 
-def _q_function(V1: fem.FunctionSpace, front, phi0, r_in, r_out, l_in, l_out, p0) -> fem.Function:
-    """The P1 q-function; evaluated only at nodes near the point (zero elsewhere)."""
-    q = fem.Function(V1)
-    x = V1.tabulate_dof_coordinates()
+def _q_function(shared: _Shared, front, phi0, r_in, r_out, l_in, l_out, p0) -> fem.Function:
+    """The P1 q-function of the point, written into the block's shared q; evaluated only at
+    nodes near the point (zero elsewhere)."""
+    x = shared.x
     near = np.linalg.norm(x - p0, axis=1) <= r_out + l_out + 1e-9 * (r_out + l_out)
     vals = np.zeros(len(x))
     if near.any():
         vals[near] = _q_values(front, x[near], phi0, r_in, r_out, l_in, l_out)
-    q.x.array[:] = vals
-    return q
+    shared.q.x.array[:] = vals
+    return shared.q
 
 
 def _q_at_points(q: fem.Function, support: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -718,15 +719,58 @@ def _q_at_points(q: fem.Function, support: np.ndarray, pts: np.ndarray) -> np.nd
     vals = np.full(len(pts), -np.inf)
     if support.size:
         tree = geometry.bb_tree(msh, msh.topology.dim, entities=support)
-        cells = geometry.compute_colliding_cells(
-            msh, geometry.compute_collisions_points(tree, pts), pts
-        )
-        which = np.repeat(np.arange(len(pts)), np.diff(cells.offsets))
+        which, cells = _colliding(msh, geometry.compute_collisions_points(tree, pts), pts)
         if which.size:
-            found = q.eval(pts[which], cells.array.astype(np.int32)).ravel()
+            found = q.eval(pts[which], cells).ravel()
             np.maximum.at(vals, which, found)
     msh.comm.Allreduce(MPI.IN_PLACE, vals, op=MPI.MAX)  # a buffer: a pickled max of arrays fails
     return np.where(np.isfinite(vals), vals, 0.0)
+
+
+#: DOLFINx's ``compute_colliding_cells``: a cell holds a point when their squared distance
+#: (GJK) is below this (m²).
+_COLLISION_EPS2 = 1e-12
+
+
+def _colliding(msh: mesh.Mesh, candidates, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(point, cell) pairs of the bounding-box ``candidates`` whose cell holds the point,
+    in the candidates' order: the pairs of ``geometry.compute_colliding_cells``, with GJK
+    distances only where the barycentric coordinates λ of the point in an affine
+    tetrahedron leave it open.  A point at distance d from the cell has λᵢ ≥ −|∇λᵢ| d, so
+    λᵢ < −1.5|∇λᵢ|√eps2 for some i means d > 1.5√eps2 (out); and d ≤ |x − y|, y the
+    cell's point with the coordinates max(λ, 0)/Σ max(λ, 0), so |x − y| < √eps2/2 means
+    in.  Most boxes near a front hold the point without their cell doing so, and most
+    points lie well inside or on a face of a cell: the distances were 2/3 of a point's
+    cost."""
+    geo = msh.geometry
+    cand = candidates.array
+    which = np.repeat(np.arange(len(pts)), np.diff(candidates.offsets))
+    affine = geo.cmaps[0].degree == 1 and msh.topology.cell_type == mesh.CellType.tetrahedron
+    if not affine or cand.size == 0:
+        cells = geometry.compute_colliding_cells(msh, candidates, pts)
+        which = np.repeat(np.arange(len(pts)), np.diff(cells.offsets))
+        return which, cells.array.astype(np.int32)
+    unique, inverse = np.unique(cand, return_inverse=True)
+    X = geo.x[geo.dofmaps[0][unique]]  # (n, 4, 3)
+    edges = X[:, 1:] - X[:, :1]
+    try:  # rows: ∇λ₁, ∇λ₂, ∇λ₃ of each cell
+        G = np.linalg.inv(np.transpose(edges, (0, 2, 1)))
+    except np.linalg.LinAlgError:  # a degenerate cell: GJK decides every pair
+        G = np.full((len(unique), 3, 3), np.nan)
+    G = np.concatenate([-G.sum(axis=1, keepdims=True), G], axis=1)  # (n, 4, 3)
+    lam = np.einsum("mij,mj->mi", G[inverse], pts[which] - X[inverse, 0])
+    lam[:, 0] += 1.0
+    reach = math.sqrt(_COLLISION_EPS2)
+    out = np.any(lam < -(np.linalg.norm(G, axis=2)[inverse] * 1.5 * reach + 1e-9), axis=1)
+    pos = np.maximum(lam, 0.0)
+    shift = (lam - pos / pos.sum(axis=1, keepdims=True))[:, 1:]  # x − y along the edges
+    inside = np.linalg.norm(np.einsum("mi,mik->mk", shift, edges[inverse]), axis=1) < 0.5 * reach
+    keep = inside & ~out
+    open_ = ~(inside | out)  # NaN (degenerate cells) falls here
+    if open_.any():
+        d2 = geometry.squared_distance(msh, msh.topology.dim, cand[open_], pts[which[open_]])
+        keep[open_] = d2 < _COLLISION_EPS2
+    return which[keep], cand[keep].astype(np.int32)
 
 
 def _normalisation(
@@ -748,53 +792,121 @@ def _normalisation(
 
 #: Facet groups that are not the outer boundary: crack faces and symmetry planes.
 _INNER_GROUPS = ("crack", "ligament", "sym_x", "sym_y", "crack_upper", "crack_lower")
+#: Compiled interaction integrals one block keeps (the oldest is dropped beyond this).
+_MAX_FORMS = 16
 
 
-def _touches_outer(block: CrackBlock, q: fem.Function) -> bool:
-    """Whether q > 0 at a node of an exterior facet that is neither a crack face nor a
-    symmetry plane (collective)."""
+@dataclass
+class _Integral:
+    """One compiled interaction integral (:func:`_integral`): the UFL form compiled once,
+    the constants it reads (set per point), the maps of ``fem.create_form`` and the objects
+    whose identity is part of its key (held, so that their ids are not reused)."""
+
+    compiled: fem.CompiledForm
+    const: dict
+    coefficients: dict
+    constants: dict
+    held: tuple
+
+
+@dataclass
+class _Shared:
+    """What the front points of one block share, built once (collectively): the P1 space's
+    q-function and node coordinates, the P1 dofs on the outer boundary and on each symmetry
+    plane (``None``: no such group), the crack faces' integration entities (tag, (cell,
+    local facet) pairs) and the compiled integrals; ``owner`` the block's mesh, facet tags,
+    groups and half_model it was built for."""
+
+    owner: tuple
+    q: fem.Function
+    x: np.ndarray
+    outer: np.ndarray
+    sym: dict
+    faces: list
+    forms: dict = field(default_factory=dict)
+
+
+#: The shared data of each live block, by id(block) (dropped when the block is collected).
+_SHARED: dict[int, _Shared] = {}
+
+
+def _block_owner(block: CrackBlock) -> tuple:
+    return (block.mesh, block.facet_tags, tuple(sorted(block.groups.items())), block.half_model)
+
+
+def _shared(block: CrackBlock) -> _Shared:
+    """The block's shared data, built on its first front point or when its mesh, tags or
+    groups were replaced since (collective: every rank evaluates the same points)."""
+    owner = _block_owner(block)
+    old = _SHARED.get(id(block))
+    if old is not None and all(a is b or a == b for a, b in zip(old.owner, owner, strict=True)):
+        return old
+    if old is None:
+        weakref.finalize(block, _SHARED.pop, id(block), None)
+    _SHARED[id(block)] = new = _build_shared(block, owner)
+    return new
+
+
+def _build_shared(block: CrackBlock, owner: tuple) -> _Shared:
+    """The P1 space and q, the boundary dofs and the face entities of ``block``
+    (collective)."""
     msh = block.mesh
     tdim = msh.topology.dim
+    V1 = fem.functionspace(msh, ("Lagrange", 1))
     msh.topology.create_connectivity(tdim - 1, tdim)
+    msh.topology.create_connectivity(tdim, tdim - 1)
     ext = mesh.exterior_facet_indices(msh.topology)
     inner = [block.facet_tags.find(block.groups[k]) for k in _INNER_GROUPS if k in block.groups]
-    if inner:
-        ext = np.setdiff1d(ext, np.concatenate(inner))
-    dofs = fem.locate_dofs_topological(q.function_space, tdim - 1, ext.astype(np.int32))
-    return bool(msh.comm.allreduce(int(np.any(q.x.array[dofs] > 0)), op=MPI.MAX))
+    outer = np.setdiff1d(ext, np.concatenate(inner)) if inner else ext
+    outer_dofs = fem.locate_dofs_topological(V1, tdim - 1, outer.astype(np.int32))
+    sym = {}
+    for name in ("sym_x", "sym_y"):
+        sym[name] = None
+        if name in block.groups:
+            facets = block.facet_tags.find(block.groups[name]).astype(np.int32)
+            sym[name] = fem.locate_dofs_topological(V1, tdim - 1, facets)
+    faces = []
+    if not block.half_model and "crack_upper" in block.groups:  # the face term's facets
+        for name in ("crack_upper", "crack_lower"):
+            tag = block.groups[name]
+            facets = np.intersect1d(block.facet_tags.find(tag), ext)
+            pairs = fem.compute_integration_domains(
+                fem.IntegralType.exterior_facet, msh.topology, facets
+            )
+            faces.append((tag, np.asarray(pairs)))
+    x = V1.tabulate_dof_coordinates()
+    return _Shared(owner, fem.Function(V1), x, outer_dofs, sym, faces)
 
 
-def _check_domain(block: CrackBlock, q: fem.Function, p0: np.ndarray) -> np.ndarray:
-    """Owned cells where q > 0.  Refuse a domain that touches the outer boundary, or a
-    symmetry plane x = 0 or y = 0 that does not pass through the point (there the
-    mirrored part of the domain would be missing; through the point it cancels)."""
-    msh = block.mesh
-    tdim = msh.topology.dim
-    n_owned = msh.topology.index_map(tdim).size_local
-    vals = q.x.array[q.function_space.dofmap.list[:n_owned]]
-    support = np.flatnonzero(vals.max(axis=1) > 0).astype(np.int32)
+def _check_domain(
+    block: CrackBlock, shared: _Shared, p0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Owned cells where q > 0, and a mask of the local cells (ghosts too) with q > 0 at a
+    node.  Refuse a domain that touches the outer boundary, or a symmetry plane x = 0 or
+    y = 0 that does not pass through the point (there the mirrored part of the domain
+    would be missing; through the point it cancels) (collective)."""
+    msh, q = block.mesh, shared.q
+    n_owned = msh.topology.index_map(msh.topology.dim).size_local
+    positive = q.x.array[q.function_space.dofmap.list].max(axis=1) > 0
+    support = np.flatnonzero(positive[:n_owned]).astype(np.int32)
     scale = float(np.linalg.norm(p0)) or 1.0
 
-    def touches(names: list[str]) -> bool:
-        tags = [block.groups[k] for k in names if k in block.groups]
-        if not tags:
-            return False
-        facets = np.concatenate([block.facet_tags.find(t) for t in tags]).astype(np.int32)
-        dofs = fem.locate_dofs_topological(q.function_space, tdim - 1, facets)
+    def touches(dofs: np.ndarray) -> bool:
         return bool(msh.comm.allreduce(int(np.any(q.x.array[dofs] > 0)), op=MPI.MAX))
 
-    if _touches_outer(block, q):
+    if touches(shared.outer):
         raise ParameterError(
             "r_out", "the integration domain reaches the outer boundary; take a smaller r_out"
         )
     for name, axis in (("sym_x", 0), ("sym_y", 1)):
-        if abs(p0[axis]) > 1e-9 * scale and touches([name]):
+        dofs = shared.sym[name]
+        if abs(p0[axis]) > 1e-9 * scale and dofs is not None and touches(dofs):
             raise ParameterError(
                 "length",
                 f"the integration domain reaches the symmetry plane {name} away from the "
                 "point; take a shorter length (or r_out) or a point on that plane",
             )
-    return support
+    return support, positive
 
 
 def _auxiliary_displacement(
@@ -919,18 +1031,25 @@ def front_interaction_integral(
     Returns
     -------
     FrontSIF
+
+    Notes
+    -----
+    The points of one ``block`` share its P1 space, q-function, boundary dofs and the
+    integral compiled once per (u, face tractions, material, r_out, degree); each point
+    assembles over its own support cells and the face facets next to them.
     """
     r_in, length, rho = _domain_sizes(block.front, phi, material, r_out, r_in, length)
     p0 = block.front.point(phi)[0]
     e1, e2, _ = block.front.frame(phi)
-    q, dx, norm = _domain(block, phi, (r_in, r_out, length), quadrature_degree)
+    shared = _shared(block)
+    support, positive, norm = _domain(block, shared, phi, (r_in, r_out, length))
     values = [("p0", p0), ("e1", e1), ("e2", e2), ("k", (1.0, 0.0, 0.0))]
     values += _front_values(block.front, phi)
-    const = {
-        k: fem.Constant(block.mesh, np.asarray(v, dtype=default_scalar_type)) for k, v in values
-    }
-    form = _interaction_form(u, block, q, dx, const, (rho, r_out), material, face_traction)
-    K_I, K_II, K_III, G = _mode_values(form, const, block, norm, material)
+    integral = _integral(
+        shared, block, u, material, (rho, r_out), quadrature_degree, face_traction, values
+    )
+    form = _point_form(integral, block, shared, support, positive)
+    K_I, K_II, K_III, G = _mode_values(form, integral.const, block, norm, material)
     computed = (K_I,) if block.half_model else (K_I, K_II, K_III)
     if not all(math.isfinite(k) for k in computed):
         raise RunError(
@@ -997,24 +1116,20 @@ def _domain_sizes(
 
 
 def _domain(
-    block: CrackBlock, phi: float, radii: tuple[float, float, float], degree: int
-) -> tuple[fem.Function, ufl.Measure, float]:
-    """The q-function of the point, the measure of its support (checked against the
-    boundary) and the normalising front integral ∫ q_h (e₁·e₁(s)) ds; ``radii`` =
-    (r_in, r_out, length)."""
+    block: CrackBlock, shared: _Shared, phi: float, radii: tuple[float, float, float]
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The q-function of the point (in ``shared.q``), its support (owned cells, checked
+    against the boundary), the mask of local cells with q > 0 and the normalising front
+    integral ∫ q_h (e₁·e₁(s)) ds; ``radii`` = (r_in, r_out, length)."""
     front, msh = block.front, block.mesh
     r_in, r_out, length = radii
     p0 = front.point(phi)[0]
     e1, _, _ = front.frame(phi)
-    V1 = fem.functionspace(msh, ("Lagrange", 1))
-    q = _q_function(V1, front, phi, r_in, r_out, 0.5 * length, length, p0)
-    support = _check_domain(block, q, p0)
-    tags = mesh.meshtags(msh, 3, support, np.ones(support.size, dtype=np.int32))
-    rule = _rule(degree)
-    dx = ufl.Measure("dx", domain=msh, subdomain_data=tags, metadata=rule)(1)
+    q = _q_function(shared, front, phi, r_in, r_out, 0.5 * length, length, p0)
+    support, positive = _check_domain(block, shared, p0)
     norm = _normalisation(q, support, front, phi, e1, length)
     _check_normalisation(msh.comm, support, norm, phi, p0, radii)
-    return q, dx, norm
+    return support, positive, norm
 
 
 def _point_text(phi: float, p0: np.ndarray) -> str:
@@ -1049,14 +1164,15 @@ def _interaction_form(
     u: fem.Function,
     block: CrackBlock,
     q: fem.Function,
-    dx: ufl.Measure,
+    degree: int,
     const: dict,
     radii: tuple[float, float],
     material: Isotropic,
     face_traction: tuple | None,
-) -> fem.Form:
-    """The compiled interaction integral (the mode is ``const["k"]``): the volume terms
-    and, on a model with both faces, the face term; ``radii`` = (ρ, r_out)."""
+) -> ufl.Form:
+    """The interaction integral (the mode is ``const["k"]``): the volume terms over the
+    cells of subdomain 1 (given per point, :func:`_point_form`) and, on a model with both
+    faces, the face term; ``radii`` = (ρ, r_out)."""
     rho, r_out = radii
     mu, lmbda = material.mu, material.lmbda
     kappa = elastic_constants(material.E, material.nu, "strain")["kappa"]
@@ -1072,6 +1188,7 @@ def _interaction_form(
     dua1 = ufl.dot(ufl.grad(ua), const["e1"])
     gq = ufl.grad(q)
     flux = ufl.dot(s, dua1) + ufl.dot(sa, du1) - ufl.inner(sa, eps_u) * const["e1"]
+    dx = ufl.Measure("dx", domain=block.mesh, metadata=_rule(degree))(1)
     # the curved auxiliary field is not in equilibrium: its divergence adds a volume term
     integrand = (ufl.dot(flux, gq) + q * ufl.dot(ufl.div(sa), du1)) * dx
     if not block.half_model and "crack_upper" in block.groups:  # both faces meshed
@@ -1080,14 +1197,80 @@ def _interaction_form(
         )
     elif face_traction is not None:
         raise ParameterError("face_traction", "the face term needs a model with both faces")
-    return fem.form(integrand)
+    return integrand
+
+
+def _integral(
+    shared: _Shared,
+    block: CrackBlock,
+    u: fem.Function,
+    material: Isotropic,
+    radii: tuple[float, float],
+    degree: int,
+    face_traction: tuple | None,
+    values: list[tuple[str, tuple]],
+) -> _Integral:
+    """The compiled interaction integral of the point, its constants set to ``values``.
+
+    Compiled once per block and (u, face tractions, material, kind of front, side of the
+    kink's cut, r_out, quadrature degree) — what the form's code depends on — and reused
+    at every point with these (collective when it compiles)."""
+    rho, r_out = radii
+    names = dict(values)
+    cut = names.get("cut")
+    kind = "ellipse" if "centre" in names else math.isinf(rho)
+    mu, lmbda = material.mu, material.lmbda
+    kappa = elastic_constants(material.E, material.nu, "strain")["kappa"]
+    held = (u, face_traction)
+    key = (id(u), id(face_traction), mu, lmbda, kappa, kind, None if cut is None else cut[2] < 0)
+    key += (r_out, degree)
+    entry = shared.forms.get(key)
+    if entry is None:
+        const = {
+            k: fem.Constant(block.mesh, np.asarray(v, dtype=default_scalar_type)) for k, v in values
+        }
+        form = _interaction_form(u, block, shared.q, degree, const, radii, material, face_traction)
+        compiled = fem.compile_form(
+            block.mesh.comm, form, form_compiler_options={"scalar_type": default_scalar_type}
+        )
+        coefficients = {c: c for c in form.coefficients()}
+        constants = {c: c for c in form.constants()}
+        entry = _Integral(compiled, const, coefficients, constants, held)
+        if len(shared.forms) >= _MAX_FORMS:
+            shared.forms.pop(next(iter(shared.forms)))
+        shared.forms[key] = entry
+    for k, v in values:
+        entry.const[k].value[...] = np.asarray(v, dtype=default_scalar_type)
+    return entry
+
+
+def _point_form(
+    integral: _Integral, block: CrackBlock, shared: _Shared, support, positive
+) -> fem.Form:
+    """The point's form: the compiled integral over the support cells and the crack-face
+    facets of cells with q > 0 at a node — the face term vanishes on the others
+    (q and ∇q are zero there) — instead of the whole faces."""
+    msh = block.mesh
+    cells = fem.compute_integration_domains(fem.IntegralType.cell, msh.topology, support)
+    subdomains = {fem.IntegralType.cell: [(1, np.asarray(cells))]}
+    if shared.faces:
+        faces = []
+        for tag, pairs in shared.faces:
+            p = pairs.reshape(-1, 2)
+            kept = np.ascontiguousarray(p[positive[p[:, 0]]], dtype=pairs.dtype)
+            faces.append((tag, kept if pairs.ndim == 2 else kept.ravel()))
+        subdomains[fem.IntegralType.exterior_facet] = faces
+    return fem.create_form(
+        integral.compiled, [], msh, subdomains, integral.coefficients, integral.constants
+    )
 
 
 def _mode_values(
     form: fem.Form, const: dict, block: CrackBlock, norm: float, material: Isotropic
 ) -> tuple[float, float, float, float]:
     """(K_I, K_II, K_III, G) from the form assembled with the unit auxiliary field of
-    each mode (a half model: K_I only, the volume integral doubled)."""
+    each mode (a half model: K_I only, the volume integral doubled); the coefficients are
+    packed once for all modes."""
     c = elastic_constants(material.E, material.nu, "strain")
     mu = material.mu
     factor = 2.0 if block.half_model else 1.0
@@ -1097,10 +1280,12 @@ def _mode_values(
         else ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     )
     comm = block.mesh.comm
+    coeffs = fem.pack_coefficients(form)
     values = []
     for k in modes:
         const["k"].value[:] = k
-        values.append(factor * comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM) / norm)
+        local = fem.assemble_scalar(form, fem.pack_constants(form), coeffs)
+        values.append(factor * comm.allreduce(local, op=MPI.SUM) / norm)
     K_I = 0.5 * c["E_prime"] * values[0]
     K_II, K_III = (
         (0.5 * c["E_prime"] * values[1], mu * values[2])
@@ -1144,12 +1329,8 @@ def _face_term(block: CrackBlock, traction, u, x, const: dict, radii, mu, lmbda,
       (−5 % of K_I on a closed penny crack at h = a/8).
 
     ``radii`` = (ρ, the domain radius): the auxiliary field's curvature and length scale."""
-    ds = ufl.Measure(
-        "ds",
-        domain=block.mesh,
-        subdomain_data=block.facet_tags,
-        metadata=_rule(FACE_QUADRATURE_DEGREE),
-    )
+    # the facets of each face are given per point (:func:`_point_form`)
+    ds = ufl.Measure("ds", domain=block.mesh, metadata=_rule(FACE_QUADRATURE_DEGREE))
     n = ufl.FacetNormal(block.mesh)
     du1 = ufl.dot(ufl.grad(u), const["e1"])
     ts = (None, None) if traction is None else traction
