@@ -36,7 +36,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _crack_scenes import PINNED_PLATE_HEAD, pinned_plate
-from cli_support import finish, rank_pids, run_scene, start_scene, wait_for_lines
+from cli_support import (
+    finish,
+    rank_pids,
+    run_in_process,
+    run_scene,
+    scene_args,
+    start_scene,
+    wait_for_lines,
+)
 from coupled_support import gmsh_on_rank0
 
 from bonecontact.fracture.criteria import mts_angle, mts_equivalent_k
@@ -227,14 +235,15 @@ def test_sigterm_before_growth_then_restart(case: dict, tmp_path: Path) -> None:
 
 def test_restart_refused_with_a_message(case: dict, tmp_path: Path) -> None:
     """No checkpoint, another Δt (8 load steps), a crack checkpoint continued by a scene
-    without the crack: exit 2 naming the item, nothing changed."""
+    without the crack: exit 2 naming the item, nothing changed (the command's entry point
+    in this process: a refusal needs no process of its own)."""
     out = tmp_path / "out"
-    res = run_scene(case["every"], out, 1, "--restart")
+    res = run_in_process(scene_args(case["every"], out, "--restart"))
     assert res.returncode == 2 and "no intact checkpoint" in res.stderr, res.stderr
     other = tmp_path / "other_dt.toml"
     other.write_text(case["every"].read_text().replace("load_steps = 4", "load_steps = 8"))
     before = (case["ref"] / "fracture.csv").read_text()
-    res = run_scene(other, case["ref"], 1, "--restart")
+    res = run_in_process(scene_args(other, case["ref"], "--restart"))
     assert res.returncode == 2 and "dt = 0.25" in res.stderr, res.stderr
     assert "Traceback" not in res.stderr
     assert (case["ref"] / "fracture.csv").read_text() == before
@@ -242,7 +251,7 @@ def test_restart_refused_with_a_message(case: dict, tmp_path: Path) -> None:
     text = case["every"].read_text()
     start, end = text.index("[[crack]]"), text.index("[output]")
     plain.write_text(text[:start] + text[end:])
-    res = run_scene(plain, case["ref"], 1, "--restart")
+    res = run_in_process(scene_args(plain, case["ref"], "--restart"))
     assert res.returncode == 2, res.stderr
     assert "'bonecontact crack checkpoint', not a mechanics run's" in res.stderr, res.stderr
     assert (case["ref"] / "fracture.csv").read_text() == before
