@@ -739,7 +739,9 @@ def _colliding(msh: mesh.Mesh, candidates, pts: np.ndarray) -> tuple[np.ndarray,
     tetrahedron leave it open.  A point at distance d from the cell has λᵢ ≥ −|∇λᵢ| d, so
     λᵢ < −1.5|∇λᵢ|√eps2 for some i means d > 1.5√eps2 (out); and d ≤ |x − y|, y the
     cell's point with the coordinates max(λ, 0)/Σ max(λ, 0), so |x − y| < √eps2/2 means
-    in.  Most boxes near a front hold the point without their cell doing so, and most
+    in.  Between the two, the distance to the cell's faces and edges
+    (:func:`_cell_distance2`), and GJK where that lies within 10⁻⁶ of eps2 or is not a
+    number.  Most boxes near a front hold the point without their cell doing so, and most
     points lie well inside or on a face of a cell: the distances were 2/3 of a point's
     cost."""
     geo = msh.geometry
@@ -766,11 +768,44 @@ def _colliding(msh: mesh.Mesh, candidates, pts: np.ndarray) -> tuple[np.ndarray,
     shift = (lam - pos / pos.sum(axis=1, keepdims=True))[:, 1:]  # x − y along the edges
     inside = np.linalg.norm(np.einsum("mi,mik->mk", shift, edges[inverse]), axis=1) < 0.5 * reach
     keep = inside & ~out
-    open_ = ~(inside | out)  # NaN (degenerate cells) falls here
-    if open_.any():
-        d2 = geometry.squared_distance(msh, msh.topology.dim, cand[open_], pts[which[open_]])
-        keep[open_] = d2 < _COLLISION_EPS2
+    idx = np.flatnonzero(~(inside | out))  # NaN (degenerate cells) falls here
+    d2 = _cell_distance2(pts[which[idx]], X[inverse[idx]], lam[idx], G[inverse[idx]])
+    sure = np.abs(d2 - _COLLISION_EPS2) > 1e-6 * _COLLISION_EPS2  # False where NaN
+    keep[idx[sure]] = d2[sure] < _COLLISION_EPS2
+    rest = idx[~sure]
+    if rest.size:
+        d2 = geometry.squared_distance(msh, msh.topology.dim, cand[rest], pts[which[rest]])
+        keep[rest] = d2 < _COLLISION_EPS2
     return which[keep], cand[keep].astype(np.int32)
+
+
+#: The edges of a tetrahedron (local vertex pairs).
+_TET_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+
+
+def _cell_distance2(x: np.ndarray, X: np.ndarray, lam: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """Squared distance of points ``x`` (m, 3) outside tetrahedra ``X`` (m, 4, 3), with
+    their barycentric coordinates ``lam`` (m, 4) and gradients ``G`` (m, 4, 3): the least
+    of the distances to the planes of the faces the point lies outside of whose projection
+    onto the plane lies in the face (d = −λᵢ/|∇λᵢ|) and of the distances to the six
+    edges (segments) — each the distance to a part of the cell, and the nearest part is a
+    face's interior or an edge; NaN for a degenerate cell."""
+    norm2 = np.einsum("mij,mij->mi", G, G)
+    d2 = np.full(len(x), np.inf)
+    for i in range(4):
+        li, ni = lam[:, i], norm2[:, i]
+        projected = lam - (li / ni)[:, None] * np.einsum("mjk,mk->mj", G, G[:, i])
+        projected[:, i] = 0.0
+        face = (li < 0.0) & np.all(projected >= 0.0, axis=1)
+        d2 = np.where(face, np.minimum(d2, li * li / ni), d2)
+    for k, m in _TET_EDGES:
+        e, w = X[:, m] - X[:, k], x - X[:, k]
+        t = np.clip(np.einsum("ij,ij->i", w, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+        r = w - t[:, None] * e
+        d2 = np.minimum(d2, np.einsum("ij,ij->i", r, r))
+    d2[np.all(lam >= 0.0, axis=1)] = 0.0  # inside
+    d2[np.isnan(lam).any(axis=1)] = np.nan  # a degenerate cell: GJK decides
+    return d2
 
 
 def _normalisation(
