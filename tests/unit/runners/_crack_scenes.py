@@ -107,17 +107,38 @@ def same_growth(out: Path, ref: Path, length: float) -> tuple[dict, dict]:
 
 def continued_run(d: Path, serial: Path, k: int) -> tuple[RunResult, Path]:
     """The growth run ``serial`` copied to ``d/continued<k>`` and continued there on every
-    rank from its checkpoint before increment ``k`` (``d/scene.toml``)."""
+    rank from its checkpoint before increment ``k`` (``d/scene.toml``).
+
+    The comparison with ``serial`` can fail: ``k`` > 0; the copy's crack surfaces (one
+    ``crack_surface_<i>.vtk`` per solve) are removed before the restart and the continued
+    run must write exactly those of increments k, k + 1, … (it resumed at k, not at 0);
+    and the K columns of fracture.csv change from each increment to the next by more than
+    1e-6 of the largest |K| (the rows the restart solved again are not copies of the
+    checkpoint's)."""
+    assert k > 0
     out = d / f"continued{k}"
     if MPI.COMM_WORLD.rank == 0:
         shutil.rmtree(out, ignore_errors=True)
         shutil.copytree(serial, out)
+        for vtk in out.glob("crack_surface_*.vtk"):
+            vtk.unlink()
     MPI.COMM_WORLD.barrier()
     ck = out / "checkpoints" / f"increment_{k:05d}"
     res = run_scene(
         load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck
     )
     assert res.status == "converged", res.summary.get("message")
+    idle_barrier(MPI.COMM_WORLD)
+    solved = sorted(int(p.stem.rsplit("_", 1)[1]) for p in out.glob("crack_surface_*.vtk"))
+    last = json.loads((out / "summary.json").read_text())["fracture"]["growth"]["increments"]
+    assert solved == list(range(k, last + 1)), (k, solved)
+    t = read_table(out / "fracture.csv")
+    scale = column_scale("K_I", t)
+    for i in range(1, last + 1):
+        before, now = t["increment"] == i - 1, t["increment"] == i
+        K = [np.stack([t[c][sel] for c in ("K_I", "K_II", "K_III")]) for sel in (before, now)]
+        if K[0].shape == K[1].shape:
+            assert np.abs(K[1] - K[0]).max() > 1e-6 * scale, f"K unchanged at increment {i}"
     return res, out
 
 

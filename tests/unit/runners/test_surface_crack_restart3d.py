@@ -21,14 +21,24 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import numpy as np
 import pytest
-from _crack_scenes import L, run_dir, same_tables, surface_plate, surface_scene, write_scene
+from _crack_scenes import (
+    L,
+    read_table,
+    run_dir,
+    same_tables,
+    surface_plate,
+    surface_scene,
+    write_scene,
+)
 from coupled_support import gmsh_on_rank0
 
 from bonecontact.common.errors import CheckpointError
 from bonecontact.runners import run_scene
 from bonecontact.scene import load_scene
 
+H_FRONT = 0.2 * L / 6  # a/6
 GROWTH = f"[fracture.fatigue]\nC = 1e-20\nm = 2.0\nda_max = {0.03 * L}\nmax_blocks = 2"
 
 
@@ -38,7 +48,7 @@ def uninterrupted(tmp_path_factory) -> Path:
     comm = MPI.COMM_WORLD
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("srestart")) if comm.rank == 0 else None))
     gmsh_on_rank0(surface_plate(1.0 * L), d / "plate.msh", 3)
-    text = surface_scene(d / "plate.msh", h=0.2 * L / 6, points=3, growth=GROWTH)
+    text = surface_scene(d / "plate.msh", h=H_FRONT, points=3, growth=GROWTH)
     text = text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
     scene = write_scene(d / "scene.toml", text)
     if comm.rank == 0:
@@ -50,16 +60,25 @@ def uninterrupted(tmp_path_factory) -> Path:
 
 
 def _continued(d: Path, name: str, checkpoint: str) -> Path:
+    """The uninterrupted run copied to ``d/name`` (its crack surfaces removed) and
+    continued there from ``checkpoint``: it must write the crack surfaces of that
+    increment and the later ones only (it resumed there, not at 0)."""
     out = run_dir(d, name)
     if MPI.COMM_WORLD.rank == 0:
         shutil.rmtree(out)
         shutil.copytree(d / "full", out)
+        for vtk in out.glob("crack_surface_*.vtk"):
+            vtk.unlink()
     MPI.COMM_WORLD.barrier()
     ck = out / "checkpoints" / checkpoint
     res = run_scene(
         load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck
     )
     assert res.status == "converged", res.summary.get("message")
+    MPI.COMM_WORLD.barrier()
+    k = int(checkpoint.rsplit("_", 1)[1])
+    solved = sorted(int(p.stem.rsplit("_", 1)[1]) for p in out.glob("crack_surface_*.vtk"))
+    assert k > 0 and solved == list(range(k, 3)), (checkpoint, solved)
     return out
 
 
@@ -71,6 +90,11 @@ def test_checkpoints_written(uninterrupted: Path) -> None:
     assert ck == ["increment_00001", "increment_00002"]
     state = json.loads((uninterrupted / "full" / "checkpoints" / ck[0] / "growth.json").read_text())
     assert state["increment"] == 1 and state["rows"] == 3 and len(state["history"]) == 1
+    # what the restarts compare changes from increment to increment
+    t = read_table(uninterrupted / "full" / "fracture.csv")
+    K = t["K_I"].reshape(3, 3)
+    assert np.all(np.abs(np.diff(K, axis=0)) > 1e-4 * np.abs(K).max())
+    assert g["history"][1]["depth"] > g["history"][0]["depth"] and g["cycles"] > 0
 
 
 @pytest.mark.parametrize("checkpoint", ["increment_00001", "increment_00002"])
@@ -99,7 +123,7 @@ def test_checkpoint_of_another_crack_is_refused(uninterrupted: Path) -> None:
     if MPI.COMM_WORLD.rank == 0:
         shutil.rmtree(out)
         shutil.copytree(d / "full", out)
-    text = surface_scene(d / "plate.msh", h=0.2 * L / 6, points=3, growth=GROWTH, a=0.19 * L)
+    text = surface_scene(d / "plate.msh", h=H_FRONT, points=3, growth=GROWTH, a=0.19 * L)
     scene = write_scene(out / "other.toml", text)
     ck = out / "checkpoints" / "increment_00001"
     with pytest.raises(CheckpointError, match="depth"):
