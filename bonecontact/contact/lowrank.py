@@ -41,9 +41,11 @@ from bonecontact.contact.reductions import (
 __all__ = [
     "DENSE_BLOCKS",
     "MIN_BLOCK",
+    "RESPLIT_FIXED",
     "RESPLIT_GROWTH",
     "SOLVE_RATE",
     "SOLVE_RATE_PARALLEL",
+    "SOLVE_RATE_SPARSE",
     "SPARSE_BLOCKS",
     "LowRankActiveSetSolver",
     "SingularActiveSetError",
@@ -154,6 +156,11 @@ MIN_BLOCK = 16
 #: Hertz benchmark, 65k dofs, serially (2.3 against 4.5 GFlop/s); on more than one rank
 #: the distributed substitutions gain far less from blocking.
 SOLVE_RATE, SOLVE_RATE_PARALLEL = 0.5, 0.33
+#: The same for a block with sparse right-hand sides on one rank (the forward
+#: substitution visits only the fronts their entries reach): 0.55 of a dense block's time
+#: on the knee's 126k-dof factors (0.9), 1.0-1.5 measured on the 2D Hertz meshes of 28k
+#: and 53k dofs.  On two ranks a sparse block measured 0.26-0.29 (SOLVE_RATE_PARALLEL).
+SOLVE_RATE_SPARSE = 0.9
 #: A new split basis with the contact zone in it, relative to the present factorisation
 #: (operations): the zone's interface coupling adds fill (1.4 times the operations with
 #: the 452 contact nodes at 65k dofs), and the new pattern a new analysis and the
@@ -161,6 +168,14 @@ SOLVE_RATE, SOLVE_RATE_PARALLEL = 0.5, 0.33
 #: (452 columns: ratio 2.2-2.8 to a linear solve, a re-split: 2.7-3.1), so a re-split
 #: is made only when it is clearly cheaper.
 RESPLIT_GROWTH = 2.0
+#: What a re-split costs beyond ``RESPLIT_GROWTH`` factorisations, in operations per
+#: entry of the present LU factors (one rank, more ranks): the new split's products
+#: (``K``, ``J``, their rows and columns), MUMPS's new analysis (ordering, symbolic
+#: factorisation; on several ranks the matrix is gathered for it) and the base solve.
+#: Measured on the 2D Hertz meshes of 28k and 53k dofs: 64-88 entries' worth on one rank
+#: and 199-258 on two, whose factorisations have only 100-140 operations per entry; on
+#: 3D factors (400 and more per entry) it adds a tenth or less.
+RESPLIT_FIXED = (100.0, 200.0)
 
 
 class SplitBasis:
@@ -742,16 +757,22 @@ class LowRankActiveSetSolver:
         Counted in floating-point operations of the present factors, so that the choice
         (and with it the path of the solve) does not depend on the machine or its load:
         a column is a forward and a backward substitution, ``2 · nnz(LU)`` operations
-        done at about half the rate of a factorisation (``SOLVE_RATE``; a third of it
-        on more than one rank); the new factorisation is counted as the present one's
-        operations times ``RESPLIT_GROWTH`` (more fill, a new analysis), times
-        ``rebase_ratio``."""
+        done at about half the rate of a factorisation (``SOLVE_RATE``; 0.9 of it with
+        sparse right-hand sides on one rank, ``SOLVE_RATE_SPARSE``; a third of it on more
+        than one rank); the re-split is counted as the present factorisation's
+        operations times ``RESPLIT_GROWTH`` (more fill, a new analysis) plus
+        ``RESPLIT_FIXED`` operations per entry of the factors (the new analysis and
+        products, which dominate on 2D meshes), times ``rebase_ratio``."""
         nnz, flops = self._factor_counts()
         if not (np.isfinite(nnz) and np.isfinite(flops)) or self._in_respond:
             return False
-        rate = SOLVE_RATE if self.comm.size == 1 else SOLVE_RATE_PARALLEL
+        serial = self.comm.size == 1
+        rate = SOLVE_RATE_PARALLEL
+        if serial:
+            rate = SOLVE_RATE_SPARSE if self._sparse() else SOLVE_RATE
         cost_columns = new_columns * 2.0 * nnz / rate
-        return cost_columns > self.rebase_ratio * RESPLIT_GROWTH * flops
+        cost_resplit = RESPLIT_GROWTH * flops + RESPLIT_FIXED[0 if serial else 1] * nnz
+        return cost_columns > self.rebase_ratio * cost_resplit
 
     def _resplit(self, mask: npt.NDArray[np.bool_]) -> None:
         """Rebuild the split basis with the nodes of ``mask`` (this rank's fixed rows)
