@@ -129,17 +129,20 @@ def material_strength(
     Raises
     ------
     KeyError
-        Naming the material and the first missing key, when the table or a needed
-        value is missing or not a positive number.
+        Naming the file, the material and the first missing key, when the table or a
+        needed value is missing or not a positive number.
     """
     table = load_strengths(path).get(name, {})
-    out = {}
-    for key in keys:
-        v = table.get(key)
-        if not isinstance(v, (int, float)) or not v > 0:
-            raise KeyError(f"strength.{name}.{key}: missing (a positive number is needed)")
-        out[key] = float(v)
-    return out
+    return {key: _positive(table, key, f"strength.{name}", path) for key in keys}
+
+
+def _positive(table: dict[str, Any], key: str, where: str, path: str | Path | None) -> float:
+    """``table[key]`` as a float, or a KeyError naming the file and ``where.key``."""
+    v = table.get(key)
+    if not isinstance(v, (int, float)) or not v > 0:
+        file = MATERIALS_FILE if path is None else Path(path)
+        raise KeyError(f"{file}: {where}.{key}: missing (a positive number is needed)")
+    return float(v)
 
 
 class BoneProperties(NamedTuple):
@@ -169,21 +172,12 @@ def stiffness_and_strength(name: str, path: str | Path | None = None) -> BonePro
     KeyError
         Naming the file, the table and the missing key (or the names that have both).
     """
-    where = MATERIALS_FILE if path is None else Path(path)
     material, strength = load_material_library(path), load_strengths(path)
     if name not in material or name not in strength:
+        where = MATERIALS_FILE if path is None else Path(path)
         both = sorted(set(material) & set(strength))
         raise KeyError(
             f"{where}: no [material.{name}] with [strength.{name}]; names with both: {both}"
         )
-    values = {
-        **{k: material[name].get(k) for k in ("E", "nu")},
-        "sigma_t": strength[name].get("sigma_t"),
-    }
-    for key, v in values.items():
-        if not isinstance(v, (int, float)) or not v > 0:
-            table = "strength" if key == "sigma_t" else "material"
-            raise KeyError(
-                f"{where}: [{table}.{name}] {key}: missing (a positive number is needed)"
-            )
-    return BoneProperties(*(float(values[k]) for k in ("E", "nu", "sigma_t")))
+    E, nu = (_positive(material[name], k, f"material.{name}", path) for k in ("E", "nu"))
+    return BoneProperties(E, nu, _positive(strength[name], "sigma_t", f"strength.{name}", path))

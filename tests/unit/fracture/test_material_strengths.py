@@ -39,5 +39,5 @@ def test_published_values():
 def test_missing_values_are_named():
     with pytest.raises(KeyError, match=r"cancellous_bone_vertebral\.K_Ic"):
         material_strength("cancellous_bone_vertebral")
-    with pytest.raises(KeyError, match=r"strength\.cartilage\.sigma_t"):
+    with pytest.raises(KeyError, match=r"materials\.toml: strength\.cartilage\.sigma_t: missing"):
         material_strength("cartilage", ("sigma_t",))
