@@ -68,6 +68,7 @@ class FatigueProgress:
     waiting: dict[TipKey, float] = dataclasses.field(default_factory=dict)
     status: str | None = None
     bound: float | None = None
+    phases: list[int] = dataclasses.field(default_factory=lambda: [0])
 
     @classmethod
     def from_state(cls, state: dict[str, Any] | None) -> FatigueProgress:
@@ -82,6 +83,7 @@ class FatigueProgress:
             waiting,
             state["status"],
             state["bound"],
+            [int(v) for v in state.get("phases", [0])],
         )
 
     def state(self) -> dict[str, Any]:
@@ -96,14 +98,38 @@ class FatigueProgress:
         far, or, if the rate at its end is zero, at its start rate)."""
         self.growth.append(float(growth))
         self.lead_rate.append(float(lead_rate))
+        p = self.phases[-1]
         if len(self.growth) == 1:
             block = 0.0
+        elif len(self.growth) - 1 == p:  # the block that merged cracks
+            block = self._merging_block()
         elif lead_rate > 0:
-            block = float(block_cycles(self.growth, self.lead_rate)[-1])
+            block = float(block_cycles(self.growth[p:], self.lead_rate[p:])[-1])
         else:
             block = (self.growth[-1] - self.growth[-2]) / self.lead_rate[-2]
         self.cycles.append((self.cycles[-1] if self.cycles else 0.0) + block)
         return self.cycles[-1]
+
+    def merged(self, tip_map: dict[TipKey, TipKey]) -> None:
+        """Cracks merged at the last block end: the next end starts a new set of cracks
+        (:meth:`add_end`); what the far tips kept goes to the merged crack's tips
+        (``tip_map``), what the merged-away tips kept is dropped."""
+        self.phases.append(len(self.growth))
+        self.waiting = {tip_map[t]: v for t, v in self.waiting.items() if t in tip_map}
+
+    def _merging_block(self) -> float:
+        """Cycles of the block at whose end cracks merged: ∫ ds / r over it with ln r
+        extrapolated linearly from the last two ends before the merge (of one set of
+        cracks; one end or a falling rate: its rate, constant).  The rate after the merge
+        is another tip's and is not used."""
+        s, r = self.growth, self.lead_rate
+        h, start = s[-1] - s[-2], (self.phases[-2] if len(self.phases) > 1 else 0)
+        if len(s) - 3 < start or r[-2] <= 0 or r[-3] <= 0:
+            return h / r[-2] if r[-2] > 0 else 0.0
+        g = (math.log(r[-2]) - math.log(r[-3])) / (s[-2] - s[-3])
+        if g <= 1e-12 / h:
+            return h / r[-2]
+        return (1.0 - math.exp(-g * h)) / (g * r[-2])
 
 
 #: A tip of a scene's cracks: (the crack's name, the polyline end 0 or -1).

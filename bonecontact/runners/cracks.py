@@ -14,7 +14,8 @@ and G of every tip (interaction integral, the contact tractions as face term; di
 correlation as a cross-check) go to ``fracture.csv`` (column ``crack``).  With
 ``propagate = true`` every tip whose own MTS equivalent K reaches K_Ic grows by Δa and the
 same step is solved again on the re-meshed body, until no tip grows, a tip comes within Δa
-of the surface (*fractured*) or of another crack (*joined*) or ``max_increments`` are made; with
+of the surface (*fractured*) or of another crack (*joined*; facing tips merge the two cracks
+into one that grows on, :mod:`~.crack_join`) or ``max_increments`` are made; with
 ``[fracture.fatigue]`` the crack grows by blocks of cycles at the last step's load
 (:mod:`bonecontact.runners.crack_fatigue`).  Static analyses only for growth: nothing is
 transferred to the new mesh.  Checkpoints hold the crack with the mechanics state
@@ -73,6 +74,7 @@ from bonecontact.runners.crack_fatigue import (
     plain_rows,
     tip_key,
 )
+from bonecontact.runners.crack_join import join_cracks
 from bonecontact.runners.cracks3d import check_cracked3d, run_cracked3d
 from bonecontact.runners.loop import RunStopped, Verdict, progress_bar, run_steps
 from bonecontact.runners.mechanics import (
@@ -253,6 +255,14 @@ def with_cracks(run: CrackRun, specs: tuple[CrackSpec, ...], initiated: bool = F
         tip_mesh=TipMesh(h_tip, fr.tip_grading if fr.tip_grading is not None else 0.25),
         initiated=initiated,
     )
+
+
+def respecified(run: CrackRun, specs: tuple[CrackSpec, ...]) -> CrackRun:
+    """The run with other cracks (after a merge): the face pairs of the old ones replaced
+    by those of ``specs``."""
+    contacts = tuple(run.scene.contacts)
+    base = dataclasses.replace(run.scene, contacts=contacts[: len(contacts) - len(run.specs)])
+    return with_cracks(dataclasses.replace(run, scene=base), specs, run.initiated)
 
 
 def build_cracked(
@@ -556,6 +566,19 @@ def _saved_cracks(saved: dict[str, Any]) -> list[Crack2D]:
     return [Crack2D(np.asarray(e["points"], dtype=float), e["tips"]) for e in entries]
 
 
+def _saved_specs(run: CrackRun, saved: dict[str, Any], cracks: list[Crack2D]) -> CrackRun:
+    """The run with the cracks of a checkpoint taken after cracks merged (their names
+    differ from the scene's; a merged crack in the region of the scene's cracks)."""
+    names = [e.get("name") for e in saved.get("cracks") or []]
+    if not names or names == [s.name for s in run.specs]:
+        return run
+    specs = tuple(
+        CrackSpec(e["name"], c, run.specs[0].region, float(e.get("coefficient", 0.0)))
+        for e, c in zip(saved["cracks"], cracks, strict=True)
+    )
+    return respecified(run, specs)
+
+
 def _initiated_spec(run: CrackRun, initiation: dict[str, Any]) -> CrackSpec:
     """The ``[[crack]]`` of an initiated crack, from its initiation record."""
     crack = Crack2D(np.asarray(initiation["points"], dtype=float), initiation["tips"])
@@ -573,6 +596,8 @@ class CrackProgress:
     initiation: dict[str, Any] | None = None  # the record of an initiated crack
     risk_before: dict[str, Any] | None = None  # the initiation check on the uncracked body
     prev: tuple[float, float] = (0.0, 0.0)  # (time, largest risk) of the last step recorded
+    merges: list[dict[str, Any]] = dataclasses.field(default_factory=list)  # cracks merged
+    joined: str = ""  # why cracks that met were not merged (the stop joined)
 
 
 class CrackSteps(MechanicsSteps):
@@ -622,8 +647,9 @@ class CrackSteps(MechanicsSteps):
             self.sm = build_model(scene, self.comm, self.timer, mesh=(run.mesh, run.groups))
         else:
             self.cracks = [c.crack for c in run.specs]
-            if saved is not None:  # the cracks as they had grown
+            if saved is not None:  # the cracks as they had grown (and merged)
                 self.cracks = _saved_cracks(saved)
+                self.run = run = _saved_specs(run, saved, self.cracks)
             self.sm, self.cms = build_cracked(scene, run, self.cracks, self.comm, self.timer)
         if resume is None:
             self.start_model(0, "fields")
@@ -643,6 +669,7 @@ class CrackSteps(MechanicsSteps):
             saved["initiation"],
             saved["risk_before"],
             tuple(saved["prev"]),
+            list(saved.get("merges", [])),
         )
         self.fatigue = FatigueProgress.from_state(saved.get("fatigue"))
 
@@ -744,12 +771,13 @@ class CrackSteps(MechanicsSteps):
         stop = ""
         if grows:
             self.cracks, stop = _grow(self.cracks, records, self.run)
+            stop = self.merge_joined(k, records, stop)
         self.table.rows(records)
         st.tips_last = records
         if stop:
             st.increment, st.status = st.increment + 1, stop
             st.fractured_at = (integ.t, k) if stop == "fractured" else None
-            what = "fractured" if stop == "fractured" else "cracks joined"
+            what = "fractured" if stop == "fractured" else f"cracks joined ({st.joined})"
             self.say(
                 f"{self.scene.name}: {what} at t = {integ.t:.6g} "
                 f"(step {k}, after {st.increment} crack increments)"
@@ -776,6 +804,7 @@ class CrackSteps(MechanicsSteps):
         met = ""
         if grow:
             self.cracks, met = _grow(self.cracks, rows, self.run, grow)
+            met = self.merge_joined(k, rows, met)
         self.table.rows(rows)
         st.tips_last = rows
         if stop or met:
@@ -787,6 +816,39 @@ class CrackSteps(MechanicsSteps):
         verdict = self.remesh(k, f"fields_block{st.increment}")  # the longer crack
         self.block_checkpoint(k)
         return verdict
+
+    def merge_joined(self, k: int, rows: list[IncrementRecord], stop: str) -> str:
+        """After a growth that stopped ``joined``, with ``[fracture] joined = "merge"``: the
+        cracks whose facing tips met merged (:func:`join_cracks`; their rows marked
+        ``merged``, the run's cracks and face pairs replaced, a fatigue run's kept growth
+        moved to the merged tips) and ``""`` returned; else the stop, with the reason
+        why nothing was merged kept for the message."""
+        if stop != "joined":
+            return stop
+        st = self.state
+        if self.run.fracture.joined != "merge":
+            st.joined = '[fracture] joined = "stop"'
+            return stop
+        tips = [tip_key(r) for r in rows if r.status == "joined"]
+        fr, h_tip = self.run.fracture, self.run.tip_mesh.h_tip
+        res = join_cracks(self.cracks, self.run.specs, tips, fr.growth_step, h_tip, self.run.body)
+        if res.reason:
+            st.joined = f"not merged: {res.reason}"
+            return stop
+        for i, r in enumerate(rows):
+            if r.status == "joined":
+                rows[i] = dataclasses.replace(r, status="merged")
+        self.run, self.cracks = respecified(self.run, res.specs), res.cracks
+        st.merges += [m | {"increment": st.increment, "step": k} for m in res.merges]
+        if fr.fatigue is not None:
+            self.fatigue.merged(res.tip_map)
+        for m in res.merges:
+            self.say(
+                f"{self.scene.name}: cracks {m['cracks'][0]!r} and {m['cracks'][1]!r} met "
+                f"(bridge {m['bridge']:.3g} m) at step {k}, increment {st.increment}: "
+                f"merged into {m['into']!r}"
+            )
+        return ""
 
     def fatigue_stop(self, k: int, status: str, rows: list[FatigueRecord]) -> None:
         """The end of the blocks: the status, after a fracture the bound of the cycles to
@@ -802,8 +864,9 @@ class CrackSteps(MechanicsSteps):
                 for r in rows
                 if r.status == "fractured"
             )
+        why = f" ({st.joined})" if status == "joined" else ""
         self.say(
-            f"{self.scene.name}: fatigue {status} at step {k} after {len(prog.cycles) - 1} "
+            f"{self.scene.name}: fatigue {status}{why} at step {k} after {len(prog.cycles) - 1} "
             f"blocks, N = {cycles:.6g} cycles (crack length "
             f"{', '.join(f'{c.length:.6g}' for c in self.cracks)} m)"
         )
@@ -852,11 +915,12 @@ class CrackSteps(MechanicsSteps):
             "cracks": None
             if cracks is None
             else [
-                {"name": sp.name, "points": c.points, "tips": c.tips}
+                {"name": sp.name, "points": c.points, "tips": c.tips, "coefficient": sp.coefficient}
                 for sp, c in zip(self.run.specs, cracks, strict=True)
             ],
             "increment": st.increment,
             "propagation": st.status,
+            "merges": st.merges,
             "tips_last": [dataclasses.asdict(r) for r in st.tips_last],
             "initiation": st.initiation,
             "risk_before": st.risk_before,
@@ -880,6 +944,9 @@ class CrackSteps(MechanicsSteps):
             for entry in frac["cracks"]:
                 entry["fatigue"] = self.fatigue_summary()
         frac["crack"] = frac["cracks"][0] if frac["cracks"] else None  # the first crack
+        frac["merges"] = st.merges
+        if st.status == "joined":
+            frac["joined"] = st.joined
         return frac
 
     def fatigue_summary(self) -> dict[str, Any]:

@@ -99,6 +99,7 @@ def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> 
     for key in ("tip_size", "tip_grading", "initiation_length", "coefficient"):
         values[key] = tab.get(FRACTURE_TABLE[key])
     values["fatigue"] = fatigue_from_table(tab)
+    values["joined"] = tab.get(FRACTURE_TABLE["joined"])
     if values["fatigue"] is not None and values["propagate"]:
         raise tab.error(
             "propagate",

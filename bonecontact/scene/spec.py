@@ -802,6 +802,11 @@ class FractureSpec:
         :func:`bonecontact.fracture.initiation.default_length`.
     coefficient
         Coulomb coefficient of the inserted crack's face pair (0: frictionless).
+    joined
+        What two 2D cracks do when a grown tip comes within the increment of another
+        crack: ``"merge"`` (facing, nearly collinear tips: the cracks become one and grow
+        on; :mod:`bonecontact.runners.crack_join`) or ``"stop"`` (the run stops
+        ``joined``).
     """
 
     criterion: str = "tension"
@@ -815,6 +820,7 @@ class FractureSpec:
     initiation_length: float | None = None
     coefficient: float = 0.0
     fatigue: FatigueSpec | None = None
+    joined: str = "merge"
 
     @property
     def grows(self) -> bool:
@@ -883,6 +889,9 @@ _COEFFICIENT = Key("coefficient", "number", 0.0, minimum=0)
 #: The old name of the Coulomb coefficient in ``[fracture]`` and ``[[crack]]``.
 _OLD_COEFFICIENT = {"friction": "coefficient"}
 
+#: What two 2D cracks that meet do (``[fracture] joined``).
+JOIN_RULES = ("merge", "stop")
+
 #: ``[fracture]``.
 FRACTURE_TABLE = Table(
     "fracture",
@@ -924,6 +933,7 @@ FRACTURE_TABLE = Table(
         ),
         _COEFFICIENT,
         Key("fatigue", "table"),
+        Key("joined", "string", "merge", choices=JOIN_RULES),
     ),
     renamed=_OLD_COEFFICIENT,
 )

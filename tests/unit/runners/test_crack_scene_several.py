@@ -162,11 +162,13 @@ def test_each_tip_grows_by_its_own_criterion_until_the_cracks_join(folder: Path)
     grow, every tip later as its own K_eq reaches K_Ic (the outer tips from the second
     increment); the cracks grow straight and stay collinear, so every increment is again
     the closed form's case (b, c from the table's tips); the run stops when a grown tip
-    comes within Δa of the other crack (status ``joined``)."""
+    comes within Δa of the other crack (status ``joined``; ``joined = "stop"``, else the
+    cracks would merge)."""
     b, c = 0.2 * C_OUT, C_OUT
     inner, outer = collinear_k(b, c, SIGMA)
     k_ic = 0.5 * (inner + outer)  # 2.8 % from either
     extra = f"[fracture]\npropagate = true\nincrement = {DA}\nmax_increments = 8\n"
+    extra += 'joined = "stop"\n'  # merging: tests/unit/runners/test_crack_merge.py
     d = folder / "grow"
     if MPI.COMM_WORLD.rank == 0:
         d.mkdir(exist_ok=True)
@@ -293,6 +295,7 @@ def test_several_cracks_same_answer_on_1_2_3_ranks(folder: Path) -> None:
     b, c = 0.2 * C_OUT, C_OUT
     inner, outer = collinear_k(b, c, SIGMA)
     extra = f"[fracture]\npropagate = true\nincrement = {DA}\nmax_increments = 8\n"
+    extra += 'joined = "stop"\n'  # merging: tests/unit/runners/test_crack_merge.py
     cracks = [("left", [[-c, 0.0], [-b, 0.0]]), ("right", [[b, 0.0], [c, 0.0]])]
     text = scene_text("ranks", folder, cracks, extra, K_Ic=0.5 * (inner + outer))
     path = folder / "ranks.toml"
