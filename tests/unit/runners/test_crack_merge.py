@@ -13,14 +13,16 @@ on y = 0.  References built outside the code:
   integrated over both phases (the two cracks by the closed form, an ODE of the inner
   and outer tips until the tips meet; then the centre crack by Feddersen's factor).
 
-Serial; the same runs on 2 and 3 ranks give the same rows (1e-10 of their scale;
-``two_ranks`` runs them on 2 ranks, the 3-rank session on 3).
+On every rank count of the session: the merged runs equal the serial one (fracture.csv
+to 1e-10 of each column's scale), and a fatigue run restarted from a checkpoint written
+after the merge gives the same rows.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 
 from mpi4py import MPI
@@ -33,6 +35,7 @@ from scipy.integrate import quad, solve_ivp
 from scipy.special import ellipe, ellipkm1
 from test_crack_scene_several import SIGMA, W, collinear_k, scene_text
 
+from bonecontact.runners import run_scene
 from bonecontact.scene import SceneError, load_scene
 
 PIN = 0.004  # m
@@ -253,3 +256,36 @@ def test_merged_growth_is_the_same_on_every_rank_count(folder: Path, kind: str) 
     np.testing.assert_allclose(
         got["crack"]["points"], want["crack"]["points"], rtol=0, atol=1e-10 * W
     )
+
+
+def test_restart_after_the_merge_gives_the_same_tables(folder: Path) -> None:
+    """The equal cracks under fatigue (b/c = 0.2, 6 blocks, a checkpoint every 4 blocks:
+    after the merge at the end of block 3) restarted from that checkpoint: the merged
+    crack comes back with its name, face pair and phase of the block rule, and the
+    restarted run writes the same rows and cycles (1e-10)."""
+    left, right = CASES["equal"]
+    extra = (
+        f"checkpoint_every = 4\n[fracture]\n[fracture.fatigue]\nC = {C_PARIS}\n"
+        f"m = {M_PARIS}\nda_max = {DA_MAX}\nmax_blocks = 6\n"
+    )
+    text = scene_text("restart", folder, [("left", left), ("right", right)], extra, None)
+    res, d = run_in(folder, "restart", text)
+    assert res.status == "converged", res.summary.get("message")
+    comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        shutil.copytree(d / "out", d / "again")
+    comm.barrier()
+    step0 = d / "again" / "checkpoints" / "step_00000000"
+    meta = json.loads((step0 / "meta.json").read_text())["crack_run"]
+    assert meta["increment"] == 4 and [c["name"] for c in meta["cracks"]] == ["left+right"]
+    assert meta["fatigue"]["phases"] == [0, 4] and len(meta["merges"]) == 1
+    again = run_scene(load_scene(d / "scene.toml"), comm, d / "again", False, step0)
+    assert again.status == "converged", again.summary.get("message")
+    assert again.summary["restarted_from"]["step"] == 0
+    idle_barrier(comm)
+    full, cont = read_csv(d / "out" / "fracture.csv"), read_csv(d / "again" / "fracture.csv")
+    n = len(full["K_I"])
+    assert len(cont["K_I"]) >= n
+    for key in ("increment", "x", "y", "K_I", "K_eq", "cycles"):
+        np.testing.assert_allclose(cont[key][-n:], full[key], rtol=1e-10, atol=1e-10, err_msg=key)
+    assert again.summary["fracture"]["merges"] == res.summary["fracture"]["merges"]
