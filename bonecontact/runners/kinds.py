@@ -16,6 +16,11 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from bonecontact.runners.breakthrough3d import (
+    breaks_to_surface,
+    check_breakthrough,
+    run_breakthrough,
+)
 from bonecontact.runners.coupled import check_coupled, run_coupled
 from bonecontact.runners.cracks import check_cracked, is_crack_scene, run_cracked
 from bonecontact.runners.front_growth3d import (
@@ -88,6 +93,8 @@ def _check_crack(scene: Scene, comm: MPI.Comm) -> SceneModel | None:
     if scene.dimension == 3 and has_surface_crack(scene):
         return check_surface_crack(scene, comm)
     if grows_interior_crack(scene):
+        if breaks_to_surface(scene):
+            return check_breakthrough(scene, comm)
         return check_interior_growth(scene, comm)
     return check_cracked(scene, comm)
 
@@ -98,6 +105,8 @@ def _run_crack(
     if scene.dimension == 3 and has_surface_crack(scene):
         return run_surface_crack(scene, comm, output, progress, restart)
     if grows_interior_crack(scene):
+        if breaks_to_surface(scene):
+            return run_breakthrough(scene, comm, output, progress, restart)
         return run_interior_growth(scene, comm, output, progress, restart)
     return run_cracked(scene, comm, output, progress, restart)
 

@@ -80,6 +80,7 @@ from bonecontact.scene.spec import FractureSpec
 __all__ = [
     "SURFACE_COLUMNS",
     "SurfaceRecord",
+    "SurfaceStart",
     "check_surface_crack",
     "has_surface_crack",
     "run_surface_crack",
@@ -443,6 +444,8 @@ class Growth:
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
     rows: int = 0  # fracture.csv rows written
+    first: int = 0  # the first increment (> 0: continues another run, SurfaceStart)
+    cycles0: float = 0.0  # the cycles at the first increment
 
     def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -581,7 +584,8 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
     rates = _rates(run, kv)
     fat = run.fracture.fatigue
     if fat is not None:
-        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, float(rates.max(initial=0.0)))
+        growth = (g.increments - g.first) * fat.da_max
+        g.cycles = g.cycles0 + g.fatigue.add_end(growth, float(rates.max(initial=0.0)))
     g.history.append(
         {
             "increment": g.increments,
@@ -642,9 +646,24 @@ def write_crack_surface(path: Path, cut: CutBody) -> None:
     Path(path).write_text("\n".join(lines) + "\n")
 
 
-def _start(run: SurfaceRun, comm: MPI.Comm, outdir: Path, restart) -> Growth:
-    """A fresh growth, or the one of the checkpoint ``restart`` (fracture.csv cut to its
-    rows)."""
+@dataclasses.dataclass(frozen=True)
+class SurfaceStart:
+    """Where the growth of a surface crack that continues another run starts: its first
+    increment's number and the cycles there (the crack is the scene's)."""
+
+    increment: int
+    cycles: float = 0.0
+
+
+def _start(run: SurfaceRun, comm: MPI.Comm, outdir: Path, restart, start=None) -> Growth:
+    """A fresh growth (from ``start``: :class:`SurfaceStart`), or the one of the
+    checkpoint ``restart`` (fracture.csv cut to its rows)."""
+    if start is not None:
+        if restart:
+            raise ValueError("a surface crack that continues another run cannot restart")
+        return Growth(
+            run.crack, start.increment, start.cycles, first=start.increment, cycles0=start.cycles
+        )
     if not restart:
         return Growth(run.crack)
     initial = dataclasses.asdict(run.crack)
@@ -667,7 +686,7 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
         try:
             cb, sm, integ, summary = _solve(run, g.crack, comm, timer, outdir, g.increments)
         except SceneError as exc:  # the given crack's is an input error, a grown one's not
-            if g.increments == 0:
+            if g.increments == g.first:
                 raise
             g.status = "failed"
             return "failed", f"{_where(run, g)}: the grown crack cannot be meshed: {exc}", None
@@ -698,7 +717,7 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
             g.status = stop
             frags = _fragments(cb) if stop in ("fractured", "through") else None
             return ("converged", None, frags) if failure is None else ("failed", failure, None)
-        if every > 0 and g.increments % every == 0:
+        if every > 0 and g.first == 0 and g.increments % every == 0:
             with timer.phase("checkpoint"):
                 save_growth_state(comm, outdir, g.increments, g.state(run.crack))
 
@@ -718,10 +737,12 @@ def run_surface_crack(
     output: Path | None = None,
     progress: bool = True,
     restart: str | Path | bool | None = None,
+    start: SurfaceStart | None = None,
 ) -> RunResult:
     """Validate, build and run a 3D scene with a surface crack (module docstring);
     ``restart``: continue from the newest (``True``) or the named growth checkpoint
-    (:mod:`~bonecontact.runners.growth_state3d`)."""
+    (:mod:`~bonecontact.runners.growth_state3d`); ``start``: the growth continues another
+    run (its increments numbered and its cycles counted on from there; no restart)."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run = prepare_surface(scene, comm)
@@ -730,7 +751,7 @@ def run_surface_crack(
         outdir.mkdir(parents=True, exist_ok=True)
     fr = run.fracture
     grows = fr.propagate or fr.fatigue is not None
-    g = _start(run, comm, outdir, restart)
+    g = _start(run, comm, outdir, restart, start)
     table = RecordTable(comm, outdir / "fracture.csv", SURFACE_COLUMNS, append=bool(restart))
     try:
         status, message, fragments = _grow(run, g, comm, timer, outdir, table)

@@ -20,7 +20,7 @@ import numpy as np
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import Crack2D, crack_gap, points_in_polygon
-from bonecontact.fracture.crack3d import planar_crack_from_table
+from bonecontact.fracture.crack3d import PlanarCrack, planar_crack_from_table
 from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.spec import (
     CRACK3D_TABLE,
@@ -100,6 +100,12 @@ def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> 
         values[key] = tab.get(FRACTURE_TABLE[key])
     values["fatigue"] = fatigue_from_table(tab)
     values["joined"] = tab.get(FRACTURE_TABLE["joined"])
+    values["breakthrough"] = tab.get(FRACTURE_TABLE["breakthrough"])
+    if values["breakthrough"] != "stop" and not (values["propagate"] or values["fatigue"]):
+        raise tab.error(
+            "breakthrough",
+            "applies to a growing crack: set propagate = true or add [fracture.fatigue]",
+        )
     if values["fatigue"] is not None and values["propagate"]:
         raise tab.error(
             "propagate",
@@ -201,6 +207,21 @@ def _check_dimension(spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec] =
             )
 
 
+def _check_breakthrough(spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]) -> None:
+    """``breakthrough = "surface_crack"`` re-characterises one growing interior 3D crack."""
+    if spec.breakthrough == "stop":
+        return
+    planar = [c for c in cracks if isinstance(c.crack, PlanarCrack)]
+    if dim != 3 or len(cracks) != 1 or len(planar) != 1:
+        raise SceneError(
+            None,
+            "[fracture]",
+            "breakthrough",
+            '"surface_crack" applies to a single growing interior (planar) [[crack]] of a 3D '
+            'scene; use "stop" here (allowed values: "stop", "surface_crack")',
+        )
+
+
 def _check_materials(spec: FractureSpec, materials: Sequence[MaterialSpec]) -> None:
     """Every material has the strengths the check needs."""
     for m in materials:
@@ -246,6 +267,7 @@ def read_fracture(
         )
     cracks = [crack_from_table(entry, i + 1, dim) for i, entry in enumerate(entries)]
     _check_dimension(spec, dim, cracks)
+    _check_breakthrough(spec, dim, cracks)
     _check_materials(spec, materials)
     names = [c.name for c in cracks]
     for i, c in enumerate(cracks):

@@ -807,6 +807,11 @@ class FractureSpec:
         crack: ``"merge"`` (facing, nearly collinear tips: the cracks become one and grow
         on; :mod:`bonecontact.runners.crack_join`) or ``"stop"`` (the run stops
         ``joined``).
+    breakthrough
+        What a growing interior 3D crack does when its front reaches the body's surface:
+        ``"stop"`` (``fractured``/``through``) or ``"surface_crack"`` (re-characterised
+        as a semi-elliptical surface crack that keeps growing;
+        :mod:`bonecontact.runners.breakthrough3d`).
     """
 
     criterion: str = "tension"
@@ -821,6 +826,7 @@ class FractureSpec:
     coefficient: float = 0.0
     fatigue: FatigueSpec | None = None
     joined: str = "merge"
+    breakthrough: str = "stop"
 
     @property
     def grows(self) -> bool:
@@ -889,6 +895,9 @@ _COEFFICIENT = Key("coefficient", "number", 0.0, minimum=0)
 #: The old name of the Coulomb coefficient in ``[fracture]`` and ``[[crack]]``.
 _OLD_COEFFICIENT = {"friction": "coefficient"}
 
+#: What a growing interior 3D crack does at the body's surface (``[fracture] breakthrough``).
+BREAKTHROUGH_RULES = ("stop", "surface_crack")
+
 #: What two 2D cracks that meet do (``[fracture] joined``).
 JOIN_RULES = ("merge", "stop")
 
@@ -934,6 +943,7 @@ FRACTURE_TABLE = Table(
         _COEFFICIENT,
         Key("fatigue", "table"),
         Key("joined", "string", "merge", choices=JOIN_RULES),
+        Key("breakthrough", "string", "stop", choices=BREAKTHROUGH_RULES),
     ),
     renamed=_OLD_COEFFICIENT,
 )

@@ -1,0 +1,315 @@
+"""An interior 3D crack that reaches the body's surface becomes a surface crack
+(``[fracture] breakthrough = "surface_crack"``; docs/scene_format.md, docs/theory/
+fracture.md#an-interior-crack-that-reaches-the-surface).
+
+The run chains the two growth runners.  The interior crack grows
+(:func:`~bonecontact.runners.front_growth3d.run_interior_growth`); when it stops
+``through`` (fatigue) or ``fractured`` (one load) because its front would come within
+the ligament of the surface, its last solved front is re-characterised as a
+semi-elliptical surface crack (:func:`surface_flaw`: in the crack's plane, centred where
+the depth line through the middle of the flaw's length meets the surface, depth =
+ligament + the flaw's height, half-length = half its length), cut into the body and
+grown by :func:`~bonecontact.runners.surface_crack3d.run_surface_crack` from the next
+increment number and the cycles of the last interior solve.  The surface phase's front
+size is the interior one's, or less where the deeper ellipse needs it (three elements
+within 0.6 b²/a).  ``fracture.csv`` is one table of both phases (``phase`` interior or
+surface; the last interior rows marked ``breaks_surface`` with the cycles of their
+solve), ``summary.json`` the surface run's with the interior growth and the
+re-characterisation under ``fracture.breakthrough``.  A re-characterised crack that
+cannot be cut into the body with its ligament (it reaches another surface) keeps the
+interior stop.  Restarting such a run is refused.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+
+from bonecontact.common.errors import ParameterError
+from bonecontact.common.geometry import point_triangle_distance
+from bonecontact.fracture.body3d import BodySurface
+from bonecontact.fracture.crack3d import SurfaceBreakingCrack
+from bonecontact.runners.front_growth3d import (
+    GROWTH3D_COLUMNS,
+    check_interior_growth,
+    run_interior_growth,
+)
+from bonecontact.runners.results import RunResult, write_summary
+from bonecontact.runners.surface_crack3d import (
+    SurfaceStart,
+    body_and_material,
+    prepare_surface,
+    run_surface_crack,
+)
+from bonecontact.scene import Scene, SceneError
+
+__all__ = [
+    "BREAKTHROUGH_COLUMNS",
+    "SurfaceFlaw",
+    "breaks_to_surface",
+    "check_breakthrough",
+    "run_breakthrough",
+    "surface_flaw",
+]
+
+#: Columns of ``fracture.csv`` of a run with both phases (a row per increment and point;
+#: the columns a phase does not have are empty).
+BREAKTHROUGH_COLUMNS = ("phase",) + tuple(
+    dict.fromkeys([*GROWTH3D_COLUMNS[:4], "depth", "half_length", "phi_deg", *GROWTH3D_COLUMNS[4:]])
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceFlaw:
+    """An interior flaw re-characterised as a surface flaw (:func:`surface_flaw`)."""
+
+    crack: SurfaceBreakingCrack
+    ligament: float  # the flaw's least distance to the surface along the depth line (m)
+    height: float  # its extent along the depth direction (m)
+    length: float  # its extent along the surface (m)
+
+    def summary(self) -> dict[str, Any]:
+        """The entry ``fracture.breakthrough.crack`` of summary.json."""
+        c = self.crack
+        return {
+            "centre": list(c.centre),
+            "normal": list(c.normal),
+            "axis": list(c.axis),
+            "depth": c.depth,
+            "half_length": c.half_length,
+            "ligament": self.ligament,
+            "height": self.height,
+            "length": self.length,
+        }
+
+
+def breaks_to_surface(scene: Scene) -> bool:
+    """Whether the scene asks its growing interior crack to become a surface crack."""
+    fr = scene.fracture
+    return fr is not None and fr.breakthrough == "surface_crack"
+
+
+def _edge_samples(V: np.ndarray, per_edge: int = 16) -> np.ndarray:
+    s = np.arange(per_edge)[:, None, None] / per_edge
+    return (V[None] + s * (np.roll(V, -1, axis=0) - V)[None]).reshape(-1, 3)
+
+
+def _ray_exit(body: BodySurface, p: np.ndarray, d: np.ndarray) -> float:
+    """The least s > 0 where p + s d meets a boundary triangle (Möller–Trumbore)."""
+    T = body.triangles
+    e1, e2 = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]
+    h = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    ok = np.abs(det) > 1e-300
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s0 = p - T[:, 0]
+    u = inv * np.einsum("ij,ij->i", s0, h)
+    q = np.cross(s0, e1)
+    v = inv * (q @ d)
+    s = inv * np.einsum("ij,ij->i", e2, q)
+    tol = 1e-12
+    hit = ok & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol) & (s > 0)
+    if not hit.any():
+        raise ParameterError("breakthrough", "the depth line does not meet the body's surface")
+    return float(s[hit].min())
+
+
+def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
+    """The planar interior flaw of polygonal ``front`` (its vertices, m) and unit
+    ``normal`` re-characterised as a semi-elliptical surface flaw.
+
+    The front point nearest the body's surface (16 points per edge) and the outward
+    normal of the boundary triangle nearest it, projected on the crack plane, give the
+    outward depth direction e; the axis t = n × e.  The flaw's length is the extent of
+    the vertices along t, its height their extent along e.  The depth line is the line
+    along e through the middle of the length at the nearest point's level; it meets the
+    surface at the centre C.  The ligament is the distance from the flaw's highest
+    vertex level to C along e, the depth = ligament + height, the half-length = half
+    the length (the rule of docs/theory/fracture.md).
+
+    Raises
+    ------
+    ParameterError
+        (key ``breakthrough``) the crack plane is (nearly) parallel to the surface there,
+        or the depth line does not meet it.
+    """
+    n = np.asarray(normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    V = np.asarray(front, dtype=float)
+    V = V - np.outer((V - V.mean(axis=0)) @ n, n)  # onto the mean plane
+    X = _edge_samples(V)
+    T = body.triangles
+    dist = np.array([point_triangle_distance(x, T).min() for x in X])
+    p = X[int(np.argmin(dist))]
+    tri = T[int(np.argmin(point_triangle_distance(p, T)))]
+    m = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+    m /= np.linalg.norm(m)
+    if float(m @ (p - tri[0])) > 0:  # the facet's normal points inward here: turn it
+        m = -m
+    e = m - (m @ n) * n
+    if np.linalg.norm(e) < 0.2:
+        raise ParameterError(
+            "breakthrough", "the crack plane is (nearly) parallel to the body's surface"
+        )
+    e /= np.linalg.norm(e)
+    t = np.cross(n, e)
+    along, up = V @ t, V @ e
+    mid = 0.5 * (along.max() + along.min())
+    p0 = p + (mid - p @ t) * t + (up.max() - p @ e) * e  # the depth line at the top level
+    ligament = _ray_exit(body, p0, e)
+    C = p0 + ligament * e
+    height = float(np.ptp(up))
+    length = float(np.ptp(along))
+    crack = SurfaceBreakingCrack(
+        tuple(map(float, C)),
+        tuple(map(float, n)),
+        ligament + height,
+        0.5 * length,
+        tuple(map(float, t)),
+    )
+    return SurfaceFlaw(crack, ligament, height, length)
+
+
+def _refuse(scene: Scene, restart: Any) -> None:
+    """One planar crack that grows; no restart (a SceneError on every rank)."""
+    path = str(scene.path)
+    if len(scene.cracks) != 1:
+        raise SceneError(
+            path,
+            "[fracture]",
+            "breakthrough",
+            f'"surface_crack" re-characterises a single crack; the scene has {len(scene.cracks)}'
+            ' (allowed values: "stop", "surface_crack")',
+        )
+    if restart:
+        raise SceneError(
+            path,
+            "[fracture]",
+            "breakthrough",
+            'a run with breakthrough = "surface_crack" cannot be restarted (its surface '
+            "phase continues the interior one): run it again from the start, or restart "
+            'a run with breakthrough = "stop"',
+        )
+
+
+def check_breakthrough(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> Any:
+    """Every check of the interior phase (the surface phase's crack is known only when
+    the interior one reaches the surface); the scene model on its first cracked mesh."""
+    _refuse(scene, None)
+    return check_interior_growth(scene, comm)
+
+
+def surface_scene(scene: Scene, flaw: SurfaceFlaw, h_interior: float) -> Scene:
+    """The scene whose ``[[crack]]`` is the re-characterised surface crack: its front
+    size the interior one's, or 0.2 b²/a when smaller (the integration domain of three
+    elements within 0.6 b²/a of a surface crack)."""
+    c = flaw.crack
+    h = min(h_interior, 0.2 * c.b**2 / c.a)
+    spec = dataclasses.replace(scene.cracks[0], crack=c)
+    fr = dataclasses.replace(scene.fracture, tip_size=h, breakthrough="stop")
+    return dataclasses.replace(scene, cracks=(spec,), fracture=fr)
+
+
+def _at_surface(scene: Scene) -> str:
+    """The interior stop at the surface: ``through`` (fatigue), ``fractured`` (one load;
+    under fatigue ``fractured`` is K_V at K_Ic, not the surface)."""
+    return "through" if scene.fracture.fatigue is not None else "fractured"
+
+
+def _interior_table(comm: MPI.Comm, outdir: Path) -> Path:
+    """The interior phase's fracture.csv moved aside (rank 0; every rank waits)."""
+    part = outdir / "fracture_interior.csv"
+    if comm.rank == 0:
+        (outdir / "fracture.csv").replace(part)
+    comm.barrier()
+    return part
+
+
+def merge_tables(
+    outdir: Path, interior: Path, last: int | None, cycles: float | None, name: str
+) -> None:
+    """fracture.csv of both phases (:data:`BREAKTHROUGH_COLUMNS`, rank 0): the interior
+    rows (those of increment ``last``, the re-characterised front, marked
+    ``breaks_surface`` with ``cycles``; ``last`` None: no transition), then the surface
+    phase's rows of ``outdir/fracture.csv`` when there are any."""
+    rows = []
+    with open(interior, newline="") as f:
+        for r in csv.DictReader(f):
+            if last is not None and int(r["increment"]) == last:
+                r["status"] = "breaks_surface"
+                r["cycles"] = repr(float(cycles))
+            rows.append({"phase": "interior", **r})
+    table = outdir / "fracture.csv"
+    if last is not None and table.exists():
+        with open(table, newline="") as f:
+            rows += [{"phase": "surface", "crack": name, **r} for r in csv.DictReader(f)]
+    with open(table, "w", newline="") as f:
+        w = csv.DictWriter(f, BREAKTHROUGH_COLUMNS, restval="")
+        w.writeheader()
+        w.writerows(rows)
+    interior.unlink()
+
+
+def run_breakthrough(
+    scene: Scene,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    output: Path | None = None,
+    progress: bool = True,
+    restart: str | Path | bool | None = None,
+) -> RunResult:
+    """Grow the scene's interior crack; when it reaches the surface, grow it on as the
+    re-characterised surface crack (module docstring).  ``restart`` is refused."""
+    t0 = time.perf_counter()
+    _refuse(scene, restart)
+    outdir = Path(output) if output is not None else scene.output.directory
+    interior = run_interior_growth(scene, comm, outdir, progress, None)
+    fr = interior.summary["fracture"]
+    g = fr["growth"]
+    part = _interior_table(comm, outdir)
+    if interior.status != "converged" or g["status"] != _at_surface(scene):
+        return _finish(comm, outdir, part, interior, None, fr, t0)
+    body = body_and_material(scene, comm)[0]
+    cycles = g["history"][-1]["cycles"] if scene.fracture.fatigue is not None else 0.0
+    start = SurfaceStart(g["increments"] + 1, float(cycles))
+    try:
+        flaw = surface_flaw(body, fr["crack"]["front"], fr["crack"]["normal"])
+        scene2 = surface_scene(scene, flaw, fr["crack"]["front_size"])
+        prepare_surface(scene2, comm)
+    except (ParameterError, SceneError) as exc:  # it reaches another surface: the stop
+        note = {"refused": str(exc), "increment": start.increment, "cycles": start.cycles}
+        return _finish(comm, outdir, part, interior, note, fr, t0)
+    try:
+        surface = run_surface_crack(scene2, comm, outdir, progress, None, start)
+    except SceneError as exc:  # its first mesh
+        interior.summary.update(status="failed", message=f"the surface crack: {exc}")
+        note = {"refused": str(exc), "increment": start.increment, "cycles": start.cycles}
+        return _finish(comm, outdir, part, interior, note, fr, t0)
+    note = {
+        "increment": start.increment,
+        "cycles": start.cycles,
+        "interior_status": g["status"],
+        "crack": flaw.summary(),
+        "front_size": scene2.fracture.tip_size,
+    }
+    return _finish(comm, outdir, part, surface, note, fr, t0, g["increments"])
+
+
+def _finish(comm, outdir, part, result, note, interior, t0, last=None) -> RunResult:
+    """Merge the tables, write summary.json: the final run's with ``fracture.interior``
+    (the interior phase's) and ``fracture.breakthrough`` (``note``)."""
+    cycles = None if note is None else note["cycles"]
+    if comm.rank == 0:
+        merge_tables(outdir, part, last, cycles, interior["crack"]["name"])
+    summary = dict(result.summary)
+    summary["fracture"] = dict(summary["fracture"], interior=interior, breakthrough=note)
+    summary["wall_time_s"] = time.perf_counter() - t0
+    write_summary(comm, outdir, summary)
+    comm.barrier()
+    return RunResult(summary["status"], summary, None, outdir)
