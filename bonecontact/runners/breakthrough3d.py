@@ -17,7 +17,9 @@ surface; the last interior rows marked ``breaks_surface`` with the cycles of the
 solve), ``summary.json`` the surface run's with the interior growth and the
 re-characterisation under ``fracture.breakthrough``.  A re-characterised crack that
 cannot be cut into the body with its ligament (it reaches another surface) keeps the
-interior stop.  Restarting such a run is refused.
+interior stop.  A restart continues from an interior checkpoint (the surface phase
+writes none): fracture.csv goes back to the interior table, the interior run restarts,
+the chain follows.
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ __all__ = [
     "SurfaceFlaw",
     "breaks_to_surface",
     "check_breakthrough",
+    "interior_table_back",
     "run_breakthrough",
     "surface_flaw",
 ]
@@ -177,32 +180,42 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
     return SurfaceFlaw(crack, ligament, height, length)
 
 
-def _refuse(scene: Scene, restart: Any) -> None:
-    """One planar crack that grows; no restart (a SceneError on every rank)."""
-    path = str(scene.path)
+def _refuse(scene: Scene) -> None:
+    """One planar crack (a SceneError on every rank)."""
     if len(scene.cracks) != 1:
         raise SceneError(
-            path,
+            str(scene.path),
             "[fracture]",
             "breakthrough",
             f'"surface_crack" re-characterises a single crack; the scene has {len(scene.cracks)}'
             ' (allowed values: "stop", "surface_crack")',
         )
-    if restart:
-        raise SceneError(
-            path,
-            "[fracture]",
-            "breakthrough",
-            'a run with breakthrough = "surface_crack" cannot be restarted (its surface '
-            "phase continues the interior one): run it again from the start, or restart "
-            'a run with breakthrough = "stop"',
-        )
+
+
+def interior_table_back(outdir: Path) -> None:
+    """Before a restart (rank 0): fracture.csv as the interior run wrote it — a surface
+    phase cut short leaves the interior table aside (put back), a finished run the table
+    of both phases (its interior rows kept, in the interior columns)."""
+    table, part = outdir / "fracture.csv", outdir / "fracture_interior.csv"
+    if part.exists():
+        part.replace(table)
+        return
+    if not table.exists():
+        return
+    with open(table, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows or "phase" not in rows[0]:
+        return
+    with open(table, "w", newline="") as f:
+        w = csv.DictWriter(f, GROWTH3D_COLUMNS, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(r for r in rows if r["phase"] == "interior")
 
 
 def check_breakthrough(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> Any:
     """Every check of the interior phase (the surface phase's crack is known only when
     the interior one reaches the surface); the scene model on its first cracked mesh."""
-    _refuse(scene, None)
+    _refuse(scene)
     return check_interior_growth(scene, comm)
 
 
@@ -265,11 +278,15 @@ def run_breakthrough(
     restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Grow the scene's interior crack; when it reaches the surface, grow it on as the
-    re-characterised surface crack (module docstring).  ``restart`` is refused."""
+    re-characterised surface crack (module docstring); ``restart``: continue from the
+    newest (``True``) or the named checkpoint of the interior phase."""
     t0 = time.perf_counter()
-    _refuse(scene, restart)
+    _refuse(scene)
     outdir = Path(output) if output is not None else scene.output.directory
-    interior = run_interior_growth(scene, comm, outdir, progress, None)
+    if restart and comm.rank == 0:
+        interior_table_back(outdir)
+    comm.barrier()
+    interior = run_interior_growth(scene, comm, outdir, progress, restart)
     fr = interior.summary["fracture"]
     g = fr["growth"]
     part = _interior_table(comm, outdir)

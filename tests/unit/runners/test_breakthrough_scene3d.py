@@ -25,8 +25,10 @@ m = 3, Δa_max = 0.1a; coarse (no accuracy asserted: what is checked is the chai
 * one load (``propagate``, K_Ic below every K, Δa = 0.1a), the penny at 2.28a:
   interior ``fractured`` at the surface after solve 0, the surface crack grows to
   ``max_increments``, the cycles column 0;
-* refusals: restart; two cracks; an unknown value (naming the allowed values); a scene
-  that does not grow its crack.
+* restart: the serial run's checkpoint before the last interior block continued on every
+  rank of the session gives the serial run to 1e-10, solving from that block on;
+* refusals: restart without a checkpoint; two cracks; an unknown value (naming the
+  allowed values); a scene that does not grow its crack.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ import numpy as np
 import pytest
 from _crack_scenes import (
     block_mesh,
+    continued_run,
     idle_barrier,
     read_table,
     run_in,
@@ -47,6 +50,7 @@ from _crack_scenes import (
     write_scene,
 )
 
+from bonecontact.common.errors import CheckpointError
 from bonecontact.runners import run_scene
 from bonecontact.scene import SceneError, load_scene
 from bonecontact.verification.problems import crack_block_scene
@@ -67,10 +71,13 @@ def _growth(fatigue: bool, blocks: int, k_ic: str = "") -> str:
     return f"propagate = true\nincrement = {DA!r}\nmax_increments = {blocks}\n"
 
 
-def _scene(mesh: Path, x0: float, *, fatigue=True, blocks=3, k_ic="", rule="surface_crack"):
+def _scene(
+    mesh: Path, x0: float, *, fatigue=True, blocks=3, k_ic="", rule="surface_crack", every=0
+):
     geometry = f"centre = [{x0 * A!r}, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = {A!r}"
     text = crack_block_scene(str(mesh), geometry, E=17.0e9, nu=0.3, sigma=1.0e6, h=H, points=1)
     text = text.replace("sigma_t = 133e6", f"sigma_t = 133e6\n{k_ic}")
+    text = text.replace("fields_every = 0", f"fields_every = 0\ncheckpoint_every = {every}")
     growth = _growth(fatigue, blocks)
     head = f'[fracture]\nbreakthrough = "{rule}"\n' if rule else "[fracture]\n"
     text = text.replace("[fracture]\n", head + ("" if fatigue else growth), 1)
@@ -143,7 +150,13 @@ def _check_rule(summary: dict) -> dict:
 
 @pytest.fixture(scope="module")
 def fatigue(mesh: Path):
-    return _run(mesh, "fatigue", x0=2.1, blocks=4)
+    return _run(mesh, "fatigue", x0=2.1, blocks=4, every=1)
+
+
+@pytest.fixture(scope="module")
+def serial(fatigue) -> Path:
+    """The serial run of the fatigue scene (the run itself on one rank)."""
+    return serial_reference(fatigue[1])
 
 
 def test_recharacterised_by_the_rule(fatigue) -> None:
@@ -220,9 +233,9 @@ def test_surface_phase_equals_a_direct_surface_scene(mesh: Path, fatigue) -> Non
 
 
 @pytest.mark.skipif(MPI.COMM_WORLD.size == 1, reason="compares a distributed run with a serial one")
-def test_same_answer_on_any_rank_count(fatigue) -> None:
+def test_same_answer_on_any_rank_count(fatigue, serial: Path) -> None:
     res, d = fatigue
-    ref = serial_reference(d)
+    ref = serial
     idle_barrier(MPI.COMM_WORLD)
     _same_tables(d / "out" / "fracture.csv", ref / "fracture.csv")
     want = json.loads((ref / "summary.json").read_text())["fracture"]
@@ -267,9 +280,26 @@ def test_one_load(mesh: Path) -> None:
     assert np.all(np.diff(depth) >= 0) and depth[-1] > crack["depth"]
 
 
+def test_restart_from_an_interior_checkpoint(fatigue, serial: Path) -> None:
+    """The serial run's checkpoint before interior block 2 (the last interior solve)
+    continued on every rank of the session: it solves increments 2 … 4 only (the
+    re-characterisation and the surface phase again) and gives the serial fracture.csv,
+    stop, cycles and re-characterised crack to 1e-10."""
+    _, d = fatigue
+    cont, out = continued_run(d, serial, 2)
+    idle_barrier(MPI.COMM_WORLD)
+    _same_tables(out / "fracture.csv", serial / "fracture.csv")
+    want = json.loads((serial / "summary.json").read_text())["fracture"]
+    got = cont.summary["fracture"]
+    assert got["growth"]["status"] == want["growth"]["status"] == "max_blocks"
+    assert got["growth"]["cycles"] == pytest.approx(want["growth"]["cycles"], rel=1e-10)
+    for key, v in want["breakthrough"]["crack"].items():
+        np.testing.assert_allclose(got["breakthrough"]["crack"][key], v, rtol=1e-10, atol=1e-13)
+
+
 def test_refusals(mesh: Path, fatigue) -> None:
     _, d = fatigue
-    with pytest.raises(SceneError, match=r"breakthrough.*cannot be restarted"):
+    with pytest.raises(CheckpointError, match="no growth checkpoint"):
         run_scene(load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=d / "again", restart=True)
     text = _scene(mesh / "block.msh", 2.1)
     bad = write_scene(d / "bad.toml", text.replace('"surface_crack"', '"continue"'))
