@@ -7,7 +7,9 @@ bridge is simple, lies in the body and keeps clear of the other cracks, the two 
 become one: a polyline from the far end of the first to the far end of the second
 (:func:`merged_crack`).  Anything else — a tip that meets another crack's flank (a T), tips
 side by side, a merged crack that would cut the body from surface to surface, different
-face friction — is not merged; :func:`facing_tips` says why.  Geometry only.
+face friction — is not merged; :func:`facing_tips` says why.  In 3D two planar cracks
+that meet and lie in one plane (:func:`coplanar`) become the convex hull of both, its
+edges no shorter than the integration domain (:func:`hull_polygon`).  Geometry only.
 """
 
 from __future__ import annotations
@@ -15,11 +17,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
+from scipy.spatial import ConvexHull
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import Crack2D
 
-__all__ = ["MERGE_ANGLE_DEG", "facing_tips", "far_end", "merged_crack"]
+__all__ = [
+    "MERGE_ANGLE_DEG",
+    "coplanar",
+    "facing_tips",
+    "far_end",
+    "hull_polygon",
+    "merged_crack",
+]
 
 #: The largest angle (°) between a tip's direction and the opposite of the other tip's
 #: direction, and between either and the bridge, for two tips to face each other.
@@ -99,3 +110,70 @@ def merged_crack(a: Crack2D, end_a: int, b: Crack2D, end_b: int, min_bridge: flo
     else:
         pts = np.vstack([pa, pb])
     return Crack2D(pts, tips)
+
+
+def coplanar(points: npt.ArrayLike, normal: npt.ArrayLike, tol: float) -> str:
+    """Why the ``points`` (n, 3) of two cracks do not lie in one plane ("" if they do):
+    the plane through their centroid normal to ``normal``, every point within ``tol``."""
+    P = np.asarray(points, dtype=float)
+    n = np.asarray(normal, dtype=float) / np.linalg.norm(normal)
+    off = float(np.abs((P - P.mean(axis=0)) @ n).max())
+    if off > tol:
+        return (
+            f"the cracks are not coplanar: their points lie up to {off:.3g} m off a common "
+            f"plane (at most {tol:.3g} m)"
+        )
+    return ""
+
+
+def _plane_basis(normal: np.ndarray) -> np.ndarray:
+    """Two unit vectors e1, e2 with (e1, e2, normal) right-handed, shape (2, 3)."""
+    n = normal / np.linalg.norm(normal)
+    trial = np.eye(3)[int(np.argmin(np.abs(n)))]
+    e1 = np.cross(trial, n)
+    e1 /= np.linalg.norm(e1)
+    return np.array([e1, np.cross(n, e1)])
+
+
+def _drop_short_edge(poly: np.ndarray, k: int) -> np.ndarray:
+    """The convex polygon (m, 2; counter-clockwise) without its edge k (vertex k to k + 1):
+    the edges before and after it extended to their intersection, which replaces both
+    ends (the polygon grows and stays convex); when they do not meet ahead (a turn of
+    180° or more over the two corners), vertex k + 1 is dropped."""
+    m = len(poly)
+    a0, a1 = poly[(k - 1) % m], poly[k]
+    b0, b1 = poly[(k + 2) % m], poly[(k + 1) % m]
+    da, db = a1 - a0, b1 - b0
+    det = da[0] * db[1] - da[1] * db[0]
+    keep = [i for i in range(m) if i != (k + 1) % m]
+    if abs(det) > 1e-12 * float(np.linalg.norm(da) * np.linalg.norm(db)):
+        rhs = b0 - a0
+        s = (rhs[0] * db[1] - rhs[1] * db[0]) / det
+        t = (rhs[0] * da[1] - rhs[1] * da[0]) / det
+        if s >= 1.0 and t >= 1.0:
+            out = poly[keep].copy()
+            out[keep.index(k)] = a0 + s * da
+            return out
+    return poly[keep]
+
+
+def hull_polygon(
+    points: npt.ArrayLike, normal: npt.ArrayLike, min_edge: float
+) -> npt.NDArray[np.float64]:
+    """The convex hull of ``points`` (n, 3) projected on the plane through their centroid
+    normal to ``normal``, counter-clockwise about it, with every edge at least
+    ``min_edge`` long: the shortest edge removed (:func:`_drop_short_edge`, the hull only
+    grows) until none is shorter or 6 vertices are left; shape (m, 3)."""
+    P = np.asarray(points, dtype=float)
+    n = np.asarray(normal, dtype=float)
+    origin = P.mean(axis=0)
+    basis = _plane_basis(n)
+    uv = (P - origin) @ basis.T
+    poly = uv[ConvexHull(uv).vertices]  # counter-clockwise in (e1, e2)
+    while len(poly) > 6:
+        edges = np.linalg.norm(np.roll(poly, -1, axis=0) - poly, axis=1)
+        k = int(np.argmin(edges))
+        if edges[k] >= min_edge:
+            break
+        poly = _drop_short_edge(poly, k)
+    return origin + poly @ basis

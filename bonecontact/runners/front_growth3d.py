@@ -13,8 +13,9 @@ A vertex of weight 0 (below K_Ic; ΔK at or below ΔK_th) holds its point
 (:func:`~bonecontact.fracture.advance3d.extend_surface`).
 Stops: ``arrested``, ``max_increments`` / ``max_blocks``, ``fractured`` (a front reaches
 the body's surface under one load; K_V reaches K_Ic under fatigue), ``through`` (fatigue:
-near the surface), ``joined`` (near another crack), ``not_convex`` (an advanced front that
-is not a convex polygon: the last good one kept, ``front_defect`` names the vertices).
+near the surface), ``joined`` (near another crack, unless both are coplanar: then, with
+``[fracture] joined = "merge"``, they become their convex hull and grow on,
+:func:`_merge`), ``not_convex`` (an advanced front that is not a convex polygon).
 ``fracture.csv``: a row per increment, crack and mid-edge (with the cycles, the advance
 ``da`` of the edge's first vertex, ``holds`` for an edge that does not move);
 ``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` and ``increment<k>/`` per increment;
@@ -51,6 +52,7 @@ from bonecontact.fracture.body3d import (
     mesh_body_with_planar_crack,
     mesh_body_with_planar_cracks,
 )
+from bonecontact.fracture.coalescence import coplanar, hull_polygon
 from bonecontact.fracture.crack3d import (
     PlanarCrack,
     TriangulatedCrack,
@@ -164,6 +166,10 @@ class Growth:
     cycles: float = 0.0
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
     defect: str | None = None  # why an advanced front was refused (stop not_convex)
+    names: list[str] | None = None  # the cracks' names after merges (None: the scene's)
+    coefficients: list[float] | None = None  # their face pairs' friction (idem)
+    merges: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    joined: str = ""  # why cracks that met were not merged (stop joined)
 
     def state(self, initial: list[TriangulatedCrack]) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -175,6 +181,9 @@ class Growth:
             "rows": self.rows,
             "cycles": self.cycles,
             "fatigue": self.fatigue.state(),
+            "names": self.names,
+            "coefficients": self.coefficients,
+            "merges": self.merges,
         }
 
     @classmethod
@@ -190,6 +199,9 @@ class Growth:
             int(state["rows"]),
             cycles=float(state.get("cycles", 0.0)),
             fatigue=FatigueProgress.from_state(state.get("fatigue")),
+            names=state.get("names"),
+            coefficients=state.get("coefficients"),
+            merges=list(state.get("merges", [])),
         )
 
 
@@ -373,10 +385,16 @@ def _meets(run: InteriorRun, cracks: list, i: int, V: np.ndarray, d: np.ndarray)
     crack's surface, else ``None``."""
     if _reaches_surface(run, V, d):
         return "fractured"
+    return "joined" if _met(run, cracks, i, V, d) is not None else None
+
+
+def _met(run: InteriorRun, cracks: list, i: int, V: np.ndarray, d: np.ndarray) -> int | None:
+    """The first crack other than ``i`` within the ligament of the front ``V`` (advancing
+    along ``d``), or ``None``."""
     probes = np.concatenate([V, _probes(V, d, run.ligament)])
     for j, other in enumerate(cracks):
         if j != i and _surface_distance(probes, other) < run.ligament:
-            return "joined"
+            return j
     return None
 
 
@@ -508,7 +526,7 @@ def _grow_fronts(
     advances (``still``, zeros, at a stop: the cracks stay the last good ones)."""
     fat = run.fracture.fatigue
     step = float(fat.da_max if fat is not None else run.fracture.increment)
-    new, advances = list(g.cracks), list(still)
+    new, advances, merging = list(g.cracks), list(still), []
     for i, crack in enumerate(g.cracks):
         if weights[i] is None:
             continue
@@ -522,6 +540,11 @@ def _grow_fronts(
             )
             return "not_convex", still
         stop = _meets(run, g.cracks, i, adv.vertices, adv.directions)
+        if stop == "joined" and run.fracture.joined == "merge":
+            merging.append((i, _met(run, g.cracks, i, adv.vertices, adv.directions)))
+            stop = None
+        elif stop == "joined":
+            g.joined = '[fracture] joined = "stop"'
         if stop is not None:
             g.at = i
             if fat is not None and stop == "fractured":
@@ -530,8 +553,79 @@ def _grow_fronts(
             return stop, still
         new[i] = extend_surface(crack, adv.vertices, adv.held)
         advances[i] = adv.da
+    if merging and _merge(run, g, new, merging):
+        return "joined", still
     g.cracks, g.increments = new, g.increments + 1
     return None, advances
+
+
+def _groups(pairs: list[tuple[int, int]]) -> list[list[int]]:
+    """The sets of cracks joined by ``pairs``, each sorted, in the order of their first."""
+    groups: list[set[int]] = []
+    for i, j in pairs:
+        hit = [s for s in groups if i in s or j in s]
+        merged = set().union({i, j}, *hit)
+        groups = [s for s in groups if s not in hit] + [merged]
+    return sorted((sorted(s) for s in groups), key=lambda s: s[0])
+
+
+def _merge(run: InteriorRun, g: Growth, new: list, pairs: list[tuple[int, int]]) -> bool:
+    """The advanced cracks ``new`` whose fronts met (``pairs``) merged in place into the
+    convex hull of each coplanar set (:func:`hull_polygon`, edges of at least the
+    ligament, as :func:`as_polygon`), named ``"<a>+<b>"``; ``True`` (nothing merged, the
+    reason in ``g.joined``) when a set is not coplanar (within half a front element),
+    differs in friction, or its hull would come within the ligament of the surface or
+    of another crack."""
+    names = list(g.names or run.names)
+    coefs = list(g.coefficients or [c.coefficient for c in run.scene.cracks])
+    out, merges = [], []
+    done: set[int] = set()
+    for group in _groups(pairs):
+        label = " and ".join(repr(names[k]) for k in group)
+        pts = np.concatenate([np.asarray(new[k].points, dtype=float) for k in group])
+        normal = np.asarray(new[group[0]].normal, dtype=float)
+        why = coplanar(pts, normal, 0.5 * run.size.h_tip)
+        if len({coefs[k] for k in group}) > 1:
+            why = why or "their faces have different friction coefficients"
+        if not why:
+            V = hull_polygon(pts, normal, run.ligament)
+            table = {"shape": "polygon", "vertices": V.tolist(), "normal": normal.tolist()}
+            merged = triangulated_from_polygon(planar_crack_from_table(table))
+            rest = [c for k, c in enumerate(new) if k not in group]
+            if _meets(run, [merged, *rest], 0, V, vertex_directions(V, normal)) is not None:
+                why = "the merged crack would come within the ligament of the surface or a crack"
+        if why:
+            g.at, g.joined = group[0], f"not merged: cracks {label} met: {why}"
+            return True
+        into = "+".join(names[k] for k in group)
+        merges.append({"cracks": [names[k] for k in group], "into": into})
+        out.append((group[0], merged, into, coefs[group[0]]))
+        done |= set(group)
+    out += [(k, c, names[k], coefs[k]) for k, c in enumerate(new) if k not in done]
+    out.sort(key=lambda e: e[0])
+    new[:] = [e[1] for e in out]
+    g.names, g.coefficients = [e[2] for e in out], [e[3] for e in out]
+    g.merges += [m | {"increment": g.increments} for m in merges]
+    if run.fracture.fatigue is not None:
+        g.fatigue.merged({})
+    return False
+
+
+def _renamed(run: InteriorRun, g: Growth) -> InteriorRun:
+    """The run with the cracks of ``g`` after merges: their names and face pairs."""
+    if g.names is None or tuple(g.names) == run.names:
+        return run
+    contacts = tuple(run.scene.contacts)
+    base = contacts[: len(contacts) - len(run.names)]
+    spec = run.scene.cracks[0]
+    pairs = tuple(
+        dataclasses.replace(spec, name=n, coefficient=c).face_pair(
+            _pair_name(n), "crack_upper", "crack_lower"
+        )
+        for n, c in zip(g.names, g.coefficients or [], strict=True)
+    )
+    scene = dataclasses.replace(run.scene, contacts=base + pairs)
+    return dataclasses.replace(run, scene=scene, names=tuple(g.names))
 
 
 def _mean_radius(crack: TriangulatedCrack) -> float:
@@ -624,12 +718,14 @@ def run_interior_growth(
     if comm.rank == 0:
         outdir.mkdir(parents=True, exist_ok=True)
     g = _start(run, cracks, comm, outdir, restart)
+    run = _renamed(run, g)
     table = RecordTable(comm, outdir / "fracture.csv", GROWTH3D_COLUMNS, append=bool(restart))
     status, message, frags = "converged", None, None
     every = scene.output.checkpoint_every
     try:
         while g.status is None:
             stop, cbs, failed = _increment(run, g, comm, timer, outdir, table)
+            run = _renamed(run, g)
             if failed is not None:
                 status, message = failed["status"], failed.get("message")
                 break
@@ -680,6 +776,8 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "fractured": g.status in _BROKEN,
                 "stopped_by": run.names[g.at] if g.status in _STOPPED_BY else None,
                 "front_defect": g.defect,
+                "merges": g.merges,
+                "joined": g.joined if g.status == "joined" else None,
                 "fragments": frags,
             },
         },
