@@ -16,7 +16,8 @@ that is solved and advanced again:
   the test);
 * two pennies offset by 0.15a in z (parallel, not coplanar: more than half a front
   element) stop ``joined`` and say why; ``joined = "stop"`` stops the coplanar ones;
-* on the session's ranks as on one (fracture.csv to 1e-10).
+* on the session's ranks as on one (fracture.csv to 1e-10), and continued from the
+  checkpoint written just after the merge.
 """
 
 from __future__ import annotations
@@ -29,7 +30,15 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from _crack_scenes import block_mesh, idle_barrier, run_in, same_tables, serial_reference
+from _crack_scenes import (
+    block_mesh,
+    continued_run,
+    idle_barrier,
+    run_in,
+    same_growth,
+    same_tables,
+    serial_reference,
+)
 from test_crack_growth_scene3d import SIGMA, A, H, _scene
 
 X = 1.7 * A  # the pennies' centres at x = ±X
@@ -134,3 +143,17 @@ def test_merge_same_on_any_rank_count(merged) -> None:
     np.testing.assert_allclose(
         got["crack"]["front"], want["crack"]["front"], rtol=0, atol=1e-10 * A
     )
+
+
+def test_restart_after_the_merge(merged) -> None:
+    """The serial run's checkpoint before increment 1 (just after the merge) continued on
+    every rank of the session: the merged crack comes back under its name with one face
+    pair, and fracture.csv, the stop and the front equal the serial run's (1e-10)."""
+    _, d = merged
+    serial = serial_reference(d)
+    state = json.loads((serial / "checkpoints" / "increment_00001" / "growth.json").read_text())
+    assert state["names"] == ["left+right"] and len(state["merges"]) == 1, state.get("names")
+    _, out = continued_run(d, serial, 1)
+    got, _ = same_growth(out, serial, A)
+    assert [c["name"] for c in got["cracks"]] == ["left+right"]
+    assert got["growth"]["merges"][0]["into"] == "left+right"

@@ -1,0 +1,108 @@
+"""The geometry of cracks that merge (bonecontact.fracture.coalescence), against cases
+worked by hand.
+
+* 2D: collinear facing tips merge into one polyline from far end to far end (the far
+  ends' tips kept, a mouth kept as a mouth, a bridge shorter than the given length closed
+  at its midpoint); a tip at another crack's flank, tips at 30°, tips side by side and a
+  crack from mouth to mouth are refused with the reason.
+* 3D: the hull of two coplanar octagons contains both, is convex, counter-clockwise
+  about the normal and has no edge shorter than asked (a short edge removed by extending
+  its neighbours: the hull only grows); points off the plane are not coplanar.
+* The fatigue bookkeeping across a merge: the block that merged integrates the leading
+  rate extrapolated from the two ends before it (ln r linear), by hand.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.coalescence import coplanar, facing_tips, hull_polygon, merged_crack
+from bonecontact.fracture.crack import Crack2D
+from bonecontact.runners.crack_fatigue import FatigueProgress
+
+L = 1.0e-3
+
+
+def test_collinear_tips_merge_far_end_to_far_end() -> None:
+    a = Crack2D(np.array([[-4.0, 0.0], [-1.0, 0.0], [-0.1, 0.0]]) * L)
+    b = Crack2D(np.array([[3.0, 0.0], [0.1, 0.0]]) * L)  # its tip 0 far, -1 facing
+    end_b, why = facing_tips(a, -1, b, 0.25 * L, 0.01 * L)
+    assert (end_b, why) == (-1, "")
+    m = merged_crack(a, -1, b, end_b, 0.01 * L)
+    np.testing.assert_allclose(m.points / L, [[-4, 0], [-1, 0], [-0.1, 0], [0.1, 0], [3, 0]])
+    assert m.tips == "both" and m.length == pytest.approx(7.0 * L)
+    closed = merged_crack(a, -1, b, end_b, 0.5 * L)  # a bridge of 0.2 < 0.5: its midpoint
+    np.testing.assert_allclose(closed.points / L, [[-4, 0], [-1, 0], [0, 0], [3, 0]], atol=1e-12)
+
+
+def test_an_edge_crack_merging_keeps_its_mouth() -> None:
+    edge = Crack2D(np.array([[-5.0, 0.0], [-0.1, 0.0]]) * L, "end")  # mouth at x = -5
+    inner = Crack2D(np.array([[0.1, 0.0], [2.0, 0.0]]) * L)
+    m = merged_crack(edge, -1, inner, 0, 0.01 * L)
+    assert m.tips == "end" and m.points[0, 0] == pytest.approx(-5 * L)
+    m = merged_crack(inner, 0, edge, -1, 0.01 * L)  # the other way round
+    assert m.tips == "start" and m.points[-1, 0] == pytest.approx(-5 * L)
+    other = Crack2D(np.array([[0.1, 0.0], [5.0, 0.0]]) * L, "start")  # mouth at x = 5
+    with pytest.raises(ParameterError, match="cut the body through"):
+        merged_crack(edge, -1, other, 0, 0.01 * L)
+
+
+@pytest.mark.parametrize(
+    ("b_points", "reason"),
+    [
+        ([[0.0, -2.0], [0.0, 2.0]], "T-junction"),  # the flank of a crossing crack
+        (
+            [[0.1, 0.0], [0.1 + 2 * math.cos(math.radians(30)), 2 * math.sin(math.radians(30))]],
+            "not collinear",
+        ),
+        ([[-2.0, 0.15], [0.05, 0.15]], "not collinear"),  # side by side, parallel
+        ([[0.1, 0.1], [2.1, 0.1]], "do not face each other"),  # offset: the bridge at 45°
+    ],
+    ids=["tee", "angle30", "side_by_side", "offset"],
+)
+def test_tips_that_do_not_face_each_other_are_refused(b_points: list, reason: str) -> None:
+    a = Crack2D(np.array([[-3.0, 0.0], [-0.0, 0.0]]) * L)
+    b = Crack2D(np.array(b_points) * L)
+    end_b, why = facing_tips(a, -1, b, 0.25 * L, 0.01 * L)
+    assert reason in why, why
+
+
+def _octagon(cx: float, r: float) -> np.ndarray:
+    t = 2 * math.pi * (np.arange(8) + 0.5) / 8
+    return np.column_stack([cx + r * np.cos(t), r * np.sin(t), np.zeros(8)])
+
+
+def test_the_hull_of_two_coplanar_octagons() -> None:
+    P = np.concatenate([_octagon(-1.7, 1.1), _octagon(1.7, 1.1)]) * L
+    for min_edge in (0.75 * L, 1.2 * L):
+        V = hull_polygon(P, [0.0, 0.0, 1.0], min_edge)
+        e = np.roll(V, -1, axis=0) - V
+        assert np.linalg.norm(e, axis=1).min() >= min_edge or len(V) == 6
+        turn = np.cross(e, np.roll(e, -1, axis=0))[:, 2]
+        assert np.all(turn > 0)  # convex, counter-clockwise about +z
+        normals = np.cross(e, [0.0, 0.0, 1.0])  # outward
+        dist = ((P[:, None, :] - V[None, :, :]) * normals[None]).sum(axis=2)
+        assert np.all(dist <= 1e-12 * L)  # every point of both octagons inside
+        assert np.abs(V[:, 2]).max() < 1e-15
+    # 0.842 mm edges at the ends, the two long sides 4.39 mm: all kept at 0.75 mm
+    assert len(hull_polygon(P, [0.0, 0.0, 1.0], 0.75 * L)) == 8
+    assert coplanar(P, [0, 0, 1], 0.01 * L) == ""
+    P[:8, 2] += 0.1 * L
+    assert "not coplanar" in coplanar(P, [0, 0, 1], 0.01 * L)
+
+
+def test_the_merging_block_extrapolates_the_leading_rate() -> None:
+    prog = FatigueProgress()
+    r0, r1 = 1.0e-9, 2.0e-9  # the rate doubles over the second block
+    for s, r in ((0.0, r0), (1.0e-4, r1)):
+        prog.add_end(s, r)
+    prog.merged({("a", -1): ("a+b", 0), ("a", 0): ("a+b", 0)})
+    n = prog.add_end(2.0e-4, 0.5e-9)  # the merged crack's rate is not used
+    g = math.log(r1 / r0) / 1.0e-4
+    block = (1.0 - math.exp(-g * 1.0e-4)) / (g * r1)
+    assert n - prog.cycles[-2] == pytest.approx(block, rel=1e-12)
+    assert prog.phases == [0, 2]
