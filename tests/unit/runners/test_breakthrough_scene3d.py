@@ -22,9 +22,10 @@ m = 3, Δa_max = 0.1a; coarse (no accuracy asserted: what is checked is the chai
 * fatigue, the penny at x = 2.28a (through after the first solve, no cycles yet) with
   K_Ic between the interior's and the surface crack's K: the surface crack runs unstably
   at once (``fractured``), the fragments the block split in two (volumes sum to 8W³);
-* one load (``propagate``, K_Ic below every K, Δa = 0.1a), the penny at 2.28a:
-  interior ``fractured`` at the surface after solve 0, the surface crack grows to
-  ``max_increments``, the cycles column 0;
+* one load (``propagate``, K_Ic below every K, Δa = 1.5a), the penny at 2.28a:
+  interior ``fractured`` at the surface after solve 0, the surface crack lengthens by
+  1.5a and its next increment reaches the faces y = ±4a: ``through`` after two surface
+  solves, the fragments the block's halves, the cycles column 0;
 * restart: the serial run's checkpoint before the last interior block continued on every
   rank of the session gives the serial run to 1e-10, solving from that block on;
 * refusals: restart without a checkpoint; two cracks; an unknown value (naming the
@@ -62,23 +63,31 @@ DA = 0.1 * A
 K_COLS = ("K_I", "K_II", "K_III", "G", "K_V", "kink_deg")
 
 
-def _growth(fatigue: bool, blocks: int, k_ic: str = "") -> str:
+def _growth(fatigue: bool, blocks: int, step: float = DA) -> str:
     if fatigue:
         return (
             f"[fracture.fatigue]\nC = 1e-20\nm = 3.0\nR = 0.1\nda_max = {DA!r}\n"
             f"max_blocks = {blocks}\n"
         )
-    return f"propagate = true\nincrement = {DA!r}\nmax_increments = {blocks}\n"
+    return f"propagate = true\nincrement = {step!r}\nmax_increments = {blocks}\n"
 
 
 def _scene(
-    mesh: Path, x0: float, *, fatigue=True, blocks=3, k_ic="", rule="surface_crack", every=0
+    mesh: Path,
+    x0: float,
+    *,
+    fatigue=True,
+    blocks=3,
+    k_ic="",
+    rule="surface_crack",
+    every=0,
+    step=DA,
 ):
     geometry = f"centre = [{x0 * A!r}, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = {A!r}"
     text = crack_block_scene(str(mesh), geometry, E=17.0e9, nu=0.3, sigma=1.0e6, h=H, points=1)
     text = text.replace("sigma_t = 133e6", f"sigma_t = 133e6\n{k_ic}")
     text = text.replace("fields_every = 0", f"fields_every = 0\ncheckpoint_every = {every}")
-    growth = _growth(fatigue, blocks)
+    growth = _growth(fatigue, blocks, step)
     head = f'[fracture]\nbreakthrough = "{rule}"\n' if rule else "[fracture]\n"
     text = text.replace("[fracture]\n", head + ("" if fatigue else growth), 1)
     if fatigue:
@@ -265,21 +274,6 @@ def test_fractures_once_at_the_surface(mesh: Path) -> None:
     assert t["K_V"][8:].max() >= 45e3 > t["K_V"][:8].max()
 
 
-def test_one_load(mesh: Path) -> None:
-    res, d = _run(mesh, "one_load", x0=2.28, fatigue=False, blocks=2, k_ic="K_Ic = 1e4")
-    fr = res.summary["fracture"]
-    assert fr["interior"]["growth"]["status"] == "fractured"
-    assert fr["interior"]["growth"]["increments"] == 0
-    crack = _check_rule(res.summary)
-    g = fr["growth"]
-    assert g["rule"] == "propagate" and g["status"] == "max_increments" and g["increments"] == 2
-    t = read_table(d / "out" / "fracture.csv")
-    assert list(t["increment"]) == [0] * 8 + [1] * 3 + [2] * 3
-    assert np.all(t["cycles"] == 0.0)
-    depth = t["depth"][8:].astype(float)
-    assert np.all(np.diff(depth) >= 0) and depth[-1] > crack["depth"]
-
-
 def test_restart_from_an_interior_checkpoint(fatigue, serial: Path) -> None:
     """The serial run's checkpoint before interior block 2 (the last interior solve)
     continued on every rank of the session: it solves increments 2 … 4 only (the
@@ -295,6 +289,30 @@ def test_restart_from_an_interior_checkpoint(fatigue, serial: Path) -> None:
     assert got["growth"]["cycles"] == pytest.approx(want["growth"]["cycles"], rel=1e-10)
     for key, v in want["breakthrough"]["crack"].items():
         np.testing.assert_allclose(got["breakthrough"]["crack"][key], v, rtol=1e-10, atol=1e-13)
+
+
+def test_one_load_runs_through(mesh: Path) -> None:
+    """One load with Δa = 1.5a: the surface crack's surface points (K_V ≈ 49 kPa√m, the
+    deepest 28.5) lengthen it by 1.5a per increment; the second increment would bring its
+    ends (c = 3.9a) to the faces y = ±4a: ``through`` after two surface solves, the
+    fragments the block cut by the crack plane z = 0."""
+    res, d = _run(
+        mesh, "through", x0=2.28, fatigue=False, blocks=5, k_ic="K_Ic = 1e4", step=1.5 * A
+    )
+    fr = res.summary["fracture"]
+    assert fr["interior"]["growth"]["status"] == "fractured"
+    g = fr["growth"]
+    assert g["status"] == "through" and g["fractured"] and g["increments"] == 2
+    vols = [f["volume"] for f in g["fragments"]]
+    assert sum(vols) == pytest.approx((2 * W) ** 3, rel=1e-10)
+    assert vols == pytest.approx([0.5 * (2 * W) ** 3] * 2, rel=1e-3)  # cells split by midpoint
+    t = read_table(d / "out" / "fracture.csv")
+    assert list(t["status"]) == ["breaks_surface"] * 8 + ["grows"] * 3 + ["through"] * 3
+    assert list(t["increment"]) == [0] * 8 + [1] * 3 + [2] * 3 and np.all(t["cycles"] == 0.0)
+    c, depth = (t[k][8:].astype(float) for k in ("half_length", "depth"))
+    w = (t["K_V"][8:11] / t["K_V"][8:11].max()) ** 2  # the three points, all above K_Ic
+    assert c[3] == pytest.approx(c[0] + 0.75 * A * (w[0] + w[2]), rel=1e-9)
+    assert depth[3] == pytest.approx(depth[0] + 1.5 * A * w[1], rel=1e-9)
 
 
 def test_refusals(mesh: Path, fatigue) -> None:
