@@ -205,6 +205,7 @@ def test_one_table_cycles_continue(fatigue) -> None:
         assert not (out / "fracture_interior.csv").exists()
 
 
+@pytest.mark.two_ranks  # no rank comparison: serial and 2 ranks only
 def test_surface_phase_equals_a_direct_surface_scene(mesh: Path, fatigue) -> None:
     """The second path: the re-characterised crack as a scene's own surface crack."""
     res, d = fatigue
@@ -255,6 +256,7 @@ def test_same_answer_on_any_rank_count(fatigue, serial: Path) -> None:
         np.testing.assert_allclose(got["breakthrough"]["crack"][key], v, rtol=1e-10, atol=1e-13)
 
 
+@pytest.mark.two_ranks  # no rank comparison: serial and 2 ranks only
 def test_fractures_once_at_the_surface(mesh: Path) -> None:
     """K_Ic = 45 kPa√m between the interior K (≤ 38 kPa√m) and the surface crack's
     (≈ 49 kPa√m at its surface points): it fractures at its first solve."""
@@ -291,6 +293,7 @@ def test_restart_from_an_interior_checkpoint(fatigue, serial: Path) -> None:
         np.testing.assert_allclose(got["breakthrough"]["crack"][key], v, rtol=1e-10, atol=1e-13)
 
 
+@pytest.mark.two_ranks  # no rank comparison: serial and 2 ranks only
 def test_one_load_runs_through(mesh: Path) -> None:
     """One load with Δa = 1.5a: the surface crack's surface points (K_V ≈ 49 kPa√m, the
     deepest 28.5) lengthen it by 1.5a per increment; the second increment would bring its
