@@ -124,13 +124,42 @@ def _ray_exit(body: BodySurface, p: np.ndarray, d: np.ndarray) -> float:
     return float(s[hit].min())
 
 
+def _unit(v: np.ndarray) -> np.ndarray:
+    """``v`` normalised until normalising it again leaves it unchanged (a scene given this
+    vector reads exactly it: the parser divides by the length once more)."""
+    for _ in range(8):
+        w = v / np.linalg.norm(v)
+        if np.array_equal(w, v):
+            break
+        v = w
+    return v
+
+
+def _outward_normal(T: np.ndarray, p: np.ndarray, d: float) -> np.ndarray:
+    """The outward normal of the boundary triangles ``T`` below the inside point ``p``
+    (``d`` its distance to them): the area-weighted mean normal of the nearest triangle
+    and those with a corner within d of the foot of p on it (on a faceted curved surface
+    the patch's mean, not one facet's turned normal)."""
+    i = int(np.argmin(point_triangle_distance(p, T)))
+    m = np.cross(T[i, 1] - T[i, 0], T[i, 2] - T[i, 0])
+    m /= np.linalg.norm(m)
+    m = -m if float(m @ (p - T[i, 0])) > 0 else m  # outward at p
+    near = np.min(np.linalg.norm(T - (p + d * m), axis=2), axis=1) < d
+    near[i] = True
+    tri = T[near]
+    mean = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]).sum(axis=0)
+    mean /= np.linalg.norm(mean)
+    return mean if float(mean @ m) > 0 else -mean
+
+
 def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
     """The planar interior flaw of polygonal ``front`` (its vertices, m) and unit
     ``normal`` re-characterised as a semi-elliptical surface flaw.
 
     The front point nearest the body's surface (16 points per edge) and the outward
-    normal of the boundary triangle nearest it, projected on the crack plane, give the
-    outward depth direction e; the axis t = n × e.  The flaw's length is the extent of
+    normal there (the area-weighted mean of the nearest boundary triangle and those with
+    a corner within the point's distance of its foot), projected on the crack plane,
+    give the outward depth direction e; the axis t = n × e.  The flaw's length is the extent of
     the vertices along t, its height their extent along e.  The depth line is the line
     along e through the middle of the length at the nearest point's level; it meets the
     surface at the centre C.  The ligament is the distance from the flaw's highest
@@ -143,26 +172,21 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
         (key ``breakthrough``) the crack plane is (nearly) parallel to the surface there,
         or the depth line does not meet it.
     """
-    n = np.asarray(normal, dtype=float)
-    n = n / np.linalg.norm(n)
+    n = _unit(np.asarray(normal, dtype=float))
     V = np.asarray(front, dtype=float)
     V = V - np.outer((V - V.mean(axis=0)) @ n, n)  # onto the mean plane
     X = _edge_samples(V)
     T = body.triangles
     dist = np.array([point_triangle_distance(x, T).min() for x in X])
     p = X[int(np.argmin(dist))]
-    tri = T[int(np.argmin(point_triangle_distance(p, T)))]
-    m = np.cross(tri[1] - tri[0], tri[2] - tri[0])
-    m /= np.linalg.norm(m)
-    if float(m @ (p - tri[0])) > 0:  # the facet's normal points inward here: turn it
-        m = -m
+    m = _outward_normal(T, p, float(dist.min()))
     e = m - (m @ n) * n
     if np.linalg.norm(e) < 0.2:
         raise ParameterError(
             "breakthrough", "the crack plane is (nearly) parallel to the body's surface"
         )
     e /= np.linalg.norm(e)
-    t = np.cross(n, e)
+    t = _unit(np.cross(n, e))
     along, up = V @ t, V @ e
     mid = 0.5 * (along.max() + along.min())
     p0 = p + (mid - p @ t) * t + (up.max() - p @ e) * e  # the depth line at the top level
