@@ -104,9 +104,8 @@ def _edge_samples(V: np.ndarray, per_edge: int = 16) -> np.ndarray:
     return (V[None] + s * (np.roll(V, -1, axis=0) - V)[None]).reshape(-1, 3)
 
 
-def _ray_exit(body: BodySurface, p: np.ndarray, d: np.ndarray) -> float:
-    """The least s > 0 where p + s d meets a boundary triangle (Möller–Trumbore)."""
-    T = body.triangles
+def _ray_exit(T: np.ndarray, p: np.ndarray, d: np.ndarray) -> float:
+    """The least s > 0 where p + s d meets a boundary triangle of ``T`` (Möller–Trumbore)."""
     e1, e2 = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]
     h = np.cross(d, e2)
     det = np.einsum("ij,ij->i", e1, h)
@@ -122,6 +121,23 @@ def _ray_exit(body: BodySurface, p: np.ndarray, d: np.ndarray) -> float:
     if not hit.any():
         raise ParameterError("breakthrough", "the depth line does not meet the body's surface")
     return float(s[hit].min())
+
+
+def _canonical(T: np.ndarray) -> np.ndarray:
+    """The triangles ``T`` (n, 3, 3) each started at its least vertex (lexicographic; the
+    cyclic order, so the orientation, kept) and sorted: the same array whatever the order
+    the partition gathered them in (the sums over them then agree to the last bit)."""
+    n = len(T)
+    first = np.zeros(n, dtype=int)
+    for k in (1, 2):
+        a, b = T[np.arange(n), first], T[:, k]
+        less = (b[:, 0] < a[:, 0]) | (
+            (b[:, 0] == a[:, 0])
+            & ((b[:, 1] < a[:, 1]) | ((b[:, 1] == a[:, 1]) & (b[:, 2] < a[:, 2])))
+        )
+        first = np.where(less, k, first)
+    T = T[np.arange(n)[:, None], (first[:, None] + np.arange(3)) % 3]
+    return T[np.lexsort(T.reshape(n, 9).T[::-1])]
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -176,7 +192,7 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
     V = np.asarray(front, dtype=float)
     V = V - np.outer((V - V.mean(axis=0)) @ n, n)  # onto the mean plane
     X = _edge_samples(V)
-    T = body.triangles
+    T = _canonical(np.asarray(body.triangles, dtype=float))
     dist = np.array([point_triangle_distance(x, T).min() for x in X])
     p = X[int(np.argmin(dist))]
     m = _outward_normal(T, p, float(dist.min()))
@@ -190,7 +206,7 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
     along, up = V @ t, V @ e
     mid = 0.5 * (along.max() + along.min())
     p0 = p + (mid - p @ t) * t + (up.max() - p @ e) * e  # the depth line at the top level
-    ligament = _ray_exit(body, p0, e)
+    ligament = _ray_exit(T, p0, e)
     C = p0 + ligament * e
     height = float(np.ptp(up))
     length = float(np.ptp(along))

@@ -22,7 +22,8 @@ that do not use the facets the run used:
 * the second path (serial and 2 ranks): the surface-crack scene given that crack directly
   grown one block gives the surface phase's K, front and (plus the interior cycles)
   cycles to 1e-10;
-* 2 (3) ranks: fracture.csv, the stop, the cycles, the crack as serially to 1e-10.
+* 2 (3) ranks: fracture.csv, the stop, the cycles, the crack as serially to 1e-10 (the
+  re-characterisation does not depend on the order the partition gathers the facets in).
 """
 
 from __future__ import annotations
