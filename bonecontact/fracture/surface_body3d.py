@@ -10,9 +10,11 @@ moved onto it) and inserts the two points where that line leaves the ellipse: th
 body (:class:`BodyArcFront`, its ends on the surface).  :func:`mesh_body_with_surface_crack`
 meshes the crack surface (bounded by the mouth and the front) with triangles graded
 towards the front, embeds it in the volume bounded by the cut boundary, meshes the volume
-by tetrahedra (HXT) and splits the crack nodes — the mouth's included, the front's not —
-into the faces ``crack_upper`` and ``crack_lower`` with gmsh's ``Crack`` plugin.  The
-boundary's facet groups keep their names and tags.  All gmsh work runs on rank 0.
+by tetrahedra (HXT; Delaunay where HXT leaves a flat tetrahedron, as it can between the
+coplanar nodes of a coarse scan's facets) and splits the crack nodes — the mouth's
+included, the front's not — into the faces ``crack_upper`` and ``crack_lower`` with
+gmsh's ``Crack`` plugin.  The boundary's facet groups keep their names and tags.  All
+gmsh work runs on rank 0.
 
 Limits: one planar crack, one cell group; the mouth must be one chain of the surface
 (the plane must not graze the surface near the crack).
@@ -331,6 +333,20 @@ def _segment_exit(ell: EllipticalFront, p: np.ndarray, q: np.ndarray) -> float:
     return float((-B + math.sqrt(max(B * B - 4 * A * Cc, 0.0))) / (2 * A))
 
 
+def _opened(cut: _Cutter, chain: list[int], ell: EllipticalFront) -> list[int]:
+    """A closed chain (its ends joined by a chord: the plane cuts a loop of the surface
+    such as a canal's wall) that starts inside the ellipse, started instead at its node
+    farthest outside it (a closed chain starts at its lowest node index, wherever that
+    lies); any other chain as it is."""
+    ends = tuple(sorted((chain[0], chain[-1])))
+    closed = len(chain) > 2 and any(tuple(sorted(c)) == ends for c in cut.chords.values())
+    rho = _ellipse_rho(ell, np.asarray(cut.nodes)[chain])
+    if not closed or rho[0] >= 1.0:
+        return chain
+    k = int(np.argmax(rho))
+    return chain[k:] + chain[:k]
+
+
 def _mouth_chain(cut: _Cutter, ell: EllipticalFront) -> tuple[list[int], list[float]]:
     """The chain through the crack's centre: its nodes inside the ellipse and the exit
     fractions on the segments beyond each end."""
@@ -343,7 +359,7 @@ def _mouth_chain(cut: _Cutter, ell: EllipticalFront) -> tuple[list[int], list[fl
             best = (d, chain)
     if best is None or best[0] > ell.b:
         raise ParameterError("centre", "the crack plane does not cut the body's surface there")
-    chain = best[1]
+    chain = _opened(cut, best[1], ell)
     rho = _ellipse_rho(ell, X[chain])
     inside = np.flatnonzero(rho < 1.0)
     k0 = int(np.argmin(np.linalg.norm(X[chain] - C, axis=1)))
@@ -655,7 +671,32 @@ def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int],
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)
     gmsh.model.mesh.generate(3)
+    if _flat_tetrahedra(size.h_tip):  # HXT left a sliver (zero volume): Delaunay instead
+        gmsh.model.mesh.clear([(3, volume)])
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+        gmsh.model.mesh.generate(3)
+        if n := _flat_tetrahedra(size.h_tip):
+            raise MeshingError(f"the volume mesh has {n} flat tetrahedra (zero volume)")
     _split(crack, mouth, tags, mouth_tag)
+
+
+#: a tetrahedron of volume below this fraction of h_tip³ is flat (a sliver: the stiffness
+#: matrix is singular)
+FLAT_VOLUME = 1e-9
+
+
+def _flat_tetrahedra(h_tip: float) -> int:
+    """The number of tetrahedra of the current model whose volume is below
+    :data:`FLAT_VOLUME` h_tip³ (gmsh, rank 0)."""
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    x = np.zeros((int(tags.max()) + 1, 3))
+    x[tags.astype(np.int64)] = coords.reshape(-1, 3)
+    _, conn = gmsh.model.mesh.getElementsByType(4)
+    t = x[np.asarray(conn, dtype=np.int64).reshape(-1, 4)]
+    six_vol = np.einsum(
+        "ij,ij->i", np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), t[:, 3] - t[:, 0]
+    )
+    return int(np.count_nonzero(np.abs(six_vol) < 6.0 * FLAT_VOLUME * h_tip**3))
 
 
 def _split(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:

@@ -46,7 +46,7 @@ from bonecontact.fracture.crack3d import SurfaceBreakingCrack
 from bonecontact.fracture.faces import face_interface, face_traction
 from bonecontact.fracture.front3d import front_interaction_integral
 from bonecontact.fracture.meshing import TipMesh
-from bonecontact.fracture.surface3d import domain_length
+from bonecontact.fracture.surface3d import MIN_DOMAIN_ELEMENTS, domain_length
 from bonecontact.fracture.surface_body3d import (
     CutBody,
     cut_mouth,
@@ -313,6 +313,29 @@ def crack_tractions(
     return ft.plus, ft.minus
 
 
+#: the factor the domain's half-length along the front is shortened by while it reaches
+#: the surface (down to MIN_DOMAIN_ELEMENTS front elements)
+SHORTEN = 0.8
+
+
+def _front_k(u: Any, block: Any, phi: float, material: Isotropic, dom: tuple, traction):
+    """K at ``phi`` with the domain ``dom`` = (r_out, half-length, h_front); where the domain
+    reaches the body's surface (a front point near the mouth on a surface oblique to the
+    front's end: the tube's end, cut by the plane normal to the front, leans out of the
+    body) its half-length is shortened by :data:`SHORTEN` until it does not, down to
+    MIN_DOMAIN_ELEMENTS front elements (then the error; collective)."""
+    r_out, length, h = dom
+    while True:
+        try:
+            return front_interaction_integral(
+                u, block, phi, material, r_out, None, length, face_traction=traction
+            )
+        except ParameterError as exc:
+            if exc.key != "r_out" or SHORTEN * length < MIN_DOMAIN_ELEMENTS * h * (1 - 1e-9):
+                raise
+            length *= SHORTEN
+
+
 def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float, traction):
     """K at the front points (collective)."""
     cut: CutBody = cb.crack
@@ -322,9 +345,7 @@ def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float
     p0 = cut.arc.phi_range[0]
     for i, phi in enumerate(_front_parameters(cut, run.points, h)):
         length = domain_length(block.front, float(phi), r_out, h)
-        k = front_interaction_integral(
-            u, block, float(phi), run.material, r_out, None, length, face_traction=traction
-        )
+        k = _front_k(u, block, float(phi), run.material, (r_out, length, h), traction)
         kv = float(equivalent_k(k.K_I, k.K_II, k.K_III))
         kink = float(sigma1_kink(k.K_I, k.K_II, k.K_III)[0][0])
         x, y, z = k.point
