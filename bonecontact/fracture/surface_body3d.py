@@ -335,13 +335,13 @@ def _segment_exit(ell: EllipticalFront, p: np.ndarray, q: np.ndarray) -> float:
 
 def _opened(cut: _Cutter, chain: list[int], ell: EllipticalFront) -> list[int]:
     """A closed chain (its ends joined by a chord: the plane cuts a loop of the surface
-    such as a canal's wall) that starts inside the ellipse, started instead at its node
-    farthest outside it (a closed chain starts at its lowest node index, wherever that
-    lies); any other chain as it is."""
+    such as a canal's wall) started at its node farthest outside the ellipse (it starts at
+    its lowest node index, wherever that lies: the stretch inside the ellipse could wrap
+    round its ends); an open chain as it is.  The order along the loop is kept."""
     ends = tuple(sorted((chain[0], chain[-1])))
     closed = len(chain) > 2 and any(tuple(sorted(c)) == ends for c in cut.chords.values())
     rho = _ellipse_rho(ell, np.asarray(cut.nodes)[chain])
-    if not closed or rho[0] >= 1.0:
+    if not closed:
         return chain
     k = int(np.argmax(rho))
     return chain[k:] + chain[:k]
