@@ -241,7 +241,9 @@ def test_surface_points_on_the_cylinder_cycles_continue(mesh: Path, run) -> None
     k0 = fr["breakthrough"]["increment"]
     assert k0 == fr["interior"]["growth"]["increments"] + 1 and surf.sum() > 0
     assert set(t["increment"][surf]) == set(range(k0, fr["growth"]["increments"] + 1))
-    sag, _ = _sag_and_turn(_side_facets(mesh / "bar.msh"), np.asarray(fr["breakthrough"]["crack"]["centre"]))
+    sag, _ = _sag_and_turn(
+        _side_facets(mesh / "bar.msh"), np.asarray(fr["breakthrough"]["crack"]["centre"])
+    )
     for k in range(k0, fr["growth"]["increments"] + 1):
         P = _vtk_points(d / "out" / f"crack_surface_{k}.vtk")
         r = np.hypot(P[:, 0], P[:, 1])
