@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import segments_intersect
-from bonecontact.fracture.crack3d import TriangulatedCrack
+from bonecontact.fracture.crack3d import TriangulatedCrack, in_plane_axis
 from bonecontact.fracture.front3d import CrackBlock, FrontSIF, front_interaction_integral
 from bonecontact.materials.laws import Isotropic
 
@@ -355,7 +355,7 @@ def front_defects(vertices: npt.ArrayLike, normal: npt.ArrayLike) -> str | None:
     """
     V = np.asarray(vertices, dtype=float)
     n = _unit(np.asarray(normal, dtype=float))
-    u = _unit(np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))]))
+    u = in_plane_axis(n)
     P = np.column_stack([V @ u, V @ np.cross(n, u)])
     d = np.roll(P, -1, axis=0) - P  # edge k: vertex k to k + 1
     before = np.roll(d, 1, axis=0)  # edge k − 1, into vertex k

@@ -176,9 +176,31 @@ def body_surface(
     parts = comm.allgather((tri, tags))
     tri = np.concatenate([p[0] for p in parts]).reshape(-1, 3, 3)
     tags = np.concatenate([p[1] for p in parts]).astype(np.int32)
+    tri, tags = _canonical(tri, tags)
     edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
     names = {t: n for n, (d, t) in groups.items() if d == tdim - 1}
     return BodySurface(tri, tags, names, (region, region_tag), float(edges.max()))
+
+
+def _canonical(
+    T: npt.NDArray[np.float64], tags: npt.NDArray[np.int32]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
+    """The triangles ``T`` (n, 3, 3) each started at its least vertex (lexicographic; the
+    cyclic order, so the orientation, kept) and sorted, with their ``tags``: the same
+    arrays whatever order the partition gathered them in (sums over them then agree to
+    the last bit on any rank count)."""
+    n = len(T)
+    first = np.zeros(n, dtype=int)
+    for k in (1, 2):
+        a, b = T[np.arange(n), first], T[:, k]
+        less = (b[:, 0] < a[:, 0]) | (
+            (b[:, 0] == a[:, 0])
+            & ((b[:, 1] < a[:, 1]) | ((b[:, 1] == a[:, 1]) & (b[:, 2] < a[:, 2])))
+        )
+        first = np.where(less, k, first)
+    T = T[np.arange(n)[:, None], (first[:, None] + np.arange(3)) % 3]
+    order = np.lexsort(T.reshape(n, 9).T[::-1])
+    return T[order], tags[order]
 
 
 # ---------------------------------------------------------------------- gmsh (rank 0)
@@ -190,8 +212,8 @@ def _boundary_surfaces(body: BodySurface) -> list[int]:
         np.round(xyz / tol).astype(np.int64), axis=0, return_index=True, return_inverse=True
     )
     conn = inv.reshape(-1, 3) + 1
-    # a canonical order (the gathered order depends on the partition): each triangle
-    # from its smallest node, orientation kept; rows sorted
+    # gmsh's input in the order of the rounded nodes: each triangle from its smallest
+    # node, orientation kept; rows sorted
     first_node = np.argmin(conn, axis=1)
     conn = np.stack([np.roll(c, -k) for c, k in zip(conn, first_node, strict=True)])
     order = np.lexsort(conn.T[::-1])

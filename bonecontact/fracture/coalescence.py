@@ -22,6 +22,7 @@ from scipy.spatial import ConvexHull
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import Crack2D
+from bonecontact.fracture.crack3d import in_plane_axis
 
 __all__ = [
     "MERGE_ANGLE_DEG",
@@ -129,9 +130,7 @@ def coplanar(points: npt.ArrayLike, normal: npt.ArrayLike, tol: float) -> str:
 def _plane_basis(normal: np.ndarray) -> np.ndarray:
     """Two unit vectors e1, e2 with (e1, e2, normal) right-handed, shape (2, 3)."""
     n = normal / np.linalg.norm(normal)
-    trial = np.eye(3)[int(np.argmin(np.abs(n)))]
-    e1 = np.cross(trial, n)
-    e1 /= np.linalg.norm(e1)
+    e1 = in_plane_axis(n)
     return np.array([e1, np.cross(n, e1)])
 
 

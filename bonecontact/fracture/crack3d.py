@@ -30,6 +30,7 @@ __all__ = [
     "PlanarCrack",
     "SurfaceBreakingCrack",
     "TriangulatedCrack",
+    "in_plane_axis",
     "planar_crack_from_table",
     "triangulated_from_polygon",
 ]
@@ -159,8 +160,11 @@ def _positive(v: object, key: str) -> float:
     return float(v)
 
 
-def _default_axis(n: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """An in-plane unit vector: the coordinate axis least aligned with n, projected."""
+def in_plane_axis(n: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """A unit vector in the plane normal to the unit vector ``n``: the coordinate axis
+    least aligned with n, projected on the plane (the default axis of a disc, the first
+    axis of a plane's basis)."""
+    n = np.asarray(n, dtype=float)
     e = np.eye(3)[int(np.argmin(np.abs(n)))]
     u = e - np.dot(e, n) * n
     return u / np.linalg.norm(u)
@@ -279,7 +283,7 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack | SurfaceBreakingCrac
             if key in table:
                 raise ParameterError(key, 'applies to shape = "ellipse" only')
         a = b = _positive(table["radius"], "radius")
-        u = _default_axis(n)
+        u = in_plane_axis(n)
     else:
         if "radius" in table:
             raise ParameterError("radius", 'applies to shape = "disc" only (ellipse: semi_axes)')

@@ -123,24 +123,7 @@ def _ray_exit(T: np.ndarray, p: np.ndarray, d: np.ndarray) -> float:
     return float(s[hit].min())
 
 
-def _canonical(T: np.ndarray) -> np.ndarray:
-    """The triangles ``T`` (n, 3, 3) each started at its least vertex (lexicographic; the
-    cyclic order, so the orientation, kept) and sorted: the same array whatever the order
-    the partition gathered them in (the sums over them then agree to the last bit)."""
-    n = len(T)
-    first = np.zeros(n, dtype=int)
-    for k in (1, 2):
-        a, b = T[np.arange(n), first], T[:, k]
-        less = (b[:, 0] < a[:, 0]) | (
-            (b[:, 0] == a[:, 0])
-            & ((b[:, 1] < a[:, 1]) | ((b[:, 1] == a[:, 1]) & (b[:, 2] < a[:, 2])))
-        )
-        first = np.where(less, k, first)
-    T = T[np.arange(n)[:, None], (first[:, None] + np.arange(3)) % 3]
-    return T[np.lexsort(T.reshape(n, 9).T[::-1])]
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
+def _stable_unit(v: np.ndarray) -> np.ndarray:
     """``v`` normalised until normalising it again leaves it unchanged (a scene given this
     vector reads exactly it: the parser divides by the length once more)."""
     for _ in range(8):
@@ -188,11 +171,11 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
         (key ``breakthrough``) the crack plane is (nearly) parallel to the surface there,
         or the depth line does not meet it.
     """
-    n = _unit(np.asarray(normal, dtype=float))
+    n = _stable_unit(np.asarray(normal, dtype=float))
     V = np.asarray(front, dtype=float)
     V = V - np.outer((V - V.mean(axis=0)) @ n, n)  # onto the mean plane
     X = _edge_samples(V)
-    T = _canonical(np.asarray(body.triangles, dtype=float))
+    T = np.asarray(body.triangles, dtype=float)
     dist = np.array([point_triangle_distance(x, T).min() for x in X])
     p = X[int(np.argmin(dist))]
     m = _outward_normal(T, p, float(dist.min()))
@@ -202,7 +185,7 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
             "breakthrough", "the crack plane is (nearly) parallel to the body's surface"
         )
     e /= np.linalg.norm(e)
-    t = _unit(np.cross(n, e))
+    t = _stable_unit(np.cross(n, e))
     along, up = V @ t, V @ e
     mid = 0.5 * (along.max() + along.min())
     p0 = p + (mid - p @ t) * t + (up.max() - p @ e) * e  # the depth line at the top level
