@@ -14,6 +14,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import numpy as np
+import serial_store
 from cli_support import check_reaction_balance
 
 from bonecontact.runners import RunResult, run_scene
@@ -102,7 +103,8 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
 def run_text(text: str, path: Path, out: Path) -> RunResult:
     """Write the scene ``text`` to ``path/scene.toml`` (rank 0) and run it into ``out``
     (collective, in-process); a converged run's analyses must show reactions that
-    balance their loads (``cli_support.check_reaction_balance``)."""
+    balance their loads (``cli_support.check_reaction_balance``); on one rank a crack run
+    is kept as the serial reference of the MPI sessions (:mod:`serial_store`)."""
     scene_file = path / "scene.toml"
     if MPI.COMM_WORLD.rank == 0:
         scene_file.write_text(text)
@@ -111,4 +113,6 @@ def run_text(text: str, path: Path, out: Path) -> RunResult:
     if res.status == "converged":
         for table in (out, *sorted(Path(out).glob("mechanics_*"))):
             check_reaction_balance(table)
+    if MPI.COMM_WORLD.size == 1:
+        serial_store.keep(scene_file, Path(out))  # a crack run: the MPI sessions' reference
     return res

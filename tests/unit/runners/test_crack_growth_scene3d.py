@@ -178,9 +178,7 @@ def _two(mesh: Path) -> str:
 
 @pytest.fixture(scope="module")
 def two(mesh: Path):
-    d = run_dir(mesh, "two")
-    scene = write_scene(d / "scene.toml", _two(mesh))
-    res = run_scene(load_scene(scene), MPI.COMM_WORLD, output=d / "out", progress=False)
+    res, d = run_in(mesh, "two", _two(mesh))
     assert res.status == "converged", res.summary.get("message")
     return res, d
 

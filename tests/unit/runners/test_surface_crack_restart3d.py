@@ -23,10 +23,12 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+import serial_store
 from _crack_scenes import (
     L,
     read_table,
     run_dir,
+    run_serial_on_rank0,
     same_tables,
     surface_plate,
     surface_scene,
@@ -51,9 +53,12 @@ def uninterrupted(tmp_path_factory) -> Path:
     text = surface_scene(d / "plate.msh", h=H_FRONT, points=3, growth=GROWTH)
     text = text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
     scene = write_scene(d / "scene.toml", text)
-    if comm.rank == 0:
-        sub = MPI.COMM_SELF if comm.size > 1 else comm
-        res = run_scene(load_scene(scene), sub, output=d / "full", progress=False)
+    if comm.size > 1:
+        res = run_serial_on_rank0(scene, d / "full")  # kept by the serial session if it ran
+    else:
+        res = run_scene(load_scene(scene), comm, output=d / "full", progress=False)
+        serial_store.keep(scene, d / "full")
+    if res is not None:
         assert res.status == "converged", res.summary.get("message")
     comm.barrier()
     return d
