@@ -58,6 +58,21 @@ def pytest_collection_finish(session):
     gc.freeze()
 
 
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    """After a module's last test (its module fixtures finalised): one full collection,
+    then everything still alive (caches, the session's reports, compiled forms) moved to
+    the permanent generation too.  Without it the heap the session grows was scanned
+    twice after every test: 0.4 s a test late in a 2-rank session (test_spec's 171 tests
+    took 68 s, 0.02 s each when run alone).  A cycle that dies after being frozen is
+    collected at the next module's end."""
+    yield
+    if nextitem is None or getattr(nextitem, "module", None) is not getattr(item, "module", None):
+        gc.unfreeze()
+        gc.collect()
+        gc.freeze()
+
+
 #: The C++ meshes made on more than one rank since the last test ended (kept alive until
 #: the PETSc objects made on their communicators are destroyed).
 _PARALLEL_MESHES: list = []
