@@ -32,6 +32,8 @@
 # test; empty: none)
 # MPI3_TESTS="tests/unit/contact ..." (what make test runs on 3+ ranks; empty: everything)
 # PYTEST_ARGS="-k hertz" (added to every pytest call).
+# BONECONTACT_TEST_SERIAL_STORE=<dir> (where the serial session keeps its fracture runs for
+# the MPI sessions' serial references; default .venv/test-logs/serial-store; empty: off).
 
 SHELL := /bin/bash
 .SHELLFLAGS := -euo pipefail -c
@@ -48,6 +50,11 @@ MPI_SIZES    ?= 2 3
 SERIAL_WORKERS ?= 2
 TEST_TIMEOUT ?= 2400
 PYTEST_ARGS  ?=
+# Serial reference runs of the fracture scenes, kept by one test session for the later ones
+# (tests/unit/runners/serial_store.py: keyed by the package's files, the library versions,
+# the scene text and its mesh); emptied when the serial session starts;
+# BONECONTACT_TEST_SERIAL_STORE= turns it off.
+export BONECONTACT_TEST_SERIAL_STORE ?= $(CURDIR)/$(LOG_DIR)/serial-store
 
 # Keep MPI ranks from each starting a full set of BLAS/OpenMP threads.
 export OMP_NUM_THREADS ?= 1
@@ -162,6 +169,7 @@ notebooks: install
 # loadscope: module-scoped fixtures such as the demo runs and restart references are made
 # once); SERIAL_WORKERS=0 runs it in this process.
 define run_serial
+@if [ -n "$(BONECONTACT_TEST_SERIAL_STORE)" ]; then rm -rf "$(BONECONTACT_TEST_SERIAL_STORE)"; fi
 @SHOW="timeout $(TEST_TIMEOUT) $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadscope --durations=15 -m '$(SELECT)' $(PYTEST_ARGS)" \
   bash -c "$$RUN_PYTEST" run-pytest serial \
   timeout --kill-after=30 $(TEST_TIMEOUT) \
