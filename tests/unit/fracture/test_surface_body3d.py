@@ -34,6 +34,7 @@ rank 0 from the boundary gathered in a canonical order: the same mesh on every c
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 from mpi4py import MPI
@@ -101,19 +102,11 @@ def _cylinder() -> None:
 
 def _body(build, groups: dict, region: str):
     comm = MPI.COMM_WORLD
-    with gmsh_session("body") if comm.rank == 0 else _null():
+    with gmsh_session("body") if comm.rank == 0 else contextlib.nullcontext():
         if comm.rank == 0:
             build()
         md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
     return body_surface(md.mesh, md.cell_tags, md.facet_tags, groups, region)
-
-
-class _null:
-    def __enter__(self):
-        return None
-
-    def __exit__(self, *exc):
-        return False
 
 
 @pytest.fixture(scope="module")
