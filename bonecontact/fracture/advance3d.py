@@ -4,7 +4,7 @@
 * :func:`advance_polygon_front` — a planar convex polygonal front under mode I: every
   vertex moves in the crack plane along the bisector of its edges' outward normals by
   Δa_i = Δa_max (K_i/K_max)^n (optionally smoothed over three vertices); the advanced
-  vertices of both advances lie on a grid of about 10⁻¹⁰ Δa_max (:func:`on_grid`).
+  vertices of both advances lie on a grid of about 10⁻⁶ Δa_max (:func:`on_grid`).
 * :func:`sigma1_kink`, :func:`equivalent_k` — the σ₁′ criterion of Schöllmann et al.
   (2002): the kink angle φ₀ that maximises σ₁′ = σ_φ/2 + ½√(σ_φ² + 4τ_φz²) of the
   near-front field, the twist angle ψ₀ and K_V = K_I/2 + ½√(K_I² + 5.336K_II² + 4K_III²).
@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bonecontact.common.errors import ParameterError
+from bonecontact.common.geometry import on_advance_grid
 from bonecontact.fracture.crack import segments_intersect
 from bonecontact.fracture.crack3d import TriangulatedCrack, in_plane_axis
 from bonecontact.fracture.front3d import CrackBlock, FrontSIF, front_interaction_integral
@@ -118,15 +119,14 @@ def advance_polygon_front(
 
 
 def on_grid(points: npt.ArrayLike, da_max: float) -> npt.NDArray[np.float64]:
-    """``points`` rounded to a grid of spacing 2^(⌊log₂ Δa_max⌋ − 32) (about 10⁻¹⁰ of the
-    advance): the advanced vertices come from K whose round-off differs with the number of
-    ranks, and gmsh meshes a front moved by 10⁻¹⁶ differently (K of the next solve then
-    differed by 1.7·10⁻⁵ between 1 and 2 ranks); on the grid every rank count meshes the
-    same front."""
+    """``points`` rounded to a grid of spacing 2^(⌊log₂ Δa_max⌋ − 20) (about 10⁻⁶ of the
+    advance; :func:`~bonecontact.common.geometry.on_advance_grid`): the advanced vertices
+    come from K whose round-off differs with the number of ranks, and gmsh meshes a front
+    moved by 10⁻¹⁶ differently (K of the next solve then differed by 1.7·10⁻⁵ between 1
+    and 2 ranks); on the grid every rank count meshes the same front."""
     if not da_max > 0:
         raise ParameterError("increment", f"the advance must be positive, got {da_max}")
-    q = 2.0 ** (math.floor(math.log2(da_max)) - 32)
-    return np.round(np.asarray(points, dtype=float) / q) * q
+    return on_advance_grid(points, da_max)
 
 
 # ------------------------------------------------------------------ mixed mode (σ₁′)

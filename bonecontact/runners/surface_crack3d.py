@@ -38,6 +38,7 @@ import ufl
 from dolfinx import fem, mesh
 
 from bonecontact.common.errors import ParameterError, RunError
+from bonecontact.common.geometry import on_advance_grid
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.advance3d import equivalent_k, sigma1_kink
@@ -523,11 +524,11 @@ def _stop(run: SurfaceRun, g: Growth, kv: np.ndarray, rates: np.ndarray) -> str 
 
 def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> SurfaceBreakingCrack:
     """The crack with its three points advanced: the fastest by ``step``.  The advances
-    are rounded to a grid of spacing 2^(⌊log₂ step⌋ − 32) (as the 2D runner rounds its
-    grown tips): they come from K whose round-off differs with the number of ranks, and
-    gmsh turns a crack 1e-19 m larger into another mesh."""
-    q = 2.0 ** (math.floor(math.log2(step)) - 32)
-    d = np.round(step * rates / rates.max() / q) * q
+    are rounded to a grid of about 1e-6 of the step
+    (:func:`~bonecontact.common.geometry.on_advance_grid`): they come from K whose
+    round-off differs with the number of ranks, and gmsh turns a crack 1e-19 m larger into
+    another mesh."""
+    d = on_advance_grid(step * rates / rates.max(), step)
     return crack.grown(
         crack.depth + d[1], crack.half_length + 0.5 * (d[0] + d[2]), 0.5 * (d[0] - d[2])
     )

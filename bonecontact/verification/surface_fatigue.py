@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bonecontact.common.errors import ParameterError
+from bonecontact.common.geometry import on_advance_grid
 from bonecontact.fracture.fatigue import ParisLaw, block_cycles
 from bonecontact.fracture.surface3d import SurfaceCrack
 from bonecontact.verification.surface_crack import PlateProblem, solve_plate, surface_crack_k
@@ -127,19 +128,11 @@ def grow_surface_crack(
         land = a + ds * rate[0] / rate.max() > problem.t - ligament  # on the thin ligament
         if land:
             ds = (problem.t - ligament - a) * rate.max() / rate[0]
-        da, dc = _on_grid(ds * rate / rate.max(), da_max)
+        da, dc = on_advance_grid(ds * rate / rate.max(), da_max)
         a_new = float(problem.t - ligament) if land else float(a + da)
         c = max(float(c + dc), a_new)  # a/c <= 1 (Newman-Raju's range)
         a, s = a_new, float(s + ds)
     return rec
-
-
-def _on_grid(d: np.ndarray, step: float) -> np.ndarray:
-    """The advances ``d`` rounded to a grid of spacing 2^(⌊log₂ step⌋ − 32): they come from
-    K whose round-off differs with the number of ranks, and gmsh turns a crack 1e-19
-    larger into another mesh (measured: K of the grown crack 0.8 % apart on 2 ranks)."""
-    q = 2.0 ** (math.floor(math.log2(step)) - 32)
-    return np.round(np.asarray(d, dtype=float) / q) * q
 
 
 def _nr_rates(law: ParisLaw, S: float, a: float, c: float, t: float, b: float, phi_s: float):

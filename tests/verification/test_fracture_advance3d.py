@@ -34,7 +34,7 @@ Mixed mode: the octagon (circumradius a = 1) with its normal at 45° to the load
 
 Mode I on 2 and 3 ranks: K_I at the mid-edges of both increments and the three fronts equal
 the serial run's (rank 0 on COMM_SELF) to 1e-10 (measured: K 1.4·10⁻¹⁴ of the largest, the
-fronts bit-equal).  The advanced vertices lie on a grid of about 10⁻¹⁰ Δa_max
+fronts bit-equal).  The advanced vertices lie on a grid of about 10⁻⁶ Δa_max
 (advance3d.on_grid); without it gmsh meshed the round-off of the first advance into a
 different mesh and the second K_I differed by 1.7·10⁻⁵.
 """

@@ -44,13 +44,15 @@ References and measured values (serial; 2 ranks):
   refused "(nearly) tangent" while the side of a grown crack's depth came from the facets
   within max(a, c) (the base of the body, 14 mm below and normal to the plane, among them).
 
-Slow: blocks of 4 mm until the crack runs through the body (11 blocks, 4.69·10⁵ cycles;
-test_the_crack_runs_through_the_body has the figures).  K_V peaks at 116.6 kPa√m
-(c = 13.5 mm) and falls to 56.6 at a = 12.7 mm as the front enters the half of the body the
-flexion's follower load compresses; from a = 16.7 mm the faces are closed (K_I < 0.1 K_II)
-and the planar crack grows by mode II alone (kink −70°: a real crack would leave its plane
-here; the planar model goes on) until its front leaves the body (a = 25.1, c = 44.0 mm).
-About 12 solves: 23 min serial on a loaded 2-core machine.  Serial (fast part) about 60 s.
+Slow: blocks of 4 mm until the crack runs through the body (11 blocks, 5.07·10⁵ cycles;
+test_the_crack_runs_through_the_body has the figures and why the cycles are checked
+against the recorded K, not pinned), the same on 2 and 3 ranks.  K_V peaks at 117.1
+kPa√m (c = 13.8 mm) and falls to 53.8 at a = 13.2 mm as the front enters the half of the
+body the flexion's follower load compresses; from a = 17.2 mm the faces are closed (K_I <
+0.1 K_II) and the planar crack grows by mode II alone (kink −70°: a real crack would leave
+its plane here; the planar model goes on) until its front leaves the body (the 11th crack
+a = 25.2, c = 43.9 mm).  About 12 solves: 7 min serial on a quiet 2-core machine, 12 min
+with a 2-rank run beside it.  Serial (fast part) about 60 s.
 """
 
 from __future__ import annotations
@@ -289,14 +291,32 @@ def test_deepest_k_against_newman_raju(runs) -> None:
 def test_three_blocks_past_the_canal_loop(runs) -> None:
     """The third block's crack (c = 6.4 mm) is cut into the canal's loop of the plane's
     intersection with the scan (it failed before the closed chain was opened outside the
-    ellipse); the lead point is a surface point (K_V there above the deepest point's)."""
+    ellipse); the lead point is a surface point (K_V there above the deepest point's).
+    Every crack follows from the K of fracture.csv by the Paris law: its three points (the
+    front's ends, the deepest point φ = 90°) advance by Δa_max da/dN / max da/dN, the depth
+    by the deepest point's, the half-length by the mean of the ends' (to 1e-8 m: the
+    advances are rounded to 1e-6 of Δa_max).  The final half-length 6.37 mm lies within
+    2 % of 6.39 mm, the run's with the advances rounded to 2⁻³² instead of 2⁻²⁰ of Δa_max
+    (other meshes: the noise of K at this mesh, measured −0.4 %)."""
     res = runs["crack"]
     g = res.summary["fracture"]["growth"]
     assert res.status == "converged", res.summary.get("message")
     assert g["status"] == "max_blocks" and g["increments"] == 3 and not g["fractured"]
+    tab = read_csv(runs["crack_dir"] / "out" / "fracture.csv")
+    a, c = A0, A0
+    for k in range(g["increments"]):
+        rows = tab["increment"] == k
+        assert tab["depth"][rows][0] == pytest.approx(a, abs=1e-8)
+        assert tab["half_length"][rows][0] == pytest.approx(c, abs=1e-8)
+        kv, phi = tab["K_V"][rows], tab["phi_deg"][rows]
+        rate = C_PARIS * kv[[0, int(np.argmin(np.abs(phi - 90.0))), -1]] ** M_PARIS
+        d = DA_MAX * rate / rate.max()
+        a, c = a + d[1], c + 0.5 * (d[0] + d[2])
     final = res.summary["fracture"]["crack"]["final"]
-    assert final["half_length"] == pytest.approx(6.3947e-3, rel=1e-3)
-    assert final["depth"] == pytest.approx(4.0668e-3, rel=1e-3)
+    assert final["depth"] == pytest.approx(a, abs=1e-8)
+    assert final["half_length"] == pytest.approx(c, abs=1e-8)
+    assert final["half_length"] == pytest.approx(6.39e-3, rel=0.02)
+    assert final["depth"] == pytest.approx(4.07e-3, rel=0.05)
     for h in g["history"]:
         assert h["K_V_surface"] > h["K_V_deepest"]
 
@@ -386,32 +406,54 @@ def through(tmp_path_factory) -> dict:
     sub = run_dir(d, "through")
     extra = crack_text(DA_THROUGH, 16)
     res = run_text(scene_text("through", d / "l4.msh", extra=extra), sub, sub / "out")
-    return {"res": res, "table": read_csv(sub / "out" / "fracture.csv")}
+    return {"res": res, "table": read_csv(sub / "out" / "fracture.csv"), "dir": sub}
 
 
 @pytest.mark.slow
 def test_the_crack_runs_through_the_body(through) -> None:
-    """Blocks of 4 mm from a = c = 2 mm: the crack passes the wall's corners (c = 17.4 mm,
-    refused before), its K_V peaks (116.6 kPa√m at c = 13.5 mm) and falls to half (56.6 at
-    a = 12.7 mm: the front reaches the body's compressed front half), then the faces close
+    """Blocks of 4 mm from a = c = 2 mm: the crack passes the wall's posterolateral corners,
+    its K_V peaks (117.1 kPa√m at c = 13.8 mm, the 4th crack) and falls below half (53.8 at
+    a = 13.2 mm: the front reaches the body's compressed front half), then the faces close
     (K_I < 0.1 K_II) and pure mode II drives it (kink −arccos(1/3) within 2°) until the
-    12th crack's front leaves the body: ``through`` after 11 blocks, 4.69·10⁵ cycles,
-    K_V = 236 kPa√m < K_Ic.  Fragments: the body on either side of the crack plane — their
-    sum the scan's enclosed volume (divergence theorem; 1e-5: the cut moves vertices within
-    2 % of an edge onto the plane, measured −7.9e-7), each the scan clipped by the plane
-    (exact for the faceted scan) within 0.1 % (cells by their midpoints; measured +0.006 %,
-    −0.011 %)."""
+    12th crack's front leaves the body: ``through`` after 11 blocks, 5.07·10⁵ cycles,
+    K_V = 237 kPa√m < K_Ic.
+
+    Cycles: no closed form exists for this body, and the count carries the noise of the
+    mesh at 4 mm blocks (m = 4.4 turns 1 % in K into 4.4 % in a block's cycles): a run
+    whose advances were rounded to a grid of 2⁻³² instead of 2⁻²⁰ of the block (the
+    cracks 1e-9 m apart, other meshes) gave the same 11 blocks, the peak K_V 116.6 kPa√m
+    (−0.4 %) and 4.69·10⁵ cycles (−7 %), most of it in the block after the minimum of K.
+    So the cycles are checked against what the recorded K imply: every block's count lies
+    between the block length over the larger and over the smaller of its end rates (any
+    rate between them; measured within), the last block (whose end is through) counts at
+    its start rate, the total lies within 20 % of integrating ln(da/dN) linear between
+    block ends (4.44·10⁵: the runner's cubic through four ends dips below the minimum of K,
+    +14 %).
+
+    Fragments: the body on either side of the crack plane — their sum the scan's enclosed
+    volume (divergence theorem; 1e-5: the cut moves vertices within 2 % of an edge onto
+    the plane, measured −7.9e-7), each the scan clipped by the plane (exact for the faceted
+    scan) within 0.1 % (cells by their midpoints; measured +0.006 %, −0.011 %)."""
     res = through["res"]
     assert res.status == "converged", res.summary.get("message")
     g = res.summary["fracture"]["growth"]
     print({k: g[k] for k in ("status", "increments", "cycles", "fragments")})
     assert g["status"] == "through" and g["fractured"] and g["increments"] == 11
-    assert g["cycles"] == pytest.approx(4.693e5, rel=0.01)
     hist = g["history"]
-    assert any(abs(h["half_length"] - 17.385e-3) < 1e-5 for h in hist)
     lead = np.array([max(h["K_V_surface"], h["K_V_deepest"]) for h in hist])
-    assert int(np.argmax(lead[:8])) == 3 and lead[3] == pytest.approx(116.6e3, rel=0.01)
+    print("lead K_V", lead)
+    assert int(np.argmax(lead[:8])) == 3 and lead[3] == pytest.approx(117e3, rel=0.02)
     assert lead[7] < 0.5 * lead[3] and lead[-1] < K_IC
+    rate = C_PARIS * lead**M_PARIS
+    blocks = np.diff([h["cycles"] for h in hist])
+    assert np.all(blocks >= DA_THROUGH / np.maximum(rate[:-1], rate[1:]))
+    assert np.all(blocks <= DA_THROUGH / np.minimum(rate[:-1], rate[1:]))
+    last = g["cycles"] - hist[-1]["cycles"]
+    assert last == pytest.approx(DA_THROUGH / rate[-1], rel=1e-12)
+    r0, r1 = rate[:-1], rate[1:]
+    loglin = float(np.sum(DA_THROUGH * (1 / r0 - 1 / r1) / np.log(r1 / r0))) + last
+    print(f"cycles {g['cycles']:.6g}, ln(da/dN) linear between block ends {loglin:.6g}")
+    assert g["cycles"] == pytest.approx(loglin, rel=0.2)
     tab = through["table"]
     late = tab["increment"] >= 8
     assert np.all(np.abs(tab["K_I"][late]) < 0.1 * np.abs(tab["K_II"][late]))
@@ -425,3 +467,27 @@ def test_the_crack_runs_through_the_body(through) -> None:
     assert frag["+normal"] + frag["-normal"] == pytest.approx(vol, rel=1e-5)
     assert frag["+normal"] == pytest.approx(clipped_volume(tri, c, n), rel=1e-3)
     assert frag["-normal"] == pytest.approx(clipped_volume(tri, c, -n), rel=1e-3)
+
+
+@pytest.mark.slow
+def test_the_through_run_on_ranks_equals_serial(through) -> None:
+    """On 2 and 3 ranks the whole run to the break equals the serial one (rank 0 alone):
+    fracture.csv to 1e-10 of each column's scale, the stop, the cycles and the fragments
+    (measured on 2 ranks: cycles 6e-14 apart, the fragments equal).  It departed at the
+    8th block while the advances were rounded to 2⁻³² of the block (one advance within
+    round-off of a grid midpoint: docs/theory/fracture.md, *The same answer on any number
+    of ranks*)."""
+    if MPI.COMM_WORLD.size == 1:
+        pytest.skip("serial")
+    sub = through["dir"]
+    run_serial_on_rank0(sub / "scene.toml", sub / "ser")
+    idle_barrier(MPI.COMM_WORLD)
+    same_tables(sub / "out" / "fracture.csv", sub / "ser" / "fracture.csv")
+    got, want = (
+        json.loads((sub / k / "summary.json").read_text())["fracture"]["growth"]
+        for k in ("out", "ser")
+    )
+    assert (got["status"], got["increments"]) == (want["status"], want["increments"])
+    assert got["cycles"] == pytest.approx(want["cycles"], rel=1e-10)
+    for a, b in zip(got["fragments"], want["fragments"], strict=True):
+        assert a["side"] == b["side"] and a["volume"] == pytest.approx(b["volume"], rel=1e-10)
