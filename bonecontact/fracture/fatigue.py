@@ -181,14 +181,30 @@ class FatigueResult:
 
 
 def _block_integral(s: np.ndarray, log_r: np.ndarray, i: int) -> float:
-    """∫ ds / r(s) over block i, ln r interpolated through the (up to) 4 nearest ends."""
+    """∫ ds / r(s) over block i, ln r interpolated through the (up to) 4 nearest ends; on a
+    block where that cubic leaves the range of the ends it passes through (a sharp extremum
+    of the rate, which it would overshoot), the line through the block's two ends."""
     npts = min(len(s), 4)
     lo = min(max(i - 1, 0), len(s) - npts)
     idx = list(range(lo, lo + npts))
     coef = np.polyfit(s[idx] - s[i], log_r[idx], len(idx) - 1)
     h = s[i + 1] - s[i]
     x = 0.5 * h * (1.0 + _GAUSS_X)
-    return float(0.5 * h * np.sum(_GAUSS_W * np.exp(-np.polyval(coef, x))))
+    log_rx = np.polyval(coef, x)
+    if _leaves_range(coef, h, log_r[idx]):
+        log_rx = log_r[i] + (log_r[i + 1] - log_r[i]) * x / h
+    return float(0.5 * h * np.sum(_GAUSS_W * np.exp(-log_rx)))
+
+
+def _leaves_range(coef: np.ndarray, h: float, values: np.ndarray) -> bool:
+    """Whether the polynomial ``coef`` leaves [min, max] of ``values`` on [0, h] (its values
+    at 0, h and its stationary points inside; slack 1e-12 of the values' size)."""
+    crit = np.roots(np.polyder(coef)) if len(coef) > 2 else np.zeros(0)
+    crit = crit.real[(np.abs(crit.imag) < 1e-12 * h) & (crit.real > 0) & (crit.real < h)]
+    p = np.polyval(coef, np.concatenate([[0.0, h], crit]))
+    lo, hi = float(values.min()), float(values.max())
+    slack = 1e-12 * max(1.0, abs(lo), abs(hi))
+    return bool(p.min() < lo - slack or p.max() > hi + slack)
 
 
 def block_cycles(growth: npt.ArrayLike, lead_rate: npt.ArrayLike) -> npt.NDArray[np.float64]:

@@ -140,3 +140,50 @@ def test_bad_growth_arguments_name_their_key():
         grow_by_fatigue(body, ParisLaw(C, 3.0), 1e-3, 1e-2, max_blocks=0)
     with pytest.raises(FractureError, match="rate"):
         block_cycles([0.0, 1.0], [1.0, 0.0])
+
+
+def test_block_cycles_do_not_overshoot_a_sharp_minimum_of_the_rate():
+    """The lead K_V of the scanned-L4 run to the break around its minimum (kPa√m: the front
+    enters the compressed half, then the faces close in shear), rates K^4.4, blocks of
+    4 mm.  The cubic through the four ends around the minimum dips below it (that block's
+    cycles 1.7 times the line's, as counted while the run goes, with the ends known so
+    far).  Every block, counted with all ends or with the ends known so far, stays between
+    its length over its larger and over its smaller end rate; the block after the minimum
+    is the line's Δs (1/r₀ − 1/r₁)/ln(r₁/r₀) (exact for an exponential rate)."""
+    k = np.array([102.0, 85.1, 53.8, 80.9, 112.1, 130.2]) * 1e3
+    r = C * k**4.4
+    h = 4e-3
+    s = h * np.arange(len(k))
+    lo, hi = h / np.maximum(r[:-1], r[1:]), h / np.minimum(r[:-1], r[1:])
+    every = block_cycles(s, r)
+    so_far = np.array([block_cycles(s[: j + 2], r[: j + 2])[-1] for j in range(len(k) - 1)])
+    for n in (every, so_far):
+        assert np.all(n >= lo) and np.all(n <= hi)
+    line = h * (1 / r[2] - 1 / r[3]) / math.log(r[3] / r[2])
+    assert so_far[2] == pytest.approx(line, rel=1e-12)
+    log_r = np.log(r[:4])  # what the unguarded cubic through those four ends gives
+    cubic = np.polyfit(s[:4] - s[2], log_r, 3)
+    x = 0.5 * h * (1.0 + np.polynomial.legendre.leggauss(8)[0])
+    w = np.polynomial.legendre.leggauss(8)[1]
+    unguarded = 0.5 * h * np.sum(w * np.exp(-np.polyval(cubic, x)))
+    assert unguarded > 1.5 * line and unguarded <= hi[2]
+
+
+def test_block_cycles_are_exact_for_an_exponential_rate():
+    """ln r linear in s through every end (r = r₀ 4^(s/Δs)): every block is exact."""
+    h = 4e-3
+    s = h * np.arange(5)
+    r = 1e-8 * 4.0 ** np.arange(5)
+    exact = h * (1 / r[:-1] - 1 / r[1:]) / np.log(4.0)
+    np.testing.assert_allclose(block_cycles(s, r), exact, rtol=1e-12)
+
+
+def test_block_cycles_keep_the_cubic_on_smooth_rates():
+    """A smooth monotone rate r = C (σ√(πa))^m with a from 10 to 20 mm in 5 blocks: the
+    cubic rule stays in place (no block falls back to the line) and gives the closed form
+    of Paris' law, N = ∫ da / (C (σ√(πa))^m), within 1e-4."""
+    m, sig = 4.0, 1.0e6
+    a = np.linspace(0.01, 0.02, 6)
+    r = C * (sig * np.sqrt(np.pi * a)) ** m
+    exact = (1 / a[0] - 1 / a[-1]) / (C * sig**m * np.pi**2)  # m = 4: ∫ a⁻² da / (C σ⁴ π²)
+    assert block_cycles(a, r).sum() == pytest.approx(exact, rel=1e-4)

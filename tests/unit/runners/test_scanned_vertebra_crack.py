@@ -44,7 +44,7 @@ References and measured values (serial; 2 ranks):
   refused "(nearly) tangent" while the side of a grown crack's depth came from the facets
   within max(a, c) (the base of the body, 14 mm below and normal to the plane, among them).
 
-Slow: blocks of 4 mm until the crack runs through the body (11 blocks, 5.07·10⁵ cycles;
+Slow: blocks of 4 mm until the crack runs through the body (11 blocks, 4.32·10⁵ cycles;
 test_the_crack_runs_through_the_body has the figures and why the cycles are checked
 against the recorded K, not pinned), the same on 2 and 3 ranks.  K_V peaks at 117.1
 kPa√m (c = 13.8 mm) and falls to 53.8 at a = 13.2 mm as the front enters the half of the
@@ -415,20 +415,21 @@ def test_the_crack_runs_through_the_body(through) -> None:
     its K_V peaks (117.1 kPa√m at c = 13.8 mm, the 4th crack) and falls below half (53.8 at
     a = 13.2 mm: the front reaches the body's compressed front half), then the faces close
     (K_I < 0.1 K_II) and pure mode II drives it (kink −arccos(1/3) within 2°) until the
-    12th crack's front leaves the body: ``through`` after 11 blocks, 5.07·10⁵ cycles,
+    12th crack's front leaves the body: ``through`` after 11 blocks, 4.32·10⁵ cycles,
     K_V = 237 kPa√m < K_Ic.
 
     Cycles: no closed form exists for this body, and the count carries the noise of the
     mesh at 4 mm blocks (m = 4.4 turns 1 % in K into 4.4 % in a block's cycles): a run
     whose advances were rounded to a grid of 2⁻³² instead of 2⁻²⁰ of the block (the
-    cracks 1e-9 m apart, other meshes) gave the same 11 blocks, the peak K_V 116.6 kPa√m
-    (−0.4 %) and 4.69·10⁵ cycles (−7 %), most of it in the block after the minimum of K.
-    So the cycles are checked against what the recorded K imply: every block's count lies
-    between the block length over the larger and over the smaller of its end rates (any
-    rate between them; measured within), the last block (whose end is through) counts at
-    its start rate, the total lies within 20 % of integrating ln(da/dN) linear between
-    block ends (4.44·10⁵: the runner's cubic through four ends dips below the minimum of K,
-    +14 %).
+    cracks up to 2e-9 m apart, other meshes) gave the same 11 blocks and the peak K_V
+    116.6 kPa√m (−0.4 %).  So the cycles are checked against what the recorded K imply:
+    every block's count lies between the block length over the larger and over the
+    smaller of its end rates (any rate between them), the last block (whose end is
+    through) counts at its start rate, and the total lies within 5 % of integrating
+    ln(da/dN) linear between block ends (4.44·10⁵; measured −2.8 %: the block rule's cubic
+    on the other blocks).  The block rule's cubic through the four ends around K's sharp
+    minimum had dipped below it (5.07·10⁵ cycles, +17 %); it now takes the line there
+    (fatigue.block_cycles).
 
     Fragments: the body on either side of the crack plane — their sum the scan's enclosed
     volume (divergence theorem; 1e-5: the cut moves vertices within 2 % of an edge onto
@@ -453,7 +454,7 @@ def test_the_crack_runs_through_the_body(through) -> None:
     r0, r1 = rate[:-1], rate[1:]
     loglin = float(np.sum(DA_THROUGH * (1 / r0 - 1 / r1) / np.log(r1 / r0))) + last
     print(f"cycles {g['cycles']:.6g}, ln(da/dN) linear between block ends {loglin:.6g}")
-    assert g["cycles"] == pytest.approx(loglin, rel=0.2)
+    assert g["cycles"] == pytest.approx(loglin, rel=0.05)
     tab = through["table"]
     late = tab["increment"] >= 8
     assert np.all(np.abs(tab["K_I"][late]) < 0.1 * np.abs(tab["K_II"][late]))
