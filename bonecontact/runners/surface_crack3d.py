@@ -16,11 +16,12 @@ one load; ``[fracture.fatigue]`` by the Paris rates of ΔK = (1 − R)K_V per bl
 and solves the analysis again.  It stops at arrest, at the increment or block limit, when
 K_V reaches K_Ic under fatigue (``fractured``: the crack runs unstably) or when the grown
 front would leave the body (``through``: it reaches the far surface); the two last report
-the fragments, the body on either side of the crack plane.  A grown crack that cannot
-be cut while its front stays inside, or meshed, or K that cannot be evaluated, ends the
-run ``failed`` with the reason.  ``fracture.csv`` has a row per increment and front point,
-``crack_surface_<k>.vtk`` the crack surface and ``crack_front_<k>.vtk`` the front with
-its K after increment k, ``increment<k>/`` the fields and tables of each solve.
+the fragments, the body on either side of the crack plane; ``out_of_plane`` (with
+``stop_out_of_plane``) when a growing point's σ₁′ kink exceeds ``max_kink_deg``
+(:func:`check_kink`: recorded always).  A crack that cannot be cut while its front stays
+inside, or meshed, or K that cannot be evaluated, ends the run ``failed``.
+``fracture.csv`` has a row per increment and front point, ``crack_surface_<k>.vtk`` and
+``crack_front_<k>.vtk`` the crack and its front with K, ``increment<k>/`` each solve.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -80,6 +82,7 @@ from bonecontact.scene.spec import FractureSpec
 
 __all__ = [
     "SURFACE_COLUMNS",
+    "PlanarModelWarning",
     "SurfaceRecord",
     "SurfaceStart",
     "check_surface_crack",
@@ -468,6 +471,8 @@ class Growth:
     rows: int = 0  # fracture.csv rows written
     first: int = 0  # the first increment (> 0: continues another run, SurfaceStart)
     cycles0: float = 0.0  # the cycles at the first increment
+    max_kink: dict[str, Any] | None = None  # the largest |kink| of a growing point so far
+    out_of_plane: dict[str, Any] | None = None  # where |kink| first exceeded the limit
 
     def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -479,6 +484,8 @@ class Growth:
             "fatigue": self.fatigue.state(),
             "history": self.history,
             "rows": self.rows,
+            "max_kink": self.max_kink,
+            "out_of_plane": self.out_of_plane,
         }
 
     @classmethod
@@ -500,14 +507,71 @@ class Growth:
             FatigueProgress.from_state(state["fatigue"]),
             list(state["history"]),
             int(state["rows"]),
+            max_kink=state.get("max_kink"),
+            out_of_plane=state.get("out_of_plane"),
         )
+
+
+def _growth_points(records: list[SurfaceRecord], cut: CutBody) -> list[int]:
+    """The rows of the three growth points: the φ₀ end, the deepest point, the φ₁ end."""
+    deep = math.degrees(_deepest_parameter(cut))
+    i = int(np.argmin([abs(r.phi_deg - deep) for r in records]))
+    return [0, i, len(records) - 1]
 
 
 def _three_points(records: list[SurfaceRecord], cut: CutBody) -> np.ndarray:
     """K_V at (the φ₀ end, the deepest point, the φ₁ end)."""
-    deep = math.degrees(_deepest_parameter(cut))
-    i = int(np.argmin([abs(r.phi_deg - deep) for r in records]))
-    return np.array([records[0].K_V, records[i].K_V, records[-1].K_V])
+    return np.array([records[i].K_V for i in _growth_points(records, cut)])
+
+
+class PlanarModelWarning(UserWarning):
+    """A crack grown in its plane whose σ₁′ kink at a growing point exceeds ``[fracture]
+    max_kink_deg``: a real crack would leave the plane there (summary.json
+    ``fracture.growth.out_of_plane``)."""
+
+
+def check_kink(
+    run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutBody, rates: np.ndarray
+) -> bool:
+    """Record the largest |σ₁′ kink| of the growing points of this solve — the three
+    growth points whose weight (``rates``, :func:`growth_weights`) is above 0 — in
+    ``g.max_kink`` and, the first time it exceeds ``[fracture] max_kink_deg``, that point
+    in ``g.out_of_plane``.  Returns whether that happened at this solve.  The same on
+    every rank (K are)."""
+    limit = float(run.fracture.max_kink_deg)
+    growing = [i for i, w in zip(_growth_points(records, cut), rates, strict=True) if w > 0.0]
+    if not growing:
+        return False
+    top = max(growing, key=lambda i: (abs(records[i].kink_deg), -i))
+    r = records[top]
+    if g.max_kink is None or abs(r.kink_deg) > g.max_kink["kink_deg"]:
+        g.max_kink = {
+            "kink_deg": abs(r.kink_deg),
+            "increment": r.increment,
+            "point": r.point,
+            "phi_deg": r.phi_deg,
+        }
+    if g.out_of_plane is not None or not abs(r.kink_deg) > limit:
+        return False
+    g.out_of_plane = {
+        "increment": r.increment,
+        "point": r.point,
+        "phi_deg": r.phi_deg,
+        "kink_deg": r.kink_deg,
+        "limit_deg": limit,
+    }
+    return True
+
+
+def out_of_plane_text(run: SurfaceRun, where: dict[str, Any]) -> str:
+    """The message of ``g.out_of_plane``: the crack, the increment, the point, the angle."""
+    return (
+        f"crack {run.name!r}, increment {where['increment']}: the sigma1' kink angle "
+        f"{where['kink_deg']:.1f} deg at growing front point {where['point']} (phi "
+        f"{where['phi_deg']:.1f} deg) exceeds [fracture] max_kink_deg = "
+        f"{where['limit_deg']:g} deg: a real crack would leave its plane here, the planar "
+        "model is outside its validity from this increment on"
+    )
 
 
 def _rates(run: SurfaceRun, kv: np.ndarray) -> np.ndarray:
@@ -619,8 +683,11 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
         }
     )
     stop = _stop(run, g, kv, rates)
+    flagged = check_kink(run, g, records, cut, rates)
     if stop is not None:
         return stop
+    if flagged and run.fracture.stop_out_of_plane:
+        return "out_of_plane"
     step = fat.da_max if fat is not None else run.fracture.increment
     nxt = _grown(g.crack, step, rates)
     if breaks_through(run, nxt):
@@ -728,6 +795,9 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
         except RunError as exc:
             failure = f"{exc}; the run stops after increment {g.increments} (written)"
             stop = "failed"
+        oop = g.out_of_plane
+        if comm.rank == 0 and oop is not None and oop["increment"] == records[0].increment:
+            warnings.warn(out_of_plane_text(run, oop), PlanarModelWarning, stacklevel=2)
         mark = stop or "grows"
         table.rows([dataclasses.replace(r, cycles=g.cycles, status=mark) for r in records])
         g.rows += len(records)
@@ -738,7 +808,10 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
         if stop is not None:
             g.status = stop
             frags = _fragments(cb) if stop in ("fractured", "through") else None
-            return ("converged", None, frags) if failure is None else ("failed", failure, None)
+            if failure is not None:
+                return "failed", failure, None
+            note = out_of_plane_text(run, g.out_of_plane) if stop == "out_of_plane" else None
+            return "converged", note, frags
         if every > 0 and g.first == 0 and g.increments % every == 0:
             with timer.phase("checkpoint"):
                 save_growth_state(comm, outdir, g.increments, g.state(run.crack))
@@ -751,6 +824,23 @@ def _where(run: SurfaceRun, g: Growth) -> str:
         f"crack {run.name!r}, increment {g.increments} (depth {c.depth:.6g} m, half-length "
         f"{c.half_length:.6g} m)"
     )
+
+
+def planar_validity(g: Growth, fr: FractureSpec) -> dict[str, Any]:
+    """The entries of ``fracture.growth`` on the validity of the planar model: the
+    largest |kink| of a growing point (``max_kink_deg``, ``max_kink_increment``,
+    ``max_kink_point``, ``max_kink_phi_deg``; ``null`` when no point grew), the limit
+    (``kink_limit_deg``) and ``out_of_plane`` (``null``, or the increment, point, φ, kink
+    and limit where |kink| first exceeded it)."""
+    mk = g.max_kink or {}
+    return {
+        "max_kink_deg": mk.get("kink_deg"),
+        "max_kink_increment": mk.get("increment"),
+        "max_kink_point": mk.get("point"),
+        "max_kink_phi_deg": mk.get("phi_deg"),
+        "kink_limit_deg": float(fr.max_kink_deg),
+        "out_of_plane": g.out_of_plane,
+    }
 
 
 def run_surface_crack(
@@ -802,6 +892,7 @@ def run_surface_crack(
                 "history": g.history,
                 "fractured": g.status in ("fractured", "through"),
                 "fragments": fragments,
+                **planar_validity(g, fr),
             },
         },
         "phases_s": timer.summary(comm),

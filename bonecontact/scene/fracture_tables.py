@@ -20,13 +20,18 @@ import numpy as np
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import Crack2D, crack_gap, points_in_polygon
-from bonecontact.fracture.crack3d import PlanarCrack, planar_crack_from_table
+from bonecontact.fracture.crack3d import (
+    PlanarCrack,
+    SurfaceBreakingCrack,
+    planar_crack_from_table,
+)
 from bonecontact.scene.errors import SceneError, describe_value, table_label
 from bonecontact.scene.spec import (
     CRACK3D_TABLE,
     CRACK_TABLE,
     FATIGUE_TABLE,
     FRACTURE_TABLE,
+    MAX_KINK_LIMIT_DEG,
     CrackSpec,
     FatigueSpec,
     FractureSpec,
@@ -106,6 +111,8 @@ def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> 
             "breakthrough",
             "applies to a growing crack: set propagate = true or add [fracture.fatigue]",
         )
+    values["max_kink_deg"] = _max_kink(tab)
+    values["stop_out_of_plane"] = tab.get(FRACTURE_TABLE["stop_out_of_plane"])
     if values["fatigue"] is not None and values["propagate"]:
         raise tab.error(
             "propagate",
@@ -113,6 +120,45 @@ def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> 
             "K_eq reaches K_Ic under one load) is the other rule: give one of them",
         )
     return FractureSpec(**values)
+
+
+def _max_kink(tab: TableReader) -> float:
+    """``max_kink_deg``: an angle in degrees, 0 < value ≤ 90."""
+    key = FRACTURE_TABLE["max_kink_deg"]
+    value = tab.number(key.name, default=key.default)
+    if not 0.0 < value <= MAX_KINK_LIMIT_DEG:
+        raise tab.error(
+            key.name,
+            f"the largest kink angle of the planar model must be in 0 < {key.name} <= "
+            f"{MAX_KINK_LIMIT_DEG:g} (degrees), got {tab.data[key.name]!r}",
+        )
+    return value
+
+
+#: The keys of the validity of a crack grown in its plane (a 3D surface crack).
+OUT_OF_PLANE_KEYS = ("max_kink_deg", "stop_out_of_plane")
+
+
+def _check_out_of_plane(
+    tab: TableReader | None, spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]
+) -> None:
+    """``max_kink_deg`` and ``stop_out_of_plane`` apply where a crack grows in its plane:
+    a growing semi-elliptical surface crack of a 3D scene, or the surface phase of
+    ``breakthrough = "surface_crack"`` (a growing interior 3D crack follows its σ₁′ kink,
+    a 2D crack its kink angle: nothing for them to flag)."""
+    if tab is None:
+        return
+    surface = any(isinstance(c.crack, SurfaceBreakingCrack) for c in cracks)
+    planar = dim == 3 and spec.grows and (surface or spec.breakthrough == "surface_crack")
+    for key in OUT_OF_PLANE_KEYS:
+        if tab.has(key) and not planar:
+            raise tab.error(
+                key,
+                "applies to a crack grown in its plane: a growing semi-elliptical surface "
+                '[[crack]] of a 3D scene (or breakthrough = "surface_crack"), with propagate '
+                "= true or [fracture.fatigue]; an interior 3D crack turns by its kink and a "
+                "2D crack by its direction",
+            )
 
 
 def _crack3d(tab: TableReader, name: str) -> CrackSpec:
@@ -268,6 +314,7 @@ def read_fracture(
     cracks = [crack_from_table(entry, i + 1, dim) for i, entry in enumerate(entries)]
     _check_dimension(spec, dim, cracks)
     _check_breakthrough(spec, dim, cracks)
+    _check_out_of_plane(tab, spec, dim, cracks)
     _check_materials(spec, materials)
     names = [c.name for c in cracks]
     for i, c in enumerate(cracks):

@@ -812,6 +812,14 @@ class FractureSpec:
         ``"stop"`` (``fractured``/``through``) or ``"surface_crack"`` (re-characterised
         as a semi-elliptical surface crack that keeps growing;
         :mod:`bonecontact.runners.breakthrough3d`).
+    max_kink_deg
+        The validity limit of a crack grown in its plane (a 3D surface crack): the
+        largest |σ₁′ kink angle| (degrees, 0 < value ≤ 90) of a growing front point for
+        which the planar model is taken as valid (:data:`DEFAULT_MAX_KINK_DEG`).
+    stop_out_of_plane
+        Stop the planar growth (status ``out_of_plane``) at the first increment where a
+        growing point's |kink| exceeds ``max_kink_deg`` (else it is recorded and the run
+        goes on).
     """
 
     criterion: str = "tension"
@@ -827,6 +835,8 @@ class FractureSpec:
     fatigue: FatigueSpec | None = None
     joined: str = "merge"
     breakthrough: str = "stop"
+    max_kink_deg: float = 15.0
+    stop_out_of_plane: bool = False
 
     @property
     def grows(self) -> bool:
@@ -898,6 +908,14 @@ _OLD_COEFFICIENT = {"friction": "coefficient"}
 #: What a growing interior 3D crack does at the body's surface (``[fracture] breakthrough``).
 BREAKTHROUGH_RULES = ("stop", "surface_crack")
 
+#: The default ``[fracture] max_kink_deg`` (degrees): below it each advance of the planar
+#: front misses the kinked branch's reach by under 1 − cos 15° = 3.4 %, within the front K's
+#: accuracy (docs/theory/fracture.md#surface-cracks-in-a-scenes-body, "Validity of the
+#: planar model").
+DEFAULT_MAX_KINK_DEG = 15.0
+#: The largest ``[fracture] max_kink_deg`` allowed (degrees).
+MAX_KINK_LIMIT_DEG = 90.0
+
 #: What two 2D cracks that meet do (``[fracture] joined``).
 JOIN_RULES = ("merge", "stop")
 
@@ -944,6 +962,8 @@ FRACTURE_TABLE = Table(
         Key("fatigue", "table"),
         Key("joined", "string", "merge", choices=JOIN_RULES),
         Key("breakthrough", "string", "stop", choices=BREAKTHROUGH_RULES),
+        Key("max_kink_deg", "number", DEFAULT_MAX_KINK_DEG, unit="°", minimum=0, exclusive=True),
+        Key("stop_out_of_plane", "boolean", False),
     ),
     renamed=_OLD_COEFFICIENT,
 )
