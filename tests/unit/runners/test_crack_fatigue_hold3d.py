@@ -276,7 +276,8 @@ def test_advances_follow_the_paris_rates_of_irwin(held) -> None:
     crack = state["cracks"][0]
     P = np.asarray(crack["points"])
     moved = np.linalg.norm(P[crack["front_ids"]] - ellipse_vertices(N)[0], axis=1)
-    np.testing.assert_allclose(moved, t["da"][:N], rtol=0, atol=1e-9 * DA)
+    # to the grid of the advanced vertices, 2^-20 of Δa_max a coordinate (on_advance_grid)
+    np.testing.assert_allclose(moved, t["da"][:N], rtol=0, atol=1e-6 * DA)
 
 
 def test_a_front_wholly_below_the_threshold_arrests(mesh: Path) -> None:

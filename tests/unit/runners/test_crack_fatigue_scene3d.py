@@ -245,6 +245,6 @@ def test_one_vertex_grows_alone(mesh: Path, grown) -> None:
     V = np.asarray(res.summary["fracture"]["crack"]["front"])
     V0 = np.asarray(crack["points"])[:8]  # the octagon
     moved = np.linalg.norm(V - V0, axis=1)
-    assert moved[top] == pytest.approx(DA, rel=1e-9)
+    assert moved[top] == pytest.approx(DA, rel=1e-6)  # the grid: 2^-20 of Δa (on_advance_grid)
     np.testing.assert_array_equal(np.delete(V, top, axis=0), np.delete(V0, top, axis=0))
     assert np.all(np.isfinite(t["K_I"][8:])) and t["K_I"][8:].min() > 0

@@ -20,6 +20,8 @@ import numpy as np
 import pytest
 from cli_support import run_scene
 
+from bonecontact.runners.mechanics import analysis_steps, build_model, scene_integrator
+from bonecontact.scene import load_scene
 from bonecontact.verification.analytic import contact_modulus, hertz_2d
 
 pytestmark = pytest.mark.serial
@@ -140,7 +142,16 @@ def test_scene_tolerance_loosens_only_the_krylov_solves(tmp_path):
         assert err.max() < 1e-6, (name, [names[j] for j in np.argwhere(err >= 1e-6)[:, 1]])
     its = {n: runs[n]["summary"]["linear_iterations"]["total"] for n in runs if n != "direct"}
     assert its["plain"] < its["default"]
-    assert its["compressed"] != its["plain"], its  # the key reached the solver
+    # the key reached the solver: the preconditioner of the contact solve's Krylov solver
+    # (iteration counts alone can coincide: 32 and 32 on one machine, 32 and 33 on another)
+    pcs = {}
+    for name in ("plain", "compressed"):
+        scene = load_scene(tmp_path / f"{name}.toml")
+        sm = build_model(scene)
+        integ = scene_integrator(scene, sm, analysis_steps(scene)[1], False)
+        integ.step()
+        pcs[name] = integ.contact.ksp.getPC().getType()
+    assert pcs["plain"] == "gamg" and pcs["compressed"] != "gamg", pcs
     assert [runs[n]["summary"]["multigrid"] for n in ("plain", "compressed")] == [
         "gamg",
         "compressed",
