@@ -50,7 +50,9 @@ against the recorded K, not pinned), the same on 2 and 3 ranks.  K_V peaks at 11
 kPa√m (c = 13.8 mm) and falls to 53.8 at a = 13.2 mm as the front enters the half of the
 body the flexion's follower load compresses; from a = 17.2 mm the faces are closed (K_I <
 0.1 K_II) and the planar crack grows by mode II alone (kink −70°: a real crack would leave
-its plane here; the planar model goes on) until its front leaves the body (the 11th crack
+its plane here; the planar model goes on, summary.json's ``out_of_plane`` says from
+which block: the deepest point's kink passes the default 15° at the 3rd crack, −22°) until
+its front leaves the body (the 11th crack
 a = 25.2, c = 43.9 mm).  About 12 solves: 7 min serial on a quiet 2-core machine, 12 min
 with a 2-rank run beside it.  Serial (fast part) about 60 s.
 """
@@ -445,6 +447,11 @@ def test_the_crack_runs_through_the_body(through) -> None:
     print("lead K_V", lead)
     assert int(np.argmax(lead[:8])) == 3 and lead[3] == pytest.approx(117e3, rel=0.02)
     assert lead[7] < 0.5 * lead[3] and lead[-1] < K_IC
+    # the planar model's validity: the largest kink is the closed faces' pure mode II
+    # (−arccos(1/3)); the 15° limit is passed long before (serial run: the 3rd crack, −22°)
+    assert g["max_kink_deg"] == pytest.approx(-KINK_MODE_II, abs=2.0)
+    oop = g["out_of_plane"]
+    assert oop is not None and oop["increment"] < 8 and abs(oop["kink_deg"]) > 15.0
     rate = C_PARIS * lead**M_PARIS
     blocks = np.diff([h["cycles"] for h in hist])
     assert np.all(blocks >= DA_THROUGH / np.maximum(rate[:-1], rate[1:]))
