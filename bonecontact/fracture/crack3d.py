@@ -27,6 +27,7 @@ from bonecontact.fracture.front3d import EllipticalFront, PolygonFront, Polyline
 __all__ = [
     "CORNER_FRACTION",
     "CRACK3D_SHAPES",
+    "SURFACE_SHAPES",
     "PlanarCrack",
     "SurfaceBreakingCrack",
     "TriangulatedCrack",
@@ -36,7 +37,10 @@ __all__ = [
 ]
 
 #: Shapes of a 3D crack.
-CRACK3D_SHAPES = ("disc", "ellipse", "polygon", "semi_elliptical")
+CRACK3D_SHAPES = ("disc", "ellipse", "polygon", "semi_elliptical", "quarter_elliptical")
+#: The shapes whose front meets the body's surface (:class:`SurfaceBreakingCrack`).
+SURFACE_SHAPES = ("semi_elliptical", "quarter_elliptical")
+_CORNER = "quarter_elliptical"
 _UNIT_TOL = 1e-6
 _PLANE_TOL = 1e-6  # distance from the best-fit plane, relative to the polygon's size
 #: Front points on a polygon edge keep at least this fraction of the edge from its ends.
@@ -172,19 +176,25 @@ def in_plane_axis(n: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 @dataclass(frozen=True)
 class SurfaceBreakingCrack:
-    """A planar semi-elliptical crack centred on the body's surface.
+    """A planar semi-elliptical crack centred on the body's surface, or (``shape =
+    "quarter_elliptical"``) a quarter-elliptical corner crack centred on an edge of it.
 
     Parameters
     ----------
     centre
-        A point of the body's surface (m): the middle of the crack's mouth.
+        A point of the body's surface (m): the middle of the crack's mouth; of a corner
+        crack a point of the edge.
     normal
         Unit normal of the crack plane (the ``crack_upper`` side).
     depth, half_length
-        a (into the body) and c (along the surface), m.
+        a (into the body) and c (along the surface), m; of a corner crack a along one
+        face and c (the scene's ``length``) along ``axis`` on the other.
     axis
         Unit in-plane direction of c (``None``: normal to the depth direction, the inward
-        surface normal at the centre projected on the crack plane).
+        surface normal at the centre projected on the crack plane); a corner crack's is
+        required: along a face, from the edge into it.
+    shape
+        ``"semi_elliptical"`` or ``"quarter_elliptical"``.
     """
 
     centre: tuple[float, float, float]
@@ -224,7 +234,32 @@ class SurfaceBreakingCrack:
         )
 
 
+def _corner_crack_from_table(table: Mapping) -> SurfaceBreakingCrack:
+    """A quarter-elliptical corner crack: ``centre`` (on an edge), ``normal``, ``depth``
+    (a), ``length`` (c) and ``axis`` (the direction of c, in the crack plane)."""
+    shape = 'shape = "quarter_elliptical"'
+    for key in ("radius", "semi_axes", "vertices", "half_length"):
+        if key in table:
+            raise ParameterError(key, f"does not apply to {shape} (depth, length, axis)")
+    for key in ("centre", "normal", "depth", "length", "axis"):
+        if key not in table:
+            raise ParameterError(key, f"is required ({shape})")
+    centre = _vector(table, "centre")
+    n = _unit(table, "normal")
+    a, c = _positive(table["depth"], "depth"), _positive(table["length"], "length")
+    u = _unit(table, "axis")
+    if abs(float(np.dot(u, n))) > _UNIT_TOL:
+        raise ParameterError("axis", "must lie in the crack plane (normal to `normal`)")
+    return SurfaceBreakingCrack(
+        tuple(map(float, centre)), tuple(map(float, n)), a, c, tuple(map(float, u)), _CORNER
+    )
+
+
 def _surface_crack_from_table(table: Mapping) -> SurfaceBreakingCrack:
+    if "length" in table:
+        raise ParameterError(
+            "length", 'applies to shape = "quarter_elliptical" only (semi_elliptical: half_length)'
+        )
     for key in ("radius", "semi_axes", "vertices"):
         if key in table:
             raise ParameterError(
@@ -268,9 +303,13 @@ def planar_crack_from_table(table: Mapping) -> PlanarCrack | SurfaceBreakingCrac
         return _polygon_from_table(table)
     if shape == "semi_elliptical":
         return _surface_crack_from_table(table)
-    for key in ("depth", "half_length"):
+    if shape == _CORNER:
+        return _corner_crack_from_table(table)
+    for key in ("depth", "half_length", "length"):
         if key in table:
-            raise ParameterError(key, 'applies to shape = "semi_elliptical" only')
+            raise ParameterError(
+                key, 'applies to shape = "semi_elliptical" or "quarter_elliptical" only'
+            )
     if "vertices" in table:
         raise ParameterError("vertices", 'applies to shape = "polygon" only')
     for key in ("centre", "normal", "radius" if shape == "disc" else "semi_axes"):

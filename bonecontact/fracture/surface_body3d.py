@@ -44,12 +44,19 @@ from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
 
 __all__ = [
+    "CORNER",
     "BodyArcFront",
     "CutBody",
+    "EdgeFace",
+    "corner_frame",
+    "corner_parameter",
+    "corner_point",
     "crack_frame",
     "cut_mouth",
+    "faces_at",
     "inside_body",
     "mesh_body_with_surface_crack",
+    "onto_edge",
 ]
 
 #: A vertex closer to the crack plane than this fraction of the mean edge is moved onto it.
@@ -206,6 +213,8 @@ def crack_frame(
         (key ``normal``) the crack plane is tangent to the surface at the centre; (key
         ``centre``) the centre lies farther than min(a, c)/4 from the surface.
     """
+    if crack.shape == CORNER:
+        return corner_frame(crack, nodes, conn)
     n = np.asarray(crack.normal, dtype=float)
     C = np.asarray(crack.centre, dtype=float)
     nearest = _nearest_triangle(nodes, conn, C)
@@ -241,6 +250,184 @@ def crack_frame(
     axes = (t, v0, n) if c >= a else (v0, np.cross(n, v0), n)
     ell = EllipticalFront(max(a, c), min(a, c), tuple(C), tuple(map(tuple, axes)))
     return ell, crack.with_axis(tuple(map(float, t)), tuple(map(float, C)))
+
+
+# ------------------------------------------------------------ corner cracks (numpy)
+#: The shape of a quarter-elliptical corner crack.
+CORNER = "quarter_elliptical"
+#: A corner crack's edge: its faces' dihedral angle within this of 90° (degrees).
+CORNER_ANGLE_TOL = 20.0
+#: Facet normals farther apart than this (degrees) belong to different faces.
+FACE_SPLIT_DEG = 30.0
+#: A corner crack's plane: its normal within this of the edge's direction (degrees); its
+#: ``axis`` within this of the plane's line in a face.
+CORNER_ALIGN_DEG = 30.0
+
+
+@dataclass(frozen=True)
+class EdgeFace:
+    """One face at an edge: its unit outward normal (area-weighted over its facets near
+    the centre), a point on it and the mean of its facets' centroids."""
+
+    normal: npt.NDArray[np.float64]
+    point: npt.NDArray[np.float64]
+    centroid: npt.NDArray[np.float64]
+
+
+def faces_at(nodes: np.ndarray, conn: np.ndarray, C: np.ndarray, reach: float) -> list[EdgeFace]:
+    """The faces of the boundary within ``reach`` of ``C``: the facets there grouped by
+    their normals (a facet joins the first group whose normal lies within
+    :data:`FACE_SPLIT_DEG` of its own), the group of the nearest facet first."""
+    tris = nodes[conn]
+    dist = point_triangle_distance(C, tris)
+    near = np.flatnonzero(dist < reach)
+    near = near[np.argsort(dist[near], kind="stable")]
+    m = np.cross(tris[near, 1] - tris[near, 0], tris[near, 2] - tris[near, 0])
+    unit = m / np.linalg.norm(m, axis=1)[:, None]
+    groups: list[list[int]] = []
+    for i in range(len(near)):
+        for g in groups:
+            if unit[g[0]] @ unit[i] > math.cos(math.radians(FACE_SPLIT_DEG)):
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    out = []
+    for g in groups:
+        mean = m[g].sum(axis=0)
+        unit_mean = mean / np.linalg.norm(mean)
+        out.append(EdgeFace(unit_mean, tris[near[g[0]], 0], tris[near[g]].mean(axis=(0, 1))))
+    return out
+
+
+def onto_edge(C: np.ndarray, faces: list[EdgeFace]) -> np.ndarray:
+    """The point of the line where the two faces' planes meet nearest to ``C``."""
+    M = np.array([f.normal for f in faces[:2]])
+    r = np.array([f.normal @ (f.point - C) for f in faces[:2]])
+    return C + M.T @ np.linalg.solve(M @ M.T, r)
+
+
+def _edge_faces(crack: SurfaceBreakingCrack, nodes: np.ndarray, conn: np.ndarray) -> list[EdgeFace]:
+    """The two faces of the (convex, about right-angled) edge at the crack's centre.
+
+    Raises
+    ------
+    ParameterError
+        (``centre``) one face or more than two within min(a, c)/4 of the centre, an edge
+        far from 90° or a re-entrant one.
+    """
+    C = np.asarray(crack.centre, dtype=float)
+    reach = 0.25 * min(crack.depth, crack.half_length)
+    faces = faces_at(nodes, conn, C, reach)
+    if len(faces) != 2:
+        raise ParameterError(
+            "centre",
+            f"must lie on an edge of the body, where two faces meet (a quarter_elliptical "
+            f"crack): {len(faces)} face(s) lie within {reach:.3g} m of it (a quarter of the "
+            "smaller of depth and length)",
+        )
+    fa, fb = faces
+    angle = 180.0 - math.degrees(math.acos(float(np.clip(fa.normal @ fb.normal, -1, 1))))
+    if abs(angle - 90.0) > CORNER_ANGLE_TOL:
+        raise ParameterError(
+            "centre",
+            f"the faces at the centre meet at {angle:.0f} deg; a quarter_elliptical crack "
+            f"needs an edge of 90 +- {CORNER_ANGLE_TOL:g} deg",
+        )
+    if (fb.centroid - C) @ fa.normal > 0 or (fa.centroid - C) @ fb.normal > 0:
+        raise ParameterError(
+            "centre", "lies on a re-entrant edge (a quarter_elliptical crack needs a convex one)"
+        )
+    return faces
+
+
+def _corner_axis(
+    crack: SurfaceBreakingCrack, faces: list[EdgeFace]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The directions of c (the given ``axis`` moved onto the line of the crack plane in
+    the face it lies along, from the edge into that face) and of a (the line in the other
+    face, into it).
+
+    Raises
+    ------
+    ParameterError
+        (``normal``) the crack plane does not cross the edge; (``axis``) not along a face,
+        or pointing out of the body.
+    """
+    n = np.asarray(crack.normal, dtype=float)
+    edge = np.cross(faces[0].normal, faces[1].normal)
+    edge /= np.linalg.norm(edge)
+    if abs(edge @ n) < math.cos(math.radians(CORNER_ALIGN_DEG)):
+        raise ParameterError(
+            "normal",
+            f"a quarter_elliptical crack's plane must cross the edge: its normal within "
+            f"{CORNER_ALIGN_DEG:g} deg of the edge's direction {_fmt(edge)}",
+        )
+    lines = []
+    for f, other in (faces, faces[::-1]):
+        d = np.cross(n, f.normal)
+        d /= np.linalg.norm(d)
+        lines.append(d if d @ other.normal < 0 else -d)  # into the face f, off the edge
+    u = np.asarray(crack.axis, dtype=float)
+    k = int(np.argmax([abs(u @ d) for d in lines]))
+    if abs(u @ lines[k]) < math.cos(math.radians(CORNER_ALIGN_DEG)):
+        raise ParameterError(
+            "axis",
+            f"must lie along one of the faces at the edge (in the crack plane: {_fmt(lines[0])} "
+            f"or {_fmt(lines[1])}), within {CORNER_ALIGN_DEG:g} deg",
+        )
+    if u @ lines[k] < 0:
+        raise ParameterError(
+            "axis", f"points out of the body: from the edge into the face it is {_fmt(lines[k])}"
+        )
+    return lines[k], lines[1 - k]
+
+
+def _fmt(v: np.ndarray) -> str:
+    return "[" + ", ".join(f"{float(x):.3g}" for x in v) + "]"
+
+
+def corner_frame(
+    crack: SurfaceBreakingCrack, nodes: np.ndarray, conn: np.ndarray
+) -> tuple[EllipticalFront, SurfaceBreakingCrack]:
+    """The ellipse of a quarter-elliptical corner crack and the crack with its centre on
+    the edge and its ``axis`` along its face: c along the face ``axis`` lies along, a
+    along the other (:func:`_corner_axis`; the plane's in-plane depth direction made
+    normal to the axis).  The frame is :func:`crack_frame`'s (the larger semi-axis along
+    u, right-handed about n).
+
+    Raises
+    ------
+    ParameterError
+        See :func:`_edge_faces` and :func:`_corner_axis`.
+    """
+    faces = _edge_faces(crack, nodes, conn)
+    n = np.asarray(crack.normal, dtype=float)
+    C = onto_edge(np.asarray(crack.centre, dtype=float), faces)
+    t, depth = _corner_axis(crack, faces)
+    v0 = np.cross(n, t)
+    v0 = v0 if v0 @ depth > 0 else -v0
+    a, c = crack.depth, crack.half_length
+    axes = (np.cross(v0, n), v0, n) if c >= a else (v0, np.cross(n, v0), n)
+    ell = EllipticalFront(max(a, c), min(a, c), tuple(C), tuple(map(tuple, axes)))
+    return ell, crack.with_axis(tuple(map(float, t)), tuple(map(float, C)))
+
+
+def corner_point(crack: SurfaceBreakingCrack, ell: EllipticalFront, psi: float) -> np.ndarray:
+    """The point of a corner crack's ellipse at Newman and Raju's angle ψ: C + c cos ψ t +
+    a sin ψ d (t the crack's ``axis``, d its depth direction in the frame ``ell``): ψ = 0
+    on the face of c, π/2 on the face of a."""
+    t = np.asarray(crack.axis, dtype=float)
+    d = _depth_direction(ell, crack)
+    C = np.asarray(ell.centre, dtype=float)
+    return C + crack.half_length * math.cos(psi) * t + crack.depth * math.sin(psi) * d
+
+
+def corner_parameter(cut: CutBody, psi: float) -> float:
+    """The front parameter φ (within the arc's range) of Newman and Raju's angle ψ."""
+    x = corner_point(cut.crack, cut.arc, psi)
+    phi = _arc_parameter(cut.arc, x)
+    return phi + 2 * math.pi if phi < cut.arc.phi_range[0] - 1e-9 else phi
 
 
 def _normal_reach(crack: SurfaceBreakingCrack) -> float:
@@ -531,7 +718,12 @@ def cut_mouth(
     for t, tri in enumerate(conn):
         if np.min(np.linalg.norm(nodes[tri] - C, axis=1)) < reach:
             cut.chord(t, tri)
-    chain, frac = _mouth_chain(cut, ell)
+    try:
+        chain, frac = _mouth_chain(cut, ell)
+    except ParameterError as exc:
+        if crack.shape != CORNER or exc.key != "half_length":
+            raise
+        raise ParameterError("length", str(exc).removeprefix("half_length: ")) from None
     ends, repl = _cut_triangles(cut, conn, chain, frac)
     tris, out_tags = [], []
     for t, (tri, tag) in enumerate(zip(conn, tags, strict=True)):
@@ -540,12 +732,20 @@ def cut_mouth(
             out_tags.append(tag)
     mouth = [ends[0], *[k for k in chain[1:-1] if k not in ends], ends[1]]
     X, tris, mouth = _compact(cut.nodes, np.asarray(tris, dtype=np.int64), mouth)
-    deep = C + crack.depth * _depth_direction(ell, crack)
+    deep = _inside_point(ell, crack)
     front = _front_of(ell, X[mouth[0]], X[mouth[-1]], deep)
     if front is None:
         mouth = mouth[::-1]
         front = _front_of(ell, X[mouth[0]], X[mouth[-1]], deep)
     return CutBody(X, tris, np.asarray(out_tags, dtype=np.int32), tuple(mouth), front, crack)
+
+
+def _inside_point(ell: EllipticalFront, crack: SurfaceBreakingCrack) -> np.ndarray:
+    """A point of the front inside the body: the deepest point, of a corner crack the
+    point at ψ = 45°."""
+    if crack.shape == CORNER:
+        return corner_point(crack, ell, 0.25 * math.pi)
+    return np.asarray(ell.centre) + crack.depth * _depth_direction(ell, crack)
 
 
 def _depth_direction(ell: EllipticalFront, crack: SurfaceBreakingCrack) -> np.ndarray:

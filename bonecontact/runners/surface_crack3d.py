@@ -51,7 +51,9 @@ from bonecontact.fracture.front3d import front_interaction_integral
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface3d import MIN_DOMAIN_ELEMENTS, domain_length
 from bonecontact.fracture.surface_body3d import (
+    CORNER,
     CutBody,
+    corner_parameter,
     cut_mouth,
     inside_body,
     mesh_body_with_surface_crack,
@@ -112,6 +114,9 @@ SURFACE_COLUMNS = (
 )
 #: Parametric angle of the two growth points from the ends of the front.
 PHI_SURFACE = math.radians(20.0)
+#: The least parametric angle of a corner crack's K points from the ends of its front (a
+#: quarter of the semi-elliptical front's 90° half; two and a half front elements if more).
+PHI_CORNER = math.radians(10.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,6 +191,16 @@ def _refuse(scene: Scene) -> None:
     fr = scene.fracture
     if fr is not None and fr.initiate:
         raise SceneError(str(scene.path), "[fracture]", "initiate", "runs in 2D scenes only")
+    if scene.cracks[0].crack.shape == CORNER and fr is not None:
+        for key, on in (("propagate", fr.propagate), ("fatigue", fr.fatigue is not None)):
+            if on:
+                raise SceneError(
+                    str(scene.path),
+                    "[fracture]",
+                    key,
+                    "a quarter_elliptical crack runs stationary (its growth is not built yet: "
+                    "K along the front only)",
+                )
 
 
 def _material(scene: Scene, region: str) -> tuple[Isotropic, float | None]:
@@ -289,9 +304,8 @@ def _front_parameters(cut: CutBody, n: int, h: float) -> np.ndarray:
     ds = 2.5 * h
     phi = np.linspace(p0, p1, 2001)
     s = arc.arc_length(phi) - arc.arc_length(p0)
-    margin = max(
-        PHI_SURFACE, float(np.interp(ds, s, phi) - p0), p1 - float(np.interp(s[-1] - ds, s, phi))
-    )
+    end = PHI_CORNER if cut.crack.shape == CORNER else PHI_SURFACE
+    margin = max(end, float(np.interp(ds, s, phi) - p0), p1 - float(np.interp(s[-1] - ds, s, phi)))
     deep = _deepest_parameter(cut)
     pts = np.linspace(p0 + margin, p1 - margin, max(n, 2))
     pts = pts[np.abs(pts - deep) > math.radians(0.5)]  # the deepest point once
@@ -299,8 +313,11 @@ def _front_parameters(cut: CutBody, n: int, h: float) -> np.ndarray:
 
 
 def _deepest_parameter(cut: CutBody) -> float:
-    """φ of the deepest front point (π/2 when c ≥ a, else 0 — the frame's depth axis)."""
+    """φ of the deepest front point (π/2 when c ≥ a, else 0 — the frame's depth axis); of
+    a corner crack the point at Newman and Raju's ψ = 45°."""
     c = cut.crack
+    if c.shape == CORNER:
+        return corner_parameter(cut, 0.25 * math.pi)
     return 0.5 * math.pi if c.half_length >= c.depth else 0.0
 
 
@@ -874,7 +891,7 @@ def run_surface_crack(
         "fracture": {
             "crack": {
                 "name": run.name,
-                "shape": "semi_elliptical",
+                "shape": run.crack.shape,
                 "centre": list(run.crack.centre),
                 "normal": list(run.crack.normal),
                 "axis": list(run.crack.axis),

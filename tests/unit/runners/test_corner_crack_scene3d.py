@@ -1,0 +1,122 @@
+"""3D scenes with a quarter-elliptical corner crack (``shape = "quarter_elliptical"``,
+bonecontact.runners.surface_crack3d), run through the runner of the ``bonecontact``
+command.
+
+The plate [−b, b] × [−h, h] × [−t, 0] (b = h = 2.5, t = 1, boundary facets 0.4; all
+lengths in mm) of the surface-crack scenes (``_crack_scenes.surface_plate``): traction S on
+``top`` and −S on ``bottom``, held on a patch of the bottom face (self-equilibrated remote
+tension).  The crack, normal y, is centred on the edge x = −b, z = 0 where the side face
+x = −b meets the front face z = 0: ``length`` c along ``axis`` = +x on the front face,
+``depth`` a along −z on the side face; the front a quarter ellipse from one face to the
+other.  Reference: Newman and Raju's corner-crack equation (1986;
+bonecontact.verification.surface_crack.corner_crack_k, the plate's whole width 2b) at
+Newman and Raju's angle ψ of each front point (ψ = 0 on the front face, 90° on the side
+face; from the point's coordinates: tan ψ = (−z/a)/((x + b)/c)).
+
+* A family, a/t = 0.2 and less (front a/10, the scene's default): every front point —
+  from 10° off each face (or two and a half front elements, if more) on, the 45° point
+  included — within 5 % of Newman and Raju; K_II and K_III below 5 % of K_I; K_V equals K_I
+  within 1 %.  Measured (serial, 2026-12-04): see ``MEASURED``.
+* Bad input: a centre off the edge (the middle of the front face) and an ``axis`` along
+  no face are refused naming the key; growth of a corner crack is refused (stationary
+  only).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+from _crack_scenes import run_dir, surface_plate, surface_scene
+from coupled_support import gmsh_on_rank0, read_csv, run_text
+
+from bonecontact.scene import SceneError
+from bonecontact.verification.surface_crack import corner_crack_k
+
+L = 1e-3  # the plate in millimetres
+B = 2.5 * L
+T = 1.0 * L
+S = 1.0e6
+EDGE = f"[{-B}, 0.0, 0.0]"
+#: K_I against Newman–Raju at every front point (from 10° off each face on).
+TOL = 0.05
+
+
+def corner_text(mesh: Path, a: float, c: float, **kw) -> str:
+    """A corner-crack scene on ``mesh``: the semi-elliptical scene of ``_crack_scenes``
+    with ``shape = "quarter_elliptical"``, ``length`` c and ``axis`` +x (``kw``: the
+    placeholders of ``surface_scene``, ``axis`` the axis's text)."""
+    axis = kw.pop("axis", "[1.0, 0.0, 0.0]")
+    text = surface_scene(mesh, **({"a": a, "c": c, "h": min(a, c) / 10, "centre": EDGE} | kw))
+    text = text.replace('shape = "semi_elliptical"', 'shape = "quarter_elliptical"')
+    return text.replace(f"half_length = {c}\n", f"length = {c}\naxis = {axis}\n")
+
+
+@pytest.fixture(scope="module")
+def plate(tmp_path_factory) -> Path:
+    comm = MPI.COMM_WORLD
+    d = Path(comm.bcast(str(tmp_path_factory.mktemp("corner3d")) if comm.rank == 0 else None))
+    gmsh_on_rank0(surface_plate(T), d / "plate.msh", 3)
+    return d
+
+
+def _run(d: Path, name: str, text: str):
+    sub = run_dir(d, name)
+    return run_text(text, sub, sub / "out"), sub / "out"
+
+
+def nr_angle(tab: dict, a: float, c: float) -> np.ndarray:
+    """Newman and Raju's ψ of the front points (from their coordinates)."""
+    return np.arctan2(-tab["z"] / a, (tab["x"] + B) / c)
+
+
+@pytest.mark.parametrize(
+    ("a", "c"),
+    [(0.2 * L, 0.2 * L), (0.2 * L, 0.4 * L), (0.15 * L, 0.3 * L)],
+    ids=["a/c=1,a/t=0.2", "a/c=0.5,a/t=0.2", "a/c=0.5,a/t=0.15"],
+)
+def test_corner_crack_against_newman_raju(plate: Path, a: float, c: float) -> None:
+    res, out = _run(plate, f"corner_{a / L:g}_{c / L:g}", corner_text(plate / "plate.msh", a, c))
+    assert res.status == "converged", res.summary.get("message")
+    assert res.summary["fracture"]["crack"]["shape"] == "quarter_elliptical"
+    tab = read_csv(out / "fracture.csv")
+    psi = nr_angle(tab, a, c)
+    ref = corner_crack_k(S, a, c, T, 2 * B, psi)
+    err = tab["K_I"] / ref - 1.0
+    mid = int(np.argmin(np.abs(psi - 0.25 * math.pi)))
+    if MPI.COMM_WORLD.rank == 0:
+        print(
+            f"\ncorner a={a / L:g} c={c / L:g} mm: psi {np.round(np.degrees(psi), 2)} deg, "
+            f"K_I/K_NR - 1 {np.round(100 * err, 2)} %, 45 deg: K_I {tab['K_I'][mid]:.6g} "
+            f"K_NR {ref[mid]:.6g}"
+        )
+    assert psi[mid] == pytest.approx(0.25 * math.pi, abs=1e-6)
+    assert psi.min() >= math.radians(10.0) - 1e-6 and psi.max() <= math.radians(80.0) + 1e-6
+    assert np.all(np.abs(err) <= TOL), np.round(100 * err, 2)
+    assert np.max(np.abs(tab["K_II"])) < 0.05 * np.min(tab["K_I"])
+    assert np.max(np.abs(tab["K_III"])) < 0.05 * np.min(tab["K_I"])
+    np.testing.assert_allclose(tab["K_V"], tab["K_I"], rtol=0.01)
+
+
+def test_centre_off_the_edge_is_refused(plate: Path) -> None:
+    text = corner_text(plate / "plate.msh", 0.2 * L, 0.2 * L, centre="[0.0, 0.0, 0.0]")
+    with pytest.raises(SceneError, match=r"centre.*edge"):
+        _run(plate, "off_edge", text)
+
+
+def test_axis_along_no_face_is_refused(plate: Path) -> None:
+    diagonal = "[0.7071067811865476, 0.0, -0.7071067811865476]"
+    text = corner_text(plate / "plate.msh", 0.2 * L, 0.2 * L, axis=diagonal)
+    with pytest.raises(SceneError, match=r"axis.*along one of the faces"):
+        _run(plate, "diagonal", text)
+
+
+def test_growth_is_refused(plate: Path) -> None:
+    growth = f"propagate = true\nincrement = {0.02 * L}"
+    text = corner_text(plate / "plate.msh", 0.2 * L, 0.2 * L, growth=growth)
+    with pytest.raises(SceneError, match=r"propagate.*stationary"):
+        _run(plate, "grows", text)
