@@ -48,6 +48,7 @@ __all__ = [
     "BodyArcFront",
     "CutBody",
     "EdgeFace",
+    "corner_angle",
     "corner_frame",
     "corner_parameter",
     "corner_point",
@@ -421,6 +422,15 @@ def corner_point(crack: SurfaceBreakingCrack, ell: EllipticalFront, psi: float) 
     d = _depth_direction(ell, crack)
     C = np.asarray(ell.centre, dtype=float)
     return C + crack.half_length * math.cos(psi) * t + crack.depth * math.sin(psi) * d
+
+
+def corner_angle(cut: CutBody, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Newman and Raju's angle ψ of points ``x`` (m, (k, 3)) of a corner crack's front:
+    tan ψ = (x − C)·d / a ÷ (x − C)·t / c (t the ``axis``, d the depth direction)."""
+    X = np.atleast_2d(np.asarray(x, dtype=float)) - np.asarray(cut.arc.centre)
+    t = np.asarray(cut.crack.axis, dtype=float)
+    d = _depth_direction(cut.arc, cut.crack)
+    return np.arctan2(X @ d / cut.crack.depth, X @ t / cut.crack.half_length)
 
 
 def corner_parameter(cut: CutBody, psi: float) -> float:

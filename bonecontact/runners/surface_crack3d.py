@@ -53,6 +53,7 @@ from bonecontact.fracture.surface3d import MIN_DOMAIN_ELEMENTS, domain_length
 from bonecontact.fracture.surface_body3d import (
     CORNER,
     CutBody,
+    corner_angle,
     corner_parameter,
     cut_mouth,
     inside_body,
@@ -191,16 +192,6 @@ def _refuse(scene: Scene) -> None:
     fr = scene.fracture
     if fr is not None and fr.initiate:
         raise SceneError(str(scene.path), "[fracture]", "initiate", "runs in 2D scenes only")
-    if scene.cracks[0].crack.shape == CORNER and fr is not None:
-        for key, on in (("propagate", fr.propagate), ("fatigue", fr.fatigue is not None)):
-            if on:
-                raise SceneError(
-                    str(scene.path),
-                    "[fracture]",
-                    key,
-                    "a quarter_elliptical crack runs stationary (its growth is not built yet: "
-                    "K along the front only)",
-                )
 
 
 def _material(scene: Scene, region: str) -> tuple[Isotropic, float | None]:
@@ -530,10 +521,16 @@ class Growth:
 
 
 def _growth_points(records: list[SurfaceRecord], cut: CutBody) -> list[int]:
-    """The rows of the three growth points: the φ₀ end, the deepest point, the φ₁ end."""
+    """The rows of the three growth points: the φ₀ end, the deepest point, the φ₁ end; of
+    a corner crack the end nearer the face of c, the point at ψ = 45°, the end nearer the
+    face of a."""
     deep = math.degrees(_deepest_parameter(cut))
     i = int(np.argmin([abs(r.phi_deg - deep) for r in records]))
-    return [0, i, len(records) - 1]
+    ends = [0, len(records) - 1]
+    if cut.crack.shape == CORNER:
+        psi = corner_angle(cut, [[records[k].x, records[k].y, records[k].z] for k in ends])
+        ends = ends if psi[0] <= psi[1] else ends[::-1]
+    return [ends[0], i, ends[1]]
 
 
 def _three_points(records: list[SurfaceRecord], cut: CutBody) -> np.ndarray:
@@ -592,8 +589,12 @@ def out_of_plane_text(run: SurfaceRun, where: dict[str, Any]) -> str:
 
 
 def _rates(run: SurfaceRun, kv: np.ndarray) -> np.ndarray:
-    """The growth weights of the three points (:func:`growth_weights`)."""
-    return growth_weights(kv, run.fracture.fatigue, run.K_Ic)
+    """The growth weights of the three points (:func:`growth_weights`); a corner crack's
+    point at ψ = 45° has none (its two semi-axes grow from the points near the faces)."""
+    rates = growth_weights(kv, run.fracture.fatigue, run.K_Ic)
+    if run.crack.shape == CORNER:
+        rates[1] = 0.0
+    return rates
 
 
 def _stop(run: SurfaceRun, g: Growth, kv: np.ndarray, rates: np.ndarray) -> str | None:
@@ -610,6 +611,8 @@ def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> Surfa
     round-off differs with the number of ranks, and gmsh turns a crack 1e-19 m larger into
     another mesh."""
     d = on_advance_grid(step * rates / rates.max(), step)
+    if crack.shape == CORNER:  # c from the point near its face, a from the one near a's
+        return crack.grown(crack.depth + d[2], crack.half_length + d[0])
     return crack.grown(
         crack.depth + d[1], crack.half_length + 0.5 * (d[0] + d[2]), 0.5 * (d[0] - d[2])
     )
@@ -653,11 +656,16 @@ def _sampled_probes(run: SurfaceRun, crack: SurfaceBreakingCrack) -> np.ndarray 
     """Without a cut mouth: the probe points of :func:`breaks_through` on the crack's
     ellipse x(φ) = C + c cos φ t + a sin φ d (t the crack's ``axis``, d = n × t its inward
     depth direction, as :func:`~bonecontact.fracture.surface_body3d.crack_frame` sets them),
-    the front being the arc through the deepest point (φ = π/2) inside the body, found on
-    720 points; ``None`` when the deepest point lies outside the body."""
+    the front being the arc through the deepest point (φ = π/2; of a corner crack its
+    point at ψ = 45°, φ = π/4 with d the side of n × t into the body) inside the body,
+    found on 720 points; ``None`` when that point lies outside the body."""
     n, t = np.asarray(crack.normal, dtype=float), np.asarray(crack.axis, dtype=float)
     d, C = np.cross(n, t), np.asarray(crack.centre, dtype=float)
     a, c = crack.depth, crack.half_length
+    top = 0.5 * math.pi
+    if crack.shape == CORNER:  # from its point at ψ = 45°, d into the body along a's face
+        top = 0.25 * math.pi
+        d = d if inside_body(run.body, C + 0.35 * (c * t + a * d))[0] else -d
 
     def ellipse(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         cs, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
@@ -665,7 +673,7 @@ def _sampled_probes(run: SurfaceRun, crack: SurfaceBreakingCrack) -> np.ndarray 
         return C + c * cs * t + a * sn * d, normal / np.linalg.norm(normal, axis=1)[:, None]
 
     N = 720
-    phi = 0.5 * math.pi + 2.0 * math.pi * (np.arange(N) - N // 2) / N  # φ = π/2 at N // 2
+    phi = top + 2.0 * math.pi * (np.arange(N) - N // 2) / N  # φ = top at N // 2
     inside = inside_body(run.body, ellipse(phi)[0])
     if not inside[N // 2]:
         return None
@@ -675,7 +683,7 @@ def _sampled_probes(run: SurfaceRun, crack: SurfaceBreakingCrack) -> np.ndarray 
     while hi < N - 1 and inside[hi + 1]:
         hi += 1
     p0, p1 = phi[lo], phi[hi]
-    probe = np.append(np.linspace(p0 + 0.1 * (p1 - p0), p1 - 0.1 * (p1 - p0), 17), 0.5 * math.pi)
+    probe = np.append(np.linspace(p0 + 0.1 * (p1 - p0), p1 - 0.1 * (p1 - p0), 17), top)
     x, e1 = ellipse(probe)
     return x + run.ligament * e1
 

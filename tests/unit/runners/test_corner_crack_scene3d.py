@@ -20,9 +20,10 @@ face; from the point's coordinates: tan ψ = (−z/a)/((x + b)/c)).
   a/c = 1, a/t = 0.2: −0.8, −1.2, −1.9, −0.1, −1.7; a/c = 0.5, a/t = 0.2: −0.5, −1.8, −1.0,
   −2.6, −3.8; a/c = 0.5, a/t = 0.15: −2.0, −1.7, −1.7, −1.6, −2.5; the same K on 1, 2 and
   3 ranks to 7e-14 of the largest K_I; 1–2.5 s a case serially.
+* Fatigue (two blocks): c and a grow from the K_V of the points nearest their faces, by
+  hand from fracture.csv.
 * Bad input: a centre off the edge (the middle of the front face) and an ``axis`` along
-  no face are refused naming the key; growth of a corner crack is refused (stationary
-  only).
+  no face are refused naming the key.
 """
 
 from __future__ import annotations
@@ -118,8 +119,33 @@ def test_axis_along_no_face_is_refused(plate: Path) -> None:
         _run(plate, "diagonal", text)
 
 
-def test_growth_is_refused(plate: Path) -> None:
-    growth = f"propagate = true\nincrement = {0.02 * L}"
-    text = corner_text(plate / "plate.msh", 0.2 * L, 0.2 * L, growth=growth)
-    with pytest.raises(SceneError, match=r"propagate.*stationary"):
-        _run(plate, "grows", text)
+def test_fatigue_grows_a_and_c_from_the_points_near_the_faces(plate: Path) -> None:
+    """Two blocks of da/dN = C ΔK² (R = 0): c grows from the point nearest the face of c,
+    a from the one nearest the face of a (the 45° point is reported, not grown); the
+    faster by da_max, the other by da_max (K_V,other/K_V,faster)² — by hand from
+    fracture.csv; a block's cycles near da_max over the faster rate."""
+    a, c, C, da = 0.2 * L, 0.4 * L, 1e-20, 0.04 * L
+    growth = f"[fracture.fatigue]\nC = {C}\nm = 2.0\nda_max = {da}\nmax_blocks = 2"
+    res, out = _run(plate, "fatigue", corner_text(plate / "plate.msh", a, c, growth=growth))
+    assert res.status == "converged", res.summary.get("message")
+    g = res.summary["fracture"]["growth"]
+    assert g["status"] == "max_blocks" and g["increments"] == 2
+    tab = read_csv(out / "fracture.csv")
+    depth, length, cycles = a, c, 0.0
+    for inc, h in enumerate(g["history"][:2]):
+        rows = tab["increment"] == inc
+        psi = nr_angle({k: v[rows] for k, v in tab.items()}, depth, length)
+        kv = tab["K_V"][rows]
+        k_c, k_a = kv[np.argmin(psi)], kv[np.argmax(psi)]
+        rate_c, rate_a = C * k_c**2, C * k_a**2
+        lead = max(rate_c, rate_a)
+        # the advances on a grid of ~1e-6 of da_max (on_advance_grid); the blocks' cycles
+        # by block_cycles' rule over the rates at both ends (here: at the start, 15 %)
+        assert h["depth"] == pytest.approx(depth, rel=1e-6)
+        assert h["half_length"] == pytest.approx(length, rel=1e-6)
+        assert h["cycles"] == pytest.approx(cycles, rel=0.15)
+        depth, length = depth + da * rate_a / lead, length + da * rate_c / lead
+        cycles += da / lead
+    final = res.summary["fracture"]["crack"]["final"]
+    assert final["depth"] == pytest.approx(depth, rel=1e-5)
+    assert final["half_length"] == pytest.approx(length, rel=1e-5)
