@@ -505,7 +505,12 @@ class Growth:
             for k in ("centre", "normal", "axis")
         }
         crack = SurfaceBreakingCrack(
-            vec["centre"], vec["normal"], float(c["depth"]), float(c["half_length"]), vec["axis"]
+            vec["centre"],
+            vec["normal"],
+            float(c["depth"]),
+            float(c["half_length"]),
+            vec["axis"],
+            c.get("shape", "semi_elliptical"),
         )
         return cls(
             crack,

@@ -21,7 +21,8 @@ face; from the point's coordinates: tan ψ = (−z/a)/((x + b)/c)).
   −2.6, −3.8; a/c = 0.5, a/t = 0.15: −2.0, −1.7, −1.7, −1.6, −2.5; the same K on 1, 2 and
   3 ranks to 7e-14 of the largest K_I; 1–2.5 s a case serially.
 * Fatigue (two blocks): c and a grow from the K_V of the points nearest their faces, by
-  hand from fracture.csv.
+  hand from fracture.csv; continued from its checkpoint before the second block it is
+  the same run (the checkpoint keeps the shape).
 * Bad input: a centre off the edge (the middle of the front face) and an ``axis`` along
   no face are refused naming the key.
 """
@@ -35,7 +36,14 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from _crack_scenes import run_dir, surface_plate, surface_scene
+from _crack_scenes import (
+    continued_run,
+    idle_barrier,
+    run_dir,
+    same_tables,
+    surface_plate,
+    surface_scene,
+)
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 
 from bonecontact.scene import SceneError
@@ -126,7 +134,9 @@ def test_fatigue_grows_a_and_c_from_the_points_near_the_faces(plate: Path) -> No
     fracture.csv; a block's cycles near da_max over the faster rate."""
     a, c, C, da = 0.2 * L, 0.4 * L, 1e-20, 0.04 * L
     growth = f"[fracture.fatigue]\nC = {C}\nm = 2.0\nda_max = {da}\nmax_blocks = 2"
-    res, out = _run(plate, "fatigue", corner_text(plate / "plate.msh", a, c, growth=growth))
+    text = corner_text(plate / "plate.msh", a, c, growth=growth)
+    text = text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
+    res, out = _run(plate, "fatigue", text)
     assert res.status == "converged", res.summary.get("message")
     g = res.summary["fracture"]["growth"]
     assert g["status"] == "max_blocks" and g["increments"] == 2
@@ -149,3 +159,9 @@ def test_fatigue_grows_a_and_c_from_the_points_near_the_faces(plate: Path) -> No
     final = res.summary["fracture"]["crack"]["final"]
     assert final["depth"] == pytest.approx(depth, rel=1e-5)
     assert final["half_length"] == pytest.approx(length, rel=1e-5)
+    # a restart from the checkpoint before block 2 goes on as a corner crack, the same run
+    again, cont = continued_run(plate / "fatigue", out, 1)
+    idle_barrier(MPI.COMM_WORLD)
+    assert again.summary["fracture"]["crack"]["final"] == res.summary["fracture"]["crack"]["final"]
+    assert again.summary["fracture"]["growth"]["cycles"] == pytest.approx(g["cycles"], rel=1e-10)
+    same_tables(cont / "fracture.csv", out / "fracture.csv")
