@@ -308,7 +308,8 @@ class SetUpdate:
     def update_slip(self, st: PDASState, it: Iterate) -> None:
         """Stick/slip sets and slip directions, and how many of them changed.
 
-        2D: a slip node changes when its direction (sign) flips.  3D Newton: directions
+        2D: a slip node changes when its direction (sign) flips, unless its bound is
+        zero (its direction is then round-off and does not enter the system).  3D Newton: directions
         settled and ``λ_t = ĝ s`` on the slip nodes (ĝ > 0).  3D fixed point: directions
         converge (linearly, Aitken-accelerated) to a fixed point.
         """
@@ -339,7 +340,10 @@ class SetUpdate:
             aitken_directions(both, dirs, new_dirs, changed, st.aitken, self.comm)
         changed_t = global_count(self.comm, (new_stick != st.stick) & new_an & fric)
         if self.bs == 2:
-            flips = np.sign(new_dirs[both, 0]) != np.sign(dirs[both, 0])
+            # a flip where the bound is zero changes nothing (λ_t = ĝ s = 0) and the sign
+            # of its ξ ≈ 0 is round-off: not a set change
+            bound = both & (g > 0.0)
+            flips = np.sign(new_dirs[bound, 0]) != np.sign(dirs[bound, 0])
             changed_t += global_count(self.comm, flips)
         st.switches += (new_stick != st.stick) & new_an & st.an & fric
         it.new_stick, it.new_dirs, it.changed_t, it.turned = new_stick, new_dirs, changed_t, turned

@@ -66,19 +66,24 @@ T = 1.0 * L
 TAU = 1.0e6
 MODE_II_KINK = math.degrees(math.acos(1.0 / 3.0))  # 70.53°
 
-SHEAR = f"""[[traction]]
-boundary = "top"
-value = [0.0, 0.0, {TAU}]
-[[traction]]
-boundary = "bottom"
-value = [0.0, 0.0, {-TAU}]
-[[traction]]
+# the shear τ on the front and back faces (with τ on top and bottom: a pure shear)
+SIDE_SHEAR = f"""[[traction]]
 boundary = "front"
 value = [0.0, {TAU}, 0.0]
 [[traction]]
 boundary = "back"
 value = [0.0, {-TAU}, 0.0]
 """
+SHEAR = (
+    f"""[[traction]]
+boundary = "top"
+value = [0.0, 0.0, {TAU}]
+[[traction]]
+boundary = "bottom"
+value = [0.0, 0.0, {-TAU}]
+"""
+    + SIDE_SHEAR
+)
 
 
 def bending_and_shear(s_front: float = 8e6, zero: float = 0.35 * L) -> str:
@@ -87,7 +92,8 @@ def bending_and_shear(s_front: float = 8e6, zero: float = 0.35 * L) -> str:
     area, inertia = 2 * PLATE_B * T, 2 * PLATE_B * T**3 / 12
     s_b = s_front * T / (2 * zero)  # σ_yy = s_m + s_b (1 + 2z/t)
     s_m, moment = s_front - s_b, s_b * inertia / (T / 2)
-    return f"""[[force]]
+    return (
+        f"""[[force]]
 boundary = "top"
 value = [0.0, {s_m * area}, {TAU * area}]
 moment = [{-moment}, 0.0, 0.0]
@@ -95,13 +101,8 @@ moment = [{-moment}, 0.0, 0.0]
 boundary = "bottom"
 value = [0.0, {-s_m * area}, {-TAU * area}]
 moment = [{moment}, 0.0, 0.0]
-[[traction]]
-boundary = "front"
-value = [0.0, {TAU}, 0.0]
-[[traction]]
-boundary = "back"
-value = [0.0, {-TAU}, 0.0]
 """
+    ) + SIDE_SHEAR
 
 
 def scene(mesh: Path, growth: str, loads: str | None = None, K_Ic: float = 1e3) -> str:
