@@ -59,7 +59,7 @@ def write_rows(
     """Append ``rows`` to ``out_dir/<name>.csv`` on rank 0, with a ``date`` column.
 
     The header (written when the file is new) is the keys of the first row, then
-    ``extra_columns`` (column → value of rows without it), then ``date``.
+    ``extra_columns`` not among them (column → value of rows without it), then ``date``.
     """
     if comm.rank != 0 or not rows:
         return
@@ -67,7 +67,8 @@ def write_rows(
     path = out_dir / f"{name}.csv"
     new = not path.exists()
     with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, list(rows[0]) + list(extra) + ["date"])
+        columns = list(rows[0]) + [c for c in extra if c not in rows[0]] + ["date"]
+        w = csv.DictWriter(f, columns)
         if new:
             w.writeheader()
         for r in rows:
