@@ -8,7 +8,10 @@ The run chains the two growth runners.  The interior crack grows
 the ligament of the surface, its last solved front is re-characterised as a
 semi-elliptical surface crack (:func:`surface_flaw`: in the crack's plane, centred where
 the depth line through the middle of the flaw's length meets the surface, depth =
-ligament + the flaw's height, half-length = half its length), cut into the body and
+ligament + the flaw's height, half-length = half its length) — or, when its front is as
+near a second face at an edge (within twice the ligament), a quarter-elliptical corner
+crack (:func:`corner_flaw`: centred on the edge, each semi-axis the flaw's farthest
+distance from the other face) — cut into the body and
 grown by :func:`~bonecontact.runners.surface_crack3d.run_surface_crack` from the next
 increment number and the cycles of the last interior solve.  The surface phase's front
 size is the interior one's, or less where the deeper ellipse needs it (three elements
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -38,6 +42,7 @@ from bonecontact.common.errors import ParameterError
 from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
+from bonecontact.fracture.surface_body3d import CORNER, CORNER_ANGLE_TOL
 from bonecontact.runners.front_growth3d import (
     GROWTH3D_COLUMNS,
     check_interior_growth,
@@ -54,9 +59,12 @@ from bonecontact.scene import Scene, SceneError
 
 __all__ = [
     "BREAKTHROUGH_COLUMNS",
+    "EDGE_LIGAMENT_RATIO",
+    "EDGE_ON_SURFACE",
     "SurfaceFlaw",
     "breaks_to_surface",
     "check_breakthrough",
+    "corner_flaw",
     "interior_table_back",
     "run_breakthrough",
     "surface_flaw",
@@ -71,17 +79,22 @@ BREAKTHROUGH_COLUMNS = ("phase",) + tuple(
 
 @dataclasses.dataclass(frozen=True)
 class SurfaceFlaw:
-    """An interior flaw re-characterised as a surface flaw (:func:`surface_flaw`)."""
+    """An interior flaw re-characterised as a surface flaw (:func:`surface_flaw`): a
+    semi-elliptical crack, or at an edge a quarter-elliptical corner crack."""
 
     crack: SurfaceBreakingCrack
     ligament: float  # the flaw's least distance to the surface along the depth line (m)
     height: float  # its extent along the depth direction (m)
     length: float  # its extent along the surface (m)
+    ligament2: float | None = None  # a corner flaw's least distance to the second face (m)
 
     def summary(self) -> dict[str, Any]:
-        """The entry ``fracture.breakthrough.crack`` of summary.json."""
+        """The entry ``fracture.breakthrough.crack`` of summary.json (a corner crack's
+        with its ``shape`` and ``ligament2``)."""
         c = self.crack
+        corner = {} if self.ligament2 is None else {"shape": c.shape, "ligament2": self.ligament2}
         return {
+            **corner,
             "centre": list(c.centre),
             "normal": list(c.normal),
             "axis": list(c.axis),
@@ -163,7 +176,12 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
     along e through the middle of the length at the nearest point's level; it meets the
     surface at the centre C.  The ligament is the distance from the flaw's highest
     vertex level to C along e, the depth = ligament + height, the half-length = half
-    the length (the rule of docs/theory/fracture.md).
+    the length (the rule of docs/theory/fracture.md).  When the front also comes within
+    :data:`EDGE_LIGAMENT_RATIO` times its least distance of a second face at about 90° to
+    the first (:func:`_second_face`) and the two faces' planes meet the crack plane on
+    the body's surface (within :data:`EDGE_ON_SURFACE` of the smaller semi-axis: an edge,
+    not two tangent planes of a curved surface) the flaw is at an edge: a corner crack
+    (:func:`corner_flaw`).
 
     Raises
     ------
@@ -185,6 +203,12 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
             "breakthrough", "the crack plane is (nearly) parallel to the body's surface"
         )
     e /= np.linalg.norm(e)
+    edge = _second_face(T, X, m, float(dist.min()))
+    if edge is not None:
+        nearest = T[int(np.argmin(point_triangle_distance(p, T)))]
+        corner = corner_flaw(V, n, (nearest[0], m), edge)
+        if _on_an_edge(T, corner.crack):
+            return corner
     t = _stable_unit(np.cross(n, e))
     along, up = V @ t, V @ e
     mid = 0.5 * (along.max() + along.min())
@@ -201,6 +225,85 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
         tuple(map(float, t)),
     )
     return SurfaceFlaw(crack, ligament, height, length)
+
+
+#: A flaw is at an edge when a second face (its normal 90 ± CORNER_ANGLE_TOL° from the
+#: first's) is at most this many times the first face's ligament from its front.
+EDGE_LIGAMENT_RATIO = 2.0
+
+
+def _second_face(
+    T: np.ndarray, X: np.ndarray, m: np.ndarray, ligament: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The face at an edge the flaw also reaches: among the boundary triangles whose
+    outward normal lies 90 ± :data:`~bonecontact.fracture.surface_body3d.CORNER_ANGLE_TOL`°
+    from ``m`` the nearest to the front samples ``X``, if within
+    :data:`EDGE_LIGAMENT_RATIO` × ``ligament`` of them: (a vertex of it, its unit outward
+    normal); else ``None``."""
+    normals = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    side = np.flatnonzero(np.abs(normals @ m) <= math.sin(math.radians(CORNER_ANGLE_TOL)))
+    if len(side) == 0:
+        return None
+    d = np.array([point_triangle_distance(x, T[side]) for x in X])
+    k = int(np.unravel_index(np.argmin(d), d.shape)[1])
+    if d.min() > EDGE_LIGAMENT_RATIO * ligament:
+        return None
+    return T[side[k], 0], normals[side[k]]
+
+
+#: A corner flaw's centre (where the crack plane meets the two faces' planes) must lie
+#: within this fraction of its smaller semi-axis of the body's surface: on an edge, not
+#: outside a curved surface where two tangent planes meet.
+EDGE_ON_SURFACE = 0.1
+
+
+def _on_an_edge(T: np.ndarray, crack: SurfaceBreakingCrack) -> bool:
+    """Whether the corner crack's centre lies on the body's surface
+    (:data:`EDGE_ON_SURFACE`)."""
+    gap = float(point_triangle_distance(np.asarray(crack.centre), T).min())
+    return gap <= EDGE_ON_SURFACE * min(crack.depth, crack.half_length)
+
+
+def corner_flaw(
+    V: np.ndarray,
+    normal: np.ndarray,
+    face1: tuple[np.ndarray, np.ndarray],
+    face2: tuple[np.ndarray, np.ndarray],
+) -> SurfaceFlaw:
+    """The planar flaw of front vertices ``V`` (in the plane of ``normal``) next to the
+    edge where ``face1`` (the nearer face) and ``face2`` meet — each (a point, its unit
+    outward normal) — re-characterised as a quarter-elliptical corner crack: centred where
+    the crack plane meets the edge, c along face 1 = the flaw's farthest in-plane distance
+    from face 2, a along face 2 = its farthest from face 1 (ligament + height, the
+    semi-elliptical rule's depth), ``axis`` the plane's line in face 1, from the edge into
+    it."""
+    n = np.asarray(normal, dtype=float)
+    (q1, m1), (q2, m2) = face1, face2
+    M = np.array([n, m1, m2])
+    C = np.linalg.solve(M, [n @ V.mean(axis=0), m1 @ q1, m2 @ q2])
+    h1 = _in_plane_distance(V, q1, m1, n)
+    h2 = _in_plane_distance(V, q2, m2, n)
+    t = np.cross(n, m1)
+    t = _stable_unit(t if t @ m2 < 0 else -t)
+    crack = SurfaceBreakingCrack(
+        tuple(map(float, C)),
+        tuple(map(float, n)),
+        float(h1.max()),
+        float(h2.max()),
+        tuple(map(float, t)),
+        CORNER,
+    )
+    return SurfaceFlaw(
+        crack, float(h1.min()), float(np.ptp(h1)), float(np.ptp(h2)), float(h2.min())
+    )
+
+
+def _in_plane_distance(V: np.ndarray, q: np.ndarray, m: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The distances from the points ``V`` of the crack plane (normal ``n``) to the face
+    plane through ``q`` with outward normal ``m``, measured in the crack plane."""
+    e = m - (m @ n) * n
+    return (q - V) @ m / np.linalg.norm(e)
 
 
 def _refuse(scene: Scene) -> None:
