@@ -62,6 +62,11 @@ $PY benchmarks/bench_front3d.py $quick
 echo "== 3D crack in a scene: inclined penny K_I/K_II/K_III error against dofs and time"
 rm -f benchmarks/results/crack_scene3d.csv
 $PY benchmarks/bench_crack_scene3d.py $quick
+echo "== 3D crack growth in a scene: cost per increment (re-mesh, contact solve, K) against one linear solve, K_I error (1 and 2 ranks)"
+rm -f benchmarks/results/crack_growth3d.csv
+$PY benchmarks/bench_crack_growth3d.py $quick
+$MPIEXEC -n 2 $PY benchmarks/bench_crack_growth3d.py --quick
+$PY benchmarks/summarize.py crack_growth3d
 
 echo "== checkpoints: write time, size and restart read time against a step (1 and 2 ranks)"
 rm -f benchmarks/results/checkpoint.csv
