@@ -8,11 +8,8 @@ The run chains the two growth runners.  The interior crack grows
 the ligament of the surface, its last solved front is re-characterised as a
 semi-elliptical surface crack (:func:`surface_flaw`: in the crack's plane, centred where
 the depth line through the middle of the flaw's length meets the surface, depth =
-ligament + the flaw's height, half-length = half its length) — or, when its front is as
-near a second face at an edge (within twice the ligament), a quarter-elliptical corner
-crack (:func:`corner_flaw`: centred on the edge, each semi-axis the flaw's farthest
-distance from the other face) — cut into the body and
-grown by :func:`~bonecontact.runners.surface_crack3d.run_surface_crack` from the next
+ligament + the flaw's height, half-length = half its length; at an edge a corner crack,
+:func:`corner_flaw`), cut into the body and grown by :func:`~bonecontact.runners.surface_crack3d.run_surface_crack` from the next
 increment number and the cycles of the last interior solve.  The surface phase's front
 size is the interior one's, or less where the deeper ellipse needs it (three elements
 within 0.6 b²/a).  ``fracture.csv`` is one table of both phases (``phase`` interior or
