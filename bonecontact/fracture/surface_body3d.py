@@ -229,6 +229,7 @@ def crack_frame(
             "quarter of the smaller semi-axis",
         )
     C = C - ((C - tri[0]) @ m) / (m @ m) * m  # onto the discrete surface
+    _refuse_edge(crack, nodes, conn, C)
     x = nodes[conn]
     near = np.min(np.linalg.norm(x - C, axis=2), axis=1) < _normal_reach(crack)  # a corner
     if crack.axis is not None:  # the centre's own facet, however large
@@ -382,6 +383,24 @@ def _corner_axis(
             "axis", f"points out of the body: from the edge into the face it is {_fmt(lines[k])}"
         )
     return lines[k], lines[1 - k]
+
+
+def _refuse_edge(
+    crack: SurfaceBreakingCrack, nodes: np.ndarray, conn: np.ndarray, C: np.ndarray
+) -> None:
+    """Refuse a semi-elliptical crack centred on an edge (two faces at 90 ± 20° within
+    min(a, c)/4 of the centre): its depth direction would be the faces' mean normal, the
+    diagonal, and its ellipse neither face's (key ``centre``; a corner crack is
+    ``shape = "quarter_elliptical"``)."""
+    faces = faces_at(nodes, conn, C, 0.25 * min(crack.depth, crack.half_length))
+    for f in faces[1:]:
+        if abs(float(faces[0].normal @ f.normal)) <= math.sin(math.radians(CORNER_ANGLE_TOL)):
+            raise ParameterError(
+                "centre",
+                "lies on an edge of the body (two faces meet within a quarter of the smaller "
+                'semi-axis): a crack there is a corner crack, shape = "quarter_elliptical" '
+                "(with length, depth and axis)",
+            )
 
 
 def _fmt(v: np.ndarray) -> str:

@@ -16,7 +16,8 @@ x = 0 meets the top face z = 1:
   cut boundary closed;
 * bad input naming the key: a centre on a face or at a vertex, a re-entrant edge (the box
   turned inside out), a plane containing the edge (``normal``), an axis along no face or
-  out of the body (``axis``); and the scene table: ``length`` and ``axis`` required,
+  out of the body (``axis``); a semi-elliptical crack centred on the edge (``centre``);
+  and the scene table: ``length`` and ``axis`` required,
   ``half_length`` refused.
 
 Pure NumPy, no mesh: the same on every rank.
@@ -37,6 +38,7 @@ from bonecontact.fracture.surface_body3d import (
     corner_frame,
     corner_parameter,
     corner_point,
+    crack_frame,
     cut_mouth,
     faces_at,
     onto_edge,
@@ -150,6 +152,17 @@ def test_bad_corner_cracks_name_the_key(kw: dict, key: str, text: str) -> None:
     with pytest.raises(ParameterError, match=text) as info:
         corner_frame(corner(**kw), nodes, conn)
     assert info.value.key == key
+
+
+def test_semi_elliptical_crack_on_an_edge_is_refused() -> None:
+    nodes, conn = box_mesh()
+    semi = SurfaceBreakingCrack(tuple(EDGE_POINT), (0.0, 1.0, 0.0), 0.2, 0.4)
+    with pytest.raises(ParameterError, match="quarter_elliptical") as info:
+        crack_frame(semi, nodes, conn)
+    assert info.value.key == "centre"
+    mid_face = SurfaceBreakingCrack((1.0, 1.0, 1.0), (0.0, 1.0, 0.0), 0.2, 0.4)
+    ell, _ = crack_frame(mid_face, nodes, conn)  # away from the edge: as before
+    np.testing.assert_allclose(ell.rotation[1], (0.0, 0.0, -1.0), atol=1e-12)
 
 
 def test_re_entrant_edge_is_refused() -> None:

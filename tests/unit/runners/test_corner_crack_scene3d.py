@@ -24,7 +24,8 @@ face; from the point's coordinates: tan ψ = (−z/a)/((x + b)/c)).
   hand from fracture.csv; continued from its checkpoint before the second block it is
   the same run (the checkpoint keeps the shape).
 * Bad input: a centre off the edge (the middle of the front face) and an ``axis`` along
-  no face are refused naming the key.
+  no face are refused naming the key, as is a semi-elliptical crack centred on the edge
+  (key ``centre``, pointing at ``quarter_elliptical``).
 """
 
 from __future__ import annotations
@@ -118,6 +119,14 @@ def test_centre_off_the_edge_is_refused(plate: Path) -> None:
     text = corner_text(plate / "plate.msh", 0.2 * L, 0.2 * L, centre="[0.0, 0.0, 0.0]")
     with pytest.raises(SceneError, match=r"centre.*edge"):
         _run(plate, "off_edge", text)
+
+
+def test_semi_elliptical_crack_on_the_edge_is_refused(plate: Path) -> None:
+    """Before the corner crack a semi-elliptical crack there was accepted with its depth
+    along the faces' mean normal (the diagonal) and its ellipse along neither face."""
+    text = surface_scene(plate / "plate.msh", a=0.2 * L, c=0.4 * L, h=0.02 * L, centre=EDGE)
+    with pytest.raises(SceneError, match=r"centre.*edge.*quarter_elliptical"):
+        _run(plate, "semi_on_edge", text)
 
 
 def test_axis_along_no_face_is_refused(plate: Path) -> None:
