@@ -9,8 +9,9 @@ the ligament of the surface, its last solved front is re-characterised as a
 semi-elliptical surface crack (:func:`surface_flaw`: in the crack's plane, centred where
 the depth line through the middle of the flaw's length meets the surface, depth =
 ligament + the flaw's height, half-length = half its length; at an edge a corner crack,
-:func:`corner_flaw`), cut into the body and grown by :func:`~bonecontact.runners.surface_crack3d.run_surface_crack` from the next
-increment number and the cycles of the last interior solve.  The surface phase's front
+:func:`corner_flaw`), cut into the body and grown by
+:func:`~bonecontact.runners.surface_crack3d.run_surface_crack` from the next increment
+number and the cycles of the last interior solve.  The surface phase's front
 size is the interior one's, or less where the deeper ellipse needs it (three elements
 within 0.6 b²/a).  ``fracture.csv`` is one table of both phases (``phase`` interior or
 surface; the last interior rows marked ``breaks_surface`` with the cycles of their
