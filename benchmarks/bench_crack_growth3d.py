@@ -45,32 +45,20 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import gmsh
 import numpy as np
 import ufl
-from common import machine, write_rows  # (benchmarks/ is the script directory)
+from bench_crack_scene3d import block_mesh  # the same block (benchmarks/ is the script directory)
+from common import machine, write_rows
 from dolfinx import fem, io, mesh
 from dolfinx.fem.petsc import LinearProblem
 
 from bonecontact.runners.dispatch import run_scene
 from bonecontact.scene import load_scene
-from bonecontact.verification.problems import crack_block_model, crack_block_scene
+from bonecontact.verification.problems import crack_block_scene
 
 COMM = MPI.COMM_WORLD
 OUT = Path(__file__).resolve().parent / "results"
 A, W, E, NU, SIGMA, DA, STEPS = 1.0e-3, 4.0e-3, 17.0e9, 0.3, 1.0e6, 0.1, 3
-
-
-def block_mesh(path: Path) -> None:
-    """The scene's block [−W, W]³ (``crack_block_model``), meshed on rank 0."""
-    if COMM.rank == 0:
-        gmsh.initialize()
-        gmsh.option.setNumber("General.Terminal", 0)
-        crack_block_model(W)
-        gmsh.model.mesh.generate(3)
-        gmsh.write(str(path))
-        gmsh.finalize()
-    COMM.barrier()
 
 
 def growth_scene(n: int) -> str:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 
+import _box_surface
 import numpy as np
 import pytest
 
@@ -51,27 +52,7 @@ EDGE_POINT = np.array([0.0, 1.0, 1.0])  # on the edge x = 0, z = 1
 def box_triangles(h: float = 0.25, inside_out: bool = False) -> np.ndarray:
     """The box's boundary: a grid of spacing ``h`` on each face, two triangles a square,
     outward (inward when ``inside_out``); shape (n, 3, 3)."""
-    tris = []
-    for axis in range(3):
-        others = [k for k in range(3) if k != axis]
-        u = np.arange(0.0, SIZE[others[0]] + 1e-9, h)
-        v = np.arange(0.0, SIZE[others[1]] + 1e-9, h)
-        for side in (0.0, SIZE[axis]):
-            out = np.zeros(3)
-            out[axis] = 1.0 if side > 0 else -1.0
-            for i in range(len(u) - 1):
-                for j in range(len(v) - 1):
-                    q = []
-                    for a, b in ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)):
-                        p = np.zeros(3)
-                        p[axis], p[others[0]], p[others[1]] = side, u[a], v[b]
-                        q.append(p)
-                    for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])):
-                        t = np.array(t)
-                        if (np.cross(t[1] - t[0], t[2] - t[0]) @ out < 0) != inside_out:
-                            t = t[[0, 2, 1]]
-                        tris.append(t)
-    return np.array(tris)
+    return _box_surface.box_triangles(SIZE, h, inside_out)
 
 
 def box_mesh(inside_out: bool = False) -> tuple[np.ndarray, np.ndarray]:

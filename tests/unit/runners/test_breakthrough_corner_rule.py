@@ -25,6 +25,8 @@ Pure numpy: runs under mpiexec too (the same on every rank).
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,33 +36,16 @@ from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import cut_mouth
 from bonecontact.runners.breakthrough3d import EDGE_LIGAMENT_RATIO, surface_flaw
 
+sys.path.insert(0, str(Path(__file__).parents[1] / "fracture"))
+from _box_surface import box_triangles
+
 MM = 1e-3
 SIZE = (2.0 * MM, 2.0 * MM, 1.0 * MM)
 
 
 def _box(h: float = 0.25 * MM) -> BodySurface:
     """The box's boundary: a grid of spacing ``h`` on each face, outward."""
-    tris = []
-    for axis in range(3):
-        others = [k for k in range(3) if k != axis]
-        u = np.linspace(0.0, SIZE[others[0]], round(SIZE[others[0]] / h) + 1)
-        v = np.linspace(0.0, SIZE[others[1]], round(SIZE[others[1]] / h) + 1)
-        for side in (0.0, SIZE[axis]):
-            out = np.zeros(3)
-            out[axis] = 1.0 if side > 0 else -1.0
-            for i in range(len(u) - 1):
-                for j in range(len(v) - 1):
-                    q = []
-                    for a, b in ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)):
-                        p = np.zeros(3)
-                        p[axis], p[others[0]], p[others[1]] = side, u[a], v[b]
-                        q.append(p)
-                    for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])):
-                        t = np.array(t)
-                        if np.cross(t[1] - t[0], t[2] - t[0]) @ out < 0:
-                            t = t[[0, 2, 1]]
-                        tris.append(t)
-    T = np.array(tris)
+    T = box_triangles(SIZE, h)
     return BodySurface(T, np.ones(len(T), dtype=np.int32), {1: "wall"}, ("box", 1), h)
 
 
