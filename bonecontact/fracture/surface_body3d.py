@@ -445,7 +445,9 @@ def corner_point(crack: SurfaceBreakingCrack, ell: EllipticalFront, psi: float) 
 
 def corner_angle(cut: CutBody, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Newman and Raju's angle ψ of points ``x`` (m, (k, 3)) of a corner crack's front:
-    tan ψ = (x − C)·d / a ÷ (x − C)·t / c (t the ``axis``, d the depth direction)."""
+    tan ψ = (x − C)·d / a ÷ (x − C)·t / c (t the ``axis``, d the depth direction).  Of a
+    semi-elliptical crack the same formula gives Newman and Raju's parametric angle φ (0
+    and π at the surface ends, the end along +t at 0; π/2 at the deepest point)."""
     X = np.atleast_2d(np.asarray(x, dtype=float)) - np.asarray(cut.arc.centre)
     t = np.asarray(cut.crack.axis, dtype=float)
     d = _depth_direction(cut.arc, cut.crack)

@@ -71,7 +71,9 @@ __all__ = [
 #: Columns of ``fracture.csv`` of a run with both phases (a row per increment and point;
 #: the columns a phase does not have are empty).
 BREAKTHROUGH_COLUMNS = ("phase",) + tuple(
-    dict.fromkeys([*GROWTH3D_COLUMNS[:4], "depth", "half_length", "phi_deg", *GROWTH3D_COLUMNS[4:]])
+    dict.fromkeys(
+        [*GROWTH3D_COLUMNS[:4], "depth", "half_length", "phi_deg", "psi_deg", *GROWTH3D_COLUMNS[4:]]
+    )
 )
 
 

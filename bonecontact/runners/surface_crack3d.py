@@ -101,6 +101,7 @@ SURFACE_COLUMNS = (
     "half_length",
     "point",
     "phi_deg",
+    "psi_deg",
     "s",
     "x",
     "y",
@@ -130,6 +131,7 @@ class SurfaceRecord:
     half_length: float
     point: int
     phi_deg: float
+    psi_deg: float
     s: float
     x: float
     y: float
@@ -362,6 +364,7 @@ def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float
         kink = float(sigma1_kink(k.K_I, k.K_II, k.K_III)[0][0])
         x, y, z = k.point
         s = float(block.front.arc_length(phi) - block.front.arc_length(p0))
+        psi = float(corner_angle(cut, [k.point])[0])  # Newman and Raju's angle
         records.append(
             SurfaceRecord(
                 inc,
@@ -370,6 +373,7 @@ def evaluate(u: Any, cb: CrackedBody3D, run: SurfaceRun, inc: int, cycles: float
                 cut.crack.half_length,
                 i,
                 math.degrees(phi),
+                math.degrees(psi),
                 s,
                 x,
                 y,
@@ -532,10 +536,27 @@ def _growth_points(records: list[SurfaceRecord], cut: CutBody) -> list[int]:
     deep = math.degrees(_deepest_parameter(cut))
     i = int(np.argmin([abs(r.phi_deg - deep) for r in records]))
     ends = [0, len(records) - 1]
-    if cut.crack.shape == CORNER:
-        psi = corner_angle(cut, [[records[k].x, records[k].y, records[k].z] for k in ends])
-        ends = ends if psi[0] <= psi[1] else ends[::-1]
+    if cut.crack.shape == CORNER:  # by Newman and Raju's ψ: 0 on the face of c
+        ends = ends if records[0].psi_deg <= records[-1].psi_deg else ends[::-1]
     return [ends[0], i, ends[1]]
+
+
+def _history_k(records: list[SurfaceRecord], cut: CutBody, kv: np.ndarray) -> dict[str, float]:
+    """The K_V entries of an increment's ``history`` (``kv``: :func:`_three_points`).  A
+    semi-elliptical crack: ``K_V_surface`` (the larger at the two points φ_s from the
+    surface) and ``K_V_deepest``.  A corner crack: ``K_V_c`` and ``K_V_a`` at the end points
+    nearest the face of c and of a (they grow c and a), their Newman–Raju angles
+    ``psi_c_deg`` and ``psi_a_deg``, and ``K_V_45`` at ψ = 45° (no growth weight)."""
+    if cut.crack.shape != CORNER:
+        return {"K_V_surface": float(max(kv[0], kv[2])), "K_V_deepest": float(kv[1])}
+    i_c, _, i_a = _growth_points(records, cut)
+    return {
+        "K_V_c": float(kv[0]),
+        "K_V_a": float(kv[2]),
+        "K_V_45": float(kv[1]),
+        "psi_c_deg": records[i_c].psi_deg,
+        "psi_a_deg": records[i_a].psi_deg,
+    }
 
 
 def _three_points(records: list[SurfaceRecord], cut: CutBody) -> np.ndarray:
@@ -569,6 +590,7 @@ def check_kink(
             "increment": r.increment,
             "point": r.point,
             "phi_deg": r.phi_deg,
+            "psi_deg": r.psi_deg,
         }
     if g.out_of_plane is not None or not abs(r.kink_deg) > limit:
         return False
@@ -576,6 +598,7 @@ def check_kink(
         "increment": r.increment,
         "point": r.point,
         "phi_deg": r.phi_deg,
+        "psi_deg": r.psi_deg,
         "kink_deg": r.kink_deg,
         "limit_deg": limit,
     }
@@ -708,8 +731,7 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
             "cycles": g.cycles,
             "depth": g.crack.depth,
             "half_length": g.crack.half_length,
-            "K_V_surface": float(max(kv[0], kv[2])),
-            "K_V_deepest": float(kv[1]),
+            **_history_k(records, cut, kv),
         }
     )
     stop = _stop(run, g, kv, rates)
@@ -859,7 +881,8 @@ def _where(run: SurfaceRun, g: Growth) -> str:
 def planar_validity(g: Growth, fr: FractureSpec) -> dict[str, Any]:
     """The entries of ``fracture.growth`` on the validity of the planar model: the
     largest |kink| of a growing point (``max_kink_deg``, ``max_kink_increment``,
-    ``max_kink_point``, ``max_kink_phi_deg``; ``null`` when no point grew), the limit
+    ``max_kink_point``, ``max_kink_phi_deg``, ``max_kink_psi_deg``; ``null`` when no
+    point grew), the limit
     (``kink_limit_deg``) and ``out_of_plane`` (``null``, or the increment, point, φ, kink
     and limit where |kink| first exceeded it)."""
     mk = g.max_kink or {}
@@ -868,6 +891,7 @@ def planar_validity(g: Growth, fr: FractureSpec) -> dict[str, Any]:
         "max_kink_increment": mk.get("increment"),
         "max_kink_point": mk.get("point"),
         "max_kink_phi_deg": mk.get("phi_deg"),
+        "max_kink_psi_deg": mk.get("psi_deg"),
         "kink_limit_deg": float(fr.max_kink_deg),
         "out_of_plane": g.out_of_plane,
     }
