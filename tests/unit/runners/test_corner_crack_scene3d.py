@@ -29,6 +29,8 @@ face; from the point's coordinates: tan ψ = (−z/a)/((x + b)/c)).
   what the measured K error implies (+13 % for K 3.5–4.4 % low at the leading point);
   fracture.csv's ``psi_deg`` is ψ of the coordinates, the history's ``K_V_c``, ``K_V_a``,
   ``K_V_45`` its rows; on 2 and 3 ranks the same run as on one.
+* ``psi_deg`` of a semi-elliptical crack (c < a and c > a): Newman and Raju's φ of the
+  coordinates, ``phi_deg`` + 90° for c < a (the frame's larger axis is the depth).
 * Bad input: a centre off the edge (the middle of the front face) and an ``axis`` along
   no face are refused naming the key, as is a semi-elliptical crack centred on the edge
   (key ``centre``, pointing at ``quarter_elliptical``).
@@ -345,3 +347,24 @@ def test_fatigue_same_on_every_partition(nr_fatigue) -> None:
         np.testing.assert_allclose([h[k] for k in w], [w[k] for k in w], rtol=1e-10)
     for k in ("depth", "half_length"):
         assert got["crack"]["final"][k] == pytest.approx(want["crack"]["final"][k], rel=1e-10)
+
+
+def test_psi_of_a_semi_elliptical_crack(plate: Path) -> None:
+    """``psi_deg`` of a semi-elliptical crack is Newman and Raju's parametric angle φ of
+    each point, from its coordinates: tan φ = (−z/a) / ((x − x_C)/c), 90° at the deepest
+    point.  With c < a the ellipse frame's larger axis is the depth, so ``phi_deg`` is
+    not that angle (here ψ = φ_frame + 90°); with c ≥ a the two are equal."""
+    for a, c in ((0.2 * L, 0.15 * L), (0.15 * L, 0.2 * L)):
+        text = surface_scene(plate / "plate.msh", a=a, c=c, h=min(a, c) / 8)
+        res, out = _run(plate, f"semi_psi_{a / L:g}_{c / L:g}", text)
+        assert res.status == "converged", res.summary.get("message")
+        tab = read_csv(out / "fracture.csv")
+        t = np.asarray(res.summary["fracture"]["crack"]["axis"])
+        x0 = np.asarray(res.summary["fracture"]["crack"]["centre"])
+        along = (np.stack([tab["x"], tab["y"], tab["z"]], axis=1) - x0) @ t
+        psi = np.degrees(np.arctan2(-tab["z"] / a, along / c))
+        np.testing.assert_allclose(tab["psi_deg"], psi, atol=1e-9)
+        assert np.any(np.abs(tab["psi_deg"] - 90.0) < 1e-6)  # the deepest point
+        assert 0.0 < tab["psi_deg"].min() and tab["psi_deg"].max() < 180.0
+        shift = np.round(tab["psi_deg"] - tab["phi_deg"], 9)
+        assert np.all(shift == (90.0 if c < a else 0.0)), shift
