@@ -278,16 +278,19 @@ def predicted_set(
     """The first set update of a 3D cold start, pair by pair (:func:`first_set`).
 
     ``rows`` are the rows of the first system, ``patch`` its active set (the support
-    patch) and ``it`` the first iterate.  A pair whose patch carries no compressive
-    force in the first solve (pulled apart) takes the plain active-set rule instead.
-    Returns the set and the linear iterations of the extra solve.
+    patch) and ``it`` the first iterate.  Patch nodes that pull in the first solve are
+    released in every pair (the plain rule's release).  A pair whose patch carries no
+    compressive force in the first solve (pulled apart), or that has no patch (it started
+    open), takes the plain active-set rule instead: an empty patch measures nothing, and
+    keeping it would accept the first solve's penetrations as converged.  Returns the set
+    and the linear iterations of the extra solve.
     """
     lay, gap, D, comm = system.layout, system.gap, system.D, system.layout.comm
     force = it.lam_n * D
     g0 = global_min(comm, gap[patch]) if global_any(comm, patch) else 0.0
     shift = max(global_max(comm, it.un - g0, 0.0), 0.0)
     dforce, its = None, 0
-    if shift > 0.0:
+    if shift > 0.0 and global_any(comm, patch):
         dforce, its = patch_response(system, strategy, rows, patch, it.lam_n, shift)
     interfaces = system.interfaces
     X = np.concatenate([itf.coords for itf in interfaces])
@@ -299,9 +302,10 @@ def predicted_set(
     for k in range(len(interfaces)):
         m = pair == k
         pulled = global_sum(comm, float(force[m & patch].sum())) <= 0.0
-        if global_any(comm, patch[m]) and pulled:
-            # a pair pulled apart (e.g. crack faces in tension): nothing to measure the
-            # compliance with, and keeping the patch would accept tensile multipliers
+        if pulled:
+            # a pair pulled apart (e.g. crack faces in tension) or started open: nothing
+            # to measure the compliance with, and keeping the patch would accept tensile
+            # multipliers (an empty one: penetrations)
             new[m] = release[m]
             continue
         new[m] = first_set(
@@ -315,7 +319,10 @@ def predicted_set(
             shift,
             comm,
         )
-    return new, its
+    # a patch node that pulls (its indicator below −ε) is released, as by the plain rule:
+    # a patch that carries compression as a whole may pull at some nodes (a crack closed
+    # at one end and opened at the other); kept, the unchanged set reads as converged
+    return new & ~(patch & (it.ind_n < -it.eps)), its
 
 
 def support_patch(
@@ -374,10 +381,15 @@ def initial_set(
     closed-gap nodes when the bodies touch, the closest ones when they start apart), and
     the support patch around them (:func:`support_patch`), so that a body held only by
     contact is supported against its rigid modes from the first solve even when it
-    touches at a single node.  This rank's owned nodes (collective)."""
+    touches at a single node; none of a pair that starts open
+    (:attr:`~bonecontact.contact.interface.ContactInterface.start_open`: a crack's faces).
+    This rank's owned nodes (collective)."""
     out = []
     comm = layout.comm
     for itf in interfaces:
+        if itf.start_open:
+            out.append(np.zeros(itf.num_owned, dtype=bool))
+            continue
         gmin = global_min(comm, itf.gap)
         closest = itf.gap <= max(gmin if np.isfinite(gmin) else 0.0, 0.0) + gap_tol
         out.append(support_patch(itf.coords, itf.D, closest, itf.gdim, comm=comm))

@@ -106,6 +106,12 @@ class ContactInterface:
         Measure of the whole slave surface and of its part covered by the master.
     rigid
         Whether the master is a :class:`RigidPlane`.
+    start_open
+        A cold start begins with none of the pair's nodes active (the plain active-set
+        rule then closes the nodes that penetrate): the two faces of a crack, whose gaps
+        are all zero by construction, so that the closed-gap start would glue the whole
+        crack (docs/theory/pdas.md#cold-start).  ``False``: the closed-gap nodes and their
+        support patch.
     build_stats
         What :func:`build_interface` did on this rank: wall times (s) of its phases,
         ``t_gather`` (surfaces, normals, nearby master facets), ``t_search`` (candidate
@@ -131,6 +137,7 @@ class ContactInterface:
     slave_area: float = 0.0
     covered_area: float = 0.0
     rigid: bool = False
+    start_open: bool = False
     build_stats: dict[str, float] = field(default_factory=dict, repr=False)
 
     @property

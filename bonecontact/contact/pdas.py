@@ -472,7 +472,8 @@ class ContactSolver:
         First update of a cold start: in 3D the set predicted from the compliance of the
         support patch (:func:`bonecontact.contact.cold_start.predicted_set`); in 2D (or
         with ``cold_start_3d="damped"``) of the newly penetrating nodes those within
-        ``cold_start_fraction`` of the deepest penetration.
+        ``cold_start_fraction`` of the deepest penetration.  A prediction that keeps the
+        first set is checked by the plain rule (else it would read as converged).
         """
         first = k == 1 and self.warm.cold
         if first and self.bs == 3 and self.options.active_set.cold_start_3d == "compliance":
@@ -480,6 +481,10 @@ class ContactSolver:
             new_an, its = cold_start.predicted_set(self.system, self.linear_solver, rows, st.an, it)
             st.lin_total += its
             self.sets.take_active(st, it, new_an)
+            if it.changed_sets == 0:
+                # the prediction kept the first set: converged only if the plain rule
+                # keeps it too (no node pulls, none penetrates)
+                self.sets.update_active(st, it, damp_first=False)
         else:
             self.sets.update_active(st, it, damp_first=first)
 

@@ -140,6 +140,12 @@ class SetUpdate:
         self.c_n = float(c_n) / fs if c_n is not None else system.stiffness_ratio
         self.c_t = float(c_t) / fs if c_t is not None else self.c_n
         self.cold_start_fraction = float(active_set.cold_start_fraction)
+        #: the nodes of pairs that start open (crack faces): their first update is the
+        #: plain rule, undamped (docs/theory/pdas.md#pairs-that-start-open)
+        self.open_start = np.concatenate(
+            [np.full(itf.num_owned, itf.start_open) for itf in system.interfaces]
+            + [np.zeros(0, dtype=bool)]
+        )
         self.fp_every, self.fp_tol = max(int(slip.fp_every), 1), float(slip.fp_tol)
         self.direction_tol = float(slip.direction_tol)
         self.bs = system.layout.bs
@@ -267,16 +273,18 @@ class SetUpdate:
     def update_active(self, st: PDASState, it: Iterate, damp_first: bool) -> None:
         """``p ∈ A_n`` where ``λ_n + c_n (u_n − g) > 0``; ``damp_first`` (the first update
         of a cold start): of the newly penetrating nodes only those within
-        ``cold_start_fraction`` of the deepest penetration."""
+        ``cold_start_fraction`` of the deepest penetration (not on pairs that start open:
+        their first set is empty, there is no overshoot to damp)."""
         an = st.an
         # an indicator within ±ε of zero keeps the node's state: an active node whose
         # multiplier is zero to round-off (λ ≈ −ε, a degenerate node at the edge of the
         # zone) stays active instead of toggling (docs/theory/pdas.md#active-set-rule)
         new_an = (it.ind_n > it.eps) | (an & (it.ind_n >= -it.eps))
-        if damp_first and self.cold_start_fraction > 0 and global_any(self.comm, new_an & ~an):
+        newly = new_an & ~an & ~self.open_start
+        if damp_first and self.cold_start_fraction > 0 and global_any(self.comm, newly):
             pen = it.un - self.system.gap
-            deepest = global_max(self.comm, pen[new_an & ~an])
-            new_an &= an | (pen > self.cold_start_fraction * deepest)
+            deepest = global_max(self.comm, pen[newly])
+            new_an &= an | self.open_start | (pen > self.cold_start_fraction * deepest)
         self.take_active(st, it, new_an)
 
     def take_active(self, st: PDASState, it: Iterate, new_an: npt.NDArray[np.bool_]) -> None:

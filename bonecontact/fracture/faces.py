@@ -89,7 +89,10 @@ def face_interface(model: Mechanics, cm: CrackedMesh, name: str = "crack") -> Co
     adjacent facet of the other leg, or with the opposite face of a leg a few facets
     away — a nodal gap of -2.7 mm between faces that coincide, and before that step
     wrong contact matrices.  The interface is then checked to have zero gaps and a
-    singly covered slave face (:func:`check_faces_coincide`).
+    singly covered slave face (:func:`check_faces_coincide`).  The pair starts open
+    (:attr:`~bonecontact.contact.interface.ContactInterface.start_open`): a cold start
+    that held every closed gap would glue the crack, and an open crack would then release
+    every face node.
 
     Raises
     ------
@@ -117,6 +120,7 @@ def face_interface(model: Mechanics, cm: CrackedMesh, name: str = "crack") -> Co
             f"crack {name!r}: its two faces do not form a contact pair: {exc}"
         ) from None
     check_faces_coincide(itf, model.mesh.comm, tol)
+    itf.start_open = True  # every gap is 0: a closed-gap start would glue the crack
     return itf
 
 

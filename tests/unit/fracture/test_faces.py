@@ -97,6 +97,68 @@ def test_shared_tip_is_refused_unless_asked(closed):
         build_interface(closed.model.V, contact_tags(cm), SLAVE_TAG, MASTER_TAG, shared_nodes="yes")
 
 
+# ------------------------------------------------------------- the faces start open
+#: the family of the open start: crack angle β (degrees from x; the load is along y),
+#: load sign (+1 tension: the crack opens; −1 compression: it closes), Coulomb μ or None
+START = [(b, s, mu) for b in (0.0, 30.0, 60.0) for s in (1.0, -1.0) for mu in (None, 0.3)]
+_PLATES: dict[float, object] = {}
+
+
+def _plate(beta: float):
+    """The plate with a centre crack at β (coarser than ``closed``'s), made once."""
+    if beta not in _PLATES:
+        _PLATES[beta] = mesh_plate(1.0, 1.0, centre_crack(A, beta), TipMesh(0.01, 0.3, 0.2), COMM)
+    return _PLATES[beta]
+
+
+def _solve(cm, sign: float, **kw):
+    return solve_plate(cm, MAT, {"edge2": (0.0, sign * 1e6), "edge0": (0.0, -sign * 1e6)}, **kw)
+
+
+def _relative(u, v) -> float:
+    d = u.x.petsc_vec.copy()
+    d.axpy(-1.0, v.x.petsc_vec)
+    return d.norm() / v.x.petsc_vec.norm()
+
+
+@pytest.mark.parametrize("beta, sign, mu", START)
+def test_faces_start_open(beta: float, sign: float, mu: float | None, monkeypatch) -> None:
+    """The crack's faces start open (every gap is 0, a closed-gap start would glue them).
+    In tension the solve is the open crack's linear solve (reference: the same plate
+    without the contact pair) in one PDAS iteration (two with the Coulomb fixed point);
+    in compression the faces close with no interpenetration, a frictionless crack carries
+    σ cos²β over its length 2a (the uncracked plate), and the answer is the one started
+    from the closed-gap set (the second method)."""
+    import bonecontact.fracture.faces as faces
+
+    cm = _plate(beta)
+    sol = _solve(cm, sign, face_contact=True, friction=mu)
+    res = sol.contact
+    assert COMM.allreduce(max([g.min(initial=np.inf) for g in res.gap]), op=MPI.MIN) >= -1e-12 * A
+    if sign > 0:
+        assert res.n_active == [0]
+        assert res.iterations == (1 if mu is None else 2)
+        assert _relative(sol.u, _solve(cm, sign).u) < 1e-10
+        return
+    n_nodes = COMM.allreduce(sol.contact_interface.num_owned)
+    assert res.n_active == [n_nodes]
+    if mu is None:
+        sn = 1e6 * math.cos(math.radians(beta)) ** 2
+        # (measured −0.4 … +2.0 %: the faces' tip nodes carry no multiplier, h = a/10)
+        assert res.normal_force[0] == pytest.approx(sn * 2 * A, rel=3e-2)
+    original = faces.face_interface
+
+    def closed_start(*args, **kwargs):
+        itf = original(*args, **kwargs)
+        itf.start_open = False
+        return itf
+
+    monkeypatch.setattr(faces, "face_interface", closed_start)
+    glued = _solve(cm, sign, face_contact=True, friction=mu)
+    assert glued.contact.iterations <= res.iterations
+    assert _relative(sol.u, glued.u) < 1e-8
+
+
 # ----------------------------------------------------------- recovered tractions at a tip
 def _face(dim: int, n: int, rng: np.random.Generator):
     """Face nodes behind a tip at the origin (2D: on the negative x axis, graded towards
