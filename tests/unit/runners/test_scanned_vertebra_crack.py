@@ -44,16 +44,16 @@ References and measured values (serial; 2 ranks):
   refused "(nearly) tangent" while the side of a grown crack's depth came from the facets
   within max(a, c) (the base of the body, 14 mm below and normal to the plane, among them).
 
-Slow: blocks of 4 mm until the crack runs through the body (11 blocks, 4.32·10⁵ cycles;
+Slow: blocks of 4 mm until the crack runs through the body (11 blocks, 4.96·10⁵ cycles;
 test_the_crack_runs_through_the_body has the figures and why the cycles are checked
 against the recorded K, not pinned), the same on 2 and 3 ranks.  K_V peaks at 117.1
 kPa√m (c = 13.8 mm) and falls to 53.8 at a = 13.2 mm as the front enters the half of the
-body the flexion's follower load compresses; from a = 17.2 mm the faces are closed (K_I <
-0.1 K_II) and the planar crack grows by mode II alone (kink −70°: a real crack would leave
-its plane here; the planar model goes on, summary.json's ``out_of_plane`` says from
-which block: the deepest point's kink passes the default 15° at the 3rd crack, −22°) until
-its front leaves the body (the 11th crack
-a = 25.2, c = 43.9 mm).  About 12 solves: 7 min serial on a quiet 2-core machine, 12 min
+body the flexion's follower load compresses; from a = 17.2 mm the faces are closed at the
+front (|K_I| ≤ 0.14 K_II) and the planar crack grows by mode II (kink −69 … −73°: a real
+crack would leave its plane here; the planar model goes on, summary.json's
+``out_of_plane`` says from which block: the deepest point's kink passes the default 15° at
+the 3rd crack, −22°) until its front leaves the body (the 11th crack a = 25.3, c = 43.6
+mm).  About 12 solves: 7 min serial on a quiet 2-core machine, 12 min
 with a 2-rank run beside it.  Serial (fast part) about 60 s.
 """
 
@@ -416,9 +416,15 @@ def test_the_crack_runs_through_the_body(through) -> None:
     """Blocks of 4 mm from a = c = 2 mm: the crack passes the wall's posterolateral corners,
     its K_V peaks (117.1 kPa√m at c = 13.8 mm, the 4th crack) and falls below half (53.8 at
     a = 13.2 mm: the front reaches the body's compressed front half), then the faces close
-    (K_I < 0.1 K_II) and pure mode II drives it (kink −arccos(1/3) within 2°) until the
-    12th crack's front leaves the body: ``through`` after 11 blocks, 4.32·10⁵ cycles,
-    K_V = 237 kPa√m < K_Ic.
+    at the front and mode II drives it (kink −arccos(1/3) within 2.5°) until the
+    12th crack's front leaves the body: ``through`` after 11 blocks, 4.96·10⁵ cycles,
+    K_V = 237 kPa√m < K_Ic.  "Closed at the front": at the 9th crack 830 of the 1520 face
+    nodes are in contact, the rest, away from the front, open; at the front points |K_I|
+    ≤ 0.14 K_II (the face term of a closed front: its tip nodes carry no multiplier) and
+    the kink −69.1 … −72.6° (pure mode II −70.5°).  Until 2026-12-04 the 3D cold start
+    held every face node shut there, pulling ones too (tensile pressures down to
+    −3.1 MPa), and this run was counted 4.32·10⁵ cycles with K_I ≈ 0 at the front: the
+    blocks up to the 8th crack are unchanged (the faces' net force was tensile).
 
     Cycles: no closed form exists for this body, and the count carries the noise of the
     mesh at 4 mm blocks (m = 4.4 turns 1 % in K into 4.4 % in a block's cycles): a run
@@ -428,7 +434,7 @@ def test_the_crack_runs_through_the_body(through) -> None:
     every block's count lies between the block length over the larger and over the
     smaller of its end rates (any rate between them), the last block (whose end is
     through) counts at its start rate, and the total lies within 5 % of integrating
-    ln(da/dN) linear between block ends (4.44·10⁵; measured −2.8 %: the block rule's cubic
+    ln(da/dN) linear between block ends (5.07·10⁵; measured −2.3 %: the block rule's cubic
     on the other blocks).  The block rule's cubic through the four ends around K's sharp
     minimum had dipped below it (5.07·10⁵ cycles, +17 %); it now takes the line there
     (fatigue.block_cycles).
@@ -447,9 +453,10 @@ def test_the_crack_runs_through_the_body(through) -> None:
     print("lead K_V", lead)
     assert int(np.argmax(lead[:8])) == 3 and lead[3] == pytest.approx(117e3, rel=0.02)
     assert lead[7] < 0.5 * lead[3] and lead[-1] < K_IC
-    # the planar model's validity: the largest kink is the closed faces' pure mode II
-    # (−arccos(1/3)); the 15° limit is passed long before (serial run: the 3rd crack, −22°)
-    assert g["max_kink_deg"] == pytest.approx(-KINK_MODE_II, abs=2.0)
+    # the planar model's validity: the largest kink is the closed front's mode II
+    # (−arccos(1/3), with the K_I residue below); the 15° limit is passed long before
+    # (serial run: the 3rd crack, −22°)
+    assert g["max_kink_deg"] == pytest.approx(-KINK_MODE_II, abs=2.5)
     oop = g["out_of_plane"]
     assert oop is not None and oop["increment"] < 8 and abs(oop["kink_deg"]) > 15.0
     rate = C_PARIS * lead**M_PARIS
@@ -464,8 +471,9 @@ def test_the_crack_runs_through_the_body(through) -> None:
     assert g["cycles"] == pytest.approx(loglin, rel=0.05)
     tab = through["table"]
     late = tab["increment"] >= 8
-    assert np.all(np.abs(tab["K_I"][late]) < 0.1 * np.abs(tab["K_II"][late]))
-    np.testing.assert_allclose(tab["kink_deg"][late], KINK_MODE_II, atol=2.0)
+    # a closed front (measured |K_I| ≤ 0.135 K_II, kinks −69.1 … −72.6°)
+    assert np.all(np.abs(tab["K_I"][late]) < 0.15 * np.abs(tab["K_II"][late]))
+    np.testing.assert_allclose(tab["kink_deg"][late], KINK_MODE_II, atol=2.5)
     scan = anatomy_surface("L4")
     tri = scan.points[scan.triangles]
     vol = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0
