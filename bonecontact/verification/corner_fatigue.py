@@ -31,6 +31,7 @@ from bonecontact.common.errors import ParameterError
 from bonecontact.common.geometry import on_advance_grid
 from bonecontact.fracture.fatigue import ParisLaw, block_cycles
 from bonecontact.verification.surface_crack import corner_crack_k
+from bonecontact.verification.surface_fatigue import rk4_in_depth
 
 __all__ = [
     "CornerBlocks",
@@ -118,8 +119,6 @@ def newman_raju_corner_growth(
     dN/da = 1/ȧ (:func:`corner_rates`) integrated by RK4 in a from c = ``c0``, N = 0."""
     if not (a_end > a0 > 0 and c0 > 0):
         raise ParameterError("a_end", f"need a_end > a0 > 0 and c0 > 0, got {a_end!r}, {a0!r}")
-    a_grid = np.linspace(a0, a_end, steps + 1)
-    h = a_grid[1] - a_grid[0]
 
     def f(a: float, y: np.ndarray) -> np.ndarray:
         rc, ra = corner_rates(law, plate, a, float(y[0]), psi)
@@ -127,17 +126,7 @@ def newman_raju_corner_growth(
             raise ParameterError("delta_K_th", f"the face of a does not grow at a = {a:.6g} m")
         return np.array([rc / ra, 1.0 / ra])
 
-    y = np.array([c0, 0.0])
-    out = [y.copy()]
-    for a in a_grid[:-1]:
-        k1 = f(a, y)
-        k2 = f(a + h / 2, y + h / 2 * k1)
-        k3 = f(a + h / 2, y + h / 2 * k2)
-        k4 = f(a + h, y + h * k3)
-        y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out.append(y.copy())
-    arr = np.asarray(out)
-    return a_grid, arr[:, 0], arr[:, 1]
+    return rk4_in_depth(f, a0, a_end, c0, steps)
 
 
 @dataclass

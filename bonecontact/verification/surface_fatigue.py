@@ -41,6 +41,7 @@ __all__ = [
     "grow_surface_crack",
     "newman_raju_growth",
     "newman_raju_k",
+    "rk4_in_depth",
 ]
 
 
@@ -153,13 +154,22 @@ def newman_raju_growth(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a, c, N): dc/da = ċ/ȧ and dN/da = 1/ȧ with the Paris rates of Newman–Raju's K at
     the deepest point (ȧ) and at φ_s (ċ), integrated by RK4 in a from a0 to ``a_end``."""
-    a_grid = np.linspace(a0, a_end, steps + 1)
-    h = a_grid[1] - a_grid[0]
 
     def f(a: float, y: np.ndarray) -> np.ndarray:
         ra, rc = _nr_rates(law, S, a, y[0], t, b, phi_s)
         return np.array([rc / ra, 1.0 / ra])
 
+    return rk4_in_depth(f, a0, a_end, c0, steps)
+
+
+def rk4_in_depth(
+    f: Callable[[float, np.ndarray], np.ndarray], a0: float, a_end: float, c0: float, steps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(a, c, N) of ``(c, N)′ = f(a, (c, N))`` from ``(c0, 0)`` by classical RK4 on
+    ``steps`` equal steps in a from ``a0`` to ``a_end`` (the growth of a surface or
+    corner crack with a as the variable: f = (ċ/ȧ, 1/ȧ))."""
+    a_grid = np.linspace(a0, a_end, steps + 1)
+    h = a_grid[1] - a_grid[0]
     y = np.array([c0, 0.0])
     out = [y.copy()]
     for a in a_grid[:-1]:
@@ -169,5 +179,5 @@ def newman_raju_growth(
         k4 = f(a + h, y + h * k3)
         y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         out.append(y.copy())
-    out = np.asarray(out)
-    return a_grid, out[:, 0], out[:, 1]
+    arr = np.asarray(out)
+    return a_grid, arr[:, 0], arr[:, 1]
