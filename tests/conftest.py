@@ -20,6 +20,7 @@ import dolfinx.mesh
 import pytest
 
 from bonecontact.common.linalg import release_petsc_garbage
+from bonecontact.contact import pdas
 
 
 def pytest_collection_modifyitems(config, items):
@@ -129,3 +130,22 @@ def tmp_shared_path():
 def venv_bin():
     """Directory of the running interpreter (the venv's ``bin``, holding ``mpiexec``)."""
     return Path(sys.executable).parent
+
+
+@pytest.fixture
+def closed_gap_start(monkeypatch):
+    """A function that makes every contact pair, a crack's faces too, start from its
+    closed-gap nodes for the rest of the test (the rule of the pairs that do not start
+    open, forced on the crack faces to compare their open start with the other rule)."""
+
+    def force() -> None:
+        original = pdas.ContactSolver.__init__
+
+        def init(self, V, interfaces, options=None):
+            for itf in interfaces:
+                itf.start_open = False
+            original(self, V, interfaces, options)
+
+        monkeypatch.setattr(pdas.ContactSolver, "__init__", init)
+
+    return force

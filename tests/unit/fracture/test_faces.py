@@ -122,15 +122,13 @@ def _relative(u, v) -> float:
 
 
 @pytest.mark.parametrize("beta, sign, mu", START)
-def test_faces_start_open(beta: float, sign: float, mu: float | None, monkeypatch) -> None:
+def test_faces_start_open(beta: float, sign: float, mu: float | None, closed_gap_start) -> None:
     """The crack's faces start open (every gap is 0, a closed-gap start would glue them).
     In tension the solve is the open crack's linear solve (reference: the same plate
     without the contact pair) in one PDAS iteration (two with the Coulomb fixed point);
     in compression the faces close with no interpenetration, a frictionless crack carries
     σ cos²β over its length 2a (the uncracked plate), and the answer is the one started
     from the closed-gap set (the second method)."""
-    import bonecontact.fracture.faces as faces
-
     cm = _plate(beta)
     sol = _solve(cm, sign, face_contact=True, friction=mu)
     res = sol.contact
@@ -146,14 +144,7 @@ def test_faces_start_open(beta: float, sign: float, mu: float | None, monkeypatc
         sn = 1e6 * math.cos(math.radians(beta)) ** 2
         # (measured −0.4 … +2.0 %: the faces' tip nodes carry no multiplier, h = a/10)
         assert res.normal_force[0] == pytest.approx(sn * 2 * A, rel=3e-2)
-    original = faces.face_interface
-
-    def closed_start(*args, **kwargs):
-        itf = original(*args, **kwargs)
-        itf.start_open = False
-        return itf
-
-    monkeypatch.setattr(faces, "face_interface", closed_start)
+    closed_gap_start()
     glued = _solve(cm, sign, face_contact=True, friction=mu)
     assert glued.contact.iterations <= res.iterations
     assert _relative(sol.u, glued.u) < 1e-8

@@ -30,7 +30,6 @@ import pytest
 from _crack_scenes import run_dir
 from coupled_support import gmsh_on_rank0, read_csv, run_text
 
-from bonecontact.contact import pdas
 from bonecontact.verification.problems import crack_block_model, crack_block_scene
 
 A = 1.0e-3  # crack radius, m
@@ -72,26 +71,13 @@ def _text(mesh: Path, name: str, mu: float) -> str:
     return text.replace(traction, force).replace('name = "penny3d"', f'name = "{name}"')
 
 
-def _closed_gap_start(monkeypatch) -> None:
-    """Every pair, the crack faces too, starts from its closed-gap nodes (the rule of the
-    pairs that do not start open)."""
-    original = pdas.ContactSolver.__init__
-
-    def init(self, V, interfaces, options=None):
-        for itf in interfaces:
-            itf.start_open = False
-        original(self, V, interfaces, options)
-
-    monkeypatch.setattr(pdas.ContactSolver, "__init__", init)
-
-
 _RUNS: dict[tuple[str, float], tuple[dict, dict]] = {}
 
 
-def _run(block_dir: Path, start: str, mu: float, monkeypatch) -> tuple[dict, dict]:
+def _run(block_dir: Path, start: str, mu: float, closed_gap_start) -> tuple[dict, dict]:
     if (start, mu) not in _RUNS:
         if start == "closed_gap":
-            _closed_gap_start(monkeypatch)
+            closed_gap_start()
         name = f"bent_{start}_{int(100 * mu)}"
         d = run_dir(block_dir, name)
         res = run_text(_text(block_dir / "block.msh", name, mu), d, d / "out")
@@ -103,8 +89,10 @@ def _run(block_dir: Path, start: str, mu: float, monkeypatch) -> tuple[dict, dic
 
 @pytest.mark.parametrize("mu", [0.0, 0.3])
 @pytest.mark.parametrize("start", ["open", "closed_gap"])
-def test_half_closed_penny_meets_signorini(block_dir: Path, start: str, mu: float, monkeypatch):
-    _, faces = _run(block_dir, start, mu, monkeypatch)
+def test_half_closed_penny_meets_signorini(
+    block_dir: Path, start: str, mu: float, closed_gap_start
+):
+    _, faces = _run(block_dir, start, mu, closed_gap_start)
     p, g, x = faces["pressure"], faces["gap"], faces["x"]
     assert p.size > 50
     pmax = float(np.max(p))
@@ -118,11 +106,11 @@ def test_half_closed_penny_meets_signorini(block_dir: Path, start: str, mu: floa
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.3])
-def test_both_starts_give_the_same_k(block_dir: Path, mu: float, monkeypatch) -> None:
+def test_both_starts_give_the_same_k(block_dir: Path, mu: float, closed_gap_start) -> None:
     """The converged state does not depend on the first set (frictionless: the unique
     solution; Coulomb in one static step: the same fixed point here)."""
-    opened, _ = _run(block_dir, "open", mu, monkeypatch)
-    glued, _ = _run(block_dir, "closed_gap", mu, monkeypatch)
+    opened, _ = _run(block_dir, "open", mu, closed_gap_start)
+    glued, _ = _run(block_dir, "closed_gap", mu, closed_gap_start)
     scale = 2 * SIGMA_B * (A / W) * math.sqrt(A / math.pi)  # the bending stress at x = a
     assert np.max(opened["K_I"]) > 0.2 * scale  # the open side is loaded
     for key in ("K_I", "K_II", "K_III"):
