@@ -1,9 +1,10 @@
 """Stress intensity factors along the front of a crack in 3D
 (docs/theory/fracture.md#3d-crack-fronts).
 
-* :class:`EllipticalFront`, :class:`PolygonFront`, :class:`PolylineFront` — a penny or
-  elliptical front, the straight edges of a planar convex polygon, and the closed polyline
-  front of a grown (non-planar) crack with a frame per edge: points, the local frame (e₁
+* :class:`EllipticalFront`, :class:`PolygonFront`, :class:`PolylineFront`,
+  :class:`OpenPolylineFront` — a penny or elliptical front, the straight edges of a planar
+  convex polygon, the closed polyline front of a grown (non-planar) crack with a frame per
+  edge, and the open one of a grown surface crack: points, the local frame (e₁
   ahead of the front, e₂ the crack-surface normal, e₃ = e₁ × e₂ along the front), arc
   length (:class:`CrackFront`, the protocol the integrals use).
 * :func:`mesh_crack_octant` — one eighth of a block with a planar crack at its centre
@@ -51,6 +52,7 @@ __all__ = [
     "CrackFront",
     "EllipticalFront",
     "FrontSIF",
+    "OpenPolylineFront",
     "PolygonFront",
     "PolylineFront",
     "front_displacement_correlation",
@@ -499,6 +501,88 @@ class PolylineFront(_ClosedPolyline):
         return min(math.pi, 1.01 * length * 2 * math.pi / self.perimeter)
 
 
+@dataclass(frozen=True)
+class OpenPolylineFront(PolylineFront):
+    """The open polyline front of a grown (non-planar) surface-breaking crack: N vertices,
+    the first and the last on the free surface, N − 1 straight edges, each with its own
+    frame as on :class:`PolylineFront`.
+
+    The parameter is φ = 2π s/L ∈ [0, 2π], s the arc length from the first vertex and L
+    the front's length; it is not wrapped (φ = 2π is the last vertex) and points beyond
+    either end are clipped to it.  :meth:`corner_distance` is the distance to the nearer
+    end of the point's edge: a corner of the front or, on the first and last edges, the
+    free surface (:func:`~bonecontact.fracture.surface3d.domain_length` keeps the domain
+    off both).
+
+    Parameters
+    ----------
+    vertices
+        The front's points (m), shape (N, 3), N ≥ 2, ordered so that e₁ = t × e₂ points
+        ahead of the front (t the edge's direction).
+    normals2
+        e₂ of every edge, shape (N − 1, 3), unit and normal to the edge.
+    cuts
+        (L, ψ) of every edge, or ``None``.
+    reference
+        A unit normal of the whole crack (the side of ``crack_upper``).
+    """
+
+    def __post_init__(self) -> None:
+        if len(self.vertices) < 2 or len(self.normals2) != len(self.vertices) - 1:
+            raise ParameterError(
+                "normals2",
+                f"need N >= 2 vertices and N - 1 edge normals, got {len(self.vertices)} "
+                f"and {len(self.normals2)}",
+            )
+        if self.cuts is not None and len(self.cuts) != len(self.normals2):
+            raise ParameterError("cuts", "need one (L, psi) per edge")
+        if np.min(self.edge_lengths) <= 0:
+            raise ParameterError("vertices", "two consecutive vertices coincide")
+
+    @cached_property
+    def edge_lengths(self) -> npt.NDArray[np.float64]:
+        """Length of every edge (vertex k to k + 1), m."""
+        return np.linalg.norm(np.diff(self._v, axis=0), axis=1)
+
+    @cached_property
+    def _dirs(self) -> npt.NDArray[np.float64]:
+        return np.diff(self._v, axis=0) / self.edge_lengths[:, None]
+
+    @property
+    def b(self) -> float:
+        """The smallest distance from the centre to an edge's line (m)."""
+        d = np.asarray(self.centre) - self._v[:-1]
+        off = d - np.sum(d * self._dirs, axis=1)[:, None] * self._dirs
+        return float(np.min(np.linalg.norm(off, axis=1)))
+
+    def _edge(self, phi: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """Edge index and distance along it of the points at ``phi`` (clipped to the
+        front)."""
+        s = np.atleast_1d(np.asarray(phi, dtype=float)) * self.perimeter / (2 * math.pi)
+        s = np.clip(s, 0.0, self.perimeter)
+        k = np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self._v) - 2)
+        return k, s - self._cum[k]
+
+    @property
+    def closed(self) -> bool:
+        """False: the front ends on the free surface."""
+        return False
+
+    def nearest(self, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Parameter φ of the nearest front point of each point ``x`` (n, 3)."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        d = x[:, None, :] - self._v[None, :-1, :]
+        t = np.clip(np.einsum("nmk,mk->nm", d, self._dirs), 0.0, self.edge_lengths[None, :])
+        dist = np.linalg.norm(d - t[:, :, None] * self._dirs[None, :, :], axis=2)
+        k = np.argmin(dist, axis=1)
+        s = self._cum[k] + t[np.arange(len(x)), k]
+        return 2 * math.pi * s / self.perimeter
+
+    def edge_middles(self) -> npt.NDArray[np.float64]:
+        """The parameters of the edges' midpoints, shape (N − 1,)."""
+        return 2 * math.pi * (self._cum[:-1] + 0.5 * self.edge_lengths) / self.perimeter
+
+
 # ------------------------------------------------------------------------- meshing
 @dataclass
 class CrackBlock:
@@ -519,7 +603,7 @@ class CrackBlock:
     mesh: mesh.Mesh
     cell_tags: mesh.MeshTags
     facet_tags: mesh.MeshTags
-    front: EllipticalFront | PolygonFront | PolylineFront
+    front: EllipticalFront | PolygonFront | PolylineFront | OpenPolylineFront
     groups: dict[str, int] = field(default_factory=lambda: dict(OCTANT_GROUPS))
     half_model: bool = True
 
