@@ -10,6 +10,7 @@ import numpy.typing as npt
 __all__ = [
     "ADVANCE_GRID_BITS",
     "cross2",
+    "line_triangle_hits",
     "on_advance_grid",
     "point_triangle_distance",
     "polygon_area",
@@ -145,3 +146,41 @@ def point_triangle_distance(
         u = np.clip(np.einsum("ij,ij->i", p - s0, e) / ee, 0.0, 1.0)
         dist = np.minimum(dist, np.linalg.norm(s0 + u[:, None] * e - p, axis=1))
     return dist
+
+
+def line_triangle_hits(
+    p: npt.ArrayLike, d: npt.ArrayLike, t: npt.NDArray[np.float64], tol: float = 1e-12
+) -> npt.NDArray[np.float64]:
+    """Where the line x = p + s d meets each triangle (Möller–Trumbore): the parameter s,
+    ``nan`` where it misses (or runs parallel to the triangle's plane).
+
+    Parameters
+    ----------
+    p, d : array_like, shape (3,)
+        A point of the line and its direction (not necessarily unit).
+    t : ndarray, shape (k, 3, 3)
+        The triangles' corners (triangle, corner, coordinate).
+    tol
+        Barycentric slack: a line through an edge or a corner within ``tol`` hits both
+        triangles that share it.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        s of the hit on triangle i, or ``nan``.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    p, d = np.asarray(p, dtype=np.float64), np.asarray(d, dtype=np.float64)
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    h = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    scale = np.linalg.norm(d) * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    ok = np.abs(det) > 1e-14 * np.maximum(scale, 1e-300)
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    r = p - t[:, 0]
+    u = np.einsum("ij,ij->i", r, h) * inv
+    q = np.cross(r, e1)
+    v = (q @ d) * inv
+    s = np.einsum("ij,ij->i", e2, q) * inv
+    hit = ok & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
+    return np.where(hit, s, np.nan)

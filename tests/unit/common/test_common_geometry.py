@@ -10,6 +10,7 @@ import pytest
 from bonecontact.common.constants import R_GAS, SECONDS_PER_DAY, SECONDS_PER_YEAR
 from bonecontact.common.geometry import (
     cross2,
+    line_triangle_hits,
     point_triangle_distance,
     polygon_area,
     signed_polygon_area,
@@ -77,3 +78,64 @@ def test_point_triangle_distance_pairwise():
     tri, p = rng.normal(size=(5, 3, 3)), rng.normal(size=(5, 3))
     one = [point_triangle_distance(p[k], tri[k : k + 1])[0] for k in range(5)]
     np.testing.assert_allclose(point_triangle_distance(p, tri), one, rtol=1e-15)
+
+
+def _icosphere(levels: int) -> np.ndarray:
+    """The triangles (k, 3, 3) of a unit sphere: an octahedron split ``levels`` times,
+    the new corners pushed onto the sphere."""
+    V = [
+        np.array(v, float)
+        for v in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
+    ]
+    tris = [
+        np.array([V[a], V[b], V[c]])
+        for a, b, c in (
+            (0, 2, 4),
+            (2, 1, 4),
+            (1, 3, 4),
+            (3, 0, 4),
+            (2, 0, 5),
+            (1, 2, 5),
+            (3, 1, 5),
+            (0, 3, 5),
+        )
+    ]
+    for _ in range(levels):
+        out = []
+        for a, b, c in tris:
+            ab, bc, ca = ((x + y) / np.linalg.norm(x + y) for x, y in ((a, b), (b, c), (c, a)))
+            out += [np.array(t) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))]
+        tris = out
+    return np.array(tris)
+
+
+@pytest.mark.parametrize("direction", [(1, 0, 0), (0.3, -0.5, 0.8), (-0.2, 0.1, -1.0)])
+def test_line_triangle_hits_sphere(direction) -> None:
+    """A line from the centre of a closed triangulated sphere leaves it once each way:
+    two hits (three or more only where it passes an edge: counted once after merging),
+    each on its triangle's plane, the points on the line, at a radius between the facets'
+    inradius and 1."""
+    T = _icosphere(3)
+    d = np.asarray(direction, float)
+    s = line_triangle_hits(np.zeros(3), d, T)
+    hit = np.flatnonzero(np.isfinite(s))
+    x = s[hit, None] * d
+    n = np.cross(T[hit, 1] - T[hit, 0], T[hit, 2] - T[hit, 0])
+    off = np.einsum("ij,ij->i", x - T[hit, 0], n) / np.linalg.norm(n, axis=1)
+    assert np.max(np.abs(off)) < 1e-14
+    r = np.linalg.norm(x, axis=1)
+    assert np.all((r > 0.98) & (r <= 1 + 1e-14))
+    ends = np.unique(np.round(s[hit] * 1e9))
+    assert len(ends) == 2 and ends[0] < 0 < ends[1]
+
+
+def test_line_triangle_hits_plane_closed_form() -> None:
+    """Two triangles tiling the unit square in z = 0.5: s = (0.5 − p_z)/d_z inside, nan
+    outside, parallel lines nan."""
+    T = np.array([[[0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5]], [[0, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]]])
+    s = line_triangle_hits([0.25, 0.6, 2.0], [0.1, -0.2, -3.0], T)
+    assert np.isnan(s[0]) and s[1] == pytest.approx(0.5, rel=1e-14)
+    assert np.all(np.isnan(line_triangle_hits([2.0, 2.0, 0.0], [0, 0, 1.0], T)))
+    assert np.all(np.isnan(line_triangle_hits([0.5, 0.5, 0.0], [1.0, 0, 0], T)))
+    # through the shared diagonal: both triangles
+    np.testing.assert_allclose(line_triangle_hits([0.5, 0.5, 0.0], [0, 0, 1.0], T), [0.5, 0.5])
