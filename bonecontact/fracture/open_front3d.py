@@ -14,7 +14,8 @@ the free surface (a surface crack that kinks):
   one edge (K is not taken at the surface point itself); φ₀ and Δa are averaged over
   each vertex and the neighbours it has;
 * :func:`extend_open_surface` — the strip between the old and the new front, edge by
-  edge, as the closed front's (held vertices keep their point).
+  edge, as the closed front's (held vertices keep their point);
+* :func:`open_mid_edge_modes` — K_I, K_II, K_III at the middle of every edge.
 
 Where the new ends lie against the body's surface is the caller's (the end vertices move
 like the others); no scene grows a non-planar surface crack yet.
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -35,9 +37,24 @@ from bonecontact.fracture.advance3d import (
     on_grid,
     sigma1_kink,
 )
-from bonecontact.fracture.front3d import OpenPolylineFront
+from bonecontact.fracture.front3d import (
+    CrackBlock,
+    FrontSIF,
+    OpenPolylineFront,
+    front_interaction_integral,
+)
 
-__all__ = ["OpenTriangulatedCrack", "advance_open_front", "extend_open_surface"]
+if TYPE_CHECKING:
+    from dolfinx import fem
+
+    from bonecontact.materials.laws import Isotropic
+
+__all__ = [
+    "OpenTriangulatedCrack",
+    "advance_open_front",
+    "extend_open_surface",
+    "open_mid_edge_modes",
+]
 
 
 @dataclass(frozen=True)
@@ -238,3 +255,29 @@ def extend_open_surface(
         tuple(tuple(map(float, c)) for c in cuts),
         crack.normal,
     )
+
+
+def open_mid_edge_modes(
+    crack: OpenTriangulatedCrack,
+    block: CrackBlock,
+    u: fem.Function,
+    material: Isotropic,
+    h_front: float,
+    face_traction: tuple | None = None,
+) -> list[FrontSIF]:
+    """K_I, K_II, K_III at the middle of every front edge by the interaction integral
+    (collective), as :func:`~bonecontact.fracture.advance3d.mid_edge_modes` on a closed
+    front: the ring r_out = 4 h_f, along the edge up to the distance to its ends (a corner,
+    or the free surface on the first and last edges) less a front element.  ``block`` is
+    the cracked body with this crack's front; ``face_traction`` the contact tractions of
+    a closed crack."""
+    front = crack.front()
+    phis = front.edge_middles()
+    r_out = 4.0 * h_front
+    length = min(r_out, min(front.corner_distance(float(p)) for p in phis) - h_front)
+    return [
+        front_interaction_integral(
+            u, block, float(p), material, r_out, None, length, face_traction=face_traction
+        )
+        for p in phis
+    ]

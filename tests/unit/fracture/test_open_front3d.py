@@ -11,9 +11,16 @@ closed forms and against the closed front's advance:
   its point exactly with its edge's one triangle;
 * the ends average over two vertices (a linear K along a straight front: the ends'
   Δa the closed form of the two-point mean);
+* K at the edges' middles (open_mid_edge_modes) on the through crack of a plate
+  (bonecontact.verification.surface_crack), its straight front one edge or two: the
+  straight front's K at the same points and domains (1e-9 of K_I), K_I at mid-thickness
+  within 5 % of the plane-strain K of the 2D section (1, 2 and 3 ranks);
 * bad shapes are refused with the key named.
 """
 
+import dolfinx_solver  # noqa: F401  (must precede dolfinx)
+
+import dataclasses
 import math
 
 import numpy as np
@@ -21,11 +28,15 @@ import pytest
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.advance3d import advance_mixed_front
+from bonecontact.fracture.front3d import front_interaction_integral
 from bonecontact.fracture.open_front3d import (
     OpenTriangulatedCrack,
     advance_open_front,
     extend_open_surface,
+    open_mid_edge_modes,
 )
+from bonecontact.fracture.surface3d import SurfaceCrack
+from bonecontact.verification.surface_crack import PlateProblem, plane_strain_edge_k, solve_plate
 
 MTS_MODE_II = -2.0 * math.atan(1.0 / math.sqrt(2.0))  # −70.53°, the MTS angle of pure mode II
 
@@ -186,3 +197,39 @@ def test_bad_input_is_refused() -> None:
         advance_open_front(crack.vertices, crack.normals2, -np.ones((2, 3)) * [1, 0, 0], 0.1)
     with pytest.raises(ParameterError, match="new_vertices"):
         extend_open_surface(crack, np.zeros((2, 3)))
+
+
+#: The through crack of the surface-crack verification: an edge crack of length 0.4
+#: through the thickness 1, front 0.05.
+THROUGH = PlateProblem(
+    SurfaceCrack("through", 0.4), b=2.0, h=2.0, t=1.0, h_front=0.05, grading=0.15, h_max=0.4
+)
+_SOLVED: dict = {}
+
+
+@pytest.mark.parametrize("edges", [1, 2])
+def test_mid_edge_k_on_a_through_crack(edges: int) -> None:
+    if "through" not in _SOLVED:
+        _SOLVED["through"] = solve_plate(THROUGH)
+    sol = _SOLVED["through"]
+    straight = sol.block.front
+    V = straight.point(np.linspace(0.0, 1.0, edges + 1))
+    n = tuple(map(float, straight.normal))
+    back = V - 0.4 * np.asarray(straight.frame(0.5)[0])
+    P = np.concatenate([V, back[[0, -1]]])
+    crack = OpenTriangulatedCrack(
+        tuple(map(tuple, P)), (), tuple(range(edges + 1)), (n,) * edges, None, n
+    )
+    h = THROUGH.h_front
+    got = open_mid_edge_modes(
+        crack, dataclasses.replace(sol.block, front=crack.front()), sol.u, THROUGH.material, h
+    )
+    length = min(4 * h, 0.5 / edges - h)
+    for k, r in enumerate(got):
+        z = (k + 0.5) / edges
+        ref = front_interaction_integral(sol.u, sol.block, z, THROUGH.material, 4 * h, None, length)
+        np.testing.assert_allclose(r.point, ref.point, atol=1e-12)
+        for key in ("K_I", "K_II", "K_III"):
+            assert getattr(r, key) == pytest.approx(getattr(ref, key), abs=1e-9 * ref.K_I)
+    if edges == 1:
+        assert got[0].K_I == pytest.approx(plane_strain_edge_k(THROUGH), rel=0.05)
