@@ -116,7 +116,7 @@ class CutBody:
 
 
 # ------------------------------------------------------------------- geometry (numpy)
-def _unique_nodes(body: BodySurface) -> tuple[np.ndarray, np.ndarray]:
+def unique_nodes(body: BodySurface) -> tuple[np.ndarray, np.ndarray]:
     """Merged boundary nodes and the triangles' node indices, in a canonical order (the
     gathered order depends on the partition)."""
     tol = 1e-9 * body.scale
@@ -179,7 +179,7 @@ def _refine_once(nodes: np.ndarray, conn: np.ndarray, tags: np.ndarray, marked: 
     return np.asarray(X), np.asarray(out, dtype=np.int64), np.asarray(out_tags, dtype=np.int32)
 
 
-def _refine_near(nodes, conn, tags, size, levels: int = 6):
+def refine_near(nodes, conn, tags, size, levels: int = 6):
     """Halve the boundary triangles whose longest edge exceeds twice ``size`` (a function
     of points) at their centroid, level by level."""
     for _ in range(levels):
@@ -494,7 +494,7 @@ def _snap(nodes: np.ndarray, conn: np.ndarray, C: np.ndarray, n: np.ndarray, rea
     return nodes, np.sign(s)
 
 
-class _Cutter:
+class PlaneCutter:
     """Splits the triangles crossed by the plane; collects the chords (plane ∩ triangle)."""
 
     def __init__(self, nodes: np.ndarray, sign: np.ndarray, C: np.ndarray, n: np.ndarray):
@@ -533,7 +533,7 @@ class _Cutter:
             self.chords[t] = (zero[0], zero[1])
 
 
-def _chains(chords: dict[int, tuple[int, int]]) -> list[list[int]]:
+def chord_chains(chords: dict[int, tuple[int, int]]) -> list[list[int]]:
     """The chords joined into chains of nodes (each chain open or closed)."""
     adj: dict[int, list[int]] = {}
     for p, q in set(tuple(sorted(c)) for c in chords.values()):
@@ -567,7 +567,7 @@ def _segment_exit(ell: EllipticalFront, p: np.ndarray, q: np.ndarray) -> float:
     return float((-B + math.sqrt(max(B * B - 4 * A * Cc, 0.0))) / (2 * A))
 
 
-def _opened(cut: _Cutter, chain: list[int], ell: EllipticalFront) -> list[int]:
+def _opened(cut: PlaneCutter, chain: list[int], ell: EllipticalFront) -> list[int]:
     """A closed chain (its ends joined by a chord: the plane cuts a loop of the surface
     such as a canal's wall) started at its node farthest outside the ellipse (it starts at
     its lowest node index, wherever that lies: the stretch inside the ellipse could wrap
@@ -581,13 +581,13 @@ def _opened(cut: _Cutter, chain: list[int], ell: EllipticalFront) -> list[int]:
     return chain[k:] + chain[:k]
 
 
-def _mouth_chain(cut: _Cutter, ell: EllipticalFront) -> tuple[list[int], list[float]]:
+def _mouth_chain(cut: PlaneCutter, ell: EllipticalFront) -> tuple[list[int], list[float]]:
     """The chain through the crack's centre: its nodes inside the ellipse and the exit
     fractions on the segments beyond each end."""
     C = np.asarray(ell.centre)
     X = np.asarray(cut.nodes)
     best = None
-    for chain in _chains(cut.chords):
+    for chain in chord_chains(cut.chords):
         d = float(np.min(np.linalg.norm(X[chain] - C, axis=1)))
         if best is None or d < best[0]:
             best = (d, chain)
@@ -614,7 +614,7 @@ def _mouth_chain(cut: _Cutter, ell: EllipticalFront) -> tuple[list[int], list[fl
     return [ends[0], *nodes, ends[1]], t
 
 
-def _end_node(cut: _Cutter, p: int, q: int, t: float, edge: bool) -> tuple[int, bool]:
+def _end_node(cut: PlaneCutter, p: int, q: int, t: float, edge: bool) -> tuple[int, bool]:
     """The front's end on the chord p (inside) → q at fraction t: p if t < 0.1, q if q is
     a vertex and t > 0.9 (or the chord is a mesh edge: the nearer of the two), else a new
     node inside the triangle (t at most 0.9).  Returns (node, whether it is new)."""
@@ -642,7 +642,7 @@ def _fan(poly: list[int], nodes: list[np.ndarray], centre: int | None = None):
     return [(centre, p, q) for p, q in pairs if centre not in (p, q)]
 
 
-def _split_triangle(cut: _Cutter, tri: np.ndarray, end: tuple[int, int] | None):
+def split_triangle(cut: PlaneCutter, tri: np.ndarray, end: tuple[int, int] | None):
     """The triangles that replace a cut one: both sides of its chord, or — the triangle
     where the front meets the surface — a fan from the end node over its corners and the
     chord's inner point (``end`` = (inner point, end node))."""
@@ -657,7 +657,7 @@ def _split_triangle(cut: _Cutter, tri: np.ndarray, end: tuple[int, int] | None):
     return out
 
 
-def _compact(nodes: list, tris: np.ndarray, mouth: list[int]):
+def compact_nodes(nodes: list, tris: np.ndarray, mouth: list[int]):
     """Drop the nodes no triangle uses; renumber."""
     used = np.unique(tris)
     new = -np.ones(len(nodes), dtype=np.int64)
@@ -665,14 +665,14 @@ def _compact(nodes: list, tris: np.ndarray, mouth: list[int]):
     return np.asarray(nodes)[used], new[tris], [int(new[k]) for k in mouth]
 
 
-def _segment_triangles(cut: _Cutter) -> dict[tuple[int, int], list[int]]:
+def _segment_triangles(cut: PlaneCutter) -> dict[tuple[int, int], list[int]]:
     out: dict[tuple[int, int], list[int]] = {}
     for t, (p, q) in cut.chords.items():
         out.setdefault((min(p, q), max(p, q)), []).append(t)
     return out
 
 
-def _cut_triangles(cut: _Cutter, conn, chain: list[int], frac: list[float]):
+def _cut_triangles(cut: PlaneCutter, conn, chain: list[int], frac: list[float]):
     """The end nodes of the mouth and the replacement of every cut triangle."""
     seg = _segment_triangles(cut)
     tri_of = {k: seg[(min(p, q), max(p, q))] for k, (p, q) in enumerate(zip(chain, chain[1:]))}
@@ -686,12 +686,12 @@ def _cut_triangles(cut: _Cutter, conn, chain: list[int], frac: list[float]):
         if len(tris) > 1:  # the chord is a mesh edge: nothing to split
             continue
         if new or (node == inner and inner in cut.crossing.values()):
-            repl[tris[0]] = _split_triangle(cut, conn[tris[0]], (inner, node))
+            repl[tris[0]] = split_triangle(cut, conn[tris[0]], (inner, node))
         elif node == outer:
-            repl[tris[0]] = _split_triangle(cut, conn[tris[0]], None)
+            repl[tris[0]] = split_triangle(cut, conn[tris[0]], None)
     for k in range(1, len(chain) - 2):
         if len(tri_of[k]) == 1:
-            repl[tri_of[k][0]] = _split_triangle(cut, conn[tri_of[k][0]], None)
+            repl[tri_of[k][0]] = split_triangle(cut, conn[tri_of[k][0]], None)
     return ends, repl
 
 
@@ -738,14 +738,14 @@ def cut_mouth(
         the mouth is not one stretch of surface inside the ellipse; (``normal``) the plane
         is tangent to the surface.
     """
-    nodes, conn, tags = _unique_nodes(body)
+    nodes, conn, tags = unique_nodes(body)
     ell, crack = crack_frame(crack, nodes, conn)
     if size is not None:
-        nodes, conn, tags = _refine_near(nodes, conn, tags, _size_function(ell, size, body.h_max))
+        nodes, conn, tags = refine_near(nodes, conn, tags, _size_function(ell, size, body.h_max))
     C, n = np.asarray(ell.centre), ell.normal
     reach = 1.5 * ell.a + 3 * body.h_max
     nodes, sign = _snap(nodes, conn, C, n, reach)
-    cut = _Cutter(nodes, sign, C, n)
+    cut = PlaneCutter(nodes, sign, C, n)
     for t, tri in enumerate(conn):
         if np.min(np.linalg.norm(nodes[tri] - C, axis=1)) < reach:
             cut.chord(t, tri)
@@ -762,7 +762,7 @@ def cut_mouth(
             tris.append(tr)
             out_tags.append(tag)
     mouth = [ends[0], *[k for k in chain[1:-1] if k not in ends], ends[1]]
-    X, tris, mouth = _compact(cut.nodes, np.asarray(tris, dtype=np.int64), mouth)
+    X, tris, mouth = compact_nodes(cut.nodes, np.asarray(tris, dtype=np.int64), mouth)
     deep = _inside_point(ell, crack)
     front = _front_of(ell, X[mouth[0]], X[mouth[-1]], deep)
     if front is None:
@@ -861,7 +861,7 @@ def _crack_mesh(cb: CutBody, size: TipMesh, h_max: float) -> tuple[np.ndarray, n
     return xyz.reshape(-1, 3), tri
 
 
-def _merge_crack(cb: CutBody, pts: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def merge_crack(cb: CutBody, pts: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The crack's nodes numbered after the boundary's: its mouth nodes are the
     boundary's own (matched by coordinates); the triangles in the joint numbering."""
     X = cb.nodes
@@ -888,7 +888,7 @@ def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int],
     pts, tri = _crack_mesh(cb, size, h_max)
     gmsh.model.remove()
     gmsh.model.setCurrent(current)
-    new, crack_tri = _merge_crack(cb, pts, tri)
+    new, crack_tri = merge_crack(cb, pts, tri)
     values = np.unique(cb.tags)
     surfaces = list(range(1, len(values) + 1))
     for k in surfaces:
@@ -916,8 +916,8 @@ def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int],
     gmsh.model.mesh.field.setAsBackgroundMesh(f)
     for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
-    _volume_mesh(volume, size.h_tip)
-    _split(crack, mouth, tags, mouth_tag)
+    volume_mesh(volume, size.h_tip)
+    split_crack_nodes(crack, mouth, tags, mouth_tag)
 
 
 #: the volume meshers tried in turn until no tetrahedron is flat: gmsh's 3D algorithm
@@ -925,7 +925,7 @@ def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int],
 VOLUME_MESHERS = ((10, 1e-12), (1, 1e-12), (1, 1e-9))
 
 
-def _volume_mesh(volume: int, h_tip: float) -> None:
+def volume_mesh(volume: int, h_tip: float) -> None:
     """Mesh the volume (gmsh, rank 0): HXT; where it leaves a flat tetrahedron (four
     nodes of the body's surface in one plane: zero volume, a singular stiffness), gmsh's
     Delaunay; where that does too, Delaunay with its points perturbed by 10⁻⁹ of the
@@ -965,7 +965,7 @@ def _flat_tetrahedra(h_tip: float) -> int:
     return int(np.count_nonzero(np.abs(six_vol) < 6.0 * FLAT_VOLUME * h_tip**3))
 
 
-def _split(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:
+def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:
     """Duplicate the crack's nodes, the mouth's included, the front's not."""
     gmsh.model.addPhysicalGroup(2, [crack], tags[0], name="crack_a")
     gmsh.model.addPhysicalGroup(1, [mouth], mouth_tag)

@@ -1,0 +1,768 @@
+"""A non-planar surface-breaking crack (planar patches, e.g. a kinked growth step) cut
+into a scene's 3D body — the meshing building block (docs/theory/fracture.md).
+
+The crack is a connected surface of convex planar patches that crosses the body's
+surface: its part outside the body lies beyond the mouth, its edges inside the body that
+no other patch shares are the front.  :func:`cut_mouth_surface` inserts the points where
+the crack's edges cross the surface (the front's two ends and the kinks, where the mouth
+passes from one patch to the next) as boundary nodes, then cuts the boundary triangles
+along each patch's plane where the cut lies within the patch (crossings on the triangles'
+edges, in the patch's plane): the mouth, one chain of boundary nodes from one front end
+to the other.  :func:`mesh_body_with_nonplanar_surface_crack` meshes each patch's part
+inside the body as a plane surface (the patches share their curves, the mouth's segments
+are kept whole, triangles graded towards the front), embeds it in the volume bounded by
+the cut boundary and splits it with gmsh's ``Crack`` plugin (the mouth's nodes duplicated,
+the front's not) into ``crack_upper`` (the side of the first patch's normal) and
+``crack_lower``.  All gmsh work runs on rank 0.
+
+A building block: the front is returned as a polyline (no stress intensity along it yet,
+``CrackedBody3D.block`` does not apply), one cell group, the body's surface near the mouth
+flat or gently curved (vertices are moved within their own faceted plane only).
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+from dolfinx.io.gmsh import model_to_mesh
+
+from bonecontact.common.errors import ParameterError
+from bonecontact.common.geometry import point_triangle_distance
+from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
+from bonecontact.fracture.meshing import TipMesh
+from bonecontact.fracture.surface_body3d import (
+    SNAP_FRACTION,
+    PlaneCutter,
+    chord_chains,
+    compact_nodes,
+    inside_body,
+    merge_crack,
+    refine_near,
+    split_crack_nodes,
+    split_triangle,
+    unique_nodes,
+    volume_mesh,
+)
+from bonecontact.meshing.builder import MeshingError
+from bonecontact.meshing.session import gmsh_session
+
+__all__ = [
+    "NonplanarCut",
+    "NonplanarSurfaceCrack",
+    "cut_mouth_surface",
+    "mesh_body_with_nonplanar_surface_crack",
+]
+
+#: Relative tolerance of planarity, of a point on a plane and of the containment tests.
+GEOMETRY_TOL = 1e-9
+#: A crack edge's crossing closer than this fraction of the facet's shortest edge to one of
+#: its corners moves that corner onto it (in a flat neighbourhood), to an edge splits it.
+NEAR_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class NonplanarSurfaceCrack:
+    """A surface-breaking crack made of convex planar patches.
+
+    Parameters
+    ----------
+    points
+        Coordinates (m), shape (M, 3).
+    patches
+        Convex planar polygons (indices into ``points``); neighbours share an edge.  They
+        are oriented like the first (its normal by the right-hand rule: ``crack_upper``).
+    """
+
+    points: tuple[tuple[float, float, float], ...]
+    patches: tuple[tuple[int, ...], ...]
+
+    def __post_init__(self) -> None:
+        X = np.asarray(self.points, dtype=float)
+        if X.ndim != 2 or X.shape[1] != 3 or not np.all(np.isfinite(X)):
+            raise ParameterError("points", "must be finite coordinates of shape (M, 3)")
+        if not self.patches:
+            raise ParameterError("patches", "the crack needs at least one patch")
+        for k, p in enumerate(self.patches):
+            if len(p) < 3 or len(set(p)) != len(p) or min(p) < 0 or max(p) >= len(X):
+                raise ParameterError("patches", f"patch {k} must be >= 3 distinct point indices")
+        oriented = _orient(self.patches)
+        object.__setattr__(self, "patches", oriented)
+        for k in range(len(oriented)):
+            _check_convex_planar(X[list(oriented[k])], k, self.scale)
+
+    @property
+    def scale(self) -> float:
+        X = np.asarray(self.points, dtype=float)
+        return float(np.ptp(X, axis=0).max())
+
+    def polygon(self, k: int) -> npt.NDArray[np.float64]:
+        """The corners of patch ``k`` (m), shape (n, 3)."""
+        return np.asarray(self.points, dtype=float)[list(self.patches[k])]
+
+    def normal(self, k: int) -> npt.NDArray[np.float64]:
+        """The unit normal of patch ``k`` (Newell's)."""
+        return _newell(self.polygon(k))
+
+    def contains(self, k: int, x: npt.ArrayLike, tol: float) -> npt.NDArray[np.bool_]:
+        """Whether points ``x`` (k, 3), projected on patch ``k``'s plane, lie inside it
+        (or within ``tol`` of it)."""
+        P = self.polygon(k)
+        n = self.normal(k)
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        ok = np.ones(len(X), dtype=bool)
+        for i in range(len(P)):
+            m = np.cross(n, P[(i + 1) % len(P)] - P[i])
+            m /= np.linalg.norm(m)
+            ok &= (X - P[i]) @ m >= -tol
+        return ok
+
+    def edges(self) -> dict[tuple[int, int], list[int]]:
+        """Every edge (sorted point indices) → the patches that have it."""
+        out: dict[tuple[int, int], list[int]] = {}
+        for k, p in enumerate(self.patches):
+            for a, b in zip(p, p[1:] + p[:1], strict=True):
+                out.setdefault((min(a, b), max(a, b)), []).append(k)
+        return out
+
+
+def _newell(P: np.ndarray) -> np.ndarray:
+    n = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    return n / np.linalg.norm(n)
+
+
+def _check_convex_planar(P: np.ndarray, k: int, scale: float) -> None:
+    """Refuse a patch off its plane or not convex (key ``patches``)."""
+    n = _newell(P)
+    if np.max(np.abs((P - P.mean(axis=0)) @ n)) > GEOMETRY_TOL * scale:
+        raise ParameterError("patches", f"patch {k} is not planar")
+    turns = np.cross(np.roll(P, -1, axis=0) - P, np.roll(P, -2, axis=0) - np.roll(P, -1, axis=0))
+    if np.any(turns @ n <= 0):
+        raise ParameterError("patches", f"patch {k} is not a convex polygon")
+
+
+def _orient(patches: tuple[tuple[int, ...], ...]) -> tuple[tuple[int, ...], ...]:
+    """The patches turned like the first (a shared edge runs opposite ways in its two
+    patches).  Raises ParameterError (``patches``) when they are not connected, an edge
+    has more than two patches or the surface is not orientable."""
+    out: list[tuple[int, ...] | None] = [tuple(patches[0])] + [None] * (len(patches) - 1)
+    todo = [0]
+    while todo:
+        k = todo.pop()
+        own = {(a, b) for a, b in zip(out[k], out[k][1:] + out[k][:1], strict=True)}
+        for j, p in enumerate(patches):
+            if j == k:
+                continue
+            pe = {(a, b) for a, b in zip(p, p[1:] + p[:1], strict=True)}
+            same = own & pe
+            opposite = {(b, a) for a, b in own} & pe
+            if not same and not opposite:
+                continue
+            turned = tuple(p) if opposite else tuple(p[::-1])
+            if out[j] is None:
+                out[j] = turned
+                todo.append(j)
+            elif out[j] != turned:
+                raise ParameterError("patches", "the crack surface is not orientable")
+    if any(p is None for p in out):
+        raise ParameterError("patches", "the patches do not form one connected surface")
+    counts: dict[tuple[int, int], int] = {}
+    for p in out:
+        for a, b in zip(p, p[1:] + p[:1], strict=True):
+            counts[(min(a, b), max(a, b))] = counts.get((min(a, b), max(a, b)), 0) + 1
+    if max(counts.values()) > 2:
+        raise ParameterError("patches", "an edge belongs to more than two patches")
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class NonplanarCut:
+    """The body's boundary with a non-planar crack's mouth cut into it.
+
+    Attributes
+    ----------
+    nodes, triangles, tags
+        Boundary nodes (M, 3), triangles (node indices, outward) and their facet tags.
+    mouth
+        Node indices of the mouth, from the front's first end to its last.
+    mouth_patch
+        The patch of every mouth segment (mouth[i] → mouth[i + 1]).
+    front_points
+        The front: the crack's unshared edges inside the body (m), shape (m, 3), from
+        ``nodes[mouth[0]]`` to ``nodes[mouth[-1]]``.
+    inner
+        Whether each crack point lies inside the body.
+    crossings
+        Crack edge (sorted point indices) from inside to outside → its mouth node.
+    crack
+        The crack (patches oriented like the first).
+    """
+
+    nodes: npt.NDArray[np.float64]
+    triangles: npt.NDArray[np.int64]
+    tags: npt.NDArray[np.int32]
+    mouth: tuple[int, ...]
+    mouth_patch: tuple[int, ...]
+    front_points: npt.NDArray[np.float64]
+    inner: npt.NDArray[np.bool_]
+    crossings: dict[tuple[int, int], int]
+    crack: NonplanarSurfaceCrack
+
+    def front(self) -> npt.NDArray[np.float64]:
+        """The front polyline (m), shape (m, 3)."""
+        return self.front_points
+
+
+# ------------------------------------------------------------ geometry (numpy)
+def _segment_hits(p: np.ndarray, q: np.ndarray, tris: np.ndarray) -> list[np.ndarray]:
+    """Points where the segment p → q crosses the triangles (Möller–Trumbore), merged."""
+    d = q - p
+    e1, e2 = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    h = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    ok = np.abs(det) > 1e-300
+    s = p - tris[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.einsum("ij,ij->i", s, h) / det
+        qv = np.cross(s, e1)
+        v = (qv @ d) / det
+        t = np.einsum("ij,ij->i", e2, qv) / det
+        eps = 1e-12
+        hit = ok & (u >= -eps) & (v >= -eps) & (u + v <= 1 + eps) & (t >= 0) & (t <= 1)
+    pts: list[np.ndarray] = []
+    for x in p + t[hit, None] * d:
+        if all(np.linalg.norm(x - y) > 1e-9 * np.linalg.norm(d) for y in pts):
+            pts.append(x)
+    return pts
+
+
+def _edge_crossings(
+    crack: NonplanarSurfaceCrack, tris: np.ndarray, inner: np.ndarray
+) -> dict[tuple[int, int], np.ndarray]:
+    """The point where every crack edge from inside the body to outside crosses its
+    surface (key ``patches`` when one crosses it more than once)."""
+    X = np.asarray(crack.points, dtype=float)
+    out = {}
+    for (a, b), _ in sorted(crack.edges().items()):
+        if inner[a] == inner[b]:
+            continue
+        hits = _segment_hits(X[a], X[b], tris)
+        if len(hits) != 1:
+            raise ParameterError(
+                "patches", f"the crack edge {a}-{b} crosses the body's surface {len(hits)} times"
+            )
+        out[(a, b)] = hits[0]
+    return out
+
+
+def _flat_at(nodes: np.ndarray, conn: np.ndarray, vertices: list[int]) -> bool:
+    """Whether every triangle at the vertices lies in one plane."""
+    at = np.flatnonzero(np.isin(conn, vertices).any(axis=1))
+    x = nodes[conn[at]]
+    m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    m /= np.linalg.norm(m, axis=1)[:, None]
+    return bool(np.all(m @ m[0] > 1.0 - 1e-12))
+
+
+def _insert_point(nodes, conn, tags, x: np.ndarray, locked: set[int]):
+    """Make ``x`` (on the surface) a boundary node: a nearby unlocked corner moved onto it
+    (flat neighbourhood), a nearby edge split at it (both triangles), else its triangle
+    split in three.  Returns (nodes, conn, tags, node index)."""
+    t = int(np.argmin(point_triangle_distance(x, nodes[conn])))
+    tri = conn[t]
+    P = nodes[tri]
+    lam = np.linalg.lstsq(np.vstack([P.T, np.ones(3)]), np.append(x, 1.0), rcond=None)[0]
+    k = int(np.argmax(lam))
+    if lam[k] > 1 - NEAR_FRACTION and int(tri[k]) not in locked and _flat_at(nodes, conn, [tri[k]]):
+        nodes = nodes.copy()
+        nodes[tri[k]] = x
+        return nodes, conn, tags, int(tri[k])
+    nodes = np.vstack([nodes, x])
+    new = len(nodes) - 1
+    j = int(np.argmin(lam))
+    a, b = int(tri[(j + 1) % 3]), int(tri[(j + 2) % 3])
+    if lam[j] < NEAR_FRACTION and _flat_at(nodes, conn, [a, b]):
+        rows, repl = [], []
+        for s, tr in enumerate(conn):
+            if a in tr and b in tr:
+                c = next(int(v) for v in tr if v not in (a, b))
+                u, w = (a, b) if _follows(tr, a, b) else (b, a)
+                rows.append(s)
+                repl += [(u, new, c, tags[s]), (new, w, c, tags[s])]
+        return _replace(nodes, conn, tags, rows, repl, new)
+    c = int(tri[j])
+    repl = [(a, b, new, tags[t]), (b, c, new, tags[t]), (c, a, new, tags[t])]
+    return _replace(nodes, conn, tags, [t], repl, new)
+
+
+def _follows(tr: np.ndarray, a: int, b: int) -> bool:
+    i = list(map(int, tr)).index(a)
+    return int(tr[(i + 1) % 3]) == b
+
+
+def _replace(nodes, conn, tags, rows: list[int], repl: list[tuple], new: int):
+    keep = np.setdiff1d(np.arange(len(conn)), rows)
+    add = np.array([r[:3] for r in repl], dtype=np.int64)
+    conn = np.vstack([conn[keep], add])
+    tags = np.concatenate([tags[keep], np.array([r[3] for r in repl], dtype=np.int32)])
+    return nodes, conn, tags, new
+
+
+def _snap_in_surface(nodes, conn, sign_dist, n, movable, h) -> np.ndarray:
+    """Move the movable vertices within SNAP_FRACTION h of the plane onto it, within their
+    own (flat) faceted plane."""
+    nodes = nodes.copy()
+    for i in np.flatnonzero(movable & (np.abs(sign_dist) < SNAP_FRACTION * h)):
+        at = np.flatnonzero((conn == i).any(axis=1))
+        if not at.size:  # a crossing of a cut left out
+            continue
+        x = nodes[conn[at]]
+        m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+        m /= np.linalg.norm(m, axis=1)[:, None]
+        if not np.all(m @ m[0] > 1.0 - 1e-12):
+            continue
+        t = n - (n @ m[0]) * m[0]
+        if t @ n < 0.2:
+            continue
+        nodes[i] -= sign_dist[i] / (t @ n) * t
+        sign_dist[i] = 0.0
+    return nodes
+
+
+def _edge_triangles(conn: np.ndarray) -> dict[tuple[int, int], list[int]]:
+    out: dict[tuple[int, int], list[int]] = {}
+    for t, tr in enumerate(conn):
+        for k in range(3):
+            a, b = int(tr[k]), int(tr[(k + 1) % 3])
+            out.setdefault((min(a, b), max(a, b)), []).append(t)
+    return out
+
+
+def _cut_patch(nodes, conn, tags, crack: NonplanarSurfaceCrack, k: int, fixed, h: float):
+    """Cut the boundary along patch ``k``'s plane where the cut lies in the patch (the
+    crossing points of its edges ``fixed`` on the plane).  Returns the new nodes,
+    triangles, tags and the mouth segments (node pairs)."""
+    n, C = crack.normal(k), crack.polygon(k).mean(axis=0)
+    tol = GEOMETRY_TOL * crack.scale
+    near = crack.contains(k, nodes, 2.0 * h)
+    s = (nodes - C) @ n
+    movable = near.copy()
+    movable[list(fixed["locked"])] = False
+    nodes = _snap_in_surface(nodes, conn, s, n, movable, h)
+    s[np.abs(s) < 1e-3 * tol] = 0.0
+    s[list(fixed["on_plane"])] = 0.0
+    cut = PlaneCutter(nodes, np.sign(s), C, n)
+    close = np.flatnonzero(near[conn].any(axis=1))
+    for t in close:
+        cut.chord(int(t), conn[t])
+    X = np.asarray(cut.nodes)
+    accepted = {
+        t: pq
+        for t, pq in cut.chords.items()
+        if crack.contains(k, 0.5 * (X[pq[0]] + X[pq[1]]), tol)[0]
+    }
+    _check_cut_closed(conn, np.sign(s), accepted, k)
+    repl = {
+        t: split_triangle(cut, conn[t], None)
+        for t, (p, q) in accepted.items()
+        if not (p in conn[t] and q in conn[t])
+    }
+    tris, out_tags = [], []
+    for t, (tri, tag) in enumerate(zip(conn, tags, strict=True)):
+        new = repl.get(t, [tuple(int(v) for v in tri)])
+        tris += new
+        out_tags += [tag] * len(new)
+    segs = sorted({(min(p, q), max(p, q)) for p, q in accepted.values()})
+    conn = np.asarray(tris, dtype=np.int64)
+    return np.asarray(cut.nodes), conn, np.asarray(out_tags, dtype=np.int32), segs
+
+
+def _check_cut_closed(conn: np.ndarray, sign: np.ndarray, accepted: dict, k: int) -> None:
+    """Refuse a cut that stops inside a triangle's edge (key ``patches``): every edge an
+    accepted triangle's cut crosses must have its other triangle cut too."""
+    et = _edge_triangles(conn)
+    for t in accepted:
+        tri = conn[t]
+        for j in range(3):
+            a, b = int(tri[j]), int(tri[(j + 1) % 3])
+            if sign[a] * sign[b] < 0 and any(u not in accepted for u in et[(min(a, b), max(a, b))]):
+                raise ParameterError(
+                    "patches",
+                    f"the trace of patch {k} on the body's surface ends inside a facet (the "
+                    "patch's edges must cross the surface only at the mouth's ends and kinks)",
+                )
+
+
+def _front_edges(crack: NonplanarSurfaceCrack, inner: np.ndarray, cross: dict) -> list:
+    """The front's pieces as pairs of items, ('v', point) or ('x', crack edge)."""
+    out = []
+    for e, ps in sorted(crack.edges().items()):
+        if len(ps) != 1 or not (inner[e[0]] or inner[e[1]]):
+            continue
+        a, b = e
+        if inner[a] and inner[b]:
+            out.append((("v", a), ("v", b)))
+        else:
+            out.append((("v", a if inner[a] else b), ("x", e)))
+    return out
+
+
+def _walk(pairs: list, start, key: str) -> list:
+    """The chain of ``pairs`` from ``start`` to the other end (key ``key`` when the
+    pairs are not one open chain)."""
+    adj: dict = {}
+    for p, q in pairs:
+        adj.setdefault(p, []).append(q)
+        adj.setdefault(q, []).append(p)
+    if start not in adj or any(len(v) > 2 for v in adj.values()):
+        raise ParameterError(key, "is not one open polyline between the mouth's two ends")
+    chain, prev = [start], None
+    while True:
+        nxt = [v for v in adj[chain[-1]] if v != prev]
+        if not nxt or (len(chain) > 1 and len(adj[chain[-1]]) == 1):
+            break
+        prev = chain[-1]
+        chain.append(nxt[0])
+    if len(chain) != len(adj):
+        raise ParameterError(key, "is not one open polyline between the mouth's two ends")
+    return chain
+
+
+def _front_points(crack, inner, cross_xyz: dict) -> np.ndarray:
+    """The front as points (m, 3) from one of its ends (before the mouth is cut)."""
+    pairs = _front_edges(crack, inner, cross_xyz)
+    ends = sorted(v for p in pairs for v in p if v[0] == "x")
+    if len(ends) != 2:
+        raise ParameterError(
+            "patches", f"the front must meet the body's surface twice, not {len(ends)} times"
+        )
+    X = np.asarray(crack.points, dtype=float)
+    chain = _walk(pairs, ends[0], "patches")
+    return np.array([X[v[1]] if v[0] == "v" else cross_xyz[v[1]] for v in chain])
+
+
+def _polyline_distance(front: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Distance from points ``x`` (k, 3) to the polyline ``front``."""
+    a, b = front[:-1], front[1:]
+    d = b - a
+    t = np.einsum("kij,ij->ki", x[:, None, :] - a[None], d) / np.einsum("ij,ij->i", d, d)
+    t = np.clip(t, 0.0, 1.0)
+    foot = a[None] + t[..., None] * d[None]
+    return np.linalg.norm(x[:, None, :] - foot, axis=2).min(axis=1)
+
+
+def _size_function(front: np.ndarray, size: TipMesh, h_max: float):
+    def h(x: np.ndarray) -> np.ndarray:
+        return np.minimum(size.h_tip + size.grading * _polyline_distance(front, x), h_max)
+
+    return h
+
+
+def _mouth_chain(segments: list, special: dict, front_ends: list[tuple[int, int]]) -> list[int]:
+    """The mouth segments as one chain from the front end of the first front edge to
+    the other (key ``patches`` when they are not one chain through every crossing)."""
+    chains = chord_chains(dict(enumerate(segments)))
+    ends = [special[e] for e in front_ends]
+    if len(chains) != 1 or {chains[0][0], chains[0][-1]} != set(ends):
+        raise ParameterError(
+            "patches",
+            f"the mouth is not one chain of the surface from one front end to the other "
+            f"({len(chains)} chain(s))",
+        )
+    chain = chains[0] if chains[0][0] == ends[0] else chains[0][::-1]
+    if not set(special.values()) <= set(chain):
+        raise ParameterError("patches", "a kink of the crack is not on its mouth")
+    return chain
+
+
+def _crossing_nodes(nodes, conn, tags, cross: dict):
+    """The crack edges' crossing points made boundary nodes: (nodes, conn, tags, map
+    edge → node)."""
+    special: dict[tuple[int, int], int] = {}
+    for e, x in sorted(cross.items()):
+        nodes, conn, tags, i = _insert_point(nodes, conn, tags, x, set(special.values()))
+        special[e] = i
+    return nodes, conn, tags, special
+
+
+def _cut_all(nodes, conn, tags, crack, inner, special, h: float):
+    """Every patch that crosses the surface cut in turn.  Returns the nodes, triangles,
+    tags, the mouth segments and the patch of each."""
+    segments, patch_of, locked = [], [], set(special.values())
+    edges = crack.edges()
+    for k, p in enumerate(crack.patches):
+        if inner[list(p)].all() or not inner[list(p)].any():
+            continue
+        on_plane = {special[e] for e, ps in edges.items() if e in special and k in ps}
+        fixed = {"locked": locked, "on_plane": on_plane}
+        nodes, conn, tags, segs = _cut_patch(nodes, conn, tags, crack, k, fixed, h)
+        segments += segs
+        patch_of += [k] * len(segs)
+        locked = locked | {i for s in segs for i in s}
+    return nodes, conn, tags, segments, patch_of
+
+
+def _check_crosses(body: BodySurface, crack: NonplanarSurfaceCrack) -> np.ndarray:
+    inner = inside_body(body, crack.points)
+    if inner.all() or not inner.any():
+        raise ParameterError(
+            "points",
+            "the crack surface does not cross the body's surface (its points lie all "
+            + ("inside" if inner.all() else "outside")
+            + " the body)",
+        )
+    return inner
+
+
+def cut_mouth_surface(
+    body: BodySurface, crack: NonplanarSurfaceCrack, size: TipMesh | None = None
+) -> NonplanarCut:
+    """Cut a non-planar crack's mouth into the body's boundary (numpy; the same on every
+    rank); with ``size``, the boundary triangles near the front are first refined
+    (red-green) to about its mesh size.
+
+    Raises
+    ------
+    ParameterError
+        (``points``) the crack does not cross the body's surface; (``patches``) an edge
+        crosses it more than once, the front does not meet it twice, or the mouth is not
+        one chain from one front end to the other through every kink.
+    """
+    nodes, conn, tags = unique_nodes(body)
+    inner = _check_crosses(body, crack)
+    cross = _edge_crossings(crack, nodes[conn], inner)
+    front0 = _front_points(crack, inner, cross)
+    if size is not None:
+        h = _size_function(front0, size, body.h_max)
+        nodes, conn, tags = refine_near(nodes, conn, tags, h)
+    nodes, conn, tags, special = _crossing_nodes(nodes, conn, tags, cross)
+    h_loc = _local_size(nodes, conn, front0)
+    nodes, conn, tags, segs, patch_of = _cut_all(nodes, conn, tags, crack, inner, special, h_loc)
+    front_ends = sorted(e for e in special if len(crack.edges()[e]) == 1)
+    chain = _mouth_chain(segs, special, front_ends)
+    seg_patch = dict(zip(segs, patch_of, strict=True))
+    mp = [seg_patch[(min(p, q), max(p, q))] for p, q in zip(chain, chain[1:], strict=False)]
+    X, tris, mouth = compact_nodes(list(nodes), conn, chain)
+    front = front0 if np.allclose(front0[0], X[mouth[0]]) else front0[::-1]
+    at = {v: i for i, v in enumerate(chain)}
+    crossings = {e: mouth[at[v]] for e, v in special.items()}
+    return NonplanarCut(X, tris, tags, tuple(mouth), tuple(mp), front, inner, crossings, crack)
+
+
+def _local_size(nodes: np.ndarray, conn: np.ndarray, front: np.ndarray) -> float:
+    """The mean boundary edge within reach of the front's ends."""
+    x = nodes[conn]
+    edges = np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2)
+    reach = 0.5 * float(np.linalg.norm(front[0] - front[-1]))
+    close = _polyline_distance(front[[0, -1]], x.mean(axis=1)) < reach
+    return float(edges[close].mean()) if close.any() else float(edges.mean())
+
+
+# ------------------------------------------------------------------ gmsh (rank 0)
+def _patch_loop(cut: NonplanarCut, k: int, special: dict) -> list:
+    """Patch ``k``'s part inside the body as a loop of items ('v', crack point) or ('b',
+    boundary node): its inner corners between the crossings, then the mouth back."""
+    p, inner = cut.crack.patches[k], cut.inner
+    if inner[list(p)].all():
+        return [("v", i) for i in p]
+    j = next(i for i in range(len(p)) if inner[p[i]] and not inner[p[i - 1]])
+    seq = p[j:] + p[:j]
+    n_in = next(i for i in range(len(seq)) if not inner[seq[i]])
+    if inner[list(seq[n_in:])].any():
+        raise ParameterError("patches", f"patch {k} crosses the body's surface more than twice")
+    x_in = special[tuple(sorted((seq[-1], seq[0])))]
+    x_out = special[tuple(sorted((seq[n_in - 1], seq[n_in])))]
+    pos = {v: i for i, v in enumerate(cut.mouth)}
+    a, b = pos[x_out], pos[x_in]
+    path = list(cut.mouth[a + 1 : b]) if a < b else list(cut.mouth[b + 1 : a])[::-1]
+    lo, hi = min(a, b), max(a, b)
+    if any(m != k for m in cut.mouth_patch[lo:hi]):
+        raise ParameterError("patches", f"the mouth between patch {k}'s crossings leaves it")
+    return [("b", x_in), *[("v", i) for i in seq[:n_in]], ("b", x_out), *[("b", v) for v in path]]
+
+
+def _num(v: float) -> str:
+    return "(" + np.format_float_positional(float(v), unique=True, trim="0") + ")"
+
+
+def _size_formula(front: np.ndarray, size: TipMesh, h_max: float) -> str:
+    """h = min(h_tip + g·d, h_max), d the distance to the front's points sampled at
+    h_tip / 2 (within h_tip / 4 of the distance to the polyline)."""
+    pts = [front[0]]
+    for a, b in zip(front[:-1], front[1:], strict=True):
+        m = max(1, int(np.ceil(np.linalg.norm(b - a) / (0.5 * size.h_tip))))
+        pts += [a + (b - a) * t for t in np.linspace(0, 1, m + 1)[1:]]
+    terms = [
+        "Sqrt(" + "+".join(f"(({c})-{_num(p[i])})^2" for i, c in enumerate("xyz")) + ")"
+        for p in pts
+    ]
+    while len(terms) > 1:
+        terms = [
+            f"Min({terms[i]},{terms[i + 1]})" if i + 1 < len(terms) else terms[i]
+            for i in range(0, len(terms), 2)
+        ]
+    return f"Min({_num(size.h_tip)}+{_num(size.grading)}*{terms[0]},{_num(h_max)})"
+
+
+def _set_size(formula: str) -> None:
+    f = gmsh.model.mesh.field.add("MathEval")
+    gmsh.model.mesh.field.setString(f, "F", formula)
+    gmsh.model.mesh.field.setAsBackgroundMesh(f)
+    for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
+        gmsh.option.setNumber(f"Mesh.{opt}", 0)
+
+
+def _crack_geometry(cut: NonplanarCut) -> tuple[list[int], set[int]]:
+    """The patches' parts inside the body as gmsh plane surfaces sharing their curves.
+    Returns the surfaces (one per patch, -1 for a patch outside) and the mouth's lines."""
+    geo = gmsh.model.geo
+    X = np.asarray(cut.crack.points, dtype=float)
+    special, pos = cut.crossings, {v: i for i, v in enumerate(cut.mouth)}
+    points: dict = {}
+    lines: dict = {}
+    mouth_lines: set[int] = set()
+
+    def point(item) -> int:
+        if item not in points:
+            points[item] = geo.addPoint(*(X[item[1]] if item[0] == "v" else cut.nodes[item[1]]))
+        return points[item]
+
+    def line(u, v) -> int:
+        key = (min(u, v), max(u, v))
+        if key not in lines:
+            lines[key] = geo.addLine(point(key[0]), point(key[1]))
+            if u[0] == v[0] == "b" and abs(pos[u[1]] - pos[v[1]]) == 1:
+                mouth_lines.add(lines[key])
+        return lines[key] if key == (u, v) else -lines[key]
+
+    surfaces = []
+    for k, p in enumerate(cut.crack.patches):
+        if not cut.inner[list(p)].any():
+            surfaces.append(-1)
+            continue
+        loop = _patch_loop(cut, k, special)
+        curves = [line(u, v) for u, v in zip(loop, loop[1:] + loop[:1], strict=True)]
+        surfaces.append(geo.addPlaneSurface([geo.addCurveLoop(curves)]))
+    geo.synchronize()
+    return surfaces, mouth_lines
+
+
+def _crack_mesh(cut: NonplanarCut, size: TipMesh, h_max: float):
+    """Triangles of the crack surface (a separate gmsh model), each turned to its patch's
+    normal.  Returns the node coordinates and the triangles (node indices)."""
+    surfaces, mouth_lines = _crack_geometry(cut)
+    for ln in mouth_lines:
+        gmsh.model.mesh.setTransfiniteCurve(ln, 2)
+    _set_size(_size_formula(cut.front_points, size, h_max))
+    gmsh.model.mesh.generate(2)
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    xyz = xyz.reshape(-1, 3)
+    index = {int(t): i for i, t in enumerate(tags)}
+    out = []
+    for k, s in enumerate(surfaces):
+        if s < 0:
+            continue
+        _, el = gmsh.model.mesh.getElementsByType(2, s)
+        tri = np.array([index[int(t)] for t in el], dtype=np.int64).reshape(-1, 3)
+        x = xyz[tri]
+        m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+        flip = m @ cut.crack.normal(k) < 0
+        tri[flip] = tri[flip][:, [0, 2, 1]]
+        out.append(tri)
+    return xyz, np.vstack(out)
+
+
+def _boundary_entities(cut: NonplanarCut, body: BodySurface) -> list[int]:
+    """The cut boundary as discrete surfaces, one per facet tag (with its group)."""
+    values = np.unique(cut.tags)
+    surfaces = list(range(1, len(values) + 1))
+    for k in surfaces:
+        gmsh.model.addDiscreteEntity(2, k)
+    gmsh.model.mesh.addNodes(2, 1, np.arange(1, len(cut.nodes) + 1), cut.nodes.ravel())
+    for k, t in zip(surfaces, values, strict=True):
+        gmsh.model.mesh.addElementsByType(k, 2, [], (cut.triangles[cut.tags == t] + 1).ravel())
+        if t > 0:
+            gmsh.model.addPhysicalGroup(2, [k], int(t), name=body.names.get(int(t), f"facets{t}"))
+    return surfaces
+
+
+def _build(cut: NonplanarCut, body: BodySurface, size: TipMesh, tags: tuple[int, int]) -> None:
+    """The cracked volume mesh in the current gmsh model (rank 0)."""
+    h_max = min(size.h_max or body.h_max, body.h_max)
+    current = gmsh.model.getCurrent()
+    gmsh.model.add("nonplanar_surface_crack")
+    pts, tri = _crack_mesh(cut, size, h_max)
+    gmsh.model.remove()
+    gmsh.model.setCurrent(current)
+    new, crack_tri = merge_crack(cut, pts, tri)
+    surfaces = _boundary_entities(cut, body)
+    n0 = len(cut.nodes)
+    crack = gmsh.model.addDiscreteEntity(2)
+    gmsh.model.mesh.addNodes(2, crack, np.arange(n0 + 1, n0 + len(new) + 1), new.ravel())
+    gmsh.model.mesh.addElementsByType(crack, 2, [], (crack_tri + 1).ravel())
+    mouth = gmsh.model.addDiscreteEntity(1)
+    m = np.asarray(cut.mouth) + 1
+    gmsh.model.mesh.addElementsByType(mouth, 1, [], np.column_stack([m[:-1], m[1:]]).ravel())
+    geo = gmsh.model.geo
+    volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
+    geo.synchronize()
+    gmsh.model.mesh.embed(2, [crack], 3, volume)
+    region, region_tag = body.region
+    gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
+    _set_size(_size_formula(cut.front_points, size, h_max))
+    volume_mesh(volume, size.h_tip)
+    split_crack_nodes(crack, mouth, tags, tags[1] + 1)
+
+
+def mesh_body_with_nonplanar_surface_crack(
+    body: BodySurface,
+    crack: NonplanarSurfaceCrack,
+    size: TipMesh,
+    comm: MPI.Comm | None = None,
+) -> tuple[CrackedBody3D, object, NonplanarCut]:
+    """Mesh a 3D body with a non-planar surface crack cut into it (collective; gmsh on
+    rank 0).
+
+    Returns
+    -------
+    (CrackedBody3D, dolfinx.io.gmsh.MeshData, NonplanarCut)
+        The cracked mesh (faces ``crack_upper`` on the side of the first patch's normal
+        and ``crack_lower``; its ``crack`` is the cut, whose ``front()`` is a polyline:
+        ``block()`` does not apply), its mesh data and the cut boundary.
+
+    Raises
+    ------
+    ParameterError
+        The crack does not fit the surface (:func:`cut_mouth_surface`), on every rank.
+    MeshingError
+        gmsh failed (on every rank).
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    cut = cut_mouth_surface(body, crack, size)
+    top = max([body.region[1], *body.names, 0])
+    tags = (top + 1, top + 2)
+    error = None
+    with gmsh_session("nonplanar_surface_body3d") if comm.rank == 0 else nullcontext():
+        if comm.rank == 0:
+            try:
+                _build(cut, body, size, tags)
+            except Exception as exc:  # reported on every rank below
+                error = (type(exc).__name__, getattr(exc, "key", None), str(exc))
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            if error[0] == "ParameterError":
+                raise ParameterError(error[1], error[2].split(": ", 1)[-1])
+            raise MeshingError(f"non-planar surface crack in a 3D body: {error[0]}: {error[2]}")
+        md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
+    n = crack.normal(0)
+    a, b = tags
+    upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
+    body3 = CrackedBody3D(
+        md.mesh, md.cell_tags, md.facet_tags, cut, {"crack_upper": upper, "crack_lower": lower}
+    )
+    return body3, md, cut

@@ -1,0 +1,344 @@
+"""A non-planar surface-breaking crack cut into a 3D body
+(bonecontact.fracture.nonplanar_surface_body3d).
+
+The body is the plate [−1, 1] × [−1.5, 1.5] × [−1, 0] (its surface z = 0; boundary facets
+0.25, refined near the crack), the crack a polygon inscribed in the half-disc of radius
+R = 0.5 in the plane x = 0.1 (its arc from −π/16 to π + π/16, closed above the surface)
+with strips of width w = 0.15 along its edges, each turned by θ about the previous front
+(a kinked growth step: the strips' corners lie on circles in planes x = const, so every
+strip is a planar trapezoid, and the strips reach out of the plate at their ends).  The
+references are independent of the cut:
+
+* the mouth: every node on z = 0 and on its patch's plane within its polygon (1e-9 of
+  the plate's size), the ends at the crack's outermost edges' crossings with z = 0 and the
+  length the sum of the patches' traces on z = 0 (both in closed form);
+* the faces: each the sum of the patches clipped to z ≤ 0 (Sutherland–Hodgman; 1e-8),
+  the front's nodes shared by both faces, on the front, the mouth's not (only its two
+  ends); the meshed volume the plate's (1e-9), no tetrahedron flat;
+* θ = 0: the disc with one coplanar strip is the disc of radius R + w: the same mouth
+  ends, mouth length and face areas as that single patch; the disc's mouth ends those of
+  ``cut_mouth``'s semi-circular crack of radius R cos(π/16) (the chord's ends);
+* bad input: a crack inside or outside the body, a non-planar or non-convex patch,
+  disconnected patches, a front that meets the surface four times.
+
+Every case runs on 1, 2 and 3 ranks against the same references and cell counts.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mpi4py import MPI
+
+import _box_surface
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem, mesh
+
+from bonecontact.common.errors import ParameterError
+from bonecontact.fracture.body3d import BodySurface, front_vertices
+from bonecontact.fracture.crack3d import SurfaceBreakingCrack
+from bonecontact.fracture.meshing import TipMesh
+from bonecontact.fracture.nonplanar_surface_body3d import (
+    NonplanarSurfaceCrack,
+    cut_mouth_surface,
+    mesh_body_with_nonplanar_surface_crack,
+)
+from bonecontact.fracture.surface_body3d import cut_mouth
+
+LO = np.array([-1.0, -1.5, -1.0])
+SIZE = (2.0, 3.0, 1.0)
+H = 0.25
+XC, R, W, DELTA, N_ARC = 0.1, 0.5, 0.15, math.pi / 16, 9
+NAMES = {1: "left", 2: "right", 3: "bottom", 4: "top", 5: "back", 6: "front"}
+TOL = 1e-9 * max(SIZE)
+
+
+def _plate() -> BodySurface:
+    t = _box_surface.box_triangles(SIZE, H) + LO
+    c = t.mean(axis=1)
+    hi = LO + np.array(SIZE)
+    tags = np.zeros(len(t), dtype=np.int32)
+    faces = [(0, LO[0]), (0, hi[0]), (1, LO[1]), (1, hi[1]), (2, LO[2]), (2, hi[2])]
+    for k, (axis, v) in enumerate(faces):
+        tags[np.abs(c[:, axis] - v) < 1e-12] = k + 1
+    return BodySurface(t, tags, NAMES, ("plate", 1), H * math.sqrt(2))
+
+
+PLATE = _plate()
+
+
+def _kinked(thetas_deg: list[float], radius: float = R) -> NonplanarSurfaceCrack:
+    """The half-disc polygon of ``radius`` and a strip of width W per angle (degrees),
+    each turned by its angle about the previous front (cumulative)."""
+    phi = -DELTA + np.arange(N_ARC + 1) * (math.pi + 2 * DELTA) / N_ARC
+    rhat = np.stack([np.zeros_like(phi), np.cos(phi), -np.sin(phi)], axis=1)
+    pts = [np.array([XC, 0.0, 0.0]) + radius * r for r in rhat]
+    patches = [tuple(range(N_ARC + 1))[::-1]]
+    prev, r_cur, x_cur, total = list(range(N_ARC + 1)), radius, 0.0, 0.0
+    for th in thetas_deg:
+        total += math.radians(th)
+        r_cur, x_cur = r_cur + W * math.cos(total), x_cur + W * math.sin(total)
+        new = []
+        for r in rhat:
+            pts.append(np.array([XC + x_cur, 0.0, 0.0]) + r_cur * r)
+            new.append(len(pts) - 1)
+        patches += [(prev[i], prev[i + 1], new[i + 1], new[i]) for i in range(N_ARC)]
+        prev = new
+    return NonplanarSurfaceCrack(tuple(map(tuple, pts)), tuple(patches))
+
+
+# ------------------------------------------------------------------ references
+def _area(P: np.ndarray) -> float:
+    return 0.5 * float(np.linalg.norm(np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)))
+
+
+def _clip_below(P: np.ndarray) -> np.ndarray:
+    """The polygon clipped to z ≤ 0 (Sutherland–Hodgman)."""
+    out = []
+    for a, b in zip(P, np.roll(P, -1, axis=0), strict=True):
+        if a[2] <= 0:
+            out.append(a)
+        if (a[2] <= 0) != (b[2] <= 0):
+            out.append(a + a[2] / (a[2] - b[2]) * (b - a))
+    return np.array(out)
+
+
+def _trace(P: np.ndarray) -> np.ndarray:
+    """The points where the polygon's edges cross z = 0."""
+    return np.array(
+        [
+            a + a[2] / (a[2] - b[2]) * (b - a)
+            for a, b in zip(P, np.roll(P, -1, axis=0), strict=True)
+            if (a[2] > 0) != (b[2] > 0)
+        ]
+    ).reshape(-1, 3)
+
+
+def _exact(crack: NonplanarSurfaceCrack) -> tuple[float, float, np.ndarray]:
+    """The crack's area below z = 0, its trace's length on z = 0 and the front's ends
+    (its unshared edges' crossings of z = 0)."""
+    polys = [crack.polygon(k) for k in range(len(crack.patches))]
+    area = sum(_area(_clip_below(P)) for P in polys if (P[:, 2] < 0).any())
+    length = 0.0
+    for P in polys:
+        t = _trace(P)
+        length += float(np.linalg.norm(t[1] - t[0])) if len(t) == 2 else 0.0
+    X = np.asarray(crack.points)
+    ends = [
+        _trace(X[list(e)])[0]
+        for e, ps in crack.edges().items()
+        if len(ps) == 1 and (X[e[0], 2] > 0) != (X[e[1], 2] > 0)
+    ]
+    return area, length, np.array(sorted(ends, key=lambda p: p[1]))
+
+
+def _front_reference(crack: NonplanarSurfaceCrack) -> list[np.ndarray]:
+    """The front's segments: the unshared edges clipped to z ≤ 0."""
+    X = np.asarray(crack.points)
+    segs = []
+    for e, ps in crack.edges().items():
+        if len(ps) == 1 and min(X[e[0], 2], X[e[1], 2]) < 0:
+            seg = _clip_below(X[list(e)])
+            segs.append(seg[:2] if len(seg) >= 2 else seg)
+    return segs
+
+
+def _distance_to_segments(x: np.ndarray, segs: list[np.ndarray]) -> np.ndarray:
+    out = np.full(len(x), np.inf)
+    for a, b in segs:
+        d = b - a
+        t = np.clip((x - a) @ d / (d @ d), 0, 1)
+        out = np.minimum(out, np.linalg.norm(x - a - t[:, None] * d, axis=1))
+    return out
+
+
+# ------------------------------------------------------------------ meshes
+CASES = {
+    "planar": ([], 0.08),
+    "flat strip": ([0.0], 0.08),
+    "kink +30": ([30.0], 0.08),
+    "kink -30": ([-30.0], 0.08),
+    "kink +60": ([60.0], 0.08),
+    "kink +60 fine": ([60.0], 0.04),
+    "two strips +30 -60": ([30.0, -60.0], 0.08),
+}
+
+#: the cells of every case, measured serially (the mesh is built on rank 0: the same on
+#: every rank count)
+CELLS = {
+    "planar": 2411,
+    "flat strip": 2874,
+    "kink +30": 2785,
+    "kink -30": 2755,
+    "kink +60": 2669,
+    "kink +60 fine": 5720,
+    "two strips +30 -60": 3181,
+}
+
+_MESHES: dict = {}
+
+
+def _meshed(name: str):
+    if name not in _MESHES:
+        thetas, h = CASES[name]
+        crack = _kinked(thetas)
+        _MESHES[name] = (
+            crack,
+            *mesh_body_with_nonplanar_surface_crack(PLATE, crack, TipMesh(h, 0.3), MPI.COMM_WORLD),
+        )
+    return _MESHES[name]
+
+
+def _face_area(cb, tag: int) -> float:
+    ds = ufl.Measure("ds", domain=cb.mesh, subdomain_data=cb.facet_tags)
+    local = fem.assemble_scalar(fem.form(1.0 * ds(tag)))
+    return cb.mesh.comm.allreduce(local, op=MPI.SUM)
+
+
+def _face_points(cb, tag: int) -> np.ndarray:
+    """The coordinates of the vertices of a face's facets, gathered (with repeats)."""
+    m = cb.mesh
+    facets = cb.facet_tags.find(tag)
+    x = m.geometry.x[mesh.entities_to_geometry(m, 2, facets)].reshape(-1, 3)
+    return np.vstack(m.comm.allgather(x))
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_mouth_lies_on_both_surfaces_and_has_the_exact_length(name: str) -> None:
+    crack = _meshed(name)[0]
+    cut = _meshed(name)[3]
+    M = cut.nodes[list(cut.mouth)]
+    np.testing.assert_allclose(M[:, 2], 0.0, atol=TOL)
+    for i, k in enumerate(cut.mouth_patch):  # both ends of a segment on its patch
+        seg = M[[i, i + 1]]
+        n, P = crack.normal(k), crack.polygon(k)
+        assert np.max(np.abs((seg - P[0]) @ n)) <= TOL
+        assert crack.contains(k, seg, TOL).all()
+    area, length, ends = _exact(crack)
+    got = float(np.linalg.norm(np.diff(M, axis=0), axis=1).sum())
+    assert got == pytest.approx(length, rel=1e-9)
+    np.testing.assert_allclose(np.array(sorted(M[[0, -1]], key=lambda p: p[1])), ends, atol=TOL)
+    np.testing.assert_allclose(cut.front()[[0, -1]], M[[0, -1]], atol=TOL)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_cut_boundary_is_closed_and_keeps_the_plate(name: str) -> None:
+    cut = _meshed(name)[3]
+    t = cut.triangles
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert np.all(counts == 2)
+    x = cut.nodes[t]
+    vol = np.einsum("ij,ij->i", x[:, 0], np.cross(x[:, 1], x[:, 2])).sum() / 6.0
+    assert vol == pytest.approx(math.prod(SIZE), rel=1e-12)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_faces_have_the_clipped_patches_area(name: str) -> None:
+    crack, cb, _, _ = _meshed(name)
+    area = _exact(crack)[0]
+    up, low = (_face_area(cb, t) for t in cb.face_tags)
+    assert up == pytest.approx(area, rel=1e-8)
+    assert low == pytest.approx(up, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_front_is_shared_and_the_mouth_is_split(name: str) -> None:
+    crack, cb, _, cut = _meshed(name)
+    shared = front_vertices(cb.mesh, cb.facet_tags, cb.face_tags)
+    assert len(shared) > 2 * N_ARC
+    assert np.max(_distance_to_segments(shared, _front_reference(crack))) <= TOL
+    on_surface = shared[np.abs(shared[:, 2]) <= TOL]
+    ends = _exact(crack)[2]
+    np.testing.assert_allclose(np.array(sorted(on_surface, key=lambda p: p[1])), ends, atol=TOL)
+    for tag in cb.face_tags:  # every mouth node on each face (a copy each)
+        pts = _face_points(cb, tag)
+        mouth = cut.nodes[list(cut.mouth)]
+        d = np.linalg.norm(mouth[:, None] - pts[None], axis=2).min(axis=1)
+        assert np.max(d) <= TOL
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_volume_is_the_plates_and_no_tetrahedron_is_flat(name: str) -> None:
+    _, cb, _, _ = _meshed(name)
+    m = cb.mesh
+    vol = m.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=m))), op=MPI.SUM)
+    assert vol == pytest.approx(math.prod(SIZE), rel=1e-9)
+    n = m.topology.index_map(3).size_local
+    x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
+    six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    h = CASES[name][1]
+    smallest = m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN)
+    assert smallest > 1e-6 * h**3
+    assert m.topology.index_map(3).size_global == CELLS[name]
+
+
+def test_upper_face_lies_on_the_first_patch_normal_side() -> None:
+    crack, cb, _, _ = _meshed("kink +60")
+    m = cb.mesh
+    m.topology.create_connectivity(2, 3)
+    f2c = m.topology.connectivity(2, 3)
+    n = crack.normal(0)
+    facets = cb.facet_tags.find(cb.groups["crack_upper"])
+    facets = facets[facets < m.topology.index_map(2).size_local]
+    mid = mesh.compute_midpoints(m, 2, facets)
+    on_disc = crack.contains(0, mid, 0.0) & (np.abs((mid - crack.polygon(0)[0]) @ n) < TOL)
+    cells = np.array([f2c.links(f)[0] for f in facets[on_disc]], dtype=np.int32)
+    side = (mesh.compute_midpoints(m, 3, cells) - mid[on_disc]) @ n
+    assert np.all(side > 0)
+
+
+def test_flat_strip_is_the_larger_disc() -> None:
+    """θ = 0: the disc and a coplanar strip are the disc of radius R + W."""
+    crack, cb, _, cut = _meshed("flat strip")
+    one = _kinked([], radius=R + W)
+    assert len(one.patches) == 1 and len(crack.patches) == 1 + N_ARC
+    single = cut_mouth_surface(PLATE, one, TipMesh(CASES["flat strip"][1], 0.3))
+    a, b = (c.nodes[list(c.mouth)] for c in (cut, single))
+    np.testing.assert_allclose(a[[0, -1]], b[[0, -1]], atol=TOL)
+    la, lb = (float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum()) for x in (a, b))
+    assert la == pytest.approx(lb, rel=1e-9)
+    assert _face_area(cb, cb.face_tags[0]) == pytest.approx(_area(_clip_below(one.polygon(0))))
+
+
+def test_disc_mouth_matches_the_planar_cut() -> None:
+    """The disc's mouth is that of ``cut_mouth``'s semi-circle of radius R cos δ (the
+    chord's ends): the same ends and length (at a tip size where ``cut_mouth`` inserts
+    its ends rather than taking a node within a tenth of a segment)."""
+    c, size = R * math.cos(DELTA), TipMesh(0.05, 0.3)
+    ours = cut_mouth_surface(PLATE, _kinked([]), size)
+    planar = cut_mouth(PLATE, SurfaceBreakingCrack((XC, 0.0, 0.0), (1.0, 0.0, 0.0), c, c), size)
+    a, b = (x.nodes[list(x.mouth)] for x in (ours, planar))
+    ends = [np.array(sorted(x[[0, -1]], key=lambda p: p[1])) for x in (a, b)]
+    np.testing.assert_allclose(ends[0], ends[1], atol=TOL)
+    np.testing.assert_allclose(ends[0], [[XC, -c, 0.0], [XC, c, 0.0]], atol=TOL)
+    la, lb = (float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum()) for x in (a, b))
+    assert la == pytest.approx(lb, rel=1e-9) and la == pytest.approx(2 * c, rel=1e-12)
+
+
+def _flat(points: list[tuple[float, float]], x: float = XC) -> tuple:
+    return tuple((x, y, z) for y, z in points)
+
+
+def test_bad_input_names_the_key() -> None:
+    inside = _flat([(-0.3, -0.1), (-0.3, -0.5), (0.3, -0.5), (0.3, -0.1)])
+    with pytest.raises(ParameterError, match="points"):
+        cut_mouth_surface(PLATE, NonplanarSurfaceCrack(inside, ((0, 1, 2, 3),)))
+    outside = _flat([(-0.3, 0.1), (-0.3, 0.5), (0.3, 0.5), (0.3, 0.1)])
+    with pytest.raises(ParameterError, match="points"):
+        cut_mouth_surface(PLATE, NonplanarSurfaceCrack(outside, ((0, 1, 2, 3),)))
+    bent = inside[:3] + ((XC + 0.1, 0.3, -0.1),)
+    with pytest.raises(ParameterError, match="patches: patch 0 is not planar"):
+        NonplanarSurfaceCrack(bent, ((0, 1, 2, 3),))
+    dart = _flat([(-0.3, 0.2), (0.0, -0.1), (0.3, 0.2), (0.0, -0.5)])
+    with pytest.raises(ParameterError, match="not a convex"):
+        NonplanarSurfaceCrack(dart, ((0, 1, 2, 3),))
+    apart = _flat([(-0.3, 0.2), (-0.3, -0.2), (-0.1, -0.2), (0.1, 0.2), (0.1, -0.2), (0.3, 0.2)])
+    with pytest.raises(ParameterError, match="one connected surface"):
+        NonplanarSurfaceCrack(apart, ((0, 1, 2), (3, 4, 5)))
+    valley = _flat([(-0.7, 0.2), (-0.5, 0.2), (0.0, -0.3), (0.0, -0.5), (0.5, 0.2), (0.7, 0.2)])
+    crack = NonplanarSurfaceCrack(valley, ((0, 1, 2, 3), (3, 2, 4, 5)))
+    with pytest.raises(ParameterError, match=r"patches: the front must meet .* twice, not 4"):
+        cut_mouth_surface(PLATE, crack)
