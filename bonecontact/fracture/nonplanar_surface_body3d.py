@@ -16,8 +16,8 @@ the front's not) into ``crack_upper`` (the side of the first patch's normal) and
 ``crack_lower``.  All gmsh work runs on rank 0.
 
 A building block: the front is returned as a polyline (no stress intensity along it yet,
-``CrackedBody3D.block`` does not apply), one cell group, the body's surface near the mouth
-flat or gently curved (vertices are moved within their own faceted plane only).
+``CrackedBody3D.block`` does not apply), one cell group, no edge of the body within a
+facet of the mouth (vertices move only where their facets lie within 30° of each other).
 """
 
 from __future__ import annotations
@@ -61,8 +61,11 @@ __all__ = [
 
 #: Relative tolerance of planarity, of a point on a plane and of the containment tests.
 GEOMETRY_TOL = 1e-9
+#: Facets within this angle (degrees) of their mean normal are one smooth surface, where a
+#: vertex may move along it (farther apart: an edge of the body, whose vertices stay).
+SMOOTH_DEG = 30.0
 #: A crack edge's crossing closer than this fraction of the facet's shortest edge to one of
-#: its corners moves that corner onto it (in a flat neighbourhood), to an edge splits it.
+#: its corners moves that corner onto it (in a smooth neighbourhood), to an edge splits it.
 NEAR_FRACTION = 0.1
 
 
@@ -260,25 +263,34 @@ def _edge_crossings(
     return out
 
 
-def _flat_at(nodes: np.ndarray, conn: np.ndarray, vertices: list[int]) -> bool:
-    """Whether every triangle at the vertices lies in one plane."""
+def _smooth_at(nodes: np.ndarray, conn: np.ndarray, vertices: list[int]) -> np.ndarray | None:
+    """The mean unit normal of the triangles at the vertices when they all lie within
+    :data:`SMOOTH_DEG` of it (no edge of the body there), else ``None``."""
     at = np.flatnonzero(np.isin(conn, vertices).any(axis=1))
+    if not at.size:
+        return None
     x = nodes[conn[at]]
     m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
     m /= np.linalg.norm(m, axis=1)[:, None]
-    return bool(np.all(m @ m[0] > 1.0 - 1e-12))
+    mean = m.sum(axis=0)
+    mean /= np.linalg.norm(mean)
+    return mean if np.all(m @ mean >= np.cos(np.radians(SMOOTH_DEG))) else None
 
 
 def _insert_point(nodes, conn, tags, x: np.ndarray, locked: set[int]):
     """Make ``x`` (on the surface) a boundary node: a nearby unlocked corner moved onto it
-    (flat neighbourhood), a nearby edge split at it (both triangles), else its triangle
+    (smooth neighbourhood), a nearby edge split at it (both triangles), else its triangle
     split in three.  Returns (nodes, conn, tags, node index)."""
     t = int(np.argmin(point_triangle_distance(x, nodes[conn])))
     tri = conn[t]
     P = nodes[tri]
     lam = np.linalg.lstsq(np.vstack([P.T, np.ones(3)]), np.append(x, 1.0), rcond=None)[0]
     k = int(np.argmax(lam))
-    if lam[k] > 1 - NEAR_FRACTION and int(tri[k]) not in locked and _flat_at(nodes, conn, [tri[k]]):
+    if (
+        lam[k] > 1 - NEAR_FRACTION
+        and int(tri[k]) not in locked
+        and _smooth_at(nodes, conn, [tri[k]]) is not None
+    ):
         nodes = nodes.copy()
         nodes[tri[k]] = x
         return nodes, conn, tags, int(tri[k])
@@ -286,7 +298,7 @@ def _insert_point(nodes, conn, tags, x: np.ndarray, locked: set[int]):
     new = len(nodes) - 1
     j = int(np.argmin(lam))
     a, b = int(tri[(j + 1) % 3]), int(tri[(j + 2) % 3])
-    if lam[j] < NEAR_FRACTION and _flat_at(nodes, conn, [a, b]):
+    if lam[j] < NEAR_FRACTION and _smooth_at(nodes, conn, [a, b]) is not None:
         rows, repl = [], []
         for s, tr in enumerate(conn):
             if a in tr and b in tr:
@@ -314,20 +326,16 @@ def _replace(nodes, conn, tags, rows: list[int], repl: list[tuple], new: int):
 
 
 def _snap_in_surface(nodes, conn, sign_dist, n, movable, h) -> np.ndarray:
-    """Move the movable vertices within SNAP_FRACTION h of the plane onto it, within their
-    own (flat) faceted plane."""
+    """Move the movable vertices within SNAP_FRACTION h of the plane onto it along the
+    surface (the plane's normal projected on their mean facet normal's tangent plane;
+    exact in a flat neighbourhood, off a curved one by the snap times the facets' angle)."""
     nodes = nodes.copy()
     for i in np.flatnonzero(movable & (np.abs(sign_dist) < SNAP_FRACTION * h)):
-        at = np.flatnonzero((conn == i).any(axis=1))
-        if not at.size:  # a crossing of a cut left out
+        mean = _smooth_at(nodes, conn, [i])
+        if mean is None:
             continue
-        x = nodes[conn[at]]
-        m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-        m /= np.linalg.norm(m, axis=1)[:, None]
-        if not np.all(m @ m[0] > 1.0 - 1e-12):
-            continue
-        t = n - (n @ m[0]) * m[0]
-        if t @ n < 0.2:
+        t = n - (n @ mean) * mean
+        if t @ n < 0.2:  # the plane near tangent to the surface
             continue
         nodes[i] -= sign_dist[i] / (t @ n) * t
         sign_dist[i] = 0.0
