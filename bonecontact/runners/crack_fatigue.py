@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.fatigue import ParisLaw, block_cycles
 from bonecontact.fracture.propagation import FRACTURE_COLUMNS, IncrementRecord
 from bonecontact.scene.spec import FatigueSpec
@@ -31,6 +32,9 @@ __all__ = [
     "growth_weights",
     "paris_law",
     "plain_rows",
+    "self_similar_slope",
+    "size_from_tip",
+    "size_from_vertex",
     "tip_key",
 ]
 
@@ -60,6 +64,9 @@ class FatigueProgress:
     (m) and its da/dN (m/cycle) at every block end, ``cycles`` the cumulative N there,
     ``waiting`` the growth a tip keeps for later ((crack, tip end) -> m), ``status`` the stop
     (``None`` while it runs) and ``bound`` the upper bound of the cycles to separation.
+    ``phases`` are the indices of the ends that start a new set of cracks (after a merge)
+    and ``slope`` the self-similar d ln(da/dN)/ds of the leading tip at the last merge's
+    block start (1/m; 0: unknown; :func:`self_similar_slope`, :meth:`_merging_block`).
     """
 
     growth: list[float] = dataclasses.field(default_factory=list)
@@ -69,6 +76,7 @@ class FatigueProgress:
     status: str | None = None
     bound: float | None = None
     phases: list[int] = dataclasses.field(default_factory=lambda: [0])
+    slope: float = 0.0
 
     @classmethod
     def from_state(cls, state: dict[str, Any] | None) -> FatigueProgress:
@@ -84,6 +92,7 @@ class FatigueProgress:
             state["status"],
             state["bound"],
             [int(v) for v in state.get("phases", [0])],
+            float(state.get("slope", 0.0)),  # older checkpoints: unknown
         )
 
     def state(self) -> dict[str, Any]:
@@ -110,26 +119,63 @@ class FatigueProgress:
         self.cycles.append((self.cycles[-1] if self.cycles else 0.0) + block)
         return self.cycles[-1]
 
-    def merged(self, tip_map: dict[TipKey, TipKey]) -> None:
+    def merged(self, tip_map: dict[TipKey, TipKey], slope: float = 0.0) -> None:
         """Cracks merged at the last block end: the next end starts a new set of cracks
         (:meth:`add_end`); what the far tips kept goes to the merged crack's tips
-        (``tip_map``), what the merged-away tips kept is dropped."""
+        (``tip_map``), what the merged-away tips kept is dropped.  ``slope``: the
+        self-similar d ln(da/dN)/ds of the leading tip at the merging block's start
+        (:func:`self_similar_slope`; 0: unknown), used when that start is the only end of
+        its set of cracks (:meth:`_merging_block`)."""
         self.phases.append(len(self.growth))
         self.waiting = {tip_map[t]: v for t, v in self.waiting.items() if t in tip_map}
+        self.slope = float(slope)
 
     def _merging_block(self) -> float:
         """Cycles of the block at whose end cracks merged: ∫ ds / r over it with ln r
-        extrapolated linearly from the last two ends before the merge (of one set of
-        cracks; one end or a falling rate: its rate, constant).  The rate after the merge
-        is another tip's and is not used."""
+        linear, its slope extrapolated from the last two ends before the merge (of one set
+        of cracks), or, when the block's start is the only end known, the self-similar
+        ``slope`` (:meth:`merged`).  A falling rate, or one end and no positive slope:
+        the start rate, constant.  The rate after the merge is another tip's and is not
+        used."""
         s, r = self.growth, self.lead_rate
         h, start = s[-1] - s[-2], (self.phases[-2] if len(self.phases) > 1 else 0)
-        if len(s) - 3 < start or r[-2] <= 0 or r[-3] <= 0:
-            return h / r[-2] if r[-2] > 0 else 0.0
-        g = (math.log(r[-2]) - math.log(r[-3])) / (s[-2] - s[-3])
+        if r[-2] <= 0:
+            return 0.0
+        if len(s) - 3 < start:
+            g = self.slope
+        elif r[-3] > 0:
+            g = (math.log(r[-2]) - math.log(r[-3])) / (s[-2] - s[-3])
+        else:
+            g = 0.0
         if g <= 1e-12 / h:
             return h / r[-2]
         return (1.0 - math.exp(-g * h)) / (g * r[-2])
+
+
+def self_similar_slope(m: float, size: float) -> float:
+    """d ln(da/dN)/ds of a tip whose crack grows self-similarly, K ∝ √ρ: da/dN ∝ ρ^(m/2)
+    and ρ grows as the tip does, so (m/2)/ρ (1/m; 0 for ρ ≤ 0).  ``size`` ρ is the
+    crack's size seen from the tip (:func:`size_from_tip`, :func:`size_from_vertex`)."""
+    return 0.5 * float(m) / float(size) if size > 0 else 0.0
+
+
+def size_from_tip(crack: Crack2D, end: int) -> float:
+    """ρ of a 2D crack seen from its tip at polyline end ``end`` (0 or −1): the distance
+    to the crack's other end, half of it for an interior crack (a centre crack's
+    half-length, which grows as fast as each tip when both grow alike; the whole distance
+    would halve the slope), all of it for an edge crack (its length from the mouth)."""
+    end = int(end)
+    chord = float(np.linalg.norm(crack.tip(end) - crack.points[-1 - end]))
+    return 0.5 * chord if crack.tips == "both" else chord
+
+
+def size_from_vertex(vertices: npt.ArrayLike, k: int) -> float:
+    """ρ of a planar 3D crack seen from front vertex ``k`` of ``vertices`` (N, 3): its
+    distance to the mean of the vertices, which grows as the vertex does when the front
+    grows self-similarly (a penny's radius; an ellipse's b at the minor axis end, where K
+    is largest, where the largest radius a would halve the slope)."""
+    V = np.asarray(vertices, dtype=float)
+    return float(np.linalg.norm(V[int(k)] - V.mean(axis=0)))
 
 
 #: A tip of a scene's cracks: (the crack's name, the polyline end 0 or -1).

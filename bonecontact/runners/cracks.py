@@ -72,6 +72,8 @@ from bonecontact.runners.crack_fatigue import (
     bound_to_separation,
     paris_law,
     plain_rows,
+    self_similar_slope,
+    size_from_tip,
     tip_key,
 )
 from bonecontact.runners.crack_join import join_cracks
@@ -452,6 +454,13 @@ def _snapped(crack: Crack2D, ends: tuple[int, ...], run: CrackRun) -> Crack2D:
     return Crack2D(pts, crack.tips)
 
 
+def _lead_size(cracks: list[Crack2D], rows: list[IncrementRecord], run: CrackRun) -> float:
+    """The size ρ of the crack of the leading tip (the largest K_eq) of ``rows`` seen from
+    that tip (:func:`size_from_tip`)."""
+    lead = max(rows, key=lambda r: r.K_eq)
+    return size_from_tip(cracks[[c.name for c in run.specs].index(lead.crack)], lead.tip)
+
+
 def _grow(
     cracks: list[Crack2D],
     records: list[IncrementRecord],
@@ -803,8 +812,9 @@ class CrackSteps(MechanicsSteps):
         rows, grow, stop = block_end(records, fr.fatigue, self.run.K_Ic, prog, st.increment)
         met = ""
         if grow:
+            slope = self_similar_slope(fr.fatigue.m, _lead_size(self.cracks, rows, self.run))
             self.cracks, met = _grow(self.cracks, rows, self.run, grow)
-            met = self.merge_joined(k, rows, met)
+            met = self.merge_joined(k, rows, met, slope)
         self.table.rows(rows)
         st.tips_last = rows
         if stop or met:
@@ -817,12 +827,15 @@ class CrackSteps(MechanicsSteps):
         self.block_checkpoint(k)
         return verdict
 
-    def merge_joined(self, k: int, rows: list[IncrementRecord], stop: str) -> str:
+    def merge_joined(
+        self, k: int, rows: list[IncrementRecord], stop: str, slope: float = 0.0
+    ) -> str:
         """After a growth that stopped ``joined``, with ``[fracture] joined = "merge"``: the
         cracks whose facing tips met merged (:func:`join_cracks`; their rows marked
         ``merged``, the run's cracks and face pairs replaced, a fatigue run's kept growth
-        moved to the merged tips) and ``""`` returned; else the stop, with the reason
-        why nothing was merged kept for the message."""
+        moved to the merged tips and its leading tip's self-similar ``slope`` kept for
+        the merging block) and ``""`` returned; else the stop, with the reason why nothing
+        was merged kept for the message."""
         if stop != "joined":
             return stop
         st = self.state
@@ -841,7 +854,7 @@ class CrackSteps(MechanicsSteps):
         self.run, self.cracks = respecified(self.run, res.specs), res.cracks
         st.merges += [m | {"increment": st.increment, "step": k} for m in res.merges]
         if fr.fatigue is not None:
-            self.fatigue.merged(res.tip_map)
+            self.fatigue.merged(res.tip_map, slope)
         for m in res.merges:
             self.say(
                 f"{self.scene.name}: cracks {m['cracks'][0]!r} and {m['cracks'][1]!r} met "

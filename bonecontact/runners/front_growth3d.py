@@ -17,7 +17,8 @@ near the surface), ``joined`` (near another crack, unless both are coplanar: the
 ``[fracture] joined = "merge"``, they become their convex hull and grow on,
 :func:`_merge`), ``not_convex`` (an advanced front that is not a convex polygon).
 ``fracture.csv``: a row per increment, crack and mid-edge (with the cycles, the advance
-``da`` of the edge's first vertex, ``holds`` for an edge that does not move);
+``da`` of the edge's first vertex, ``holds`` for an edge that does not move, ``merged``
+for the edges of cracks that merged after the solve);
 ``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` and ``increment<k>/`` per increment;
 with ``checkpoint_every`` the growth state (:mod:`~bonecontact.runners.growth_state3d`)
 to restart from on any number of ranks.
@@ -62,7 +63,13 @@ from bonecontact.fracture.crack3d import (
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import inside_body
 from bonecontact.meshing.builder import MeshingError
-from bonecontact.runners.crack_fatigue import FatigueProgress, growth_stop, growth_weights
+from bonecontact.runners.crack_fatigue import (
+    FatigueProgress,
+    growth_stop,
+    growth_weights,
+    self_similar_slope,
+    size_from_vertex,
+)
 from bonecontact.runners.cracks3d import write_front
 from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.mechanics import SceneModel
@@ -553,7 +560,10 @@ def _grow_fronts(
             return stop, still
         new[i] = extend_surface(crack, adv.vertices, adv.held)
         advances[i] = adv.da
-    if merging and _merge(run, g, new, merging):
+    slope = 0.0
+    if merging and fat is not None:
+        slope = self_similar_slope(fat.m, _lead_size(g.cracks, weights))
+    if merging and _merge(run, g, new, merging, slope):
         return "joined", still
     g.cracks, g.increments = new, g.increments + 1
     return None, advances
@@ -569,13 +579,23 @@ def _groups(pairs: list[tuple[int, int]]) -> list[list[int]]:
     return sorted((sorted(s) for s in groups), key=lambda s: s[0])
 
 
-def _merge(run: InteriorRun, g: Growth, new: list, pairs: list[tuple[int, int]]) -> bool:
+def _lead_size(cracks: list[TriangulatedCrack], weights: list) -> float:
+    """The size ρ of the crack of the leading vertex (the largest weight,
+    :func:`_vertex_weights`) seen from that vertex (:func:`size_from_vertex`)."""
+    i = max((k for k, w in enumerate(weights) if w is not None), key=lambda k: weights[k].max())
+    return size_from_vertex(cracks[i].vertices, int(np.argmax(weights[i])))
+
+
+def _merge(
+    run: InteriorRun, g: Growth, new: list, pairs: list[tuple[int, int]], slope: float = 0.0
+) -> bool:
     """The advanced cracks ``new`` whose fronts met (``pairs``) merged in place into the
     convex hull of each coplanar set (:func:`hull_polygon`, edges of at least the
     ligament, as :func:`as_polygon`), named ``"<a>+<b>"``; ``True`` (nothing merged, the
     reason in ``g.joined``) when a set is not coplanar (within half a front element),
     differs in friction, or its hull would come within the ligament of the surface or
-    of another crack."""
+    of another crack.  Under fatigue the block history starts anew, ``slope`` (the
+    leading vertex's self-similar d ln(da/dN)/ds) kept for the merging block."""
     names = list(g.names or run.names)
     coefs = list(g.coefficients or [c.coefficient for c in run.scene.cracks])
     out, merges = [], []
@@ -607,7 +627,7 @@ def _merge(run: InteriorRun, g: Growth, new: list, pairs: list[tuple[int, int]])
     g.names, g.coefficients = [e[2] for e in out], [e[3] for e in out]
     g.merges += [m | {"increment": g.increments} for m in merges]
     if run.fracture.fatigue is not None:
-        g.fatigue.merged({})
+        g.fatigue.merged({}, slope)
     return False
 
 
@@ -668,8 +688,14 @@ def _increment(run: InteriorRun, g: Growth, comm, timer, outdir: Path, table: Re
     integ.destroy()
     cracks, inc = g.cracks, g.increments
     stop, advances = _advance(run, g, records)
+    merged = {n for m in g.merges if m["increment"] == inc for n in m["cracks"]}
     rows = [
-        dataclasses.replace(r, status=_mark(stop, da, k), cycles=g.cycles, da=float(da[k]))
+        dataclasses.replace(
+            r,
+            status="merged" if r.crack in merged else _mark(stop, da, k),
+            cycles=g.cycles,
+            da=float(da[k]),
+        )
         for rec, da in zip(records, advances, strict=True)
         for k, r in enumerate(rec)
     ]
@@ -685,7 +711,8 @@ def _increment(run: InteriorRun, g: Growth, comm, timer, outdir: Path, table: Re
 
 def _mark(stop: str | None, da: np.ndarray, k: int) -> str:
     """The status of edge ``k`` (vertex k to k + 1): the stop, else ``holds`` when both
-    its ends hold, else ``grows``."""
+    its ends hold, else ``grows`` (the edges of cracks that merged after this solve are
+    marked ``merged`` instead, :func:`_increment`)."""
     if stop is not None:
         return stop
     return "holds" if da[k] == 0.0 and da[(k + 1) % len(da)] == 0.0 else "grows"

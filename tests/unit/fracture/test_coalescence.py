@@ -9,11 +9,16 @@ worked by hand.
   about the normal and has no edge shorter than asked (a short edge removed by extending
   its neighbours: the hull only grows); points off the plane are not coplanar.
 * The fatigue bookkeeping across a merge: the block that merged integrates the leading
-  rate extrapolated from the two ends before it (ln r linear), by hand.
+  rate extrapolated from the two ends before it (ln r linear), by hand; with one end
+  known, by the self-similar slope (m/2)/ρ, against the Paris law in closed form for a
+  penny (m = 2, 3, 4) and a 2D centre crack, blocks of 0.05 … 0.2ρ: below it by less
+  than m x²/4 (m = 3, x = 0.1: −0.23 %, where the start rate gave +7.4 %); no slope
+  (older checkpoints) the start rate; ρ of 2D and 3D cracks by hand.
 """
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -106,3 +111,81 @@ def test_the_merging_block_extrapolates_the_leading_rate() -> None:
     block = (1.0 - math.exp(-g * 1.0e-4)) / (g * r1)
     assert n - prog.cycles[-2] == pytest.approx(block, rel=1e-12)
     assert prog.phases == [0, 2]
+
+
+def _paris_integral(C: float, kappa: float, m: float, a0: float, a1: float) -> float:
+    """Cycles from a0 to a1 at da/dN = C (κ√a)^m, in closed form."""
+    if m == 2.0:
+        return math.log(a1 / a0) / (C * kappa**2)
+    return (a0 ** (1 - m / 2) - a1 ** (1 - m / 2)) / ((m / 2 - 1) * C * kappa**m)
+
+
+@pytest.mark.parametrize("x", [0.05, 0.1, 0.2])  # the block over the crack size, Δa/ρ
+@pytest.mark.parametrize(
+    ("m", "kappa"),
+    [
+        (2.0, 2.0 / math.sqrt(math.pi)),  # a penny, K = 2σ√(a/π) (σ = 1)
+        (3.0, 2.0 / math.sqrt(math.pi)),
+        (4.0, 2.0 / math.sqrt(math.pi)),
+        (3.0, math.sqrt(math.pi)),  # a 2D centre crack, K = σ√(πa), a the half-length
+        (4.0, math.sqrt(math.pi)),
+    ],
+)
+def test_a_merge_in_the_first_block_takes_the_self_similar_slope(
+    m: float, kappa: float, x: float
+) -> None:
+    """One end known, a merge, the next end: the merging block's cycles with ln r of the
+    self-similar slope (m/2)/ρ against the Paris law integrated in closed form from ρ to
+    ρ(1 + x).  ln r linear lies above the true (m/2) ln(1 + s/ρ) by at most
+    (m/2)(x − ln(1 + x)) < m x²/4 at the block's end, so the cycles are below the closed
+    form by less than that (m = 3, x = 0.1: −0.23 %; the start rate alone +7.4 %)."""
+    from bonecontact.runners.crack_fatigue import self_similar_slope
+
+    C, rho = 1.0e-12, 2.0e-3
+    h = x * rho
+    prog = FatigueProgress()
+    prog.add_end(0.0, C * (kappa * math.sqrt(rho)) ** m)
+    prog.merged({}, slope=self_similar_slope(m, rho))
+    back = FatigueProgress.from_state(json.loads(json.dumps(prog.state())))  # a checkpoint
+    assert back.slope == prog.slope == pytest.approx(0.5 * m / rho, rel=1e-15)
+    n = back.add_end(h, 1.0)  # the merged crack's rate is not used
+    exact = _paris_integral(C, kappa, m, rho, rho + h)
+    err = n / exact - 1.0
+    assert -m * x**2 / 4 < err < 0.0, err
+    start = h / (C * (kappa * math.sqrt(rho)) ** m)  # the rule without the slope
+    assert start / exact - 1.0 > 0.9 * (m / 4) * x, start / exact - 1.0  # ≈ (m/4) x, over
+    if (m, x) == (3.0, 0.1) and kappa < 1.5:
+        assert err == pytest.approx(-0.0023, abs=1e-4)
+        assert start / exact - 1.0 == pytest.approx(0.0744, abs=1e-4)
+
+
+def test_a_merge_in_the_first_block_without_a_slope_takes_the_start_rate() -> None:
+    """No slope (an older checkpoint, or a caller that gives none) or one not positive:
+    the start rate over the block, as before the slope existed."""
+    for slope in (None, 0.0, -5.0):
+        prog = FatigueProgress()
+        prog.add_end(0.0, 2.0e-9)
+        prog.merged({}, **({} if slope is None else {"slope": slope}))
+        state = prog.state()
+        if slope is None:
+            del state["slope"]  # as a checkpoint written before the slope was stored
+        back = FatigueProgress.from_state(state)
+        assert back.add_end(1.0e-4, 7.0e-9) == pytest.approx(1.0e-4 / 2.0e-9, rel=1e-15)
+
+
+def test_the_crack_size_seen_from_a_tip_or_a_vertex() -> None:
+    """ρ of the self-similar slope: a 2D centre crack's half-length (tip to the other end
+    over 2) from either tip, an edge crack's length (tip to mouth), a regular 3D octagon's
+    circumradius, a 3D rectangle's half-diagonal (its corners the vertices)."""
+    from bonecontact.runners.crack_fatigue import size_from_tip, size_from_vertex
+
+    centre = Crack2D(np.array([[-3.0e-3, 1.0e-3], [0.0, 1.5e-3], [3.0e-3, 1.0e-3]]))
+    edge = Crack2D(np.array([[0.0, 0.0], [0.0, 2.0e-3], [0.0, 5.0e-3]]), tips="end")
+    assert size_from_tip(centre, 0) == size_from_tip(centre, -1) == pytest.approx(3.0e-3)
+    assert size_from_tip(edge, -1) == pytest.approx(5.0e-3, rel=1e-15)
+    t = np.arange(8) * math.pi / 4
+    octagon = np.stack([1.0e-3 * np.cos(t) + 0.5, 1.0e-3 * np.sin(t), 0 * t + 2.0], axis=1)
+    for k in range(8):
+        assert size_from_vertex(octagon, k) == pytest.approx(1.0e-3, rel=1e-9)
+    rect = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [4.0, 3.0, 0.0], [0.0, 3.0, 0.0]])
+    assert size_from_vertex(rect, 1) == pytest.approx(2.5, rel=1e-15)
