@@ -61,6 +61,9 @@ __all__ = [
 
 #: Relative tolerance of planarity, of a point on a plane and of the containment tests.
 GEOMETRY_TOL = 1e-9
+#: A crack point must lie this fraction of the tip size (without one, of a tenth of the
+#: boundary's longest edge) off the body's surface.
+NEAR_SURFACE = 0.25
 #: Facets within this angle (degrees) of their mean normal are one smooth surface, where a
 #: vertex may move along it (farther apart: an edge of the body, whose vertices stay).
 SMOOTH_DEG = 30.0
@@ -515,8 +518,20 @@ def _cut_all(nodes, conn, tags, crack, inner, special, h: float):
     return nodes, conn, tags, segments, patch_of
 
 
-def _check_crosses(body: BodySurface, crack: NonplanarSurfaceCrack) -> np.ndarray:
-    inner = inside_body(body, crack.points)
+def _check_crosses(body: BodySurface, crack: NonplanarSurfaceCrack, h: float) -> np.ndarray:
+    """Which crack points lie inside the body.  Raises ParameterError: (``points``) the
+    crack does not cross the surface, or a point lies within :data:`NEAR_SURFACE` h of it
+    (its trace would be shorter than the boundary's facets resolve)."""
+    X = np.asarray(crack.points, dtype=float)
+    gap = np.array([point_triangle_distance(x, body.triangles).min() for x in X])
+    if gap.min() < NEAR_SURFACE * h:
+        k = int(np.argmin(gap))
+        raise ParameterError(
+            "points",
+            f"point {k} lies {gap[k]:.3g} m from the body's surface: keep the crack's points "
+            f"at least {NEAR_SURFACE * h:.3g} m ({NEAR_SURFACE:g} of the tip size) off it",
+        )
+    inner = inside_body(body, X)
     if inner.all() or not inner.any():
         raise ParameterError(
             "points",
@@ -537,12 +552,13 @@ def cut_mouth_surface(
     Raises
     ------
     ParameterError
-        (``points``) the crack does not cross the body's surface; (``patches``) an edge
+        (``points``) the crack does not cross the body's surface or a point lies within
+        :data:`NEAR_SURFACE` of the tip size of it; (``patches``) an edge
         crosses it more than once, the front does not meet it twice, or the mouth is not
         one chain from one front end to the other through every kink.
     """
     nodes, conn, tags = unique_nodes(body)
-    inner = _check_crosses(body, crack)
+    inner = _check_crosses(body, crack, size.h_tip if size is not None else 0.1 * body.h_max)
     cross = _edge_crossings(crack, nodes[conn], inner)
     front0 = _front_points(crack, inner, cross)
     if size is not None:

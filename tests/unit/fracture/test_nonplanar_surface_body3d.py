@@ -6,8 +6,9 @@ The body is the plate [−1, 1] × [−1.5, 1.5] × [−1, 0] (its surface z = 0
 R = 0.5 in the plane x = 0.1 (its arc from −π/16 to π + π/16, closed above the surface)
 with strips of width w = 0.15 along its edges, each turned by θ about the previous front
 (a kinked growth step: the strips' corners lie on circles in planes x = const, so every
-strip is a planar trapezoid, and the strips reach out of the plate at their ends).  The
-references are independent of the cut:
+strip is a planar trapezoid, and the strips reach out of the plate at their ends); and a
+twisted strip (width and angle varying along the front by 30 %: its quadrilaterals not
+planar, each two triangles).  The references are independent of the cut:
 
 * the mouth: every node on z = 0 and on its patch's plane within its polygon (1e-9 of
   the plate's size), the ends at the crack's outermost edges' crossings with z = 0 and the
@@ -29,7 +30,8 @@ references are independent of the cut:
   measured 1.2e-7), the faces 0 to 0.5 % smaller than the patches clipped to the exact
   cylinder (the facets' sagitta, 0.002; measured 0.20-0.24 %);
 * bad input: a crack inside or outside the body, a non-planar or non-convex patch,
-  disconnected patches, a front that meets the surface four times.
+  disconnected patches, a front that meets the surface four times, a point 2 mm off the
+  surface (the centroid of a strip's end quadrilateral fanned as advance3d does).
 
 Every case runs on 1, 2 and 3 ranks against the same references and cell counts.
 """
@@ -107,6 +109,38 @@ def _kinked(thetas_deg: list[float], radius: float = R, w: float = W) -> Nonplan
     return NonplanarSurfaceCrack(tuple(map(tuple, pts)), tuple(patches))
 
 
+def _strip_ends(theta_deg: float, twist: float) -> tuple[list, np.ndarray]:
+    """The disc's points and a strip's outer corners: width W (1 + twist sin 3φ), turned
+    by θ (1 + twist cos 2φ) about the disc's front."""
+    phi = -DELTA + np.arange(N_ARC + 1) * (math.pi + 2 * DELTA) / N_ARC
+    rhat = np.stack([np.zeros_like(phi), np.cos(phi), -np.sin(phi)], axis=1)
+    disc = [np.array([XC, 0.0, 0.0]) + R * r for r in rhat]
+    th = math.radians(theta_deg) * (1 + twist * np.cos(2 * phi))
+    w = W * (1 + twist * np.sin(3 * phi))
+    out = [
+        p + wi * (math.cos(t) * r + math.sin(t) * np.array([1.0, 0.0, 0.0]))
+        for p, r, wi, t in zip(disc, rhat, w, th, strict=True)
+    ]
+    return disc, np.array(out)
+
+
+def _twisted(theta_deg: float, twist: float = 0.3, fan: bool = False) -> NonplanarSurfaceCrack:
+    """The disc with a twisted strip (its quadrilaterals not planar): each quadrilateral
+    as two triangles, or (``fan``) four to its centroid as advance3d.extend_surface does."""
+    disc, outer = _strip_ends(theta_deg, twist)
+    pts, n = [*disc, *outer], N_ARC + 1
+    patches = [tuple(range(n))[::-1]]
+    for i in range(N_ARC):
+        a, b, b2, a2 = i, i + 1, n + i + 1, n + i
+        if fan:
+            pts.append(np.mean([pts[a], pts[b], pts[b2], pts[a2]], axis=0))
+            m = len(pts) - 1
+            patches += [(a, b, m), (b, b2, m), (b2, a2, m), (a2, a, m)]
+        else:
+            patches += [(a, b, b2), (a, b2, a2)]
+    return NonplanarSurfaceCrack(tuple(map(tuple, pts)), tuple(patches))
+
+
 # ------------------------------------------------------------------ references
 def _area(P: np.ndarray) -> float:
     return 0.5 * float(np.linalg.norm(np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)))
@@ -181,6 +215,10 @@ CASES = {
     "kink +60": ([60.0], 0.08),
     "kink +60 fine": ([60.0], 0.04),
     "two strips +30 -60": ([30.0, -60.0], 0.08),
+    "twisted 0": ("twisted", 0.0, 0.06),
+    "twisted +30": ("twisted", 30.0, 0.06),
+    "twisted -45": ("twisted", -45.0, 0.06),
+    "twisted +60": ("twisted", 60.0, 0.06),
 }
 
 #: the cells of every case, measured serially (the mesh is built on rank 0: the same on
@@ -193,6 +231,10 @@ CELLS = {
     "kink +60": 2669,
     "kink +60 fine": 5720,
     "two strips +30 -60": 3181,
+    "twisted 0": 4118,
+    "twisted +30": 3974,
+    "twisted -45": 3913,
+    "twisted +60": 3847,
 }
 
 _MESHES: dict = {}
@@ -200,8 +242,8 @@ _MESHES: dict = {}
 
 def _meshed(name: str):
     if name not in _MESHES:
-        thetas, h = CASES[name]
-        crack = _kinked(thetas)
+        *shape, h = CASES[name]
+        crack = _twisted(shape[1]) if shape[0] == "twisted" else _kinked(shape[0])
         _MESHES[name] = (
             crack,
             *mesh_body_with_nonplanar_surface_crack(PLATE, crack, TipMesh(h, 0.3), MPI.COMM_WORLD),
@@ -287,7 +329,7 @@ def test_volume_is_the_plates_and_no_tetrahedron_is_flat(name: str) -> None:
     n = m.topology.index_map(3).size_local
     x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
     six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
-    h = CASES[name][1]
+    h = CASES[name][-1]
     smallest = m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN)
     assert smallest > 1e-6 * h**3
     assert m.topology.index_map(3).size_global == CELLS[name]
@@ -438,6 +480,9 @@ def test_bad_input_names_the_key() -> None:
     apart = _flat([(-0.3, 0.2), (-0.3, -0.2), (-0.1, -0.2), (0.1, 0.2), (0.1, -0.2), (0.3, 0.2)])
     with pytest.raises(ParameterError, match="one connected surface"):
         NonplanarSurfaceCrack(apart, ((0, 1, 2), (3, 4, 5)))
+    fanned = _twisted(30.0, fan=True)  # the end quadrilaterals' centroids 2 mm deep
+    with pytest.raises(ParameterError, match=r"points: point 20 lies 0\.00191 m from the body"):
+        cut_mouth_surface(PLATE, fanned, TipMesh(0.06, 0.3))
     valley = _flat([(-0.7, 0.2), (-0.5, 0.2), (0.0, -0.3), (0.0, -0.5), (0.5, 0.2), (0.7, 0.2)])
     crack = NonplanarSurfaceCrack(valley, ((0, 1, 2, 3), (3, 2, 4, 5)))
     with pytest.raises(ParameterError, match=r"patches: the front must meet .* twice, not 4"):
