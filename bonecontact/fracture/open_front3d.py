@@ -15,7 +15,9 @@ the free surface (a surface crack that kinks):
   each vertex and the neighbours it has;
 * :func:`extend_open_surface` — the strip between the old and the new front, edge by
   edge, as the closed front's (held vertices keep their point);
-* :func:`open_mid_edge_modes` — K_I, K_II, K_III at the middle of every edge.
+* :func:`open_mid_edge_modes` — K_I, K_II, K_III at the middle of every edge;
+* :func:`cut_front`, :func:`cut_block` — the front of a non-planar crack cut into a body
+  (:mod:`~bonecontact.fracture.nonplanar_surface_body3d`) and its model for the integral.
 
 Where the new ends lie against the body's surface is the caller's (the end vertices move
 like the others); no scene grows a non-planar surface crack yet.
@@ -47,11 +49,15 @@ from bonecontact.fracture.front3d import (
 if TYPE_CHECKING:
     from dolfinx import fem
 
+    from bonecontact.fracture.body3d import CrackedBody3D
+    from bonecontact.fracture.nonplanar_surface_body3d import NonplanarCut
     from bonecontact.materials.laws import Isotropic
 
 __all__ = [
     "OpenTriangulatedCrack",
     "advance_open_front",
+    "cut_block",
+    "cut_front",
     "extend_open_surface",
     "open_mid_edge_modes",
 ]
@@ -281,3 +287,56 @@ def open_mid_edge_modes(
         )
         for p in phis
     ]
+
+
+def _segment_distance(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    d = b - a
+    t = float(np.clip((x - a) @ d / (d @ d), 0.0, 1.0))
+    return float(np.linalg.norm(x - a - t * d))
+
+
+def _front_patches(cut: NonplanarCut) -> list[int]:
+    """The patch of every front segment: that of the crack's unshared edge it lies on."""
+    X = np.asarray(cut.crack.points, dtype=float)
+    edges = [(e, ps[0]) for e, ps in cut.crack.edges().items() if len(ps) == 1]
+    V = cut.front_points
+    out = []
+    for p, q in zip(V[:-1], V[1:], strict=True):
+        mid = 0.5 * (p + q)
+        dist = [_segment_distance(mid, X[a], X[b]) for (a, b), _ in edges]
+        out.append(edges[int(np.argmin(dist))][1])
+    return out
+
+
+def cut_front(
+    cut: NonplanarCut, cuts: tuple[tuple[float, float], ...] | None = None
+) -> OpenPolylineFront:
+    """The front of a non-planar crack cut into a body as an :class:`OpenPolylineFront`:
+    the cut's front points (the ends where the crack's edges cross the surface), e₂ of
+    every segment the normal of its patch (the side of ``crack_upper``), the order such
+    that e₁ = t × e₂ points away from the patch (ahead); ``cuts`` the kinks (L, ψ) of the
+    segments in the cut's order (the crack's front edges, the first and last crossing the
+    surface), or ``None``."""
+    crack = cut.crack
+    V = np.asarray(cut.front_points, dtype=float)
+    patches = _front_patches(cut)
+    n2 = np.array([crack.normal(k) for k in patches])
+    mid = 0.5 * (V[0] + V[1])
+    e1 = np.cross(_unit(V[1] - V[0]), n2[0])
+    if (crack.polygon(patches[0]).mean(axis=0) - mid) @ e1 > 0:  # the patch lies ahead
+        V, n2 = V[::-1], n2[::-1]
+        cuts = None if cuts is None else tuple(cuts[::-1])
+    return OpenPolylineFront(
+        tuple(map(tuple, V)),
+        tuple(tuple(map(float, n)) for n in n2),
+        cuts,
+        tuple(map(float, crack.normal(0))),
+    )
+
+
+def cut_block(body: CrackedBody3D, front: OpenPolylineFront) -> CrackBlock:
+    """The cracked body as the model of
+    :func:`~bonecontact.fracture.front3d.front_interaction_integral` (both faces)."""
+    return CrackBlock(
+        body.mesh, body.cell_tags, body.facet_tags, front, dict(body.groups), half_model=False
+    )

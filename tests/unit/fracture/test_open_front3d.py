@@ -15,6 +15,10 @@ closed forms and against the closed front's advance:
   (bonecontact.verification.surface_crack), its straight front one edge or two: the
   straight front's K at the same points and domains (1e-9 of K_I), K_I at mid-thickness
   within 5 % of the plane-strain K of the 2D section (1, 2 and 3 ranks);
+* the front of a non-planar crack cut into a plate (cut_front; the half-disc polygon and
+  one strip turned by 0, +30, −45°): its ends the mouth's, every segment on the crack's
+  outermost edges, e₂ its patch's normal (the side of the first patch's), e₁ = t × e₂
+  pointing away from the patch;
 * bad shapes are refused with the key named.
 """
 
@@ -23,15 +27,19 @@ import dolfinx_solver  # noqa: F401  (must precede dolfinx)
 import dataclasses
 import math
 
+import _box_surface
 import numpy as np
 import pytest
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.advance3d import advance_mixed_front
+from bonecontact.fracture.body3d import BodySurface
 from bonecontact.fracture.front3d import front_interaction_integral
+from bonecontact.fracture.nonplanar_surface_body3d import NonplanarSurfaceCrack, cut_mouth_surface
 from bonecontact.fracture.open_front3d import (
     OpenTriangulatedCrack,
     advance_open_front,
+    cut_front,
     extend_open_surface,
     open_mid_edge_modes,
 )
@@ -233,3 +241,54 @@ def test_mid_edge_k_on_a_through_crack(edges: int) -> None:
             assert getattr(r, key) == pytest.approx(getattr(ref, key), abs=1e-9 * ref.K_I)
     if edges == 1:
         assert got[0].K_I == pytest.approx(plane_strain_edge_k(THROUGH), rel=0.05)
+
+
+def _plate() -> BodySurface:
+    """The plate [−1, 1] × [−1.5, 1.5] × [−1, 0], facets 0.25, its surface z = 0."""
+    lo, size = np.array([-1.0, -1.5, -1.0]), (2.0, 3.0, 1.0)
+    t = _box_surface.box_triangles(size, 0.25) + lo
+    return BodySurface(t, np.ones(len(t), dtype=np.int32), {1: "all"}, ("plate", 1), 0.36)
+
+
+def _kinked(theta: float | None) -> NonplanarSurfaceCrack:
+    """A half-disc polygon of radius 0.5 in x = 0.1 (7 edges from −π/16 to π + π/16, its
+    ends above z = 0), with one strip 0.15 wide turned by ``theta`` (rad) about its
+    edges, or none."""
+    phi = -math.pi / 16 + np.arange(8) * (math.pi + math.pi / 8) / 7
+    r = np.stack([np.zeros_like(phi), np.cos(phi), -np.sin(phi)], axis=1)
+    pts = [np.array([0.1, 0, 0]) + 0.5 * v for v in r]
+    patches = [tuple(range(8))[::-1]]
+    if theta is not None:
+        off = np.array([0.1 + 0.15 * math.sin(theta), 0, 0])
+        pts += [off + (0.5 + 0.15 * math.cos(theta)) * v for v in r]
+        patches += [(i, i + 1, 9 + i, 8 + i) for i in range(7)]
+    return NonplanarSurfaceCrack(tuple(map(tuple, pts)), tuple(patches))
+
+
+@pytest.mark.parametrize("theta_deg", [None, 0.0, 30.0, -45.0])
+def test_front_of_a_cut_crack(theta_deg: float | None) -> None:
+    crack = _kinked(None if theta_deg is None else math.radians(theta_deg))
+    cut = cut_mouth_surface(_plate(), crack)
+    front = cut_front(cut)
+    V = np.asarray(front.vertices)
+    ends = {tuple(np.round(cut.nodes[k], 12)) for k in (cut.mouth[0], cut.mouth[-1])}
+    assert {tuple(np.round(V[0], 12)), tuple(np.round(V[-1], 12))} == ends
+    assert np.all(np.abs(V[[0, -1], 2]) < 1e-12)  # on the surface z = 0
+    assert np.all(V[1:-1, 2] < 0)
+    last = len(crack.patches) > 1
+    for p in front.edge_middles():
+        e1, e2, _ = front.frame(float(p))
+        x = front.point(float(p))[0]
+        patch = 0  # the disc, or the strip whose centroid is nearest
+        if last:
+            centroids = [crack.polygon(j).mean(axis=0) for j in range(1, 8)]
+            patch = 1 + int(np.argmin(np.linalg.norm(np.array(centroids) - x, axis=1)))
+        n = crack.normal(patch)
+        assert abs((x - crack.polygon(patch)[0]) @ n) < 1e-9  # the point on its patch
+        np.testing.assert_allclose(e2, crack.normal(patch), atol=1e-12)
+        assert e2 @ crack.normal(0) > 0
+        assert (crack.polygon(patch).mean(axis=0) - x) @ e1 < 0  # the patch lies behind
+        if theta_deg is not None:  # e₁ across the trapezoid: its height's direction
+            th, half = math.radians(theta_deg), 0.5 * (math.pi + math.pi / 8) / 7
+            ex = math.sin(th) / math.hypot(math.sin(th), math.cos(th) * math.cos(half))
+            assert e1[0] == pytest.approx(ex, abs=1e-9)
