@@ -264,20 +264,19 @@ def extend_open_surface(
 
 
 def open_mid_edge_modes(
-    crack: OpenTriangulatedCrack,
+    front: OpenPolylineFront,
     block: CrackBlock,
     u: fem.Function,
     material: Isotropic,
     h_front: float,
     face_traction: tuple | None = None,
 ) -> list[FrontSIF]:
-    """K_I, K_II, K_III at the middle of every front edge by the interaction integral
-    (collective), as :func:`~bonecontact.fracture.advance3d.mid_edge_modes` on a closed
-    front: the ring r_out = 4 h_f, along the edge up to the distance to its ends (a corner,
-    or the free surface on the first and last edges) less a front element.  ``block`` is
-    the cracked body with this crack's front; ``face_traction`` the contact tractions of
-    a closed crack."""
-    front = crack.front()
+    """K_I, K_II, K_III at the middle of every edge of an open front by the interaction
+    integral (collective), as :func:`~bonecontact.fracture.advance3d.mid_edge_modes` on a
+    closed front: the ring r_out = 4 h_f, along the edge up to the distance to its ends (a
+    corner, or the free surface on the first and last edges) less a front element.
+    ``block`` is the cracked body with this front (:func:`cut_block`); ``face_traction``
+    the contact tractions of a closed crack."""
     phis = front.edge_middles()
     r_out = 4.0 * h_front
     length = min(r_out, min(front.corner_distance(float(p)) for p in phis) - h_front)

@@ -229,9 +229,9 @@ def test_mid_edge_k_on_a_through_crack(edges: int) -> None:
         tuple(map(tuple, P)), (), tuple(range(edges + 1)), (n,) * edges, None, n
     )
     h = THROUGH.h_front
-    got = open_mid_edge_modes(
-        crack, dataclasses.replace(sol.block, front=crack.front()), sol.u, THROUGH.material, h
-    )
+    front = crack.front()
+    block = dataclasses.replace(sol.block, front=front)
+    got = open_mid_edge_modes(front, block, sol.u, THROUGH.material, h)
     length = min(4 * h, 0.5 / edges - h)
     for k, r in enumerate(got):
         z = (k + 0.5) / edges
