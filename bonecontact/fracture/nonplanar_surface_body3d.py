@@ -11,9 +11,11 @@ edges, in the patch's plane): the mouth, one chain of boundary nodes from one fr
 to the other.  :func:`mesh_body_with_nonplanar_surface_crack` meshes each patch's part
 inside the body as a plane surface (the patches share their curves, the mouth's segments
 are kept whole, triangles graded towards the front), embeds it in the volume bounded by
-the cut boundary and splits it with gmsh's ``Crack`` plugin (the mouth's nodes duplicated,
-the front's not) into ``crack_upper`` (the side of the first patch's normal) and
-``crack_lower``.  All gmsh work runs on rank 0.
+the cut boundary and duplicates its nodes but the front's (the mouth's too), each copy
+going to the cells that the crack parts from the upper side's around that node (gmsh's
+``Crack`` plugin, which sides by the node's mean normal, misplaced a cell at a 60° kink):
+faces ``crack_upper`` (the side of the first patch's normal) and ``crack_lower``.  All
+gmsh work runs on rank 0.
 
 A building block: the front is returned as a polyline (no stress intensity along it yet,
 ``CrackedBody3D.block`` does not apply), one cell group, no edge of the body within a
@@ -44,7 +46,6 @@ from bonecontact.fracture.surface_body3d import (
     inside_body,
     merge_crack,
     refine_near,
-    split_crack_nodes,
     split_triangle,
     unique_nodes,
     volume_mesh,
@@ -716,7 +717,7 @@ def _boundary_entities(cut: NonplanarCut, body: BodySurface) -> list[int]:
 
 
 def _build(cut: NonplanarCut, body: BodySurface, size: TipMesh, tags: tuple[int, int]) -> None:
-    """The cracked volume mesh in the current gmsh model (rank 0)."""
+    """The cracked volume mesh in a new gmsh model (rank 0)."""
     h_max = min(size.h_max or body.h_max, body.h_max)
     current = gmsh.model.getCurrent()
     gmsh.model.add("nonplanar_surface_crack")
@@ -729,18 +730,146 @@ def _build(cut: NonplanarCut, body: BodySurface, size: TipMesh, tags: tuple[int,
     crack = gmsh.model.addDiscreteEntity(2)
     gmsh.model.mesh.addNodes(2, crack, np.arange(n0 + 1, n0 + len(new) + 1), new.ravel())
     gmsh.model.mesh.addElementsByType(crack, 2, [], (crack_tri + 1).ravel())
-    mouth = gmsh.model.addDiscreteEntity(1)
-    m = np.asarray(cut.mouth) + 1
-    gmsh.model.mesh.addElementsByType(mouth, 1, [], np.column_stack([m[:-1], m[1:]]).ravel())
     geo = gmsh.model.geo
     volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
     geo.synchronize()
     gmsh.model.mesh.embed(2, [crack], 3, volume)
-    region, region_tag = body.region
-    gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
     _set_size(_size_formula(cut.front_points, size, h_max))
     volume_mesh(volume, size.h_tip)
-    split_crack_nodes(crack, mouth, tags, tags[1] + 1)
+    tags_, xyz, _ = gmsh.model.mesh.getNodes()
+    X = np.zeros((int(tags_.max()) + 1, 3))
+    X[tags_.astype(np.int64)] = xyz.reshape(-1, 3)
+    _, conn = gmsh.model.mesh.getElementsByType(4)
+    tets = np.asarray(conn, dtype=np.int64).reshape(-1, 4)
+    split = _split_nodes(X, tets, crack_tri + 1, np.asarray(cut.mouth) + 1, cut.triangles + 1)
+    gmsh.model.remove()  # the session's model: its place taken by the split one
+    gmsh.model.add("nonplanar_surface_crack_split")
+    _split_model(split, cut, body, tags)
+
+
+@dataclass(frozen=True)
+class _Split:
+    """The volume mesh with the crack's nodes duplicated (gmsh node tags)."""
+
+    nodes: np.ndarray  # (N + 1, 3), row 0 unused
+    tets: np.ndarray
+    upper: np.ndarray  # crack triangles with the original nodes
+    lower: np.ndarray  # the same triangles with the lower side's nodes
+    boundary: np.ndarray  # the boundary triangles, the lower side's mouth nodes renamed
+
+
+def _faces(tets: np.ndarray) -> dict[tuple[int, int, int], list[int]]:
+    out: dict[tuple[int, int, int], list[int]] = {}
+    for t, tet in enumerate(tets):
+        for drop in range(4):
+            f = tuple(sorted(int(v) for k, v in enumerate(tet) if k != drop))
+            out.setdefault(f, []).append(t)
+    return out
+
+
+def _front_nodes(crack_tri: np.ndarray, mouth: np.ndarray) -> set[int]:
+    """The nodes of the crack mesh's boundary edges that are not the mouth's: the front
+    (its ends included)."""
+    count: dict[tuple[int, int], int] = {}
+    for tri in crack_tri:
+        for k in range(3):
+            e = tuple(sorted((int(tri[k]), int(tri[(k + 1) % 3]))))
+            count[e] = count.get(e, 0) + 1
+    mouth_edges = {tuple(sorted((int(a), int(b)))) for a, b in zip(mouth, mouth[1:], strict=False)}
+    return {v for e, c in count.items() if c == 1 and e not in mouth_edges for v in e}
+
+
+def _sides(v: int, around: list[int], tets, faces, crack_faces, X, crack_at) -> list[int]:
+    """The tetrahedra at node ``v`` on the lower side of the crack: those joined (by
+    faces at v that are not the crack's) to no tetrahedron in front of a crack triangle
+    at v.  Raises MeshingError unless the crack parts them in two."""
+    parent = {t: t for t in around}
+
+    def root(t: int) -> int:
+        while parent[t] != t:
+            parent[t] = parent[parent[t]]
+            t = parent[t]
+        return t
+
+    for t in around:
+        for drop in range(4):
+            f = tuple(sorted(int(u) for k, u in enumerate(tets[t]) if k != drop))
+            if v in f and f not in crack_faces:
+                for o in faces[f]:
+                    parent[root(o)] = root(t)
+    comps = {root(t) for t in around}
+    if len(comps) != 2:
+        raise MeshingError(f"the crack parts the cells at a node into {len(comps)} groups")
+    tri = crack_at[v][0]
+    n = np.cross(X[tri[1]] - X[tri[0]], X[tri[2]] - X[tri[0]])
+    f = tuple(sorted(int(u) for u in tri))
+    up = [t for t in faces[f] if (X[tets[t]].mean(axis=0) - X[tri[0]]) @ n > 0]
+    if len(up) != 1:
+        raise MeshingError("cannot tell the sides of a crack triangle apart")
+    return [t for t in around if root(t) != root(up[0])]
+
+
+def _split_nodes(X, tets, crack_tri, mouth, boundary) -> _Split:
+    """Duplicate the crack's nodes but the front's: the copy goes to the cells on the
+    lower side (the side its triangles' normals point away from), found per node by the
+    cells' face connections around it (robust at kinks, where a side test by the node's
+    mean normal is not)."""
+    faces = _faces(tets)
+    crack_faces = {tuple(sorted(int(u) for u in t)) for t in crack_tri}
+    front = _front_nodes(crack_tri, mouth)
+    crack_at: dict[int, list[np.ndarray]] = {}
+    for t in crack_tri:
+        for u in t:
+            crack_at.setdefault(int(u), []).append(t)
+    order = np.argsort(tets.ravel(), kind="stable")
+    sorted_nodes = tets.ravel()[order]
+    split_tets, nodes, rename = tets.copy(), [X], {}
+    for v in sorted(set(crack_at) - front):
+        lo, hi = np.searchsorted(sorted_nodes, [v, v + 1])
+        around = sorted(set((order[lo:hi] // 4).tolist()))
+        lower = _sides(v, around, tets, faces, crack_faces, X, crack_at)
+        new = len(X) + len(rename)
+        rename[v] = new
+        nodes.append(X[v][None])
+        for t in lower:
+            split_tets[t][split_tets[t] == v] = new
+    lower_tri = np.array([[rename.get(int(u), int(u)) for u in t] for t in crack_tri])
+    bnd = _renamed(boundary, rename, faces, split_tets)
+    return _Split(np.vstack(nodes), split_tets, crack_tri, lower_tri, bnd)
+
+
+def _renamed(boundary: np.ndarray, rename: dict[int, int], faces: dict, tets: np.ndarray):
+    """The boundary triangles with the mouth nodes of the lower side's cells renamed (a
+    boundary triangle is a face of one cell: it takes that cell's nodes)."""
+    out = boundary.copy()
+    for i in np.flatnonzero(np.isin(boundary, list(rename)).any(axis=1)):
+        (t,) = faces[tuple(sorted(int(u) for u in boundary[i]))]
+        own = set(tets[t].tolist())
+        out[i] = [u if u in own else rename[u] for u in map(int, boundary[i])]
+    return out
+
+
+def _split_model(split: _Split, cut: NonplanarCut, body: BodySurface, tags) -> None:
+    """The split mesh as a discrete gmsh model (nodes numbered 1…N, the cells' only): the
+    volume, the boundary's groups, the crack's two faces."""
+    used = np.unique(split.tets)
+    number = np.zeros(len(split.nodes), dtype=np.int64)
+    number[used] = np.arange(1, len(used) + 1)
+    vol = gmsh.model.addDiscreteEntity(3)
+    gmsh.model.mesh.addNodes(3, vol, np.arange(1, len(used) + 1), split.nodes[used].ravel())
+    gmsh.model.mesh.addElementsByType(vol, 4, [], number[split.tets].ravel())
+    region, region_tag = body.region
+    gmsh.model.addPhysicalGroup(3, [vol], region_tag, name=region)
+    groups = [
+        (split.boundary[cut.tags == t], int(t), body.names.get(int(t), f"facets{t}"))
+        for t in np.unique(cut.tags)
+        if t > 0
+    ]
+    groups += [(split.upper, tags[0], "crack_a"), (split.lower, tags[1], "crack_b")]
+    for tri, tag, name in groups:
+        e = gmsh.model.addDiscreteEntity(2)
+        gmsh.model.mesh.addElementsByType(e, 2, [], number[tri].ravel())
+        gmsh.model.addPhysicalGroup(2, [e], tag, name=name)
 
 
 def mesh_body_with_nonplanar_surface_crack(
