@@ -14,7 +14,7 @@ the free surface (a surface crack that kinks):
   one edge (K is not taken at the surface point itself); φ₀ and Δa are averaged over
   each vertex and the neighbours it has;
 * :func:`extend_open_surface` — the strip between the old and the new front, edge by
-  edge, as the closed front's (held vertices keep their point);
+  edge, two triangles each (held vertices keep their point);
 * :func:`open_mid_edge_modes` — K_I, K_II, K_III at the middle of every edge;
 * :func:`cut_front`, :func:`cut_block` — the front of a non-planar crack cut into a body
   (:mod:`~bonecontact.fracture.nonplanar_surface_body3d`) and its model for the integral.
@@ -204,12 +204,14 @@ def _oriented(tri: np.ndarray, up: np.ndarray) -> tuple[bool, np.ndarray]:
     return bool(n @ up > 0), (n if n @ up > 0 else -n)
 
 
-def _strip(P: np.ndarray, quad: tuple[int, ...], centre: int | None) -> list[tuple[int, ...]]:
-    """The triangles of one edge's strip: four to the centroid of the quadrilateral
-    (V_k, V_k+1, V′_k+1, V′_k), or the one triangle of an edge with one held end."""
+def _strip(quad: tuple[int, ...], full: bool) -> list[tuple[int, ...]]:
+    """The triangles of one edge's strip (V_k, V_k+1, V′_k+1, V′_k): two, split along
+    V_k V′_k+1 (no point inside the strip: where the strip crosses the body's surface a
+    point there could lie on it), the second on the new edge; or the one triangle of an
+    edge with one held end."""
     a, b, b2, a2 = quad
-    if centre is not None:
-        return [(p, q, centre) for p, q in ((a, b), (b, b2), (a2, a), (b2, a2))]
+    if full:
+        return [(a, b, b2), (a, b2, a2)]
     return [(a, b, b2) if a2 == a else (a, b, a2)]
 
 
@@ -217,9 +219,10 @@ def extend_open_surface(
     crack: OpenTriangulatedCrack, new_vertices: npt.ArrayLike, held: npt.ArrayLike | None = None
 ) -> OpenTriangulatedCrack:
     """The crack grown to the front ``new_vertices`` (N, 3): for every edge the strip
-    between the old and the new edge, as :func:`~bonecontact.fracture.advance3d.extend_surface`
-    builds it on a closed front (four triangles to the quadrilateral's centroid; one
-    triangle where one end holds; none where both hold, the edge keeping its e₂ and kink);
+    between the old and the new edge as two triangles (:func:`_strip`; a closed front's
+    :func:`~bonecontact.fracture.advance3d.extend_surface` takes four to the centroid, a
+    point that on the first and last edges would lie near the body's surface), one
+    triangle where one end holds, none where both hold (the edge keeping its e₂ and kink);
     the new edge's e₂ the normal of the triangle on it, its kink (L, ψ) the strip's width
     along the new e₁ and the direction of the old surface seen in the new frame."""
     P = np.asarray(crack.points, dtype=float)
@@ -234,9 +237,6 @@ def extend_open_surface(
     new[moving] = len(P) + np.arange(len(moving))
     P2 = np.concatenate([P, W[moving]])
     quads = [(old[k], old[k + 1], new[k + 1], new[k]) for k in range(N - 1)]
-    full = [k for k in range(N - 1) if not (hold[k] or hold[k + 1])]
-    mid = dict(zip(full, range(len(P2), len(P2) + len(full)), strict=True))
-    P2 = np.concatenate([P2, np.reshape([P2[list(quads[k])].mean(axis=0) for k in full], (-1, 3))])
     e1_old, e2_old = _edge_frames(P[old], np.asarray(crack.normals2, dtype=float))
     patches, normals2, cuts = list(crack.patches), [], []
     for k, quad in enumerate(quads):
@@ -244,7 +244,7 @@ def extend_open_surface(
             normals2.append(e2_old[k])
             cuts.append(crack.cuts[k] if crack.cuts is not None else (0.0, math.pi))
             continue
-        for tri in _strip(P2, quad, mid.get(k)):
+        for tri in _strip(quad, not (hold[k] or hold[k + 1])):
             ccw, n = _oriented(P2[list(tri)], e2_old[k])
             patches.append(tuple(int(i) for i in (tri if ccw else tri[::-1])))
         normals2.append(n)  # the last triangle holds the new edge

@@ -189,8 +189,8 @@ def test_held_end_keeps_its_point() -> None:
     np.testing.assert_allclose(adv.da, [0.0, 0.1, (0.1 + 0.1 + 0.05) / 3, 0.075], rtol=1e-14)
     grown = extend_open_surface(crack, adv.vertices, adv.held)
     assert grown.front_ids[0] == crack.front_ids[0]  # the same point, no new one
-    # edge 0 (one end held): one triangle; edges 1, 2: four each
-    assert len(grown.patches) == 1 + 1 + 4 + 4
+    # edge 0 (one end held): one triangle; edges 1, 2: two each
+    assert len(grown.patches) == 1 + 1 + 2 + 2
     P = np.asarray(grown.points)
     tri = grown.patches[1]
     assert set(tri) == {crack.front_ids[0], crack.front_ids[1], grown.front_ids[1]}
