@@ -30,6 +30,11 @@ from bonecontact.runners.front_growth3d import (
 )
 from bonecontact.runners.growth import build_growth, run_growth
 from bonecontact.runners.mechanics import SceneModel, build_model, run_mechanics
+from bonecontact.runners.nonplanar_surface3d import (
+    check_nonplanar_surface,
+    grows_nonplanar,
+    run_nonplanar_surface,
+)
 from bonecontact.runners.results import RunResult
 from bonecontact.runners.surface_crack3d import (
     check_surface_crack,
@@ -91,6 +96,8 @@ def _check_crack(scene: Scene, comm: MPI.Comm) -> SceneModel | None:
     """A crack scene: a 3D surface crack (:mod:`~bonecontact.runners.surface_crack3d`) or
     any other crack (:mod:`~bonecontact.runners.cracks`)."""
     if scene.dimension == 3 and has_surface_crack(scene):
+        if grows_nonplanar(scene):
+            return check_nonplanar_surface(scene, comm)
         return check_surface_crack(scene, comm)
     if grows_interior_crack(scene):
         if breaks_to_surface(scene):
@@ -103,6 +110,8 @@ def _run_crack(
     scene: Scene, comm: MPI.Comm, output: Path | None, progress: bool, restart: Restart
 ) -> RunResult:
     if scene.dimension == 3 and has_surface_crack(scene):
+        if grows_nonplanar(scene):
+            return run_nonplanar_surface(scene, comm, output, progress, restart)
         return run_surface_crack(scene, comm, output, progress, restart)
     if grows_interior_crack(scene):
         if breaks_to_surface(scene):

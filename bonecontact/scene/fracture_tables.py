@@ -113,6 +113,7 @@ def fracture_from_table(table: Mapping[str, Any], label: str = "[fracture]") -> 
         )
     values["max_kink_deg"] = _max_kink(tab)
     values["stop_out_of_plane"] = tab.get(FRACTURE_TABLE["stop_out_of_plane"])
+    values["surface_growth"] = tab.get(FRACTURE_TABLE["surface_growth"])
     if values["fatigue"] is not None and values["propagate"]:
         raise tab.error(
             "propagate",
@@ -159,6 +160,32 @@ def _check_out_of_plane(
                 "= true or [fracture.fatigue]; an interior 3D crack turns by its kink and a "
                 "2D crack by its direction",
             )
+
+
+def _check_surface_growth(
+    tab: TableReader | None, spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]
+) -> None:
+    """``surface_growth = "nonplanar"`` grows one semi-elliptical surface crack of a 3D
+    scene, with ``propagate = true`` or ``[fracture.fatigue]``."""
+    if tab is None or spec.surface_growth == "planar":
+        return
+    semi = [
+        c
+        for c in cracks
+        if isinstance(c.crack, SurfaceBreakingCrack) and c.crack.shape == "semi_elliptical"
+    ]
+    if dim != 3 or len(cracks) != 1 or len(semi) != 1:
+        raise tab.error(
+            "surface_growth",
+            '"nonplanar" grows one semi_elliptical surface [[crack]] of a 3D scene (not an '
+            "interior crack, a corner crack, a 2D crack or several cracks)",
+        )
+    if not spec.grows:
+        raise tab.error(
+            "surface_growth",
+            '"nonplanar" applies to a growing crack: set propagate = true or add '
+            "[fracture.fatigue]",
+        )
 
 
 def _crack3d(tab: TableReader, name: str) -> CrackSpec:
@@ -315,6 +342,7 @@ def read_fracture(
     _check_dimension(spec, dim, cracks)
     _check_breakthrough(spec, dim, cracks)
     _check_out_of_plane(tab, spec, dim, cracks)
+    _check_surface_growth(tab, spec, dim, cracks)
     _check_materials(spec, materials)
     names = [c.name for c in cracks]
     for i, c in enumerate(cracks):

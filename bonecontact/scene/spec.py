@@ -820,6 +820,11 @@ class FractureSpec:
         Stop the planar growth (status ``out_of_plane``) at the first increment where a
         growing point's |kink| exceeds ``max_kink_deg`` (else it is recorded and the run
         goes on).
+    surface_growth
+        How a growing 3D surface crack grows: ``"planar"`` (a semi-ellipse in its plane,
+        three growth points; :mod:`bonecontact.runners.surface_crack3d`) or
+        ``"nonplanar"`` (planar patches along its σ₁′ kink, an open front;
+        :mod:`bonecontact.runners.nonplanar_surface3d`).
     """
 
     criterion: str = "tension"
@@ -837,6 +842,7 @@ class FractureSpec:
     breakthrough: str = "stop"
     max_kink_deg: float = 15.0
     stop_out_of_plane: bool = False
+    surface_growth: str = "planar"
 
     @property
     def grows(self) -> bool:
@@ -916,6 +922,9 @@ DEFAULT_MAX_KINK_DEG = 15.0
 #: The largest ``[fracture] max_kink_deg`` allowed (degrees).
 MAX_KINK_LIMIT_DEG = 90.0
 
+#: How a growing 3D surface crack grows (``[fracture] surface_growth``).
+SURFACE_GROWTH_MODELS = ("planar", "nonplanar")
+
 #: What two 2D cracks that meet do (``[fracture] joined``).
 JOIN_RULES = ("merge", "stop")
 
@@ -964,6 +973,7 @@ FRACTURE_TABLE = Table(
         Key("breakthrough", "string", "stop", choices=BREAKTHROUGH_RULES),
         Key("max_kink_deg", "number", DEFAULT_MAX_KINK_DEG, unit="°", minimum=0, exclusive=True),
         Key("stop_out_of_plane", "boolean", False),
+        Key("surface_growth", "string", "planar", choices=SURFACE_GROWTH_MODELS),
     ),
     renamed=_OLD_COEFFICIENT,
 )
