@@ -8,7 +8,8 @@ plane surface of the built-in kernel embedded in that volume.  The volume is mes
 graded towards the front, h = min(h_f + g·d, h_max) (d the distance to the front, h_max
 the largest boundary facet of the scene's mesh), and gmsh's ``Crack`` plugin duplicates
 the nodes of the crack surface except those of the front: the two faces become the facet
-groups ``crack_upper`` (the side the crack normal points to) and ``crack_lower``.  The
+groups ``crack_upper`` (the side the crack normal points to) and ``crack_lower`` (the
+split checked: :mod:`~bonecontact.fracture.crack_split`).  The
 scene's boundary triangulation is kept as it is, so every facet group keeps its name,
 tag and shape (curved surfaces stay the facets of the given mesh).  All gmsh work runs
 on rank 0; DOLFINx distributes the mesh.
@@ -34,6 +35,7 @@ from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack3d import PlanarCrack, TriangulatedCrack
+from bonecontact.fracture.crack_split import check_crack_split, crack_surface
 from bonecontact.fracture.front3d import CrackBlock
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.meshing.builder import MeshingError
@@ -307,7 +309,10 @@ def _split(
 ) -> None:
     """Duplicate the crack surface's nodes (not the front's): two physical groups
     (``<label>_a``, ``<label>_b``; several cracks split one after the other, the nodes
-    renumbered after the ``last``)."""
+    renumbered after the ``last``), checked by
+    :func:`~bonecontact.fracture.crack_split.check_crack_split` (a triangle the plugin
+    left unsplit is a :class:`MeshingError` naming ``label``)."""
+    before = crack_surface(surfaces)
     gmsh.model.addPhysicalGroup(2, surfaces, crack_group, name=f"{label}_a")
     plugin = gmsh.plugin
     plugin.setNumber("Crack", "Dimension", 2)
@@ -316,6 +321,7 @@ def _split(
     plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", 0)
     plugin.run("Crack")
     gmsh.model.setPhysicalName(2, second_group, f"{label}_b")
+    check_crack_split(before, (crack_group, second_group), label)
     if last:  # the plugin leaves gaps; DOLFINx needs them contiguous
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()

@@ -13,8 +13,8 @@ towards the front, embeds it in the volume bounded by the cut boundary, meshes t
 by tetrahedra (HXT; Delaunay where HXT leaves a flat tetrahedron, as it can between the
 coplanar nodes of a coarse scan's facets) and splits the crack nodes — the mouth's
 included, the front's not — into the faces ``crack_upper`` and ``crack_lower`` with
-gmsh's ``Crack`` plugin.  The boundary's facet groups keep their names and tags.  All
-gmsh work runs on rank 0.
+gmsh's ``Crack`` plugin (checked: :mod:`~bonecontact.fracture.crack_split`).  The
+boundary's facet groups keep their names and tags.  All gmsh work runs on rank 0.
 
 Limits: one planar crack, one cell group; the mouth must be one chain of the surface
 (the plane must not graze the surface near the crack).
@@ -37,6 +37,7 @@ from bonecontact.common.errors import ParameterError
 from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
+from bonecontact.fracture.crack_split import check_crack_split, crack_surface
 from bonecontact.fracture.front3d import EllipticalFront
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface3d import EllipticalArcFront
@@ -966,7 +967,9 @@ def _flat_tetrahedra(h_tip: float) -> int:
 
 
 def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:
-    """Duplicate the crack's nodes, the mouth's included, the front's not."""
+    """Duplicate the crack's nodes, the mouth's included, the front's not (checked by
+    :func:`~bonecontact.fracture.crack_split.check_crack_split`)."""
+    before = crack_surface([crack], mouth)
     gmsh.model.addPhysicalGroup(2, [crack], tags[0], name="crack_a")
     gmsh.model.addPhysicalGroup(1, [mouth], mouth_tag)
     plugin = gmsh.plugin
@@ -977,6 +980,7 @@ def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: 
     plugin.run("Crack")
     gmsh.model.removePhysicalGroups([(1, mouth_tag)])
     gmsh.model.setPhysicalName(2, tags[1], "crack_b")
+    check_crack_split(before, tags, "surface crack")
     gmsh.model.mesh.renumberNodes()
     gmsh.model.mesh.renumberElements()
 

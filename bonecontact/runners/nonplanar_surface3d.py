@@ -14,8 +14,8 @@ the block cycles by ``FatigueProgress``), puts an end vertex that falls inside t
 (or within a front element of its surface) out along its edge, a front element beyond
 the surface, and adds the strips (:mod:`~bonecontact.fracture.open_front3d`).  Stops:
 ``arrested``, ``max_increments``/``max_blocks``, ``fractured`` (fatigue, K_V ≥ K_Ic),
-``through`` (an inner front vertex would leave the body or come within two front elements
-of its surface), ``failed`` (a crack that cannot be cut, meshed or evaluated).
+``through`` (an inner front vertex would leave the body, come within two front elements
+of its surface or six ahead of it), ``failed`` (a crack that cannot be cut, meshed or evaluated).
 ``fracture.csv``: a row per increment and front edge; ``crack_surface_<k>.vtk`` the
 patches (inside and outside the body), ``crack_front_<k>.vtk`` the mid-edge points with
 K, ``increment<k>/`` each solve.  No restart; corner cracks are refused.
@@ -99,6 +99,9 @@ MIN_EDGES = 5
 EDGE_ELEMENTS = 8.0
 #: The ligament (front elements) an inner front vertex keeps to the body's surface.
 LIGAMENT_ELEMENTS = 2.0
+#: The room an inner front vertex needs ahead of it (front elements: the integration
+#: ring's 4 and 2 more, as the planar runner's r_out + 2h).
+AHEAD_ELEMENTS = 6.0
 #: The least radius of the integration domain (front elements) where it would reach the
 #: body's surface (the ring's default 4).
 MIN_RING_ELEMENTS = 2.5
@@ -389,8 +392,11 @@ def _quad_ends(grown: OpenTriangulatedCrack, old: OpenTriangulatedCrack, held) -
 
 
 def _record(g: Growth, run: SurfaceRun, kv: np.ndarray) -> None:
-    """The increment's ``history`` entry."""
-    depth = _surface_distance(run, g.crack.vertices[1:-1]).max()
+    """The increment's ``history`` entry (``depth``: the front's reach along the scene
+    crack's depth direction d = n × t from its centre)."""
+    c = run.crack
+    d = np.cross(np.asarray(c.normal, dtype=float), np.asarray(c.axis, dtype=float))
+    depth = float(np.max((g.crack.vertices - np.asarray(c.centre, dtype=float)) @ d))
     g.history.append(
         {
             "increment": g.increments,
@@ -422,7 +428,8 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     crack = g.crack
     adv = advance_open_front(crack.vertices, crack.normals2, K, step, weights=w / lead)
     new = adv.vertices.copy()
-    if not _keeps_ligament(run, new[1:-1]):
+    ahead = new[1:-1] + AHEAD_ELEMENTS * run.size.h_tip * adv.directions[1:-1]
+    if not _keeps_ligament(run, new[1:-1]) or not np.all(inside_body(run.body, ahead)):
         if fat is not None:  # the last block at the rate of its start
             g.cycles += step / lead
         return "through", still

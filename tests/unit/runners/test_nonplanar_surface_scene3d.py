@@ -22,6 +22,10 @@ front edges of 8.8 front elements).  References:
 * fatigue (da/dN = C ΔK², two blocks of 0.03): the cycles at the block ends against the
   planar path's within 12 % (measured −6.9 % and −6.6 %: the leading K, at the end
   edges' middles, 3.8 % above the planar path's at φ = 20°, and N goes as K⁻²);
+* a thin plate (t = 0.4, a = c = 0.25, Δa = 0.04): the grown front would leave less
+  than the integration ring and two front elements (6 h) ahead of its deepest vertex:
+  ``through`` (the deepest point's reach + 6 h below t, + Δa above), the fragments the
+  two halves of the plate (2b·h·t each within 3 %; measured 0.02 %);
 * on 2 and 3 ranks each run equals the serial one (fracture.csv to 1e-9);
 * bad input: ``surface_growth = "sideways"``, ``"nonplanar"`` on an interior crack and
   without growth: a SceneError naming the key.
@@ -38,6 +42,8 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 from _crack_scenes import (
+    PLATE_B,
+    PLATE_H,
     L,
     idle_barrier,
     read_table,
@@ -56,6 +62,7 @@ A = 0.3 * L
 T = 1.0 * L
 STEP = 0.03 * L
 INCLINE = math.radians(30.0)
+THIN = 0.4 * L
 
 
 def scene(mesh: Path, growth: str, normal=(0.0, 1.0, 0.0), K_Ic: float = 1e3) -> str:
@@ -84,6 +91,7 @@ def plate(tmp_path_factory) -> Path:
     comm = MPI.COMM_WORLD
     d = Path(comm.bcast(str(tmp_path_factory.mktemp("np3d")) if comm.rank == 0 else None))
     gmsh_on_rank0(surface_plate(T), d / "plate.msh", 3)
+    gmsh_on_rank0(surface_plate(THIN), d / "thin.msh", 3)
     return d
 
 
@@ -165,6 +173,19 @@ def test_fatigue_cycles_as_the_planar_path(plate: Path) -> None:
     got, want = _depths(f, "cycles"), _depths(planar, "cycles")
     assert got[0] == want[0] == 0.0
     np.testing.assert_allclose(got[1:], want[1:], rtol=0.12)
+
+
+def test_through_the_thin_plate(plate: Path) -> None:
+    a, h, step = 0.25 * L, 0.25 * L / 14, 0.04 * L
+    growth = f'surface_growth = "nonplanar"\npropagate = true\nincrement = {step}'
+    text = surface_scene(plate / "thin.msh", h=h, points=5, growth=growth, K_Ic=1e3, a=a, c=a)
+    f, _ = _run(plate, "through", text)
+    g = f["growth"]
+    assert g["status"] == "through" and g["fractured"] and g["increments"] >= 1
+    depth = _depths(f)
+    assert depth[-1] + 6 * h < THIN < depth[-1] + 6 * h + step  # no room ahead for the next
+    vols = [v["volume"] for v in g["fragments"]]
+    np.testing.assert_allclose(vols, 2 * PLATE_B * PLATE_H * THIN, rtol=0.03)
 
 
 @pytest.mark.parametrize(
