@@ -2,11 +2,14 @@
 
 gmsh's ``Crack`` plugin duplicates the nodes of a crack surface but the front's and sides
 each cell by the node's mean normal; it reports nothing when it leaves a triangle unsplit
-(the two faces then stay glued there and are short of it: a wrong K with no error, seen
-at a sharp kink near a body's surface).  :func:`check_crack_split` compares the faces
-after the split with the crack surface before it: each face's area must equal the
-surface's (``SPLIT_AREA_TOL`` relative) and the faces may share only the front's nodes;
-otherwise a :class:`~bonecontact.meshing.builder.MeshingError` names the crack.
+(seen at a sharp kink near a body's surface: both face groups whole, but the cells on
+both sides of one triangle kept the same nodes, so the triangle is glued, one copy a face
+of two cells and the other of none; DOLFINx's faces are then short of it: a wrong K with
+no error).  :func:`check_crack_split` compares the faces after the split with the crack
+surface before it: each face's area must equal the surface's (``SPLIT_AREA_TOL``
+relative), the faces may share only the front's nodes, and every face triangle must be a
+face of exactly one tetrahedron; otherwise a
+:class:`~bonecontact.meshing.builder.MeshingError` names the crack.
 """
 
 from __future__ import annotations
@@ -78,10 +81,23 @@ def crack_surface(entities: list[int], mouth: int | None = None) -> CrackSurface
     return CrackSurface(_area(_nodes(), T), front)
 
 
+def _glued(faces: list[npt.NDArray[np.int64]]) -> int:
+    """The number of the triangles ``faces`` that are not a face of exactly one
+    tetrahedron of the model."""
+    _, conn = gmsh.model.mesh.getElementsByType(4)
+    tets = np.asarray(conn, dtype=np.int64).reshape(-1, 4)
+    own = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]], tets[:, [0, 1, 3]], tets[:, :3]])
+    tri = np.concatenate(faces)
+    rows = np.sort(np.concatenate([own, tri]), axis=1)
+    _, inv = np.unique(rows, axis=0, return_inverse=True)
+    count = np.bincount(inv.ravel()[: len(own)], minlength=int(inv.max()) + 1)
+    return int(np.count_nonzero(count[inv.ravel()[len(own) :]] != 1))
+
+
 def check_crack_split(before: CrackSurface, tags: tuple[int, int], label: str) -> None:
     """Raise :class:`MeshingError` (naming ``label``) unless the faces in the physical
-    groups ``tags`` each have the area of the surface ``before`` the split and share
-    only its front nodes."""
+    groups ``tags`` each have the area of the surface ``before`` the split, share only
+    its front nodes and each of their triangles is a face of one tetrahedron."""
     X = _nodes()
     faces = [_triangles(list(gmsh.model.getEntitiesForPhysicalGroup(2, t))) for t in tags]
     areas = [_area(X, T) for T in faces]
@@ -97,4 +113,10 @@ def check_crack_split(before: CrackSurface, tags: tuple[int, int], label: str) -
         raise MeshingError(
             f"{label}: the split faces share {len(glued)} nodes that are not the front's "
             f"(a triangle left unsplit)"
+        )
+    if n := _glued(faces):
+        raise MeshingError(
+            f"{label}: {n} triangles of the split faces are not a face of exactly one "
+            f"tetrahedron (a triangle left unsplit: the cells on both its sides share its "
+            f"nodes)"
         )

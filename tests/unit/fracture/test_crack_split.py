@@ -11,8 +11,9 @@ crack surface (the exact patch areas of a polygon or grown crack; of a curved fr
 polygon of the face's nodes on the curve and the body's surface, 1e-8 relative), every
 crack facet is an exterior facet (no triangle glued), the faces' common vertices are
 exactly the front's (those on the curve, the surface crack's two ends), the meshed
-volume the box's.  A split forced wrong (a face short of a triangle; a triangle glued
-with areas kept) is a MeshingError naming the crack.
+volume the box's.  A split forced wrong (a face short of a triangle; a triangle given
+the other face's nodes; the cell behind a triangle given the other face's nodes, the
+plugin's own failure) is a MeshingError naming the crack.
 """
 
 from __future__ import annotations
@@ -327,7 +328,9 @@ def _triangles(entities) -> np.ndarray:
 
 def _spoil(monkeypatch, how: str, call: int = 0) -> None:
     """After the ``call``-th run of the Crack plugin, drop one triangle of its new face
-    (``"drop"``) or give it the other face's nodes (``"glue"``: the areas unchanged)."""
+    (``"drop"``), give it the other face's nodes (``"glue"``: the areas unchanged) or give
+    the cell behind it the other face's nodes (``"side"``: the faces whole, sharing no
+    node, but the triangle glued: the plugin's failure at a sharp kink)."""
     real = gmsh.plugin.run
     calls = []
 
@@ -350,6 +353,19 @@ def _spoil(monkeypatch, how: str, call: int = 0) -> None:
         twin = {where(t): t for t in old}
         moved = [len(set(t.tolist()) - set(twin[where(t)].tolist())) for t in new]
         k = int(np.argmax(moved))
+        if how == "side":
+            cells, conn = gmsh.model.mesh.getElementsByType(4)
+            conn = np.asarray(conn, dtype=np.int64).reshape(-1, 4)
+            (t,) = np.flatnonzero(np.isin(conn, new[k]).sum(axis=1) == 3)
+            _, _, _, volume = gmsh.model.mesh.getElement(int(cells[t]))
+            back = {
+                u: v for u in new[k].tolist() for v in twin[where(new[k])].tolist() if X[u] == X[v]
+            }
+            gmsh.model.mesh.removeElements(3, volume, [int(cells[t])])
+            gmsh.model.mesh.addElementsByType(
+                volume, 4, [], [back.get(u, u) for u in conn[t].tolist()]
+            )
+            return
         gmsh.model.mesh.removeElements(2, entity, [int(tags[k])])
         if how == "glue":
             gmsh.model.mesh.addElementsByType(entity, 2, [], twin[where(new[k])].tolist())
@@ -362,6 +378,22 @@ def test_a_face_short_of_a_triangle_is_an_error(monkeypatch) -> None:
     crack = _ellipse((1.0, 1.0, 1.0), (0, 0, 1), 0.3, 0.3)
     with pytest.raises(MeshingError, match=r"crack: the split faces' areas"):
         mesh_body_with_planar_crack(_body(CUBE), crack, TipMesh(0.1, 0.3), MPI.COMM_WORLD)
+
+
+@pytest.mark.parametrize("surface", [False, True])
+def test_a_cell_on_the_wrong_side_is_an_error(monkeypatch, surface: bool) -> None:
+    """The plugin's own failure (seen at a −60° kink of a non-planar surface crack): the
+    cell behind a triangle of the new face kept the first face's nodes; both faces are
+    whole and share no node, the triangle glued (one copy a face of two cells, the other
+    of none)."""
+    _spoil(monkeypatch, "side")
+    with pytest.raises(MeshingError, match=r"2 triangles of the split faces are not a face"):
+        if surface:
+            crack = SurfaceBreakingCrack((1.0, 1.0, 1.0), (0, 1, 0), 0.2, 0.3)
+            mesh_body_with_surface_crack(_body(SLAB), crack, TipMesh(0.06, 0.12, 0.4))
+        else:
+            crack = _grown((1.0, 1.0, 1.0), (0, 0, 1), 0.25, 8, [-60])
+            mesh_body_with_planar_crack(_body(CUBE), crack, TipMesh(0.1, 0.3))
 
 
 def test_a_glued_triangle_of_the_second_crack_is_an_error(monkeypatch) -> None:
