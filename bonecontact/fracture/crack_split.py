@@ -89,9 +89,13 @@ def _glued(faces: list[npt.NDArray[np.int64]]) -> int:
     own = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]], tets[:, [0, 1, 3]], tets[:, :3]])
     tri = np.concatenate(faces)
     rows = np.sort(np.concatenate([own, tri]), axis=1)
+    n = int(rows.max()) + 1
+    if n**3 < 2**62:  # one integer per face: a 1D unique, ~10x faster than rows
+        rows = (rows[:, 0] * n + rows[:, 1]) * n + rows[:, 2]
     _, inv = np.unique(rows, axis=0, return_inverse=True)
-    count = np.bincount(inv.ravel()[: len(own)], minlength=int(inv.max()) + 1)
-    return int(np.count_nonzero(count[inv.ravel()[len(own) :]] != 1))
+    inv = inv.ravel()
+    count = np.bincount(inv[: len(own)], minlength=int(inv.max()) + 1)
+    return int(np.count_nonzero(count[inv[len(own) :]] != 1))
 
 
 def check_crack_split(before: CrackSurface, tags: tuple[int, int], label: str) -> None:
