@@ -105,6 +105,9 @@ AHEAD_ELEMENTS = 6.0
 #: The least radius of the integration domain (front elements) where it would reach the
 #: body's surface (the ring's default 4).
 MIN_RING_ELEMENTS = 2.5
+#: Where an end edge's K is taken when its middle's domain reaches the surface: the
+#: fractions of the edge from its surface end.
+INWARD = (0.6, 0.7)
 #: The stops that break the body (fragments reported).
 _BROKEN = ("fractured", "through")
 
@@ -296,11 +299,31 @@ def edge_modes(u: Any, cb: Any, cut: Any, run: SurfaceRun, crack, traction) -> l
     h = run.size.h_tip
     r_out = 4.0 * h
     length = min(r_out, min(front.corner_distance(float(p)) for p in front.edge_middles()) - h)
-    sifs = [
-        _edge_k(u, block, float(p), run.material, (r_out, length, h), traction)
-        for p in front.edge_middles()
-    ]
+    sifs = []
+    for k, p in enumerate(front.edge_middles()):
+        for i, phi in enumerate(_candidates(front, k, float(p))):
+            dom = (r_out, min(length, front.corner_distance(phi) - h), h)
+            try:
+                sifs.append(_edge_k(u, block, phi, run.material, dom, traction))
+                break
+            except ParameterError as exc:
+                if exc.key != "r_out" or i == len(INWARD):
+                    raise
     return sifs if same else sifs[::-1]
+
+
+def _candidates(front: OpenPolylineFront, k: int, middle: float) -> list[float]:
+    """Where edge ``k``'s K is taken: its middle; on an end edge then the points at the
+    fractions :data:`INWARD` of it from the surface end (its domain, shrunk to its least
+    size, may still reach an oblique surface at the middle)."""
+    n = len(front.edge_lengths)
+    if k not in (0, n - 1):
+        return [middle]
+    ends = np.concatenate([[0.0], np.cumsum(front.edge_lengths)])
+    total = float(ends[-1])
+    f = np.asarray(INWARD) if k == 0 else 1.0 - np.asarray(INWARD)
+    s = ends[k] + f * front.edge_lengths[k]
+    return [middle, *(2.0 * math.pi * s / total).tolist()]
 
 
 def _edge_k(u: Any, block: Any, phi: float, material: Any, dom: tuple, traction) -> FrontSIF:

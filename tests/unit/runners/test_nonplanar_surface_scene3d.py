@@ -11,14 +11,15 @@ front edges of 8.8 front elements).  References:
   below 2°) and its deepest point advances as the planar path's (``surface_growth =
   "planar"``, the same scene: the second method) within 3 % per increment (measured
   −0.1 % and −1.7 %);
-* inclined (normal (0, cos 30°, sin 30°): modes I, II at the deepest edge, III near the
-  surface): the deepest edge's kink has the sign opposite to its K_II (σ₁′ criterion) and
-  equals the closed-form MTS angle 2 atan[(K_I − √(K_I² + 8 K_II²))/(4 K_II)] of its own
-  K_I, K_II within 0.1° (its K_III, 2.5 % of K_II from the mesh's asymmetry, moves the
-  σ₁′ angle off MTS by 0.05°); its mid-point moves off the old plane on the side of the kink,
-  and the crack turns towards the plane normal to the load: the deepest strip's normal
-  lies within 10° of y after two increments (measured 3.2°; the crack's 30°), and the
-  deepest edge's |K_II/K_I| falls (0.50 to below 0.15);
+* inclined (normal (0, cos 45°, sin 45°): modes I, II at the deepest edge, III near the
+  surface; the end edges' K taken inwards of their middles, where the domain fits): the
+  deepest edge's kink has the sign opposite to its K_II (σ₁′ criterion) and equals the
+  closed-form MTS angle 2 atan[(K_I − √(K_I² + 8 K_II²))/(4 K_II)] of its own K_I, K_II
+  within 2e-5 rad (measured 4.9e-6 rad: its K_III, 0.75 % of K_II from the mesh's
+  asymmetry, is the difference); its mid-point moves off the old plane on the side of
+  the kink, and the crack turns towards the plane normal to the load: the deepest strip's
+  normal lies within 10° of y after two increments (measured 3.3°; the crack's 45°), and
+  the deepest edge's |K_II/K_I| falls (0.77 to below 0.15, measured 0.088);
 * fatigue (da/dN = C ΔK², two blocks of 0.03): the cycles at the block ends against the
   planar path's within 12 % (measured −6.9 % and −6.6 %: the leading K, at the end
   edges' middles, 3.8 % above the planar path's at φ = 20°, and N goes as K⁻²);
@@ -61,7 +62,7 @@ from bonecontact.scene import SceneError, load_scene
 A = 0.3 * L
 T = 1.0 * L
 STEP = 0.03 * L
-INCLINE = math.radians(30.0)
+INCLINE = math.radians(45.0)
 THIN = 0.4 * L
 
 
@@ -152,13 +153,13 @@ def test_inclined_crack_turns_towards_the_load_normal(plate: Path) -> None:
     assert abs(k2) > 0.3 * k1 and abs(k3) < 0.05 * abs(k2)  # mode I + II
     kink = math.radians(float(t["kink_deg"][deep][0]))
     assert np.sign(kink) == -np.sign(k2)
-    assert kink == pytest.approx(_mts(k1, k2), abs=math.radians(0.1))
+    assert kink == pytest.approx(_mts(k1, k2), abs=2e-5)
     p0 = np.array([t[c][deep][0] for c in "xyz"])
     p1 = np.array([t[c][(t["point"] == 2) & (inc == 1)][0] for c in "xyz"])
     assert np.sign((p1 - p0) @ n0) == np.sign(kink)  # off the plane on the kink's side
     normals = np.asarray(f["crack"]["front_normals"])
     tilt = math.degrees(math.acos(abs(normals[2] @ np.array([0.0, 1.0, 0.0]))))
-    assert tilt < 10.0  # the crack's plane at 30 deg
+    assert tilt < 10.0  # the crack's plane at 45 deg
     last = (t["point"] == 2) & (inc == 2)
     assert abs(t["K_II"][last][0] / t["K_I"][last][0]) < 0.15
 
