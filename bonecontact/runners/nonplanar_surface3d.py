@@ -7,18 +7,19 @@ by the chord outside it (:func:`start_crack`); its open front the arc's vertices
 (:class:`~bonecontact.fracture.open_front3d.OpenTriangulatedCrack`), the first and last
 edges crossing the body's surface.  Each increment meshes the body with the crack
 (:mod:`~bonecontact.fracture.nonplanar_surface_body3d`), solves the analysis with the faces
-a contact pair, takes K_I, K_II, K_III at the middle of every front edge (on the cut's
-front), advances every vertex by the σ₁′ criterion (weights (K_V/K_V,max)² at K_V ≥ K_Ic
-under ``propagate``, the Paris rates of ΔK = (1 − R) K_V under ``[fracture.fatigue]``,
-the block cycles by ``FatigueProgress``), puts an end vertex that falls inside the body
-(or within a front element of its surface) out along its edge, a front element beyond
-the surface, and adds the strips (:mod:`~bonecontact.fracture.open_front3d`).  Stops:
-``arrested``, ``max_increments``/``max_blocks``, ``fractured`` (fatigue, K_V ≥ K_Ic),
-``through`` (an inner front vertex would leave the body, come within two front elements
-of its surface or six ahead of it), ``failed`` (a crack that cannot be cut, meshed or evaluated).
+a contact pair, takes K_I, K_II, K_III at the middle of every front edge of the cut (an
+end edge's inwards when its domain reaches an oblique surface), advances every vertex by
+the σ₁′ criterion (weights (K_V/K_V,max)² at K_V ≥ K_Ic under ``propagate``, the Paris
+rates of ΔK = (1 − R) K_V under ``[fracture.fatigue]``, the block cycles by
+``FatigueProgress``), puts an end vertex that falls inside the body (or within a front
+element of its surface) out along its edge, a front element beyond the surface, and adds
+the strips (:mod:`~bonecontact.fracture.open_front3d`).  Stops: ``arrested``,
+``max_increments``/``max_blocks``, ``fractured`` (fatigue, K_V ≥ K_Ic), ``through`` (an
+inner front vertex would leave the body, come within two front elements of its surface
+or six ahead of it), ``failed`` (a crack that cannot be cut, meshed or evaluated).
 ``fracture.csv``: a row per increment and front edge; ``crack_surface_<k>.vtk`` the
-patches (inside and outside the body), ``crack_front_<k>.vtk`` the mid-edge points with
-K, ``increment<k>/`` each solve.  No restart; corner cracks are refused.
+patches (inside and outside the body), ``crack_front_<k>.vtk`` the K points with K,
+``increment<k>/`` each solve.  No restart; corner cracks are refused.
 """
 
 from __future__ import annotations
