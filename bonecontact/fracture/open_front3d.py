@@ -20,7 +20,7 @@ the free surface (a surface crack that kinks):
   (:mod:`~bonecontact.fracture.nonplanar_surface_body3d`) and its model for the integral.
 
 Where the new ends lie against the body's surface is the caller's (the end vertices move
-like the others); no scene grows a non-planar surface crack yet.
+like the others; :mod:`bonecontact.runners.nonplanar_surface3d` puts them back beyond it).
 """
 
 from __future__ import annotations
