@@ -10,6 +10,7 @@ import numpy.typing as npt
 __all__ = [
     "ADVANCE_GRID_BITS",
     "cross2",
+    "first_ray_hits",
     "line_triangle_hits",
     "on_advance_grid",
     "point_triangle_distance",
@@ -148,6 +149,28 @@ def point_triangle_distance(
     return dist
 
 
+def _ray_parameters(
+    o: np.ndarray, d: np.ndarray, a: np.ndarray, e1: np.ndarray, e2: np.ndarray, tol: float
+) -> np.ndarray:
+    """Möller–Trumbore for rays (r, 3) against triangles (corner ``a``, edges ``e1``,
+    ``e2``; each (k, 3)): the (r, k) line parameters, ``nan`` where a line misses or
+    runs parallel to a triangle's plane (determinant below 1e-14 of |d||e1||e2|)."""
+    h = np.cross(d[:, None, :], e2[None, :, :])
+    det = np.einsum("rtk,tk->rt", h, e1)
+    scale = np.linalg.norm(d, axis=1)[:, None] * (
+        np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    )
+    ok = np.abs(det) > 1e-14 * np.maximum(scale, 1e-300)
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    r = o[:, None, :] - a[None, :, :]
+    u = np.einsum("rtk,rtk->rt", r, h) * inv
+    q = np.cross(r, e1[None, :, :])
+    v = np.einsum("rtk,rk->rt", q, d) * inv
+    s = np.einsum("rtk,tk->rt", q, e2) * inv
+    hit = ok & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
+    return np.where(hit, s, np.nan)
+
+
 def line_triangle_hits(
     p: npt.ArrayLike, d: npt.ArrayLike, t: npt.NDArray[np.float64], tol: float = 1e-12
 ) -> npt.NDArray[np.float64]:
@@ -170,17 +193,52 @@ def line_triangle_hits(
         s of the hit on triangle i, or ``nan``.
     """
     t = np.asarray(t, dtype=np.float64)
-    p, d = np.asarray(p, dtype=np.float64), np.asarray(d, dtype=np.float64)
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    h = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, h)
-    scale = np.linalg.norm(d) * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
-    ok = np.abs(det) > 1e-14 * np.maximum(scale, 1e-300)
-    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    r = p - t[:, 0]
-    u = np.einsum("ij,ij->i", r, h) * inv
-    q = np.cross(r, e1)
-    v = (q @ d) * inv
-    s = np.einsum("ij,ij->i", e2, q) * inv
-    hit = ok & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
-    return np.where(hit, s, np.nan)
+    p = np.asarray(p, dtype=np.float64).reshape(1, 3)
+    d = np.asarray(d, dtype=np.float64).reshape(1, 3)
+    return _ray_parameters(p, d, t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], tol)[0]
+
+
+def first_ray_hits(
+    origins: npt.ArrayLike,
+    dirs: npt.ArrayLike,
+    t: npt.NDArray[np.float64],
+    tol: float = 1e-12,
+    chunk: int = 256,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """The first crossing of each ray ``origins[i] + s dirs[i]``, s > 0, with the
+    triangles (Möller–Trumbore as :func:`line_triangle_hits`, ``chunk`` rays at a time).
+
+    Parameters
+    ----------
+    origins, dirs : array_like, shape (r, 3)
+        The rays' starts and directions (the distance is in units of |dirs|).
+    t : ndarray, shape (k, 3, 3)
+        The triangles' corners.
+    tol
+        Barycentric slack (0: a ray through a shared edge may miss both triangles).
+    chunk
+        Rays per block (memory r_chunk × k).
+
+    Returns
+    -------
+    s : ndarray, shape (r,)
+        The least positive parameter of a hit (``inf``: none).
+    which : ndarray, shape (r,)
+        The triangle hit first (-1: none).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+    a, e1, e2 = t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    out = np.full(len(o), np.inf)
+    which = np.full(len(o), -1, np.int64)
+    if len(t) == 0:
+        return out, which
+    for lo in range(0, len(o), chunk):
+        s = _ray_parameters(o[lo : lo + chunk], d[lo : lo + chunk], a, e1, e2, tol)
+        dist = np.where(s > 0, s, np.inf)  # nan > 0 is False
+        first = dist.argmin(axis=1)
+        best = dist[np.arange(len(dist)), first]
+        out[lo : lo + chunk] = best
+        which[lo : lo + chunk] = np.where(np.isfinite(best), first, -1)
+    return out, which

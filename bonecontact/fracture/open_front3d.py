@@ -60,6 +60,7 @@ __all__ = [
     "cut_front",
     "extend_open_surface",
     "open_mid_edge_modes",
+    "vertex_k",
 ]
 
 
@@ -118,6 +119,14 @@ def _at_vertices(x: np.ndarray) -> np.ndarray:
     """Edge values (N − 1, ...) at the N vertices: the mean of the two edges of an inner
     vertex, the one edge's value at an end."""
     return np.concatenate([x[:1], 0.5 * (x[:-1] + x[1:]), x[-1:]])
+
+
+def vertex_k(k_edges: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """The equivalent K_V (Pa·√m) at the N vertices of an open front from (K_I, K_II,
+    K_III) at the middles of its N − 1 edges: of the mean K of an inner vertex's two edges,
+    of its one edge's K at an end (the values :func:`advance_open_front` advances by)."""
+    Kv = _at_vertices(np.asarray(k_edges, dtype=float))
+    return equivalent_k(Kv[:, 0], Kv[:, 1], Kv[:, 2])
 
 
 def _vertex_frames(V: np.ndarray, normals2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -183,7 +192,7 @@ def advance_open_front(
     if np.any(equivalent_k(K[:, 0], K[:, 1], K[:, 2]) <= 0):
         raise ParameterError("k_edges", "the equivalent K must be positive at every edge")
     Kv = _at_vertices(K)
-    kv = equivalent_k(Kv[:, 0], Kv[:, 1], Kv[:, 2])
+    kv = vertex_k(K)
     phi0, psi0 = sigma1_kink(Kv[:, 0], Kv[:, 1], Kv[:, 2])
     w = (kv / kv.max()) ** exponent if weights is None else np.asarray(weights, dtype=float)
     held = w <= 0.0

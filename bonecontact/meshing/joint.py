@@ -19,6 +19,7 @@ import numpy as np
 from dolfinx.io.gmsh import MeshData
 from scipy.spatial import cKDTree
 
+from bonecontact.common.geometry import first_ray_hits
 from bonecontact.meshing.builder import PhysicalGroups, check_positive, generate
 from bonecontact.meshing.stl import SurfaceRegion, cortical_inner_surface, select_triangles
 from bonecontact.meshing.surface_repair import (
@@ -691,27 +692,7 @@ def _ray_hits(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_ray_distances` and the triangle of ``target`` each ray crosses first (-1:
     none)."""
-    a, b, c = (target.points[target.triangles[:, k]] for k in range(3))
-    e1, e2 = b - a, c - a
-    out = np.full(len(origins), np.inf)
-    which = np.full(len(origins), -1, np.int64)
-    for lo in range(0, len(origins), 256):
-        o, d = origins[lo : lo + 256, None, :], dirs[lo : lo + 256, None, :]
-        p = np.cross(d, e2)
-        det = np.einsum("rtk,tk->rt", p, e1)
-        ok = np.abs(det) > 1e-30
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        tv = o - a
-        u = np.einsum("rtk,rtk->rt", tv, p) * inv
-        q = np.cross(tv, e1)
-        v = np.einsum("rtk,rtk->rt", d, q) * inv
-        s = np.einsum("rtk,tk->rt", q, e2) * inv
-        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (s > 0)
-        dist = np.where(hit, s, np.inf)
-        first = dist.argmin(axis=1)
-        out[lo : lo + 256] = dist[np.arange(len(dist)), first]
-        which[lo : lo + 256] = np.where(np.isfinite(out[lo : lo + 256]), first, -1)
-    return out, which
+    return first_ray_hits(origins, dirs, target.points[target.triangles], tol=0.0)
 
 
 def _conformed_thickness(

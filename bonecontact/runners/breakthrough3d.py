@@ -37,7 +37,7 @@ from mpi4py import MPI
 import numpy as np
 
 from bonecontact.common.errors import ParameterError
-from bonecontact.common.geometry import point_triangle_distance
+from bonecontact.common.geometry import first_ray_hits, point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
 from bonecontact.fracture.surface_body3d import CORNER, CORNER_ANGLE_TOL
@@ -118,22 +118,11 @@ def _edge_samples(V: np.ndarray, per_edge: int = 16) -> np.ndarray:
 
 
 def _ray_exit(T: np.ndarray, p: np.ndarray, d: np.ndarray) -> float:
-    """The least s > 0 where p + s d meets a boundary triangle of ``T`` (Möller–Trumbore)."""
-    e1, e2 = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]
-    h = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, h)
-    ok = np.abs(det) > 1e-300
-    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    s0 = p - T[:, 0]
-    u = inv * np.einsum("ij,ij->i", s0, h)
-    q = np.cross(s0, e1)
-    v = inv * (q @ d)
-    s = inv * np.einsum("ij,ij->i", e2, q)
-    tol = 1e-12
-    hit = ok & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol) & (s > 0)
-    if not hit.any():
+    """The least s > 0 where p + s d meets a boundary triangle of ``T``."""
+    s, _ = first_ray_hits(p, d, T)
+    if not np.isfinite(s[0]):
         raise ParameterError("breakthrough", "the depth line does not meet the body's surface")
-    return float(s[hit].min())
+    return float(s[0])
 
 
 def _stable_unit(v: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ import pytest
 from bonecontact.common.constants import R_GAS, SECONDS_PER_DAY, SECONDS_PER_YEAR
 from bonecontact.common.geometry import (
     cross2,
+    first_ray_hits,
     line_triangle_hits,
     point_triangle_distance,
     polygon_area,
@@ -139,3 +140,36 @@ def test_line_triangle_hits_plane_closed_form() -> None:
     assert np.all(np.isnan(line_triangle_hits([0.5, 0.5, 0.0], [1.0, 0, 0], T)))
     # through the shared diagonal: both triangles
     np.testing.assert_allclose(line_triangle_hits([0.5, 0.5, 0.0], [0, 0, 1.0], T), [0.5, 0.5])
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 256])
+def test_first_ray_hits_sphere_from_outside(chunk) -> None:
+    """Rays aimed at the centre of a triangulated unit sphere from distance 3 enter it
+    first at 3 − r, r between the facets' inradius and 1 (the line's own hits, least
+    positive one); rays pointing away hit nothing (inf, -1); the answer does not depend
+    on the chunk size."""
+    T = _icosphere(3)
+    rng = np.random.default_rng(5)
+    u = rng.normal(size=(40, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    origins = 3.0 * u
+    dirs = np.vstack([-u[:30], u[30:]])
+    s, which = first_ray_hits(origins, dirs, T, chunk=chunk)
+    assert np.all((s[:30] >= 2.0 - 1e-14) & (s[:30] < 2.02))
+    assert np.all(np.isinf(s[30:])) and np.all(which[30:] == -1)
+    for i in range(30):
+        line = line_triangle_hits(origins[i], dirs[i], T)
+        assert s[i] == np.nanmin(np.where(line > 0, line, np.nan))
+        assert line[which[i]] == s[i]
+    assert np.all(np.isinf(first_ray_hits(origins, dirs, T[:0])[0]))
+
+
+def test_first_ray_hits_edge_slack() -> None:
+    """A ray through the shared diagonal of two triangles hits with the default slack;
+    with tol = 0 it may miss both or hit one, never at another distance."""
+    T = np.array([[[0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5]], [[0, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]]])
+    s, which = first_ray_hits([[0.5, 0.5, 0.0], [0.25, 0.6, 0.0]], [[0, 0, 1.0], [0, 0, 2.0]], T)
+    np.testing.assert_allclose(s, [0.5, 0.25], rtol=1e-14)
+    assert which[1] == 1
+    s0, _ = first_ray_hits([[0.5, 0.5, 0.0]], [[0, 0, 1.0]], T, tol=0.0)
+    assert np.isinf(s0[0]) or s0[0] == pytest.approx(0.5, rel=1e-14)

@@ -42,6 +42,7 @@ from bonecontact.fracture.open_front3d import (
     cut_front,
     extend_open_surface,
     open_mid_edge_modes,
+    vertex_k,
 )
 from bonecontact.fracture.surface3d import SurfaceCrack
 from bonecontact.verification.surface_crack import PlateProblem, plane_strain_edge_k, solve_plate
@@ -177,6 +178,25 @@ def test_ends_average_over_two_vertices() -> None:
         (w[3] + w[4]) / 2,
     ]
     np.testing.assert_allclose(adv.da, expect, rtol=1e-14)
+    np.testing.assert_allclose(vertex_k(K), kv, rtol=1e-15)
+    np.testing.assert_array_equal(vertex_k(K), adv.k_v)
+
+
+@pytest.mark.parametrize("mixity_deg", [0.0, 30.0, 90.0])
+def test_vertex_k_is_the_equivalent_k_of_the_mean(mixity_deg: float) -> None:
+    """K_V at the vertices: at an inner vertex the σ₁′ equivalent K of its two edges' mean
+    K, at an end its edge's; a uniform K gives the edges' own K_V everywhere (pure mode I:
+    K_I; pure mode II: the equivalent K of K_II alone)."""
+    m = math.radians(mixity_deg)
+    K = np.tile([math.cos(m), math.sin(m), 0.3 * math.sin(m)], (4, 1))
+    one = vertex_k(K[:1])
+    np.testing.assert_allclose(vertex_k(K), np.full(5, one[0]), rtol=1e-15)
+    if mixity_deg == 0.0:
+        assert one[0] == pytest.approx(1.0, rel=1e-15)
+    K2 = K * np.array([1.0, 2.0, 3.0, 4.0])[:, None]
+    np.testing.assert_allclose(
+        vertex_k(K2), np.array([1.0, 1.5, 2.5, 3.5, 4.0]) * one[0], rtol=1e-14
+    )
 
 
 def test_held_end_keeps_its_point() -> None:

@@ -70,7 +70,7 @@ import pytest
 from _crack_scenes import idle_barrier, run_dir, run_serial_on_rank0, same_tables
 from coupled_support import read_csv, run_text
 
-from bonecontact.common.geometry import point_triangle_distance
+from bonecontact.common.geometry import line_triangle_hits, point_triangle_distance
 from bonecontact.fracture.body3d import body_surface
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
 from bonecontact.fracture.meshing import TipMesh
@@ -182,19 +182,9 @@ def endplates() -> list[SurfaceRegion]:
 
 
 def ray_exit(tri: np.ndarray, p: np.ndarray, d: np.ndarray) -> float:
-    """The farthest hit of the ray p + s d (s > 0) with the triangles (Möller–Trumbore)."""
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    h = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, h)
-    ok = np.abs(det) > 1e-30
-    f = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    s = p - tri[:, 0]
-    u = f * np.einsum("ij,ij->i", s, h)
-    q = np.cross(s, e1)
-    v = f * (q @ d)
-    t = f * np.einsum("ij,ij->i", e2, q)
-    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
-    return float(t[hit].max())
+    """The farthest hit of the ray p + s d (s > 1e-9) with the triangles."""
+    s = line_triangle_hits(p, d, tri, tol=0.0)
+    return float(s[s > 1e-9].max())
 
 
 @pytest.fixture(scope="module")
