@@ -14,6 +14,8 @@
 #                     2 and 3 ranks, without the tests marked slow (what CI runs);
 #                     make test-serial / make test-parallel  run one suite only, without lint
 #                     and docs
+#                     (each pytest session writes every test's and file's seconds, slowest
+#                     first, to .venv/test-logs/<session>-times.csv)
 #   make test-all     make test with the slow verification cases too
 #   make lint         ruff check and ruff format --check over the repository (changes no file;
 #                     `.venv/bin/ruff check --fix . && .venv/bin/ruff format .` applies the fixes)
@@ -169,10 +171,11 @@ notebooks: install
 # loadscope: module-scoped fixtures such as the demo runs and restart references are made
 # once); SERIAL_WORKERS=0 runs it in this process.
 define run_serial
+@mkdir -p "$(LOG_DIR)"
 @if [ -n "$(BONECONTACT_TEST_SERIAL_STORE)" ]; then rm -rf "$(BONECONTACT_TEST_SERIAL_STORE)"; fi
 @SHOW="timeout $(TEST_TIMEOUT) $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadscope --durations=15 -m '$(SELECT)' $(PYTEST_ARGS)" \
   bash -c "$$RUN_PYTEST" run-pytest serial \
-  timeout --kill-after=30 $(TEST_TIMEOUT) \
+  env BONECONTACT_TEST_TIMES="$(CURDIR)/$(LOG_DIR)/serial-times.csv" timeout --kill-after=30 $(TEST_TIMEOUT) \
   $(PY) -m pytest -x -q -n $(SERIAL_WORKERS) --dist loadscope --durations=15 -m "$(SELECT)" $(PYTEST_ARGS)
 endef
 
@@ -219,6 +222,7 @@ define run_parallel
   SHOW="timeout $(TEST_TIMEOUT) $(MPIEXEC) -n $$n $(PY) -m mpi4py -m pytest -x -q --durations=15 -m '$$sel' \
     -p no:cacheprovider $(PYTEST_ARGS) $$paths   # ranks > 0 write to $(LOG_DIR)/mpi-$$n.rank<r>.log" \
   bash -c "$$RUN_PYTEST" run-pytest "mpi-$$n" \
+    env BONECONTACT_TEST_TIMES="$(CURDIR)/$(LOG_DIR)/mpi-$$n-times.csv" \
     timeout --kill-after=30 $(TEST_TIMEOUT) $(MPIEXEC) -n $$n \
     $(RANK_LOG) "$(LOG_DIR)/mpi-$$n" \
     $(PY) -m mpi4py -m pytest -x -q --durations=15 -m "$$sel" -p no:cacheprovider $(PYTEST_ARGS) $$paths; \

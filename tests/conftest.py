@@ -9,6 +9,7 @@ all ranks run the same tests in the same order.  Tests marked ``serial`` spawn t
 import dolfinx_solver  # noqa: F401  (loads MPI; must precede dolfinx / petsc4py)
 
 import gc
+import os
 import shutil
 import sys
 import tempfile
@@ -36,9 +37,37 @@ def pytest_collection_modifyitems(config, items):
 _SESSION_FAILED = False
 
 
+#: Seconds per test (setup + call + teardown), kept where the session reports.
+_TIMES: dict[str, float] = {}
+
+
+def pytest_runtest_logreport(report):
+    _TIMES[report.nodeid] = _TIMES.get(report.nodeid, 0.0) + report.duration
+
+
+def _write_times(config) -> None:
+    """With ``BONECONTACT_TEST_TIMES=<file>`` (the Makefile sets it per session), the
+    session's reporting process (rank 0; the xdist controller) writes every test's
+    seconds and each file's sum, slowest first: what to trim when the suite is slow."""
+    path = os.environ.get("BONECONTACT_TEST_TIMES")
+    if not path or MPI.COMM_WORLD.rank != 0 or hasattr(config, "workerinput"):
+        return
+    files: dict[str, float] = {}
+    for nodeid, t in _TIMES.items():
+        key = nodeid.split("::")[0]
+        files[key] = files.get(key, 0.0) + t
+    with open(path, "w") as out:
+        out.write("seconds,test\n")
+        for key, t in sorted(files.items(), key=lambda kv: -kv[1]):
+            out.write(f"{t:.2f},{key}\n")
+        for key, t in sorted(_TIMES.items(), key=lambda kv: -kv[1]):
+            out.write(f"{t:.2f},{key}\n")
+
+
 def pytest_sessionfinish(session, exitstatus):
     global _SESSION_FAILED
     _SESSION_FAILED = exitstatus not in (0, 5)  # 5: nothing collected
+    _write_times(session.config)
 
 
 def pytest_unconfigure(config):
