@@ -19,6 +19,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,6 +37,8 @@ __all__ = [
     "MixedAdvance",
     "advance_mixed_front",
     "advance_polygon_front",
+    "advance_vertices",
+    "checked_k_edges",
     "equivalent_k",
     "extend_surface",
     "front_defects",
@@ -253,22 +256,64 @@ def advance_mixed_front(
         (key ``k_edges``) not finite, the wrong shape, or K_V ≤ 0 somewhere.
     """
     V = np.asarray(vertices, dtype=float)
-    K = np.asarray(k_edges, dtype=float)
-    if K.shape != (len(V), 3) or not np.all(np.isfinite(K)):
-        raise ParameterError("k_edges", f"need shape ({len(V)}, 3), finite, got {K.shape}")
-    kv_edges = equivalent_k(K[:, 0], K[:, 1], K[:, 2])
-    if np.any(kv_edges <= 0):
-        raise ParameterError("k_edges", "the equivalent K must be positive at every edge")
+    K = checked_k_edges(k_edges, len(V))
     K_vertex = 0.5 * (K + np.roll(K, 1, axis=0))
+    e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))
+    smoothing = (_smooth, _smooth_growing) if smooth else None
+    return advance_vertices(V, e1, e2, K_vertex, da_max, exponent, smoothing, weights)
+
+
+def checked_k_edges(k_edges: npt.ArrayLike, n_edges: int) -> npt.NDArray[np.float64]:
+    """(K_I, K_II, K_III) at a front's ``n_edges`` edge middles as an (n_edges, 3) array.
+
+    Raises
+    ------
+    ParameterError
+        (key ``k_edges``) not finite, the wrong shape, or K_V ≤ 0 at an edge.
+    """
+    K = np.asarray(k_edges, dtype=float)
+    if K.shape != (n_edges, 3) or not np.all(np.isfinite(K)):
+        raise ParameterError("k_edges", f"need shape ({n_edges}, 3), finite, got {K.shape}")
+    if np.any(equivalent_k(K[:, 0], K[:, 1], K[:, 2]) <= 0):
+        raise ParameterError("k_edges", "the equivalent K must be positive at every edge")
+    return K
+
+
+def advance_vertices(
+    V: npt.NDArray[np.float64],
+    e1: npt.NDArray[np.float64],
+    e2: npt.NDArray[np.float64],
+    K_vertex: npt.NDArray[np.float64],
+    da_max: float,
+    exponent: float = 2.0,
+    smoothing: tuple[Callable, Callable] | None = None,
+    weights: npt.ArrayLike | None = None,
+) -> MixedAdvance:
+    """The σ₁′ step of a front's vertices, closed or open: kink φ₀ and twist ψ₀ of the
+    vertices' K, Δa_i = Δa_max (K_V,i/K_V,max)^n (or Δa_max w_i; w_i = 0 holds), φ₀ and
+    Δa smoothed along the front, each vertex moved by Δa_i along cos φ₀ e₁ + sin φ₀ e₂
+    (on the advance grid of Δa_max).
+
+    Parameters
+    ----------
+    V, e1, e2
+        The vertices (m) and their unit frames, each shape (N, 3).
+    K_vertex
+        (K_I, K_II, K_III) at the vertices, shape (N, 3) (Pa·√m).
+    da_max, exponent, weights
+        As :func:`advance_mixed_front`.
+    smoothing
+        ``(smooth_phi(φ₀), smooth_da(Δa, held))`` along the front (a closed front's average
+        over three vertices; an open front's over the neighbours an end has); ``None``: none.
+    """
     kv = equivalent_k(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     phi0, psi0 = sigma1_kink(K_vertex[:, 0], K_vertex[:, 1], K_vertex[:, 2])
     w = (kv / kv.max()) ** exponent if weights is None else np.asarray(weights, dtype=float)
     held = w <= 0.0
     da = np.where(held, 0.0, da_max * w)
-    if smooth:
-        phi0 = _smooth(phi0)
-        da = _smooth_growing(da, held)
-    e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))
+    if smoothing is not None:
+        phi0 = smoothing[0](phi0)
+        da = smoothing[1](da, held)
     d = np.cos(phi0)[:, None] * e1 + np.sin(phi0)[:, None] * e2
     new = np.where(held[:, None], V, on_grid(V + da[:, None] * d, da_max))
     return MixedAdvance(new, da, phi0, psi0, d, kv, held)

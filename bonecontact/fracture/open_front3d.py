@@ -35,9 +35,9 @@ import numpy.typing as npt
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.advance3d import (
     MixedAdvance,
+    advance_vertices,
+    checked_k_edges,
     equivalent_k,
-    on_grid,
-    sigma1_kink,
 )
 from bonecontact.fracture.front3d import (
     CrackBlock,
@@ -181,29 +181,16 @@ def advance_open_front(
     Raises
     ------
     ParameterError
-        (key ``k_edges``) not finite, the wrong shape, or K_V ≤ 0 somewhere.
+        (key ``k_edges``) not finite, the wrong shape, or K_V ≤ 0 somewhere; (key
+        ``vertices``) fewer than two.
     """
     V = np.asarray(vertices, dtype=float)
-    K = np.asarray(k_edges, dtype=float)
-    if len(V) < 2 or K.shape != (len(V) - 1, 3) or not np.all(np.isfinite(K)):
-        raise ParameterError(
-            "k_edges", f"need shape ({len(V) - 1}, 3) for {len(V)} vertices, finite, got {K.shape}"
-        )
-    if np.any(equivalent_k(K[:, 0], K[:, 1], K[:, 2]) <= 0):
-        raise ParameterError("k_edges", "the equivalent K must be positive at every edge")
-    Kv = _at_vertices(K)
-    kv = vertex_k(K)
-    phi0, psi0 = sigma1_kink(Kv[:, 0], Kv[:, 1], Kv[:, 2])
-    w = (kv / kv.max()) ** exponent if weights is None else np.asarray(weights, dtype=float)
-    held = w <= 0.0
-    da = np.where(held, 0.0, da_max * w)
-    if smooth:
-        phi0 = _smooth_open(phi0)
-        da = _smooth_open(da, ~held)
+    if len(V) < 2:
+        raise ParameterError("vertices", f"an open front needs 2 or more vertices, got {len(V)}")
+    K = checked_k_edges(k_edges, len(V) - 1)
     e1, e2 = _vertex_frames(V, _unit(np.asarray(normals2, dtype=float)))
-    d = np.cos(phi0)[:, None] * e1 + np.sin(phi0)[:, None] * e2
-    new = np.where(held[:, None], V, on_grid(V + da[:, None] * d, da_max))
-    return MixedAdvance(new, da, phi0, psi0, d, kv, held)
+    smoothing = (_smooth_open, lambda da, held: _smooth_open(da, ~held)) if smooth else None
+    return advance_vertices(V, e1, e2, _at_vertices(K), da_max, exponent, smoothing, weights)
 
 
 def _oriented(tri: np.ndarray, up: np.ndarray) -> tuple[bool, np.ndarray]:

@@ -225,6 +225,8 @@ def test_bad_input_is_refused() -> None:
         advance_open_front(crack.vertices, crack.normals2, -np.ones((2, 3)) * [1, 0, 0], 0.1)
     with pytest.raises(ParameterError, match="new_vertices"):
         extend_open_surface(crack, np.zeros((2, 3)))
+    with pytest.raises(ParameterError, match="vertices"):
+        advance_open_front(crack.vertices[:1], crack.normals2[:0], np.ones((0, 3)), 0.1)
 
 
 #: The through crack of the surface-crack verification: an edge crack of length 0.4
