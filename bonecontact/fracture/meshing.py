@@ -28,6 +28,7 @@ from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack import Crack2D, point_segment_distance
+from bonecontact.fracture.crack_split import crack_surface, split_checked
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.meshing.session import gmsh_session
 
@@ -220,10 +221,14 @@ def split_crack(
     faces become the physical groups ``crack_group`` and ``plus_group`` (named
     ``<label>_a`` and ``<label>_b``; the curves are ``names["crack"]``).  Several cracks
     are split one after the other, each with its own groups and label, the nodes
-    renumbered after the last (``renumber``)."""
+    renumbered after the last (``renumber``).  The split is checked and, where the
+    plugin left a segment unsplit, redone
+    (:func:`~bonecontact.fracture.crack_split.split_checked`; a split still wrong is a
+    :class:`MeshingError` naming ``label``)."""
+    mouths = [point_tag(crack.points[e], tol) for e in crack.mouth_ends]
+    before = crack_surface(names["crack"], mouths, dim=1)
     gmsh.model.addPhysicalGroup(1, names["crack"], crack_group)
     if crack.mouth_ends:
-        mouths = [point_tag(crack.points[e], tol) for e in crack.mouth_ends]
         gmsh.model.addPhysicalGroup(0, mouths, mouth_group)
     plugin = gmsh.plugin
     plugin.setNumber("Crack", "Dimension", 1)
@@ -235,6 +240,7 @@ def split_crack(
         gmsh.model.removePhysicalGroups([(0, mouth_group)])
     gmsh.model.setPhysicalName(1, crack_group, f"{label}_a")
     gmsh.model.setPhysicalName(1, plus_group, f"{label}_b")
+    split_checked(before, (crack_group, plus_group), label)
     if renumber:  # the plugin leaves node tags with gaps; DOLFINx's reader needs none
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()
