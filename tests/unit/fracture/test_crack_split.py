@@ -13,7 +13,8 @@ crack facet is an exterior facet (no triangle glued), the faces' common vertices
 exactly the front's (those on the curve, the surface crack's two ends), the meshed
 volume the box's.  A split forced wrong (a face short of a triangle; a triangle given
 the other face's nodes; the cell behind a triangle given the other face's nodes, the
-plugin's own failure) is a MeshingError naming the crack.
+plugin's own failure) is a MeshingError naming the crack.  The own node split of
+bonecontact.fracture.crack_split (the 2D mesher's repair) repairs such 3D splits too.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import pytest
 import ufl
 from dolfinx import fem, mesh
 
+import bonecontact.fracture.body3d as body3d
 from bonecontact.fracture.advance3d import advance_mixed_front, extend_surface
 from bonecontact.fracture.body3d import (
     BodySurface,
@@ -46,6 +48,7 @@ from bonecontact.fracture.crack3d import (
     planar_crack_from_table,
     triangulated_from_polygon,
 )
+from bonecontact.fracture.crack_split import split_checked
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import mesh_body_with_surface_crack
 from bonecontact.meshing.builder import MeshingError
@@ -429,3 +432,31 @@ def test_a_narrow_kinked_strip_is_split_or_refused(kinks: list, centre: tuple) -
         assert "crack: " in str(exc) and "not a face of exactly one tetrahedron" in str(exc)
         return
     _check(cb, crack, CUBE)
+
+
+@pytest.mark.parametrize(
+    "kinks, centre, h, spoil",
+    [
+        ([-60], (0.97, 1.06, 1.13), 0.2, False),
+        ([-80], (1.0, 1.0, 1.0), 0.1, False),
+        ([-60], (1.0, 1.0, 1.0), 0.1, True),
+    ],
+)
+def test_the_own_split_repairs_a_glued_triangle(monkeypatch, kinks, centre, h, spoil) -> None:
+    """split_checked (the 2D mesher's: check, resplit, check) in place of the 3D mesher's
+    check: the plugin's glued triangles at a narrow strip kinked by −60° or −80° (gmsh
+    4.15.2; refused by the 3D mesher) and a cell put on the wrong side by hand are
+    resplit, the mesh right (the one implementation serves both dimensions)."""
+    resplits = []
+
+    def checked(before, tags, label):
+        resplits.append(split_checked(before, tags, label))
+
+    monkeypatch.setattr(body3d, "check_crack_split", checked)
+    if spoil:
+        _spoil(monkeypatch, "side")
+    crack = _grown(centre, (0.2, 0.1, 1), 0.25, 6, kinks, 0.05, rot=0.0)
+    cb, _ = mesh_body_with_planar_crack(_body(CUBE), crack, TipMesh(h, 0.3))
+    _check(cb, crack, CUBE)
+    if spoil and MPI.COMM_WORLD.rank == 0:  # gmsh runs there
+        assert resplits[0] >= 1
