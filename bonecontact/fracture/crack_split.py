@@ -3,17 +3,18 @@
 gmsh's ``Crack`` plugin duplicates the crack's nodes but the front's (the tips') and
 sides each cell at a node by a normal test; it reports nothing when it sides one wrongly
 (seen at sharp kinks): a facet left glued (the cells on both its sides kept its nodes;
-DOLFINx's faces short of it) or a cell at a crack node only torn from its neighbours (a
-spurious free boundary): a wrong K with no error.  :func:`check_crack_split` compares the
-faces after the split with the crack before it (a surface of triangles in 3D, a polyline
-of segments in 2D): each face's measure must equal the crack's (``SPLIT_AREA_TOL``
-relative), the faces may share only the front's nodes, every face facet must be a facet
-of exactly one cell and every other facet at the faces' nodes a facet of two cells or a
-boundary element; otherwise a :class:`~bonecontact.meshing.builder.MeshingError` names
-the crack.  :func:`resplit_crack` redoes a split by its own rule: the cells around a
-split node grouped by their facets at the node that are not the crack's (two groups),
-the copy to one group, consistently along the crack, on the side the plugin gave most
-copies.  :func:`split_checked` checks, resplits a bad split and checks again (2D).
+DOLFINx's faces short of it) or a cell at a crack node only given the other side's node
+(bridging the faces, torn from its neighbours): a wrong K with no error.
+:func:`check_crack_split` compares the faces after the split with the crack before it (a
+surface of triangles in 3D, a polyline of segments in 2D): each face's measure must
+equal the crack's (``SPLIT_AREA_TOL`` relative), the faces may share only the front's
+nodes, every face facet must be a facet of exactly one cell and every other facet at the
+faces' nodes a facet of two cells or a boundary element; otherwise a
+:class:`~bonecontact.meshing.builder.MeshingError` names the crack.
+:func:`resplit_crack` redoes a split by its own rule: the cells around a split node
+grouped by their facets at the node that are not the crack's (two groups), the copy to
+one group, consistently along the crack, on the side the plugin gave most copies.
+:func:`split_checked` checks, resplits a bad split and checks again (2D).
 """
 
 from __future__ import annotations

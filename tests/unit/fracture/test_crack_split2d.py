@@ -1,18 +1,19 @@
 """The split of a 2D crack polyline into two faces (gmsh's ``Crack`` plugin, dimension 1,
-in bonecontact.fracture.meshing, checked and redone by bonecontact.fracture.crack_split).
+in bonecontact.fracture.meshing, checked and redone by
+bonecontact.fracture.crack_split).
 
 A sweep (straight cracks, edge cracks with a mouth, polylines grown by kinks of ±30 …
 ±80° with segments of 0.1–1 tip size, two cracks, near the boundary: 200 set and 4256
 random cases) found the plugin wrong, silently, in 9 set and 103 random cases: a
-triangle at a crack node sided wrongly (the mesh torn there) or, 7 times, a segment
-glued (both faces short by it).  The mesher now checks every split and redoes a bad one
-by its own node split.  Each case here (the sweep's failures among them) is checked
-against references independent of the split: each face as long as the polyline (closed
-form), every face segment a side of exactly one triangle, the faces' common vertices
-exactly the tips (an edge crack's mouth split), the body's area and its boundary the
-outline and the faces (no tear).  A split forced wrong: resplit; with the resplit
-disabled, or a face short of a segment: a MeshingError naming the crack.  Runs on 1, 2
-and 3 ranks.
+triangle at a crack node given the other side's node (bridging the faces, the mesh torn
+there) or, 7 times, a segment glued (both faces short by it). The mesher now checks
+every split and redoes a bad one by its own node split. Each case here (the sweep's
+failures among them) is checked against references independent of the split: each face
+as long as the polyline (closed form), every face segment a side of exactly one
+triangle, the faces' common vertices exactly the tips (an edge crack's mouth split), the
+body's area and its boundary the outline and the faces (no tear). A split forced wrong:
+resplit; with the resplit disabled, or a face short of a segment: a MeshingError naming
+the crack. Runs on 1, 2 and 3 ranks.
 """
 
 from __future__ import annotations
