@@ -35,7 +35,7 @@ from dolfinx.io.gmsh import model_to_mesh
 
 from bonecontact.common.errors import ParameterError
 from bonecontact.fracture.crack3d import PlanarCrack, TriangulatedCrack
-from bonecontact.fracture.crack_split import check_crack_split, crack_surface
+from bonecontact.fracture.crack_split import crack_surface, split_checked
 from bonecontact.fracture.front3d import CrackBlock
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.meshing.builder import MeshingError
@@ -309,9 +309,10 @@ def _split(
 ) -> None:
     """Duplicate the crack surface's nodes (not the front's): two physical groups
     (``<label>_a``, ``<label>_b``; several cracks split one after the other, the nodes
-    renumbered after the ``last``), checked by
-    :func:`~bonecontact.fracture.crack_split.check_crack_split` (a triangle the plugin
-    left unsplit is a :class:`MeshingError` naming ``label``)."""
+    renumbered after the ``last``), checked and, where the plugin left a triangle unsplit
+    or a cell on the wrong side, split again by the cells' connections
+    (:func:`~bonecontact.fracture.crack_split.split_checked`; a split still wrong is a
+    :class:`MeshingError` naming ``label``)."""
     before = crack_surface(surfaces)
     gmsh.model.addPhysicalGroup(2, surfaces, crack_group, name=f"{label}_a")
     plugin = gmsh.plugin
@@ -321,7 +322,7 @@ def _split(
     plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", 0)
     plugin.run("Crack")
     gmsh.model.setPhysicalName(2, second_group, f"{label}_b")
-    check_crack_split(before, (crack_group, second_group), label)
+    split_checked(before, (crack_group, second_group), label)
     if last:  # the plugin leaves gaps; DOLFINx needs them contiguous
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()

@@ -37,7 +37,7 @@ from bonecontact.common.errors import ParameterError
 from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
-from bonecontact.fracture.crack_split import check_crack_split, crack_surface
+from bonecontact.fracture.crack_split import crack_surface, split_checked
 from bonecontact.fracture.front3d import EllipticalFront
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface3d import EllipticalArcFront
@@ -967,8 +967,9 @@ def _flat_tetrahedra(h_tip: float) -> int:
 
 
 def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:
-    """Duplicate the crack's nodes, the mouth's included, the front's not (checked by
-    :func:`~bonecontact.fracture.crack_split.check_crack_split`)."""
+    """Duplicate the crack's nodes, the mouth's included, the front's not (checked, and
+    redone where the plugin is wrong, by
+    :func:`~bonecontact.fracture.crack_split.split_checked`)."""
     before = crack_surface([crack], mouth)
     gmsh.model.addPhysicalGroup(2, [crack], tags[0], name="crack_a")
     gmsh.model.addPhysicalGroup(1, [mouth], mouth_tag)
@@ -980,7 +981,7 @@ def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: 
     plugin.run("Crack")
     gmsh.model.removePhysicalGroups([(1, mouth_tag)])
     gmsh.model.setPhysicalName(2, tags[1], "crack_b")
-    check_crack_split(before, tags, "surface crack")
+    split_checked(before, tags, "surface crack")
     gmsh.model.mesh.renumberNodes()
     gmsh.model.mesh.renumberElements()
 

@@ -32,7 +32,7 @@ import pytest
 import ufl
 from dolfinx import fem, mesh
 
-import bonecontact.fracture.body3d as body3d
+from bonecontact.fracture import crack_split
 from bonecontact.fracture.advance3d import advance_mixed_front, extend_surface
 from bonecontact.fracture.body3d import (
     BodySurface,
@@ -48,7 +48,6 @@ from bonecontact.fracture.crack3d import (
     planar_crack_from_table,
     triangulated_from_polygon,
 )
-from bonecontact.fracture.crack_split import split_checked
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import mesh_body_with_surface_crack
 from bonecontact.meshing.builder import MeshingError
@@ -378,7 +377,35 @@ def _spoil(monkeypatch, how: str, call: int = 0) -> None:
     monkeypatch.setattr(gmsh.plugin, "run", run)
 
 
+@pytest.fixture
+def no_resplit(monkeypatch) -> None:
+    """The meshers' repair (:func:`crack_split.resplit_crack`) switched off: a bad split
+    must then be a MeshingError naming the crack."""
+
+    def refuse(tags, dim) -> int:
+        raise RuntimeError("resplit switched off")
+
+    monkeypatch.setattr(crack_split, "resplit_crack", refuse)
+
+
+def _surface() -> SurfaceBreakingCrack:
+    return SurfaceBreakingCrack((1.0, 1.0, 1.0), (0, 1, 0), 0.2, 0.3)
+
+
+def _mesh_right(crack, size, h: float) -> None:
+    """Mesh ``crack`` in the box ``size`` and check the split (:func:`_check`)."""
+    comm = MPI.COMM_WORLD
+    if isinstance(crack, SurfaceBreakingCrack):
+        cb, _, cut = mesh_body_with_surface_crack(_body(size), crack, TipMesh(h, 0.12, 0.4), comm)
+        _check(cb, crack, size, cut.arc, _cut_volume(cut))
+    else:
+        cb, _ = mesh_body_with_planar_crack(_body(size), crack, TipMesh(h, 0.3), comm)
+        _check(cb, crack, size)
+
+
 def test_a_face_short_of_a_triangle_is_an_error(monkeypatch) -> None:
+    """A triangle missing from a face cannot be split again: an error, with or without the
+    repair."""
     _spoil(monkeypatch, "drop")
     crack = _ellipse((1.0, 1.0, 1.0), (0, 0, 1), 0.3, 0.3)
     with pytest.raises(MeshingError, match=r"crack: the split faces' areas"):
@@ -386,52 +413,72 @@ def test_a_face_short_of_a_triangle_is_an_error(monkeypatch) -> None:
 
 
 @pytest.mark.parametrize("surface", [False, True])
-def test_a_cell_on_the_wrong_side_is_an_error(monkeypatch, surface: bool) -> None:
+def test_a_cell_on_the_wrong_side_is_an_error(monkeypatch, no_resplit, surface: bool) -> None:
     """The plugin's own failure (seen at a −60° kink of a non-planar surface crack): the
     cell behind a triangle of the new face kept the first face's nodes; both faces are
     whole and share no node, the triangle glued (one copy a face of two cells, the other
-    of none)."""
+    of none).  Without the repair: an error."""
     _spoil(monkeypatch, "side")
     with pytest.raises(MeshingError, match=r"2 triangles of the split faces are not a face"):
         if surface:
-            crack = SurfaceBreakingCrack((1.0, 1.0, 1.0), (0, 1, 0), 0.2, 0.3)
-            mesh_body_with_surface_crack(_body(SLAB), crack, TipMesh(0.06, 0.12, 0.4))
+            mesh_body_with_surface_crack(_body(SLAB), _surface(), TipMesh(0.06, 0.12, 0.4))
         else:
             crack = _grown((1.0, 1.0, 1.0), (0, 0, 1), 0.25, 8, [-60])
             mesh_body_with_planar_crack(_body(CUBE), crack, TipMesh(0.1, 0.3))
 
 
 def test_a_glued_triangle_of_the_second_crack_is_an_error(monkeypatch) -> None:
+    """A face triangle given the other face's nodes (not the plugin's failure: its face
+    groups come out whole) is no cell's to regroup: refused after the repair's try."""
     _spoil(monkeypatch, "glue", call=1)
     cracks = [
         _ellipse((1.0, 1.0, 0.8), (0, 0, 1), 0.25, 0.25),
         _grown((0.6, 1.4, 1.2), (0, 1, 0.3), 0.15, 6, [40, -40]),
     ]
-    with pytest.raises(MeshingError, match=r"crack1: the split faces share 3 nodes"):
+    with pytest.raises(MeshingError, match=r"crack1: the split faces share 3 nodes.*resplit"):
         mesh_body_with_planar_cracks(_body(CUBE), cracks, TipMesh(0.1, 0.3), MPI.COMM_WORLD)
 
 
 def test_a_glued_surface_crack_triangle_is_an_error(monkeypatch) -> None:
     _spoil(monkeypatch, "glue")
-    crack = SurfaceBreakingCrack((1.0, 1.0, 1.0), (0, 1, 0), 0.2, 0.3)
-    with pytest.raises(MeshingError, match=r"surface crack: the split faces share \d nodes"):
-        mesh_body_with_surface_crack(_body(SLAB), crack, TipMesh(0.06, 0.12, 0.4), MPI.COMM_WORLD)
+    glued = r"surface crack: the split faces share \d nodes.*resplit"
+    with pytest.raises(MeshingError, match=glued):
+        mesh_body_with_surface_crack(_body(SLAB), _surface(), TipMesh(0.06, 0.12, 0.4))
+
+
+@pytest.mark.parametrize("case", ["interior", "surface", "second"])
+def test_a_cell_on_the_wrong_side_is_repaired(monkeypatch, case: str) -> None:
+    """The plugin's failure (a cell on the wrong side of a face triangle) with the meshers'
+    repair on (body3d and surface_body3d split through :func:`crack_split.split_checked`):
+    the nodes split again by the cells' connections, the mesh right (areas and volume
+    against the closed forms, every face triangle exterior, the faces sharing only the
+    front), for an interior crack, a surface crack and the second of two cracks."""
+    _spoil(monkeypatch, "side", call=1 if case == "second" else 0)
+    if case == "second":
+        cracks = [
+            _ellipse((1.0, 1.0, 0.8), (0, 0, 1), 0.25, 0.25),
+            _grown((0.6, 1.4, 1.2), (0, 1, 0.3), 0.15, 6, [40, -40]),
+        ]
+        views, _ = mesh_body_with_planar_cracks(
+            _body(CUBE), cracks, TipMesh(0.1, 0.3), MPI.COMM_WORLD
+        )
+        for cb, crack in zip(views, cracks, strict=True):
+            _check(cb, crack, CUBE)
+    elif case == "surface":
+        _mesh_right(_surface(), SLAB, 0.06)
+    else:
+        _mesh_right(_grown((1.0, 1.0, 1.0), (0, 0, 1), 0.25, 8, [-60]), CUBE, 0.1)
 
 
 @pytest.mark.parametrize("kinks, centre", [([60], (1.0, 1.0, 1.0)), ([-60], (0.97, 1.06, 1.13))])
-def test_a_narrow_kinked_strip_is_split_or_refused(kinks: list, centre: tuple) -> None:
+def test_a_narrow_kinked_strip_is_split(kinks: list, centre: tuple) -> None:
     """A hexagon grown by one strip of 0.05 kinked by ±60°, meshed with tip size 0.2 (4×
     the strip): gmsh's Crack plugin (gmsh 4.15.2) leaves a triangle glued at −60° (at
     +60° not, though it does for a hexagon of the same points given with its normal).
-    The mesh is either right (the sweep's checks) or refused by a MeshingError naming the
-    crack — never silently wrong."""
+    The mesher splits that triangle again (:func:`crack_split.split_checked`): the mesh
+    is right (the sweep's checks), never silently wrong."""
     crack = _grown(centre, (0.2, 0.1, 1), 0.25, 6, kinks, 0.05, rot=0.0)
-    try:
-        cb, _ = mesh_body_with_planar_crack(_body(CUBE), crack, TipMesh(0.2, 0.3))
-    except MeshingError as exc:
-        assert "crack: " in str(exc) and "not a face of exactly one tetrahedron" in str(exc)
-        return
-    _check(cb, crack, CUBE)
+    _mesh_right(crack, CUBE, 0.2)  # the plugin's glued triangle resplit by the mesher
 
 
 @pytest.mark.parametrize(
@@ -443,20 +490,22 @@ def test_a_narrow_kinked_strip_is_split_or_refused(kinks: list, centre: tuple) -
     ],
 )
 def test_the_own_split_repairs_a_glued_triangle(monkeypatch, kinks, centre, h, spoil) -> None:
-    """split_checked (the 2D mesher's: check, resplit, check) in place of the 3D mesher's
-    check: the plugin's glued triangles at a narrow strip kinked by −60° or −80° (gmsh
-    4.15.2; refused by the 3D mesher) and a cell put on the wrong side by hand are
-    resplit, the mesh right (the one implementation serves both dimensions)."""
+    """The 3D mesher's split (:func:`crack_split.split_checked`: check, resplit, check,
+    the 2D mesher's too): the plugin's glued triangles at a narrow strip kinked by −60° or
+    −80° (gmsh 4.15.2) and a cell put on the wrong side by hand are resplit, the mesh
+    right (the one implementation serves both dimensions)."""
     resplits = []
+    real = crack_split.resplit_crack
 
-    def checked(before, tags, label):
-        resplits.append(split_checked(before, tags, label))
+    def counted(tags, dim) -> int:
+        resplits.append(real(tags, dim))
+        return resplits[-1]
 
-    monkeypatch.setattr(body3d, "check_crack_split", checked)
+    monkeypatch.setattr(crack_split, "resplit_crack", counted)
     if spoil:
         _spoil(monkeypatch, "side")
     crack = _grown(centre, (0.2, 0.1, 1), 0.25, 6, kinks, 0.05, rot=0.0)
     cb, _ = mesh_body_with_planar_crack(_body(CUBE), crack, TipMesh(h, 0.3))
     _check(cb, crack, CUBE)
     if spoil and MPI.COMM_WORLD.rank == 0:  # gmsh runs there
-        assert resplits[0] >= 1
+        assert resplits and resplits[0] >= 1
