@@ -14,8 +14,9 @@ are kept whole, triangles graded towards the front), embeds it in the volume bou
 the cut boundary and duplicates its nodes but the front's (the mouth's too), each copy
 going to the cells that the crack parts from the upper side's around that node (gmsh's
 ``Crack`` plugin, which sides by the node's mean normal, misplaced a cell at a 60° kink):
-faces ``crack_upper`` (the side of the first patch's normal) and ``crack_lower``.  All
-gmsh work runs on rank 0.
+faces ``crack_upper`` (the side of the first patch's normal) and ``crack_lower``; a flat
+tetrahedron on two coplanar boundary triangles is dropped (:func:`drop_boundary_slivers`).
+All gmsh work runs on rank 0.
 
 A building block: the front is returned as a polyline (no stress intensity along it yet,
 ``CrackedBody3D.block`` does not apply), one cell group, no edge of the body within a
@@ -39,6 +40,7 @@ from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import (
+    FLAT_VOLUME,
     SNAP_FRACTION,
     PlaneCutter,
     chord_chains,
@@ -57,6 +59,7 @@ __all__ = [
     "NonplanarCut",
     "NonplanarSurfaceCrack",
     "cut_mouth_surface",
+    "drop_boundary_slivers",
     "mesh_body_with_nonplanar_surface_crack",
 ]
 
@@ -252,13 +255,21 @@ def _edge_crossings(
     crack: NonplanarSurfaceCrack, tris: np.ndarray, inner: np.ndarray
 ) -> dict[tuple[int, int], np.ndarray]:
     """The point where every crack edge from inside the body to outside crosses its
-    surface (key ``patches`` when one crosses it more than once)."""
+    surface (key ``patches`` when one crosses it more than once, or an edge with both
+    ends on one side crosses it: a patch's trace would leave it through that edge)."""
     X = np.asarray(crack.points, dtype=float)
     out = {}
     for (a, b), _ in sorted(crack.edges().items()):
-        if inner[a] == inner[b]:
-            continue
         hits = _segment_hits(X[a], X[b], tris)
+        if inner[a] == inner[b]:
+            if hits:
+                side = "inside" if inner[a] else "outside"
+                raise ParameterError(
+                    "patches",
+                    f"the crack edge {a}-{b} has both ends {side} the body but crosses its "
+                    f"surface {len(hits)} times",
+                )
+            continue
         if len(hits) != 1:
             raise ParameterError(
                 "patches", f"the crack edge {a}-{b} crosses the body's surface {len(hits)} times"
@@ -346,6 +357,23 @@ def _snap_in_surface(nodes, conn, sign_dist, n, movable, h) -> np.ndarray:
     return nodes
 
 
+def _unsnap_flat(snapped, nodes, conn, s, C: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Put back the snapped vertices of a triangle whose three corners the snap left on
+    the plane (s = 0, updated): such a triangle would lie in the patch's plane, the trace
+    a face rather than a line (at a front end inserted into a triangle whose other two
+    corners lie within the snap distance, the trace branched there)."""
+    moved = np.any(snapped != nodes, axis=1)
+    flat = (s[conn] == 0).all(axis=1) & moved[conn].any(axis=1)
+    back = np.unique(conn[flat].ravel())
+    back = back[moved[back]]
+    if not back.size:
+        return snapped
+    snapped = snapped.copy()
+    snapped[back] = nodes[back]
+    s[back] = (nodes[back] - C) @ n
+    return snapped
+
+
 def _edge_triangles(conn: np.ndarray) -> dict[tuple[int, int], list[int]]:
     out: dict[tuple[int, int], list[int]] = {}
     for t, tr in enumerate(conn):
@@ -365,9 +393,10 @@ def _cut_patch(nodes, conn, tags, crack: NonplanarSurfaceCrack, k: int, fixed, h
     s = (nodes - C) @ n
     movable = near.copy()
     movable[list(fixed["locked"])] = False
-    nodes = _snap_in_surface(nodes, conn, s, n, movable, h)
+    snapped = _snap_in_surface(nodes, conn, s, n, movable, h)
     s[np.abs(s) < 1e-3 * tol] = 0.0
     s[list(fixed["on_plane"])] = 0.0
+    nodes = _unsnap_flat(snapped, nodes, conn, s, C, n)
     cut = PlaneCutter(nodes, np.sign(s), C, n)
     close = np.flatnonzero(near[conn].any(axis=1))
     for t in close:
@@ -735,16 +764,124 @@ def _build(cut: NonplanarCut, body: BodySurface, size: TipMesh, tags: tuple[int,
     geo.synchronize()
     gmsh.model.mesh.embed(2, [crack], 3, volume)
     _set_size(_size_formula(cut.front_points, size, h_max))
-    volume_mesh(volume, size.h_tip)
+    X, tets, boundary, boundary_tags = _volume(volume, size.h_tip, cut, crack_tri + 1)
+    split = _split_nodes(X, tets, crack_tri + 1, np.asarray(cut.mouth) + 1, boundary)
+    gmsh.model.remove()  # the session's model: its place taken by the split one
+    gmsh.model.add("nonplanar_surface_crack_split")
+    _split_model(split, boundary_tags, body, tags)
+
+
+def _tetrahedra() -> tuple[np.ndarray, np.ndarray]:
+    """The current model's nodes (indexed by tag) and tetrahedra (node tags)."""
     tags_, xyz, _ = gmsh.model.mesh.getNodes()
     X = np.zeros((int(tags_.max()) + 1, 3))
     X[tags_.astype(np.int64)] = xyz.reshape(-1, 3)
     _, conn = gmsh.model.mesh.getElementsByType(4)
-    tets = np.asarray(conn, dtype=np.int64).reshape(-1, 4)
-    split = _split_nodes(X, tets, crack_tri + 1, np.asarray(cut.mouth) + 1, cut.triangles + 1)
-    gmsh.model.remove()  # the session's model: its place taken by the split one
-    gmsh.model.add("nonplanar_surface_crack_split")
-    _split_model(split, cut, body, tags)
+    return X, np.asarray(conn, dtype=np.int64).reshape(-1, 4)
+
+
+def _volume(volume: int, h_tip: float, cut: NonplanarCut, crack_tri: np.ndarray):
+    """The volume meshed by HXT, its boundary slivers peeled (:func:`drop_boundary_slivers`);
+    where that leaves a flat tetrahedron, the meshers of ``volume_mesh`` in turn.
+    Returns the nodes, the tetrahedra, the boundary triangles (node tags) and their tags."""
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10)
+    gmsh.option.setNumber("Mesh.RandomFactor3D", 1e-12)
+    gmsh.model.mesh.generate(3)
+    X, tets = _tetrahedra()
+    dropped = drop_boundary_slivers(X, tets, cut.triangles + 1, cut.tags, h_tip, crack_tri)
+    if dropped is not None:
+        return X, *dropped
+    gmsh.model.mesh.clear([(3, volume)])
+    volume_mesh(volume, h_tip)
+    return *_tetrahedra(), cut.triangles + 1, cut.tags
+
+
+def _six_volumes(X: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    t = X[tets]
+    return np.einsum("ij,ij->i", np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), t[:, 3] - t[:, 0])
+
+
+def drop_boundary_slivers(
+    X: np.ndarray,
+    tets: np.ndarray,
+    boundary: np.ndarray,
+    tags: np.ndarray,
+    h_tip: float,
+    crack: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Peel the flat tetrahedra (volume below ``FLAT_VOLUME`` h_tip³) off the boundary:
+    four boundary nodes in one plane (a facet of the scan refined red-green has many;
+    where the boundary's diagonal of two triangles is not the Delaunay one the mesher
+    keeps it by such a tetrahedron, or by a few stacked).  A flat tetrahedron whose faces
+    on the boundary (one tag) cover the plane as its other faces do (equal areas: two and
+    two, or one and three) is dropped, the others taking the place of those (outward as
+    they were), until none is left: the boundary's surface and the volume are unchanged.
+
+    Parameters
+    ----------
+    X, tets
+        Node coordinates (indexed by node) and tetrahedra.
+    boundary, tags
+        Boundary triangles (outward) and their tags.
+    h_tip
+        The front's element size (the scale of ``FLAT_VOLUME``).
+    crack
+        Embedded crack triangles: a flat tetrahedron on one is not dropped.
+
+    Returns
+    -------
+    (tetrahedra, boundary, tags), or ``None`` when a flat tetrahedron cannot be peeled.
+    """
+    flat = set(np.flatnonzero(np.abs(_six_volumes(X, tets)) < 6 * FLAT_VOLUME * h_tip**3))
+    if not flat:
+        return tets, boundary, tags
+    faces = _faces(tets)
+    bnd = {_key(t): (list(map(int, t)), int(g)) for t, g in zip(boundary, tags, strict=True)}
+    keep = set() if crack is None else {_key(t) for t in crack}
+    gone = []
+    while flat:
+        done = [t for t in sorted(flat) if _peel(X, tets, int(t), faces, bnd, keep)]
+        if not done:
+            return None
+        flat -= set(done)
+        gone += done
+    tris = np.asarray([v[0] for v in bnd.values()], dtype=boundary.dtype)
+    return np.delete(tets, gone, axis=0), tris, np.asarray([v[1] for v in bnd.values()], tags.dtype)
+
+
+def _key(tri) -> tuple[int, int, int]:
+    return tuple(sorted(int(v) for v in tri))
+
+
+def _peel(X, tets, t: int, faces: dict, bnd: dict, keep: set) -> bool:
+    """Drop the flat tetrahedron ``t`` from ``faces`` and ``bnd`` (updated) when its
+    boundary faces (one tag) and its other faces (each shared with one tetrahedron, none
+    a crack triangle) cover the same part of its plane (their areas equal to 1e-6)."""
+    fs = [_key(v for k, v in enumerate(tets[t]) if k != d) for d in range(4)]
+    on = [f for f in fs if f in bnd]
+    off = [f for f in fs if f not in bnd]
+    if not on or not off or len({bnd[f][1] for f in on}) != 1:
+        return False
+    if any(len(faces[f]) != 2 or f in keep for f in off):
+        return False
+    a_on = sum(np.linalg.norm(_tri_normal(X, f)) for f in on)
+    a_off = sum(np.linalg.norm(_tri_normal(X, f)) for f in off)
+    if abs(a_on - a_off) > 1e-6 * (a_on + a_off):
+        return False
+    out = sum(_tri_normal(X, bnd[f][0]) for f in on)
+    tag = bnd[on[0]][1]
+    for f in on:
+        del bnd[f]
+    for f in off:
+        bnd[f] = (list(f) if _tri_normal(X, f) @ out > 0 else [f[0], f[2], f[1]], tag)
+    for f in fs:
+        faces[f].remove(t)
+    return True
+
+
+def _tri_normal(X: np.ndarray, tri) -> np.ndarray:
+    a, b, c = X[list(tri)]
+    return np.cross(b - a, c - a)
 
 
 @dataclass(frozen=True)
@@ -849,7 +986,7 @@ def _renamed(boundary: np.ndarray, rename: dict[int, int], faces: dict, tets: np
     return out
 
 
-def _split_model(split: _Split, cut: NonplanarCut, body: BodySurface, tags) -> None:
+def _split_model(split: _Split, boundary_tags: np.ndarray, body: BodySurface, tags) -> None:
     """The split mesh as a discrete gmsh model (nodes numbered 1…N, the cells' only): the
     volume, the boundary's groups, the crack's two faces."""
     used = np.unique(split.tets)
@@ -861,8 +998,8 @@ def _split_model(split: _Split, cut: NonplanarCut, body: BodySurface, tags) -> N
     region, region_tag = body.region
     gmsh.model.addPhysicalGroup(3, [vol], region_tag, name=region)
     groups = [
-        (split.boundary[cut.tags == t], int(t), body.names.get(int(t), f"facets{t}"))
-        for t in np.unique(cut.tags)
+        (split.boundary[boundary_tags == t], int(t), body.names.get(int(t), f"facets{t}"))
+        for t in np.unique(boundary_tags)
         if t > 0
     ]
     groups += [(split.upper, tags[0], "crack_a"), (split.lower, tags[1], "crack_b")]

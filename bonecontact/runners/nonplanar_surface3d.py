@@ -12,7 +12,8 @@ end edge's inwards when its domain reaches an oblique surface), advances every v
 the σ₁′ criterion (weights (K_V/K_V,max)² at K_V ≥ K_Ic under ``propagate``, the Paris
 rates of ΔK = (1 − R) K_V under ``[fracture.fatigue]``, the block cycles by
 ``FatigueProgress``), puts an end vertex that falls inside the body (or within a front
-element of its surface) out along its edge, a front element beyond the surface, and adds
+element of its surface) out along its edge, a front element beyond the surface (farther
+until the end strip's outer edge clears the surface: :func:`end_beyond_surface`), and adds
 the strips (:mod:`~bonecontact.fracture.open_front3d`).  Stops: ``arrested``,
 ``max_increments``/``max_blocks``, ``fractured`` (fatigue, K_V ≥ K_Ic), ``through`` (an
 inner front vertex would leave the body, come within two front elements of its surface
@@ -38,6 +39,7 @@ from bonecontact.common.errors import ParameterError, RunError
 from bonecontact.common.geometry import line_triangle_hits, point_triangle_distance
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.fracture.advance3d import equivalent_k, sigma1_kink
+from bonecontact.fracture.body3d import BodySurface
 from bonecontact.fracture.front3d import FrontSIF, OpenPolylineFront, front_interaction_integral
 from bonecontact.fracture.nonplanar_surface_body3d import (
     NonplanarSurfaceCrack,
@@ -72,6 +74,7 @@ from bonecontact.scene.errors import table_label
 __all__ = [
     "NONPLANAR_COLUMNS",
     "check_nonplanar_surface",
+    "end_beyond_surface",
     "grows_nonplanar",
     "run_nonplanar_surface",
     "start_crack",
@@ -109,6 +112,12 @@ MIN_RING_ELEMENTS = 2.5
 #: Where an end edge's K is taken when its middle's domain reaches the surface: the
 #: fractions of the edge from its surface end.
 INWARD = (0.6, 0.7)
+#: The clearance (front elements) of an end strip's outer edge (old end → new end) from
+#: the body's surface: the mesher's least distance of a crack point
+#: (``nonplanar_surface_body3d.NEAR_SURFACE``).
+OUTER_CLEARANCE = 0.25
+#: The farthest an end vertex is put beyond the surface (front elements) to clear it.
+MAX_BEYOND = 64.0
 #: The stops that break the body (fragments reported).
 _BROKEN = ("fractured", "through")
 
@@ -368,18 +377,45 @@ def _vertex_k(K: np.ndarray) -> np.ndarray:
     return equivalent_k(Kv[:, 0], Kv[:, 1], Kv[:, 2])
 
 
-def _beyond_surface(run: SurfaceRun, inner: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """An end vertex inside the body or within a front element of its surface moved along
-    the edge from ``inner`` to a front element beyond the surface."""
-    h = run.size.h_tip
-    if not inside_body(run.body, end[None])[0] and _surface_distance(run, end)[0] >= h:
-        return end
+def end_beyond_surface(
+    body: BodySurface, h: float, inner: np.ndarray, end: np.ndarray, old: np.ndarray
+) -> np.ndarray:
+    """An end vertex ``end`` of the grown front, inside the body or within ``h`` (a front
+    element) of its surface, moved along the edge from ``inner`` to ``h`` beyond the
+    surface; then on along it (``h`` at a time) until the strip's outer edge from the
+    ``old`` end clears the surface (:func:`_clears`: on a convex surface of radius R the
+    chord between two ends h out dips into the body when it is longer than about
+    √(8 R h)).  Raises RunError when the edge misses the surface or no place within
+    :data:`MAX_BEYOND` h clears it."""
+    tris = np.asarray(body.triangles, dtype=float)
     d = (end - inner) / np.linalg.norm(end - inner)
-    s = line_triangle_hits(inner, d, np.asarray(run.body.triangles, dtype=float))
-    s = s[np.isfinite(s) & (s > 0.0)]
-    if len(s) == 0:
-        raise RunError("an end of the grown front does not reach the body's surface")
-    return inner + (float(s.min()) + h) * d
+    if inside_body(body, end[None])[0] or _distance(tris, end[None]).min() < h:
+        s = line_triangle_hits(inner, d, tris)
+        s = s[np.isfinite(s) & (s > 0.0)]
+        if len(s) == 0:
+            raise RunError("an end of the grown front does not reach the body's surface")
+        end = inner + (float(s.min()) + h) * d
+    for k in range(int(MAX_BEYOND)):
+        if _clears(body, tris, h, old, end + k * h * d):
+            return end + k * h * d
+    raise RunError(
+        f"the outer edge of an end strip stays within {OUTER_CLEARANCE:g} front elements of "
+        f"the body's surface (or inside it) with its new end {MAX_BEYOND:g} elements out"
+    )
+
+
+def _distance(tris: np.ndarray, points: np.ndarray) -> np.ndarray:
+    return np.array([point_triangle_distance(p, tris).min() for p in points])
+
+
+def _clears(body: BodySurface, tris: np.ndarray, h: float, a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether the segment a → b lies outside the body, at least :data:`OUTER_CLEARANCE` h
+    off its surface (sampled every h/8: a crossing has a sample within h/16 of it)."""
+    n = max(2, int(math.ceil(8.0 * float(np.linalg.norm(b - a)) / h)) + 1)
+    x = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    if np.any(inside_body(body, x)):
+        return False
+    return bool(_distance(tris, x).min() >= OUTER_CLEARANCE * h)
 
 
 def _in_plane(p: np.ndarray, q: np.ndarray, r: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -461,7 +497,7 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     for end, inner in ((0, 1), (last, last - 1)):
         if not adv.held[end]:
             w = _in_plane(V[end], V[inner], new[inner], new[end])
-            new[end] = _beyond_surface(run, new[inner], w)
+            new[end] = end_beyond_surface(run.body, run.size.h_tip, new[inner], w, V[end])
     g.crack = _quad_ends(extend_open_surface(crack, new, adv.held), crack, adv.held)
     g.increments += 1
     return None, adv.da

@@ -60,6 +60,7 @@ from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.nonplanar_surface_body3d import (
     NonplanarSurfaceCrack,
     cut_mouth_surface,
+    drop_boundary_slivers,
     mesh_body_with_nonplanar_surface_crack,
 )
 from bonecontact.fracture.surface_body3d import cut_mouth
@@ -550,3 +551,243 @@ def test_flat_strip_opens_as_the_larger_disc() -> None:
     assert cmod > 0
     assert cmod == pytest.approx(cmod1, rel=0.01)
     assert cov == pytest.approx(cov1, rel=0.01)
+
+
+# --------------------------------------------- robustness: a family of configurations
+@pytest.mark.parametrize("offset", [0.0, 1e-12, 1e-6, 1e-2], ids=["0", "1e-12", "1e-6h", "0.01h"])
+@pytest.mark.parametrize("grid_x", [0.0, 0.125], ids=["coarse-line", "refined-line"])
+@pytest.mark.parametrize("thetas", [[0.0], [30.0], [-60.0]], ids=["flat", "+30", "-60"])
+def test_trace_near_facet_edges_and_vertices(thetas: list, grid_x: float, offset: float) -> None:
+    """The first patch's plane at ``offset`` h from a line of facet edges (x = 0: the
+    plate's; x = 0.125: the refined boundary's) and the crack shifted in y so that its
+    first front end crosses z = 0 ``offset`` h from a facet vertex (y on the grid): the
+    mouth on z = 0 and on the patches, its exact length, the faces the clipped patches'
+    area (1e-8), the plate's volume (1e-9), no flat tetrahedron."""
+    h = 0.08
+    base = _kinked(thetas)
+    y_end = _exact(base)[2][0][1]
+    shift = [grid_x + offset * h - XC, 0.25 * round(y_end / 0.25) + offset * h - y_end, 0.0]
+    crack = NonplanarSurfaceCrack(tuple(map(tuple, np.asarray(base.points) + shift)), base.patches)
+    cb, _, cut = mesh_body_with_nonplanar_surface_crack(PLATE, crack, TipMesh(h, 0.3))
+    area, length, ends = _exact(crack)
+    M = cut.nodes[list(cut.mouth)]
+    np.testing.assert_allclose(M[:, 2], 0.0, atol=TOL)
+    for i, k in enumerate(cut.mouth_patch):
+        assert np.max(np.abs((M[[i, i + 1]] - crack.polygon(k)[0]) @ crack.normal(k))) <= TOL
+    assert float(np.linalg.norm(np.diff(M, axis=0), axis=1).sum()) == pytest.approx(length, 1e-9)
+    np.testing.assert_allclose(np.array(sorted(M[[0, -1]], key=lambda p: p[1])), ends, atol=TOL)
+    up, low = (_face_area(cb, t) for t in cb.face_tags)
+    assert up == pytest.approx(area, rel=1e-8)
+    assert low == pytest.approx(up, rel=1e-12)
+    m = cb.mesh
+    vol = m.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=m))), op=MPI.SUM)
+    assert vol == pytest.approx(math.prod(SIZE), rel=1e-9)
+    n = m.topology.index_map(3).size_local
+    x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
+    six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    assert m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN) > 1e-6 * h**3
+
+
+def _chord_patch(width: float, gap: float, z: float = 0.0) -> NonplanarSurfaceCrack:
+    """A trapezoid in the plane z across the cylinder of radius 1 at x = 1: its inner edge
+    at radius 0.6, its outer corners at radius 1 + gap, ``width`` radians apart (the outer
+    edge a chord at least (1 + gap) cos(width / 2) from the axis)."""
+    a = np.array([-0.5, -0.5, 0.5, 0.5]) * width
+    r = np.array([1.0 + gap, 0.6, 0.6, 1.0 + gap])
+    pts = np.stack([r * np.cos(a), r * np.sin(a), np.full(4, z)], axis=1)
+    return NonplanarSurfaceCrack(tuple(map(tuple, pts)), ((0, 1, 2, 3),))
+
+
+@pytest.mark.parametrize("width", [0.2, 0.35, 0.45, 0.6, 0.9, 1.2])
+def test_outer_edge_through_the_surface_is_refused(bar: BodySurface, width: float) -> None:
+    """An edge with both ends outside the cylinder that dips into it (a chord of width w
+    between corners 1 + g from its axis: its nearest point (1 + g) cos(w/2), g = 0.02,
+    facets' sagitta <= 0.0018) is refused naming it (``patches``); one that stays out is
+    cut: its mouth on the trapezoid's plane (1e-9) and within 1e-6 of the facets."""
+    gap = 0.02
+    crack = _chord_patch(width, gap)
+    nearest = (1 + gap) * math.cos(width / 2)
+    if nearest < 1.0 - 0.002:
+        with pytest.raises(ParameterError, match=r"patches: the crack edge 0-3 has both ends"):
+            cut_mouth_surface(bar, crack, TipMesh(0.03, 0.3))
+        return
+    assert nearest > 1.0 + 0.002  # the sweep has no case within the facets' sagitta
+    cut = cut_mouth_surface(bar, crack, TipMesh(0.03, 0.3))
+    M = cut.nodes[list(cut.mouth)]
+    np.testing.assert_allclose(M[:, 2], 0.0, atol=TOL)
+    gap_m = max(float(point_triangle_distance(x, bar.triangles).min()) for x in M)
+    assert gap_m <= 1e-6 * bar.scale
+
+
+def _kuhn_box(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The unit cube in n³ cubes of six tetrahedra each (all about the cube's diagonal)."""
+    g = np.linspace(0.0, 1.0, n + 1)
+    X = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    idx = np.arange((n + 1) ** 3).reshape(n + 1, n + 1, n + 1)
+    paths = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
+    tets = []
+    for i, j, k in np.ndindex(n, n, n):
+        for p in paths:
+            c, corners = [i, j, k], [idx[i, j, k]]
+            for axis in p:
+                c[axis] += 1
+                corners.append(idx[tuple(c)])
+            tets.append(corners)
+    return X, np.asarray(tets, dtype=np.int64)
+
+
+def _outer_faces(X: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The faces of one tetrahedron, outward, tagged 1…6 by the cube's face."""
+    count: dict = {}
+    for t in tets:
+        for d in range(4):
+            f = tuple(sorted(int(v) for k, v in enumerate(t) if k != d))
+            count[f] = count.get(f, 0) + 1
+    tris, tags = [], []
+    for f, c in count.items():
+        if c != 1:
+            continue
+        p = X[list(f)]
+        axis = int(np.argmin(np.ptp(p, axis=0)))
+        out = np.zeros(3)
+        out[axis] = 1.0 if p[0, axis] > 0.5 else -1.0
+        tris.append(list(f) if np.cross(p[1] - p[0], p[2] - p[0]) @ out > 0 else [f[0], f[2], f[1]])
+        tags.append(2 * axis + (out[axis] > 0) + 1)
+    return np.asarray(tris, dtype=np.int64), np.asarray(tags, dtype=np.int32)
+
+
+def _with_slivers(X, tets, tris, tags, cells: list[int]):
+    """Each boundary square of ``cells`` (index of its first triangle among the
+    boundary's square pairs) given the other diagonal, a flat tetrahedron on its four
+    corners: as gmsh returns a boundary whose diagonal is not the Delaunay one."""
+    pairs = _square_pairs(X, tris, tags)
+    tris, tags, tets = tris.copy(), tags.copy(), tets.copy()
+    for c in cells:
+        i, j = pairs[c]
+        quad = list(dict.fromkeys([*tris[i], *tris[j]]))
+        shared = set(tris[i]) & set(tris[j])
+        a, b = sorted(set(quad) - shared)
+        s, t = sorted(shared)
+        out = np.cross(*(X[tris[i][1:]] - X[tris[i][0]]))
+        new = []
+        for tri in ([a, b, s], [a, b, t]):
+            p = X[tri]
+            new.append(tri if np.cross(p[1] - p[0], p[2] - p[0]) @ out > 0 else tri[::-1])
+        tris[i], tris[j] = new
+        tets = np.vstack([tets, [[a, b, s, t]]])
+    return tets, tris, tags
+
+
+def _square_pairs(X: np.ndarray, tris: np.ndarray, tags: np.ndarray) -> list[tuple[int, int]]:
+    """Boundary triangles paired by their square (same tag, sharing their longest edge)."""
+
+    def longest(tri: np.ndarray) -> list[int]:
+        edges = [sorted((int(tri[k]), int(tri[(k + 1) % 3]))) for k in range(3)]
+        return max(edges, key=lambda e: float(np.linalg.norm(X[e[0]] - X[e[1]])))
+
+    out, seen = [], set()
+    for i in range(len(tris)):
+        for j in range(i + 1, len(tris)):
+            if i in seen or j in seen or tags[i] != tags[j]:
+                continue
+            shared = sorted(set(tris[i]) & set(tris[j]))
+            if len(shared) == 2 and longest(tris[i]) == shared:
+                out.append((i, j))
+                seen |= {i, j}
+    return out
+
+
+def _first_on(pairs: list[tuple[int, int]], tags: np.ndarray, face: int) -> int:
+    return next(k for k, p in enumerate(pairs) if tags[p[0]] == face)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("which", ["one", "one per face", "every other"])
+def test_boundary_slivers_are_dropped(n: int, which: str) -> None:
+    """A cube of n³ Kuhn cubes whose boundary squares (one; one on each face; every other
+    one) have the other diagonal and a flat tetrahedron on their corners: dropped, the
+    boundary is the cube's again (every edge of two triangles, each a face of one
+    tetrahedron, outward: its enclosed volume 1 and the tetrahedra's 1, exactly; every
+    face of area 1), no tetrahedron flat."""
+    X, tets = _kuhn_box(n)
+    tris, tags = _outer_faces(X, tets)
+    pairs = _square_pairs(X, tris, tags)
+    cells = {
+        "one": [0],
+        "one per face": [
+            next(k for k, p in enumerate(pairs) if tags[p[0]] == f) for f in range(1, 7)
+        ],
+        "every other": list(range(0, len(pairs), 2)),
+    }[which]
+    t2, b2, g2 = _with_slivers(X, tets, tris, tags, cells)
+    assert len(t2) == len(tets) + len(cells)
+    out = drop_boundary_slivers(X, t2, b2, g2, 1.0 / n)
+    assert out is not None
+    t3, b3, g3 = out
+    assert sorted(map(tuple, np.sort(t3, axis=1))) == sorted(map(tuple, np.sort(tets, axis=1)))
+    edges = np.sort(np.concatenate([b3[:, [0, 1]], b3[:, [1, 2]], b3[:, [2, 0]]]), axis=1)
+    assert np.all(np.unique(edges, axis=0, return_counts=True)[1] == 2)
+    faces = {tuple(sorted(int(v) for k, v in enumerate(t) if k != d)) for t in t3 for d in range(4)}
+    assert all(tuple(sorted(int(v) for v in f)) in faces for f in b3)
+    x = X[b3]
+    assert np.einsum("ij,ij->i", x[:, 0], np.cross(x[:, 1], x[:, 2])).sum() / 6 == pytest.approx(
+        1.0, abs=1e-14
+    )
+    six = np.abs(
+        np.einsum(
+            "ij,ij->i",
+            np.cross(X[t3[:, 1]] - X[t3[:, 0]], X[t3[:, 2]] - X[t3[:, 0]]),
+            X[t3[:, 3]] - X[t3[:, 0]],
+        )
+    )
+    assert six.sum() / 6 == pytest.approx(1.0, abs=1e-14)
+    assert six.min() / 6 > 0.1 / n**3
+    area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    for f in range(1, 7):
+        assert area[g3 == f].sum() == pytest.approx(1.0, abs=1e-14)
+
+
+@pytest.mark.parametrize("n", [1, 2])
+@pytest.mark.parametrize("offset", [0.0, 1e-12])
+def test_a_flat_tetrahedron_on_a_point_inside_a_triangle_is_dropped(n: int, offset: float) -> None:
+    """A boundary triangle split in three at a point inside it (its centroid, ``offset``
+    off its plane) with a flat tetrahedron on the four (one face inside, three on the
+    boundary): dropped, the boundary the cube's again (enclosed volume 1 to 1e-12, each
+    face's area 1), the point in no tetrahedron."""
+    X, tets = _kuhn_box(n)
+    tris, tags = _outer_faces(X, tets)
+    a, b, c = tris[0]
+    out = np.cross(X[b] - X[a], X[c] - X[a])
+    d = len(X)
+    X = np.vstack([X, X[[a, b, c]].mean(axis=0) + offset * out / np.linalg.norm(out)])
+    split = np.array([[a, b, d], [b, c, d], [c, a, d]])
+    b2 = np.vstack([tris[1:], split])
+    g2 = np.concatenate([tags[1:], [tags[0]] * 3])
+    got = drop_boundary_slivers(X, np.vstack([tets, [[a, b, c, d]]]), b2, g2, 1.0 / n)
+    assert got is not None
+    t3, b3, g3 = got
+    assert len(t3) == len(tets) and d not in t3 and d not in b3
+    x = X[b3]
+    vol = np.einsum("ij,ij->i", x[:, 0], np.cross(x[:, 1], x[:, 2])).sum() / 6
+    assert vol == pytest.approx(1.0, abs=1e-12)
+    area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    for f in range(1, 7):
+        assert area[g3 == f].sum() == pytest.approx(1.0, abs=1e-12)
+
+
+def test_flat_tetrahedra_that_are_no_boundary_slivers_are_kept() -> None:
+    """A flat tetrahedron with one boundary face, or two stacked on one square, is left
+    to the other volume meshers (``None``)."""
+    X, tets = _kuhn_box(2)
+    tris, tags = _outer_faces(X, tets)
+    t2, b2, g2 = _with_slivers(X, tets, tris, tags, [0])
+    stacked = np.vstack([t2, t2[-1:]])
+    assert drop_boundary_slivers(X, stacked, b2, g2, 0.5) is None
+    one_face = np.vstack([tets, t2[-1:]])  # the square's diagonal not changed
+    assert drop_boundary_slivers(X, one_face, tris, tags, 0.5) is None
+    assert drop_boundary_slivers(X, tets, tris, tags, 0.5)[0] is tets
+    on_crack = drop_boundary_slivers(X, t2, b2, g2, 0.5, crack=tris[:0])
+    assert on_crack is not None  # no crack triangle among its faces
+    faces = [sorted(int(v) for k, v in enumerate(t2[-1]) if k != d) for d in range(4)]
+    inner = [f for f in faces if sorted(f) not in [sorted(t) for t in b2]]
+    assert drop_boundary_slivers(X, t2, b2, g2, 0.5, crack=np.array(inner[:1])) is None

@@ -57,6 +57,9 @@ from _crack_scenes import (
 )
 from coupled_support import gmsh_on_rank0
 
+from bonecontact.common.errors import RunError
+from bonecontact.fracture.body3d import BodySurface
+from bonecontact.runners.nonplanar_surface3d import end_beyond_surface
 from bonecontact.scene import SceneError, load_scene
 
 A = 0.3 * L
@@ -213,3 +216,67 @@ def test_bad_surface_growth_is_refused(
         load_scene(path)
     if "sideways" in growth:
         assert "nonplanar" in str(err.value) and "planar" in str(err.value)
+
+
+# ------------------------------------------ an end vertex put beyond a curved surface
+SIDES = 256
+H_END = 0.03
+
+
+def _prism() -> BodySurface:
+    """A regular 256-gon prism of circumradius 1 (inradius cos(π/256)), |z| <= 1."""
+    a = np.linspace(0.0, 2 * math.pi, SIDES + 1)
+    ring = np.stack([np.cos(a), np.sin(a)], axis=1)
+    tris = []
+    for p, q in zip(ring[:-1], ring[1:], strict=True):
+        lo, hi = np.append(p, -1.0), np.append(q, -1.0)
+        lo2, hi2 = np.append(p, 1.0), np.append(q, 1.0)
+        tris += [[lo, hi, hi2], [lo, hi2, lo2]]
+        tris += [[[0, 0, -1.0], hi, lo], [[0, 0, 1.0], lo2, hi2]]
+    t = np.asarray(tris, dtype=float)
+    return BodySurface(t, np.ones(len(t), dtype=np.int32), {1: "skin"}, ("bar", 1), 0.1)
+
+
+def _min_radius(a: np.ndarray, b: np.ndarray) -> float:
+    """The least distance of the segment a → b (in z = 0) from the axis (closed form)."""
+    d = b - a
+    t = float(np.clip(-(a @ d) / (d @ d), 0.0, 1.0))
+    return float(np.linalg.norm(a + t * d))
+
+
+@pytest.mark.parametrize("width", [0.1, 0.3, 0.5, 0.7, 1.0])
+@pytest.mark.parametrize("start", [0.98, 1.0 + 0.5 * H_END, 1.0 + 3 * H_END])
+def test_end_vertex_clears_the_surface_with_its_outer_edge(width: float, start: float) -> None:
+    """The old end h out at angle 0, the new inner vertex at radius 0.7 and angle w, the
+    new end at radius ``start`` on that ray: it stays on the ray, at least h beyond the
+    surface, h steps out (from the surface's crossing + h when it starts within h of it),
+    the outer edge clears the prism by h/4 (its closed-form least radius above the
+    inradius + h/4) and one step fewer would not have (below 1 + h/4); the chord of width
+    w between two points h out dips into the body from w ≈ 2 √(2h) = 0.49 on."""
+    h, body = H_END, _prism()
+    old = np.array([1.0 + h, 0.0, 0.0])
+    ray = np.array([math.cos(width), math.sin(width), 0.0])
+    end = end_beyond_surface(body, h, 0.7 * ray, start * ray, old)
+    rho = float(np.linalg.norm(end))
+    assert np.linalg.norm(np.cross(end, ray)) <= 1e-12
+    r_in = math.cos(math.pi / SIDES)
+    first = start if start - 1.0 >= h else None  # a start within h of the surface moves
+    if first is None:
+        facet = r_in / math.cos((width % (2 * math.pi / SIDES)) - math.pi / SIDES)
+        first = facet + h
+    steps = (rho - first) / h
+    assert steps == pytest.approx(round(steps), abs=1e-9)
+    assert _min_radius(old, end) >= r_in + 0.25 * h
+    if round(steps) > 0:
+        assert _min_radius(old, end - h * ray) < 1.0 + 0.25 * h
+    if 2 * (1 + h) * math.sin(width / 2) > 2 * math.sqrt(2 * h) * 1.1 and start < 1 + 2 * h:
+        assert round(steps) > 0
+
+
+def test_end_vertex_too_close_to_clear_is_refused() -> None:
+    """The old end itself within h/4 of the surface: no new end clears it (RunError)."""
+    h, body = H_END, _prism()
+    old = np.array([1.0 + 0.1 * h, 0.0, 0.0])
+    ray = np.array([math.cos(0.3), math.sin(0.3), 0.0])
+    with pytest.raises(RunError, match="outer edge of an end strip"):
+        end_beyond_surface(body, h, 0.7 * ray, 1.2 * ray, old)
