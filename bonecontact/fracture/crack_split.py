@@ -8,13 +8,16 @@ DOLFINx's faces short of it) or a cell at a crack node only given the other side
 :func:`check_crack_split` compares the faces after the split with the crack before it (a
 surface of triangles in 3D, a polyline of segments in 2D): each face's measure must
 equal the crack's (``SPLIT_AREA_TOL`` relative), the faces may share only the front's
-nodes, every face facet must be a facet of exactly one cell and every other facet at the
-faces' nodes a facet of two cells or a boundary element; otherwise a
+nodes and (3D) no edge but the front's (a crack triangle whose three nodes are all on
+the front, at a sharp or coarse corner of it: no node split opens it), every face facet
+must be a facet of exactly one cell and every other facet at the faces' nodes a facet of
+two cells or a boundary element; otherwise a
 :class:`~bonecontact.meshing.builder.MeshingError` names the crack.
 :func:`resplit_crack` redoes a split by its own rule: the cells around a split node
 grouped by their facets at the node that are not the crack's (two groups), the copy to
 one group, consistently along the crack, on the side the plugin gave most copies.
-:func:`split_checked` checks, resplits a bad split and checks again (2D).
+:func:`split_checked` checks, resplits a bad split (in 3D after halving the edges
+across the front's corners, :func:`bisect_pinched`) and checks again (2D and 3D).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from bonecontact.meshing.builder import MeshingError
 __all__ = [
     "SPLIT_AREA_TOL",
     "CrackSurface",
+    "bisect_pinched",
     "check_crack_split",
     "crack_surface",
     "resplit_crack",
@@ -178,11 +182,22 @@ def _torn(faces: list[npt.NDArray[np.int64]], dim: int) -> int:
     return int(np.count_nonzero(~np.isin(uniq[count == 1], model)))
 
 
+def _pinched(face: npt.NDArray[np.int64], shared: set[int]) -> list[tuple[int, int]]:
+    """The edges of the triangles ``face`` (one face of a split crack) between two
+    ``shared`` nodes (the front's) that are an edge of two of its triangles: not the
+    front's, yet not split (the crack closed along them)."""
+    edges = np.sort(np.concatenate([face[:, [0, 1]], face[:, [1, 2]], face[:, [0, 2]]]), axis=1)
+    edges = edges[np.isin(edges, list(shared)).all(axis=1)]
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    return [(int(a), int(b)) for a, b in uniq[count > 1]]
+
+
 def check_crack_split(before: CrackSurface, tags: tuple[int, int], label: str) -> None:
     """Raise :class:`MeshingError` (naming ``label``) unless the faces in the physical
     groups ``tags`` each have the measure of the crack ``before`` the split, share only
     its front nodes, each of their facets is a facet of one cell and every other facet
-    at their nodes is a facet of two cells or the boundary's (no tear)."""
+    at their nodes is a facet of two cells or the boundary's (no tear); of a surface,
+    they share no edge but the front's."""
     dim = before.dim
     measure, unit, crack, facet, facets, owner, front = _WORDS[dim]
     X = _nodes()
@@ -200,6 +215,11 @@ def check_crack_split(before: CrackSurface, tags: tuple[int, int], label: str) -
         raise MeshingError(
             f"{label}: the split faces share {len(glued)} nodes that are not the {front} "
             f"(a {facet} left unsplit)"
+        )
+    if dim == 2 and (n := len(_pinched(faces[0], shared))):
+        raise MeshingError(
+            f"{label}: the split faces share {n} edges that are not the {front} (the crack "
+            f"closed along them: an edge across a corner of the front, its triangles unsplit)"
         )
     if n := _glued(faces, dim):
         raise MeshingError(
@@ -349,6 +369,47 @@ def _write_boundary(
             )
 
 
+def _bisect(edge: tuple[int, int], tags: tuple[int, int]) -> None:
+    """Split the crack edge ``edge`` (between two front nodes, not the front's) at its
+    midpoint: a node for the first face and its copy for the second (the cells take the
+    first; :func:`resplit_crack` sides them), each tetrahedron and triangle at the edge
+    halved (volumes and areas kept exactly)."""
+    a, b = edge
+    X = _nodes()
+    mid = 0.5 * (X[a] + X[b])
+    m = int(gmsh.model.mesh.getMaxNodeTag()) + 1
+    first, second = (set(gmsh.model.getEntitiesForPhysicalGroup(2, t)) for t in tags)
+    added: set[int] = set()
+    for dim, etype in ((2, 2), (3, 4)):  # the nodes added with the triangles
+        for _, e in gmsh.model.getEntities(dim):
+            etags, conn = gmsh.model.mesh.getElementsByType(etype, e)
+            E = np.asarray(conn, dtype=np.int64).reshape(-1, dim + 1)
+            rows = np.flatnonzero(np.isin(E, edge).sum(axis=1) == 2)
+            if not len(rows):
+                continue
+            node = m + 1 if dim == 2 and e in second else m
+            if dim == 2 and e in first | second and node not in added:
+                gmsh.model.mesh.addNodes(2, e, [node], mid.tolist())
+                added.add(node)
+            halves = np.concatenate([np.where(E[rows] == b, node, E[rows]), E[rows]])
+            halves[len(rows) :][halves[len(rows) :] == a] = node
+            gmsh.model.mesh.removeElements(dim, e, np.asarray(etags)[rows].tolist())
+            gmsh.model.mesh.addElementsByType(e, etype, [], halves.ravel().tolist())
+
+
+def bisect_pinched(tags: tuple[int, int], front: frozenset[int]) -> int:
+    """Halve every edge between two ``front`` nodes that the split faces ``tags`` (of a
+    surface crack) share and is not the front's (an edge across a corner of the front:
+    no node split can open it), each half-edge's node to be split by
+    :func:`resplit_crack`; returns how many edges."""
+    faces = [_simplices(2, list(gmsh.model.getEntitiesForPhysicalGroup(2, t))) for t in tags]
+    shared = set(np.unique(faces[0]).tolist()) & set(np.unique(faces[1]).tolist()) & front
+    edges = _pinched(faces[0], shared)
+    for edge in edges:
+        _bisect(edge, tags)
+    return len(edges)
+
+
 def resplit_crack(tags: tuple[int, int], dim: int) -> int:
     """Redo the split of the crack whose faces are the physical groups ``tags`` (the
     crack's facets, then their copies; dimension ``dim``) by the cells' connections at
@@ -380,7 +441,8 @@ def resplit_crack(tags: tuple[int, int], dim: int) -> int:
 
 def split_checked(before: CrackSurface, tags: tuple[int, int], label: str) -> int:
     """Check the split faces ``tags`` of the crack ``before`` (:func:`check_crack_split`);
-    if bad, redo the split (:func:`resplit_crack`) and check again.  Returns how many
+    if bad, redo the split (:func:`bisect_pinched` for a surface, then
+    :func:`resplit_crack`) and check again.  Returns how many
     cells the resplit changed (0: the split was right); raises :class:`MeshingError`
     naming ``label`` when the resplit fails too."""
     try:
@@ -389,6 +451,8 @@ def split_checked(before: CrackSurface, tags: tuple[int, int], label: str) -> in
     except MeshingError as exc:
         first = str(exc)
     try:
+        if before.dim == 2:
+            bisect_pinched(tags, before.front)
         changed = resplit_crack(tags, before.dim)
         check_crack_split(before, tags, label)
     except Exception as exc:  # any failure of the resplit names the crack
