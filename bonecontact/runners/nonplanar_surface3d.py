@@ -20,7 +20,10 @@ inner front vertex would leave the body, come within two front elements of its s
 or six ahead of it), ``failed`` (a crack that cannot be cut, meshed or evaluated).
 ``fracture.csv``: a row per increment and front edge; ``crack_surface_<k>.vtk`` the
 patches (inside and outside the body), ``crack_front_<k>.vtk`` the K points with K,
-``increment<k>/`` each solve.  No restart; corner cracks are refused.
+``increment<k>/`` each solve.  ``[output] checkpoint_every = k``: the growth state
+after every k-th increment (the crack's points, patches and front, the cycles and the
+fatigue history; :mod:`~bonecontact.runners.growth_state3d`), from which ``restart``
+continues on any number of ranks.  Corner cracks are refused.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ import dataclasses
 import math
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
@@ -57,6 +60,7 @@ from bonecontact.fracture.surface_body3d import CutBody, cut_mouth, inside_body
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.crack_fatigue import FatigueProgress, growth_stop, growth_weights
 from bonecontact.runners.front_growth3d import write_crack_surface
+from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.mechanics import SceneModel
 from bonecontact.runners.results import RecordTable, RunResult, run_summary, write_summary
 from bonecontact.runners.surface_crack3d import (
@@ -70,6 +74,9 @@ from bonecontact.runners.surface_crack3d import (
 )
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.errors import table_label
+
+if TYPE_CHECKING:
+    from bonecontact.fracture.crack3d import SurfaceBreakingCrack
 
 __all__ = [
     "NONPLANAR_COLUMNS",
@@ -154,6 +161,57 @@ class Growth:
     status: str | None = None
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
+    rows: int = 0  # fracture.csv rows written
+
+    def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
+        """What a checkpoint stores (JSON; the scene's crack ``initial`` to check a
+        restart against)."""
+        return {
+            "kind": CHECKPOINT_KIND,
+            "initial": dataclasses.asdict(initial),
+            "crack": dataclasses.asdict(self.crack),
+            "cycles": self.cycles,
+            "fatigue": self.fatigue.state(),
+            "history": self.history,
+            "rows": self.rows,
+        }
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> Growth:
+        """The growth a checkpoint stored (its ``increment`` the next to solve)."""
+        c = state["crack"]
+        crack = OpenTriangulatedCrack(
+            tuple(tuple(float(x) for x in p) for p in c["points"]),
+            tuple(tuple(int(i) for i in patch) for patch in c["patches"]),
+            tuple(int(i) for i in c["front_ids"]),
+            tuple(tuple(float(x) for x in n) for n in c["normals2"]),
+            None if c["cuts"] is None else tuple(tuple(map(float, k)) for k in c["cuts"]),
+            tuple(float(x) for x in c["normal"]),
+        )
+        return cls(
+            crack,
+            int(state["increment"]),
+            float(state["cycles"]),
+            fatigue=FatigueProgress.from_state(state["fatigue"]),
+            history=[{k: float(v) for k, v in h.items()} for h in state["history"]],
+            rows=int(state["rows"]),
+        )
+
+
+#: ``kind`` of this path's checkpoints.
+CHECKPOINT_KIND = "nonplanar_surface_crack"
+
+
+def _start(run: SurfaceRun, crack: OpenTriangulatedCrack, comm, outdir: Path, restart) -> Growth:
+    """A fresh growth from the scene's ``crack``, or the one of the checkpoint ``restart``
+    (``True``: the newest under ``outdir``; fracture.csv cut to its rows)."""
+    if not restart:
+        return Growth(crack)
+    initial = dataclasses.asdict(run.crack)
+    state = find_growth_state(
+        comm, outdir, restart, CHECKPOINT_KIND, initial, run.crack.half_length
+    )
+    return Growth.from_state(state)
 
 
 def _error(scene: Scene, key: str | None, text: str) -> SceneError:
@@ -539,6 +597,7 @@ def _increment(run: SurfaceRun, g: Growth, comm, timer: PhaseTimer, outdir: Path
         for k, r in enumerate(_rows(sifs, inc))
     ]
     table.rows([dataclasses.replace(r, status=_mark(stop, r.da)) for r in rows])
+    g.rows += len(rows)
     if comm.rank == 0:
         write_crack_surface(outdir / f"crack_surface_{inc}.vtk", [crack])
         write_open_front(outdir / f"crack_front_{inc}.vtk", sifs)
@@ -579,23 +638,25 @@ def run_nonplanar_surface(
     restart: str | Path | bool | None = None,
 ) -> RunResult:
     """Validate, build and run a 3D scene whose surface crack grows out of its plane
-    (module docstring).  ``restart`` is refused (no checkpoints of this path)."""
-    if restart:
-        raise SceneError(
-            str(scene.path), "[fracture]", "surface_growth", '"nonplanar" does not restart'
-        )
+    (module docstring).  ``restart``: continue from the newest (``True``) or the named
+    growth checkpoint (a directory ``checkpoints/increment_<k>`` or its ``growth.json``),
+    on any number of ranks."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
     run, crack = prepare_nonplanar(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     if comm.rank == 0:
         outdir.mkdir(parents=True, exist_ok=True)
-    g = Growth(crack)
-    table = RecordTable(comm, outdir / "fracture.csv", NONPLANAR_COLUMNS)
+    g = _start(run, crack, comm, outdir, restart)
+    table = RecordTable(comm, outdir / "fracture.csv", NONPLANAR_COLUMNS, append=bool(restart))
+    every = scene.output.checkpoint_every
     message, frags = None, None
     try:
         while g.status is None:
             g.status, message, frags = _increment(run, g, comm, timer, outdir, table)
+            if g.status is None and every > 0 and g.increments % every == 0:
+                with timer.phase("checkpoint"):
+                    save_growth_state(comm, outdir, g.increments, g.state(run.crack))
     finally:
         table.close()
     status = "converged" if g.status in _STOPS and g.status != "failed" else "failed"
