@@ -6,14 +6,15 @@ tension 1 MPa along y), its semi-circular crack a = c = 0.3 mm inclined at 45° 
 load (normal (0, cos 45°, sin 45°): modes I, II and III along the front, so the grown
 crack leaves its plane and the checkpoint holds a non-planar crack), front a/14, grown by
 three blocks of the Paris law (da/dN = C ΔK², the fastest vertex 0.03 mm a block), a
-checkpoint after every advance (``checkpoint_every = 1``: before the solves 1, 2 and 3).  The uninterrupted run is the
-serial one (rank 0 on COMM_SELF; on one rank the run itself); its checkpoints before
-increments 1 and 2 are continued on every rank of the session: fracture.csv (cut to the
-checkpoint's rows, then appended), the cycles, the growth history and the final front
-equal the uninterrupted run's to 1e-10 (the checkpoint's floats read back exactly and the
-re-meshed body is the same on any number of ranks; on one rank the continued table is the
-uninterrupted one byte for byte).  A checkpoint of another crack is refused
-(CheckpointError naming the differing key) before the table is touched.
+checkpoint after every advance (``checkpoint_every = 1``: before the solves 1, 2, 3).
+The uninterrupted run is the serial one (rank 0 on COMM_SELF; on one rank the run
+itself); its checkpoints before increments 1 and 2 are continued on every rank of the
+session: fracture.csv (cut to the checkpoint's rows, then appended), the cycles, the
+growth history and the final front equal the uninterrupted run's to 1e-10 (the
+checkpoint's floats read back exactly and the re-meshed body is the same on any number
+of ranks; on one rank the continued table is the uninterrupted one byte for byte).  A
+checkpoint of another crack is refused (CheckpointError naming the differing key) before
+the table is touched.
 """
 
 from __future__ import annotations
@@ -102,7 +103,8 @@ def _continued(d: Path, name: str, checkpoint: str) -> Path:
 
 def test_checkpoints_hold_the_turned_crack(uninterrupted: Path) -> None:
     """One checkpoint per advance (the last before the solve that stops); the crack it
-    stores has left the initial plane (patches with normals off the initial one: what a restart must carry)."""
+    stores has left the initial plane (front normals off the initial one: what a restart
+    must carry)."""
     full = uninterrupted / "full"
     g = json.loads((full / "summary.json").read_text())["fracture"]["growth"]
     assert (g["model"], g["status"], g["increments"]) == ("nonplanar", "max_blocks", BLOCKS)
