@@ -357,6 +357,21 @@ def _snap_in_surface(nodes, conn, sign_dist, n, movable, h) -> np.ndarray:
     return nodes
 
 
+#: A vertex snaps onto a patch's plane only when the snap is below this fraction of its
+#: distance to the patch's crossing nodes (the trace's direction there turned < 6°).
+SNAP_TURN = 0.1
+
+
+def _snap_small(nodes: np.ndarray, s: np.ndarray, ends: list[int]) -> np.ndarray:
+    """Whether each vertex's snap (its distance ``s`` to the plane) is small beside its
+    distance to the crossing nodes ``ends`` (a front end inserted 0.003 h from a vertex
+    that was then snapped 0.003 h: the trace ran past the end and back, a spur)."""
+    if not ends:
+        return np.ones(len(nodes), dtype=bool)
+    d = np.linalg.norm(nodes[:, None, :] - nodes[ends][None], axis=2).min(axis=1)
+    return np.abs(s) <= SNAP_TURN * d
+
+
 def _unsnap_flat(snapped, nodes, conn, s, C: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Put back the snapped vertices of a triangle whose three corners the snap left on
     the plane (s = 0, updated): such a triangle would lie in the patch's plane, the trace
@@ -393,6 +408,7 @@ def _cut_patch(nodes, conn, tags, crack: NonplanarSurfaceCrack, k: int, fixed, h
     s = (nodes - C) @ n
     movable = near.copy()
     movable[list(fixed["locked"])] = False
+    movable &= _snap_small(nodes, s, list(fixed["on_plane"]))
     snapped = _snap_in_surface(nodes, conn, s, n, movable, h)
     s[np.abs(s) < 1e-3 * tol] = 0.0
     s[list(fixed["on_plane"])] = 0.0

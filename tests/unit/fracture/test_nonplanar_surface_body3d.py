@@ -791,3 +791,37 @@ def test_flat_tetrahedra_that_are_no_boundary_slivers_are_kept() -> None:
     faces = [sorted(int(v) for k, v in enumerate(t2[-1]) if k != d) for d in range(4)]
     inner = [f for f in faces if sorted(f) not in [sorted(t) for t in b2]]
     assert drop_boundary_slivers(X, t2, b2, g2, 0.5, crack=np.array(inner[:1])) is None
+
+
+def _line_distance(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    d = (b - a) / np.linalg.norm(b - a)
+    return float(np.linalg.norm(np.cross(x - a, d)))
+
+
+@pytest.mark.parametrize("dphi", [0.0, 1e-4, 1e-3, 1e-2])
+@pytest.mark.parametrize("eps", [1e-4, 3e-4, 1e-3])
+def test_crack_end_next_to_a_surface_vertex(bar: BodySurface, eps: float, dphi: float) -> None:
+    """A trapezoid (_chord_patch's, width 0.3) in the plane ``eps`` above a vertex v of the
+    cylinder's facets (within the snap distance: 0.02 of the facets' 0.12 … 0.003 h), its
+    first front end edge ``dphi`` radians round from v: the crossing lands next to v
+    (the scanned L4's 16th mesh: a front end 0.003 h from a vertex snapped 0.003 h, the
+    mouth ran past the end and back).  The mouth is one chain from one front end to the
+    other, on the plane (1e-9), within 1e-6 of the scale of the facets, its ends on the
+    front end edges (1e-9)."""
+    V = np.unique(bar.triangles.reshape(-1, 3), axis=0)
+    on_side = (np.abs(V[:, 2]) < 0.3) & (np.abs(np.hypot(V[:, 0], V[:, 1]) - 1) < 1e-9)
+    v = V[on_side][np.argmin(np.abs(np.arctan2(V[on_side, 1], V[on_side, 0])))]
+    base = np.asarray(_chord_patch(0.3, 0.02).points)
+    turn = math.atan2(v[1], v[0]) + dphi + 0.15
+    rot = np.array([[math.cos(turn), -math.sin(turn), 0], [math.sin(turn), math.cos(turn), 0]])
+    pts = np.column_stack([base @ rot.T, np.full(4, v[2] + eps)])
+    crack = NonplanarSurfaceCrack(tuple(map(tuple, pts)), ((0, 1, 2, 3),))
+    cut = cut_mouth_surface(bar, crack, TipMesh(0.03, 0.3))
+    M = cut.nodes[list(cut.mouth)]
+    np.testing.assert_allclose(M[:, 2], v[2] + eps, atol=TOL)
+    assert (
+        max(float(point_triangle_distance(x, bar.triangles).min()) for x in M) <= 1e-6 * bar.scale
+    )
+    ends = sorted([M[0], M[-1]], key=lambda x: math.atan2(x[1], x[0]))
+    assert _line_distance(ends[0], pts[0], pts[1]) <= TOL
+    assert _line_distance(ends[1], pts[2], pts[3]) <= TOL
