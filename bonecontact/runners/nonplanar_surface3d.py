@@ -20,10 +20,8 @@ inner front vertex would leave the body, come within two front elements of its s
 or six ahead of it), ``failed`` (a crack that cannot be cut, meshed or evaluated).
 ``fracture.csv``: a row per increment and front edge; ``crack_surface_<k>.vtk`` the
 patches (inside and outside the body), ``crack_front_<k>.vtk`` the K points with K,
-``increment<k>/`` each solve.  ``[output] checkpoint_every = k``: the growth state
-after every k-th increment (the crack's points, patches and front, the cycles and the
-fatigue history; :mod:`~bonecontact.runners.growth_state3d`), from which ``restart``
-continues on any number of ranks.  Corner cracks are refused.
+``increment<k>/`` each solve.  Checkpoints (``checkpoint_every``) and ``restart`` as
+:mod:`~bonecontact.runners.growth_state3d`'s.  Corner cracks are refused.
 """
 
 from __future__ import annotations
