@@ -147,6 +147,7 @@ def test_checkpoint_of_another_crack_is_refused(uninterrupted: Path) -> None:
     if MPI.COMM_WORLD.rank == 0:
         shutil.rmtree(out)
         shutil.copytree(d / "full", out)
+    MPI.COMM_WORLD.barrier()  # every rank reads the copied table
     rows = (out / "fracture.csv").read_bytes()
     scene = write_scene(out / "other.toml", _scene_text(d / "plate.msh", a=0.29 * L))
     ck = out / "checkpoints" / "increment_00001"
