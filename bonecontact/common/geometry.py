@@ -6,12 +6,14 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
 __all__ = [
     "ADVANCE_GRID_BITS",
     "cross2",
     "first_ray_hits",
     "line_triangle_hits",
+    "nearest_triangle_distance",
     "on_advance_grid",
     "point_triangle_distance",
     "polygon_area",
@@ -147,6 +149,42 @@ def point_triangle_distance(
         u = np.clip(np.einsum("ij,ij->i", p - s0, e) / ee, 0.0, 1.0)
         dist = np.minimum(dist, np.linalg.norm(s0 + u[:, None] * e - p, axis=1))
     return dist
+
+
+def nearest_triangle_distance(
+    points: npt.ArrayLike, t: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
+    """Distance from each point to the nearest of the triangles ``t``, exact.
+
+    Each point is measured against the triangles that can be nearest, not all of them: a
+    triangle with centroid c and circumradius about c of r is at least |p − c| − r from p,
+    so with U the distance to the triangle of the nearest centroid, the triangles whose
+    centroid lies within U + max r hold the nearest one.  A k-d tree of the centroids finds
+    them; the distances are :func:`point_triangle_distance`'s, so the result equals the
+    minimum over all triangles to the last bit.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 3) or (3,)
+    t : ndarray, shape (k, 3, 3), k ≥ 1
+        The triangles' corners (triangle, corner, coordinate).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    t = np.asarray(t, dtype=np.float64)
+    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    centre = t.mean(axis=1)
+    reach = float(np.linalg.norm(t - centre[:, None, :], axis=2).max())
+    tree = cKDTree(centre)
+    _, first = tree.query(pts)
+    out = np.empty(len(pts))
+    for i, (p, j) in enumerate(zip(pts, np.atleast_1d(first), strict=True)):
+        upper = float(point_triangle_distance(p, t[j : j + 1])[0])
+        near = tree.query_ball_point(p, upper + reach * (1.0 + 1e-12) + 1e-300)
+        out[i] = point_triangle_distance(p, t[near]).min()
+    return out
 
 
 def _ray_parameters(

@@ -37,7 +37,11 @@ from mpi4py import MPI
 import numpy as np
 
 from bonecontact.common.errors import ParameterError
-from bonecontact.common.geometry import first_ray_hits, point_triangle_distance
+from bonecontact.common.geometry import (
+    first_ray_hits,
+    nearest_triangle_distance,
+    point_triangle_distance,
+)
 from bonecontact.fracture.body3d import BodySurface
 from bonecontact.fracture.crack3d import SurfaceBreakingCrack
 from bonecontact.fracture.surface_body3d import CORNER, CORNER_ANGLE_TOL
@@ -183,7 +187,7 @@ def surface_flaw(body: BodySurface, front: Any, normal: Any) -> SurfaceFlaw:
     V = V - np.outer((V - V.mean(axis=0)) @ n, n)  # onto the mean plane
     X = _edge_samples(V)
     T = np.asarray(body.triangles, dtype=float)
-    dist = np.array([point_triangle_distance(x, T).min() for x in X])
+    dist = nearest_triangle_distance(X, T)
     p = X[int(np.argmin(dist))]
     m = _outward_normal(T, p, float(dist.min()))
     e = m - (m @ n) * n

@@ -12,6 +12,7 @@ from bonecontact.common.geometry import (
     cross2,
     first_ray_hits,
     line_triangle_hits,
+    nearest_triangle_distance,
     point_triangle_distance,
     polygon_area,
     signed_polygon_area,
@@ -173,3 +174,34 @@ def test_first_ray_hits_edge_slack() -> None:
     assert which[1] == 1
     s0, _ = first_ray_hits([[0.5, 0.5, 0.0]], [[0, 0, 1.0]], T, tol=0.0)
     assert np.isinf(s0[0]) or s0[0] == pytest.approx(0.5, rel=1e-14)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_nearest_triangle_distance_equals_brute_force(seed: int) -> None:
+    """Against every triangle (to the last bit): random and sliver triangles, points near,
+    on and far from them."""
+    rng = np.random.default_rng(seed)
+    t = rng.normal(size=(300, 3, 3)) * rng.uniform(0.01, 1.0, size=(300, 1, 1))
+    t[:50, 2] = t[:50, 0] + 1e-6 * rng.normal(size=(50, 3))  # slivers
+    t += rng.uniform(-5, 5, size=(300, 1, 3))
+    pts = np.concatenate(
+        [rng.uniform(-8, 8, size=(200, 3)), t[:20].mean(axis=1), rng.normal(size=(5, 3)) * 50]
+    )
+    want = np.array([point_triangle_distance(p, t).min() for p in pts])
+    got = nearest_triangle_distance(pts, t)
+    assert np.array_equal(got, want)
+    assert nearest_triangle_distance(pts[0], t).shape == (1,)
+
+
+def test_nearest_triangle_distance_plane_closed_form() -> None:
+    """Points above a triangulated square [0, 1]² (z = 0): the height where they lie over
+    it, else the distance to the square."""
+    g = np.linspace(0.0, 1.0, 9)
+    X, Y = np.meshgrid(g, g)
+    v = np.stack([X.ravel(), Y.ravel(), 0 * X.ravel()], axis=1)
+    i = np.arange(8)
+    c = (i[:, None] * 9 + i[None, :]).ravel()
+    tri = np.concatenate([np.stack([c, c + 1, c + 10], 1), np.stack([c, c + 10, c + 9], 1)])
+    pts = np.array([[0.3, 0.7, 0.25], [0.5, 0.5, -2.0], [1.5, 0.5, 0.0], [2.0, 2.0, 1.0]])
+    want = [0.25, 2.0, 0.5, math.sqrt(3.0)]
+    np.testing.assert_allclose(nearest_triangle_distance(pts, v[tri]), want, rtol=1e-14)

@@ -244,6 +244,7 @@ def _min_radius(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a + t * d))
 
 
+@pytest.mark.serial  # geometry on one process, nothing collective
 @pytest.mark.parametrize("width", [0.1, 0.3, 0.5, 0.7, 1.0])
 @pytest.mark.parametrize("start", [0.98, 1.0 + 0.5 * H_END, 1.0 + 3 * H_END])
 def test_end_vertex_clears_the_surface_with_its_outer_edge(width: float, start: float) -> None:
@@ -273,6 +274,7 @@ def test_end_vertex_clears_the_surface_with_its_outer_edge(width: float, start: 
         assert round(steps) > 0
 
 
+@pytest.mark.serial  # geometry on one process, nothing collective
 def test_end_vertex_too_close_to_clear_is_refused() -> None:
     """The old end itself within h/4 of the surface: no new end clears it (RunError)."""
     h, body = H_END, _prism()
