@@ -192,7 +192,10 @@ MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 # only by contact, the first touching node on a partition boundary) and the fracture
 # verification problems — and leaves out the tests marked growth (their 3-rank runs are
 # serial-session tests that spawn 3 ranks) or two_ranks (refinements of a case that
-# runs here).  Input parsing, materials, meshing, plotting, the mechanics-only
+# runs here).  The planar 3D crack scenes (interior, several, closed, surface, their
+# checkpoints) run here as test_crack3d_ranks' family of reduced scenes, each against
+# the same scene on one rank; their own files (test_crack_scene3d, _several,
+# test_crack_restart3d, test_surface_crack_scene3d) run on 1 and 2 ranks.  Input parsing, materials, meshing, plotting, the mechanics-only
 # verifications, Hertz, friction and dynamic contact (the contact code they use is in
 # the 3-rank set; the Coulomb scene and the dynamic scene are also compared on 1 and 3
 # ranks by serial-session tests), the crack-path verification and the other run-layer
@@ -200,8 +203,7 @@ MPI_SELECT = not serial$(if $(strip $(SELECT)), and $(SELECT))
 # parallel parts are those above) run on 1 and 2 ranks.  make test-all runs everything on
 # 3 ranks too.
 MPI3_SKIP  ?= growth or two_ranks
-MPI3_RUNNERS = test_crack3d_ranks test_crack_scene3d test_crack_scene3d_several \
-  test_crack_restart3d test_surface_crack_scene3d test_fracture_scene3d test_restart \
+MPI3_RUNNERS = test_crack3d_ranks test_fracture_scene3d test_restart \
   test_vtu_output test_forces test_crack_growth_scene3d test_surface_crack_restart3d \
   test_crack_merge3d test_breakthrough_rule test_breakthrough_scene3d test_breakthrough_curved3d \
   test_scanned_vertebra_crack test_out_of_plane3d test_out_of_plane_restart3d \

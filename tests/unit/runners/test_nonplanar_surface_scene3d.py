@@ -27,7 +27,9 @@ front edges of 8.8 front elements).  References:
   than the integration ring and two front elements (6 h) ahead of its deepest vertex:
   ``through`` (the deepest point's reach + 6 h below t, + Δa above), the fragments the
   two halves of the plate (2b·h·t each within 3 %; measured 0.02 %);
-* on 2 and 3 ranks each run equals the serial one (fracture.csv to 1e-9);
+* on 2 and 3 ranks each run equals the serial one (fracture.csv to 1e-9); `make test`
+  runs the mode-I and fatigue runs on 1 and 2 ranks only (``two_ranks``: the same code
+  runs on 3 ranks in the inclined and through runs and in the restart test);
 * bad input: ``surface_growth = "sideways"``, ``"nonplanar"`` on an interior crack and
   without growth: a SceneError naming the key.
 """
@@ -120,6 +122,7 @@ def _depths(fracture: dict, key: str = "depth") -> np.ndarray:
     return np.array([h[key] for h in fracture["growth"]["history"]])
 
 
+@pytest.mark.two_ranks  # 3 ranks: the inclined and through runs, the restart file
 def test_mode_i_stays_planar_and_grows_as_the_planar_path(plate: Path) -> None:
     f, out = _run(plate, "mode_i", scene(plate / "plate.msh", propagate("nonplanar")))
     g = f["growth"]
@@ -167,6 +170,7 @@ def test_inclined_crack_turns_towards_the_load_normal(plate: Path) -> None:
     assert abs(t["K_II"][last][0] / t["K_I"][last][0]) < 0.15
 
 
+@pytest.mark.two_ranks  # 3 ranks: the inclined and through runs, the restart file
 def test_fatigue_cycles_as_the_planar_path(plate: Path) -> None:
     f, _ = _run(plate, "fatigue", scene(plate / "plate.msh", fatigue("nonplanar"), K_Ic=1e9))
     g = f["growth"]
