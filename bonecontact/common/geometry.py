@@ -157,11 +157,13 @@ def nearest_triangle_distance(
     """Distance from each point to the nearest of the triangles ``t``, exact.
 
     Each point is measured against the triangles that can be nearest, not all of them: a
-    triangle with centroid c and circumradius about c of r is at least |p − c| − r from p,
-    so with U the distance to the triangle of the nearest centroid, the triangles whose
-    centroid lies within U + max r hold the nearest one.  A k-d tree of the centroids finds
-    them; the distances are :func:`point_triangle_distance`'s, so the result equals the
-    minimum over all triangles to the last bit.
+    triangle with centroid c and circumradius about c of r is at least |p − c| − r from p.
+    With U the distance to the triangle of the nearest centroid, the triangles of ordinary
+    size (r up to four times the median) whose centroid lies within U + their largest r
+    hold the nearest one among them (a k-d tree of their centroids finds them); the few
+    larger ones are measured against every point.  The distances are
+    :func:`point_triangle_distance`'s, so the result equals the minimum over all
+    triangles to the last bit.
 
     Parameters
     ----------
@@ -176,14 +178,36 @@ def nearest_triangle_distance(
     t = np.asarray(t, dtype=np.float64)
     pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
     centre = t.mean(axis=1)
-    reach = float(np.linalg.norm(t - centre[:, None, :], axis=2).max())
-    tree = cKDTree(centre)
-    _, first = tree.query(pts)
-    out = np.empty(len(pts))
-    for i, (p, j) in enumerate(zip(pts, np.atleast_1d(first), strict=True)):
-        upper = float(point_triangle_distance(p, t[j : j + 1])[0])
-        near = tree.query_ball_point(p, upper + reach * (1.0 + 1e-12) + 1e-300)
-        out[i] = point_triangle_distance(p, t[near]).min()
+    r = np.linalg.norm(t - centre[:, None, :], axis=2).max(axis=1)
+    big = r > 4.0 * np.median(r)
+    small = np.flatnonzero(~big)
+    _, first = cKDTree(centre).query(pts)
+    best = point_triangle_distance(pts, t[first])
+    best = np.minimum(best, _pair_minimum(pts, t, np.flatnonzero(big)))
+    if len(small):
+        reach = float(r[small].max()) * (1.0 + 1e-12)
+        near = cKDTree(centre[small]).query_ball_point(pts, best + reach)
+        best = np.minimum(best, _pair_minimum(pts, t[small], near))
+    return best
+
+
+def _pair_minimum(
+    pts: np.ndarray, t: np.ndarray, which: np.ndarray, chunk: int = 1 << 20
+) -> np.ndarray:
+    """The least :func:`point_triangle_distance` of every point to its triangles: ``which``
+    the same triangle indices for every point, or (an object array, as a k-d tree's ball
+    query gives) a list of them per point; ``inf`` where none."""
+    if isinstance(which, np.ndarray) and which.dtype != object:
+        counts = np.full(len(pts), len(which))
+        tri = np.tile(which, len(pts))
+    else:
+        counts = np.fromiter((len(w) for w in which), dtype=np.int64, count=len(pts))
+        tri = np.concatenate([np.asarray(w, dtype=np.int64) for w in which] + [[]]).astype(np.int64)
+    point = np.repeat(np.arange(len(pts)), counts)
+    out = np.full(len(pts), np.inf)
+    for s in range(0, len(tri), chunk):
+        d = point_triangle_distance(pts[point[s : s + chunk]], t[tri[s : s + chunk]])
+        np.minimum.at(out, point[s : s + chunk], d)
     return out
 
 

@@ -37,7 +37,7 @@ from mpi4py import MPI
 import numpy as np
 
 from bonecontact.common.errors import ParameterError, RunError
-from bonecontact.common.geometry import line_triangle_hits, point_triangle_distance
+from bonecontact.common.geometry import line_triangle_hits, nearest_triangle_distance
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.fracture.advance3d import equivalent_k, sigma1_kink
 from bonecontact.fracture.body3d import BodySurface
@@ -230,7 +230,7 @@ def grows_nonplanar(scene: Scene) -> bool:
 def _surface_distance(run: SurfaceRun, points: np.ndarray) -> np.ndarray:
     """The distance of every point from the body's surface (m)."""
     tris = np.asarray(run.body.triangles, dtype=float)
-    return np.array([point_triangle_distance(p, tris).min() for p in np.atleast_2d(points)])
+    return nearest_triangle_distance(points, tris)
 
 
 def _arc_samples(cut: CutBody) -> tuple[np.ndarray, np.ndarray]:
@@ -445,7 +445,7 @@ def end_beyond_surface(
     :data:`MAX_BEYOND` h clears it."""
     tris = np.asarray(body.triangles, dtype=float)
     d = (end - inner) / np.linalg.norm(end - inner)
-    if inside_body(body, end[None])[0] or _distance(tris, end[None]).min() < h:
+    if inside_body(body, end[None])[0] or nearest_triangle_distance(end, tris)[0] < h:
         s = line_triangle_hits(inner, d, tris)
         s = s[np.isfinite(s) & (s > 0.0)]
         if len(s) == 0:
@@ -460,10 +460,6 @@ def end_beyond_surface(
     )
 
 
-def _distance(tris: np.ndarray, points: np.ndarray) -> np.ndarray:
-    return np.array([point_triangle_distance(p, tris).min() for p in points])
-
-
 def _clears(body: BodySurface, tris: np.ndarray, h: float, a: np.ndarray, b: np.ndarray) -> bool:
     """Whether the segment a → b lies outside the body, at least :data:`OUTER_CLEARANCE` h
     off its surface (sampled every h/8: a crossing has a sample within h/16 of it)."""
@@ -471,7 +467,7 @@ def _clears(body: BodySurface, tris: np.ndarray, h: float, a: np.ndarray, b: np.
     x = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
     if np.any(inside_body(body, x)):
         return False
-    return bool(_distance(tris, x).min() >= OUTER_CLEARANCE * h)
+    return bool(nearest_triangle_distance(x, tris).min() >= OUTER_CLEARANCE * h)
 
 
 def _in_plane(p: np.ndarray, q: np.ndarray, r: np.ndarray, x: np.ndarray) -> np.ndarray:
