@@ -52,6 +52,7 @@ from bonecontact.fracture.open_front3d import (
     cut_block,
     cut_front,
     extend_open_surface,
+    vertex_k,
 )
 from bonecontact.fracture.surface3d import MIN_DOMAIN_ELEMENTS
 from bonecontact.fracture.surface_body3d import CutBody, cut_mouth, inside_body
@@ -427,12 +428,6 @@ def _rows(sifs: list[FrontSIF], inc: int) -> list[EdgeRow]:
 
 
 # ------------------------------------------------------------------------ advance
-def _vertex_k(K: np.ndarray) -> np.ndarray:
-    """K_V at the vertices: of the mean K of an inner vertex's two edges, an end's edge."""
-    Kv = np.concatenate([K[:1], 0.5 * (K[:-1] + K[1:]), K[-1:]])
-    return equivalent_k(Kv[:, 0], Kv[:, 1], Kv[:, 2])
-
-
 def end_beyond_surface(
     body: BodySurface, h: float, inner: np.ndarray, end: np.ndarray, old: np.ndarray
 ) -> np.ndarray:
@@ -524,7 +519,7 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     """The stop after this solve (``None``: the crack in ``g`` grown) and the advance of
     every front vertex (zeros at a stop)."""
     fat = run.fracture.fatigue
-    kv_vertex = _vertex_k(K)
+    kv_vertex = vertex_k(K)
     w = growth_weights(kv_vertex, fat, run.K_Ic)
     lead = float(w.max(initial=0.0))
     if fat is not None:
