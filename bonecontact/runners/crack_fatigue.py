@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -24,10 +25,15 @@ from bonecontact.scene.spec import FatigueSpec
 
 __all__ = [
     "FATIGUE_COLUMNS",
+    "FINAL_BLOCK_SHARE",
     "FatigueProgress",
     "FatigueRecord",
+    "FinalBlockWarning",
     "block_end",
     "bound_to_separation",
+    "final_block",
+    "final_block_note",
+    "final_block_text",
     "growth_stop",
     "growth_weights",
     "paris_law",
@@ -308,3 +314,47 @@ def bound_to_separation(cycles: float, distance: float, rate: float) -> float:
     """An upper bound of the cycles to separation from the last evaluated crack: the tip's
     distance to the surface at its rate there (the rate only grows as the crack does)."""
     return cycles + distance / rate if rate > 0 else math.inf
+
+
+#: The share of a run's cycles above which its final block — the one that carries the crack
+#: through, counted at the rate of its start — is said to set the count (FinalBlockWarning).
+FINAL_BLOCK_SHARE = 0.5
+
+
+class FinalBlockWarning(UserWarning):
+    """The final block of a fatigue run that ends ``through`` holds more than
+    :data:`FINAL_BLOCK_SHARE` of its cycles: the count is set by that block's
+    extrapolation, not by a solved K (summary.json ``fracture.growth.final_block``)."""
+
+
+def final_block(cycles: float, da: float, rate: float) -> dict[str, float]:
+    """The block that carries a crack through the body: ``da`` (m) at the leading rate
+    ``rate`` (m/cycle) of its start, the last solved crack; no solve at its end, so its
+    cycles da/rate are an extrapolation — too many where K would rise towards the far
+    surface, too few (or the crack would arrest) where it falls, as into a compressed
+    region.  ``cycles`` are those before it.  Returns its ``cycles``, ``share`` of the
+    total, ``da`` and ``rate`` (summary.json ``fracture.growth.final_block``)."""
+    n = da / rate
+    return {"cycles": n, "share": n / (cycles + n), "da": da, "rate": rate}
+
+
+def final_block_text(block: dict[str, float]) -> str:
+    """The FinalBlockWarning's text for ``block`` (:func:`final_block`)."""
+    return (
+        f"the final block, {block['da']:.3g} m at the leading rate of its start "
+        f"({block['rate']:.3g} m/cycle; no solve at its end), holds {100 * block['share']:.0f} % "
+        f"of the cycles ({block['cycles']:.4g}): the count is set by that extrapolation, "
+        "not by a solved K; a smaller da_max resolves it"
+    )
+
+
+def final_block_note(comm: Any, block: dict[str, float] | None) -> str | None:
+    """The run's message when its final block (:func:`final_block`) holds more than
+    :data:`FINAL_BLOCK_SHARE` of the cycles, with a FinalBlockWarning on rank 0; else
+    ``None``."""
+    if block is None or not block["share"] > FINAL_BLOCK_SHARE:
+        return None
+    text = final_block_text(block)
+    if comm.rank == 0:
+        warnings.warn(text, FinalBlockWarning, stacklevel=2)
+    return text

@@ -65,6 +65,8 @@ from bonecontact.fracture.surface_body3d import inside_body
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.crack_fatigue import (
     FatigueProgress,
+    final_block,
+    final_block_note,
     growth_stop,
     growth_weights,
     self_similar_slope,
@@ -177,6 +179,7 @@ class Growth:
     coefficients: list[float] | None = None  # their face pairs' friction (idem)
     merges: list[dict[str, Any]] = dataclasses.field(default_factory=list)
     joined: str = ""  # why cracks that met were not merged (stop joined)
+    final_block: dict[str, float] | None = None  # the block that carried a crack through
 
     def state(self, initial: list[TriangulatedCrack]) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -555,7 +558,8 @@ def _grow_fronts(
         if stop is not None:
             g.at = i
             if fat is not None and stop == "fractured":
-                g.cycles += step / float(g.fatigue.lead_rate[-1])
+                g.final_block = final_block(g.cycles, step, float(g.fatigue.lead_rate[-1]))
+                g.cycles += g.final_block["cycles"]
                 stop = "through"
             return stop, still
         new[i] = extend_surface(crack, adv.vertices, adv.held)
@@ -757,7 +761,8 @@ def run_interior_growth(
                 status, message = failed["status"], failed.get("message")
                 break
             g.status = stop
-            if stop in _BROKEN:
+            if stop in _BROKEN and run.fracture.breakthrough != "surface_crack":
+                message = final_block_note(comm, g.final_block)  # (else the surface goes on)
                 c = g.cracks[g.at]
                 frags = fragments(cbs[0].mesh, c.vertices.mean(axis=0), np.asarray(c.normal))
             elif stop is None and every > 0 and g.increments % every == 0:
@@ -806,6 +811,7 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "merges": g.merges,
                 "joined": g.joined if g.status == "joined" else None,
                 "fragments": frags,
+                "final_block": g.final_block,
             },
         },
         "phases_s": timer.summary(comm),

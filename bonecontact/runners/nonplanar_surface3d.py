@@ -57,7 +57,13 @@ from bonecontact.fracture.open_front3d import (
 from bonecontact.fracture.surface3d import MIN_DOMAIN_ELEMENTS
 from bonecontact.fracture.surface_body3d import CutBody, cut_mouth, inside_body
 from bonecontact.meshing.builder import MeshingError
-from bonecontact.runners.crack_fatigue import FatigueProgress, growth_stop, growth_weights
+from bonecontact.runners.crack_fatigue import (
+    FatigueProgress,
+    final_block,
+    final_block_note,
+    growth_stop,
+    growth_weights,
+)
 from bonecontact.runners.front_growth3d import write_crack_surface
 from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.mechanics import SceneModel
@@ -161,6 +167,7 @@ class Growth:
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
     rows: int = 0  # fracture.csv rows written
+    final_block: dict[str, float] | None = None  # the block that carried it through
 
     def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
         """What a checkpoint stores (JSON; the scene's crack ``initial`` to check a
@@ -538,7 +545,8 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     ahead = new[1:-1] + AHEAD_ELEMENTS * run.size.h_tip * adv.directions[1:-1]
     if not _keeps_ligament(run, new[1:-1]) or not np.all(inside_body(run.body, ahead)):
         if fat is not None:  # the last block at the rate of its start
-            g.cycles += step / lead
+            g.final_block = final_block(g.cycles, step, lead)
+            g.cycles += g.final_block["cycles"]
         return "through", still
     V, last = crack.vertices, len(new) - 1
     for end, inner in ((0, 1), (last, last - 1)):
@@ -593,6 +601,7 @@ def _increment(run: SurfaceRun, g: Growth, comm, timer: PhaseTimer, outdir: Path
     frags = None
     if stop in _BROKEN:
         frags = fragments(cb.mesh, crack.vertices.mean(axis=0), crack.normal)
+        message = final_block_note(comm, g.final_block)
     return stop, message, frags
 
 
@@ -685,6 +694,7 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "history": g.history,
                 "fractured": g.status in _BROKEN,
                 "fragments": frags,
+                "final_block": g.final_block,
             },
         },
         "phases_s": timer.summary(comm),

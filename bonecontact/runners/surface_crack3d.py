@@ -62,7 +62,13 @@ from bonecontact.fracture.surface_body3d import (
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import RunCounters
-from bonecontact.runners.crack_fatigue import FatigueProgress, growth_stop, growth_weights
+from bonecontact.runners.crack_fatigue import (
+    FatigueProgress,
+    final_block,
+    final_block_note,
+    growth_stop,
+    growth_weights,
+)
 from bonecontact.runners.cracks3d import front_nodes, write_front
 from bonecontact.runners.growth_state3d import find_growth_state, save_growth_state
 from bonecontact.runners.loop import progress_bar, run_steps
@@ -485,6 +491,7 @@ class Growth:
     cycles0: float = 0.0  # the cycles at the first increment
     max_kink: dict[str, Any] | None = None  # the largest |kink| of a growing point so far
     out_of_plane: dict[str, Any] | None = None  # where |kink| first exceeded the limit
+    final_block: dict[str, float] | None = None  # the block that carried it through
 
     def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -744,7 +751,8 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
     nxt = _grown(g.crack, step, rates)
     if breaks_through(run, nxt):
         if fat is not None:  # the last block at the rate of its start
-            g.cycles += step / float(rates.max())
+            g.final_block = final_block(g.cycles, step, float(rates.max()))
+            g.cycles += g.final_block["cycles"]
         return "through"
     g.crack, g.increments = nxt, g.increments + 1
     return None
@@ -863,7 +871,7 @@ def _grow(run: SurfaceRun, g: Growth, comm, timer, outdir: Path, table: RecordTa
             if failure is not None:
                 return "failed", failure, None
             note = out_of_plane_text(run, g.out_of_plane) if stop == "out_of_plane" else None
-            return "converged", note, frags
+            return "converged", note or final_block_note(comm, g.final_block), frags
         if every > 0 and g.first == 0 and g.increments % every == 0:
             with timer.phase("checkpoint"):
                 save_growth_state(comm, outdir, g.increments, g.state(run.crack))
@@ -946,6 +954,7 @@ def run_surface_crack(
                 "history": g.history,
                 "fractured": g.status in ("fractured", "through"),
                 "fragments": fragments,
+                "final_block": g.final_block,
                 **planar_validity(g, fr),
             },
         },

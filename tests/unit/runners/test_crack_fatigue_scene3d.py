@@ -205,8 +205,14 @@ def test_stops(mesh: Path, name: str, kw: dict, status: str) -> None:
         Kv = 0.5 * (K + np.roll(K, 1, axis=0))  # the vertices: the mean of their edges
         lead = C * ((1 - R) * equivalent_k(*Kv.T).max()) ** M
         assert g["cycles"] == pytest.approx(DA / lead, rel=1e-10)
+        # that block is all the cycles: the message says the count is its extrapolation
+        fb = g["final_block"]
+        assert fb["cycles"] == g["cycles"] and fb["share"] == 1.0 and fb["da"] == DA
+        assert fb["rate"] == pytest.approx(lead, rel=1e-10)
+        assert "holds 100 % of the cycles" in res.summary["message"]
     else:
-        assert g["cycles"] == 0.0
+        assert g["cycles"] == 0.0 and g["final_block"] is None
+        assert "message" not in res.summary
     if status == "arrested":
         assert np.all((1 - R) * kv < 1e5) and g["fragments"] is None
     else:

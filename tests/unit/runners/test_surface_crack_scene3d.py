@@ -129,6 +129,12 @@ def test_through_the_thin_plate_reports_the_fragments(plates: Path) -> None:
     vols = [f["volume"] for f in g["fragments"]]
     np.testing.assert_allclose(vols, 2 * B * H * 0.4 * L, rtol=0.03)
     assert g["cycles"] > 0
+    # the block that carries it through: da_max at the last solve's leading rate, on top
+    # of the cycles to that solve
+    fb, before = g["final_block"], g["history"][-1]["cycles"]
+    assert fb["da"] == 0.06 * L and fb["cycles"] == pytest.approx(fb["da"] / fb["rate"])
+    assert g["cycles"] == pytest.approx(before + fb["cycles"], rel=1e-12)
+    assert fb["share"] == pytest.approx(fb["cycles"] / g["cycles"], rel=1e-12)
 
 
 def test_grown_crack_on_coarse_facets_is_not_through(plates: Path) -> None:
