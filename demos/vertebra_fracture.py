@@ -641,6 +641,7 @@ def analyse(r: float) -> dict:
         half_length=[h["half_length"] for h in g["history"]],
         history=[h["cycles"] for h in g["history"]],
         fragments=g.get("fragments"),
+        final_block=g.get("final_block"),
         risk_dir=output / f"risk_{tag}",
     )
     if comm.rank == 0:
@@ -658,6 +659,12 @@ def analyse(r: float) -> dict:
             f"the deepest point {w['K_flexion'][0] / 1e6:.4f} -> "
             f"{w['K_flexion'][-1] / 1e6:.4f} MPa m^0.5, {w['status']} after "
             f"{w['cycles']:.3g} cycles at depth {w['depth'][-1] * 1e3:.2f} mm"
+            + (
+                f" (the final block, extrapolated at the rate of its start: "
+                f"{100 * w['final_block']['share']:.0f} % of them)"
+                if w["final_block"]
+                else ""
+            )
         )
     return w
 
