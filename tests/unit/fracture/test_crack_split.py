@@ -30,6 +30,7 @@ import gmsh
 import numpy as np
 import pytest
 import ufl
+from _spoil import after_crack_plugin
 from dolfinx import fem, mesh
 
 from bonecontact.fracture import crack_split
@@ -347,33 +348,13 @@ def test_two_cracks_each_split(h: float) -> None:
 
 
 # ------------------------------------------------------------------ a bad split
-def _triangles(entities) -> np.ndarray:
-    return np.vstack(
-        [
-            np.asarray(gmsh.model.mesh.getElementsByType(2, e)[1], dtype=np.int64).reshape(-1, 3)
-            for e in entities
-        ]
-    )
-
-
 def _spoil(monkeypatch, how: str, call: int = 0) -> None:
     """After the ``call``-th run of the Crack plugin, drop one triangle of its new face
     (``"drop"``), give it the other face's nodes (``"glue"``: the areas unchanged) or give
     the cell behind it the other face's nodes (``"side"``: the faces whole, sharing no
     node, but the triangle glued: the plugin's failure at a sharp kink)."""
-    real = gmsh.plugin.run
-    calls = []
 
-    def run(name: str) -> None:
-        real(name)
-        calls.append(name)
-        if name != "Crack" or len(calls) - 1 != call:
-            return
-        second = max(t for _, t in gmsh.model.getPhysicalGroups(2))  # the new face's
-        (entity,) = gmsh.model.getEntitiesForPhysicalGroup(2, second)
-        tags, _ = gmsh.model.mesh.getElementsByType(2, entity)
-        new = _triangles([entity])
-        old = _triangles(gmsh.model.getEntitiesForPhysicalGroup(2, second - 1))
+    def spoil(entity: int, tags, new: np.ndarray, old: np.ndarray) -> None:
         node_tags, xyz, _ = gmsh.model.mesh.getNodes()
         X = dict(zip(node_tags.tolist(), np.round(xyz, 9).reshape(-1, 3).tolist(), strict=True))
 
@@ -400,7 +381,7 @@ def _spoil(monkeypatch, how: str, call: int = 0) -> None:
         if how == "glue":
             gmsh.model.mesh.addElementsByType(entity, 2, [], twin[where(new[k])].tolist())
 
-    monkeypatch.setattr(gmsh.plugin, "run", run)
+    after_crack_plugin(monkeypatch, 2, call, spoil)
 
 
 @pytest.fixture

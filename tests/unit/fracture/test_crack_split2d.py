@@ -29,6 +29,7 @@ import gmsh
 import numpy as np
 import pytest
 import ufl
+from _spoil import after_crack_plugin
 from dolfinx import fem, mesh
 
 import bonecontact.fracture.crack_split as crack_split
@@ -247,33 +248,13 @@ def test_mesh_cracked_body_checks_the_split() -> None:
 
 
 # ------------------------------------------------------------------ a bad split
-def _segments(entities) -> np.ndarray:
-    return np.vstack(
-        [
-            np.asarray(gmsh.model.mesh.getElementsByType(1, e)[1], dtype=np.int64).reshape(-1, 2)
-            for e in entities
-        ]
-    )
-
-
 def _spoil(monkeypatch, how: str, call: int = 0) -> None:
     """After the ``call``-th run of the Crack plugin, drop one segment of its new face
     (``"drop"``), give the triangle behind it the other face's nodes (``"side"``: the
     faces whole, the segment glued) or give a triangle at a copied node only the other
     face's node (``"tear"``: the faces right, the mesh torn) — the plugin's failures."""
-    real = gmsh.plugin.run
-    calls = []
 
-    def run(name: str) -> None:
-        real(name)
-        calls.append(name)
-        if name != "Crack" or len(calls) - 1 != call:
-            return
-        second = max(t for _, t in gmsh.model.getPhysicalGroups(1))  # the new face's
-        (entity,) = gmsh.model.getEntitiesForPhysicalGroup(1, second)
-        tags, _ = gmsh.model.mesh.getElementsByType(1, entity)
-        new = _segments([entity])
-        old = _segments(gmsh.model.getEntitiesForPhysicalGroup(1, second - 1))
+    def spoil(entity: int, tags, new: np.ndarray, old: np.ndarray) -> None:
         k = int(np.flatnonzero(~np.isin(new, old).any(axis=1))[0])  # both nodes copies
         if how == "drop":
             gmsh.model.mesh.removeElements(1, entity, [int(tags[k])])
@@ -296,7 +277,7 @@ def _spoil(monkeypatch, how: str, call: int = 0) -> None:
             surface, 2, [], [back.get(u, u) for u in conn[t].tolist()]
         )
 
-    monkeypatch.setattr(gmsh.plugin, "run", run)
+    after_crack_plugin(monkeypatch, 1, call, spoil)
 
 
 ZIGZAG = _case((0.9, 0.47), (1.15, 0.53), "both", [50, -50], 0.5, 0.05)
