@@ -1,7 +1,8 @@
 """What the crack-scene tests share: the folder of one run, a scene written and run
 in-process (on ``MPI.COMM_WORLD`` or on rank 0 alone for a serial reference), the 2D
-plate held at its bottom-left corner with the head of its scenes, and the plate of the
-3D surface-crack scenes with its scene text.
+plate held at its bottom-left corner with the head of its scenes, the plate of the 3D
+surface-crack scenes with its scene text, and a growth run's serial reference with its
+copies continued from a checkpoint (the restart tests).
 
 Not a test module (no ``test_`` prefix); the runner tests import it by name (pytest puts
 this folder on ``sys.path``).
@@ -113,6 +114,39 @@ def same_growth(out: Path, ref: Path, length: float) -> tuple[dict, dict]:
     return got, want
 
 
+def uninterrupted_run(tmp_path_factory, name: str, scene_text) -> Path:
+    """A fresh folder ``name`` (the same on every rank) holding ``plate.msh`` (the plate
+    1 mm thick: :func:`surface_plate`), ``scene.toml`` (``scene_text(plate.msh)``) and
+    ``full``: that scene's serial run (on rank 0 alone when the session has more ranks;
+    on one rank the run itself, kept for them: :mod:`serial_store`), converged."""
+    comm = MPI.COMM_WORLD
+    d = Path(comm.bcast(str(tmp_path_factory.mktemp(name)) if comm.rank == 0 else None))
+    gmsh_on_rank0(surface_plate(1.0 * L), d / "plate.msh", 3)
+    scene = write_scene(d / "scene.toml", scene_text(d / "plate.msh"))
+    if comm.size > 1:
+        res = run_serial_on_rank0(scene, d / "full")  # kept by the serial session if it ran
+    else:
+        res = run_scene(load_scene(scene), comm, output=d / "full", progress=False)
+        serial_store.keep(scene, d / "full")
+    if res is not None:
+        assert res.status == "converged", res.summary.get("message")
+    comm.barrier()
+    return d
+
+
+def copied_run(run: Path, out: Path, surfaces: bool = True) -> Path:
+    """The run folder ``run`` copied to ``out`` (replacing it) by rank 0, without its
+    crack surfaces (``crack_surface_*.vtk``) unless ``surfaces``; every rank waits for
+    the copy (before any reads it)."""
+    if MPI.COMM_WORLD.rank == 0:
+        shutil.rmtree(out, ignore_errors=True)
+        shutil.copytree(run, out)
+        for vtk in [] if surfaces else out.glob("crack_surface_*.vtk"):
+            vtk.unlink()
+    MPI.COMM_WORLD.barrier()
+    return out
+
+
 def continued_run(d: Path, serial: Path, k: int) -> tuple[RunResult, Path]:
     """The growth run ``serial`` copied to ``d/continued<k>`` and continued there on every
     rank from its checkpoint before increment ``k`` (``d/scene.toml``).
@@ -125,13 +159,7 @@ def continued_run(d: Path, serial: Path, k: int) -> tuple[RunResult, Path]:
     point count changed: the rows the restart solved again are not copies of the
     checkpoint's)."""
     assert k > 0
-    out = d / f"continued{k}"
-    if MPI.COMM_WORLD.rank == 0:
-        shutil.rmtree(out, ignore_errors=True)
-        shutil.copytree(serial, out)
-        for vtk in out.glob("crack_surface_*.vtk"):
-            vtk.unlink()
-    MPI.COMM_WORLD.barrier()
+    out = copied_run(serial, d / f"continued{k}", surfaces=False)
     ck = out / "checkpoints" / f"increment_{k:05d}"
     res = run_scene(
         load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck

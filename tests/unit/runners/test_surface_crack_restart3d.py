@@ -16,25 +16,22 @@ is refused (CheckpointError) before the table is touched.
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 import pytest
-import serial_store
 from _crack_scenes import (
     L,
+    continued_run,
+    copied_run,
     read_table,
-    run_dir,
-    run_serial_on_rank0,
     same_tables,
-    surface_plate,
     surface_scene,
+    uninterrupted_run,
     write_scene,
 )
-from coupled_support import gmsh_on_rank0
 
 from bonecontact.common.errors import CheckpointError
 from bonecontact.runners import run_scene
@@ -44,47 +41,15 @@ H_FRONT = 0.2 * L / 6  # a/6
 GROWTH = f"[fracture.fatigue]\nC = 1e-20\nm = 2.0\nda_max = {0.03 * L}\nmax_blocks = 2"
 
 
+def _scene_text(mesh: Path, a: float = 0.2 * L) -> str:
+    text = surface_scene(mesh, h=H_FRONT, points=3, growth=GROWTH, a=a)
+    return text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
+
+
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory) -> Path:
     """The serial run (on rank 0 alone when the session has more ranks)."""
-    comm = MPI.COMM_WORLD
-    d = Path(comm.bcast(str(tmp_path_factory.mktemp("srestart")) if comm.rank == 0 else None))
-    gmsh_on_rank0(surface_plate(1.0 * L), d / "plate.msh", 3)
-    text = surface_scene(d / "plate.msh", h=H_FRONT, points=3, growth=GROWTH)
-    text = text.replace("fields_every = 0", "fields_every = 0\ncheckpoint_every = 1")
-    scene = write_scene(d / "scene.toml", text)
-    if comm.size > 1:
-        res = run_serial_on_rank0(scene, d / "full")  # kept by the serial session if it ran
-    else:
-        res = run_scene(load_scene(scene), comm, output=d / "full", progress=False)
-        serial_store.keep(scene, d / "full")
-    if res is not None:
-        assert res.status == "converged", res.summary.get("message")
-    comm.barrier()
-    return d
-
-
-def _continued(d: Path, name: str, checkpoint: str) -> Path:
-    """The uninterrupted run copied to ``d/name`` (its crack surfaces removed) and
-    continued there from ``checkpoint``: it must write the crack surfaces of that
-    increment and the later ones only (it resumed there, not at 0)."""
-    out = run_dir(d, name)
-    if MPI.COMM_WORLD.rank == 0:
-        shutil.rmtree(out)
-        shutil.copytree(d / "full", out)
-        for vtk in out.glob("crack_surface_*.vtk"):
-            vtk.unlink()
-    MPI.COMM_WORLD.barrier()
-    ck = out / "checkpoints" / checkpoint
-    res = run_scene(
-        load_scene(d / "scene.toml"), MPI.COMM_WORLD, output=out, progress=False, restart=ck
-    )
-    assert res.status == "converged", res.summary.get("message")
-    MPI.COMM_WORLD.barrier()
-    k = int(checkpoint.rsplit("_", 1)[1])
-    solved = sorted(int(p.stem.rsplit("_", 1)[1]) for p in out.glob("crack_surface_*.vtk"))
-    assert k > 0 and solved == list(range(k, 3)), (checkpoint, solved)
-    return out
+    return uninterrupted_run(tmp_path_factory, "srestart", _scene_text)
 
 
 def test_checkpoints_written(uninterrupted: Path) -> None:
@@ -102,10 +67,10 @@ def test_checkpoints_written(uninterrupted: Path) -> None:
     assert g["history"][1]["depth"] > g["history"][0]["depth"] and g["cycles"] > 0
 
 
-@pytest.mark.parametrize("checkpoint", ["increment_00001", "increment_00002"])
-def test_restart_equals_the_uninterrupted_run(uninterrupted: Path, checkpoint: str) -> None:
-    out = _continued(uninterrupted, f"continued_{checkpoint}", checkpoint)
+@pytest.mark.parametrize("k", [1, 2])
+def test_restart_equals_the_uninterrupted_run(uninterrupted: Path, k: int) -> None:
     full = uninterrupted / "full"
+    _, out = continued_run(uninterrupted, full, k)
     same_tables(out / "fracture.csv", full / "fracture.csv")
     if MPI.COMM_WORLD.size == 1:  # the same rank count: bit for bit
         assert (out / "fracture.csv").read_bytes() == (full / "fracture.csv").read_bytes()
@@ -124,12 +89,8 @@ def test_restart_equals_the_uninterrupted_run(uninterrupted: Path, checkpoint: s
 
 def test_checkpoint_of_another_crack_is_refused(uninterrupted: Path) -> None:
     d = uninterrupted
-    out = run_dir(d, "other")
-    if MPI.COMM_WORLD.rank == 0:
-        shutil.rmtree(out)
-        shutil.copytree(d / "full", out)
-    text = surface_scene(d / "plate.msh", h=H_FRONT, points=3, growth=GROWTH, a=0.19 * L)
-    scene = write_scene(out / "other.toml", text)
+    out = copied_run(d / "full", d / "other")
+    scene = write_scene(out / "other.toml", _scene_text(d / "plate.msh", a=0.19 * L))
     ck = out / "checkpoints" / "increment_00001"
     with pytest.raises(CheckpointError, match="depth"):
         run_scene(load_scene(scene), MPI.COMM_WORLD, output=out, progress=False, restart=ck)
