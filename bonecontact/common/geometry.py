@@ -13,6 +13,7 @@ __all__ = [
     "cross2",
     "first_ray_hits",
     "line_triangle_hits",
+    "nearest_triangle",
     "nearest_triangle_distance",
     "on_advance_grid",
     "point_triangle_distance",
@@ -154,7 +155,15 @@ def point_triangle_distance(
 def nearest_triangle_distance(
     points: npt.ArrayLike, t: npt.NDArray[np.float64]
 ) -> npt.NDArray[np.float64]:
-    """Distance from each point to the nearest of the triangles ``t``, exact.
+    """Distance from each point to the nearest of the triangles ``t``, exact
+    (:func:`nearest_triangle`'s distances)."""
+    return nearest_triangle(points, t)[0]
+
+
+def nearest_triangle(
+    points: npt.ArrayLike, t: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """The nearest of the triangles ``t`` to each point and its distance, exact.
 
     Each point is measured against the triangles that can be nearest, not all of them: a
     triangle with centroid c and circumradius about c of r is at least |p − c| − r from p.
@@ -162,8 +171,8 @@ def nearest_triangle_distance(
     size (r up to four times the median) whose centroid lies within U + their largest r
     hold the nearest one among them (a k-d tree of their centroids finds them); the few
     larger ones are measured against every point.  The distances are
-    :func:`point_triangle_distance`'s, so the result equals the minimum over all
-    triangles to the last bit.
+    :func:`point_triangle_distance`'s, so they equal the minimum over all triangles to the
+    last bit; of triangles at the same distance, the first.
 
     Parameters
     ----------
@@ -173,7 +182,9 @@ def nearest_triangle_distance(
 
     Returns
     -------
-    ndarray, shape (n,)
+    distance : ndarray, shape (n,)
+    index : ndarray, shape (n,)
+        The nearest triangle of each point.
     """
     t = np.asarray(t, dtype=np.float64)
     pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
@@ -182,33 +193,48 @@ def nearest_triangle_distance(
     big = r > 4.0 * np.median(r)
     small = np.flatnonzero(~big)
     _, first = cKDTree(centre).query(pts)
+    first = np.atleast_1d(first).astype(np.int64)
     best = point_triangle_distance(pts, t[first])
-    best = np.minimum(best, _pair_minimum(pts, t, np.flatnonzero(big)))
+    index = first.copy()
+    _pair_minimum(pts, t, np.flatnonzero(big), best, index)
     if len(small):
         reach = float(r[small].max()) * (1.0 + 1e-12)
         near = cKDTree(centre[small]).query_ball_point(pts, best + reach)
-        best = np.minimum(best, _pair_minimum(pts, t[small], near))
-    return best
+        lists = np.empty(len(pts), dtype=object)
+        for i, w in enumerate(near):
+            lists[i] = small[np.asarray(w, dtype=np.int64)]
+        near = lists
+        _pair_minimum(pts, t, near, best, index)
+    return best, index
 
 
 def _pair_minimum(
-    pts: np.ndarray, t: np.ndarray, which: np.ndarray, chunk: int = 1 << 20
-) -> np.ndarray:
-    """The least :func:`point_triangle_distance` of every point to its triangles: ``which``
-    the same triangle indices for every point, or (an object array, as a k-d tree's ball
-    query gives) a list of them per point; ``inf`` where none."""
-    if isinstance(which, np.ndarray) and which.dtype != object:
+    pts: np.ndarray,
+    t: np.ndarray,
+    which: np.ndarray,
+    best: np.ndarray,
+    index: np.ndarray,
+    chunk: int = 1 << 20,
+) -> None:
+    """Lower ``best`` (and set ``index``) of every point to the least
+    :func:`point_triangle_distance` to its triangles, in place (of triangles at the same
+    distance, the lowest index): ``which`` the same triangle indices for every
+    point, or (an object array) an index array per point."""
+    if which.dtype != object:
         counts = np.full(len(pts), len(which))
         tri = np.tile(which, len(pts))
     else:
         counts = np.fromiter((len(w) for w in which), dtype=np.int64, count=len(pts))
-        tri = np.concatenate([np.asarray(w, dtype=np.int64) for w in which] + [[]]).astype(np.int64)
+        tri = np.concatenate([np.asarray(w, dtype=np.int64) for w in which] + [np.zeros(0, int)])
     point = np.repeat(np.arange(len(pts)), counts)
-    out = np.full(len(pts), np.inf)
     for s in range(0, len(tri), chunk):
-        d = point_triangle_distance(pts[point[s : s + chunk]], t[tri[s : s + chunk]])
-        np.minimum.at(out, point[s : s + chunk], d)
-    return out
+        p, k = point[s : s + chunk], tri[s : s + chunk]
+        d = point_triangle_distance(pts[p], t[k])
+        order = np.lexsort((k, d, p))  # by point, then distance, then triangle
+        head = order[np.r_[True, p[order][1:] != p[order][:-1]]] if len(order) else order
+        q, dq, kq = p[head], d[head], k[head]
+        lower = (dq < best[q]) | ((dq == best[q]) & (kq < index[q]))
+        best[q[lower]], index[q[lower]] = dq[lower], kq[lower]
 
 
 def _ray_parameters(

@@ -80,8 +80,9 @@ from bonecontact.runners.surface_crack3d import (
     body_and_material,
     crack_tractions,
     cracked_model,
-    fragments,
+    patch_triangles,
     solve_cracked,
+    surface_fragments,
 )
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.errors import table_label
@@ -764,7 +765,7 @@ def run_interior_growth(
             if stop in _BROKEN and run.fracture.breakthrough != "surface_crack":
                 message = final_block_note(comm, g.final_block)  # (else the surface goes on)
                 c = g.cracks[g.at]
-                frags = fragments(cbs[0].mesh, c.vertices.mean(axis=0), np.asarray(c.normal))
+                frags = surface_fragments(cbs[0].mesh, patch_triangles(c.points, c.patches))
             elif stop is None and every > 0 and g.increments % every == 0:
                 save_growth_state(comm, outdir, g.increments, g.state(cracks))
     finally:

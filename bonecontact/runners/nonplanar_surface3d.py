@@ -73,9 +73,10 @@ from bonecontact.runners.surface_crack3d import (
     SurfaceRun,
     crack_tractions,
     cracked_model,
-    fragments,
+    patch_triangles,
     prepare_surface,
     solve_cracked,
+    surface_fragments,
 )
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.errors import table_label
@@ -600,7 +601,7 @@ def _increment(run: SurfaceRun, g: Growth, comm, timer: PhaseTimer, outdir: Path
         write_open_front(outdir / f"crack_front_{inc}.vtk", sifs)
     frags = None
     if stop in _BROKEN:
-        frags = fragments(cb.mesh, crack.vertices.mean(axis=0), crack.normal)
+        frags = surface_fragments(cb.mesh, patch_triangles(crack.points, crack.patches))
         message = final_block_note(comm, g.final_block)
     return stop, message, frags
 

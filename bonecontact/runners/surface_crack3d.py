@@ -40,7 +40,7 @@ import ufl
 from dolfinx import fem, mesh
 
 from bonecontact.common.errors import ParameterError, RunError
-from bonecontact.common.geometry import on_advance_grid
+from bonecontact.common.geometry import nearest_triangle, on_advance_grid
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.advance3d import equivalent_k, sigma1_kink
@@ -767,14 +767,46 @@ def fragments(msh: Any, centre: Any, normal: Any) -> list[dict[str, Any]]:
     ``normal`` (collective)."""
     n = np.asarray(normal, dtype=float)
     c = np.asarray(centre, dtype=float)
+    return side_volumes(msh, lambda x: np.sign((x - c) @ n))
+
+
+def surface_fragments(msh: Any, triangles: Any) -> list[dict[str, Any]]:
+    """Volumes of the body on either side of a triangulated crack surface continued by its
+    border triangles' planes (collective): a cell is on the side of the plane of the
+    triangle nearest its midpoint, ``+normal`` where that triangle's corners run
+    counter-clockwise.  The crack as grown, not its first plane: beyond the front — the
+    ligament the crack has not yet cut — the last strip's plane."""
+    T = np.asarray(triangles, dtype=float)
+    n = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+
+    def side(x: np.ndarray) -> np.ndarray:
+        if len(x) == 0:
+            return np.zeros(0)
+        _, k = nearest_triangle(x, T)
+        return np.sign(np.einsum("ij,ij->i", x - T[k, 0], n[k]))
+
+    return side_volumes(msh, side)
+
+
+def patch_triangles(points: Any, patches: Any) -> np.ndarray:
+    """The triangles (k, 3, 3) of a grown crack's planar convex patches, fanned from each
+    patch's first corner (the patches' counter-clockwise order kept)."""
+    X = np.asarray(points, dtype=float)
+    tris = [(p[0], p[i], p[i + 1]) for p in patches for i in range(1, len(p) - 1)]
+    return X[np.asarray(tris, dtype=np.int64)]
+
+
+def side_volumes(msh: Any, side: Any) -> list[dict[str, Any]]:
+    """Volumes of the cells with ``side(midpoints)`` +1 (``+normal``) and −1 (``-normal``),
+    summed over the ranks (collective)."""
     tdim = msh.topology.dim
     cells = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
-    side = np.sign((mesh.compute_midpoints(msh, tdim, cells) - c) @ n)
+    sgn = side(mesh.compute_midpoints(msh, tdim, cells))
     V = fem.functionspace(msh, ("DG", 0))
     vol = fem.assemble_vector(fem.form(ufl_volume(V))).array[: len(cells)]
     out = []
-    for name, sgn in (("+normal", 1.0), ("-normal", -1.0)):
-        out.append({"side": name, "volume": float(msh.comm.allreduce(vol[side == sgn].sum()))})
+    for name, s in (("+normal", 1.0), ("-normal", -1.0)):
+        out.append({"side": name, "volume": float(msh.comm.allreduce(vol[sgn == s].sum()))})
     return out
 
 

@@ -12,6 +12,7 @@ from bonecontact.common.geometry import (
     cross2,
     first_ray_hits,
     line_triangle_hits,
+    nearest_triangle,
     nearest_triangle_distance,
     point_triangle_distance,
     polygon_area,
@@ -190,6 +191,11 @@ def test_nearest_triangle_distance_equals_brute_force(seed: int) -> None:
     want = np.array([point_triangle_distance(p, t).min() for p in pts])
     got = nearest_triangle_distance(pts, t)
     assert np.array_equal(got, want)
+    # the nearest triangle: the brute force's first argmin, also where copies tie
+    t2 = np.concatenate([t, t[::-1]])
+    d, k = nearest_triangle(pts, t2)
+    assert np.array_equal(d, want)
+    assert np.array_equal(k, [int(np.argmin(point_triangle_distance(p, t2))) for p in pts])
     assert nearest_triangle_distance(pts[0], t).shape == (1,)
 
 
