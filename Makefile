@@ -208,7 +208,8 @@ MPI3_RUNNERS = test_crack3d_ranks test_fracture_scene3d test_restart \
   test_crack_merge3d test_breakthrough_rule test_breakthrough_scene3d test_breakthrough_curved3d \
   test_scanned_vertebra_crack test_out_of_plane3d test_out_of_plane_restart3d \
   test_corner_crack_scene3d test_breakthrough_corner_rule test_breakthrough_corner_scene3d \
-  test_crack_faces_start3d test_nonplanar_surface_scene3d test_nonplanar_surface_restart3d
+  test_crack_faces_start3d test_nonplanar_surface_scene3d test_nonplanar_surface_restart3d \
+  test_surface_fragments
 MPI3_TESTS ?= tests/unit/contact tests/unit/fracture \
   $(patsubst %,tests/unit/runners/%.py,$(MPI3_RUNNERS)) \
   tests/unit/neoplasm/test_remesh.py tests/unit/neoplasm/test_remesh_determinism.py \
