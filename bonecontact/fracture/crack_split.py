@@ -37,6 +37,7 @@ __all__ = [
     "bisect_pinched",
     "check_crack_split",
     "crack_surface",
+    "node_sides",
     "resplit_crack",
     "split_checked",
 ]
@@ -277,6 +278,18 @@ def _groups(
     if len({root(c) for c in around}) != 2:
         raise MeshingError("the crack parts the cells at a node into other than two groups")
     return root
+
+
+def node_sides(
+    v: int, around: list[int], cells: npt.NDArray[np.int64], crack: set[tuple[int, ...]]
+) -> tuple[list[int], list[int]]:
+    """The cells ``around`` node v (rows of ``cells``) in the two groups joined by their
+    facets at v that are not the ``crack``'s (sorted node tuples), the first that of
+    ``around[0]``, each in the order of ``around`` (the rule of :func:`resplit_crack`);
+    raises :class:`MeshingError` unless two."""
+    root = _groups(v, around, cells, crack)
+    first = root(around[0])
+    return [c for c in around if root(c) == first], [c for c in around if root(c) != first]
 
 
 def _choose(

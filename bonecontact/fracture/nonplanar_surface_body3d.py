@@ -38,6 +38,7 @@ from dolfinx.io.gmsh import model_to_mesh
 from bonecontact.common.errors import ParameterError
 from bonecontact.common.geometry import point_triangle_distance
 from bonecontact.fracture.body3d import BodySurface, CrackedBody3D, face_side_sign
+from bonecontact.fracture.crack_split import node_sides
 from bonecontact.fracture.meshing import TipMesh
 from bonecontact.fracture.surface_body3d import (
     FLAT_VOLUME,
@@ -933,33 +934,18 @@ def _front_nodes(crack_tri: np.ndarray, mouth: np.ndarray) -> set[int]:
 
 
 def _sides(v: int, around: list[int], tets, faces, crack_faces, X, crack_at) -> list[int]:
-    """The tetrahedra at node ``v`` on the lower side of the crack: those joined (by
-    faces at v that are not the crack's) to no tetrahedron in front of a crack triangle
-    at v.  Raises MeshingError unless the crack parts them in two."""
-    parent = {t: t for t in around}
-
-    def root(t: int) -> int:
-        while parent[t] != t:
-            parent[t] = parent[parent[t]]
-            t = parent[t]
-        return t
-
-    for t in around:
-        for drop in range(4):
-            f = tuple(sorted(int(u) for k, u in enumerate(tets[t]) if k != drop))
-            if v in f and f not in crack_faces:
-                for o in faces[f]:
-                    parent[root(o)] = root(t)
-    comps = {root(t) for t in around}
-    if len(comps) != 2:
-        raise MeshingError(f"the crack parts the cells at a node into {len(comps)} groups")
+    """The tetrahedra at node ``v`` on the lower side of the crack: of the two groups of
+    :func:`~bonecontact.fracture.crack_split.node_sides` (joined by faces at v that are
+    not the crack's), the one without the tetrahedron in front of a crack triangle at v.
+    Raises MeshingError unless the crack parts them in two."""
+    groups = node_sides(v, around, tets, crack_faces)
     tri = crack_at[v][0]
     n = np.cross(X[tri[1]] - X[tri[0]], X[tri[2]] - X[tri[0]])
     f = tuple(sorted(int(u) for u in tri))
     up = [t for t in faces[f] if (X[tets[t]].mean(axis=0) - X[tri[0]]) @ n > 0]
     if len(up) != 1:
         raise MeshingError("cannot tell the sides of a crack triangle apart")
-    return [t for t in around if root(t) != root(up[0])]
+    return groups[1] if up[0] in groups[0] else groups[0]
 
 
 def _split_nodes(X, tets, crack_tri, mouth, boundary) -> _Split:
