@@ -20,7 +20,8 @@ All gmsh work runs on rank 0.
 
 A building block: the front is returned as a polyline (no stress intensity along it yet,
 ``CrackedBody3D.block`` does not apply), one cell group, no edge of the body within a
-facet of the mouth (vertices move only where their facets lie within 30° of each other).
+facet of the mouth (vertices move only where their facets lie within 30° of each other,
+never across another crossing patch's plane, never flattening a facet).
 """
 
 from __future__ import annotations
@@ -341,10 +342,12 @@ def _replace(nodes, conn, tags, rows: list[int], repl: list[tuple], new: int):
     return nodes, conn, tags, new
 
 
-def _snap_in_surface(nodes, conn, sign_dist, n, movable, h) -> np.ndarray:
+def _snap_in_surface(nodes, conn, sign_dist, n, movable, h, keep=()) -> np.ndarray:
     """Move the movable vertices within SNAP_FRACTION h of the plane onto it along the
     surface (the plane's normal projected on their mean facet normal's tangent plane;
-    exact in a flat neighbourhood, off a curved one by the snap times the facets' angle)."""
+    exact in a flat neighbourhood, off a curved one by the snap times the facets' angle),
+    but none across a plane of ``keep`` ((point, normal, reach mask) each) within reach,
+    and none that would leave one of its facets below KEEP_AREA of its area or turned."""
     nodes = nodes.copy()
     for i in np.flatnonzero(movable & (np.abs(sign_dist) < SNAP_FRACTION * h)):
         mean = _smooth_at(nodes, conn, [i])
@@ -353,14 +356,50 @@ def _snap_in_surface(nodes, conn, sign_dist, n, movable, h) -> np.ndarray:
         t = n - (n @ mean) * mean
         if t @ n < 0.2:  # the plane near tangent to the surface
             continue
-        nodes[i] -= sign_dist[i] / (t @ n) * t
+        x = nodes[i] - sign_dist[i] / (t @ n) * t
+        if any(r[i] and ((nodes[i] - C) @ m) * ((x - C) @ m) < 0 for C, m, r in keep):
+            continue
+        if _flattens(nodes, conn[(conn == i).any(axis=1)], i, x):
+            continue
+        nodes[i] = x
         sign_dist[i] = 0.0
     return nodes
+
+
+#: A snap may leave each facet at a vertex no less than this fraction of its area (a thin
+#: facet's corner moved across its opposite edge folded the surface: gmsh found two
+#: coincident facets).
+KEEP_AREA = 0.1
+
+
+def _flattens(nodes: np.ndarray, star: np.ndarray, i: int, x: np.ndarray) -> bool:
+    """Whether moving vertex ``i`` to ``x`` leaves a facet of its ``star`` below
+    :data:`KEEP_AREA` of its area on its side (or turned over)."""
+    moved = nodes[star]
+    old = np.cross(moved[:, 1] - moved[:, 0], moved[:, 2] - moved[:, 0])
+    moved = np.where((star == i)[..., None], x, moved)
+    new = np.cross(moved[:, 1] - moved[:, 0], moved[:, 2] - moved[:, 0])
+    kept = np.einsum("ij,ij->i", new, old) / np.einsum("ij,ij->i", old, old)
+    return bool(np.any(kept < KEEP_AREA))
 
 
 #: A vertex snaps onto a patch's plane only when the snap is below this fraction of its
 #: distance to the patch's crossing nodes (the trace's direction there turned < 6°).
 SNAP_TURN = 0.1
+
+
+def _sides_kept(nodes: np.ndarray, crack: NonplanarSurfaceCrack, fixed: dict, h: float):
+    """The other crossing patches' planes as (point, normal, reach mask) for
+    :func:`_snap_in_surface`: a snap onto one patch's plane must leave every vertex within
+    2 h of another crossing patch (projected on it) on its side of that patch's plane.
+    The scanned L4's 15th mesh: strips 0.8 h wide at the surface, 0.12° apart; a vertex
+    over strip 89, 0.06 h from its crossing node on edge 72-73, was snapped onto strip
+    81's plane and so crossed strip 89's: all the node's neighbours then lay on one side
+    of it, strip 89's trace passed it by and "ended inside a facet"."""
+    return [
+        (crack.polygon(j).mean(axis=0), crack.normal(j), crack.contains(j, nodes, 2.0 * h))
+        for j in fixed["others"]
+    ]
 
 
 def _snap_small(nodes: np.ndarray, s: np.ndarray, ends: list[int]) -> np.ndarray:
@@ -410,7 +449,7 @@ def _cut_patch(nodes, conn, tags, crack: NonplanarSurfaceCrack, k: int, fixed, h
     movable = near.copy()
     movable[list(fixed["locked"])] = False
     movable &= _snap_small(nodes, s, list(fixed["on_plane"]))
-    snapped = _snap_in_surface(nodes, conn, s, n, movable, h)
+    snapped = _snap_in_surface(nodes, conn, s, n, movable, h, _sides_kept(nodes, crack, fixed, h))
     s[np.abs(s) < 1e-3 * tol] = 0.0
     s[list(fixed["on_plane"])] = 0.0
     nodes = _unsnap_flat(snapped, nodes, conn, s, C, n)
@@ -553,11 +592,11 @@ def _cut_all(nodes, conn, tags, crack, inner, special, h: float):
     tags, the mouth segments and the patch of each."""
     segments, patch_of, locked = [], [], set(special.values())
     edges = crack.edges()
-    for k, p in enumerate(crack.patches):
-        if inner[list(p)].all() or not inner[list(p)].any():
-            continue
+    crossing = [k for k, p in enumerate(crack.patches) if 0 < inner[list(p)].sum() < len(p)]
+    for k in crossing:
         on_plane = {special[e] for e, ps in edges.items() if e in special and k in ps}
-        fixed = {"locked": locked, "on_plane": on_plane}
+        others = [j for j in crossing if j != k]
+        fixed = {"locked": locked, "on_plane": on_plane, "others": others}
         nodes, conn, tags, segs = _cut_patch(nodes, conn, tags, crack, k, fixed, h)
         segments += segs
         patch_of += [k] * len(segs)

@@ -825,3 +825,107 @@ def test_crack_end_next_to_a_surface_vertex(bar: BodySurface, eps: float, dphi: 
     ends = sorted([M[0], M[-1]], key=lambda x: math.atan2(x[1], x[0]))
     assert _line_distance(ends[0], pts[0], pts[1]) <= TOL
     assert _line_distance(ends[1], pts[2], pts[3]) <= TOL
+
+
+# ------------------- narrow, nearly coplanar strips: a snap must not cross the next plane
+BOX_LO, BOX_SIZE, BOX_H = np.array([-1.0, -1.0, -1.0]), (2.0, 2.0, 1.0), 0.25
+
+
+def _split_top_at(tris: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The top-face triangle (z = 0) that contains ``p`` (x, y) split in three at it."""
+    for i, t in enumerate(tris):
+        if np.all(np.abs(t[:, 2]) < 1e-12):
+            lam = np.linalg.solve(np.vstack([t[:, :2].T, np.ones(3)]), [p[0], p[1], 1.0])
+            if lam.min() > 1e-12:
+                q = np.array([p[0], p[1], 0.0])
+                new = np.array([[t[0], t[1], q], [t[1], t[2], q], [t[2], t[0], q]])
+                return np.concatenate([np.delete(tris, i, axis=0), new])
+    raise AssertionError(f"no top triangle holds {p}")
+
+
+def _strips_over_a_thin_triangle(tilt: float, side: float, gap: float):
+    """The box [−1, 1]² × [−1, 0] (facets 0.25) and three strips (patches 0, 1, 2, cut in
+    that order) whose traces on z = 0 run along y, each 0.19 long, through c0 … c3: c1 =
+    (0.05, −0.04), c2 = (0.05, 0.15) (trace 1 on x = 0.05), traces 0 and 2 turned by ∓0.6°
+    so that trace 0, extended, passes ``gap`` beyond x = 0.05 (on the ``side`` opposite to
+    v) at the height of a facet vertex v = (0.05 + 0.002 side, 0.14) over strip 1; the
+    kink c2 lies in the thin facet (v, w1, w2), w1 and w2 beyond x = 0.05 (barycentric
+    0.75, 0.125, 0.125: inserted by a split in three).  The strips' planes contain the
+    direction (side · tilt, 0, 1), reach 0.1 above the surface and 0.3 below it.
+    Returns the body, the crack and v."""
+    e, r, L, X, y2 = 0.002, 0.01, 0.19, 0.05, 0.15
+    v = np.array([X + side * e, y2 - r])
+    wm = np.array([X - 3 * side * e, y2 + 3 * r])
+    w1, w2 = wm - [2 * side * e, 2 * r], wm + [2 * side * e, 2 * r]
+    c1, c2 = np.array([X, y2 - L]), np.array([X, y2])
+    slope = -side * gap / (v[1] - c1[1])
+    c0, c3 = c1 - L * np.array([slope, 1.0]), c2 + L * np.array([-slope, 1.0])
+    tris = _box_surface.box_triangles(BOX_SIZE, BOX_H) + BOX_LO
+    for p in (w2, v, w1):
+        tris = _split_top_at(tris, p)
+    c = tris.mean(axis=1)
+    hi = BOX_LO + np.array(BOX_SIZE)
+    tags = np.zeros(len(tris), dtype=np.int32)
+    for k, (axis, val) in enumerate(
+        [(0, BOX_LO[0]), (0, hi[0]), (1, BOX_LO[1]), (1, hi[1]), (2, BOX_LO[2]), (2, hi[2])]
+    ):
+        tags[np.abs(c[:, axis] - val) < 1e-12] = k + 1
+    body = BodySurface(tris, tags, NAMES, ("box", 1), BOX_H * math.sqrt(2))
+    thin = {tuple(p) for p in (v, w1, w2)}
+    assert any({tuple(x[:2]) for x in t} == thin for t in tris)  # the facet (v, w1, w2)
+    d = np.array([side * tilt, 0.0, 1.0])
+    top = [np.array([p[0], p[1], 0.0]) for p in (c0, c1, c2, c3)]
+    pts = [p + 0.1 * d for p in top] + [p - 0.3 * d for p in top]
+    crack = NonplanarSurfaceCrack(
+        tuple(map(tuple, pts)), tuple((i, 4 + i, 5 + i, i + 1) for i in range(3))
+    )
+    return body, crack, np.array([v[0], v[1], 0.0])
+
+
+@pytest.mark.parametrize("gap", [0.001, 0.002, 0.004])
+@pytest.mark.parametrize("side", [1.0, -1.0], ids=["v+x", "v-x"])
+@pytest.mark.parametrize("tilt", [0.0, 0.4])
+def test_snap_onto_one_strip_keeps_a_vertex_on_its_side_of_the_next(
+    tilt: float, side: float, gap: float
+) -> None:
+    """Strips narrower than twice the facets, 0.6° apart (the scanned L4's 15th mesh:
+    strips 0.8 h wide at the surface, 0.12° apart): v, over strip 1 and 0.002 from its
+    plane, lies 0.002 + ``gap`` from strip 0's plane, within the snap distance (0.02 of
+    the mean facet edge 0.248, 0.005) for gaps 0.001 and 0.002.  Snapped onto strip 0's
+    plane (the cut of strip 0 moves the vertices within 2 h of it), v crossed strip 1's
+    plane: the kink c2 then had all its neighbours v, w1, w2 on one side, strip 1's trace
+    passed it by ("the trace of patch 1 ... ends inside a facet"; gap 0.004: no snap,
+    no failure; all 8 cases with gaps 0.001 and 0.002 failed so on the old code).  Now v
+    keeps its side.  With that alone, tilt 0, v+x, gaps 0.001 and 0.002: w2, over strip 2
+    and 0.002 from strip 1's plane, snapped onto it, landed on the line through (0, 0)
+    and w1: its thin facet flat (HXT: "two exactly self-intersecting facets"); a snap now
+    keeps every facet at its vertex ≥ 0.1 of its area.  The mouth on z = 0 and on its
+    patches (1e-9), its exact length, ends and kinks, the faces the strips clipped to
+    z ≤ 0 (1e-8), the box's volume (1e-9), no flat tetrahedron."""
+    body, crack, v = _strips_over_a_thin_triangle(tilt, side, gap)
+    h = 0.18
+    cb, _, cut = mesh_body_with_nonplanar_surface_crack(body, crack, TipMesh(h, 0.3))
+    n1, p1 = crack.normal(1), crack.polygon(1)[0]
+    nearest = cut.nodes[np.argmin(np.linalg.norm(cut.nodes - v, axis=1))]
+    assert np.linalg.norm(nearest - v) < 1e-3 or (nearest - p1) @ n1 * ((v - p1) @ n1) > 0
+    M = cut.nodes[list(cut.mouth)]
+    np.testing.assert_allclose(M[:, 2], 0.0, atol=TOL)
+    for i, k in enumerate(cut.mouth_patch):
+        seg = M[[i, i + 1]]
+        assert np.max(np.abs((seg - crack.polygon(k)[0]) @ crack.normal(k))) <= TOL
+        assert crack.contains(k, seg, TOL).all()
+    area, length, ends = _exact(crack)
+    assert float(np.linalg.norm(np.diff(M, axis=0), axis=1).sum()) == pytest.approx(length, 1e-9)
+    np.testing.assert_allclose(np.array(sorted(M[[0, -1]], key=lambda p: p[1])), ends, atol=TOL)
+    kinks = np.asarray(crack.points)[[1, 2]] - 0.1 * np.array([side * tilt, 0.0, 1.0])
+    assert np.linalg.norm(M[:, None] - kinks[None], axis=2).min(axis=0).max() <= TOL
+    up, low = (_face_area(cb, t) for t in cb.face_tags)
+    assert up == pytest.approx(area, rel=1e-8)
+    assert low == pytest.approx(up, rel=1e-12)
+    m = cb.mesh
+    vol = m.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=m))), op=MPI.SUM)
+    assert vol == pytest.approx(math.prod(BOX_SIZE), rel=1e-9)
+    n = m.topology.index_map(3).size_local
+    x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
+    six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    assert m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN) > 1e-6 * h**3
