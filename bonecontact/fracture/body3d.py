@@ -357,20 +357,25 @@ def _build(
 # --------------------------------------------------------------------- DOLFINx side
 def face_side_sign(msh: mesh.Mesh, facet_tags: mesh.MeshTags, tag: int, n: np.ndarray) -> int:
     """+1 if the cells behind facet group ``tag`` lie on the side ``n`` points to, else −1
-    (collective)."""
+    (collective): the sign of the group's area projected on ``n``, each facet's normal
+    turned towards its cell (a grown crack's strip facet, 54° off ``n``, can have its
+    cell's centroid on the other side of it along ``n``: counting those signs tied)."""
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, tdim)
     f2c = msh.topology.connectivity(tdim - 1, tdim)
     facets = facet_tags.find(tag)
     facets = facets[facets < msh.topology.index_map(tdim - 1).size_local]
-    total = 0.0
+    total = area = 0.0
     if facets.size:
         cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int32)
         fmid = mesh.compute_midpoints(msh, tdim - 1, facets)
         cmid = mesh.compute_midpoints(msh, tdim, cells)
-        total = float(np.sum(np.sign((cmid - fmid) @ n)))
-    total = msh.comm.allreduce(total, op=MPI.SUM)
-    if total == 0:
+        x = msh.geometry.x[mesh.entities_to_geometry(msh, tdim - 1, facets)]
+        m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])  # twice the area times the normal
+        m *= np.sign(np.einsum("ij,ij->i", cmid - fmid, m))[:, None]
+        total, area = float(np.sum(m @ n)), float(np.linalg.norm(m, axis=1).sum())
+    total, area = msh.comm.allreduce(np.array([total, area]), op=MPI.SUM)
+    if abs(total) <= 1e-12 * area or area == 0:
         raise MeshingError("cannot tell the sides of the crack faces apart")
     return 1 if total > 0 else -1
 
