@@ -125,6 +125,19 @@ class FatigueProgress:
         self.cycles.append((self.cycles[-1] if self.cycles else 0.0) + block)
         return self.cycles[-1]
 
+    def trend_block(self, da: float) -> float:
+        """Cycles of a block of ``da`` (m) after the last end, ln(da/dN) continued linearly
+        with the slope between the last two ends of the current set of cracks: ∫ ds / r
+        = (1 − e^(−g·da)) / (g·r) for a rising rate (slope g > 0); a falling rate, or a
+        single end, the last rate da/r (:func:`final_block`'s second estimate)."""
+        s, r = self.growth, self.lead_rate
+        g = 0.0
+        if len(s) - 2 >= self.phases[-1] and r[-2] > 0 and s[-1] > s[-2]:
+            g = (math.log(r[-1]) - math.log(r[-2])) / (s[-1] - s[-2])
+        if g <= 1e-12 / da:
+            return da / r[-1]
+        return -math.expm1(-g * da) / (g * r[-1])
+
     def merged(self, tip_map: dict[TipKey, TipKey], slope: float = 0.0) -> None:
         """Cracks merged at the last block end: the next end starts a new set of cracks
         (:meth:`add_end`); what the far tips kept goes to the merged crack's tips
@@ -327,15 +340,27 @@ class FinalBlockWarning(UserWarning):
     extrapolation, not by a solved K (summary.json ``fracture.growth.final_block``)."""
 
 
-def final_block(cycles: float, da: float, rate: float) -> dict[str, float]:
+def final_block(
+    cycles: float, da: float, rate: float, progress: FatigueProgress | None = None
+) -> dict[str, float]:
     """The block that carries a crack through the body: ``da`` (m) at the leading rate
     ``rate`` (m/cycle) of its start, the last solved crack; no solve at its end, so its
     cycles da/rate are an extrapolation — too many where K would rise towards the far
     surface, too few (or the crack would arrest) where it falls, as into a compressed
     region.  ``cycles`` are those before it.  Returns its ``cycles``, ``share`` of the
-    total, ``da`` and ``rate`` (summary.json ``fracture.growth.final_block``)."""
+    total, ``da``, ``rate`` and ``cycles_trend``: the block with ln(da/dN) continued from
+    the last two solves (:meth:`FatigueProgress.trend_block` of ``progress``, whose last
+    end is this start; else da/rate) — fewer cycles where the rate was rising, the same
+    where it fell (summary.json ``fracture.growth.final_block``)."""
     n = da / rate
-    return {"cycles": n, "share": n / (cycles + n), "da": da, "rate": rate}
+    trend = progress.trend_block(da) if progress is not None else n
+    return {
+        "cycles": n,
+        "share": n / (cycles + n),
+        "da": da,
+        "rate": rate,
+        "cycles_trend": trend,
+    }
 
 
 def final_block_text(block: dict[str, float]) -> str:
@@ -343,7 +368,8 @@ def final_block_text(block: dict[str, float]) -> str:
     return (
         f"the final block, {block['da']:.3g} m at the leading rate of its start "
         f"({block['rate']:.3g} m/cycle; no solve at its end), holds {100 * block['share']:.0f} % "
-        f"of the cycles ({block['cycles']:.4g}): the count is set by that extrapolation, "
+        f"of the cycles ({block['cycles']:.4g}; {block['cycles_trend']:.4g} with ln(da/dN) "
+        "continued from the last two solves): the count is set by that extrapolation, "
         "not by a solved K; a smaller da_max resolves it"
     )
 

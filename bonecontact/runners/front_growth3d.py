@@ -559,7 +559,9 @@ def _grow_fronts(
         if stop is not None:
             g.at = i
             if fat is not None and stop == "fractured":
-                g.final_block = final_block(g.cycles, step, float(g.fatigue.lead_rate[-1]))
+                g.final_block = final_block(
+                    g.cycles, step, float(g.fatigue.lead_rate[-1]), g.fatigue
+                )
                 g.cycles += g.final_block["cycles"]
                 stop = "through"
             return stop, still

@@ -546,7 +546,7 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     ahead = new[1:-1] + AHEAD_ELEMENTS * run.size.h_tip * adv.directions[1:-1]
     if not _keeps_ligament(run, new[1:-1]) or not np.all(inside_body(run.body, ahead)):
         if fat is not None:  # the last block at the rate of its start
-            g.final_block = final_block(g.cycles, step, lead)
+            g.final_block = final_block(g.cycles, step, lead, g.fatigue)
             g.cycles += g.final_block["cycles"]
         return "through", still
     V, last = crack.vertices, len(new) - 1

@@ -751,7 +751,7 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
     nxt = _grown(g.crack, step, rates)
     if breaks_through(run, nxt):
         if fat is not None:  # the last block at the rate of its start
-            g.final_block = final_block(g.cycles, step, float(rates.max()))
+            g.final_block = final_block(g.cycles, step, float(rates.max()), g.fatigue)
             g.cycles += g.final_block["cycles"]
         return "through"
     g.crack, g.increments = nxt, g.increments + 1

@@ -209,6 +209,7 @@ def test_stops(mesh: Path, name: str, kw: dict, status: str) -> None:
         fb = g["final_block"]
         assert fb["cycles"] == g["cycles"] and fb["share"] == 1.0 and fb["da"] == DA
         assert fb["rate"] == pytest.approx(lead, rel=1e-10)
+        assert fb["cycles_trend"] == fb["cycles"]  # one solve: no trend of the rate
         assert "holds 100 % of the cycles" in res.summary["message"]
     else:
         assert g["cycles"] == 0.0 and g["final_block"] is None

@@ -135,6 +135,7 @@ def test_through_the_thin_plate_reports_the_fragments(plates: Path) -> None:
     assert fb["da"] == 0.06 * L and fb["cycles"] == pytest.approx(fb["da"] / fb["rate"])
     assert g["cycles"] == pytest.approx(before + fb["cycles"], rel=1e-12)
     assert fb["share"] == pytest.approx(fb["cycles"] / g["cycles"], rel=1e-12)
+    assert 0 < fb["cycles_trend"] <= fb["cycles"]  # K rises towards the back face
 
 
 def test_grown_crack_on_coarse_facets_is_not_through(plates: Path) -> None:
