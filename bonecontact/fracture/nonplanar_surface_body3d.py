@@ -395,7 +395,10 @@ def _sides_kept(nodes: np.ndarray, crack: NonplanarSurfaceCrack, fixed: dict, h:
     The scanned L4's 15th mesh: strips 0.8 h wide at the surface, 0.12° apart; a vertex
     over strip 89, 0.06 h from its crossing node on edge 72-73, was snapped onto strip
     81's plane and so crossed strip 89's: all the node's neighbours then lay on one side
-    of it, strip 89's trace passed it by and "ended inside a facet"."""
+    of it, strip 89's trace passed it by and "ended inside a facet".  In a flat star a
+    vertex cannot pass that way without turning a facet at the node over (the snap did,
+    a 0.0014 h² one), which :func:`_flattens` refuses too; on a curved surface, where a
+    snap moves the facets and the traces, this rule still keeps the sides."""
     return [
         (crack.polygon(j).mean(axis=0), crack.normal(j), crack.contains(j, nodes, 2.0 * h))
         for j in fixed["others"]

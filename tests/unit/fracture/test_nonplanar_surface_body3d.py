@@ -896,12 +896,14 @@ def test_snap_onto_one_strip_keeps_a_vertex_on_its_side_of_the_next(
     plane: the kink c2 then had all its neighbours v, w1, w2 on one side, strip 1's trace
     passed it by ("the trace of patch 1 ... ends inside a facet"; gap 0.004: no snap,
     no failure; all 8 cases with gaps 0.001 and 0.002 failed so on the old code).  Now v
-    keeps its side.  With that alone, tilt 0, v+x, gaps 0.001 and 0.002: w2, over strip 2
-    and 0.002 from strip 1's plane, snapped onto it, landed on the line through (0, 0)
-    and w1: its thin facet flat (HXT: "two exactly self-intersecting facets"); a snap now
-    keeps every facet at its vertex ≥ 0.1 of its area.  The mouth on z = 0 and on its
-    patches (1e-9), its exact length, ends and kinks, the faces the strips clipped to
-    z ≤ 0 (1e-8), the box's volume (1e-9), no flat tetrahedron."""
+    keeps its side; either rule alone mends the 8 (v cannot cross the trace through c2
+    without turning the facet (v, w2, c2) over).  With the side rule alone, tilt 0, v+x,
+    gaps 0.001 and 0.002: w2, over strip 2 and 0.002 from strip 1's plane, snapped onto
+    it, landed on the line through (0, 0) and w1: its thin facet flat (HXT: "two exactly
+    self-intersecting facets"); a snap now keeps every facet at its vertex ≥ 0.1 of its
+    area.  The mouth on z = 0 and on its patches (1e-9), its exact length, ends and
+    kinks, the faces the strips clipped to z ≤ 0 (1e-8), the box's volume (1e-9), no
+    flat tetrahedron."""
     body, crack, v = _strips_over_a_thin_triangle(tilt, side, gap)
     h = 0.18
     cb, _, cut = mesh_body_with_nonplanar_surface_crack(body, crack, TipMesh(h, 0.3))
