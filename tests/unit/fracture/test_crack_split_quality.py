@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from mpi4py import MPI
 
+import gmsh
 import numpy as np
 import pytest
 import test_crack_split as tcs
@@ -52,20 +53,24 @@ def test_radius_ratio_closed_forms() -> None:
 @pytest.mark.parametrize("name", CASES)
 def test_halved_tetrahedra_stay_fair(monkeypatch, name: str) -> None:
     mids: list[np.ndarray] = []
-    real = crack_split._bisect
+    real = crack_split.bisect_pinched
 
-    def recorded(edge, tags) -> None:
-        X = crack_split._nodes()
-        mids.append(0.5 * (X[edge[0]] + X[edge[1]]))
-        real(edge, tags)
+    def recorded(tags, front) -> int:  # the nodes it adds: the midpoints (and copies)
+        top = int(gmsh.model.mesh.getMaxNodeTag())
+        count = real(tags, front)
+        tags_, x, _ = gmsh.model.mesh.getNodes()
+        new = np.asarray(tags_) > top
+        mids.extend(np.asarray(x).reshape(-1, 3)[new])
+        return count
 
-    monkeypatch.setattr(crack_split, "_bisect", recorded)
+    monkeypatch.setattr(crack_split, "bisect_pinched", recorded)
     make, h = tcs.SWEPT[name]
     cb, _ = mesh_body_with_planar_crack(
         tcs._body(tcs.CUBE), make(), TipMesh(h, 0.3), MPI.COMM_WORLD
     )
     comm = cb.mesh.comm
     mids = comm.bcast(mids, root=0)  # gmsh (and the bisection) ran on rank 0
+    mids = list(np.unique(np.round(np.asarray(mids), 12), axis=0))  # a node and its copy
     assert len(mids) >= 2
     P = cb.mesh.geometry.x[cb.mesh.geometry.dofmap]
     q = radius_ratio(P)
