@@ -17,7 +17,10 @@ normal to the load (within one element), running normal to the load (within 3°)
 from the hole, four elements long.  The new edge crack of length a at the hole edge then
 has K_I = F σ√(πa) with Bowie's F between F(a/R = 0.1) = 2.73 and F(0) = 3.39 (a/R =
 0.05 here; measured F = 2.97).  The same insertion on 2 and 3 ranks.  Bad initiation
-input is exit 2 naming the key, from ``bonecontact run`` and ``bonecontact check``.
+input is exit 2 naming the key, from ``bonecontact run`` and ``bonecontact check``: the
+command's entry point called in this process (``bonecontact.runners.cli.main``: the same
+parsing, checks, message and exit status; a new process cost 2 s of start-up a case, the
+exit status of the real command is test_cli.py's), the runs in a new process each.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from bonecontact.runners.cli import main
 
 pytestmark = pytest.mark.serial
 
@@ -138,8 +143,13 @@ def _run(scene: Path, out: Path, n: int = 1) -> subprocess.CompletedProcess:
     return _spawn(cmd, n)
 
 
-def _check(scene: Path) -> subprocess.CompletedProcess:
-    return _spawn([str(BIN / "bonecontact"), "check", str(scene)])
+def _here(args: list[str], capsys: pytest.CaptureFixture) -> subprocess.CompletedProcess:
+    """``bonecontact <args>`` through the command's entry point in this process (serial):
+    its exit status and what it wrote (as :func:`_spawn`'s, without a new interpreter)."""
+    capsys.readouterr()
+    status = main(args)
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(["bonecontact", *args], status, out, err)
 
 
 def _spawn(cmd: list[str], n: int = 1) -> subprocess.CompletedProcess:
@@ -293,15 +303,16 @@ def test_restart_before_and_after_the_initiation(mesh: Path, tmp_path: Path) -> 
     ],
 )
 def test_bad_initiation_input_is_exit_2(
-    mesh: Path, tmp_path: Path, extra: str, crack: str, key: str, text: str
+    mesh: Path, tmp_path: Path, capsys, extra: str, crack: str, key: str, text: str
 ) -> None:
-    res = _run(_scene(tmp_path, mesh, extra, crack), tmp_path / "out")
+    scene = _scene(tmp_path, mesh, extra, crack)
+    res = _here(["run", str(scene), "-q", "-o", str(tmp_path / "out")], capsys)
     assert res.returncode == 2, res.stderr
     assert f'[fracture], key "{key}"' in res.stderr and text in res.stderr, res.stderr
 
 
-def test_check_accepts_an_initiating_scene(mesh: Path, tmp_path: Path) -> None:
-    res = _check(_scene(tmp_path, mesh, "coefficient = 0.3"))
+def test_check_accepts_an_initiating_scene(mesh: Path, tmp_path: Path, capsys) -> None:
+    res = _here(["check", str(_scene(tmp_path, mesh, "coefficient = 0.3"))], capsys)
     assert res.returncode == 0, res.stderr
     assert "initiated: the faces of the crack inserted at risk 1, Coulomb 0.3" in res.stdout
 
@@ -314,19 +325,21 @@ def test_check_accepts_an_initiating_scene(mesh: Path, tmp_path: Path) -> None:
     ],
 )
 def test_check_refuses_bad_initiation_input(
-    mesh: Path, tmp_path: Path, extra: str, key: str, text: str
+    mesh: Path, tmp_path: Path, capsys, extra: str, key: str, text: str
 ) -> None:
-    res = _check(_scene(tmp_path, mesh, extra))
+    res = _here(["check", str(_scene(tmp_path, mesh, extra))], capsys)
     assert res.returncode == 2, res.stderr
     assert f'[fracture], key "{key}"' in res.stderr and text in res.stderr, res.stderr
 
 
-def test_initiation_in_a_quasistatic_analysis_is_refused(mesh: Path, tmp_path: Path) -> None:
+def test_initiation_in_a_quasistatic_analysis_is_refused(
+    mesh: Path, tmp_path: Path, capsys
+) -> None:
     path = _scene(tmp_path, mesh)
     quasistatic = 'kind = "quasistatic"\nt_end = 1.0\ndt = 0.25'
     text = path.read_text().replace('kind = "static"', quasistatic)
     path.write_text(text.replace("load_steps = 4\n", ""))
-    res = _check(path)
+    res = _here(["check", str(path)], capsys)
     assert res.returncode == 2, res.stderr
     assert '[fracture], key "initiate"' in res.stderr and "static" in res.stderr, res.stderr
 
@@ -358,12 +371,12 @@ def _two_region_mesh(path: Path) -> None:
         gmsh.finalize()
 
 
-def test_initiation_in_a_mesh_of_two_regions_is_refused(tmp_path: Path) -> None:
+def test_initiation_in_a_mesh_of_two_regions_is_refused(tmp_path: Path, capsys) -> None:
     mesh = tmp_path / "two.msh"
     _two_region_mesh(mesh)
     path = _scene(tmp_path, mesh)
     path.write_text(path.read_text().replace('regions = ["plate"]', 'regions = ["plate", "cap"]'))
-    res = _check(path)
+    res = _here(["check", str(path)], capsys)
     assert res.returncode == 2, res.stderr
     assert '[fracture], key "initiate"' in res.stderr and "one cell group" in res.stderr, res.stderr
 
