@@ -232,7 +232,11 @@ class NonplanarCut:
 
 # ------------------------------------------------------------ geometry (numpy)
 def _segment_hits(p: np.ndarray, q: np.ndarray, tris: np.ndarray) -> list[np.ndarray]:
-    """Points where the segment p → q crosses the triangles (Möller–Trumbore), merged."""
+    """Points where the segment p → q crosses the triangles (Möller–Trumbore), merged.
+
+    Not :func:`~bonecontact.common.geometry.line_triangle_hits`: that kernel multiplies by
+    1/det where this divides by det, which moves the crossings by an ulp, and gmsh meshes
+    the cut differently for it (8 of the mesher tests' cell counts changed; 2026-12-05)."""
     d = q - p
     e1, e2 = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
     h = np.cross(d, e2)
