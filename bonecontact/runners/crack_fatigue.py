@@ -26,10 +26,12 @@ from bonecontact.scene.spec import FatigueSpec
 __all__ = [
     "FATIGUE_COLUMNS",
     "FINAL_BLOCK_SHARE",
+    "WAIT_FRACTION",
     "FatigueProgress",
     "FatigueRecord",
     "FinalBlockWarning",
     "block_end",
+    "block_shares",
     "bound_to_separation",
     "final_block",
     "final_block_note",
@@ -73,6 +75,10 @@ class FatigueProgress:
     ``phases`` are the indices of the ends that start a new set of cracks (after a merge)
     and ``slope`` the self-similar d ln(da/dN)/ds of the leading tip at the last merge's
     block start (1/m; 0: unknown; :func:`self_similar_slope`, :meth:`_merging_block`).
+    ``shortfall`` is what the blocks shortened before a merge fell short of Δa_max (m; the
+    leading tip's growth is blocks × Δa_max less it) and ``shortened`` whether the last
+    block was one (the next is then cut where facing tips meet;
+    :meth:`bonecontact.runners.cracks.CrackSteps.fit_block`).
     """
 
     growth: list[float] = dataclasses.field(default_factory=list)
@@ -83,6 +89,8 @@ class FatigueProgress:
     bound: float | None = None
     phases: list[int] = dataclasses.field(default_factory=lambda: [0])
     slope: float = 0.0
+    shortfall: float = 0.0
+    shortened: bool = False
 
     @classmethod
     def from_state(cls, state: dict[str, Any] | None) -> FatigueProgress:
@@ -99,6 +107,8 @@ class FatigueProgress:
             state["bound"],
             [int(v) for v in state.get("phases", [0])],
             float(state.get("slope", 0.0)),  # older checkpoints: unknown
+            float(state.get("shortfall", 0.0)),  # older checkpoints: no block shortened
+            bool(state.get("shortened", False)),
         )
 
     def state(self) -> dict[str, Any]:
@@ -302,20 +312,37 @@ def block_end(
         return [_as_fatigue(r, r.status, 0.0) for r in records], {}, ""
     rates = paris_law(spec).rate(k_eq)
     lead = float(rates.max(initial=0.0))
-    n = prog.add_end(blocks * spec.da_max, lead)
+    n = prog.add_end(blocks * spec.da_max - prog.shortfall, lead)
     stop = _stop(k_eq, rates, K_Ic, blocks, spec.max_blocks)
     if stop:
         prog.status = stop
         return _stopped_rows(records, k_eq, K_Ic, stop, n), {}, stop
+    grow, prog.waiting = block_shares(records, spec, prog.waiting, spec.da_max)
+    rows = [_as_fatigue(r, "grows" if tip_key(r) in grow else "holds", n) for r in records]
+    return rows, grow, ""
+
+
+def block_shares(
+    records: list[IncrementRecord],
+    spec: FatigueSpec,
+    waiting: dict[TipKey, float],
+    length: float,
+    must: tuple[TipKey, ...] = (),
+) -> tuple[dict[TipKey, float], dict[TipKey, float]]:
+    """The advances of a block of ``length`` (m; Δa_max, or less before a merge) and what
+    the tips keep after it: each tip's share rate/max rate × ``length`` added to what it
+    kept (``waiting``), grown once the sum reaches :data:`WAIT_FRACTION` × Δa_max, or
+    whatever it is for the tips of ``must``; the others keep their sum."""
+    k_eq = np.array([r.K_eq for r in records], dtype=float)
+    rates = paris_law(spec).rate(k_eq)
+    lead = float(rates.max(initial=0.0))
     share = {
-        tip_key(r): prog.waiting.get(tip_key(r), 0.0) + spec.da_max * float(rt) / lead
+        tip_key(r): waiting.get(tip_key(r), 0.0) + length * float(rt) / lead
         for r, rt in zip(records, rates, strict=True)
     }
     least = WAIT_FRACTION * spec.da_max * (1.0 - 1e-12)
-    grow = {t: s for t, s in share.items() if s >= least}
-    prog.waiting = {t: s for t, s in share.items() if t not in grow and s > 0}
-    rows = [_as_fatigue(r, "grows" if tip_key(r) in grow else "holds", n) for r in records]
-    return rows, grow, ""
+    grow = {t: s for t, s in share.items() if s >= least or (t in must and s > 0)}
+    return grow, {t: s for t, s in share.items() if t not in grow and s > 0}
 
 
 def plain_rows(rows: list[dict[str, Any]]) -> list[IncrementRecord]:

@@ -42,6 +42,7 @@ from bonecontact.common.errors import ParameterError, RunError
 from bonecontact.common.profiling import PhaseTimer
 from bonecontact.contact.interface import ContactInputError
 from bonecontact.fracture.body import BodyOutline, body_outline, mesh_body_with_cracks
+from bonecontact.fracture.coalescence import MERGE_ANGLE_DEG
 from bonecontact.fracture.crack import Crack2D
 from bonecontact.fracture.criteria import (
     cell_stresses,
@@ -66,9 +67,11 @@ from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.checkpoint import Checkpointer, CrackState, RunCounters
 from bonecontact.runners.crack_fatigue import (
     FATIGUE_COLUMNS,
+    WAIT_FRACTION,
     FatigueProgress,
     FatigueRecord,
     block_end,
+    block_shares,
     bound_to_separation,
     paris_law,
     plain_rows,
@@ -809,10 +812,12 @@ class CrackSteps(MechanicsSteps):
                 self.sm, self.cms, integ.u, integ.last_contact, self.run, st.increment, k, integ.t
             )
         prog = self.fatigue if k == self.nsteps else None
+        waiting = dict(self.fatigue.waiting)  # what the tips kept before this block end
         rows, grow, stop = block_end(records, fr.fatigue, self.run.K_Ic, prog, st.increment)
         met = ""
         if grow:
             slope = self_similar_slope(fr.fatigue.m, _lead_size(self.cracks, rows, self.run))
+            grow = self.fit_block(rows, grow, waiting)
             self.cracks, met = _grow(self.cracks, rows, self.run, grow)
             met = self.merge_joined(k, rows, met, slope)
         self.table.rows(rows)
@@ -826,6 +831,96 @@ class CrackSteps(MechanicsSteps):
         verdict = self.remesh(k, f"fields_block{st.increment}")  # the longer crack
         self.block_checkpoint(k)
         return verdict
+
+    def fit_block(
+        self,
+        rows: list[IncrementRecord],
+        grow: dict[tuple[str, int], float],
+        waiting: dict[tuple[str, int], float],
+    ) -> dict[tuple[str, int], float]:
+        """The advances of the next fatigue block (``grow``: those of a full block of
+        Δa_max; ``waiting``: what the tips kept before it), shortened before a merge
+        (docs/theory/fracture.md#coalescence).
+
+        When the block is the first of its set of cracks (its start the only end known)
+        and its facing tips would meet and merge, it is shortened to a block of length L
+        (:func:`block_shares`) midway between the floor 0.6 Δa_max (the tip segment that
+        bounds the integration domain) and the length at which the gap would reach the
+        merge distance Δa, the gap closing in proportion to L; only when that length
+        exceeds the floor and the shortened block merges nothing.  The block after it,
+        when its facing tips would cross, is cut where they meet (its tips that meet
+        grow whatever their share).  Any other block is left as it is."""
+        prog, fr = self.fatigue, self.run.fracture
+        after_short, prog.shortened = prog.shortened, False
+        first = len(prog.growth) - 1 == prog.phases[-1]
+        if fr.joined != "merge" or not (first or after_short):
+            return grow
+        da = fr.growth_step
+        merges, pairs = self._meeting(rows, grow)
+        if after_short:
+            cross = [(g0, g1, tips) for g0, g1, tips in pairs if g1 < 0.0 < g0]
+            if not cross:
+                return grow
+            length = min(da * g0 / (g0 - g1) for g0, g1, _ in cross)
+            must = tuple(t for _, _, tips in cross for t in tips if t in grow)
+            new, kept = block_shares(rows, fr.fatigue, waiting, length, must)
+            what = "cut where the facing tips meet"
+        else:
+            floor = WAIT_FRACTION * da
+            reach = [da * (g0 - da) / (g0 - g1) for g0, g1, _ in pairs if g0 > g1]
+            if not (merges and reach) or min(reach) <= floor:
+                return grow
+            length = 0.5 * (floor + min(reach))
+            new, kept = block_shares(rows, fr.fatigue, waiting, length)
+            if _grow(self.cracks, list(rows), self.run, new)[1]:
+                return grow  # the shortened block would still meet (or cut through)
+            prog.shortened = True
+            what = "shortened before the facing tips meet"
+        prog.waiting = kept
+        prog.shortfall += da - length
+        for i, r in enumerate(rows):  # the rows say which tips grow in this block
+            if r.status in ("grows", "holds"):
+                rows[i] = dataclasses.replace(r, status="grows" if tip_key(r) in new else "holds")
+        self.say(
+            f"{self.scene.name}: block {self.state.increment + 1} {what}: the leading tip "
+            f"grows {length:.4g} m (of {da:.4g} m)"
+        )
+        return new
+
+    def _meeting(
+        self, rows: list[IncrementRecord], grow: dict[tuple[str, int], float]
+    ) -> tuple[bool, list[tuple[float, float, tuple]]]:
+        """A trial of the block ``grow``: whether its tips meet and would merge, and for each
+        tip that meets another crack's facing tip (directions opposite within
+        MERGE_ANGLE_DEG) the gap between them along the line from one to the other before
+        (> 0) and after the block (< 0: crossed), with the two tips."""
+        trial = list(rows)
+        after, stop = _grow(self.cracks, trial, self.run, grow)
+        if stop != "joined":
+            return False, []
+        fr, names = self.run.fracture, [sp.name for sp in self.run.specs]
+        joined = [tip_key(r) for r in trial if r.status == "joined"]
+        res = join_cracks(
+            after, self.run.specs, joined, fr.growth_step, self.run.tip_mesh.h_tip, self.run.body
+        )
+        pairs, cos_max = [], math.cos(math.radians(MERGE_ANGLE_DEG))
+        for name, end in joined:
+            a = names.index(name)
+            p0, p1 = self.cracks[a].tip(end), after[a].tip(end)
+            b = min((c.distance(p1), j) for j, c in enumerate(after) if j != a)[1]
+            if not self.cracks[b].tip_ends:
+                continue
+            e = min(
+                self.cracks[b].tip_ends, key=lambda t: np.linalg.norm(self.cracks[b].tip(t) - p0)
+            )
+            q0, q1 = self.cracks[b].tip(e), after[b].tip(e)
+            d_a, d_b = self.cracks[a].direction(end), self.cracks[b].direction(e)
+            g0 = float(np.linalg.norm(q0 - p0))
+            if -float(np.dot(d_a, d_b)) < cos_max or g0 <= 0.0:
+                continue
+            g1 = float(np.dot(q1 - p1, (q0 - p0) / g0))
+            pairs.append((g0, g1, ((name, end), (names[b], e))))
+        return not res.reason, pairs
 
     def merge_joined(
         self, k: int, rows: list[IncrementRecord], stop: str, slope: float = 0.0

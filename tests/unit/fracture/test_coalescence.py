@@ -14,6 +14,10 @@ worked by hand.
   penny (m = 2, 3, 4) and a 2D centre crack, blocks of 0.05 … 0.2ρ: below it by less
   than m x²/4 (m = 3, x = 0.1: −0.23 %, where the start rate gave +7.4 %); no slope
   (older checkpoints) the start rate; ρ of 2D and 3D cracks by hand.
+* A block shortened before a merge (bonecontact.runners.crack_fatigue.block_shares): the
+  shares of a block of length L < Δa_max, the floor 0.6 Δa_max kept (the tips that must
+  meet grow below it), the leading growth blocks × Δa_max less the shortfall, through a
+  checkpoint; the merge after it by the two-end slope, by hand.
 """
 
 from __future__ import annotations
@@ -189,3 +193,60 @@ def test_the_crack_size_seen_from_a_tip_or_a_vertex() -> None:
         assert size_from_vertex(octagon, k) == pytest.approx(1.0e-3, rel=1e-9)
     rect = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [4.0, 3.0, 0.0], [0.0, 3.0, 0.0]])
     assert size_from_vertex(rect, 1) == pytest.approx(2.5, rel=1e-15)
+
+
+def test_a_block_shortened_before_a_merge_and_the_merge_after_it() -> None:
+    """Four tips at rates 1, 0.9801, 0.64 and 0.36 (× r0; K_eq 1, 0.99, 0.8, 0.6, m = 2)
+    in a block of L = 0.65 Δa_max: shares 0.65, 0.637, 0.416 and 0.234 Δa_max, the first
+    two at or above the floor 0.6 Δa_max grow, the others keep theirs; a full block gives
+    the old shares.  The end after it lies at Δa_max − shortfall = L (a checkpoint
+    between), its cycles by the two ends; the block after it, cut to 0.5 Δa_max where the
+    facing tips meet (both grow below the floor: ``must``; the third now above it with
+    what it kept), merges, and its
+    cycles are ∫ ds/r with ln r continued from the two ends, by hand."""
+    from bonecontact.fracture.propagation import IncrementRecord
+    from bonecontact.runners.crack_fatigue import block_end, block_shares
+    from bonecontact.scene.spec import FatigueSpec
+
+    spec = FatigueSpec(C=1.0e-20, m=2.0, da_max=2.5e-4)
+    da, r0 = spec.da_max, 1.0e-20 * 1.0e10
+
+    def rows(scale: float) -> list:
+        k = [1.0e5, 0.99e5, 0.8e5, 0.6e5]
+        names = [("a", -1), ("b", 0), ("a", 0), ("b", -1)]
+        return [
+            IncrementRecord(
+                0, e, 0.0, 0.0, 1.0, kk, 0.0, 0.0, 0.0, 1.0, "", K_eq=scale * kk, crack=c
+            )
+            for kk, (c, e) in zip(k, names, strict=True)
+        ]
+
+    length = 0.65 * da
+    grow, kept = block_shares(rows(1.0), spec, {}, length)
+    assert grow == pytest.approx({("a", -1): 0.65 * da, ("b", 0): 0.65 * 0.9801 * da})
+    assert kept == pytest.approx({("a", 0): 0.65 * 0.64 * da, ("b", -1): 0.65 * 0.36 * da})
+    full, _ = block_shares(rows(1.0), spec, {}, da)
+    assert full == pytest.approx({("a", -1): da, ("b", 0): 0.9801 * da, ("a", 0): 0.64 * da})
+    prog = FatigueProgress()
+    block_end(rows(1.0), spec, None, prog, 0)  # the start
+    prog.shortfall, prog.shortened, prog.waiting = da - length, True, kept
+    back = FatigueProgress.from_state(json.loads(json.dumps(prog.state())))  # a checkpoint
+    assert (back.shortfall, back.shortened) == (prog.shortfall, True)
+    before = dict(back.waiting)  # what the tips kept before this end
+    block_end(rows(1.1), spec, None, back, 1)  # the rate 1.21 r0 at L
+    assert back.growth == pytest.approx([0.0, length], rel=1e-15)
+    g = math.log(1.21) / length
+    n1 = (1.0 - math.exp(-g * length)) / (g * r0)
+    assert back.cycles[-1] == pytest.approx(n1, rel=1e-12)
+    cut = 0.5 * da
+    grow, kept = block_shares(rows(1.1), spec, before, cut, must=(("a", -1), ("b", 0)))
+    assert grow == pytest.approx(
+        {("a", -1): cut, ("b", 0): 0.9801 * cut, ("a", 0): (0.65 + 0.5) * 0.64 * da}
+    )
+    assert kept == pytest.approx({("b", -1): (0.65 + 0.5) * 0.36 * da})
+    back.shortfall += da - cut
+    back.merged({("a", 0): ("a+b", 0), ("b", -1): ("a+b", -1)}, slope=1.0e9)  # not used
+    block_end(rows(2.0), spec, None, back, 2)  # the merged crack: its rate not used
+    assert back.growth[-1] == pytest.approx(length + cut, rel=1e-15)
+    n2 = (1.0 - math.exp(-g * cut)) / (g * 1.21 * r0)
+    assert back.cycles[-1] == pytest.approx(n1 + n2, rel=1e-12)
