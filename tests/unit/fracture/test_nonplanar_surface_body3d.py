@@ -553,6 +553,21 @@ def test_flat_strip_opens_as_the_larger_disc() -> None:
     assert cov == pytest.approx(cov1, rel=0.01)
 
 
+def _faces_volume_no_flat(cb, area: float, volume: float, h: float) -> None:
+    """Both crack faces of ``area`` (1e-8; equal to 1e-12), the body's ``volume`` (1e-9)
+    and no tetrahedron below 1e-6 h³."""
+    up, low = (_face_area(cb, t) for t in cb.face_tags)
+    assert up == pytest.approx(area, rel=1e-8)
+    assert low == pytest.approx(up, rel=1e-12)
+    m = cb.mesh
+    vol = m.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=m))), op=MPI.SUM)
+    assert vol == pytest.approx(volume, rel=1e-9)
+    n = m.topology.index_map(3).size_local
+    x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
+    six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    assert m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN) > 1e-6 * h**3
+
+
 # --------------------------------------------- robustness: a family of configurations
 @pytest.mark.parametrize("offset", [0.0, 1e-12, 1e-6, 1e-2], ids=["0", "1e-12", "1e-6h", "0.01h"])
 @pytest.mark.parametrize("grid_x", [0.0, 0.125], ids=["coarse-line", "refined-line"])
@@ -576,16 +591,7 @@ def test_trace_near_facet_edges_and_vertices(thetas: list, grid_x: float, offset
         assert np.max(np.abs((M[[i, i + 1]] - crack.polygon(k)[0]) @ crack.normal(k))) <= TOL
     assert float(np.linalg.norm(np.diff(M, axis=0), axis=1).sum()) == pytest.approx(length, 1e-9)
     np.testing.assert_allclose(np.array(sorted(M[[0, -1]], key=lambda p: p[1])), ends, atol=TOL)
-    up, low = (_face_area(cb, t) for t in cb.face_tags)
-    assert up == pytest.approx(area, rel=1e-8)
-    assert low == pytest.approx(up, rel=1e-12)
-    m = cb.mesh
-    vol = m.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=m))), op=MPI.SUM)
-    assert vol == pytest.approx(math.prod(SIZE), rel=1e-9)
-    n = m.topology.index_map(3).size_local
-    x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
-    six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
-    assert m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN) > 1e-6 * h**3
+    _faces_volume_no_flat(cb, area, math.prod(SIZE), h)
 
 
 def _chord_patch(width: float, gap: float, z: float = 0.0) -> NonplanarSurfaceCrack:
@@ -921,13 +927,4 @@ def test_snap_onto_one_strip_keeps_a_vertex_on_its_side_of_the_next(
     np.testing.assert_allclose(np.array(sorted(M[[0, -1]], key=lambda p: p[1])), ends, atol=TOL)
     kinks = np.asarray(crack.points)[[1, 2]] - 0.1 * np.array([side * tilt, 0.0, 1.0])
     assert np.linalg.norm(M[:, None] - kinks[None], axis=2).min(axis=0).max() <= TOL
-    up, low = (_face_area(cb, t) for t in cb.face_tags)
-    assert up == pytest.approx(area, rel=1e-8)
-    assert low == pytest.approx(up, rel=1e-12)
-    m = cb.mesh
-    vol = m.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=m))), op=MPI.SUM)
-    assert vol == pytest.approx(math.prod(BOX_SIZE), rel=1e-9)
-    n = m.topology.index_map(3).size_local
-    x = m.geometry.x[np.asarray(m.geometry.dofmaps[0])[:n]]
-    six = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
-    assert m.comm.allreduce(float(np.abs(six).min()) / 6.0, op=MPI.MIN) > 1e-6 * h**3
+    _faces_volume_no_flat(cb, area, math.prod(BOX_SIZE), h)
