@@ -6,6 +6,8 @@ tips is a block end: the Paris rates of the tips' MTS equivalent K, the cycles o
 block just made (:func:`bonecontact.fracture.fatigue.block_cycles` over the ends known so
 far), then a stop or the advances of the next block.  The run (:mod:`~.cracks`)
 re-meshes the grown crack and solves the same step again.  Nothing here touches a mesh.
+The 3D runners share the block history (:class:`FatigueProgress`), the rates and stops,
+and the report of a final block that carries a crack through (:func:`final_block`).
 """
 
 from __future__ import annotations
