@@ -492,6 +492,8 @@ class Growth:
     max_kink: dict[str, Any] | None = None  # the largest |kink| of a growing point so far
     out_of_plane: dict[str, Any] | None = None  # where |kink| first exceeded the limit
     final_block: dict[str, float] | None = None  # the block that carried it through
+    shortfall: float = 0.0  # Σ (da_max − the halved blocks' da) (end_halvings)
+    halved: int = 0  # blocks shorter than da_max solved before the final one
 
     def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -505,6 +507,8 @@ class Growth:
             "rows": self.rows,
             "max_kink": self.max_kink,
             "out_of_plane": self.out_of_plane,
+            "shortfall": self.shortfall,
+            "halved": self.halved,
         }
 
     @classmethod
@@ -533,6 +537,8 @@ class Growth:
             int(state["rows"]),
             max_kink=state.get("max_kink"),
             out_of_plane=state.get("out_of_plane"),
+            shortfall=float(state.get("shortfall", 0.0)),
+            halved=int(state.get("halved", 0)),
         )
 
 
@@ -730,7 +736,7 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
     rates = _rates(run, kv)
     fat = run.fracture.fatigue
     if fat is not None:
-        growth = (g.increments - g.first) * fat.da_max
+        growth = (g.increments - g.first) * fat.da_max - g.shortfall
         g.cycles = g.cycles0 + g.fatigue.add_end(growth, float(rates.max(initial=0.0)))
     g.history.append(
         {
@@ -750,11 +756,31 @@ def _advance(run: SurfaceRun, g: Growth, records: list[SurfaceRecord], cut: CutB
     step = fat.da_max if fat is not None else run.fracture.increment
     nxt = _grown(g.crack, step, rates)
     if breaks_through(run, nxt):
-        if fat is not None:  # the last block at the rate of its start
-            g.final_block = final_block(g.cycles, step, float(rates.max()), g.fatigue)
+        if fat is None:
+            return "through"
+        halved = halved_block(run, g.crack, step, rates, fat.end_halvings)
+        if halved is None:  # the last block at the rate of its start
+            da = step / 2.0**fat.end_halvings
+            g.final_block = final_block(g.cycles, da, float(rates.max()), g.fatigue)
             g.cycles += g.final_block["cycles"]
-        return "through"
+            return "through"
+        nxt, g.shortfall = _grown(g.crack, halved, rates), g.shortfall + (step - halved)
+        g.halved += 1
     g.crack, g.increments = nxt, g.increments + 1
+    return None
+
+
+def halved_block(
+    run: SurfaceRun, crack: SurfaceBreakingCrack, step: float, rates: np.ndarray, most: int
+) -> float | None:
+    """The longest of the blocks ``step``/2, …, ``step``/2^``most`` whose grown crack has
+    not broken through (:func:`breaks_through`), solved before the final block
+    (``[fracture.fatigue] end_halvings``); ``None`` when none fits (or ``most`` is 0): the
+    final block, ``step``/2^``most``, carries the crack through."""
+    for k in range(1, most + 1):
+        da = step / 2.0**k
+        if not breaks_through(run, _grown(crack, da, rates)):
+            return da
     return None
 
 
@@ -987,6 +1013,7 @@ def run_surface_crack(
                 "fractured": g.status in ("fractured", "through"),
                 "fragments": fragments,
                 "final_block": g.final_block,
+                "halved_blocks": g.halved,
                 **planar_validity(g, fr),
             },
         },

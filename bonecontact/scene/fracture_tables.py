@@ -31,6 +31,7 @@ from bonecontact.scene.spec import (
     CRACK_TABLE,
     FATIGUE_TABLE,
     FRACTURE_TABLE,
+    MAX_END_HALVINGS,
     MAX_KINK_LIMIT_DEG,
     CrackSpec,
     FatigueSpec,
@@ -77,6 +78,11 @@ def fatigue_from_table(tab: TableReader) -> FatigueSpec | None:
     values = {k: sub.get(FATIGUE_TABLE[k]) for k in FATIGUE_TABLE.names}
     if not values["R"] < 1.0:
         raise sub.error("R", f"the load ratio K_min/K_max must be < 1, got {values['R']!r}")
+    if values["end_halvings"] > MAX_END_HALVINGS:
+        raise sub.error(
+            "end_halvings",
+            f"must be an integer 0 … {MAX_END_HALVINGS}, got {values['end_halvings']!r}",
+        )
     return FatigueSpec(**values)
 
 
@@ -185,6 +191,28 @@ def _check_surface_growth(
             "surface_growth",
             '"nonplanar" applies to a growing crack: set propagate = true or add '
             "[fracture.fatigue]",
+        )
+
+
+def _check_end_halvings(
+    tab: TableReader | None, spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]
+) -> None:
+    """``[fracture.fatigue] end_halvings`` > 0 applies to the 3D surface cracks grown on
+    the planar path: a surface [[crack]], or an interior one with ``breakthrough =
+    "surface_crack"`` (its surface phase)."""
+    fat = spec.fatigue
+    if tab is None or fat is None or fat.end_halvings == 0:
+        return
+    surface = any(isinstance(c.crack, SurfaceBreakingCrack) for c in cracks)
+    planar = spec.surface_growth == "planar"
+    if dim != 3 or not planar or not (surface or spec.breakthrough == "surface_crack"):
+        raise SceneError(
+            None,
+            "[fracture.fatigue]",
+            "end_halvings",
+            "halves the blocks before a 3D surface crack on the planar path runs through: "
+            'a surface [[crack]] (surface_growth = "planar") or an interior one with '
+            'breakthrough = "surface_crack"; set end_halvings = 0 (the default) here',
         )
 
 
@@ -343,6 +371,7 @@ def read_fracture(
     _check_breakthrough(spec, dim, cracks)
     _check_out_of_plane(tab, spec, dim, cracks)
     _check_surface_growth(tab, spec, dim, cracks)
+    _check_end_halvings(tab, spec, dim, cracks)
     _check_materials(spec, materials)
     names = [c.name for c in cracks]
     for i, c in enumerate(cracks):

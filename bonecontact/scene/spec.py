@@ -875,6 +875,11 @@ class FatigueSpec:
         Load ratio K_min/K_max of the cycle (< 1).
     max_blocks
         Upper bound on the blocks.
+    end_halvings
+        A 3D surface crack on the planar path: when a block of ``da_max`` would carry the
+        crack through, blocks of ``da_max``/2 … ``da_max``/2^n (n = ``end_halvings``), the
+        longest that still fits, are solved first, so that the final, extrapolated block
+        is at most ``da_max``/2^n (0: the final block is ``da_max``).
     """
 
     C: float
@@ -883,6 +888,7 @@ class FatigueSpec:
     delta_K_th: float = 0.0
     R: float = 0.0
     max_blocks: int = 100
+    end_halvings: int = 0
 
 
 @dataclass(frozen=True)
@@ -978,6 +984,9 @@ FRACTURE_TABLE = Table(
     renamed=_OLD_COEFFICIENT,
 )
 
+#: The most halvings of the block before a surface crack runs through (``end_halvings``).
+MAX_END_HALVINGS = 8
+
 #: ``[fracture.fatigue]``: the Paris law and the blocks of cycles.
 FATIGUE_TABLE = Table(
     "fracture.fatigue",
@@ -988,6 +997,7 @@ FATIGUE_TABLE = Table(
         Key("R", "number", 0.0),
         Key("da_max", "number", REQUIRED, unit="m", minimum=0, exclusive=True),
         Key("max_blocks", "integer", 100, minimum=1),
+        Key("end_halvings", "integer", 0, minimum=0),
     ),
 )
 
