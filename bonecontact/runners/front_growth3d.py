@@ -181,6 +181,8 @@ class Growth:
     merges: list[dict[str, Any]] = dataclasses.field(default_factory=list)
     joined: str = ""  # why cracks that met were not merged (stop joined)
     final_block: dict[str, float] | None = None  # the block that carried a crack through
+    shortfall: float = 0.0  # Σ (da_max − the halved blocks' da) (end_halvings)
+    halved: int = 0  # blocks shorter than da_max solved before the final one
 
     def state(self, initial: list[TriangulatedCrack]) -> dict[str, Any]:
         """What a checkpoint stores (JSON; :mod:`~bonecontact.runners.growth_state3d`)."""
@@ -195,6 +197,8 @@ class Growth:
             "names": self.names,
             "coefficients": self.coefficients,
             "merges": self.merges,
+            "shortfall": self.shortfall,
+            "halved": self.halved,
         }
 
     @classmethod
@@ -213,6 +217,8 @@ class Growth:
             names=state.get("names"),
             coefficients=state.get("coefficients"),
             merges=list(state.get("merges", [])),
+            shortfall=float(state.get("shortfall", 0.0)),
+            halved=int(state.get("halved", 0)),
         )
 
 
@@ -493,7 +499,7 @@ def _advance(
     flat = growth_weights(np.concatenate(kv_vertex), fat, run.K_Ic)
     lead = float(flat.max(initial=0.0))
     if fat is not None:
-        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, lead)
+        g.cycles = g.fatigue.add_end(g.increments * fat.da_max - g.shortfall, lead)
     g.history.append(
         {
             "increment": g.increments,
@@ -527,7 +533,41 @@ def _vertex_weights(kv_vertex: list[np.ndarray], flat: np.ndarray) -> list:
 def _grow_fronts(
     run: InteriorRun, g: Growth, K: list, weights: list, still: list[np.ndarray]
 ) -> tuple[str | None, list[np.ndarray]]:
-    """Advance every crack with weights by the increment (fatigue: Δa_max) times them
+    """Advance every crack by the increment (fatigue: Δa_max; :func:`_grow_by`).  With
+    ``[fracture.fatigue] end_halvings`` = n (not while an interior crack would become a
+    surface crack), a block that would carry a crack through is made Δa_max/2, …,
+    Δa_max/2ⁿ instead, the longest that does not; only Δa_max/2ⁿ is the final block."""
+    fat = run.fracture.fatigue
+    step = float(fat.da_max if fat is not None else run.fracture.increment)
+    most = 0
+    if fat is not None and run.fracture.breakthrough != "surface_crack":
+        most = fat.end_halvings
+    for k in range(most + 1):
+        da = step / 2.0**k
+        stop, advances = _grow_by(run, g, K, weights, still, da, final=k == most)
+        if stop == _HALVE:
+            continue
+        if stop is None and k > 0:
+            g.shortfall, g.halved = g.shortfall + (step - da), g.halved + 1
+        return stop, advances
+    raise AssertionError("unreachable: the last halving is final")
+
+
+#: :func:`_grow_by`'s answer when its block would carry a crack through and a shorter one
+#: may be tried.
+_HALVE = "halve"
+
+
+def _grow_by(
+    run: InteriorRun,
+    g: Growth,
+    K: list,
+    weights: list,
+    still: list[np.ndarray],
+    step: float,
+    final: bool = True,
+) -> tuple[str | None, list[np.ndarray]]:
+    """Advance every crack with weights by ``step`` (fatigue: Δa_max or a halving) times them
     (its vertices of weight 0 hold: the strip only where the front moves,
     :func:`~bonecontact.fracture.advance3d.extend_surface`); a stop when a front would
     come near the surface (``fractured``; fatigue: ``through``, the block's cycles at its
@@ -536,7 +576,6 @@ def _grow_fronts(
     increment, crack and vertices in ``g.defect``).  Returns the stop and the vertices'
     advances (``still``, zeros, at a stop: the cracks stay the last good ones)."""
     fat = run.fracture.fatigue
-    step = float(fat.da_max if fat is not None else run.fracture.increment)
     new, advances, merging = list(g.cracks), list(still), []
     for i, crack in enumerate(g.cracks):
         if weights[i] is None:
@@ -558,6 +597,8 @@ def _grow_fronts(
             g.joined = '[fracture] joined = "stop"'
         if stop is not None:
             g.at = i
+            if fat is not None and stop == "fractured" and not final:
+                return _HALVE, still  # try the block halved
             if fat is not None and stop == "fractured":
                 g.final_block = final_block(
                     g.cycles, step, float(g.fatigue.lead_rate[-1]), g.fatigue
@@ -815,6 +856,7 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "joined": g.joined if g.status == "joined" else None,
                 "fragments": frags,
                 "final_block": g.final_block,
+                "halved_blocks": g.halved,
             },
         },
         "phases_s": timer.summary(comm),

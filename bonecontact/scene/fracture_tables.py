@@ -197,22 +197,19 @@ def _check_surface_growth(
 def _check_end_halvings(
     tab: TableReader | None, spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]
 ) -> None:
-    """``[fracture.fatigue] end_halvings`` > 0 applies to the 3D surface cracks grown on
-    the planar path: a surface [[crack]], or an interior one with ``breakthrough =
-    "surface_crack"`` (its surface phase)."""
+    """``[fracture.fatigue] end_halvings`` > 0 applies to 3D cracks: interior cracks and
+    surface cracks grown on the planar path (``surface_growth = "planar"``)."""
     fat = spec.fatigue
     if tab is None or fat is None or fat.end_halvings == 0:
         return
-    surface = any(isinstance(c.crack, SurfaceBreakingCrack) for c in cracks)
-    planar = spec.surface_growth == "planar"
-    if dim != 3 or not planar or not (surface or spec.breakthrough == "surface_crack"):
+    if dim != 3 or spec.surface_growth != "planar":
         raise SceneError(
             None,
             "[fracture.fatigue]",
             "end_halvings",
-            "halves the blocks before a 3D surface crack on the planar path runs through: "
-            'a surface [[crack]] (surface_growth = "planar") or an interior one with '
-            'breakthrough = "surface_crack"; set end_halvings = 0 (the default) here',
+            "halves the blocks before a 3D crack runs through: interior cracks and surface "
+            'cracks with surface_growth = "planar", not a 2D scene or the non-planar path; '
+            "set end_halvings = 0 (the default) here",
         )
 
 

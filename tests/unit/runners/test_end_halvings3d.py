@@ -1,19 +1,19 @@
-"""The blocks before a surface crack runs through, halved (``[fracture.fatigue]
-end_halvings``, bonecontact.runners.surface_crack3d.halved_block).
+"""The blocks before a 3D crack runs through, halved (``[fracture.fatigue] end_halvings``:
+bonecontact.runners.surface_crack3d.halved_block, front_growth3d's interior growth).
 
-The thin plate of test_surface_crack_through3d.py ([−b, b] × [−h, h] × [−t, 0], b = h =
-2.5 mm, t = 0.4 mm, boundary facets 0.4 mm) in tension S = 1 MPa, the crack a = c = 0.2 mm
-on the front face, front 0.02 mm: the ligament a grown front must keep to the back face ℓ
-= r_out + 2h = 0.1 mm, so on the flat plate a crack of depth a has run through iff a + ℓ >
-t (the deepest point is nearest to the back face).  Fatigue da/dN = C ΔK² (C = 1e-20, R =
-0), Δa_max = 0.06 mm.  The family n = end_halvings ∈ {0, 1, 3}:
+Surface crack: the thin plate of test_surface_crack_through3d.py ([−b, b] × [−h, h] × [−t,
+0], b = h = 2.5 mm, t = 0.4 mm, boundary facets 0.4 mm) in tension S = 1 MPa, the crack
+a = c = 0.2 mm on the front face, front 0.02 mm: the ligament a grown front must keep to
+the back face ℓ = r_out + 2h = 0.1 mm, so on the flat plate a crack of depth a has run
+through iff a + ℓ > t (the deepest point is nearest to the back face).  Fatigue da/dN =
+C ΔK² (C = 1e-20, R = 0), Δa_max = 0.06 mm.  The family n = end_halvings ∈ {0, 1, 3}:
 
 * every run ends ``through``, its final block is Δa_max/2ⁿ (``final_block.da``) and the
   last solved crack fits with less than that left: 0 ≤ t − ℓ − a_last < Δa_max/2ⁿ (the
   geometric reference; measured 0.049, 0.024, 0.0057 mm);
 * the blocks before the first halved one are the n = 0 run's (the same solves: history
-  and fracture.csv rows equal to 1e-10), each later block's leading advance is Δa_max/2ᵏ, k ≤ n,
-  non-increasing, and ``halved_blocks`` counts them;
+  and fracture.csv rows equal to 1e-10), each later block's leading advance is
+  Δa_max/2ᵏ, k ≤ n, non-increasing, and ``halved_blocks`` counts them;
 * cycles against the closed form: Newman and Raju's K integrated by RK4 (bonecontact.
   verification.surface_fatigue.newman_raju_growth, the second method) to the depth of every
   solve within 8 % (the FE deepest point's K deficit: measured +5.1 … +6.1 %), and to the
@@ -22,9 +22,17 @@ t (the deepest point is nearest to the back face).  Fatigue da/dN = C ΔK² (C =
   n = 3 within 8 % while n = 0 is not; the final block's share falls with it (measured
   0.46, 0.21, 0.048);
 * a restart from the checkpoint after the first halved block equals the uninterrupted run
-  (the checkpoint keeps the shortened growth); on 2 ranks each run equals its serial one;
-* bad input: end_halvings above 8, negative, on an interior crack that stops at the
-  surface and on the non-planar path: a SceneError naming the file and the key.
+  (the checkpoint keeps the shortened growth).
+
+Interior crack: the penny of test_crack_fatigue_scene3d.py (radius a = 1 mm in the block
+[−4a, 4a]³, front a/8, tension 1 MPa; C = 1e-20, m = 3, R = 0.1) centred at x = 2a: its
+front must keep ℓ = 6h = 0.75a from the face x = 4a.  Δa_max = 0.2a: one block fits, the
+second would not; n = 2 solves two halved blocks (0.1a, 0.05a) and ends with a final block
+of 0.05a, the front's largest x then short of the limit by less than that (measured
+0.0102a; n = 0: 0.145a); its first two solves are the n = 0 run's.
+
+On 2 ranks each run equals its serial one.  Bad input: end_halvings above 8, negative,
+on the non-planar path: a SceneError naming the file and the key.
 """
 
 from __future__ import annotations
@@ -40,6 +48,7 @@ from _crack_scenes import (
     continued_run,
     idle_barrier,
     run_in,
+    same_growth,
     same_tables,
     serial_reference,
     surface_plate,
@@ -49,6 +58,7 @@ from coupled_support import gmsh_on_rank0, read_csv
 
 from bonecontact.fracture.fatigue import ParisLaw
 from bonecontact.scene import SceneError, load_scene
+from bonecontact.verification.problems import crack_block_model, crack_block_scene
 from bonecontact.verification.surface_fatigue import newman_raju_growth
 
 L = 1e-3
@@ -170,8 +180,7 @@ def test_ranks_equal_serial(runs: dict, n: int) -> None:
 BAD = {
     "above_8": ("end_halvings = 9", "surface", "0 … 8"),
     "negative": ("end_halvings = -1", "surface", "end_halvings"),
-    "interior": ("end_halvings = 2", "interior", "planar path"),
-    "nonplanar": ("end_halvings = 2", "nonplanar", "planar path"),
+    "nonplanar": ("end_halvings = 2", "nonplanar", "non-planar path"),
 }
 
 
@@ -180,10 +189,6 @@ def test_bad_end_halvings(runs: dict, tmp_path: Path, case: str) -> None:
     line, kind, words = BAD[case]
     mesh = runs[0][1].parent / "thin.msh"
     text = _text(mesh, 0).replace("end_halvings = 0", line)
-    if kind == "interior":  # a disc inside the plate, stopping at the surface (default)
-        text = text.replace('shape = "semi_elliptical"', 'shape = "disc"')
-        text = text.replace("centre = [0.0, 0.0, 0.0]", f"centre = [0.0, 0.0, {-T / 2}]")
-        text = text.replace(f"depth = {A}\nhalf_length = {A}", f"radius = {A / 4}")
     if kind == "nonplanar":
         text = text.replace("[fracture]\n", '[fracture]\nsurface_growth = "nonplanar"\n', 1)
     path = tmp_path / f"{case}.toml"
@@ -199,3 +204,60 @@ def test_summary_counts_no_halved_block_by_default(runs: dict) -> None:
     if MPI.COMM_WORLD.rank == 0:
         summary = json.loads((sub / "out" / "summary.json").read_text())
         assert summary["fracture"]["growth"]["halved_blocks"] == 0
+
+
+# ------------------------------------------------------------------------ interior crack
+W, H_BLOCK = 4 * L, L / 8
+DA_PENNY = 0.2 * L
+
+
+def _penny(mesh: Path, n: int) -> str:
+    geometry = f"centre = {[2 * L, 0.0, 0.0]!r}\nnormal = [0.0, 0.0, 1.0]\nradius = {L!r}"
+    text = crack_block_scene(str(mesh), geometry, E=17.0e9, nu=0.3, sigma=1e6, h=H_BLOCK, points=1)
+    fatigue = (
+        f"[fracture.fatigue]\nC = 1e-20\nm = 3.0\nR = 0.1\nda_max = {DA_PENNY!r}\n"
+        f"max_blocks = 10\nend_halvings = {n}"
+    )
+    return text.replace("[[crack]]", f"{fatigue}\n[[crack]]", 1)
+
+
+@pytest.fixture(scope="module")
+def pennies(tmp_path_factory) -> dict[int, tuple[dict, Path]]:
+    """The penny near the face x = 4a with n = 0 and 2 (summary's ``fracture``, folder)."""
+    comm = MPI.COMM_WORLD
+    d = Path(comm.bcast(str(tmp_path_factory.mktemp("penny")) if comm.rank == 0 else None))
+    gmsh_on_rank0(lambda gmsh: crack_block_model(W), d / "block.msh", 3)
+    out = {}
+    for n in (0, 2):
+        res, sub = run_in(d, f"n{n}", _penny(d / "block.msh", n))
+        assert res.status == "converged", res.summary.get("message")
+        out[n] = (res.summary["fracture"], sub)
+    return out
+
+
+def test_interior_crack_halves_its_last_blocks(pennies: dict) -> None:
+    (plain, _), (halved, _) = pennies[0], pennies[2]
+    gaps = {}
+    for n, f in ((0, plain), (2, halved)):
+        g = f["growth"]
+        assert g["status"] == "through" and g["final_block"]["da"] == DA_PENNY / 2**n
+        front = np.asarray(f["crack"]["front"])
+        gaps[n] = W - front[:, 0].max() - 6 * H_BLOCK  # to the ligament's limit
+        assert 0.0 <= gaps[n] < DA_PENNY / 2**n
+    assert plain["growth"]["halved_blocks"] == 0 and halved["growth"]["halved_blocks"] == 2
+    assert gaps[2] < 0.1 * gaps[0]
+    k = len(plain["growth"]["history"])
+    for got, ref in zip(halved["growth"]["history"][:k], plain["growth"]["history"], strict=True):
+        assert got == pytest.approx(ref, rel=1e-10)
+    assert len(halved["growth"]["history"]) == k + 2
+    fb = halved["growth"]["final_block"]
+    assert halved["growth"]["cycles"] == pytest.approx(
+        halved["growth"]["history"][-1]["cycles"] + fb["cycles"], rel=1e-12
+    )
+
+
+def test_interior_ranks_equal_serial(pennies: dict) -> None:
+    for n in (0, 2):
+        _, sub = pennies[n]
+        ser = serial_reference(sub)
+        same_growth(sub / "out", ser, L)
