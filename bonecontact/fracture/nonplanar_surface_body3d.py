@@ -349,16 +349,21 @@ def _replace(nodes, conn, tags, rows: list[int], repl: list[tuple], new: int):
 def _snap_in_surface(nodes, conn, sign_dist, n, movable, h, keep=()) -> np.ndarray:
     """Move the movable vertices within SNAP_FRACTION h of the plane onto it along the
     surface (the plane's normal projected on their mean facet normal's tangent plane;
-    exact in a flat neighbourhood, off a curved one by the snap times the facets' angle),
-    but none across a plane of ``keep`` ((point, normal, reach mask) each) within reach,
-    and none that would leave one of its facets below KEEP_AREA of its area or turned."""
+    exact in a flat neighbourhood, off a curved one by the snap times the facets' angle;
+    a vertex on an edge of the body along the edge: :func:`_edge_tangent`), but none
+    across a plane of ``keep`` ((point, normal, reach mask) each) within reach, and none
+    that would leave one of its facets below KEEP_AREA of its area or turned."""
     nodes = nodes.copy()
     for i in np.flatnonzero(movable & (np.abs(sign_dist) < SNAP_FRACTION * h)):
         mean = _smooth_at(nodes, conn, [i])
-        if mean is None:
-            continue
-        t = n - (n @ mean) * mean
-        if t @ n < 0.2:  # the plane near tangent to the surface
+        if mean is not None:
+            t = n - (n @ mean) * mean
+        else:
+            t = _edge_tangent(nodes, conn, i)
+            if t is None:
+                continue
+            t = (n @ t) * t
+        if t @ n < 0.2:  # the plane near tangent to the surface (or to the edge)
             continue
         x = nodes[i] - sign_dist[i] / (t @ n) * t
         if any(r[i] and ((nodes[i] - C) @ m) * ((x - C) @ m) < 0 for C, m, r in keep):
@@ -368,6 +373,30 @@ def _snap_in_surface(nodes, conn, sign_dist, n, movable, h, keep=()) -> np.ndarr
         nodes[i] = x
         sign_dist[i] = 0.0
     return nodes
+
+
+def _edge_tangent(nodes: np.ndarray, conn: np.ndarray, i: int) -> np.ndarray | None:
+    """The unit direction of the body's edge through vertex ``i`` when its facets form two
+    smooth faces (each within :data:`SMOOTH_DEG` of its mean normal, the two farther
+    apart): the cross product of their mean normals; else ``None`` (a corner, smooth, or
+    no facets).
+    A corner crack's plane crosses such an edge: a vertex there within the snap distance
+    moves along it onto the plane (cut 1e-12 from it, the mouth lost a node)."""
+    x = nodes[conn[(conn == i).any(axis=1)]]
+    if not len(x):
+        return None
+    m = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    m /= np.linalg.norm(m, axis=1)[:, None]
+    cos = np.cos(np.radians(SMOOTH_DEG))
+    first = m @ m[0] >= cos
+    faces = []
+    for group in (m[first], m[~first]):
+        mean = group.sum(axis=0) if len(group) else np.zeros(3)
+        if not len(group) or np.any(group @ (mean / np.linalg.norm(mean)) < cos):
+            return None
+        faces.append(mean / np.linalg.norm(mean))
+    e = np.cross(faces[0], faces[1])
+    return e / np.linalg.norm(e)
 
 
 #: A snap may leave each facet at a vertex no less than this fraction of its area (a thin

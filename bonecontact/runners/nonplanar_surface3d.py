@@ -1,27 +1,27 @@
 """3D scenes whose surface crack grows out of its plane (``[fracture] surface_growth =
 "nonplanar"``; docs/theory/fracture.md#non-planar-growth-of-a-surface-crack-in-a-scene).
 
-The scene's semi-elliptical crack starts as one convex planar patch: points at equal arc
-length on its ellipse, the first and the last outside the body by a front element, closed
-by the chord outside it (:func:`start_crack`); its open front the arc's vertices
-(:class:`~bonecontact.fracture.open_front3d.OpenTriangulatedCrack`), the first and last
-edges crossing the body's surface.  Each increment meshes the body with the crack
-(:mod:`~bonecontact.fracture.nonplanar_surface_body3d`), solves the analysis with the faces
-a contact pair, takes K_I, K_II, K_III at the middle of every front edge of the cut (an
-end edge's inwards when its domain reaches an oblique surface), advances every vertex by
-the σ₁′ criterion (weights (K_V/K_V,max)² at K_V ≥ K_Ic under ``propagate``, the Paris
-rates of ΔK = (1 − R) K_V under ``[fracture.fatigue]``, the block cycles by
-``FatigueProgress``), puts an end vertex that falls inside the body (or within a front
-element of its surface) out along its edge, a front element beyond the surface (farther
-until the end strip's outer edge clears the surface: :func:`end_beyond_surface`), and adds
-the strips (:mod:`~bonecontact.fracture.open_front3d`).  Stops: ``arrested``,
-``max_increments``/``max_blocks``, ``fractured`` (fatigue, K_V ≥ K_Ic), ``through`` (an
-inner front vertex would leave the body, come within two front elements of its surface
-or six ahead of it), ``failed`` (a crack that cannot be cut, meshed or evaluated).
-``fracture.csv``: a row per increment and front edge; ``crack_surface_<k>.vtk`` the
-patches (inside and outside the body), ``crack_front_<k>.vtk`` the K points with K,
-``increment<k>/`` each solve.  Checkpoints (``checkpoint_every``) and ``restart`` as
-:mod:`~bonecontact.runners.growth_state3d`'s.  Corner cracks are refused.
+The scene's semi-elliptical or corner (quarter-elliptical) crack starts as one convex
+planar patch: points at equal arc length on its ellipse, the first and the last outside
+the body by a front element, closed by the chord outside it (a corner crack's around the
+corner, through its edge's point moved out of both faces: :func:`start_crack`); its open
+front the arc's vertices (:class:`~bonecontact.fracture.open_front3d.OpenTriangulatedCrack`),
+the end edges crossing the surface (a corner crack's on its two faces).  Each increment
+meshes the body with the crack (:mod:`~bonecontact.fracture.nonplanar_surface_body3d`),
+solves the analysis with the faces a contact pair, takes K_I, K_II, K_III at the middle of
+every front edge of the cut (an end edge's inwards when its domain reaches an oblique
+surface), advances every vertex by the σ₁′ criterion (weights (K_V/K_V,max)² at K_V ≥ K_Ic
+under ``propagate``, the Paris rates of ΔK = (1 − R) K_V under ``[fracture.fatigue]``, the
+block cycles by ``FatigueProgress``), puts an end vertex that falls inside the body (or
+within a front element of its surface) out along its edge, a front element beyond the
+surface (farther until the end strip's outer edge clears the surface:
+:func:`end_beyond_surface`), and adds the strips (:mod:`~bonecontact.fracture.open_front3d`).
+Stops: ``arrested``, ``max_increments``/``max_blocks``, ``fractured`` (fatigue, K_V ≥
+K_Ic), ``through`` (an inner front vertex would leave the body, come within two front
+elements of its surface or six ahead of it), ``failed`` (a crack that cannot be cut,
+meshed or evaluated).  ``fracture.csv`` a row per increment and front edge,
+``crack_surface_<k>.vtk``, ``crack_front_<k>.vtk`` (K), ``increment<k>/`` each solve;
+checkpoints and ``restart`` as :mod:`~bonecontact.runners.growth_state3d`'s.
 """
 
 from __future__ import annotations
@@ -55,7 +55,13 @@ from bonecontact.fracture.open_front3d import (
     vertex_k,
 )
 from bonecontact.fracture.surface3d import MIN_DOMAIN_ELEMENTS
-from bonecontact.fracture.surface_body3d import CutBody, cut_mouth, inside_body
+from bonecontact.fracture.surface_body3d import (
+    CORNER,
+    CutBody,
+    corner_point,
+    cut_mouth,
+    inside_body,
+)
 from bonecontact.meshing.builder import MeshingError
 from bonecontact.runners.crack_fatigue import (
     FatigueProgress,
@@ -269,14 +275,16 @@ def _beyond_ends(run: SurfaceRun, cut: CutBody, phi: np.ndarray, s: np.ndarray) 
 def start_crack(run: SurfaceRun, cut: CutBody) -> OpenTriangulatedCrack:
     """The scene's crack as one convex planar patch (module docstring): N + 1 points at
     equal arc length on the ellipse from δ before its arc to δ after it (the ends outside
-    the body), N = ⌊length/(8 h)⌋ ≥ 5 edges, closed by the chord outside the body.
+    the body), N = ⌊length/(8 h)⌋ ≥ 5 edges, closed by the chord outside the body; a
+    corner crack's chord would cross the body (through the crack): its patch closes
+    around the corner instead (:func:`_around_corner`).
 
     Raises
     ------
     SceneError
         (``[fracture] tip_size``) fewer than 5 edges of 8 front elements fit; (``depth``)
-        the chord re-enters the body or an inner vertex lies within two front elements of
-        the surface.
+        the closing chord (path) re-enters the body or an inner vertex lies within two
+        front elements of the surface.
     """
     h = run.size.h_tip
     phi, s = _arc_samples(cut)
@@ -294,25 +302,46 @@ def start_crack(run: SurfaceRun, cut: CutBody) -> OpenTriangulatedCrack:
             f"tip_size <= {total / (MIN_EDGES * EDGE_ELEMENTS):.3g} m",
         )
     P = np.asarray(cut.arc.point(np.interp(np.linspace(-ext, s1 + ext, n + 1), s, phi)))
-    chord = P[0] + np.linspace(0.0, 1.0, 33)[:, None] * (P[-1] - P[0])
-    inner = P[1:-1]
-    if np.any(inside_body(run.body, chord)) or not _keeps_ligament(run, inner):
+    closing = P[[-1, 0]] if cut.crack.shape != CORNER else _around_corner(cut, P, h)
+    if _closing_enters(run, closing) or not _keeps_ligament(run, P[1:-1]):
         raise _error(
             run.scene,
             "depth",
             "the crack cannot start as one patch: its closing chord re-enters the body or a "
             f"front vertex lies within {LIGAMENT_ELEMENTS:g} front elements of the surface",
         )
+    if cut.crack.shape == CORNER:
+        P = np.vstack([P, closing[1:-1]])
     normal = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
     normal = tuple(map(float, normal / np.linalg.norm(normal)))
     return OpenTriangulatedCrack(
         tuple(map(tuple, P.tolist())),
-        (tuple(range(n + 1)),),
+        (tuple(range(len(P))),),
         tuple(range(n + 1)),
         (normal,) * n,
         None,
         normal,
     )
+
+
+def _around_corner(cut: CutBody, P: np.ndarray, h: float) -> np.ndarray:
+    """A corner crack's closing path from the last point to the first: the chord between
+    them crosses the body (through the crack), so the patch closes around the corner,
+    through the point of the edge at the crack's centre moved a front element out of
+    either face (−h t − h d: t, d the crack's in-plane directions along the faces of c
+    and a, which meet at 90 ± 20°; the patch stays one convex polygon)."""
+    C = np.asarray(cut.arc.centre, dtype=float)
+    c, a = cut.crack.half_length, cut.crack.depth
+    t = (corner_point(cut.crack, cut.arc, 0.0) - C) / c
+    d = (corner_point(cut.crack, cut.arc, 0.5 * math.pi) - C) / a
+    return np.array([P[-1], C - h * (t + d), P[0]])
+
+
+def _closing_enters(run: SurfaceRun, path: np.ndarray) -> bool:
+    """Whether the closing path (its segments sampled 33 times each) enters the body."""
+    f = np.linspace(0.0, 1.0, 33)[:, None]
+    x = np.vstack([p + f * (q - p) for p, q in zip(path[:-1], path[1:], strict=True)])
+    return bool(np.any(inside_body(run.body, x)))
 
 
 def _keeps_ligament(run: SurfaceRun, points: np.ndarray) -> bool:
@@ -325,9 +354,11 @@ def _keeps_ligament(run: SurfaceRun, points: np.ndarray) -> bool:
 def prepare_nonplanar(scene: Scene, comm: MPI.Comm) -> tuple[SurfaceRun, OpenTriangulatedCrack]:
     """The checks of a surface-crack scene (:func:`prepare_surface`) and the start crack."""
     run = prepare_surface(scene, comm)
-    if run.crack.shape != "semi_elliptical":
+    if run.crack.shape not in ("semi_elliptical", CORNER):
         raise _error(
-            scene, "shape", 'surface_growth = "nonplanar" grows semi_elliptical cracks only'
+            scene,
+            "shape",
+            'surface_growth = "nonplanar" grows semi_elliptical and quarter_elliptical cracks only',
         )
     return run, start_crack(run, cut_mouth(run.body, run.crack, run.size))
 

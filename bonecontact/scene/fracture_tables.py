@@ -171,20 +171,22 @@ def _check_out_of_plane(
 def _check_surface_growth(
     tab: TableReader | None, spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]
 ) -> None:
-    """``surface_growth = "nonplanar"`` grows one semi-elliptical surface crack of a 3D
-    scene, with ``propagate = true`` or ``[fracture.fatigue]``."""
+    """``surface_growth = "nonplanar"`` grows one semi-elliptical or quarter-elliptical
+    (corner) surface crack of a 3D scene, with ``propagate = true`` or
+    ``[fracture.fatigue]``."""
     if tab is None or spec.surface_growth == "planar":
         return
-    semi = [
+    surface = [
         c
         for c in cracks
-        if isinstance(c.crack, SurfaceBreakingCrack) and c.crack.shape == "semi_elliptical"
+        if isinstance(c.crack, SurfaceBreakingCrack)
+        and c.crack.shape in ("semi_elliptical", "quarter_elliptical")
     ]
-    if dim != 3 or len(cracks) != 1 or len(semi) != 1:
+    if dim != 3 or len(cracks) != 1 or len(surface) != 1:
         raise tab.error(
             "surface_growth",
-            '"nonplanar" grows one semi_elliptical surface [[crack]] of a 3D scene (not an '
-            "interior crack, a corner crack, a 2D crack or several cracks)",
+            '"nonplanar" grows one semi_elliptical or quarter_elliptical surface [[crack]] '
+            "of a 3D scene (not an interior crack, a 2D crack or several cracks)",
         )
     if not spec.grows:
         raise tab.error(

@@ -928,3 +928,64 @@ def test_snap_onto_one_strip_keeps_a_vertex_on_its_side_of_the_next(
     kinks = np.asarray(crack.points)[[1, 2]] - 0.1 * np.array([side * tilt, 0.0, 1.0])
     assert np.linalg.norm(M[:, None] - kinks[None], axis=2).min(axis=0).max() <= TOL
     _faces_volume_no_flat(cb, area, math.prod(BOX_SIZE), h)
+
+
+# ------------------------------------------- a corner crack: the mouth over two faces
+def _corner_patch(y0: float, tilt_deg: float) -> NonplanarSurfaceCrack:
+    """A quarter-disc polygon of radius R about the plate's edge x = −1, z = 0 (at y0) in
+    the plane through it tilted by ``tilt_deg`` about x (normal (0, cos, sin)): 9 points
+    from −π/16 to π/2 + π/16 (beyond the faces z = 0 and x = −1), closed around the
+    corner by the edge's point moved 0.1 out of both faces (as the runner's start patch)."""
+    t = math.radians(tilt_deg)
+    u, d = np.array([1.0, 0.0, 0.0]), np.array([0.0, math.sin(t), -math.cos(t)])
+    C = np.array([-1.0, y0, 0.0])
+    psi = -DELTA + np.arange(N_ARC) * (0.5 * math.pi + 2 * DELTA) / (N_ARC - 1)
+    arc = C + R * (np.cos(psi)[:, None] * u + np.sin(psi)[:, None] * d)
+    P = np.vstack([arc, C - 0.1 * (u + d)])
+    return NonplanarSurfaceCrack(tuple(map(tuple, P)), (tuple(range(len(P))),))
+
+
+def _clip(P: np.ndarray, axis: int, v: float, sign: float) -> np.ndarray:
+    """The polygon clipped to sign·(x[axis] − v) ≤ 0 (Sutherland–Hodgman)."""
+    out = []
+    for a, b in zip(P, np.roll(P, -1, axis=0), strict=True):
+        fa, fb = sign * (a[axis] - v), sign * (b[axis] - v)
+        if fa <= 0:
+            out.append(a)
+        if (fa <= 0) != (fb <= 0):
+            out.append(a + fa / (fa - fb) * (b - a))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("tilt", [0.0, 25.0])
+@pytest.mark.parametrize(
+    "y0", [0.0, 1e-12, 8e-8, 8e-4, 0.1], ids=["on-node", "1e-12", "1e-6h", "0.01h", "between"]
+)
+def test_corner_crack_mouth_runs_over_two_faces(y0: float, tilt: float) -> None:
+    """The mouth of a corner patch (its plane ``y0`` from a node of the plate's edge; h =
+    0.08): every node on the face z = 0 or x = −1 and on the patch's plane (1e-9), through
+    the edge's point (at 1e-12 of a node it failed before edge vertices snapped along the
+    edge: "the crack surface lost a mouth node"), its length the clipped polygon's edges
+    on the two faces (closed form, 1e-9), its ends on the two faces; the faces the patch
+    clipped to x ≥ −1, z ≤ 0 (1e-8), the plate's volume, no flat tetrahedron."""
+    h = 0.08
+    crack = _corner_patch(y0, tilt)
+    cb, _, cut = mesh_body_with_nonplanar_surface_crack(PLATE, crack, TipMesh(h, 0.3))
+    M = cut.nodes[list(cut.mouth)]
+    P = crack.polygon(0)
+    assert np.max(np.abs((M - P[0]) @ crack.normal(0))) <= TOL
+    assert np.all(np.minimum(np.abs(M[:, 0] + 1.0), np.abs(M[:, 2])) <= TOL)
+    edge = np.array([-1.0, y0, 0.0])
+    assert np.linalg.norm(M - edge, axis=1).min() <= TOL
+    ends = M[[0, -1]]
+    assert {int(np.abs(e[2]) <= TOL) for e in ends} == {0, 1}  # one end on each face
+    Q = _clip(_clip(P, 2, 0.0, 1.0), 0, -1.0, -1.0)
+    on_face = np.minimum(np.abs(Q[:, 2]), np.abs(Q[:, 0] + 1.0)) <= TOL
+    on = [
+        float(np.linalg.norm(b - a))
+        for a, b, fa, fb in zip(Q, np.roll(Q, -1, axis=0), on_face, np.roll(on_face, -1))
+        if fa and fb and (abs(a[2] - b[2]) <= TOL or abs(a[0] - b[0]) <= TOL)
+    ]
+    got = float(np.linalg.norm(np.diff(M, axis=0), axis=1).sum())
+    assert got == pytest.approx(sum(on), rel=1e-9)
+    _faces_volume_no_flat(cb, _area(Q), math.prod(SIZE), h)
