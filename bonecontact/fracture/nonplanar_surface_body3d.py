@@ -19,9 +19,9 @@ tetrahedron on two coplanar boundary triangles is dropped (:func:`drop_boundary_
 All gmsh work runs on rank 0.
 
 A building block: the front is returned as a polyline (no stress intensity along it yet,
-``CrackedBody3D.block`` does not apply), one cell group, no edge of the body within a
-facet of the mouth (vertices move only where their facets lie within 30° of each other,
-never across another crossing patch's plane, never flattening a facet).
+``CrackedBody3D.block`` does not apply), one cell group; vertices move only where their
+facets lie within 30° of each other or along an edge of two such faces (a corner crack's
+mouth crosses one), never across another crossing patch's plane, never flattening a facet.
 """
 
 from __future__ import annotations
