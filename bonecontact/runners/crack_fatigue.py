@@ -399,8 +399,8 @@ def final_block_text(block: dict[str, float]) -> str:
         f"({block['rate']:.3g} m/cycle; no solve at its end), holds {100 * block['share']:.0f} % "
         f"of the cycles ({block['cycles']:.4g}; {block['cycles_trend']:.4g} with ln(da/dN) "
         "continued from the last two solves): the count is set by that extrapolation, "
-        "not by a solved K; a smaller da_max resolves it (or, for a 3D surface crack on the "
-        "planar path, [fracture.fatigue] end_halvings)"
+        "not by a solved K; a smaller da_max resolves it, or in 3D [fracture.fatigue] "
+        "end_halvings (the blocks before it halved)"
     )
 
 

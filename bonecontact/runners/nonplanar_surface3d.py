@@ -175,6 +175,8 @@ class Growth:
     history: list[dict[str, float]] = dataclasses.field(default_factory=list)
     rows: int = 0  # fracture.csv rows written
     final_block: dict[str, float] | None = None  # the block that carried it through
+    shortfall: float = 0.0  # Σ (da_max − the halved blocks' da) (end_halvings)
+    halved: int = 0  # blocks shorter than da_max solved before the final one
 
     def state(self, initial: SurfaceBreakingCrack) -> dict[str, Any]:
         """What a checkpoint stores (JSON; the scene's crack ``initial`` to check a
@@ -187,6 +189,8 @@ class Growth:
             "fatigue": self.fatigue.state(),
             "history": self.history,
             "rows": self.rows,
+            "shortfall": self.shortfall,
+            "halved": self.halved,
         }
 
     @classmethod
@@ -208,6 +212,8 @@ class Growth:
             fatigue=FatigueProgress.from_state(state["fatigue"]),
             history=[{k: float(v) for k, v in h.items()} for h in state["history"]],
             rows=int(state["rows"]),
+            shortfall=float(state.get("shortfall", 0.0)),
+            halved=int(state.get("halved", 0)),
         )
 
 
@@ -554,6 +560,15 @@ def _record(g: Growth, run: SurfaceRun, kv: np.ndarray) -> None:
     )
 
 
+def _fits(run: SurfaceRun, adv: Any) -> bool:
+    """Whether the advanced front keeps its ligament: every inner vertex two front
+    elements inside the body and its point :data:`AHEAD_ELEMENTS` ahead inside (else the
+    block carries the crack ``through``)."""
+    inner = adv.vertices[1:-1]
+    ahead = inner + AHEAD_ELEMENTS * run.size.h_tip * adv.directions[1:-1]
+    return _keeps_ligament(run, inner) and bool(np.all(inside_body(run.body, ahead)))
+
+
 def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.ndarray]:
     """The stop after this solve (``None``: the crack in ``g`` grown) and the advance of
     every front vertex (zeros at a stop)."""
@@ -562,7 +577,7 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     w = growth_weights(kv_vertex, fat, run.K_Ic)
     lead = float(w.max(initial=0.0))
     if fat is not None:
-        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, lead)
+        g.cycles = g.fatigue.add_end(g.increments * fat.da_max - g.shortfall, lead)
     kv = equivalent_k(K[:, 0], K[:, 1], K[:, 2])
     _record(g, run, kv)
     most = fat.max_blocks if fat is not None else run.fracture.max_increments
@@ -572,14 +587,20 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
         return stop, still
     step = float(fat.da_max if fat is not None else run.fracture.increment)
     crack = g.crack
-    adv = advance_open_front(crack.vertices, crack.normals2, K, step, weights=w / lead)
-    new = adv.vertices.copy()
-    ahead = new[1:-1] + AHEAD_ELEMENTS * run.size.h_tip * adv.directions[1:-1]
-    if not _keeps_ligament(run, new[1:-1]) or not np.all(inside_body(run.body, ahead)):
+    halvings = fat.end_halvings if fat is not None else 0
+    for k in range(halvings + 1):  # [fracture.fatigue] end_halvings: the longest that fits
+        da = step / 2.0**k
+        adv = advance_open_front(crack.vertices, crack.normals2, K, da, weights=w / lead)
+        if _fits(run, adv):
+            break
+    else:
         if fat is not None:  # the last block at the rate of its start
-            g.final_block = final_block(g.cycles, step, lead, g.fatigue)
+            g.final_block = final_block(g.cycles, da, lead, g.fatigue)
             g.cycles += g.final_block["cycles"]
         return "through", still
+    if da < step:
+        g.shortfall, g.halved = g.shortfall + (step - da), g.halved + 1
+    new = adv.vertices.copy()
     V, last = crack.vertices, len(new) - 1
     for end, inner in ((0, 1), (last, last - 1)):
         if not adv.held[end]:
@@ -727,6 +748,7 @@ def _summary(run, g: Growth, frags, timer, comm, t_start: float, message) -> dic
                 "fractured": g.status in _BROKEN,
                 "fragments": frags,
                 "final_block": g.final_block,
+                "halved_blocks": g.halved,
             },
         },
         "phases_s": timer.summary(comm),

@@ -196,23 +196,19 @@ def _check_surface_growth(
         )
 
 
-def _check_end_halvings(
-    tab: TableReader | None, spec: FractureSpec, dim: int, cracks: Sequence[CrackSpec]
-) -> None:
-    """``[fracture.fatigue] end_halvings`` > 0 applies to 3D cracks: interior cracks and
-    surface cracks grown on the planar path (``surface_growth = "planar"``)."""
+def _check_end_halvings(tab: TableReader | None, spec: FractureSpec, dim: int) -> None:
+    """``[fracture.fatigue] end_halvings`` > 0 applies to 3D cracks (interior, surface and
+    non-planar surface growth), not to a 2D scene."""
     fat = spec.fatigue
-    if tab is None or fat is None or fat.end_halvings == 0:
+    if tab is None or fat is None or fat.end_halvings == 0 or dim == 3:
         return
-    if dim != 3 or spec.surface_growth != "planar":
-        raise SceneError(
-            None,
-            "[fracture.fatigue]",
-            "end_halvings",
-            "halves the blocks before a 3D crack runs through: interior cracks and surface "
-            'cracks with surface_growth = "planar", not a 2D scene or the non-planar path; '
-            "set end_halvings = 0 (the default) here",
-        )
+    raise SceneError(
+        None,
+        "[fracture.fatigue]",
+        "end_halvings",
+        "halves the blocks before a 3D crack runs through; a 2D crack stops `fractured` "
+        "within da_max of the surface instead: set end_halvings = 0 (the default) here",
+    )
 
 
 def _crack3d(tab: TableReader, name: str) -> CrackSpec:
@@ -370,7 +366,7 @@ def read_fracture(
     _check_breakthrough(spec, dim, cracks)
     _check_out_of_plane(tab, spec, dim, cracks)
     _check_surface_growth(tab, spec, dim, cracks)
-    _check_end_halvings(tab, spec, dim, cracks)
+    _check_end_halvings(tab, spec, dim)
     _check_materials(spec, materials)
     names = [c.name for c in cracks]
     for i, c in enumerate(cracks):

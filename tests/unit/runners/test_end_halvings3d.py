@@ -31,8 +31,14 @@ second would not; n = 2 solves two halved blocks (0.1a, 0.05a) and ends with a f
 of 0.05a, the front's largest x then short of the limit by less than that (measured
 0.0102a; n = 0: 0.145a); its first two solves are the n = 0 run's.
 
-On 2 ranks each run equals its serial one.  Bad input: end_halvings above 8, negative,
-on the non-planar path: a SceneError naming the file and the key.
+Non-planar path: the same thin plate with a = c = 0.25 mm, front a/14, Δa_max = 0.04 mm;
+an inner vertex must keep its point 6h ahead inside, so on the flat plate the limit is
+depth + 6h = t: n = 0 and 2 end ``through`` with −0.05h ≤ t − 6h − depth_last <
+Δa_max/2ⁿ (the point ahead of a vertex leans off the depth by the front's polygon angle),
+the n = 2 run's first solves the n = 0 run's, one more solve per halved block.
+
+On 2 ranks each run equals its serial one.  Bad input: end_halvings above 8 or negative (a
+SceneError naming the file and the key), in a 2D scene (naming the table and key).
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ from coupled_support import gmsh_on_rank0, read_csv
 
 from bonecontact.fracture.fatigue import ParisLaw
 from bonecontact.scene import SceneError, load_scene
+from bonecontact.scene.fracture_tables import read_fracture
 from bonecontact.verification.problems import crack_block_model, crack_block_scene
 from bonecontact.verification.surface_fatigue import newman_raju_growth
 
@@ -65,6 +72,7 @@ L = 1e-3
 A, T, B, S = 0.2 * L, 0.4 * L, 2.5 * L, 1.0e6
 LIGAMENT = 0.06 * L + 2 * A / 10  # r_out + 2 h
 DA_MAX, C = 0.06 * L, 1e-20
+AHEAD = 6  # the non-planar path's probe ahead of an inner vertex, in front elements
 HALVINGS = (0, 1, 3)
 
 
@@ -178,24 +186,30 @@ def test_ranks_equal_serial(runs: dict, n: int) -> None:
 
 
 BAD = {
-    "above_8": ("end_halvings = 9", "surface", "0 … 8"),
-    "negative": ("end_halvings = -1", "surface", "end_halvings"),
-    "nonplanar": ("end_halvings = 2", "nonplanar", "non-planar path"),
+    "above_8": ("end_halvings = 9", "0 … 8"),
+    "negative": ("end_halvings = -1", "end_halvings"),
 }
 
 
 @pytest.mark.parametrize("case", sorted(BAD))
 def test_bad_end_halvings(runs: dict, tmp_path: Path, case: str) -> None:
-    line, kind, words = BAD[case]
+    line, words = BAD[case]
     mesh = runs[0][1].parent / "thin.msh"
-    text = _text(mesh, 0).replace("end_halvings = 0", line)
-    if kind == "nonplanar":
-        text = text.replace("[fracture]\n", '[fracture]\nsurface_growth = "nonplanar"\n', 1)
     path = tmp_path / f"{case}.toml"
-    path.write_text(text)
+    path.write_text(_text(mesh, 0).replace("end_halvings = 0", line))
     with pytest.raises(SceneError, match=r"end_halvings") as err:
         load_scene(path)
     assert words in str(err.value) and str(path) in str(err.value)
+
+
+def test_end_halvings_in_2d_is_refused() -> None:
+    doc = {
+        "fracture": {"fatigue": {"C": 1e-20, "m": 2.0, "da_max": 1e-4, "end_halvings": 1}},
+        "crack": [{"region": "plate", "points": [[0.0, 0.0], [1e-3, 0.0]]}],
+    }
+    with pytest.raises(SceneError, match=r"end_halvings.*2D") as err:
+        read_fracture(doc, 2, [], False)
+    assert err.value.table == "[fracture.fatigue]" and err.value.key == "end_halvings"
 
 
 def test_summary_counts_no_halved_block_by_default(runs: dict) -> None:
@@ -261,3 +275,54 @@ def test_interior_ranks_equal_serial(pennies: dict) -> None:
         _, sub = pennies[n]
         ser = serial_reference(sub)
         same_growth(sub / "out", ser, L)
+
+
+# ------------------------------------------------------------------ non-planar path
+A_NP, DA_NP = 0.25 * L, 0.04 * L
+H_NP = A_NP / 14
+
+
+def _nonplanar(mesh: Path, n: int) -> str:
+    growth = (
+        f'surface_growth = "nonplanar"\n[fracture.fatigue]\nC = {C}\nm = 2.0\n'
+        f"da_max = {DA_NP}\nmax_blocks = 20\nend_halvings = {n}"
+    )
+    return surface_scene(mesh, h=H_NP, points=5, growth=growth, a=A_NP, c=A_NP, S=S, minus_S=-S)
+
+
+@pytest.fixture(scope="module")
+def nonplanar(runs: dict) -> dict[int, tuple[dict, Path]]:
+    """The non-planar path on the thin plate, n = 0 and 2 (summary's ``fracture``,
+    folder)."""
+    base = runs[0][1].parent
+    out = {}
+    for n in (0, 2):
+        res, sub = run_in(base, f"nonplanar{n}", _nonplanar(base / "thin.msh", n))
+        assert res.status == "converged", res.summary.get("message")
+        out[n] = (res.summary["fracture"], sub)
+    return out
+
+
+def test_nonplanar_path_halves_its_last_blocks(nonplanar: dict) -> None:
+    (plain, _), (halved, _) = nonplanar[0], nonplanar[2]
+    gaps = {}
+    for n, f in ((0, plain), (2, halved)):
+        g = f["growth"]
+        assert g["status"] == "through" and g["final_block"]["da"] == DA_NP / 2**n
+        gaps[n] = T - AHEAD * H_NP - g["history"][-1]["depth"]  # to the ligament's limit
+        # a vertex's point ahead leans off the depth direction (the front's polygon angle
+        # θ, a few degrees): its depth is 6h cos θ, not 6h (measured −1.9e-7 m = −0.011 h)
+        assert -0.05 * H_NP <= gaps[n] < DA_NP / 2**n
+    assert plain["growth"]["halved_blocks"] == 0 and halved["growth"]["halved_blocks"] >= 1
+    k = len(plain["growth"]["history"])
+    for got, ref in zip(halved["growth"]["history"][:k], plain["growth"]["history"], strict=True):
+        assert got == pytest.approx(ref, rel=1e-10)
+    assert len(halved["growth"]["history"]) == k + halved["growth"]["halved_blocks"]
+
+
+def test_nonplanar_ranks_equal_serial(nonplanar: dict) -> None:
+    for n in (0, 2):
+        _, sub = nonplanar[n]
+        ser = serial_reference(sub)
+        idle_barrier(MPI.COMM_WORLD)
+        same_tables(sub / "out" / "fracture.csv", ser / "fracture.csv", rtol=1e-9)
