@@ -16,8 +16,10 @@ included, the front's not — into the faces ``crack_upper`` and ``crack_lower``
 gmsh's ``Crack`` plugin (checked: :mod:`~bonecontact.fracture.crack_split`).  The
 boundary's facet groups keep their names and tags.  All gmsh work runs on rank 0.
 
-Limits: one planar crack, one cell group; the mouth must be one chain of the surface
-(the plane must not graze the surface near the crack).
+Several cracks (:func:`cut_mouths`, :func:`mesh_body_with_surface_cracks`): cut one after
+the other, embedded together, each split into its own faces.  Limits: planar cracks, one
+cell group; the mouth must be one chain of the surface (the plane must not graze the
+surface near the crack).
 """
 
 from __future__ import annotations
@@ -55,9 +57,11 @@ __all__ = [
     "corner_point",
     "crack_frame",
     "cut_mouth",
+    "cut_mouths",
     "faces_at",
     "inside_body",
     "mesh_body_with_surface_crack",
+    "mesh_body_with_surface_cracks",
     "onto_edge",
 ]
 
@@ -772,6 +776,57 @@ def cut_mouth(
     return CutBody(X, tris, np.asarray(out_tags, dtype=np.int32), tuple(mouth), front, crack)
 
 
+def cut_mouths(
+    body: BodySurface, cracks: list[SurfaceBreakingCrack], size: TipMesh | None = None
+) -> list[CutBody]:
+    """Cut the mouths of several cracks into the body's boundary, one after the other
+    (each cut into the boundary the ones before left; numpy, the same on every rank).
+    Every returned :class:`CutBody` holds the final boundary; its mouth is its own, found
+    again on that boundary (a later refinement may have halved a mouth's edges).
+
+    Raises
+    ------
+    ParameterError
+        As :func:`cut_mouth`; (``centre``) a later cut moved a node of an earlier mouth
+        (the cracks lie too close).
+    """
+    cuts: list[CutBody] = []
+    current = body
+    for crack in cracks:
+        cut = cut_mouth(current, crack, size)
+        cuts.append(cut)
+        tri = cut.nodes[cut.triangles]
+        current = BodySurface(tri, cut.tags, body.names, body.region, body.h_max)
+    last = cuts[-1]
+    tol = 1e-9 * body.scale
+    out = []
+    for cut in cuts:
+        mouth = _mouth_on(last.nodes, cut.nodes[list(cut.mouth)], tol)
+        out.append(CutBody(last.nodes, last.triangles, last.tags, mouth, cut.arc, cut.crack))
+    return out
+
+
+def _mouth_on(X: np.ndarray, polyline: np.ndarray, tol: float) -> tuple[int, ...]:
+    """The nodes of ``X`` on the mouth ``polyline`` (within ``tol``), in its order."""
+    found: list[tuple[float, int]] = []
+    for k, (p, q) in enumerate(zip(polyline, polyline[1:], strict=False)):
+        d = q - p
+        t = np.clip((X - p) @ d / (d @ d), 0.0, 1.0)
+        dist = np.linalg.norm(X - (p + t[:, None] * d), axis=1)
+        for i in np.flatnonzero(dist <= tol):
+            found.append((k + float(t[i]), int(i)))
+    order = []
+    for _, i in sorted(found):
+        if i not in order:
+            order.append(i)
+    ends = [np.linalg.norm(X[order[j]] - polyline[j and -1]) for j in (0, -1)] if order else [1]
+    if len(order) < len(polyline) or max(ends) > tol:
+        raise ParameterError(
+            "centre", "cutting a later crack's mouth moved an earlier one (cracks too close)"
+        )
+    return tuple(order)
+
+
 def _inside_point(ell: EllipticalFront, crack: SurfaceBreakingCrack) -> np.ndarray:
     """A point of the front inside the body: the deepest point, of a corner crack the
     point at ψ = 45°."""
@@ -882,14 +937,25 @@ def merge_crack(cb: CutBody, pts: np.ndarray, tri: np.ndarray) -> tuple[np.ndarr
     return np.asarray(new).reshape(-1, 3), ids[tri]
 
 
-def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int], mouth_tag: int):
+def _build(
+    cuts: list[CutBody], body: BodySurface, size: TipMesh, tags: list[tuple[int, int]], mouth_tags
+):
+    """Mesh the body with the cracks ``cuts`` (sharing one cut boundary; gmsh, rank 0):
+    crack k's faces get ``tags[k]``, its mouth ``mouth_tags[k]`` while it is split."""
     h_max = min(size.h_max or body.h_max, body.h_max)
     current = gmsh.model.getCurrent()
-    gmsh.model.add("surface_crack")
-    pts, tri = _crack_mesh(cb, size, h_max)
-    gmsh.model.remove()
-    gmsh.model.setCurrent(current)
-    new, crack_tri = merge_crack(cb, pts, tri)
+    merged = []
+    offset = 0
+    for cb in cuts:
+        gmsh.model.add("surface_crack")
+        pts, tri = _crack_mesh(cb, size, h_max)
+        gmsh.model.remove()
+        gmsh.model.setCurrent(current)
+        new, crack_tri = merge_crack(cb, pts, tri)
+        crack_tri = np.where(crack_tri >= len(cb.nodes), crack_tri + offset, crack_tri)
+        merged.append((new, crack_tri))
+        offset += len(new)
+    cb = cuts[0]
     values = np.unique(cb.tags)
     surfaces = list(range(1, len(values) + 1))
     for k in surfaces:
@@ -900,25 +966,41 @@ def _build(cb: CutBody, body: BodySurface, size: TipMesh, tags: tuple[int, int],
         gmsh.model.mesh.addElementsByType(k, 2, [], (cb.triangles[cb.tags == t] + 1).ravel())
         if t > 0:
             gmsh.model.addPhysicalGroup(2, [k], int(t), name=body.names.get(int(t), f"facets{t}"))
-    crack = gmsh.model.addDiscreteEntity(2)
-    gmsh.model.mesh.addNodes(2, crack, np.arange(n0 + 1, n0 + len(new) + 1), new.ravel())
-    gmsh.model.mesh.addElementsByType(crack, 2, [], (crack_tri + 1).ravel())
-    mouth = gmsh.model.addDiscreteEntity(1)
-    m = np.asarray(cb.mouth) + 1
-    gmsh.model.mesh.addElementsByType(mouth, 1, [], np.column_stack([m[:-1], m[1:]]).ravel())
+    cracks, mouths, first = [], [], n0 + 1
+    for new, crack_tri in merged:
+        crack = gmsh.model.addDiscreteEntity(2)
+        gmsh.model.mesh.addNodes(2, crack, np.arange(first, first + len(new)), new.ravel())
+        gmsh.model.mesh.addElementsByType(crack, 2, [], (crack_tri + 1).ravel())
+        first += len(new)
+        cracks.append(crack)
+    for cut in cuts:
+        mouth = gmsh.model.addDiscreteEntity(1)
+        m = np.asarray(cut.mouth) + 1
+        gmsh.model.mesh.addElementsByType(mouth, 1, [], np.column_stack([m[:-1], m[1:]]).ravel())
+        mouths.append(mouth)
     geo = gmsh.model.geo
     volume = geo.addVolume([geo.addSurfaceLoop(surfaces)])
     geo.synchronize()
-    gmsh.model.mesh.embed(2, [crack], 3, volume)
+    gmsh.model.mesh.embed(2, cracks, 3, volume)
     region, region_tag = body.region
     gmsh.model.addPhysicalGroup(3, [volume], region_tag, name=region)
     f = gmsh.model.mesh.field.add("MathEval")
-    gmsh.model.mesh.field.setString(f, "F", _size_formula(cb.arc, size, h_max))
+    gmsh.model.mesh.field.setString(f, "F", _size_formulas(cuts, size, h_max))
     gmsh.model.mesh.field.setAsBackgroundMesh(f)
     for opt in ("MeshSizeFromPoints", "MeshSizeExtendFromBoundary", "MeshSizeFromCurvature"):
         gmsh.option.setNumber(f"Mesh.{opt}", 0)
     volume_mesh(volume, size.h_tip)
-    split_crack_nodes(crack, mouth, tags, mouth_tag)
+    for k, (crack, mouth) in enumerate(zip(cracks, mouths, strict=True)):
+        suffix = str(k) if len(cuts) > 1 else ""
+        split_crack_nodes(crack, mouth, tags[k], mouth_tags[k], suffix)
+
+
+def _size_formulas(cuts: list[CutBody], size: TipMesh, h_max: float) -> str:
+    """The size field of the cracks: the least of their own (:func:`_size_formula`)."""
+    out = _size_formula(cuts[0].arc, size, h_max)
+    for cut in cuts[1:]:
+        out = f"Min({out},{_size_formula(cut.arc, size, h_max)})"
+    return out
 
 
 #: the volume meshers tried in turn until no tetrahedron is flat: gmsh's 3D algorithm
@@ -966,12 +1048,15 @@ def _flat_tetrahedra(h_tip: float) -> int:
     return int(np.count_nonzero(np.abs(six_vol) < 6.0 * FLAT_VOLUME * h_tip**3))
 
 
-def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int) -> None:
+def split_crack_nodes(
+    crack: int, mouth: int, tags: tuple[int, int], mouth_tag: int, suffix: str = ""
+) -> None:
     """Duplicate the crack's nodes, the mouth's included, the front's not (checked, and
     redone where the plugin is wrong, by
-    :func:`~bonecontact.fracture.crack_split.split_checked`)."""
+    :func:`~bonecontact.fracture.crack_split.split_checked`); the faces' groups are named
+    ``crack_a`` and ``crack_b`` followed by ``suffix``."""
     before = crack_surface([crack], mouth)
-    gmsh.model.addPhysicalGroup(2, [crack], tags[0], name="crack_a")
+    gmsh.model.addPhysicalGroup(2, [crack], tags[0], name=f"crack_a{suffix}")
     gmsh.model.addPhysicalGroup(1, [mouth], mouth_tag)
     plugin = gmsh.plugin
     plugin.setNumber("Crack", "Dimension", 2)
@@ -980,7 +1065,7 @@ def split_crack_nodes(crack: int, mouth: int, tags: tuple[int, int], mouth_tag: 
     plugin.setNumber("Crack", "OpenBoundaryPhysicalGroup", mouth_tag)
     plugin.run("Crack")
     gmsh.model.removePhysicalGroups([(1, mouth_tag)])
-    gmsh.model.setPhysicalName(2, tags[1], "crack_b")
+    gmsh.model.setPhysicalName(2, tags[1], f"crack_b{suffix}")
     split_checked(before, tags, "surface crack")
     gmsh.model.mesh.renumberNodes()
     gmsh.model.mesh.renumberElements()
@@ -1009,25 +1094,40 @@ def mesh_body_with_surface_crack(
     MeshingError
         gmsh failed (on every rank).
     """
+    bodies, md, cuts = mesh_body_with_surface_cracks(body, [crack], size, comm)
+    return bodies[0], md, cuts[0]
+
+
+def mesh_body_with_surface_cracks(
+    body: BodySurface,
+    cracks: list[SurfaceBreakingCrack],
+    size: TipMesh,
+    comm: MPI.Comm | None = None,
+) -> tuple[list[CrackedBody3D], object, list[CutBody]]:
+    """Mesh a 3D body with several surface cracks (:func:`cut_mouths`; collective, gmsh on
+    rank 0): each crack's view of the one mesh (its own faces ``crack_upper`` and
+    ``crack_lower``), the mesh data and the cuts.  Raises as
+    :func:`mesh_body_with_surface_crack`."""
     comm = MPI.COMM_WORLD if comm is None else comm
-    cb = cut_mouth(body, crack, size)
+    cuts = [cut_mouth(body, cracks[0], size)] if len(cracks) == 1 else []
+    cuts = cuts or cut_mouths(body, list(cracks), size)
     top = max([body.region[1], *body.names, 0])
-    tags = (top + 1, top + 2)
+    tags = [(top + 1 + 3 * k, top + 2 + 3 * k) for k in range(len(cracks))]
     error = None
     with gmsh_session("cracked_surface_body3d") if comm.rank == 0 else nullcontext():
         if comm.rank == 0:
             try:
-                _build(cb, body, size, tags, top + 3)
+                _build(cuts, body, size, tags, [t[1] + 1 for t in tags])
             except Exception as exc:  # reported on every rank below
                 error = f"{type(exc).__name__}: {exc}"
         error = comm.bcast(error, root=0)
         if error is not None:
             raise MeshingError(f"surface crack in a 3D body: {error}")
         md = model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
-    n = np.asarray(crack.normal, dtype=float)
-    a, b = tags
-    upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
-    body3 = CrackedBody3D(
-        md.mesh, md.cell_tags, md.facet_tags, cb, {"crack_upper": upper, "crack_lower": lower}
-    )
-    return body3, md, cb
+    bodies = []
+    for crack, cb, (a, b) in zip(cracks, cuts, tags, strict=True):
+        n = np.asarray(crack.normal, dtype=float)
+        upper, lower = (a, b) if face_side_sign(md.mesh, md.facet_tags, a, n) > 0 else (b, a)
+        faces = {"crack_upper": upper, "crack_lower": lower}
+        bodies.append(CrackedBody3D(md.mesh, md.cell_tags, md.facet_tags, cb, faces))
+    return bodies, md, cuts

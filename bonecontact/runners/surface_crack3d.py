@@ -5,23 +5,23 @@ The crack is cut into the scene's body (:mod:`bonecontact.fracture.surface_body3
 faces a contact pair, and after the analysis's last step K_I, K_II, K_III, G, the σ₁′
 equivalent K_V and kink angle (:mod:`bonecontact.fracture.advance3d`) come from the
 interaction integral at ``front_points`` points between φ_s = 20° (or two front elements)
-from either end of the front and at the deepest point.  Without growth that is the run.
+from either end of the front and at the deepest point.  Without growth that is the run;
+several surface cracks are evaluated together, not grown (:func:`run_several_surface`).
 
-Growth keeps the crack planar and semi-elliptical and moves three points — the deepest
-and the two at φ_s from the surface — as Newman and Raju's own growth computations do:
-``[fracture] propagate`` grows the points with K_V ≥ K_Ic by Δa (K_V/K_V,max)² under the
-one load; ``[fracture.fatigue]`` by the Paris rates of ΔK = (1 − R)K_V per block of cycles
-(the fastest point Δa_max, the block's cycles by
-:func:`~bonecontact.fracture.fatigue.block_cycles`).  Each increment re-meshes the body
-and solves the analysis again.  It stops at arrest, at the increment or block limit, when
-K_V reaches K_Ic under fatigue (``fractured``: the crack runs unstably) or when the grown
-front would leave the body (``through``: it reaches the far surface); the two last report
-the fragments, the body on either side of the crack plane; ``out_of_plane`` (with
+Growth keeps the crack planar and semi-elliptical and moves three points — the deepest and the
+two at φ_s from the surface — as Newman and Raju's own growth computations do: ``[fracture]
+propagate`` grows the points with K_V ≥ K_Ic by Δa (K_V/K_V,max)² under the one load;
+``[fracture.fatigue]`` by the Paris rates of ΔK = (1 − R)K_V per block of cycles (the fastest
+point Δa_max; :func:`~bonecontact.fracture.fatigue.block_cycles`).  Each increment re-meshes
+the body and solves the analysis again.  It stops at arrest, at the increment or block limit,
+when K_V reaches K_Ic under fatigue (``fractured``: the crack runs unstably) or when the grown
+front would leave the body (``through``: it reaches the far surface); the two last report the
+fragments, the body on either side of the crack plane; ``out_of_plane`` (with
 ``stop_out_of_plane``) when a growing point's σ₁′ kink exceeds ``max_kink_deg``
 (:func:`check_kink`: recorded always).  A crack that cannot be cut while its front stays
-inside, or meshed, or K that cannot be evaluated, ends the run ``failed``.
-``fracture.csv`` has a row per increment and front point, ``crack_surface_<k>.vtk`` and
-``crack_front_<k>.vtk`` the crack and its front with K, ``increment<k>/`` each solve.
+inside, or meshed, or K that cannot be evaluated, ends the run ``failed``.  ``fracture.csv``
+has a row per increment and front point, ``crack_surface_<k>.vtk`` and ``crack_front_<k>.vtk``
+the crack and its front with K, ``increment<k>/`` each solve.
 """
 
 from __future__ import annotations
@@ -56,8 +56,10 @@ from bonecontact.fracture.surface_body3d import (
     corner_angle,
     corner_parameter,
     cut_mouth,
+    cut_mouths,
     inside_body,
     mesh_body_with_surface_crack,
+    mesh_body_with_surface_cracks,
 )
 from bonecontact.materials.laws import Isotropic
 from bonecontact.meshing.builder import MeshingError
@@ -90,12 +92,16 @@ from bonecontact.scene.errors import table_label
 from bonecontact.scene.spec import FractureSpec
 
 __all__ = [
+    "SEVERAL_COLUMNS",
     "SURFACE_COLUMNS",
+    "NamedRecord",
     "PlanarModelWarning",
     "SurfaceRecord",
     "SurfaceStart",
     "check_surface_crack",
     "has_surface_crack",
+    "prepare_several",
+    "run_several_surface",
     "run_surface_crack",
 ]
 
@@ -183,13 +189,13 @@ def has_surface_crack(scene: Scene) -> bool:
     return any(isinstance(c.crack, SurfaceBreakingCrack) for c in scene.cracks)
 
 
-def _error(scene: Scene, key: str | None, text: str) -> SceneError:
-    return SceneError(str(scene.path), table_label("crack", 0, scene.cracks[0].name), key, text)
+def _error(scene: Scene, key: str | None, text: str, i: int = 0) -> SceneError:
+    return SceneError(str(scene.path), table_label("crack", i, scene.cracks[i].name), key, text)
 
 
 def _refuse(scene: Scene) -> None:
     if len(scene.cracks) > 1:
-        raise _error(scene, "shape", "a surface-breaking crack runs alone in its scene")
+        _refuse_several(scene)
     if scene.analysis.kind not in ("static", "quasistatic"):
         raise SceneError(
             str(scene.path),
@@ -200,6 +206,31 @@ def _refuse(scene: Scene) -> None:
     fr = scene.fracture
     if fr is not None and fr.initiate:
         raise SceneError(str(scene.path), "[fracture]", "initiate", "runs in 2D scenes only")
+
+
+def _refuse_several(scene: Scene) -> None:
+    """What a scene with several surface cracks does not run: another kind of crack
+    beside them, cracks in different regions, growth."""
+    for i, c in enumerate(scene.cracks):
+        if not isinstance(c.crack, SurfaceBreakingCrack):
+            raise _error(
+                scene,
+                "shape",
+                "a surface-breaking crack shares its scene only with other surface-breaking "
+                "cracks (semi_elliptical, quarter_elliptical); an interior crack beside a "
+                "surface crack is not supported",
+                i,
+            )
+        if c.region != scene.cracks[0].region:
+            raise _error(scene, "region", "the cracks of a 3D scene lie in one body", i)
+    fr = scene.fracture
+    if fr is not None and (fr.propagate or fr.fatigue is not None):
+        raise SceneError(
+            str(scene.path),
+            "[fracture.fatigue]" if fr.fatigue is not None else "[fracture]",
+            "da_max" if fr.fatigue is not None else "propagate",
+            "several surface cracks are evaluated, not grown yet (a single surface crack grows)",
+        )
 
 
 def _material(scene: Scene, region: str) -> tuple[Isotropic, float | None]:
@@ -234,16 +265,44 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
     """Read the mesh, take the body's surface, cut the crack's mouth into it (to check
     it: a :class:`SceneError` naming the key on every rank) and set the front mesh."""
     _refuse(scene)
-    spec = scene.cracks[0]
+    if len(scene.cracks) > 1:  # the non-planar path comes here: it takes one crack
+        raise SceneError(
+            str(scene.path),
+            "[fracture]",
+            "surface_growth",
+            "several surface cracks run on the planar path (stationary); the non-planar "
+            "path takes one crack",
+        )
     fr = scene.fracture if scene.fracture is not None else FractureSpec()
     body, material, k_ic, groups = body_and_material(scene, comm)
-    crack = spec.crack
-    h = fr.tip_size if fr.tip_size is not None else crack.b / 10
-    size = TipMesh(h, fr.tip_grading if fr.tip_grading is not None else 0.12)
+    size = _tip_mesh(fr, [scene.cracks[0].crack])
+    cut = _cut(scene, body, size, 0)
+    return _surface_run(scene, 0, (body, material, k_ic, groups), cut, size)
+
+
+def _tip_mesh(fr: FractureSpec, cracks: list[SurfaceBreakingCrack]) -> TipMesh:
+    """The front mesh: ``tip_size``, else a tenth of the smallest crack's smaller axis."""
+    h = fr.tip_size if fr.tip_size is not None else min(c.b for c in cracks) / 10
+    return TipMesh(h, fr.tip_grading if fr.tip_grading is not None else 0.12)
+
+
+def _cut(scene: Scene, body: BodySurface, size: TipMesh, i: int) -> CutBody:
+    """Crack ``i``'s mouth cut into the body (a :class:`SceneError` naming it)."""
     try:
-        cut = cut_mouth(body, crack, size)
+        return cut_mouth(body, scene.cracks[i].crack, size)
     except ParameterError as exc:
-        raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: ")) from None
+        raise _error(scene, exc.key, str(exc).removeprefix(f"{exc.key}: "), i) from None
+
+
+def _surface_run(
+    scene: Scene, i: int, around: tuple, cut: CutBody, size: TipMesh, pairs: tuple = ()
+) -> SurfaceRun:
+    """Crack ``i``'s run: ``around`` = (body, material, K_Ic, groups); the scene gets the
+    face pairs ``pairs`` (default: the crack's own) as its last contacts."""
+    body, material, k_ic, groups = around
+    spec, h = scene.cracks[i], size.h_tip
+    fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    crack = spec.crack
     r_out = min(max(0.25 * crack.b, 3.0 * h), 0.6 * crack.b**2 / crack.a)
     if r_out < 3.0 * h * (1.0 - 1e-9):
         raise SceneError(
@@ -253,9 +312,9 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
             f"the integration domain (r = {r_out:.3g} m: at most 0.6 b²/a of the crack) spans "
             f"fewer than 3 front elements of {h:.3g} m; choose a smaller tip_size",
         )
-    _check_inside(scene, body, cut, r_out + 2.0 * h)
-    pair = spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower")
-    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + (pair,))
+    _check_inside(scene, body, cut, r_out + 2.0 * h, i)
+    pairs = pairs or (spec.face_pair(_pair_name(spec.name), "crack_upper", "crack_lower"),)
+    scene2 = dataclasses.replace(scene, contacts=tuple(scene.contacts) + tuple(pairs))
     return SurfaceRun(
         scene2,
         scene,
@@ -272,6 +331,27 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
     )
 
 
+def prepare_several(scene: Scene, comm: MPI.Comm) -> tuple[list[SurfaceRun], list[CutBody]]:
+    """The runs of a scene's several surface cracks (their scenes hold every crack's face
+    pair, in the order of the cracks) and their mouths cut into one boundary (each crack
+    first cut alone, to name the crack that does not fit)."""
+    _refuse(scene)
+    fr = scene.fracture if scene.fracture is not None else FractureSpec()
+    around = body_and_material(scene, comm)
+    body = around[0]
+    size = _tip_mesh(fr, [c.crack for c in scene.cracks])
+    alone = [_cut(scene, body, size, i) for i in range(len(scene.cracks))]
+    try:
+        cuts = cut_mouths(body, [c.crack for c in scene.cracks], size)
+    except ParameterError as exc:
+        raise _error(scene, exc.key, str(exc), len(scene.cracks) - 1) from None
+    pairs = tuple(
+        c.face_pair(_pair_name(c.name), "crack_upper", "crack_lower") for c in scene.cracks
+    )
+    runs = [_surface_run(scene, i, around, cut, size, pairs) for i, cut in enumerate(alone)]
+    return runs, cuts
+
+
 def _pair_name(name: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "_.-" else "_" for ch in name)
 
@@ -284,13 +364,16 @@ def _probe_points(cut: CutBody, h: float) -> np.ndarray:
     return cut.arc.point(phi) + h * cut.arc.normals(phi)
 
 
-def _check_inside(scene: Scene, body: BodySurface, cut: CutBody, ligament: float) -> None:
+def _check_inside(
+    scene: Scene, body: BodySurface, cut: CutBody, ligament: float, i: int = 0
+) -> None:
     if not np.all(inside_body(body, _probe_points(cut, ligament))):
         raise _error(
             scene,
             "depth",
             f"the crack's front comes within {ligament:.3g} m of the body's surface (the "
             "integration domain and two front elements): a smaller crack or tip_size",
+            i,
         )
 
 
@@ -432,6 +515,12 @@ def cracked_model(
 def check_surface_crack(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> SceneModel:
     """Every check of a surface-crack scene, the cracked mesh and the face pair included
     (nothing written); the scene model on that mesh."""
+    if len(scene.cracks) > 1:
+        runs, cuts = prepare_several(scene, comm)
+        timer = PhaseTimer()
+        bodies, md = _build_several(runs, cuts, comm, timer)
+        faces = [(cb, _pair_name(r.name)) for cb, r in zip(bodies, runs, strict=True)]
+        return cracked_model(runs[0].scene, faces, md, runs[0].groups, comm, timer)
     run = prepare_surface(scene, comm)
     timer = PhaseTimer()
     cb, md = _build(run, run.crack, comm, timer)
@@ -976,6 +1065,8 @@ def run_surface_crack(
     (:mod:`~bonecontact.runners.growth_state3d`); ``start``: the growth continues another
     run (its increments numbered and its cycles counted on from there; no restart)."""
     t_start = time.perf_counter()
+    if len(scene.cracks) > 1:
+        return run_several_surface(scene, comm, output)
     timer = PhaseTimer()
     run = prepare_surface(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
@@ -1024,3 +1115,111 @@ def run_surface_crack(
     summary = run_summary(scene.name, status, comm, info["wall_time_s"], **info)
     write_summary(comm, outdir, summary)
     return RunResult(status, summary, None, outdir)
+
+
+# ------------------------------------------------------------ several surface cracks
+#: Columns of ``fracture.csv`` of several surface cracks: :data:`SURFACE_COLUMNS` with the
+#: crack's name after ``cycles``.
+SEVERAL_COLUMNS = (*SURFACE_COLUMNS[:2], "crack", *SURFACE_COLUMNS[2:])
+
+
+@dataclasses.dataclass(frozen=True)
+class NamedRecord:
+    """A row of ``fracture.csv`` of several cracks (:data:`SEVERAL_COLUMNS`)."""
+
+    record: SurfaceRecord
+    crack: str
+
+    def row(self) -> list[Any]:
+        r = self.record.row()
+        return [*r[:2], self.crack, *r[2:]]
+
+
+def _build_several(runs: list[SurfaceRun], cuts: list[CutBody], comm, timer: PhaseTimer):
+    """The body meshed with every crack: each crack's view of the mesh, the mesh data."""
+    run = runs[0]
+    try:
+        with timer.phase("mesh_read"):
+            bodies, md, _ = mesh_body_with_surface_cracks(
+                run.body, [c.crack for c in cuts], run.size, comm
+            )
+    except (MeshingError, ParameterError) as exc:
+        raise _error(run.scene, getattr(exc, "key", "depth"), str(exc), len(runs) - 1) from None
+    return bodies, md
+
+
+def _crack_entry(run: SurfaceRun, records: list[SurfaceRecord], cut: CutBody) -> dict:
+    """A crack's entry of ``fracture.cracks`` in summary.json: its frame and front size,
+    and K at its deepest point (of a corner crack at ψ = 45°)."""
+    deep = math.degrees(_deepest_parameter(cut))
+    r = min(records, key=lambda q: abs(q.phi_deg - deep))
+    return {
+        "name": run.name,
+        "shape": cut.crack.shape,
+        "centre": list(cut.crack.centre),
+        "normal": list(cut.crack.normal),
+        "axis": list(cut.crack.axis),
+        "front_size": run.size.h_tip,
+        "final": dataclasses.asdict(cut.crack),
+        "deepest": {"phi_deg": r.phi_deg, "K_I": r.K_I, "K_II": r.K_II, "K_III": r.K_III},
+        "K_I_max": max(q.K_I for q in records),
+    }
+
+
+def run_several_surface(
+    scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None
+) -> RunResult:
+    """Several stationary surface cracks in one body: their mouths cut into its surface,
+    meshed together, one solve with every crack's face pair, K along each front
+    (``fracture.csv`` with the crack's name, :data:`SEVERAL_COLUMNS`; summary.json
+    ``fracture.cracks``, one entry per crack)."""
+    t_start = time.perf_counter()
+    timer = PhaseTimer()
+    runs, cuts = prepare_several(scene, comm)
+    outdir = Path(output) if output is not None else scene.output.directory
+    if comm.rank == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+    bodies, md = _build_several(runs, cuts, comm, timer)
+    faces = [(cb, _pair_name(r.name)) for cb, r in zip(bodies, runs, strict=True)]
+    sm, integ, solve = solve_cracked(
+        runs[0].scene, faces, md, runs[0].groups, comm, timer, outdir / "increment0"
+    )
+    status, message, entries = solve["status"], solve.get("message"), []
+    table = RecordTable(comm, outdir / "fracture.csv", SEVERAL_COLUMNS)
+    try:
+        if status == "converged":
+            entries = _evaluate_several(runs, bodies, sm, integ, timer, table, outdir)
+    except (ParameterError, RunError) as exc:
+        status, message = "failed", f"no K at the front: {exc}"
+    finally:
+        table.close()
+        integ.destroy()
+    info: dict[str, Any] = {
+        "wall_time_s": time.perf_counter() - t_start,
+        "fracture": {"cracks": entries, "growth": None},
+        "phases_s": timer.summary(comm),
+    }
+    if message is not None:
+        info["message"] = message
+    summary = run_summary(scene.name, status, comm, info["wall_time_s"], **info)
+    write_summary(comm, outdir, summary)
+    return RunResult(status, summary, None, outdir)
+
+
+def _evaluate_several(runs, bodies, sm, integ, timer, table: RecordTable, outdir: Path):
+    """K along every crack's front (its own face pair's tractions), written to ``table``
+    and the VTK files ``crack_surface_0_<crack>.vtk``, ``crack_front_0_<crack>.vtk``;
+    returns the summary entries."""
+    entries = []
+    n = len(runs)
+    for k, (run, cb) in enumerate(zip(runs, bodies, strict=True)):
+        with timer.phase("fracture"):
+            traction = crack_tractions(sm, integ, cb, run.r_out, back=k - n)
+            records = evaluate(integ.u, cb, run, 0, 0.0, traction)
+        table.rows([NamedRecord(r, run.name) for r in records])
+        if sm.model.mesh.comm.rank == 0:
+            tag = _pair_name(run.name)
+            write_crack_surface(outdir / f"crack_surface_0_{tag}.vtk", cb.crack)
+            write_front(outdir / f"crack_front_0_{tag}.vtk", records)
+        entries.append(_crack_entry(run, records, cb.crack))
+    return entries

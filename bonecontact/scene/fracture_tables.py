@@ -413,7 +413,28 @@ def cracks_meet(a: Any, b: Any) -> bool:
     3D planar cracks when one's surface reaches the other's (:func:`planar_cracks_meet`)."""
     if isinstance(a, Crack2D):
         return crack_gap(a, b) <= 0.0
+    if not all(hasattr(c, "sample_points") for c in (a, b)):
+        return surface_cracks_meet(a, b)
     return planar_cracks_meet(a, b) or planar_cracks_meet(b, a)
+
+
+def surface_cracks_meet(a: Any, b: Any) -> bool:
+    """Whether a surface-breaking crack may meet another crack, judged without the body
+    (its mouth is cut by the runner): conservatively, when the balls of radius
+    max(depth, half_length) about two surface cracks' centres overlap or touch, or when a
+    point covering a planar crack (``sample_points``) lies in a surface crack's ball."""
+    surface = [c for c in (a, b) if not hasattr(c, "sample_points")]
+    planar = [c for c in (a, b) if hasattr(c, "sample_points")]
+
+    def ball(c: Any) -> tuple[np.ndarray, float]:
+        return np.asarray(c.centre, dtype=float), max(float(c.depth), float(c.half_length))
+
+    (ca, ra) = ball(surface[0])
+    if len(surface) == 2:
+        cb, rb = ball(surface[1])
+        return bool(np.linalg.norm(ca - cb) <= (ra + rb) * (1.0 + 1e-9))
+    pts = planar[0].sample_points(16, 96)
+    return bool(np.any(np.linalg.norm(pts - ca, axis=1) <= ra * (1.0 + 1e-9)))
 
 
 def planar_cracks_meet(a: Any, b: Any, rings: int = 16, per_ring: int = 96) -> bool:
@@ -422,7 +443,7 @@ def planar_cracks_meet(a: Any, b: Any, rings: int = 16, per_ring: int = 96) -> b
     projected on its plane lie on both sides of it or on it (within 10⁻⁹ of the cracks'
     size).  The outline of ``b`` is its front as a polygon of ``per_ring`` points."""
     if not all(hasattr(c, "sample_points") for c in (a, b)):
-        return False  # a surface-breaking crack: one per scene (refused by the runner)
+        return False  # a surface-breaking crack: surface_cracks_meet
     c, R = np.asarray(b.centre, dtype=float), b.axes
     rel = (a.sample_points(rings, per_ring) - c) @ R.T  # (u, v, n) in b's frame
     front = b.front().point(np.linspace(0.0, 2 * np.pi, per_ring, endpoint=False))
