@@ -545,7 +545,8 @@ def _quad_ends(grown: OpenTriangulatedCrack, old: OpenTriangulatedCrack, held) -
 
 def _record(g: Growth, run: SurfaceRun, kv: np.ndarray) -> None:
     """The increment's ``history`` entry (``depth``: the front's reach along the scene
-    crack's depth direction d = n × t from its centre)."""
+    crack's depth direction d = n × t from its centre; :func:`advance` adds ``da``, the
+    leading advance of the block after it: 0 at a stop, the final block's at ``through``)."""
     c = run.crack
     d = np.cross(np.asarray(c.normal, dtype=float), np.asarray(c.axis, dtype=float))
     depth = float(np.max((g.crack.vertices - np.asarray(c.centre, dtype=float)) @ d))
@@ -583,6 +584,7 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
     most = fat.max_blocks if fat is not None else run.fracture.max_increments
     still = np.zeros(len(kv_vertex))
     stop = growth_stop(float(kv.max()), lead, fat, run.K_Ic, g.increments, most)
+    g.history[-1]["da"] = 0.0  # the leading advance of the block after this solve
     if stop is not None:
         return stop, still
     step = float(fat.da_max if fat is not None else run.fracture.increment)
@@ -597,7 +599,9 @@ def advance(run: SurfaceRun, g: Growth, K: np.ndarray) -> tuple[str | None, np.n
         if fat is not None:  # the last block at the rate of its start
             g.final_block = final_block(g.cycles, da, lead, g.fatigue)
             g.cycles += g.final_block["cycles"]
+            g.history[-1]["da"] = da
         return "through", still
+    g.history[-1]["da"] = da
     if da < step:
         g.shortfall, g.halved = g.shortfall + (step - da), g.halved + 1
     new = adv.vertices.copy()

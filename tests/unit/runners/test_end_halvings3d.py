@@ -315,9 +315,14 @@ def test_nonplanar_path_halves_its_last_blocks(nonplanar: dict) -> None:
         assert -0.05 * H_NP <= gaps[n] < DA_NP / 2**n
     assert plain["growth"]["halved_blocks"] == 0 and halved["growth"]["halved_blocks"] >= 1
     k = len(plain["growth"]["history"])
-    for got, ref in zip(halved["growth"]["history"][:k], plain["growth"]["history"], strict=True):
-        assert got == pytest.approx(ref, rel=1e-10)
-    assert len(halved["growth"]["history"]) == k + halved["growth"]["halved_blocks"]
+    hist = halved["growth"]["history"]
+    for got, ref in zip(hist[:k], plain["growth"]["history"], strict=True):
+        # da: the block after the solve, the n = 0 run's last the final one
+        assert {**got, "da": 0} == pytest.approx({**ref, "da": 0}, rel=1e-10)
+    assert len(hist) == k + halved["growth"]["halved_blocks"]
+    da = [h["da"] for h in hist]  # Δa_max, then halved, the final block Δa_max/2²
+    assert da[: k - 1] == [DA_NP] * (k - 1) and da[-1] == DA_NP / 4
+    assert all(DA_NP / 4 <= x <= DA_NP / 2 for x in da[k - 1 : -1])
 
 
 def test_nonplanar_ranks_equal_serial(nonplanar: dict) -> None:
