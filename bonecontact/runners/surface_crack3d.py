@@ -6,7 +6,7 @@ faces a contact pair, and after the analysis's last step K_I, K_II, K_III, G, th
 equivalent K_V and kink angle (:mod:`bonecontact.fracture.advance3d`) come from the
 interaction integral at ``front_points`` points between φ_s = 20° (or two front elements)
 from either end of the front and at the deepest point.  Without growth that is the run;
-several surface cracks are evaluated together, not grown (:func:`run_several_surface`).
+several surface cracks are solved and grown together (:func:`run_several_surface`).
 
 Growth keeps the crack planar and semi-elliptical and moves three points — the deepest and the
 two at φ_s from the surface — as Newman and Raju's own growth computations do: ``[fracture]
@@ -89,6 +89,7 @@ from bonecontact.runners.mechanics import (
 from bonecontact.runners.results import RecordTable, RunResult, run_summary, write_summary
 from bonecontact.scene import Scene, SceneError
 from bonecontact.scene.errors import table_label
+from bonecontact.scene.fracture_tables import surface_cracks_meet
 from bonecontact.scene.spec import FractureSpec
 
 __all__ = [
@@ -224,12 +225,12 @@ def _refuse_several(scene: Scene) -> None:
         if c.region != scene.cracks[0].region:
             raise _error(scene, "region", "the cracks of a 3D scene lie in one body", i)
     fr = scene.fracture
-    if fr is not None and (fr.propagate or fr.fatigue is not None):
+    if fr is not None and fr.fatigue is not None and fr.fatigue.end_halvings > 0:
         raise SceneError(
             str(scene.path),
-            "[fracture.fatigue]" if fr.fatigue is not None else "[fracture]",
-            "da_max" if fr.fatigue is not None else "propagate",
-            "several surface cracks are evaluated, not grown yet (a single surface crack grows)",
+            "[fracture.fatigue]",
+            "end_halvings",
+            "several surface cracks end with a full final block (a single surface crack halves it)",
         )
 
 
@@ -270,8 +271,7 @@ def prepare_surface(scene: Scene, comm: MPI.Comm) -> SurfaceRun:
             str(scene.path),
             "[fracture]",
             "surface_growth",
-            "several surface cracks run on the planar path (stationary); the non-planar "
-            "path takes one crack",
+            "several surface cracks run on the planar path; the non-planar path takes one crack",
         )
     fr = scene.fracture if scene.fracture is not None else FractureSpec()
     body, material, k_ic, groups = body_and_material(scene, comm)
@@ -734,13 +734,16 @@ def _stop(run: SurfaceRun, g: Growth, kv: np.ndarray, rates: np.ndarray) -> str 
     return growth_stop(float(kv.max()), lead, fat, run.K_Ic, g.increments, most)
 
 
-def _grown(crack: SurfaceBreakingCrack, step: float, rates: np.ndarray) -> SurfaceBreakingCrack:
+def _grown(
+    crack: SurfaceBreakingCrack, step: float, rates: np.ndarray, lead: float | None = None
+) -> SurfaceBreakingCrack:
     """The crack with its three points advanced: the fastest by ``step``.  The advances
     are rounded to a grid of about 1e-6 of the step
     (:func:`~bonecontact.common.geometry.on_advance_grid`): they come from K whose
     round-off differs with the number of ranks, and gmsh turns a crack 1e-19 m larger into
-    another mesh."""
-    d = on_advance_grid(step * rates / rates.max(), step)
+    another mesh.  ``lead``: the weight that advances by ``step`` (default the largest of
+    ``rates``; several cracks: the largest of them all)."""
+    d = on_advance_grid(step * rates / (rates.max() if lead is None else lead), step)
     if crack.shape == CORNER:  # c from the point near its face, a from the one near a's
         return crack.grown(crack.depth + d[2], crack.half_length + d[0])
     return crack.grown(
@@ -1066,6 +1069,8 @@ def run_surface_crack(
     run (its increments numbered and its cycles counted on from there; no restart)."""
     t_start = time.perf_counter()
     if len(scene.cracks) > 1:
+        if restart or start is not None:
+            raise ValueError("several surface cracks write no checkpoints: they cannot restart")
         return run_several_surface(scene, comm, output)
     timer = PhaseTimer()
     run = prepare_surface(scene, comm)
@@ -1166,37 +1171,52 @@ def _crack_entry(run: SurfaceRun, records: list[SurfaceRecord], cut: CutBody) ->
     }
 
 
+@dataclasses.dataclass
+class SeveralGrowth:
+    """The state of several growing surface cracks between solves."""
+
+    cracks: list[SurfaceBreakingCrack]
+    kinks: list[Growth]  # each crack's largest kink and out_of_plane (check_kink)
+    increments: int = 0
+    cycles: float = 0.0
+    status: str | None = None
+    fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
+    history: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    final_block: dict[str, float] | None = None
+    at: int = 0  # the crack that stopped the growth (through, joined: the first of the two)
+    other: int | None = None  # joined: the second
+
+
 def run_several_surface(
     scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, output: Path | None = None
 ) -> RunResult:
-    """Several stationary surface cracks in one body: their mouths cut into its surface,
-    meshed together, one solve with every crack's face pair, K along each front
-    (``fracture.csv`` with the crack's name, :data:`SEVERAL_COLUMNS`; summary.json
-    ``fracture.cracks``, one entry per crack)."""
+    """Several surface cracks in one body: their mouths cut into its surface, meshed
+    together, one solve with every crack's face pair, K along each front (``fracture.csv``
+    with the crack's name, :data:`SEVERAL_COLUMNS`; summary.json ``fracture.cracks``, one
+    entry per crack).  With ``propagate`` or ``[fracture.fatigue]`` every crack grows as a
+    single one does, in one block: the fastest point of all the cracks advances by the
+    increment (``da_max``), the others in proportion to their weights; it stops as a
+    single crack does, ``through`` when any crack's grown front would leave the body and
+    ``joined`` when two grown cracks would meet or come within a ligament of each other
+    (:func:`_would_meet`)."""
     t_start = time.perf_counter()
     timer = PhaseTimer()
     runs, cuts = prepare_several(scene, comm)
     outdir = Path(output) if output is not None else scene.output.directory
     if comm.rank == 0:
         outdir.mkdir(parents=True, exist_ok=True)
-    bodies, md = _build_several(runs, cuts, comm, timer)
-    faces = [(cb, _pair_name(r.name)) for cb, r in zip(bodies, runs, strict=True)]
-    sm, integ, solve = solve_cracked(
-        runs[0].scene, faces, md, runs[0].groups, comm, timer, outdir / "increment0"
-    )
-    status, message, entries = solve["status"], solve.get("message"), []
+    fr = runs[0].fracture
+    grows = fr.propagate or fr.fatigue is not None
+    g = SeveralGrowth([r.crack for r in runs], [Growth(r.crack) for r in runs])
     table = RecordTable(comm, outdir / "fracture.csv", SEVERAL_COLUMNS)
     try:
-        if status == "converged":
-            entries = _evaluate_several(runs, bodies, sm, integ, timer, table, outdir)
-    except (ParameterError, RunError) as exc:
-        status, message = "failed", f"no K at the front: {exc}"
+        status, message, entries, frags = _grow_several(runs, cuts, g, comm, timer, outdir, table)
     finally:
         table.close()
-        integ.destroy()
+    growth = _several_growth(runs, g, frags) if grows else None
     info: dict[str, Any] = {
         "wall_time_s": time.perf_counter() - t_start,
-        "fracture": {"cracks": entries, "growth": None},
+        "fracture": {"cracks": entries, "growth": growth},
         "phases_s": timer.summary(comm),
     }
     if message is not None:
@@ -1206,20 +1226,167 @@ def run_several_surface(
     return RunResult(status, summary, None, outdir)
 
 
-def _evaluate_several(runs, bodies, sm, integ, timer, table: RecordTable, outdir: Path):
-    """K along every crack's front (its own face pair's tractions), written to ``table``
-    and the VTK files ``crack_surface_0_<crack>.vtk``, ``crack_front_0_<crack>.vtk``;
-    returns the summary entries."""
-    entries = []
+def _several_growth(runs: list[SurfaceRun], g: SeveralGrowth, frags) -> dict[str, Any]:
+    """``fracture.growth`` of several cracks."""
+    fr = runs[0].fracture
+    stopped = g.status in ("through", "joined", "out_of_plane")
+    return {
+        "rule": "fatigue" if fr.fatigue is not None else "propagate",
+        "status": g.status,
+        "increments": g.increments,
+        "cycles": g.cycles if fr.fatigue is not None else None,
+        "K_Ic": runs[0].K_Ic,
+        "history": g.history,
+        "fractured": g.status in ("fractured", "through"),
+        "fragments": frags,
+        "final_block": g.final_block,
+        "crack": runs[g.at].name if stopped else None,
+        "other": runs[g.other].name if g.other is not None else None,
+        "planar_validity": {
+            r.name: planar_validity(k, fr) for r, k in zip(runs, g.kinks, strict=True)
+        },
+    }
+
+
+def _grow_several(runs, cuts, g: SeveralGrowth, comm, timer, outdir: Path, table: RecordTable):
+    """Solve, evaluate and advance until a stop; returns (status, message, the summary's
+    crack entries, fragments)."""
+    fr = runs[0].fracture
+    grows = fr.propagate or fr.fatigue is not None
+    entries: list[dict] = []
+    while True:
+        try:
+            if g.increments > 0:
+                cuts = cut_mouths(runs[0].body, g.cracks, runs[0].size)
+            bodies, md = _build_several(runs, cuts, comm, timer)
+        except (ParameterError, SceneError) as exc:
+            if g.increments == 0:
+                raise
+            g.status = "failed"
+            return "failed", f"increment {g.increments}: the grown cracks: {exc}", entries, None
+        faces = [(cb, _pair_name(r.name)) for cb, r in zip(bodies, runs, strict=True)]
+        out = outdir / f"increment{g.increments}"
+        sm, integ, solve = solve_cracked(runs[0].scene, faces, md, runs[0].groups, comm, timer, out)
+        if solve["status"] != "converged":
+            integ.destroy()
+            return solve["status"], solve.get("message"), entries, None
+        try:
+            recs = _evaluate_several(runs, bodies, sm, integ, timer, g)
+        except (ParameterError, RunError) as exc:
+            g.status = "failed"
+            return "failed", f"increment {g.increments}: no K at the front: {exc}", entries, None
+        finally:
+            integ.destroy()
+        inc = g.increments
+        cut_of = [cb.crack for cb in bodies]
+        stop = _advance_several(runs, g, recs, cut_of) if grows else "stationary"
+        for run, records in zip(runs, recs, strict=True):
+            rows = [
+                dataclasses.replace(r, cycles=g.cycles, status=stop or "grows") for r in records
+            ]
+            table.rows([NamedRecord(r, run.name) for r in rows])
+        entries = [_crack_entry(r, q, c) for r, q, c in zip(runs, recs, cut_of, strict=True)]
+        if comm.rank == 0:
+            for run, records, cut in zip(runs, recs, cut_of, strict=True):
+                tag = _pair_name(run.name)
+                write_crack_surface(outdir / f"crack_surface_{inc}_{tag}.vtk", cut)
+                write_front(outdir / f"crack_front_{inc}_{tag}.vtk", records)
+        if stop is not None:
+            g.status = stop
+            frags = _fragments(bodies[g.at]) if stop in ("fractured", "through") else None
+            return "converged", final_block_note(comm, g.final_block), entries, frags
+
+
+def _evaluate_several(runs, bodies, sm, integ, timer, g: SeveralGrowth) -> list[list]:
+    """K along every crack's front (its own face pair's tractions)."""
+    out = []
     n = len(runs)
     for k, (run, cb) in enumerate(zip(runs, bodies, strict=True)):
         with timer.phase("fracture"):
             traction = crack_tractions(sm, integ, cb, run.r_out, back=k - n)
-            records = evaluate(integ.u, cb, run, 0, 0.0, traction)
-        table.rows([NamedRecord(r, run.name) for r in records])
-        if sm.model.mesh.comm.rank == 0:
-            tag = _pair_name(run.name)
-            write_crack_surface(outdir / f"crack_surface_0_{tag}.vtk", cb.crack)
-            write_front(outdir / f"crack_front_0_{tag}.vtk", records)
-        entries.append(_crack_entry(run, records, cb.crack))
-    return entries
+            out.append(evaluate(integ.u, cb, run, g.increments, g.cycles, traction))
+    return out
+
+
+def _advance_several(
+    runs: list[SurfaceRun], g: SeveralGrowth, recs: list[list[SurfaceRecord]], cuts
+) -> str | None:
+    """One block (increment) end of every crack: the cycles, the stop, the next cracks;
+    the fastest point of all the cracks sets the block.  Returns the stop (``None``:
+    grow)."""
+    fr = runs[0].fracture
+    fat = fr.fatigue
+    kv = [_three_points(r, c) for r, c in zip(recs, cuts, strict=True)]
+    rates = _several_rates(runs, kv)
+    lead = max(float(r.max(initial=0.0)) for r in rates)
+    if fat is not None:
+        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, lead)
+    g.history.append(_several_history(runs, g, recs, cuts, kv))
+    most = fat.max_blocks if fat is not None else fr.max_increments
+    k_max = max(float(k.max()) for k in kv)
+    stop = growth_stop(k_max, lead, fat, runs[0].K_Ic, g.increments, most)
+    flagged = [
+        check_kink(run, kg, r, cut, w)
+        for run, kg, r, cut, w in zip(runs, g.kinks, recs, cuts, rates, strict=True)
+    ]
+    if stop is not None:
+        return stop
+    if any(flagged) and fr.stop_out_of_plane:
+        g.at = flagged.index(True)
+        return "out_of_plane"
+    step = fat.da_max if fat is not None else fr.increment
+    nxt = [_grown(c, step, w, lead) for c, w in zip(g.cracks, rates, strict=True)]
+    return _several_stop(runs, g, nxt, step, lead)
+
+
+def _several_stop(runs, g: SeveralGrowth, nxt, step: float, lead: float) -> str | None:
+    """``through`` when a grown crack leaves the body (fatigue: the final block at the
+    leading rate), ``joined`` when two grown cracks would meet, else the next cracks."""
+    fat = runs[0].fracture.fatigue
+    for k, (run, c) in enumerate(zip(runs, nxt, strict=True)):
+        if breaks_through(run, c):
+            g.at = k
+            if fat is not None:
+                g.final_block = final_block(g.cycles, step, lead, g.fatigue)
+                g.cycles += g.final_block["cycles"]
+            return "through"
+    for i in range(len(nxt)):
+        for j in range(i + 1, len(nxt)):
+            if _would_meet(runs[i], runs[j], nxt[i], nxt[j]):
+                g.at, g.other = i, j
+                return "joined"
+    g.cracks, g.increments = nxt, g.increments + 1
+    return None
+
+
+def _would_meet(run_i: SurfaceRun, run_j: SurfaceRun, a, b) -> bool:
+    """Whether two grown cracks meet or come within a ligament (the integration domain
+    and two front elements, :attr:`SurfaceRun.ligament`) of each other: their balls of
+    radius max(depth, half_length) about their centres, widened by the larger ligament,
+    touch (:func:`~bonecontact.scene.fracture_tables.surface_cracks_meet`: exact for
+    coplanar cracks side by side along the surface with c ≥ a, conservative else)."""
+    lig = max(run_i.ligament, run_j.ligament)
+    return surface_cracks_meet(a, b, lig)
+
+
+def _several_history(runs, g: SeveralGrowth, recs, cuts, kv) -> dict[str, Any]:
+    """An entry of ``fracture.growth.history``: the increment, the cycles and every crack's
+    depth, half-length and K_V at its growth points (:func:`_history_k`)."""
+    cracks = {}
+    for run, c, r, cut, k in zip(runs, g.cracks, recs, cuts, kv, strict=True):
+        cracks[run.name] = {"depth": c.depth, "half_length": c.half_length, **_history_k(r, cut, k)}
+    return {"increment": g.increments, "cycles": g.cycles, "cracks": cracks}
+
+
+def _several_rates(runs: list[SurfaceRun], kv: list[np.ndarray]) -> list[np.ndarray]:
+    """The growth weights of every crack's three points, taken together
+    (:func:`growth_weights`: under one load normalised by the largest K_V of all the
+    cracks); a corner crack's point at ψ = 45° has none."""
+    w = growth_weights(np.concatenate(kv), runs[0].fracture.fatigue, runs[0].K_Ic)
+    out = []
+    for k, run in enumerate(runs):
+        r = w[3 * k : 3 * k + 3].copy()
+        if run.crack.shape == CORNER:
+            r[1] = 0.0
+        out.append(r)
+    return out

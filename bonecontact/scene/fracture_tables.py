@@ -418,11 +418,12 @@ def cracks_meet(a: Any, b: Any) -> bool:
     return planar_cracks_meet(a, b) or planar_cracks_meet(b, a)
 
 
-def surface_cracks_meet(a: Any, b: Any) -> bool:
-    """Whether a surface-breaking crack may meet another crack, judged without the body
-    (its mouth is cut by the runner): conservatively, when the balls of radius
-    max(depth, half_length) about two surface cracks' centres overlap or touch, or when a
-    point covering a planar crack (``sample_points``) lies in a surface crack's ball."""
+def surface_cracks_meet(a: Any, b: Any, gap: float = 0.0) -> bool:
+    """Whether a surface-breaking crack may meet another crack (or come within ``gap`` of
+    it, m), judged without the body (its mouth is cut by the runner): conservatively, when
+    the balls of radius max(depth, half_length) about two surface cracks' centres come
+    within ``gap``, or when a point covering a planar crack (``sample_points``) lies in a
+    surface crack's ball widened by ``gap``."""
     surface = [c for c in (a, b) if not hasattr(c, "sample_points")]
     planar = [c for c in (a, b) if hasattr(c, "sample_points")]
 
@@ -432,9 +433,9 @@ def surface_cracks_meet(a: Any, b: Any) -> bool:
     (ca, ra) = ball(surface[0])
     if len(surface) == 2:
         cb, rb = ball(surface[1])
-        return bool(np.linalg.norm(ca - cb) <= (ra + rb) * (1.0 + 1e-9))
+        return bool(np.linalg.norm(ca - cb) <= (ra + rb + gap) * (1.0 + 1e-9))
     pts = planar[0].sample_points(16, 96)
-    return bool(np.any(np.linalg.norm(pts - ca, axis=1) <= ra * (1.0 + 1e-9)))
+    return bool(np.any(np.linalg.norm(pts - ca, axis=1) <= (ra + gap) * (1.0 + 1e-9)))
 
 
 def planar_cracks_meet(a: Any, b: Any, rings: int = 16, per_ring: int = 96) -> bool:
