@@ -1280,6 +1280,7 @@ def _grow_several(runs, cuts, g: SeveralGrowth, comm, timer, outdir: Path, table
         inc = g.increments
         cut_of = [cb.crack for cb in bodies]
         stop = _advance_several(runs, g, recs, cut_of) if grows else "stationary"
+        _warn_out_of_plane(runs, g, inc, comm)
         for run, records in zip(runs, recs, strict=True):
             rows = [
                 dataclasses.replace(r, cycles=g.cycles, status=stop or "grows") for r in records
@@ -1295,6 +1296,15 @@ def _grow_several(runs, cuts, g: SeveralGrowth, comm, timer, outdir: Path, table
             g.status = stop
             frags = _fragments(bodies[g.at]) if stop in ("fractured", "through") else None
             return "converged", final_block_note(comm, g.final_block), entries, frags
+
+
+def _warn_out_of_plane(runs, g: SeveralGrowth, inc: int, comm: MPI.Comm) -> None:
+    """A :class:`PlanarModelWarning` (rank 0) for every crack whose kink first exceeded
+    ``max_kink_deg`` at the increment ``inc``."""
+    for run, kg in zip(runs, g.kinks, strict=True):
+        oop = kg.out_of_plane
+        if comm.rank == 0 and oop is not None and oop["increment"] == inc:
+            warnings.warn(out_of_plane_text(run, oop), PlanarModelWarning, stacklevel=3)
 
 
 def _evaluate_several(runs, bodies, sm, integ, timer, g: SeveralGrowth) -> list[list]:

@@ -241,3 +241,10 @@ def test_overlapping_mouths_are_refused(plates: Path) -> None:
     text = _scene(plates / "plate.msh", 0.0, _surface("right", 1.5 * A))
     with pytest.raises(SceneError, match=r'\[\[crack\]\] #2 "right".*depth.*crosses or touches'):
         run_in(plates, "overlap", text)
+
+
+def test_several_on_the_nonplanar_path_is_refused(plates: Path) -> None:
+    growth = 'surface_growth = "nonplanar"\n' + _fatigue(1)
+    text = _scene(plates / "plate.msh", -4 * A, _surface("right", 4 * A), growth)
+    with pytest.raises(SceneError, match=r"surface_growth.*several cracks"):
+        run_in(plates, "nonplanar", text)
