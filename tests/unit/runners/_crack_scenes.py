@@ -84,6 +84,24 @@ def run_in(base: Path, name: str, text: str) -> tuple[RunResult, Path]:
     return res, d
 
 
+def run_compared(base: Path, name: str, text: str) -> tuple[dict, Path]:
+    """:func:`run_in` (converged), and on several ranks the distributed run compared with
+    the serial one (fracture.csv to 1e-9, the growth's stop and increments); returns the
+    summary's ``fracture`` and the output folder."""
+    res, d = run_in(base, name, text)
+    assert res.status == "converged", res.summary.get("message")
+    ser = serial_reference(d)
+    idle_barrier(MPI.COMM_WORLD)
+    out = d / "out"
+    fracture = res.summary["fracture"]
+    if MPI.COMM_WORLD.size > 1:
+        same_tables(out / "fracture.csv", ser / "fracture.csv", rtol=1e-9)
+        want = json.loads((ser / "summary.json").read_text())["fracture"]["growth"]
+        assert fracture["growth"]["status"] == want["status"]
+        assert fracture["growth"]["increments"] == want["increments"]
+    return fracture, out
+
+
 def serial_reference(d: Path) -> Path:
     """The serial run of ``d/scene.toml`` whose distributed run wrote ``d/out``: on one
     rank that run itself, else the scene run on rank 0 alone into ``d/ser``."""

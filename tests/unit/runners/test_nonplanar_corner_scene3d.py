@@ -40,7 +40,6 @@ between the arc's ends would cross the crack); the mouth runs over both faces.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -50,12 +49,9 @@ import numpy as np
 import pytest
 from _crack_scenes import (
     continued_run,
-    idle_barrier,
     read_table,
-    run_in,
+    run_compared,
     same_growth,
-    same_tables,
-    serial_reference,
     surface_plate,
     surface_scene,
     uninterrupted_run,
@@ -101,23 +97,6 @@ def plate(tmp_path_factory) -> Path:
     return d
 
 
-def _run(plate: Path, name: str, text: str) -> tuple[dict, Path]:
-    """Run on every rank; on several, compare with the serial run (fracture.csv to 1e-9,
-    the stop, the increments); the summary's ``fracture``."""
-    res, d = run_in(plate, name, text)
-    assert res.status == "converged", res.summary.get("message")
-    ser = serial_reference(d)
-    idle_barrier(MPI.COMM_WORLD)
-    out = d / "out"
-    fracture = res.summary["fracture"]
-    if MPI.COMM_WORLD.size > 1:
-        same_tables(out / "fracture.csv", ser / "fracture.csv", rtol=1e-9)
-        want = json.loads((ser / "summary.json").read_text())["fracture"]["growth"]
-        assert fracture["growth"]["status"] == want["status"]
-        assert fracture["growth"]["increments"] == want["increments"]
-    return fracture, out
-
-
 def _psi(t: dict, sel: np.ndarray, a: float, c: float) -> np.ndarray:
     """Newman and Raju's ψ (rad) of the rows ``sel``: 0 on the front face, π/2 on the side."""
     return np.arctan2(-t["z"][sel] / a, (t["x"][sel] + B) / c)
@@ -134,7 +113,7 @@ def _face_crossings(front: np.ndarray) -> tuple[float, float]:
 
 
 def test_mode_i_corner_stays_planar_and_grows_as_the_planar_path(plate: Path) -> None:
-    f, out = _run(plate, "mode_i", corner_text(plate / "plate.msh", propagate("nonplanar")))
+    f, out = run_compared(plate, "mode_i", corner_text(plate / "plate.msh", propagate("nonplanar")))
     g = f["growth"]
     assert (g["model"], g["status"], g["increments"]) == ("nonplanar", "max_increments", 2)
     front = np.asarray(f["crack"]["front"])
@@ -144,7 +123,7 @@ def test_mode_i_corner_stays_planar_and_grows_as_the_planar_path(plate: Path) ->
     t = read_table(out / "fracture.csv")
     assert np.abs(t["kink_deg"]).max() < 2.0 and np.abs(t["y"]).max() < 1e-6
     text = corner_text(plate / "plate.msh", propagate("planar"), points=9)
-    planar, pout = _run(plate, "mode_i_planar", text)
+    planar, pout = run_compared(plate, "mode_i_planar", text)
     p = read_table(pout / "fracture.csv")
     inc, pinc = t["increment"].astype(int), p["increment"].astype(int)
     for k, h in enumerate(planar["growth"]["history"]):
@@ -168,7 +147,7 @@ def test_mode_i_corner_stays_planar_and_grows_as_the_planar_path(plate: Path) ->
 def test_inclined_corner_turns_towards_the_load_normal(plate: Path) -> None:
     n0 = np.array([0.0, math.cos(INCLINE), math.sin(INCLINE)])
     text = corner_text(plate / "plate.msh", propagate("nonplanar"), n0)
-    f, out = _run(plate, "inclined", text)
+    f, out = run_compared(plate, "inclined", text)
     assert f["growth"]["status"] == "max_increments" and f["growth"]["increments"] == 2
     t = read_table(out / "fracture.csv")
     inc = t["increment"].astype(int)
@@ -198,7 +177,7 @@ def test_corner_crack_through_the_thin_plate(plate: Path) -> None:
     )
     text = text.replace('shape = "semi_elliptical"', 'shape = "quarter_elliptical"')
     text = text.replace(f"half_length = {a}\n", f"length = {a}\naxis = [1.0, 0.0, 0.0]\n")
-    f, _ = _run(plate, "through", text)
+    f, _ = run_compared(plate, "through", text)
     g = f["growth"]
     assert g["status"] == "through" and g["fractured"] and g["increments"] >= 1
     depth = g["history"][-1]["depth"]

@@ -36,7 +36,6 @@ front edges of 8.8 front elements).  References:
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -48,11 +47,8 @@ from _crack_scenes import (
     PLATE_B,
     PLATE_H,
     L,
-    idle_barrier,
     read_table,
-    run_in,
-    same_tables,
-    serial_reference,
+    run_compared,
     surface_plate,
     surface_scene,
     write_scene,
@@ -101,30 +97,13 @@ def plate(tmp_path_factory) -> Path:
     return d
 
 
-def _run(plate: Path, name: str, text: str) -> tuple[dict, Path]:
-    """Run on every rank; on several, compare with the serial run (fracture.csv to 1e-9,
-    the stop, the increments); the summary's ``fracture``."""
-    res, d = run_in(plate, name, text)
-    assert res.status == "converged", res.summary.get("message")
-    ser = serial_reference(d)
-    idle_barrier(MPI.COMM_WORLD)
-    out = d / "out"
-    fracture = res.summary["fracture"]
-    if MPI.COMM_WORLD.size > 1:
-        same_tables(out / "fracture.csv", ser / "fracture.csv", rtol=1e-9)
-        want = json.loads((ser / "summary.json").read_text())["fracture"]["growth"]
-        assert fracture["growth"]["status"] == want["status"]
-        assert fracture["growth"]["increments"] == want["increments"]
-    return fracture, out
-
-
 def _depths(fracture: dict, key: str = "depth") -> np.ndarray:
     return np.array([h[key] for h in fracture["growth"]["history"]])
 
 
 @pytest.mark.two_ranks  # 3 ranks: the inclined and through runs, the restart file
 def test_mode_i_stays_planar_and_grows_as_the_planar_path(plate: Path) -> None:
-    f, out = _run(plate, "mode_i", scene(plate / "plate.msh", propagate("nonplanar")))
+    f, out = run_compared(plate, "mode_i", scene(plate / "plate.msh", propagate("nonplanar")))
     g = f["growth"]
     assert (g["model"], g["status"], g["increments"]) == ("nonplanar", "max_increments", 2)
     front = np.asarray(f["crack"]["front"])
@@ -134,7 +113,9 @@ def test_mode_i_stays_planar_and_grows_as_the_planar_path(plate: Path) -> None:
     assert np.abs(t["kink_deg"]).max() < 2.0
     assert sorted(set(t["increment"].astype(int))) == [0, 1, 2]
     assert np.abs(t["y"]).max() < 1e-6
-    planar, _ = _run(plate, "mode_i_planar", scene(plate / "plate.msh", propagate("planar")))
+    planar, _ = run_compared(
+        plate, "mode_i_planar", scene(plate / "plate.msh", propagate("planar"))
+    )
     got, want = np.diff(_depths(f)), np.diff(_depths(planar))
     np.testing.assert_allclose(got, want, rtol=0.03)
     if MPI.COMM_WORLD.rank == 0:
@@ -150,7 +131,7 @@ def _mts(k1: float, k2: float) -> float:
 
 def test_inclined_crack_turns_towards_the_load_normal(plate: Path) -> None:
     n0 = np.array([0.0, math.cos(INCLINE), math.sin(INCLINE)])
-    f, out = _run(plate, "inclined", scene(plate / "plate.msh", propagate("nonplanar"), n0))
+    f, out = run_compared(plate, "inclined", scene(plate / "plate.msh", propagate("nonplanar"), n0))
     assert f["growth"]["status"] == "max_increments" and f["growth"]["increments"] == 2
     t = read_table(out / "fracture.csv")
     inc = t["increment"].astype(int)
@@ -172,10 +153,12 @@ def test_inclined_crack_turns_towards_the_load_normal(plate: Path) -> None:
 
 @pytest.mark.two_ranks  # 3 ranks: the inclined and through runs, the restart file
 def test_fatigue_cycles_as_the_planar_path(plate: Path) -> None:
-    f, _ = _run(plate, "fatigue", scene(plate / "plate.msh", fatigue("nonplanar"), K_Ic=1e9))
+    f, _ = run_compared(
+        plate, "fatigue", scene(plate / "plate.msh", fatigue("nonplanar"), K_Ic=1e9)
+    )
     g = f["growth"]
     assert (g["rule"], g["status"], g["increments"]) == ("fatigue", "max_blocks", 2)
-    planar, _ = _run(
+    planar, _ = run_compared(
         plate, "fatigue_planar", scene(plate / "plate.msh", fatigue("planar"), K_Ic=1e9)
     )
     got, want = _depths(f, "cycles"), _depths(planar, "cycles")
@@ -187,7 +170,7 @@ def test_through_the_thin_plate(plate: Path) -> None:
     a, h, step = 0.25 * L, 0.25 * L / 14, 0.04 * L
     growth = f'surface_growth = "nonplanar"\npropagate = true\nincrement = {step}'
     text = surface_scene(plate / "thin.msh", h=h, points=5, growth=growth, K_Ic=1e3, a=a, c=a)
-    f, _ = _run(plate, "through", text)
+    f, _ = run_compared(plate, "through", text)
     g = f["growth"]
     assert g["status"] == "through" and g["fractured"] and g["increments"] >= 1
     depth = _depths(f)
