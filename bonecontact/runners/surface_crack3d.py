@@ -211,7 +211,7 @@ def _refuse(scene: Scene) -> None:
 
 def _refuse_several(scene: Scene) -> None:
     """What a scene with several surface cracks does not run: another kind of crack
-    beside them, cracks in different regions, growth."""
+    beside them, cracks in different regions."""
     for i, c in enumerate(scene.cracks):
         if not isinstance(c.crack, SurfaceBreakingCrack):
             raise _error(
@@ -224,14 +224,6 @@ def _refuse_several(scene: Scene) -> None:
             )
         if c.region != scene.cracks[0].region:
             raise _error(scene, "region", "the cracks of a 3D scene lie in one body", i)
-    fr = scene.fracture
-    if fr is not None and fr.fatigue is not None and fr.fatigue.end_halvings > 0:
-        raise SceneError(
-            str(scene.path),
-            "[fracture.fatigue]",
-            "end_halvings",
-            "several surface cracks end with a full final block (a single surface crack halves it)",
-        )
 
 
 def _material(scene: Scene, region: str) -> tuple[Isotropic, float | None]:
@@ -1183,6 +1175,8 @@ class SeveralGrowth:
     fatigue: FatigueProgress = dataclasses.field(default_factory=FatigueProgress)
     history: list[dict[str, Any]] = dataclasses.field(default_factory=list)
     final_block: dict[str, float] | None = None
+    shortfall: float = 0.0  # Σ (da_max − the halved blocks' da) (end_halvings)
+    halved: int = 0  # blocks shorter than da_max solved before the final one
     at: int = 0  # the crack that stopped the growth (through, joined: the first of the two)
     other: int | None = None  # joined: the second
 
@@ -1240,6 +1234,7 @@ def _several_growth(runs: list[SurfaceRun], g: SeveralGrowth, frags) -> dict[str
         "fractured": g.status in ("fractured", "through"),
         "fragments": frags,
         "final_block": g.final_block,
+        "halved_blocks": g.halved,
         "crack": runs[g.at].name if stopped else None,
         "other": runs[g.other].name if g.other is not None else None,
         "planar_validity": {
@@ -1330,7 +1325,7 @@ def _advance_several(
     rates = _several_rates(runs, kv)
     lead = max(float(r.max(initial=0.0)) for r in rates)
     if fat is not None:
-        g.cycles = g.fatigue.add_end(g.increments * fat.da_max, lead)
+        g.cycles = g.fatigue.add_end(g.increments * fat.da_max - g.shortfall, lead)
     g.history.append(_several_history(runs, g, recs, cuts, kv))
     most = fat.max_blocks if fat is not None else fr.max_increments
     k_max = max(float(k.max()) for k in kv)
@@ -1345,8 +1340,18 @@ def _advance_several(
         g.at = flagged.index(True)
         return "out_of_plane"
     step = fat.da_max if fat is not None else fr.increment
-    nxt = [_grown(c, step, w, lead) for c, w in zip(g.cracks, rates, strict=True)]
-    return _several_stop(runs, g, nxt, step, lead)
+    halvings = fat.end_halvings if fat is not None else 0
+    for k in range(halvings + 1):  # end_halvings: the longest block that breaks none through
+        da = step / 2.0**k
+        nxt = [_grown(c, da, w, lead) for c, w in zip(g.cracks, rates, strict=True)]
+        if k == halvings or not any(
+            breaks_through(run, c) for run, c in zip(runs, nxt, strict=True)
+        ):
+            break
+    stop = _several_stop(runs, g, nxt, da, lead)
+    if stop is None and da < step:
+        g.shortfall, g.halved = g.shortfall + (step - da), g.halved + 1
+    return stop
 
 
 def _several_stop(runs, g: SeveralGrowth, nxt, step: float, lead: float) -> str | None:

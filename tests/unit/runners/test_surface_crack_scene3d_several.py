@@ -25,7 +25,8 @@ the x axis, front a/10.  References:
 * fatigue of two cracks 8c apart, one block: the fastest point of both advances da_max,
   the cycles within 4 % of the single crack's (measured −0.5 %); two cracks a gap c apart
   stop ``joined`` when the next block would bring them within a ligament; a thin plate
-  (t = 0.4): ``through``, the fragments the plate's halves; end_halvings refused;
+  (t = 0.4): ``through``, the fragments the plate's halves; with end_halvings = 2 the
+  blocks before the final one halved, the last crack less than da_max/4 from its limit;
 * mouths that overlap: refused by the scene checks, naming the table and key;
 * 1 and 2 ranks: the same fracture.csv (MPI sessions).
 """
@@ -230,11 +231,34 @@ def test_thin_plate_through_with_two_cracks(plates: Path) -> None:
     assert g["cycles"] == pytest.approx(before + fb["cycles"], rel=1e-12)
 
 
-def test_end_halvings_with_several_is_refused(plates: Path) -> None:
-    growth = _fatigue(2) + "\nend_halvings = 2"
-    text = _scene(plates / "plate.msh", -4 * A, _surface("right", 4 * A), growth)
-    with pytest.raises(SceneError, match=r"end_halvings"):
-        run_in(plates, "halvings", text)
+def test_thin_plate_through_with_halved_blocks(plates: Path) -> None:
+    """The thin plate's two cracks with da_max = 0.075 and ``end_halvings = 2``: the second
+    block would carry a crack through, the one of da_max/2 is solved instead (each
+    crack's advance scaled alike), then none fits and the final block is da_max/4; the
+    crack that stops keeps less than that to its limit a + ℓ = t (ℓ = r_out + 2h = 0.1 mm
+    on the flat plate, the deepest point nearest the back face); ``halved_blocks`` counts
+    the blocks below da_max, which the history's depths show."""
+    x, da = 4.0 * A, 0.075 * L
+    text = _scene(plates / "thin.msh", -x, _surface("right", x), _fatigue(5, da))
+    res, _ = run_in(plates, "through_halved", text.replace("max_blocks = 5", HALVINGS))
+    assert res.status == "converged", res.summary.get("message")
+    g = res.summary["fracture"]["growth"]
+    assert g["status"] == "through" and g["final_block"]["da"] == da / 4
+    hist = g["history"]
+    depth, half = (
+        {n: np.array([h["cracks"][n][k] for h in hist]) for n in ("mouth", "right")}
+        for k in ("depth", "half_length")
+    )
+    # the block's fastest point of both cracks (c: the mean of its two ends, within 2 %)
+    lead = np.max([np.maximum(np.diff(depth[n]), np.diff(half[n])) for n in depth], axis=0) / da
+    levels = np.round(-np.log2(lead))
+    np.testing.assert_allclose(lead, 2.0**-levels, rtol=0.02)
+    assert g["halved_blocks"] == int(np.count_nonzero(levels > 0)) >= 1
+    gap = 0.4 * L - (0.06 * L + 2 * A / 10) - depth[g["crack"]][-1]
+    assert 0.0 <= gap < da / 4
+
+
+HALVINGS = "max_blocks = 5\nend_halvings = 2"
 
 
 def test_overlapping_mouths_are_refused(plates: Path) -> None:
